@@ -1,0 +1,2 @@
+//! The shared FMU runtime.
+pub mod linear;
