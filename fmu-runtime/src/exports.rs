@@ -1,0 +1,877 @@
+//! The bodies of the 44 exported `fmi2*` functions.
+//!
+//! [`crate::export_fmi2!`] expands, in a model crate, into `#[no_mangle] extern "C"` functions
+//! that forward here. Every function: catches panics; checks the instance pointer (after the
+//! `n == 0` short-cut where the standard has one); checks that the call is legal in the
+//! instance's phase (table in [`crate::instance::legal`]); checks every argument before
+//! anything changes; and reports failures through the master's logger with fmi2Error. An error
+//! moves the instance to the `Error` phase, from which the standard allows getters, status
+//! queries, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance.
+//!
+//! The functions are `pub` only for the export macro. Their raw-pointer arguments come from a
+//! C caller bound by the FMI 2.0 standard, which is what every `// SAFETY:` comment relies on.
+
+#![allow(clippy::not_unsafe_ptr_arg_deref, clippy::missing_safety_doc)]
+
+use std::cell::RefCell;
+use std::ffi::{c_char, CStr, CString};
+use std::panic::{self, AssertUnwindSafe};
+use std::path::PathBuf;
+use std::sync::Once;
+
+use crate::ffi::*;
+use crate::instance::{legal, DynModel, Instance, ModelSlot, Phase, SavedState, CAT_CALLS, CAT_DISCARD, CAT_ERROR, CAT_WARNING, CAT_EVENTS, INSTANCE_MAGIC, LOG_CATEGORIES, STATE_MAGIC};
+use crate::model::{Context, Model, ModelInfo, Notes};
+use crate::variables::SetPhase;
+
+/// One model a shared library can instantiate, chosen by GUID in fmi2Instantiate.
+pub struct ModelEntry {
+    pub info: fn() -> ModelInfo,
+    pub guid: fn() -> String,
+    pub create: fn(&Context) -> Result<Box<dyn DynModel>, String>,
+}
+
+impl ModelEntry {
+    pub const fn of<M: Model>() -> ModelEntry {
+        ModelEntry { info: M::info, guid: crate::xml::guid::<M>, create: create_model::<M> }
+    }
+}
+
+fn create_model<M: Model>(context: &Context) -> Result<Box<dyn DynModel>, String> {
+    Ok(Box::new(ModelSlot::<M>::create(context, crate::xml::guid::<M>())?))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Panics: a hook, installed once, that keeps the message of a panic inside an FMU call for the
+// instance's logger instead of printing it to stderr; outside FMU calls the previous hook runs.
+
+thread_local! {
+    static PANIC_MESSAGE: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+static PANIC_HOOK: Once = Once::new();
+
+fn install_panic_hook() {
+    PANIC_HOOK.call_once(|| {
+        let previous = panic::take_hook();
+        panic::set_hook(Box::new(move |info| {
+            let captured = PANIC_MESSAGE.with(|slot| {
+                let Ok(mut slot) = slot.try_borrow_mut() else { return false };
+                match slot.as_mut() {
+                    Some(message) => {
+                        let payload = info
+                            .payload()
+                            .downcast_ref::<&str>()
+                            .map(|s| s.to_string())
+                            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+                            .unwrap_or_else(|| "(no message)".to_string());
+                        let location = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
+                        *message = format!("{payload}{location}");
+                        true
+                    }
+                    None => false,
+                }
+            });
+            if !captured {
+                previous(info);
+            }
+        }));
+    });
+}
+
+/// Runs `f`, turning a panic into `Err(message)`.
+fn catch<R>(f: impl FnOnce() -> R) -> Result<R, String> {
+    install_panic_hook();
+    PANIC_MESSAGE.with(|slot| *slot.borrow_mut() = Some(String::new()));
+    let result = panic::catch_unwind(AssertUnwindSafe(f));
+    let message = PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_default();
+    result.map_err(|_| message)
+}
+
+// ---------------------------------------------------------------------------------------------
+// The common frame of every function that takes an instance.
+
+fn instance_from<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
+    if c.is_null() {
+        return None;
+    }
+    // SAFETY: a non-null component was returned by fmi2Instantiate of this library and not yet
+    // freed (the standard forbids anything else); the magic number catches the commonest misuse,
+    // a pointer to something else, before any other field is read.
+    let instance = unsafe { &mut *(c as *mut Instance) };
+    (instance.magic == INSTANCE_MAGIC).then_some(instance)
+}
+
+/// Checks the instance and the phase, then runs the body with panics caught. An error result
+/// moves the instance to the Error phase.
+fn with_instance(
+    c: fmi2Component,
+    function: &'static str,
+    allowed: u32,
+    body: impl FnOnce(&mut Instance) -> Result<Status, String>,
+) -> fmi2Status {
+    let Some(instance) = instance_from(c) else { return fmi2Error };
+    if instance.category_enabled(CAT_CALLS) {
+        instance.log(Status::Ok, CAT_CALLS, &format!("{function} (phase {})", instance.phase.name()));
+    }
+    if instance.phase as u32 & allowed == 0 {
+        let message = format!(
+            "illegal call in phase {}: {function} is allowed in {}",
+            instance.phase.name(),
+            legal::describe(allowed)
+        );
+        instance.error(function, &message);
+        if instance.phase != Phase::Fatal {
+            instance.phase = Phase::Error;
+        }
+        return fmi2Error;
+    }
+    let borrowed: &mut Instance = &mut *instance;
+    match catch(move || body(borrowed)) {
+        Ok(Ok(status)) => status as fmi2Status,
+        Ok(Err(message)) => {
+            instance.error(function, &message);
+            instance.phase = Phase::Error;
+            fmi2Error
+        }
+        Err(panic_message) => {
+            instance.error(function, &format!("internal error (panic): {panic_message}"));
+            instance.phase = Phase::Error;
+            fmi2Error
+        }
+    }
+}
+
+/// Builds a slice from a C array after the `n == 0` short-cut and a null check.
+fn slice<'a, T>(pointer: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
+    if n == 0 {
+        return Ok(&[]);
+    }
+    if pointer.is_null() {
+        return Err(format!("{what} is NULL but {n} elements were announced"));
+    }
+    // SAFETY: the caller promises `n` valid elements at a non-null pointer (FMI 2.0 calling
+    // convention for arrays); n == 0 was handled above.
+    Ok(unsafe { std::slice::from_raw_parts(pointer, n) })
+}
+
+fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
+    if n == 0 {
+        return Ok(&mut []);
+    }
+    if pointer.is_null() {
+        return Err(format!("{what} is NULL but {n} elements were announced"));
+    }
+    // SAFETY: as in `slice`, for a buffer the caller lends us for writing.
+    Ok(unsafe { std::slice::from_raw_parts_mut(pointer, n) })
+}
+
+/// Copies a C string; the caller's buffer may be freed after the call returns.
+fn copy_string(pointer: fmi2String, what: &str) -> Result<String, String> {
+    if pointer.is_null() {
+        return Err(format!("{what} is NULL"));
+    }
+    // SAFETY: a non-null fmi2String is a NUL-terminated string valid during the call.
+    let c = unsafe { CStr::from_ptr(pointer) };
+    c.to_str().map(str::to_string).map_err(|_| format!("{what} is not valid UTF-8"))
+}
+
+fn set_phase(instance: &Instance) -> Result<SetPhase, String> {
+    match instance.phase {
+        Phase::Instantiated => Ok(SetPhase::BeforeInitialization),
+        Phase::InitializationMode => Ok(SetPhase::Initialization),
+        Phase::StepComplete => Ok(SetPhase::Stepping),
+        other => Err(format!("values cannot be set in phase {}", other.name())),
+    }
+}
+
+fn log_notes(instance: &Instance, notes: Notes) -> Status {
+    for event in &notes.events {
+        instance.log(Status::Ok, CAT_EVENTS, event);
+    }
+    for warning in &notes.warnings {
+        instance.log(Status::Warning, CAT_WARNING, warning);
+    }
+    if notes.warnings.is_empty() {
+        Status::Ok
+    } else {
+        Status::Warning
+    }
+}
+
+/// Brings calculated outputs up to date before they are read during initialisation.
+fn ensure_initialized(instance: &mut Instance) -> Result<Status, String> {
+    if instance.needs_initialize && instance.phase == Phase::InitializationMode {
+        let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
+        instance.model.initialize(&instance.context, &mut notes)?;
+        instance.needs_initialize = false;
+        return Ok(log_notes(instance, notes));
+    }
+    Ok(Status::Ok)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inquiry and logging.
+
+pub fn get_types_platform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+pub fn get_version() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+pub fn set_debug_logging(c: fmi2Component, logging_on: fmi2Boolean, n: usize, categories: *const fmi2String) -> fmi2Status {
+    with_instance(c, "fmi2SetDebugLogging", legal::SET_DEBUG_LOGGING, |instance| {
+        let on = logging_on != fmi2False;
+        let names = slice(categories, n, "categories")?;
+        if names.is_empty() {
+            instance.logging_on = on;
+            instance.categories = [on; LOG_CATEGORIES.len()];
+            return Ok(Status::Ok);
+        }
+        let mut indices = Vec::with_capacity(names.len());
+        for &name in names {
+            let name = copy_string(name, "category name")?;
+            let index = LOG_CATEGORIES.iter().position(|(n, _)| *n == name).ok_or_else(|| {
+                let known: Vec<&str> = LOG_CATEGORIES.iter().map(|(n, _)| *n).collect();
+                format!("unknown log category '{name}' (known: {})", known.join(", "))
+            })?;
+            indices.push(index);
+        }
+        for index in indices {
+            instance.categories[index] = on;
+        }
+        instance.logging_on = on || instance.categories.iter().any(|&c| c);
+        Ok(Status::Ok)
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Creation and destruction.
+
+/// Decodes a `file:` URI (RFC 8089 forms `file:///p`, `file://localhost/p`, `file:/p`) into a
+/// path, percent-decoding it. Other schemes are not usable by a shared library.
+pub fn resource_path_from_uri(uri: &str) -> Result<PathBuf, String> {
+    let rest = uri
+        .strip_prefix("file://localhost/")
+        .map(|r| format!("/{r}"))
+        .or_else(|| uri.strip_prefix("file:///").map(|r| format!("/{r}")))
+        .or_else(|| uri.strip_prefix("file:/").filter(|r| !r.starts_with('/')).map(|r| format!("/{r}")))
+        .ok_or_else(|| format!("resource location '{uri}' is not a local file URI"))?;
+    let bytes = rest.as_bytes();
+    let mut decoded = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = bytes.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok());
+            let value = hex.and_then(|h| u8::from_str_radix(h, 16).ok());
+            match value {
+                Some(v) => {
+                    decoded.push(v);
+                    i += 3;
+                    continue;
+                }
+                None => return Err(format!("resource location '{uri}' has a malformed percent escape")),
+            }
+        }
+        decoded.push(bytes[i]);
+        i += 1;
+    }
+    let text = String::from_utf8(decoded).map_err(|_| format!("resource location '{uri}' is not UTF-8 once decoded"))?;
+    Ok(PathBuf::from(text))
+}
+
+/// A logger-only stand-in used to report why instantiation failed before an instance exists.
+fn log_without_instance(functions: &fmi2CallbackFunctions, name: &CStr, message: &str) {
+    let Some(logger) = functions.logger else { return };
+    let escaped = CString::new(message.replace('%', "%%").replace('\0', " ")).unwrap_or_default();
+    // SAFETY: the logger was given by the master in this very call; all strings are valid and
+    // NUL-terminated, and no variadic arguments are passed (the message has no conversions).
+    unsafe {
+        logger(functions.componentEnvironment, name.as_ptr(), fmi2Error, c"logStatusError".as_ptr(), escaped.as_ptr());
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub fn instantiate(
+    models: &[ModelEntry],
+    instance_name: fmi2String,
+    fmu_type: fmi2Type,
+    guid: fmi2String,
+    resource_location: fmi2String,
+    functions: *const fmi2CallbackFunctions,
+    _visible: fmi2Boolean,
+    logging_on: fmi2Boolean,
+) -> fmi2Component {
+    if functions.is_null() {
+        return std::ptr::null_mut();
+    }
+    // SAFETY: non-null, and the standard makes it point to the master's callback struct. It is
+    // copied: FMI 2.0 asks the master to keep it alive, but a copy costs nothing and does not
+    // depend on that.
+    let callbacks = unsafe { *functions };
+    let result = catch(|| -> Result<Box<Instance>, (CString, String)> {
+        let name = match copy_string(instance_name, "instanceName") {
+            Ok(n) if !n.is_empty() => n,
+            Ok(_) => return Err((c"?".into(), "fmi2Instantiate: instanceName is empty".into())),
+            Err(e) => return Err((c"?".into(), format!("fmi2Instantiate: {e}"))),
+        };
+        let c_name = CString::new(name.clone()).unwrap_or_default();
+        let fail = |message: String| (c_name.clone(), format!("fmi2Instantiate: {message}"));
+        if fmu_type != fmi2CoSimulation {
+            return Err(fail(format!(
+                "fmuType {fmu_type} requested, but this FMU supports co-simulation (fmi2CoSimulation = 1) only"
+            )));
+        }
+        let guid = copy_string(guid, "fmuGUID").map_err(fail)?;
+        let entry = models.iter().find(|m| (m.guid)() == guid).ok_or_else(|| {
+            let known: Vec<String> =
+                models.iter().map(|m| format!("{} {}", (m.info)().model_identifier, (m.guid)())).collect();
+            fail(format!(
+                "GUID {guid} does not match this binary's model description(s) ({}); the modelDescription.xml and the binary come from different builds",
+                known.join("; ")
+            ))
+        })?;
+        let resource_dir = if resource_location.is_null() {
+            None
+        } else {
+            let uri = copy_string(resource_location, "fmuResourceLocation").map_err(fail)?;
+            Some(resource_path_from_uri(&uri).map_err(fail)?)
+        };
+        let context = Context { instance_name: name, resource_dir };
+        let model = (entry.create)(&context).map_err(fail)?;
+        let on = logging_on != fmi2False;
+        let mut categories = [on; LOG_CATEGORIES.len()];
+        // Errors and warnings are reported even without debug logging: a master needs to know
+        // why a call failed. A master can still switch them off with fmi2SetDebugLogging.
+        for always in [CAT_WARNING, CAT_DISCARD, CAT_ERROR, crate::instance::CAT_FATAL] {
+            categories[always] = true;
+        }
+        categories[CAT_CALLS] = false;
+        Ok(Box::new(Instance {
+            magic: INSTANCE_MAGIC,
+            name: c_name,
+            callbacks,
+            logging_on: on,
+            categories,
+            phase: Phase::Instantiated,
+            time: 0.0,
+            start_time: 0.0,
+            stop_time: None,
+            last_successful_time: 0.0,
+            last_step_status: Status::Ok,
+            needs_initialize: true,
+            context,
+            model,
+            create: entry.create,
+            returned_strings: Vec::new(),
+        }))
+    });
+    match result {
+        Ok(Ok(instance)) => Box::into_raw(instance) as fmi2Component,
+        Ok(Err((name, message))) => {
+            log_without_instance(&callbacks, &name, &message);
+            std::ptr::null_mut()
+        }
+        Err(panic_message) => {
+            log_without_instance(&callbacks, c"?", &format!("fmi2Instantiate: internal error (panic): {panic_message}"));
+            std::ptr::null_mut()
+        }
+    }
+}
+
+pub fn free_instance(c: fmi2Component) {
+    let Some(instance) = instance_from(c) else { return };
+    instance.magic = 0;
+    let _ = catch(|| {
+        // SAFETY: the pointer came from Box::into_raw in `instantiate` and the master frees each
+        // instance once; the magic number was cleared above so a second free is caught.
+        drop(unsafe { Box::from_raw(c as *mut Instance) });
+    });
+}
+
+pub fn setup_experiment(
+    c: fmi2Component,
+    _tolerance_defined: fmi2Boolean,
+    _tolerance: fmi2Real,
+    start_time: fmi2Real,
+    stop_time_defined: fmi2Boolean,
+    stop_time: fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetupExperiment", legal::SETUP_EXPERIMENT, |instance| {
+        if !start_time.is_finite() {
+            return Err(format!("startTime {start_time} is not finite"));
+        }
+        let stop = if stop_time_defined != fmi2False {
+            if !stop_time.is_finite() || stop_time < start_time {
+                return Err(format!("stopTime {stop_time} must be finite and not before startTime {start_time}"));
+            }
+            Some(stop_time)
+        } else {
+            None
+        };
+        // The tolerance is ignored on purpose: the linear parts are stepped exactly and the
+        // nonlinear parts by a fixed documented scheme.
+        instance.start_time = start_time;
+        instance.time = start_time;
+        instance.last_successful_time = start_time;
+        instance.stop_time = stop;
+        Ok(Status::Ok)
+    })
+}
+
+pub fn enter_initialization_mode(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2EnterInitializationMode", legal::ENTER_INITIALIZATION_MODE, |instance| {
+        instance.phase = Phase::InitializationMode;
+        instance.needs_initialize = true;
+        Ok(Status::Ok)
+    })
+}
+
+pub fn exit_initialization_mode(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2ExitInitializationMode", legal::EXIT_INITIALIZATION_MODE, |instance| {
+        let status = if instance.needs_initialize {
+            let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
+            instance.model.initialize(&instance.context, &mut notes)?;
+            instance.needs_initialize = false;
+            log_notes(instance, notes)
+        } else {
+            Status::Ok
+        };
+        instance.phase = Phase::StepComplete;
+        Ok(status)
+    })
+}
+
+pub fn terminate(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2Terminate", legal::TERMINATE, |instance| {
+        instance.phase = Phase::Terminated;
+        Ok(Status::Ok)
+    })
+}
+
+pub fn reset(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2Reset", legal::RESET, |instance| {
+        let model = (instance.create)(&instance.context)?;
+        instance.model = model;
+        instance.phase = Phase::Instantiated;
+        instance.time = 0.0;
+        instance.start_time = 0.0;
+        instance.stop_time = None;
+        instance.last_successful_time = 0.0;
+        instance.last_step_status = Status::Ok;
+        instance.needs_initialize = true;
+        Ok(Status::Ok)
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Getting and setting values.
+
+pub fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Real) -> fmi2Status {
+    with_instance(c, "fmi2GetReal", legal::GET, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        let status = ensure_initialized(instance)?;
+        instance.model.get_real(vrs, out)?;
+        Ok(status)
+    })
+}
+
+pub fn get_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Integer) -> fmi2Status {
+    with_instance(c, "fmi2GetInteger", legal::GET, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        let status = ensure_initialized(instance)?;
+        instance.model.get_integer(vrs, out)?;
+        Ok(status)
+    })
+}
+
+pub fn get_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Boolean) -> fmi2Status {
+    with_instance(c, "fmi2GetBoolean", legal::GET, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        let status = ensure_initialized(instance)?;
+        let mut values = vec![false; n];
+        instance.model.get_boolean(vrs, &mut values)?;
+        for (o, v) in out.iter_mut().zip(values) {
+            *o = if v { fmi2True } else { fmi2False };
+        }
+        Ok(status)
+    })
+}
+
+pub fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2String) -> fmi2Status {
+    with_instance(c, "fmi2GetString", legal::GET, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        let status = ensure_initialized(instance)?;
+        let strings = instance.model.get_string(vrs)?;
+        instance.returned_strings = strings.into_iter().map(|s| CString::new(s.replace('\0', " ")).unwrap_or_default()).collect();
+        for (o, s) in out.iter_mut().zip(&instance.returned_strings) {
+            *o = s.as_ptr();
+        }
+        Ok(status)
+    })
+}
+
+fn mark_changed(instance: &mut Instance) {
+    if matches!(instance.phase, Phase::Instantiated | Phase::InitializationMode) {
+        instance.needs_initialize = true;
+    }
+}
+
+pub fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Real) -> fmi2Status {
+    with_instance(c, "fmi2SetReal", legal::SET_REAL, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let values = slice(value, n, "value")?;
+        let phase = set_phase(instance)?;
+        instance.model.set_real(vrs, values, phase)?;
+        mark_changed(instance);
+        Ok(Status::Ok)
+    })
+}
+
+pub fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Integer) -> fmi2Status {
+    with_instance(c, "fmi2SetInteger", legal::SET_OTHER, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let values = slice(value, n, "value")?;
+        let phase = set_phase(instance)?;
+        instance.model.set_integer(vrs, values, phase)?;
+        mark_changed(instance);
+        Ok(Status::Ok)
+    })
+}
+
+pub fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Boolean) -> fmi2Status {
+    with_instance(c, "fmi2SetBoolean", legal::SET_OTHER, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let raw = slice(value, n, "value")?;
+        let phase = set_phase(instance)?;
+        let values: Vec<bool> = raw.iter().map(|&b| b != fmi2False).collect();
+        instance.model.set_boolean(vrs, &values, phase)?;
+        mark_changed(instance);
+        Ok(Status::Ok)
+    })
+}
+
+pub fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2String) -> fmi2Status {
+    with_instance(c, "fmi2SetString", legal::SET_OTHER, |instance| {
+        let vrs = slice(vr, n, "vr")?;
+        let raw = slice(value, n, "value")?;
+        let phase = set_phase(instance)?;
+        let values = raw.iter().enumerate().map(|(i, &s)| copy_string(s, &format!("value[{i}]"))).collect::<Result<Vec<_>, _>>()?;
+        let context = instance.context.clone();
+        instance.model.set_string(vrs, values, phase, &context)?;
+        mark_changed(instance);
+        Ok(Status::Ok)
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// FMU states.
+
+fn saved_state<'a>(state: fmi2FMUstate) -> Result<&'a mut SavedState, String> {
+    if state.is_null() {
+        return Err("FMUstate is NULL".into());
+    }
+    // SAFETY: a non-null FMUstate was created by fmi2GetFMUstate or fmi2DeSerializeFMUstate of
+    // this library (the standard allows nothing else); the magic number catches other pointers.
+    let saved = unsafe { &mut *(state as *mut SavedState) };
+    if saved.magic != STATE_MAGIC {
+        return Err("FMUstate does not point to a state of this FMU".into());
+    }
+    Ok(saved)
+}
+
+pub fn get_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2GetFMUstate", legal::FMU_STATE, |instance| {
+        if state.is_null() {
+            return Err("FMUstate pointer is NULL".into());
+        }
+        let bytes = instance.save_state();
+        // SAFETY: `state` is a valid pointer to the master's FMUstate variable.
+        let existing = unsafe { *state };
+        if existing.is_null() {
+            let boxed = Box::new(SavedState { magic: STATE_MAGIC, bytes });
+            // SAFETY: as above; the master owns the variable and receives the new state.
+            unsafe { *state = Box::into_raw(boxed) as fmi2FMUstate };
+        } else {
+            saved_state(existing)?.bytes = bytes;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+pub fn set_fmu_state(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2SetFMUstate", legal::FMU_STATE, |instance| {
+        let bytes = saved_state(state)?.bytes.clone();
+        instance.load_state(&bytes).map_err(|e| e.to_string())?;
+        Ok(Status::Ok)
+    })
+}
+
+pub fn free_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2FreeFMUstate", legal::FMU_STATE, |_instance| {
+        if state.is_null() {
+            return Ok(Status::Ok);
+        }
+        // SAFETY: `state` points to the master's FMUstate variable.
+        let existing = unsafe { *state };
+        if existing.is_null() {
+            return Ok(Status::Ok);
+        }
+        let saved = saved_state(existing)?;
+        saved.magic = 0;
+        // SAFETY: created by Box::into_raw in this module; the magic check above and its reset
+        // make a double free an error instead of undefined behaviour in the common case.
+        drop(unsafe { Box::from_raw(existing as *mut SavedState) });
+        // SAFETY: as above.
+        unsafe { *state = std::ptr::null_mut() };
+        Ok(Status::Ok)
+    })
+}
+
+pub fn serialized_fmu_state_size(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+    with_instance(c, "fmi2SerializedFMUstateSize", legal::FMU_STATE, |_instance| {
+        let saved = saved_state(state)?;
+        if size.is_null() {
+            return Err("size is NULL".into());
+        }
+        // SAFETY: non-null pointer to the master's size variable.
+        unsafe { *size = saved.bytes.len() };
+        Ok(Status::Ok)
+    })
+}
+
+pub fn serialize_fmu_state(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fmi2Byte, size: usize) -> fmi2Status {
+    with_instance(c, "fmi2SerializeFMUstate", legal::FMU_STATE, |_instance| {
+        let saved = saved_state(state)?;
+        if size != saved.bytes.len() {
+            return Err(format!("buffer has {size} bytes, the state needs exactly {} (fmi2SerializedFMUstateSize)", saved.bytes.len()));
+        }
+        let out = slice_mut(bytes as *mut u8, size, "serializedState")?;
+        out.copy_from_slice(&saved.bytes);
+        Ok(Status::Ok)
+    })
+}
+
+pub fn deserialize_fmu_state(c: fmi2Component, bytes: *const fmi2Byte, size: usize, state: *mut fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2DeSerializeFMUstate", legal::FMU_STATE, |instance| {
+        let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
+        if state.is_null() {
+            return Err("FMUstate pointer is NULL".into());
+        }
+        instance.check_state(&data).map_err(|e| format!("serialized state rejected: {e}"))?;
+        // SAFETY: non-null pointer to the master's FMUstate variable.
+        let existing = unsafe { *state };
+        if existing.is_null() {
+            let boxed = Box::new(SavedState { magic: STATE_MAGIC, bytes: data });
+            // SAFETY: as above.
+            unsafe { *state = Box::into_raw(boxed) as fmi2FMUstate };
+        } else {
+            saved_state(existing)?.bytes = data;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Co-simulation.
+
+/// Relative tolerance on the communication point: masters accumulate `t += h` in floating
+/// point, so a point a few ulps away from the instance's time is the same point.
+pub const TIME_TOLERANCE: f64 = 1e-9;
+
+pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prior: fmi2Boolean) -> fmi2Status {
+    with_instance(c, "fmi2DoStep", legal::DO_STEP, |instance| {
+        if !step.is_finite() || step <= 0.0 {
+            return Err(format!("communicationStepSize must be positive and finite, got {step}"));
+        }
+        if !current.is_finite() {
+            return Err(format!("currentCommunicationPoint {current} is not finite"));
+        }
+        let tolerance = TIME_TOLERANCE * instance.time.abs().max(step).max(1.0);
+        if (current - instance.time).abs() > tolerance {
+            return Err(format!(
+                "currentCommunicationPoint {current} is not where the instance is ({}); steps must be contiguous (use fmi2SetFMUstate to go back)",
+                instance.time
+            ));
+        }
+        if let Some(stop) = instance.stop_time {
+            if current + step > stop + tolerance {
+                return Err(format!("step to {} goes beyond the stopTime {stop} given in fmi2SetupExperiment", current + step));
+            }
+        }
+        let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
+        match instance.model.do_step(current, step, &mut notes) {
+            Ok(()) => {
+                instance.time = current + step;
+                instance.last_successful_time = instance.time;
+                let status = log_notes(instance, notes);
+                instance.last_step_status = status;
+                Ok(status)
+            }
+            Err(e) => {
+                instance.last_step_status = Status::Error;
+                Err(e)
+            }
+        }
+    })
+}
+
+pub fn cancel_step(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2CancelStep", legal::CANCEL_STEP, |_| Err("no asynchronous step to cancel".into()))
+}
+
+pub fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
+    with_instance(c, "fmi2GetStatus", legal::STATUS, |instance| {
+        if value.is_null() {
+            return Err("value is NULL".into());
+        }
+        if kind == fmi2DoStepStatus {
+            // SAFETY: non-null pointer to the master's status variable.
+            unsafe { *value = instance.last_step_status as fmi2Status };
+            Ok(Status::Ok)
+        } else {
+            instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetStatus: status kind {kind} is not provided (steps are synchronous)"));
+            Ok(Status::Discard)
+        }
+    })
+}
+
+pub fn get_real_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
+    with_instance(c, "fmi2GetRealStatus", legal::STATUS, |instance| {
+        if value.is_null() {
+            return Err("value is NULL".into());
+        }
+        if kind == fmi2LastSuccessfulTime {
+            // SAFETY: non-null pointer to the master's variable.
+            unsafe { *value = instance.last_successful_time };
+            Ok(Status::Ok)
+        } else {
+            instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetRealStatus: status kind {kind} is not provided"));
+            Ok(Status::Discard)
+        }
+    })
+}
+
+pub fn get_integer_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Integer) -> fmi2Status {
+    with_instance(c, "fmi2GetIntegerStatus", legal::STATUS, |instance| {
+        if value.is_null() {
+            return Err("value is NULL".into());
+        }
+        instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetIntegerStatus: status kind {kind} is not provided"));
+        Ok(Status::Discard)
+    })
+}
+
+pub fn get_boolean_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
+    with_instance(c, "fmi2GetBooleanStatus", legal::STATUS, |instance| {
+        if value.is_null() {
+            return Err("value is NULL".into());
+        }
+        if kind == fmi2Terminated {
+            // The model never asks the master to stop.
+            // SAFETY: non-null pointer to the master's variable.
+            unsafe { *value = fmi2False };
+            Ok(Status::Ok)
+        } else {
+            instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetBooleanStatus: status kind {kind} is not provided"));
+            Ok(Status::Discard)
+        }
+    })
+}
+
+pub fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2String) -> fmi2Status {
+    with_instance(c, "fmi2GetStringStatus", legal::STATUS, |instance| {
+        if value.is_null() {
+            return Err("value is NULL".into());
+        }
+        instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetStringStatus: status kind {kind} is not provided (steps are synchronous)"));
+        Ok(Status::Discard)
+    })
+}
+
+/// Functions this FMU does not provide: they log why and return fmi2Error.
+pub fn unsupported(c: fmi2Component, function: &'static str, allowed: u32, why: &'static str) -> fmi2Status {
+    with_instance(c, function, allowed, |_| Err(format!("not supported: {why}")))
+}
+
+pub const WHY_MODEL_EXCHANGE: &str = "this is a co-simulation FMU; model-exchange functions are not provided";
+pub const WHY_DIRECTIONAL_DERIVATIVE: &str = "providesDirectionalDerivative is false";
+pub const WHY_INPUT_DERIVATIVES: &str = "canInterpolateInputs is false: inputs are held constant over a step";
+pub const WHY_OUTPUT_DERIVATIVES: &str = "maxOutputDerivativeOrder is 0";
+
+/// Exports the 44 `fmi2*` functions of FMI 2.0 from a cdylib, serving the listed models (the
+/// GUID given to fmi2Instantiate selects one).
+#[macro_export]
+macro_rules! export_fmi2 {
+    ($($model:ty),+ $(,)?) => {
+        #[doc(hidden)]
+        pub mod fmi2_exports {
+            #![allow(non_snake_case, clippy::missing_safety_doc)]
+            #[allow(unused_imports)]
+            use super::*;
+            use $crate::ffi::*;
+            use $crate::exports as x;
+            use $crate::instance::legal;
+            use ::std::ffi::c_char;
+
+            const MODELS: &[x::ModelEntry] = &[$(x::ModelEntry::of::<$model>()),+];
+
+            #[no_mangle] pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char { x::get_types_platform() }
+            #[no_mangle] pub extern "C" fn fmi2GetVersion() -> *const c_char { x::get_version() }
+            #[no_mangle] pub extern "C" fn fmi2SetDebugLogging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status { x::set_debug_logging(c, on, n, cats) }
+            #[no_mangle] pub extern "C" fn fmi2Instantiate(name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, f: *const fmi2CallbackFunctions, visible: fmi2Boolean, on: fmi2Boolean) -> fmi2Component { x::instantiate(MODELS, name, ty, guid, res, f, visible, on) }
+            #[no_mangle] pub extern "C" fn fmi2FreeInstance(c: fmi2Component) { x::free_instance(c) }
+            #[no_mangle] pub extern "C" fn fmi2SetupExperiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, start: fmi2Real, sd: fmi2Boolean, stop: fmi2Real) -> fmi2Status { x::setup_experiment(c, td, tol, start, sd, stop) }
+            #[no_mangle] pub extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status { x::enter_initialization_mode(c) }
+            #[no_mangle] pub extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status { x::exit_initialization_mode(c) }
+            #[no_mangle] pub extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status { x::terminate(c) }
+            #[no_mangle] pub extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status { x::reset(c) }
+            #[no_mangle] pub extern "C" fn fmi2GetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status { x::get_real(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Integer) -> fmi2Status { x::get_integer(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Boolean) -> fmi2Status { x::get_boolean(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2String) -> fmi2Status { x::get_string(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2SetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status { x::set_real(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2SetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status { x::set_integer(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2SetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status { x::set_boolean(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2SetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2String) -> fmi2Status { x::set_string(c, vr, n, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status { x::get_fmu_state(c, s) }
+            #[no_mangle] pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status { x::set_fmu_state(c, s) }
+            #[no_mangle] pub extern "C" fn fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status { x::free_fmu_state(c, s) }
+            #[no_mangle] pub extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status { x::serialized_fmu_state_size(c, s, size) }
+            #[no_mangle] pub extern "C" fn fmi2SerializeFMUstate(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status { x::serialize_fmu_state(c, s, b, size) }
+            #[no_mangle] pub extern "C" fn fmi2DeSerializeFMUstate(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status { x::deserialize_fmu_state(c, b, size, s) }
+            #[no_mangle] pub extern "C" fn fmi2GetDirectionalDerivative(c: fmi2Component, _u: *const fmi2ValueReference, _nu: usize, _z: *const fmi2ValueReference, _nz: usize, _dv: *const fmi2Real, _dz: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetDirectionalDerivative", legal::DIRECTIONAL_DERIVATIVE, x::WHY_DIRECTIONAL_DERIVATIVE) }
+            // Model exchange: not provided.
+            #[no_mangle] pub extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterEventMode", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, _info: *mut ::std::ffi::c_void) -> fmi2Status { x::unsupported(c, "fmi2NewDiscreteStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterContinuousTimeMode", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2CompletedIntegratorStep(c: fmi2Component, _nsp: fmi2Boolean, _em: *mut fmi2Boolean, _ts: *mut fmi2Boolean) -> fmi2Status { x::unsupported(c, "fmi2CompletedIntegratorStep", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2SetTime(c: fmi2Component, _t: fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetTime", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2SetContinuousStates(c: fmi2Component, _x: *const fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2SetContinuousStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetDerivatives(c: fmi2Component, _dx: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetDerivatives", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetEventIndicators(c: fmi2Component, _ei: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetEventIndicators", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetContinuousStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetNominalsOfContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetNominalsOfContinuousStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            // Co-simulation.
+            #[no_mangle] pub extern "C" fn fmi2SetRealInputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *const fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetRealInputDerivatives", legal::SET_INPUT_DERIVATIVES, x::WHY_INPUT_DERIVATIVES) }
+            #[no_mangle] pub extern "C" fn fmi2GetRealOutputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetRealOutputDerivatives", legal::GET_OUTPUT_DERIVATIVES, x::WHY_OUTPUT_DERIVATIVES) }
+            #[no_mangle] pub extern "C" fn fmi2DoStep(c: fmi2Component, t: fmi2Real, h: fmi2Real, nsp: fmi2Boolean) -> fmi2Status { x::do_step(c, t, h, nsp) }
+            #[no_mangle] pub extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status { x::cancel_step(c) }
+            #[no_mangle] pub extern "C" fn fmi2GetStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Status) -> fmi2Status { x::get_status(c, k, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetRealStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Real) -> fmi2Status { x::get_real_status(c, k, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Integer) -> fmi2Status { x::get_integer_status(c, k, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Boolean) -> fmi2Status { x::get_boolean_status(c, k, v) }
+            #[no_mangle] pub extern "C" fn fmi2GetStringStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2String) -> fmi2Status { x::get_string_status(c, k, v) }
+        }
+    };
+}
+
+#[cfg(test)]
+#[path = "exports_tests.rs"]
+mod tests;

@@ -1,0 +1,120 @@
+//! What a model provides to the runtime: its variables, its facts for the model description,
+//! and its behaviour at initialisation and at each communication step. Models are plain safe
+//! Rust; everything that touches C lives in the runtime.
+
+use std::path::PathBuf;
+
+use crate::state::{StateError, StateReader, StateWriter};
+use crate::variables::{Values, VariableSet};
+
+/// The `<DefaultExperiment>` of the model description.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DefaultExperiment {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub step_size: f64,
+}
+
+/// Facts about a model that go into its `modelDescription.xml`.
+#[derive(Debug, Clone, Copy)]
+pub struct ModelInfo {
+    /// Also the shared library's file name and the prefix of nothing: functions are not
+    /// prefixed, each FMU is its own shared object.
+    pub model_identifier: &'static str,
+    pub model_name: &'static str,
+    pub description: &'static str,
+    pub author: &'static str,
+    pub version: &'static str,
+    pub default_experiment: DefaultExperiment,
+}
+
+/// What an instance knows about where it runs.
+#[derive(Debug, Clone, Default)]
+pub struct Context {
+    pub instance_name: String,
+    /// The unpacked `resources/` folder of the FMU, decoded from the URI the master passed.
+    pub resource_dir: Option<PathBuf>,
+}
+
+/// Messages a model wants to report from a call, logged by the runtime under the category
+/// `logEvents` (notes) or `logStatusWarning` (warnings) when the master has enabled them.
+#[derive(Debug, Default)]
+pub struct Notes {
+    events_enabled: bool,
+    pub(crate) events: Vec<String>,
+    pub(crate) warnings: Vec<String>,
+}
+
+impl Notes {
+    pub(crate) fn new(events_enabled: bool) -> Self {
+        Notes { events_enabled, events: Vec::new(), warnings: Vec::new() }
+    }
+
+    /// Whether event messages will be logged; check it before formatting one in a hot path.
+    pub fn events_enabled(&self) -> bool {
+        self.events_enabled
+    }
+
+    pub fn event(&mut self, message: impl Into<String>) {
+        if self.events_enabled {
+            self.events.push(message.into());
+        }
+    }
+
+    /// A warning makes the call return fmi2Warning.
+    pub fn warning(&mut self, message: impl Into<String>) {
+        self.warnings.push(message.into());
+    }
+}
+
+/// A co-simulation model.
+///
+/// Contract: when a method returns `Err`, it must not have changed the model's data, so that
+/// the instance can be recovered by restoring a saved FMU state. The runtime has already
+/// checked every value a master set (type, causality, phase, range, finiteness, and
+/// [`Model::check_real`]) before a method sees it.
+pub trait Model: Sized + Send + 'static {
+    /// The variables, declared with [`crate::declare_variables!`].
+    type Var: VariableSet;
+
+    fn info() -> ModelInfo;
+
+    /// A new instance; the values are at their start values.
+    fn new(values: &Values<Self::Var>, context: &Context) -> Result<Self, String>;
+
+    /// Parameters are final (or the master asked for initial values during initialisation):
+    /// build what depends on them and compute the initial outputs and calculated parameters.
+    /// It may be called more than once before the first step.
+    fn initialize(&mut self, values: &mut Values<Self::Var>, context: &Context, notes: &mut Notes) -> Result<(), String>;
+
+    /// Advances the model from `time` to `time + step`, inputs held constant over the step,
+    /// and writes the outputs at `time + step`.
+    fn do_step(&mut self, values: &mut Values<Self::Var>, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
+
+    /// Extra checks on a Real value a master wants to set, beyond range and finiteness.
+    fn check_real(_var: Self::Var, _value: f64, _values: &Values<Self::Var>) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Extra checks on an Integer value (enumerations included), beyond the declared range.
+    fn check_integer(_var: Self::Var, _value: i32, _values: &Values<Self::Var>) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Called after a String variable was set; the model may read a file it names and set
+    /// further values. On `Err` the runtime restores all values as they were before the call.
+    fn string_changed(
+        &mut self,
+        _var: Self::Var,
+        _values: &mut Values<Self::Var>,
+        _context: &Context,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Writes everything that determines the model's future (not caches).
+    fn save_state(&self, writer: &mut StateWriter);
+
+    /// Reads back what [`Model::save_state`] wrote; `values` are already restored.
+    fn load_state(&mut self, reader: &mut StateReader, values: &Values<Self::Var>) -> Result<(), StateError>;
+}

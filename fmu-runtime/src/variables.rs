@@ -1,0 +1,527 @@
+//! One declaration per model variable.
+//!
+//! A model lists its variables once, with [`declare_variables!`], as an enum whose variants are
+//! the variables and whose table holds name, causality, variability, unit, start value, range
+//! and description. That one table gives the value references (the variant's position), the
+//! start values of a new instance, the checks on every get and set, and the generated
+//! `modelDescription.xml`, so the three cannot drift apart.
+
+use std::fmt;
+use std::marker::PhantomData;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+}
+
+impl Causality {
+    pub fn xml_name(self) -> &'static str {
+        match self {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+            Causality::Local => "local",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+impl Variability {
+    pub fn xml_name(self) -> &'static str {
+        match self {
+            Variability::Constant => "constant",
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Discrete => "discrete",
+            Variability::Continuous => "continuous",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Initial {
+    Exact,
+    Approx,
+    Calculated,
+}
+
+impl Initial {
+    pub fn xml_name(self) -> &'static str {
+        match self {
+            Initial::Exact => "exact",
+            Initial::Approx => "approx",
+            Initial::Calculated => "calculated",
+        }
+    }
+}
+
+/// The items of an enumeration type: `(name, description)`, valued 1, 2, ... in order.
+#[derive(Debug)]
+pub struct EnumerationType {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub items: &'static [(&'static str, &'static str)],
+}
+
+impl EnumerationType {
+    /// The value of an item (1-based, as the XML declares it), by name.
+    pub fn value_of(&self, item: &str) -> Option<i32> {
+        self.items.iter().position(|(n, _)| *n == item).map(|i| i as i32 + 1)
+    }
+
+    pub fn name_of(&self, value: i32) -> Option<&'static str> {
+        usize::try_from(value - 1).ok().and_then(|i| self.items.get(i)).map(|(n, _)| *n)
+    }
+}
+
+/// The base type of a variable, with its type-specific attributes.
+#[derive(Debug, Clone, Copy)]
+pub enum Kind {
+    Real { unit: &'static str, start: Option<f64>, min: Option<f64>, max: Option<f64>, nominal: Option<f64> },
+    Integer { start: Option<i32>, min: Option<i32>, max: Option<i32> },
+    Boolean { start: Option<bool> },
+    String { start: Option<&'static str> },
+    Enumeration { declared_type: &'static EnumerationType, start: Option<i32> },
+}
+
+/// The base type as seen through the C API (enumerations travel as integers).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BaseType {
+    Real,
+    Integer,
+    Boolean,
+    String,
+}
+
+impl fmt::Display for BaseType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            BaseType::Real => "Real",
+            BaseType::Integer => "Integer",
+            BaseType::Boolean => "Boolean",
+            BaseType::String => "String",
+        })
+    }
+}
+
+/// One model variable: everything the XML says about it.
+#[derive(Debug, Clone, Copy)]
+pub struct Var {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub initial: Option<Initial>,
+    pub kind: Kind,
+    /// For outputs: the value references of the inputs the output depends on within the same
+    /// step (direct feedthrough). Empty means the output is a function of the state only.
+    pub depends_on: &'static [u32],
+}
+
+impl Var {
+    const fn with_kind(name: &'static str, kind: Kind) -> Var {
+        Var {
+            name,
+            description: "",
+            causality: Causality::Local,
+            variability: Variability::Continuous,
+            initial: None,
+            kind,
+            depends_on: &[],
+        }
+    }
+
+    pub const fn real(name: &'static str, unit: &'static str) -> Var {
+        Var::with_kind(name, Kind::Real { unit, start: None, min: None, max: None, nominal: None })
+    }
+
+    pub const fn integer(name: &'static str) -> Var {
+        let mut v = Var::with_kind(name, Kind::Integer { start: None, min: None, max: None });
+        v.variability = Variability::Discrete;
+        v
+    }
+
+    pub const fn boolean(name: &'static str) -> Var {
+        let mut v = Var::with_kind(name, Kind::Boolean { start: None });
+        v.variability = Variability::Discrete;
+        v
+    }
+
+    pub const fn string(name: &'static str) -> Var {
+        let mut v = Var::with_kind(name, Kind::String { start: None });
+        v.variability = Variability::Discrete;
+        v
+    }
+
+    pub const fn enumeration(name: &'static str, declared_type: &'static EnumerationType) -> Var {
+        let mut v = Var::with_kind(name, Kind::Enumeration { declared_type, start: None });
+        v.variability = Variability::Discrete;
+        v
+    }
+
+    /// A parameter fixed after initialisation (the default for parameters).
+    pub const fn parameter(mut self) -> Var {
+        self.causality = Causality::Parameter;
+        self.variability = Variability::Fixed;
+        self.initial = Some(Initial::Exact);
+        self
+    }
+
+    /// A parameter the master may change between steps.
+    pub const fn tunable(mut self) -> Var {
+        assert!(matches!(self.causality, Causality::Parameter), "only parameters can be tunable");
+        self.variability = Variability::Tunable;
+        self
+    }
+
+    /// A parameter computed by the model from the others.
+    pub const fn calculated_parameter(mut self) -> Var {
+        self.causality = Causality::CalculatedParameter;
+        self.variability = Variability::Fixed;
+        self.initial = Some(Initial::Calculated);
+        self
+    }
+
+    pub const fn input(mut self) -> Var {
+        self.causality = Causality::Input;
+        self.initial = None;
+        self
+    }
+
+    pub const fn output(mut self) -> Var {
+        self.causality = Causality::Output;
+        self.initial = Some(Initial::Calculated);
+        self
+    }
+
+    /// Marks a Real variable as piecewise constant (it changes only at communication points).
+    pub const fn discrete(mut self) -> Var {
+        self.variability = Variability::Discrete;
+        self
+    }
+
+    pub const fn description(mut self, text: &'static str) -> Var {
+        self.description = text;
+        self
+    }
+
+    pub const fn depends_on(mut self, inputs: &'static [u32]) -> Var {
+        self.depends_on = inputs;
+        self
+    }
+
+    pub const fn start(mut self, value: f64) -> Var {
+        self.kind = match self.kind {
+            Kind::Real { unit, min, max, nominal, .. } => Kind::Real { unit, start: Some(value), min, max, nominal },
+            _ => panic!("start(f64) is for Real variables"),
+        };
+        self
+    }
+
+    pub const fn min(mut self, value: f64) -> Var {
+        self.kind = match self.kind {
+            Kind::Real { unit, start, max, nominal, .. } => Kind::Real { unit, start, min: Some(value), max, nominal },
+            _ => panic!("min(f64) is for Real variables"),
+        };
+        self
+    }
+
+    pub const fn max(mut self, value: f64) -> Var {
+        self.kind = match self.kind {
+            Kind::Real { unit, start, min, nominal, .. } => Kind::Real { unit, start, min, max: Some(value), nominal },
+            _ => panic!("max(f64) is for Real variables"),
+        };
+        self
+    }
+
+    pub const fn nominal(mut self, value: f64) -> Var {
+        self.kind = match self.kind {
+            Kind::Real { unit, start, min, max, .. } => Kind::Real { unit, start, min, max, nominal: Some(value) },
+            _ => panic!("nominal(f64) is for Real variables"),
+        };
+        self
+    }
+
+    pub const fn start_integer(mut self, value: i32) -> Var {
+        self.kind = match self.kind {
+            Kind::Integer { min, max, .. } => Kind::Integer { start: Some(value), min, max },
+            Kind::Enumeration { declared_type, .. } => Kind::Enumeration { declared_type, start: Some(value) },
+            _ => panic!("start_integer is for Integer and Enumeration variables"),
+        };
+        self
+    }
+
+    pub const fn range_integer(mut self, min: i32, max: i32) -> Var {
+        self.kind = match self.kind {
+            Kind::Integer { start, .. } => Kind::Integer { start, min: Some(min), max: Some(max) },
+            _ => panic!("range_integer is for Integer variables"),
+        };
+        self
+    }
+
+    pub const fn start_boolean(mut self, value: bool) -> Var {
+        self.kind = match self.kind {
+            Kind::Boolean { .. } => Kind::Boolean { start: Some(value) },
+            _ => panic!("start_boolean is for Boolean variables"),
+        };
+        self
+    }
+
+    pub const fn start_string(mut self, value: &'static str) -> Var {
+        self.kind = match self.kind {
+            Kind::String { .. } => Kind::String { start: Some(value) },
+            _ => panic!("start_string is for String variables"),
+        };
+        self
+    }
+
+    pub fn base_type(&self) -> BaseType {
+        match self.kind {
+            Kind::Real { .. } => BaseType::Real,
+            Kind::Integer { .. } | Kind::Enumeration { .. } => BaseType::Integer,
+            Kind::Boolean { .. } => BaseType::Boolean,
+            Kind::String { .. } => BaseType::String,
+        }
+    }
+
+    pub fn unit(&self) -> Option<&'static str> {
+        match self.kind {
+            Kind::Real { unit, .. } => Some(unit),
+            _ => None,
+        }
+    }
+
+    /// Whether the master may set this variable in the given phase (FMI 2.0, section 4.2.4).
+    pub fn settable_in(&self, phase: SetPhase) -> bool {
+        match phase {
+            // Before and during initialisation: inputs and every variable with a start value
+            // the master may override (initial exact or approx), except constants.
+            SetPhase::BeforeInitialization | SetPhase::Initialization => {
+                self.variability != Variability::Constant
+                    && (self.causality == Causality::Input
+                        || matches!(self.initial, Some(Initial::Exact) | Some(Initial::Approx)))
+            }
+            // While stepping: inputs and tunable parameters only.
+            SetPhase::Stepping => {
+                self.causality == Causality::Input
+                    || (self.causality == Causality::Parameter && self.variability == Variability::Tunable)
+            }
+        }
+    }
+}
+
+/// The phases that differ in what may be set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SetPhase {
+    BeforeInitialization,
+    Initialization,
+    Stepping,
+}
+
+/// The enum of a model's variables, generated by [`declare_variables!`].
+pub trait VariableSet: Copy + Send + Sync + 'static + fmt::Debug {
+    const TABLE: &'static [Var];
+    fn index(self) -> usize;
+    fn vr(self) -> u32 {
+        self.index() as u32
+    }
+    fn var(self) -> &'static Var {
+        &Self::TABLE[self.index()]
+    }
+    fn from_index(index: usize) -> Option<Self>;
+    fn by_name(name: &str) -> Option<Self> {
+        Self::TABLE.iter().position(|v| v.name == name).and_then(Self::from_index)
+    }
+}
+
+/// The values of all variables of one instance, indexed by value reference.
+///
+/// Each base type has its own vector with one slot per variable, so access is a plain index.
+/// Models read parameters and inputs and write outputs through the typed accessors; the runtime
+/// does every check (type, causality, phase, range, finiteness) before a master's value lands
+/// here.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Values<V> {
+    reals: Vec<f64>,
+    integers: Vec<i32>,
+    booleans: Vec<bool>,
+    strings: Vec<String>,
+    marker: PhantomData<V>,
+}
+
+impl<V: VariableSet> Values<V> {
+    /// All variables at their start values (zero, false or empty where the table has none).
+    pub fn at_start() -> Self {
+        let n = V::TABLE.len();
+        let mut values = Values {
+            reals: vec![0.0; n],
+            integers: vec![0; n],
+            booleans: vec![false; n],
+            strings: vec![String::new(); n],
+            marker: PhantomData,
+        };
+        for (i, var) in V::TABLE.iter().enumerate() {
+            match var.kind {
+                Kind::Real { start, .. } => values.reals[i] = start.unwrap_or(0.0),
+                Kind::Integer { start, .. } => values.integers[i] = start.unwrap_or(0),
+                Kind::Enumeration { start, .. } => values.integers[i] = start.unwrap_or(1),
+                Kind::Boolean { start } => values.booleans[i] = start.unwrap_or(false),
+                Kind::String { start } => values.strings[i] = start.unwrap_or("").to_string(),
+            }
+        }
+        values
+    }
+
+    #[inline]
+    pub fn real(&self, var: V) -> f64 {
+        self.reals[var.index()]
+    }
+
+    #[inline]
+    pub fn set_real(&mut self, var: V, value: f64) {
+        debug_assert_eq!(var.var().base_type(), BaseType::Real, "{var:?} is not Real");
+        self.reals[var.index()] = value;
+    }
+
+    #[inline]
+    pub fn integer(&self, var: V) -> i32 {
+        self.integers[var.index()]
+    }
+
+    #[inline]
+    pub fn set_integer(&mut self, var: V, value: i32) {
+        self.integers[var.index()] = value;
+    }
+
+    #[inline]
+    pub fn boolean(&self, var: V) -> bool {
+        self.booleans[var.index()]
+    }
+
+    #[inline]
+    pub fn set_boolean(&mut self, var: V, value: bool) {
+        self.booleans[var.index()] = value;
+    }
+
+    pub fn string(&self, var: V) -> &str {
+        &self.strings[var.index()]
+    }
+
+    pub fn set_string(&mut self, var: V, value: impl Into<String>) {
+        self.strings[var.index()] = value.into();
+    }
+
+    pub(crate) fn real_at(&self, index: usize) -> f64 {
+        self.reals[index]
+    }
+    pub(crate) fn real_at_mut(&mut self, index: usize) -> &mut f64 {
+        &mut self.reals[index]
+    }
+    pub(crate) fn integer_at(&self, index: usize) -> i32 {
+        self.integers[index]
+    }
+    pub(crate) fn integer_at_mut(&mut self, index: usize) -> &mut i32 {
+        &mut self.integers[index]
+    }
+    pub(crate) fn boolean_at(&self, index: usize) -> bool {
+        self.booleans[index]
+    }
+    pub(crate) fn boolean_at_mut(&mut self, index: usize) -> &mut bool {
+        &mut self.booleans[index]
+    }
+    pub(crate) fn string_at(&self, index: usize) -> &str {
+        &self.strings[index]
+    }
+    pub(crate) fn string_at_mut(&mut self, index: usize) -> &mut String {
+        &mut self.strings[index]
+    }
+
+    /// Writes every value, in table order, to a state buffer.
+    pub fn save(&self, w: &mut crate::state::StateWriter) {
+        for (i, var) in V::TABLE.iter().enumerate() {
+            match var.base_type() {
+                BaseType::Real => w.f64(self.reals[i]),
+                BaseType::Integer => w.i64(i64::from(self.integers[i])),
+                BaseType::Boolean => w.bool(self.booleans[i]),
+                BaseType::String => w.str(&self.strings[i]),
+            }
+        }
+    }
+
+    /// Reads values written by [`Values::save`] for the same table.
+    pub fn load(r: &mut crate::state::StateReader) -> Result<Self, crate::state::StateError> {
+        let mut values = Self::at_start();
+        for (i, var) in V::TABLE.iter().enumerate() {
+            match var.base_type() {
+                BaseType::Real => values.reals[i] = r.f64()?,
+                BaseType::Integer => {
+                    let raw = r.i64()?;
+                    values.integers[i] = i32::try_from(raw)
+                        .map_err(|_| crate::state::StateError(format!("integer {raw} of {} out of range", var.name)))?;
+                }
+                BaseType::Boolean => values.booleans[i] = r.bool()?,
+                BaseType::String => values.strings[i] = r.str()?,
+            }
+        }
+        Ok(values)
+    }
+}
+
+/// Declares the variables of a model: an enum (one variant per variable, the value reference
+/// being its position) and its [`VariableSet`] table.
+///
+/// ```ignore
+/// fmu_runtime::declare_variables! {
+///     pub enum PlantVar {
+///         CurrentCommand = Var::real("motor.current_command", "A").input().start(0.0)
+///             .description("Current command before the current loop."),
+///     }
+/// }
+/// ```
+#[macro_export]
+macro_rules! declare_variables {
+    (
+        $(#[$enum_meta:meta])*
+        $vis:vis enum $name:ident {
+            $( $variant:ident = $decl:expr ),+ $(,)?
+        }
+    ) => {
+        $(#[$enum_meta])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        #[repr(u32)]
+        $vis enum $name {
+            $( $variant ),+
+        }
+
+        impl $crate::variables::VariableSet for $name {
+            const TABLE: &'static [$crate::variables::Var] = {
+                #[allow(unused_imports)]
+                use $crate::variables::Var;
+                &[ $( $decl ),+ ]
+            };
+
+            #[inline]
+            fn index(self) -> usize {
+                self as usize
+            }
+
+            fn from_index(index: usize) -> Option<Self> {
+                const ALL: &[$name] = &[ $( $name::$variant ),+ ];
+                ALL.get(index).copied()
+            }
+        }
+    };
+}

@@ -1,0 +1,342 @@
+//! Generates `modelDescription.xml` from a model's variable table, and the GUID, which is a
+//! hash of that description: change anything a master can see and the GUID changes with it.
+
+use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
+use quick_xml::Writer;
+use sha2::{Digest, Sha256};
+
+use crate::instance::LOG_CATEGORIES;
+use crate::model::Model;
+use crate::units;
+use crate::variables::{Causality, Kind, Var, VariableSet};
+
+/// The name written into `generationTool`.
+pub const GENERATION_TOOL: &str = "meerkat-antenna-fmu fmu-runtime";
+
+/// Formats a number so that it reads back to the same `f64` and is a valid `xs:double`.
+pub fn format_real(x: f64) -> String {
+    let magnitude = x.abs();
+    if x == 0.0 || (1e-4..1e15).contains(&magnitude) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+const GUID_PLACEHOLDER: &str = "{00000000-0000-0000-0000-000000000000}";
+
+/// The model description with the GUID filled in.
+pub fn model_description<M: Model>() -> String {
+    let body = render::<M>(GUID_PLACEHOLDER);
+    let guid = guid_of(&body);
+    render::<M>(&guid)
+}
+
+/// The GUID: the first 128 bits of SHA-256 over the description written with a placeholder
+/// GUID, formatted as `{8-4-4-4-12}` hexadecimal digits.
+pub fn guid<M: Model>() -> String {
+    guid_of(&render::<M>(GUID_PLACEHOLDER))
+}
+
+fn guid_of(text: &str) -> String {
+    let digest = Sha256::digest(text.as_bytes());
+    let h: String = digest.iter().take(16).map(|b| format!("{b:02x}")).collect();
+    format!("{{{}-{}-{}-{}-{}}}", &h[0..8], &h[8..12], &h[12..16], &h[16..20], &h[20..32])
+}
+
+/// Problems a model table can have that a master would trip over; checked by [`validate`].
+pub fn validate<M: Model>() -> Result<(), String> {
+    let table = M::Var::TABLE;
+    let mut names = std::collections::BTreeSet::new();
+    for (i, var) in table.iter().enumerate() {
+        if !names.insert(var.name) {
+            return Err(format!("variable name '{}' is declared twice", var.name));
+        }
+        if var.description.is_empty() {
+            return Err(format!("variable '{}' has no description", var.name));
+        }
+        if let Kind::Real { unit, start, min, max, .. } = var.kind {
+            if units::lookup(unit).is_none() {
+                return Err(format!("variable '{}' uses unit '{unit}', which is not in units::UNITS", var.name));
+            }
+            if let (Some(lo), Some(hi)) = (min, max) {
+                if lo > hi {
+                    return Err(format!("variable '{}' has min {lo} > max {hi}", var.name));
+                }
+            }
+            if let Some(s) = start {
+                if min.is_some_and(|lo| s < lo) || max.is_some_and(|hi| s > hi) {
+                    return Err(format!("variable '{}' has its start {s} outside [min, max]", var.name));
+                }
+            }
+        }
+        let needs_start = matches!(var.causality, Causality::Parameter | Causality::Input);
+        let has_start = start_attribute(var).is_some();
+        if needs_start && !has_start {
+            return Err(format!("variable '{}' ({}) needs a start value", var.name, var.causality.xml_name()));
+        }
+        if !needs_start && has_start && var.initial == Some(crate::variables::Initial::Calculated) {
+            return Err(format!("variable '{}' is calculated and must not have a start value", var.name));
+        }
+        for &dep in var.depends_on {
+            let target = table.get(dep as usize).ok_or_else(|| format!("'{}' depends on unknown value reference {dep}", var.name))?;
+            if target.causality != Causality::Input {
+                return Err(format!("'{}' depends on '{}', which is not an input", var.name, target.name));
+            }
+        }
+        if !var.depends_on.is_empty() && var.causality != Causality::Output {
+            return Err(format!("'{}' declares dependencies but is not an output", var.name));
+        }
+        let _ = i;
+    }
+    Ok(())
+}
+
+fn start_attribute(var: &Var) -> Option<String> {
+    match var.kind {
+        Kind::Real { start, .. } => start.map(format_real),
+        Kind::Integer { start, .. } => start.map(|s| s.to_string()),
+        Kind::Enumeration { start, .. } => start.map(|s| s.to_string()),
+        Kind::Boolean { start } => start.map(|s| s.to_string()),
+        Kind::String { start } => start.map(str::to_string),
+    }
+}
+
+fn render<M: Model>(guid: &str) -> String {
+    let info = M::info();
+    let table = M::Var::TABLE;
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
+    let write = |w: &mut Writer<Vec<u8>>, e: Event| w.write_event(e).expect("writing to a Vec cannot fail");
+
+    write(&mut w, Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
+    let mut root = BytesStart::new("fmiModelDescription");
+    root.push_attribute(("fmiVersion", "2.0"));
+    root.push_attribute(("modelName", info.model_name));
+    root.push_attribute(("guid", guid));
+    root.push_attribute(("description", info.description));
+    root.push_attribute(("author", info.author));
+    root.push_attribute(("version", info.version));
+    root.push_attribute(("generationTool", GENERATION_TOOL));
+    root.push_attribute(("variableNamingConvention", "structured"));
+    root.push_attribute(("numberOfEventIndicators", "0"));
+    write(&mut w, Event::Start(root));
+
+    let mut cs = BytesStart::new("CoSimulation");
+    for (k, v) in [
+        ("modelIdentifier", info.model_identifier),
+        ("needsExecutionTool", "false"),
+        ("canHandleVariableCommunicationStepSize", "true"),
+        ("canInterpolateInputs", "false"),
+        ("maxOutputDerivativeOrder", "0"),
+        ("canRunAsynchronuously", "false"),
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canNotUseMemoryManagementFunctions", "true"),
+        ("canGetAndSetFMUstate", "true"),
+        ("canSerializeFMUstate", "true"),
+        ("providesDirectionalDerivative", "false"),
+    ] {
+        cs.push_attribute((k, v));
+    }
+    write(&mut w, Event::Empty(cs));
+
+    // Units, in order of first use.
+    let mut used: Vec<&str> = Vec::new();
+    for var in table {
+        if let Some(u) = var.unit() {
+            if !used.contains(&u) {
+                used.push(u);
+            }
+        }
+    }
+    if !used.is_empty() {
+        write(&mut w, Event::Start(BytesStart::new("UnitDefinitions")));
+        for name in &used {
+            let def = units::lookup(name).unwrap_or_else(|| panic!("unit '{name}' is not in units::UNITS"));
+            let mut unit = BytesStart::new("Unit");
+            unit.push_attribute(("name", def.name));
+            write(&mut w, Event::Start(unit));
+            let mut base = BytesStart::new("BaseUnit");
+            let exponents = [("kg", def.kg), ("m", def.m), ("s", def.s), ("A", def.a), ("rad", def.rad)];
+            let exponent_texts: Vec<(&str, String)> =
+                exponents.iter().filter(|(_, e)| *e != 0).map(|(k, e)| (*k, e.to_string())).collect();
+            for (k, v) in &exponent_texts {
+                base.push_attribute((*k, v.as_str()));
+            }
+            let factor = format_real(def.factor);
+            if def.factor != 1.0 {
+                base.push_attribute(("factor", factor.as_str()));
+            }
+            write(&mut w, Event::Empty(base));
+            write(&mut w, Event::End(BytesEnd::new("Unit")));
+        }
+        write(&mut w, Event::End(BytesEnd::new("UnitDefinitions")));
+    }
+
+    // Enumeration types, in order of first use.
+    let mut enums: Vec<&crate::variables::EnumerationType> = Vec::new();
+    for var in table {
+        if let Kind::Enumeration { declared_type, .. } = var.kind {
+            if !enums.iter().any(|e| e.name == declared_type.name) {
+                enums.push(declared_type);
+            }
+        }
+    }
+    if !enums.is_empty() {
+        write(&mut w, Event::Start(BytesStart::new("TypeDefinitions")));
+        for e in &enums {
+            let mut st = BytesStart::new("SimpleType");
+            st.push_attribute(("name", e.name));
+            st.push_attribute(("description", e.description));
+            write(&mut w, Event::Start(st));
+            write(&mut w, Event::Start(BytesStart::new("Enumeration")));
+            for (i, (name, description)) in e.items.iter().enumerate() {
+                let mut item = BytesStart::new("Item");
+                let value = (i + 1).to_string();
+                item.push_attribute(("name", *name));
+                item.push_attribute(("value", value.as_str()));
+                item.push_attribute(("description", *description));
+                write(&mut w, Event::Empty(item));
+            }
+            write(&mut w, Event::End(BytesEnd::new("Enumeration")));
+            write(&mut w, Event::End(BytesEnd::new("SimpleType")));
+        }
+        write(&mut w, Event::End(BytesEnd::new("TypeDefinitions")));
+    }
+
+    write(&mut w, Event::Start(BytesStart::new("LogCategories")));
+    for (name, description) in LOG_CATEGORIES {
+        let mut cat = BytesStart::new("Category");
+        cat.push_attribute(("name", *name));
+        cat.push_attribute(("description", *description));
+        write(&mut w, Event::Empty(cat));
+    }
+    write(&mut w, Event::End(BytesEnd::new("LogCategories")));
+
+    let de = info.default_experiment;
+    let mut experiment = BytesStart::new("DefaultExperiment");
+    let (start, stop, step) = (format_real(de.start_time), format_real(de.stop_time), format_real(de.step_size));
+    experiment.push_attribute(("startTime", start.as_str()));
+    experiment.push_attribute(("stopTime", stop.as_str()));
+    experiment.push_attribute(("stepSize", step.as_str()));
+    write(&mut w, Event::Empty(experiment));
+
+    write(&mut w, Event::Start(BytesStart::new("ModelVariables")));
+    for (i, var) in table.iter().enumerate() {
+        let mut sv = BytesStart::new("ScalarVariable");
+        let vr = i.to_string();
+        sv.push_attribute(("name", var.name));
+        sv.push_attribute(("valueReference", vr.as_str()));
+        sv.push_attribute(("description", var.description));
+        sv.push_attribute(("causality", var.causality.xml_name()));
+        sv.push_attribute(("variability", var.variability.xml_name()));
+        if let Some(initial) = var.initial {
+            // For parameters "exact" is the default; writing it anyway is valid and explicit.
+            sv.push_attribute(("initial", initial.xml_name()));
+        }
+        write(&mut w, Event::Start(sv));
+        let start = start_attribute(var);
+        let element = match var.kind {
+            Kind::Real { unit, min, max, nominal, .. } => {
+                let mut e = BytesStart::new("Real");
+                e.push_attribute(("unit", unit));
+                if let Some(s) = &start {
+                    e.push_attribute(("start", s.as_str()));
+                }
+                for (k, v) in [("min", min), ("max", max), ("nominal", nominal)] {
+                    if let Some(v) = v {
+                        let text = format_real(v);
+                        e.push_attribute((k, text.as_str()));
+                    }
+                }
+                e
+            }
+            Kind::Integer { min, max, .. } => {
+                let mut e = BytesStart::new("Integer");
+                if let Some(s) = &start {
+                    e.push_attribute(("start", s.as_str()));
+                }
+                for (k, v) in [("min", min), ("max", max)] {
+                    if let Some(v) = v {
+                        let text = v.to_string();
+                        e.push_attribute((k, text.as_str()));
+                    }
+                }
+                e
+            }
+            Kind::Enumeration { declared_type, .. } => {
+                let mut e = BytesStart::new("Enumeration");
+                e.push_attribute(("declaredType", declared_type.name));
+                if let Some(s) = &start {
+                    e.push_attribute(("start", s.as_str()));
+                }
+                e
+            }
+            Kind::Boolean { .. } => {
+                let mut e = BytesStart::new("Boolean");
+                if let Some(s) = &start {
+                    e.push_attribute(("start", s.as_str()));
+                }
+                e
+            }
+            Kind::String { .. } => {
+                let mut e = BytesStart::new("String");
+                if let Some(s) = &start {
+                    e.push_attribute(("start", s.as_str()));
+                }
+                e
+            }
+        };
+        write(&mut w, Event::Empty(element));
+        write(&mut w, Event::End(BytesEnd::new("ScalarVariable")));
+    }
+    write(&mut w, Event::End(BytesEnd::new("ModelVariables")));
+
+    // ModelStructure: indices are 1-based positions in ModelVariables.
+    write(&mut w, Event::Start(BytesStart::new("ModelStructure")));
+    let outputs: Vec<(usize, &Var)> = table.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).collect();
+    if !outputs.is_empty() {
+        write(&mut w, Event::Start(BytesStart::new("Outputs")));
+        for (i, var) in &outputs {
+            write(&mut w, Event::Empty(unknown(*i, var, true)));
+        }
+        write(&mut w, Event::End(BytesEnd::new("Outputs")));
+    }
+    let initial_unknowns: Vec<(usize, &Var)> = table
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| {
+            v.causality == Causality::CalculatedParameter
+                || (v.causality == Causality::Output
+                    && matches!(v.initial, Some(crate::variables::Initial::Calculated) | Some(crate::variables::Initial::Approx)))
+        })
+        .collect();
+    if !initial_unknowns.is_empty() {
+        write(&mut w, Event::Start(BytesStart::new("InitialUnknowns")));
+        for (i, var) in &initial_unknowns {
+            // Initial values depend on parameters and start values; leaving out `dependencies`
+            // says "may depend on all knowns", which is the honest statement.
+            write(&mut w, Event::Empty(unknown(*i, var, false)));
+        }
+        write(&mut w, Event::End(BytesEnd::new("InitialUnknowns")));
+    }
+    write(&mut w, Event::End(BytesEnd::new("ModelStructure")));
+    write(&mut w, Event::End(BytesEnd::new("fmiModelDescription")));
+
+    let mut text = String::from_utf8(w.into_inner()).expect("the writer emits UTF-8");
+    text.push('\n');
+    text
+}
+
+fn unknown(index: usize, var: &Var, with_dependencies: bool) -> BytesStart<'static> {
+    let mut e = BytesStart::new("Unknown");
+    e.push_attribute(("index", (index + 1).to_string().as_str()));
+    if with_dependencies {
+        let deps: Vec<String> = var.depends_on.iter().map(|d| (d + 1).to_string()).collect();
+        e.push_attribute(("dependencies", deps.join(" ").as_str()));
+        if !deps.is_empty() {
+            let kinds = vec!["dependent"; deps.len()].join(" ");
+            e.push_attribute(("dependenciesKind", kinds.as_str()));
+        }
+    }
+    e
+}
