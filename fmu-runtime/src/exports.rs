@@ -199,8 +199,13 @@ fn log_notes(instance: &Instance, notes: Notes) -> Status {
     }
 }
 
-/// Brings calculated outputs up to date before they are read during initialisation.
+/// Brings outputs up to date before they are read: calculated values during initialisation,
+/// feedthrough outputs after new inputs while stepping.
 fn ensure_initialized(instance: &mut Instance) -> Result<Status, String> {
+    if instance.inputs_changed && instance.phase == Phase::StepComplete {
+        instance.model.update_feedthrough();
+        instance.inputs_changed = false;
+    }
     if instance.needs_initialize && instance.phase == Phase::InitializationMode {
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
         instance.model.initialize(&instance.context, &mut notes)?;
@@ -362,6 +367,7 @@ pub fn instantiate(
             last_successful_time: 0.0,
             last_step_status: Status::Ok,
             needs_initialize: true,
+            inputs_changed: false,
             context,
             model,
             create: entry.create,
@@ -462,6 +468,7 @@ pub fn reset(c: fmi2Component) -> fmi2Status {
         instance.last_successful_time = 0.0;
         instance.last_step_status = Status::Ok;
         instance.needs_initialize = true;
+        instance.inputs_changed = false;
         Ok(Status::Ok)
     })
 }
@@ -520,6 +527,8 @@ pub fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, val
 fn mark_changed(instance: &mut Instance) {
     if matches!(instance.phase, Phase::Instantiated | Phase::InitializationMode) {
         instance.needs_initialize = true;
+    } else {
+        instance.inputs_changed = true;
     }
 }
 
@@ -708,6 +717,7 @@ pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prio
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
         match instance.model.do_step(current, step, &mut notes) {
             Ok(()) => {
+                instance.inputs_changed = false;
                 instance.time = current + step;
                 instance.last_successful_time = instance.time;
                 let status = log_notes(instance, notes);

@@ -72,6 +72,10 @@ impl Model for TestModel {
         Ok(())
     }
 
+    fn update_feedthrough(&mut self, values: &mut Values<TestVar>) {
+        values.set_real(TestVar::Feedthrough, values.real(TestVar::Input));
+    }
+
     fn check_real(var: TestVar, value: f64, _values: &Values<TestVar>) -> Result<(), String> {
         if var == TestVar::Gain && value == 13.0 {
             return Err("13 is unlucky".into());
@@ -455,6 +459,16 @@ fn get_string_returns_copies_valid_until_the_next_call() {
     assert_eq!(get_string(m.c, &vr, 1, &mut out), fmi2OK);
     // SAFETY: the FMU keeps the string alive until the next fmi2GetString.
     assert_eq!(unsafe { CStr::from_ptr(out) }.to_str().unwrap(), "");
+}
+
+#[test]
+fn feedthrough_outputs_see_inputs_set_after_the_last_step() {
+    let m = Master::initialized();
+    assert_eq!(do_step(m.c, 0.0, 0.1, 0), fmi2OK);
+    m.set(U, 7.0);
+    assert_eq!(m.get(TestVar::Feedthrough as u32), 7.0);
+    // The state-only output did not move: it changes only by stepping.
+    assert_eq!(m.get(Y), 0.0);
 }
 
 #[test]

@@ -150,6 +150,7 @@ pub trait DynModel: Send {
     fn set_boolean(&mut self, vrs: &[u32], values: &[bool], phase: SetPhase) -> Result<(), String>;
     fn set_string(&mut self, vrs: &[u32], values: Vec<String>, phase: SetPhase, context: &Context) -> Result<(), String>;
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String>;
+    fn update_feedthrough(&mut self);
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
     fn save(&self, w: &mut StateWriter);
     fn load(&mut self, r: &mut StateReader, context: &Context) -> Result<(), StateError>;
@@ -300,6 +301,10 @@ impl<M: Model> DynModel for ModelSlot<M> {
         self.model.initialize(&mut self.values, context, notes)
     }
 
+    fn update_feedthrough(&mut self) {
+        self.model.update_feedthrough(&mut self.values);
+    }
+
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
         self.model.do_step(&mut self.values, time, step, notes)
     }
@@ -386,6 +391,9 @@ pub struct Instance {
     pub last_step_status: Status,
     /// Parameters changed since the model last initialised: recompute before reading outputs.
     pub needs_initialize: bool,
+    /// Inputs changed since the last step: outputs with direct feedthrough are recomputed
+    /// before the next get.
+    pub inputs_changed: bool,
     pub context: Context,
     pub model: Box<dyn DynModel>,
     /// Rebuilds the model for fmi2Reset.
@@ -457,6 +465,8 @@ impl Instance {
         self.stop_time = header.stop_time;
         self.last_successful_time = header.last_successful_time;
         self.needs_initialize = header.needs_initialize;
+        // Feedthrough outputs are recomputed from the restored inputs on the next get.
+        self.inputs_changed = true;
         Ok(())
     }
 

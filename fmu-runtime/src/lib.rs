@@ -11,6 +11,7 @@ pub mod import;
 pub mod instance;
 pub mod linear;
 pub mod model;
+pub mod package;
 pub mod params;
 pub mod state;
 pub mod units;

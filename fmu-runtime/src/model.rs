@@ -91,6 +91,11 @@ pub trait Model: Sized + Send + 'static {
     /// and writes the outputs at `time + step`.
     fn do_step(&mut self, values: &mut Values<Self::Var>, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
 
+    /// Recomputes the outputs that depend directly on inputs (those declared with
+    /// `depends_on`) after the master set inputs between steps, so that a get sees the new
+    /// inputs as the standard requires. Models without direct feedthrough keep the default.
+    fn update_feedthrough(&mut self, _values: &mut Values<Self::Var>) {}
+
     /// Extra checks on a Real value a master wants to set, beyond range and finiteness.
     fn check_real(_var: Self::Var, _value: f64, _values: &Values<Self::Var>) -> Result<(), String> {
         Ok(())

@@ -1,0 +1,116 @@
+//! Builds the FMU shared libraries and packages every FMU into `target/fmu/`, and generates
+//! (or checks) the committed model descriptions under `modelDescription/`.
+//!
+//! This is the project's xtask: the same variable tables that drive the FMUs at run time drive
+//! the generated files, and `--check` turns "someone forgot to regenerate" into a failing test.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use fmu_runtime::package::{write_fmu, FmuSpec};
+
+/// Every FMU the project ships, in packaging order.
+pub fn all_fmus() -> Vec<FmuSpec> {
+    let mut specs = Vec::new();
+    specs.extend(crate::registry::fmus());
+    specs
+}
+
+/// The workspace root (the folder with the top-level Cargo.toml).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tools/ lives in the workspace").to_path_buf()
+}
+
+/// The documented folder the packaged `.fmu` files are written to.
+pub fn fmu_directory() -> PathBuf {
+    workspace_root().join("target").join("fmu")
+}
+
+/// The path of one packaged FMU.
+pub fn fmu_path(model_identifier: &str) -> PathBuf {
+    fmu_directory().join(format!("{model_identifier}.fmu"))
+}
+
+/// Where the committed model descriptions live.
+pub fn model_description_directory() -> PathBuf {
+    workspace_root().join("modelDescription")
+}
+
+/// Builds the release shared libraries of the model crates with cargo.
+pub fn build_libraries(target_dir: &Path) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let mut packages: Vec<&str> = all_fmus().iter().map(|s| crate::registry::package_of(s.library_name)).collect();
+    packages.sort();
+    packages.dedup();
+    let mut command = Command::new(cargo);
+    command.current_dir(workspace_root()).args(["build", "--release", "--quiet"]).arg("--target-dir").arg(target_dir);
+    for p in &packages {
+        command.args(["-p", p]);
+    }
+    let status = command.status().map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!("cargo build of {} failed ({status})", packages.join(", ")));
+    }
+    Ok(())
+}
+
+/// Packages every FMU from the libraries in `target_dir/release` into `output`.
+pub fn package_all(target_dir: &Path, output: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(output).map_err(|e| format!("cannot create {}: {e}", output.display()))?;
+    let mut written = Vec::new();
+    for spec in all_fmus() {
+        let library = target_dir.join("release").join(format!("lib{}.so", spec.library_name));
+        let path = output.join(format!("{}.fmu", spec.model_identifier));
+        write_fmu(&spec, &library, &path)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// Builds and packages into the documented folder; what the main job and the tests rely on.
+pub fn build_and_package() -> Result<Vec<PathBuf>, String> {
+    let stale = codegen(true)?;
+    if !stale.is_empty() {
+        return Err(format!(
+            "generated files are stale: {}; run `cargo run -p antenna-tools --bin codegen`",
+            stale.join(", ")
+        ));
+    }
+    let target = workspace_root().join("target");
+    build_libraries(&target)?;
+    package_all(&target, &fmu_directory())
+}
+
+/// Writes `modelDescription/<id>.xml` for every FMU, or with `check` only lists those whose
+/// committed file differs from what the code generates now.
+pub fn codegen(check: bool) -> Result<Vec<String>, String> {
+    let directory = model_description_directory();
+    let mut stale = Vec::new();
+    for spec in all_fmus() {
+        (spec.validate)().map_err(|e| format!("{}: {e}", spec.model_identifier))?;
+        let path = directory.join(format!("{}.xml", spec.model_identifier));
+        let generated = (spec.model_description)();
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        if committed != generated {
+            stale.push(path.display().to_string());
+            if !check {
+                std::fs::create_dir_all(&directory).map_err(|e| e.to_string())?;
+                std::fs::write(&path, generated).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            }
+        }
+    }
+    // A file for an FMU that no longer exists is stale too.
+    if let Ok(entries) = std::fs::read_dir(&directory) {
+        let known: Vec<String> = all_fmus().iter().map(|s| format!("{}.xml", s.model_identifier)).collect();
+        for entry in entries.flatten() {
+            let name = entry.file_name().to_string_lossy().to_string();
+            if name.ends_with(".xml") && !known.contains(&name) {
+                stale.push(entry.path().display().to_string());
+                if !check {
+                    std::fs::remove_file(entry.path()).map_err(|e| e.to_string())?;
+                }
+            }
+        }
+    }
+    Ok(stale)
+}

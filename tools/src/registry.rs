@@ -1,0 +1,18 @@
+//! The list of model crates and the FMUs each one ships.
+
+use fmu_runtime::package::FmuSpec;
+
+/// All FMU specifications of all model crates.
+pub fn fmus() -> Vec<FmuSpec> {
+    Vec::new()
+}
+
+/// The cargo package that builds a given library.
+pub fn package_of(library_name: &str) -> &'static str {
+    match library_name {
+        "fmu_plant" => "fmu-plant",
+        "fmu_wind" => "fmu-wind",
+        "fmu_controller" => "fmu-controller",
+        other => panic!("no cargo package known for library {other}"),
+    }
+}

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Runs every test of the project on a fresh machine: builds and packages the FMUs, checks that the
+# generated model descriptions are fresh, runs the Rust tests (which load the packaged .fmu files
+# through the C ABI) and the Python tests with fmpy in a private virtual environment.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! command -v cargo >/dev/null 2>&1; then
+    echo "cargo not found: install Rust with rustup (https://rustup.rs) first" >&2
+    exit 1
+fi
+
+echo "== generated files are fresh"
+cargo run --release --quiet -p antenna-tools --bin codegen -- --check
+
+echo "== build and package the FMUs into target/fmu/"
+cargo run --release --quiet -p antenna-tools --bin package
+
+echo "== Rust tests"
+cargo test --release --workspace --quiet
+
+echo "== Python tests with fmpy"
+if [ ! -x .venv/bin/python ]; then
+    python3 -m venv .venv
+fi
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/python/requirements.txt
+.venv/bin/python -m pytest -q tests/python
+
+echo "== all tests passed"
