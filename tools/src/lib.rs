@@ -1,1 +1,5 @@
-//! Tools shared library.
+//! The project's tools as a library: packaging and code generation, the coupled-antenna master,
+//! signal processing, plotting, measured-data validation. The binaries in `src/bin` are thin
+//! command-line fronts to it.
+pub mod package;
+pub mod registry;
