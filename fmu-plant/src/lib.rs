@@ -1,1 +1,37 @@
-//! placeholder
+//! Physics of the MeerKAT antenna positioner: the azimuth and elevation drive trains.
+//!
+//! This crate is the plant only; the FMI 2.0 wrapping lives in `fmu-runtime` and is wired up by
+//! the lead. Everything here is plain, safe Rust with SI units inside (rad, rad/s, N m, A,
+//! kg m^2, s); degrees appear only at the API edge in names ending in `_deg`.
+//!
+//! * [`analytic`]: the seed paper's two-mass model (Fig. 4) in the frequency domain, with Eq. 1
+//!   corrected, and an independent partial-fraction step response used to check the simulator.
+//! * [`azimuth`]: two motors, each with its own compliant, backlash-afflicted pinion path to a
+//!   load whose inertia depends on elevation.
+//! * [`elevation`]: one motor driving a preloaded jackscrew whose length, stiffness and
+//!   transmission ratio depend on elevation.
+//! * [`params`]: parameter types shared by both axes (motors, friction, periodic torques,
+//!   numerics).
+//!
+//! The integrator (module `drivetrain`) is hybrid and piecewise linear: within a discrete mode
+//! (which bodies stick, which pinions are in contact) one step is one exact zero-order-hold
+//! matrix-vector product; mode switches are localised by dyadic subdivision. See
+//! `docs/plant-model.md` for the equations, parameter values and measured errors.
+
+#![forbid(unsafe_code)]
+// The drive-train code indexes several parallel per-path arrays with one path index; an index
+// loop says that more plainly than zipped iterators.
+#![allow(clippy::needless_range_loop)]
+
+pub mod analytic;
+pub mod azimuth;
+mod cache;
+mod delay;
+mod drivetrain;
+pub mod elevation;
+pub mod params;
+
+pub use drivetrain::NumericsStatistics;
+pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
+pub use elevation::{ElevationInputs, ElevationOutputs, ElevationParams, ElevationPlant, JackscrewParams};
+pub use params::{CoggingParams, FrictionParams, MotorParams, NumericsParams, PeriodicTorqueParams};
