@@ -1,0 +1,240 @@
+//! Wind torques about the azimuth and elevation axes (axis side, N m), from the wind speed and
+//! the torque coefficient surfaces, each split into a mean and a gust part.
+//!
+//! * [`TorqueForm::Quadratic`] (default): `T = tau k v |v|` with `v = v_m + v_t` and
+//!   `k = 0.5 rho A D`. Mean part: `tau k v_m^2` (Eq. 3); gust part: the rest,
+//!   `tau k (v |v| - v_m^2)`. The gust part is not zero-mean: its `v_t^2` term averages
+//!   `6 kappa` times the mean part (about 9 % for the paper's `z0`), which is the exact
+//!   consequence of the quadratic law.
+//! * [`TorqueForm::Linearised`]: the paper's form, mean `tau k v_m^2` plus `k_t dv0` with
+//!   `k_t = 2 tau k sqrt(6 kappa) v_m^2` and `dv0 = v_t / (sqrt(6 kappa) v_m)` the normalised
+//!   gust ([`gust_torque_gain`], [`normalised_gust`]). Their product is `2 tau k v_m v_t`
+//!   whatever `kappa` is. The paper also divides `k_t` by the gear ratio `N` because it refers
+//!   the torque to the motor; these torques are on the axis side, so there is no `N`.
+//!
+//! The coefficients follow the pointing: yaw = wind direction - antenna azimuth, see
+//! [`crate::coefficients`] for the sign conventions.
+
+use crate::coefficients::CoefficientTable;
+use std::f64::consts::PI;
+
+/// Which torque law to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TorqueForm {
+    /// `tau k v |v|` with the total wind speed: exact in the gust.
+    #[default]
+    Quadratic,
+    /// The seed paper's linearisation about `v_m`.
+    Linearised,
+}
+
+/// The torques at one instant, N m on the axis side; positive drives positive azimuth
+/// (clockwise seen from above) or higher elevation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindTorques {
+    pub azimuth_mean: f64,
+    pub azimuth_gust: f64,
+    pub elevation_mean: f64,
+    pub elevation_gust: f64,
+    /// The coefficients used, for logging.
+    pub tau_az: f64,
+    pub tau_el: f64,
+    /// Wind direction minus azimuth, wrapped to (-180, 180] degrees.
+    pub yaw_deg: f64,
+}
+
+impl WindTorques {
+    pub fn azimuth(&self) -> f64 {
+        self.azimuth_mean + self.azimuth_gust
+    }
+
+    pub fn elevation(&self) -> f64 {
+        self.elevation_mean + self.elevation_gust
+    }
+}
+
+/// The wind torque model of one antenna.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindTorqueModel {
+    pub coefficients: CoefficientTable,
+    /// Air density, kg/m^3 (see [`crate::site::AIR_DENSITY`]).
+    pub air_density: f64,
+    /// Dish diameter `D`, m; the reference area is the aperture circle `pi D^2 / 4`.
+    pub dish_diameter: f64,
+    pub form: TorqueForm,
+}
+
+impl WindTorqueModel {
+    /// Checks that density and diameter are positive and finite.
+    pub fn new(coefficients: CoefficientTable, air_density: f64, dish_diameter: f64, form: TorqueForm) -> Result<Self, String> {
+        if !(air_density.is_finite() && air_density > 0.0) {
+            return Err(format!("air density must be positive and finite, got {air_density} kg/m^3"));
+        }
+        if !(dish_diameter.is_finite() && dish_diameter > 0.0) {
+            return Err(format!("dish diameter must be positive and finite, got {dish_diameter} m"));
+        }
+        Ok(Self { coefficients, air_density, dish_diameter, form })
+    }
+
+    /// The reference area `A = pi D^2 / 4`, m^2.
+    pub fn reference_area(&self) -> f64 {
+        PI * self.dish_diameter * self.dish_diameter / 4.0
+    }
+
+    /// `k = 0.5 rho A D`, N m per (m/s)^2: the torque per unit coefficient and unit speed squared.
+    pub fn torque_scale(&self) -> f64 {
+        0.5 * self.air_density * self.reference_area() * self.dish_diameter
+    }
+
+    /// Torques for mean speed `v_mean`, gust `v_gust` (m/s), wind direction (where the wind comes
+    /// from, degrees from north, clockwise) and antenna pointing (degrees).
+    pub fn torques(&self, v_mean: f64, v_gust: f64, wind_direction_deg: f64, azimuth_deg: f64, elevation_deg: f64) -> WindTorques {
+        let yaw = yaw_deg(wind_direction_deg, azimuth_deg);
+        let tau_az = self.coefficients.tau_az(yaw, elevation_deg);
+        let tau_el = self.coefficients.tau_el(yaw, elevation_deg);
+        let k = self.torque_scale();
+        let mean = k * v_mean * v_mean;
+        let gust = match self.form {
+            TorqueForm::Quadratic => {
+                let v = v_mean + v_gust;
+                k * (v * v.abs() - v_mean * v_mean)
+            }
+            TorqueForm::Linearised => 2.0 * k * v_mean * v_gust,
+        };
+        WindTorques {
+            azimuth_mean: tau_az * mean,
+            azimuth_gust: tau_az * gust,
+            elevation_mean: tau_el * mean,
+            elevation_gust: tau_el * gust,
+            tau_az,
+            tau_el,
+            yaw_deg: yaw,
+        }
+    }
+}
+
+/// Wind direction minus azimuth, wrapped to (-180, 180] degrees.
+pub fn yaw_deg(wind_direction_deg: f64, azimuth_deg: f64) -> f64 {
+    let y = (wind_direction_deg - azimuth_deg).rem_euclid(360.0);
+    if y > 180.0 { y - 360.0 } else { y }
+}
+
+/// The paper's gust torque gain on the axis side, `k_t = 2 tau k sqrt(6 kappa) v_m^2`, N m.
+pub fn gust_torque_gain(tau: f64, torque_scale: f64, kappa: f64, v_mean: f64) -> f64 {
+    2.0 * tau * torque_scale * (6.0 * kappa).sqrt() * v_mean * v_mean
+}
+
+/// The paper's normalised gust `dv0 = v_t / (sqrt(6 kappa) v_m)`: unit variance for a
+/// Davenport-normalised gust.
+pub fn normalised_gust(v_gust: f64, kappa: f64, v_mean: f64) -> f64 {
+    v_gust / ((6.0 * kappa).sqrt() * v_mean)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coefficients::reference_model;
+    use crate::davenport::Davenport;
+
+    fn model(form: TorqueForm) -> WindTorqueModel {
+        WindTorqueModel::new(CoefficientTable::default_table(), 1.075, 13.5, form).unwrap()
+    }
+
+    #[test]
+    fn mean_torques_match_hand_computed_eq3_values() {
+        // Eq. 3 by hand: k = 0.5 * 1.075 * (pi 13.5^2 / 4) * 13.5 = 1038.6 N m / (m/s)^2.
+        let area = PI * 13.5 * 13.5 / 4.0;
+        let k = 0.5 * 1.075 * area * 13.5;
+        assert!((k - 1038.6).abs() < 0.1, "k = {k}");
+        let m = model(TorqueForm::Quadratic);
+        // (wind direction, azimuth, elevation): the coefficient comes from the grid node at
+        // yaw = wind - azimuth, where the table holds the reference model exactly (5 decimals).
+        for (wind, az, el, v) in [(130.0, 0.0, 0.0, 10.0), (40.0, 100.0, 30.0, 9.8), (200.0, 20.0, 45.0, 2.9), (350.0, 5.0, 15.0, 25.0)] {
+            let (tau_az, tau_el) = reference_model(yaw_deg(wind, az), el);
+            let t = m.torques(v, 0.0, wind, az, el);
+            assert!((t.azimuth_mean - tau_az * k * v * v).abs() < 1e-5 * k * v * v, "az at ({wind}, {az}, {el})");
+            assert!((t.elevation_mean - tau_el * k * v * v).abs() < 1e-5 * k * v * v, "el at ({wind}, {az}, {el})");
+            assert_eq!(t.azimuth_gust, 0.0);
+        }
+        // One number written out: yaw 130 deg at the horizon, 10 m/s.
+        let t = m.torques(10.0, 0.0, 130.0, 0.0, 0.0);
+        let tau = -0.05 * 130f64.to_radians().sin() + 0.07 * 260f64.to_radians().sin();
+        assert!((tau + 0.10724).abs() < 1e-5);
+        assert!((t.azimuth_mean - tau * 1038.6 * 100.0).abs() < 15.0, "{}", t.azimuth_mean);
+    }
+
+    #[test]
+    fn back_quartering_wind_turns_the_dish_to_point_downwind() {
+        // Wind from 130 deg clockwise of the pointing: the weather-vane torque turns the dish
+        // away from the wind (yaw towards 180), i.e. towards lower azimuth.
+        let t = model(TorqueForm::Quadratic).torques(10.0, 0.0, 130.0, 0.0, 10.0);
+        assert!(t.azimuth_mean < 0.0);
+        let mirrored = model(TorqueForm::Quadratic).torques(10.0, 0.0, -130.0, 0.0, 10.0);
+        assert!((mirrored.azimuth_mean + t.azimuth_mean).abs() < 1e-9 * t.azimuth_mean.abs());
+    }
+
+    #[test]
+    fn front_wind_at_low_elevation_pushes_the_dish_down_and_zenith_wind_tips_it_downwind() {
+        // Hand calculation with the reference model, psi = 0, el = 15 deg:
+        // C = m1 + 2 m2 cos(15) = -0.05 + 0.1352 = 0.0852, tau_el = -C sin(15) = -0.0221 < 0:
+        // the dish's own moment (centre of pressure towards the upwind, lower rim) turns it to
+        // face the wind squarely, i.e. lowers it.
+        let m = model(TorqueForm::Quadratic);
+        let low = m.torques(10.0, 0.0, 0.0, 0.0, 15.0);
+        let c = -0.05 + 2.0 * 0.07 * 15f64.to_radians().cos();
+        assert!((low.tau_el + c * 15f64.to_radians().sin()).abs() < 1e-5);
+        assert!(low.elevation_mean < 0.0);
+        // At zenith the front wind acts on the dish ahead of (above) the elevation axis and
+        // tips the boresight downwind, beyond 90 deg: positive, tau_el = -m1 = 0.05.
+        let zenith = m.torques(10.0, 0.0, 0.0, 0.0, 90.0);
+        assert!((zenith.tau_el - 0.05).abs() < 1e-5);
+        assert!(zenith.azimuth_mean.abs() < 1e-9);
+    }
+
+    #[test]
+    fn quadratic_gust_part_carries_the_six_kappa_mean_increase() {
+        // E[(v_m + v_t)^2 - v_m^2] = sigma^2 = 6 kappa v_m^2 for a zero-mean gust: check on a
+        // symmetric two-point gust +-sigma, for which the average is exact.
+        let d = Davenport::new(9.5, 10.0, 0.4).unwrap();
+        let m = model(TorqueForm::Quadratic);
+        let plus = m.torques(9.5, d.sigma(), 130.0, 0.0, 20.0);
+        let minus = m.torques(9.5, -d.sigma(), 130.0, 0.0, 20.0);
+        let mean_gust = 0.5 * (plus.azimuth_gust + minus.azimuth_gust);
+        assert!((mean_gust / plus.azimuth_mean - 6.0 * d.kappa()).abs() < 1e-12);
+        assert!((6.0 * d.kappa() - 0.0926).abs() < 1e-3, "about 9 %");
+    }
+
+    #[test]
+    fn linearised_gust_torque_is_the_papers_kt_times_dv0_without_the_gear_ratio() {
+        let m = model(TorqueForm::Linearised);
+        let d = Davenport::new(3.0, 10.0, 0.4).unwrap();
+        let v_t = 0.7;
+        let t = m.torques(3.0, v_t, 45.0, 10.0, 30.0);
+        let kt = gust_torque_gain(t.tau_az, m.torque_scale(), d.kappa(), 3.0);
+        let dv0 = normalised_gust(v_t, d.kappa(), 3.0);
+        assert!((t.azimuth_gust - kt * dv0).abs() < 1e-9 * t.azimuth_gust.abs());
+        assert!((t.azimuth_gust - 2.0 * t.tau_az * m.torque_scale() * 3.0 * v_t).abs() < 1e-9 * t.azimuth_gust.abs());
+    }
+
+    #[test]
+    fn reversed_flow_reverses_the_quadratic_torque() {
+        let m = model(TorqueForm::Quadratic);
+        let t = m.torques(0.5, -1.5, 130.0, 0.0, 0.0);
+        assert!(t.azimuth() * t.azimuth_mean < 0.0, "v = -1 m/s pushes the other way");
+        // v = 0.5 - 1.5 = -1 m/s: T = tau k v|v| = -tau k.
+        assert!((t.azimuth() + t.tau_az * m.torque_scale()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn yaw_wraps_to_plus_minus_180() {
+        assert_eq!(yaw_deg(10.0, 350.0), 20.0);
+        assert_eq!(yaw_deg(350.0, 10.0), -20.0);
+        assert_eq!(yaw_deg(0.0, 180.0), 180.0);
+    }
+
+    #[test]
+    fn invalid_density_or_diameter_is_an_error() {
+        assert!(WindTorqueModel::new(CoefficientTable::default_table(), 0.0, 13.5, TorqueForm::Quadratic).is_err());
+        assert!(WindTorqueModel::new(CoefficientTable::default_table(), 1.0, f64::NAN, TorqueForm::Quadratic).is_err());
+    }
+}
