@@ -3,3 +3,9 @@
 //! command-line fronts to it.
 pub mod package;
 pub mod registry;
+pub mod measured_log;
+pub mod truth;
+pub mod validate;
+pub mod dsp;
+pub mod plot;
+pub mod windfit;

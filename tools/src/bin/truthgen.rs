@@ -1,0 +1,90 @@
+//! truthgen: writes measured logs from the independent truth simulation.
+//!
+//! Usage:
+//!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
+//!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs]
+//!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
+//!   truthgen start --out FILE.params
+//!
+//! `suite` writes `log_NNN.csv` logs with a hidden `log_NNN.truth` beside each and the starting
+//! parameter set `start.params`. `one` writes a single log (and FILE.truth). Sizes are the RMS
+//! of what the effect adds to its channel divided by that channel's sensor noise.
+
+use antenna_tools::truth::suite::{self, SuiteConfig};
+use antenna_tools::truth::TruthConfig;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+fn main() {
+    if let Err(message) = run(std::env::args().skip(1).collect()) {
+        eprintln!("truthgen: {message}");
+        std::process::exit(2);
+    }
+}
+
+fn value<'a>(args: &'a [String], i: &mut usize, flag: &str) -> Result<&'a str, String> {
+    *i += 1;
+    args.get(*i).map(String::as_str).ok_or_else(|| format!("{flag} needs a value"))
+}
+
+fn list<T: std::str::FromStr>(text: &str, flag: &str) -> Result<Vec<T>, String> {
+    text.split(',').filter(|s| !s.trim().is_empty()).map(|s| s.trim().parse::<T>().map_err(|_| format!("{flag}: bad value '{s}'"))).collect()
+}
+
+fn run(args: Vec<String>) -> Result<(), String> {
+    let Some(command) = args.first() else {
+        return Err("expected a command: suite, one or start (see the source header for usage)".into());
+    };
+    let mut out: Option<PathBuf> = None;
+    let mut suite_config = SuiteConfig::default();
+    let mut base = TruthConfig::default();
+    let mut effects: Vec<(String, f64)> = Vec::new();
+    let mut seed = 1u64;
+    let mut i = 1;
+    while i < args.len() {
+        let flag = args[i].as_str();
+        match flag {
+            "--out" => out = Some(PathBuf::from(value(&args, &mut i, flag)?)),
+            "--seeds" => suite_config.seeds = list(value(&args, &mut i, flag)?, flag)?,
+            "--sizes" => suite_config.sizes = list(value(&args, &mut i, flag)?, flag)?,
+            "--kinds" => suite_config.kinds = list(value(&args, &mut i, flag)?, flag)?,
+            "--clean" => {
+                let n: u64 = value(&args, &mut i, flag)?.parse().map_err(|_| "--clean needs a count")?;
+                suite_config.clean_seeds = (101..101 + n).collect();
+            }
+            "--no-pairs" => suite_config.pairs.clear(),
+            "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
+            "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,
+            "--effect" => {
+                let kind = value(&args, &mut i, flag)?.to_string();
+                effects.push((kind, 10.0));
+            }
+            "--size" => {
+                let size: f64 = value(&args, &mut i, flag)?.parse().map_err(|_| "--size needs a number")?;
+                effects.last_mut().ok_or("--size must follow --effect")?.1 = size;
+            }
+            other => return Err(format!("unknown option '{other}'")),
+        }
+        i += 1;
+    }
+    let out = out.ok_or("--out is required")?;
+    match command.as_str() {
+        "suite" => {
+            suite_config.base = base;
+            let truths = suite::write_suite(&out, &suite_config, &mut |line| println!("{line}"))?;
+            println!("wrote {} logs to {}", truths.len(), out.display());
+        }
+        "one" => {
+            let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+            let (text, truth) = suite::generate_case(&base, seed, &effects, &name, &mut BTreeMap::new())?;
+            std::fs::write(&out, text).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+            std::fs::write(out.with_extension("truth"), suite::truth_text(&truth)).map_err(|e| e.to_string())?;
+            println!("{}: {}", out.display(), suite::describe(&truth));
+        }
+        "start" => {
+            base.plant.starting_parameters().write(&out, "Starting parameter set: the truth generator's nominal plant.")?;
+        }
+        other => return Err(format!("unknown command '{other}'")),
+    }
+    Ok(())
+}

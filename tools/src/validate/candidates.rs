@@ -1,0 +1,691 @@
+//! The library of candidate effects, each with its own signature in the residual.
+//!
+//! A candidate says how the residual would change if the effect were added to the model: a set
+//! of regressor columns (one vector per residual channel) whose coefficients are the effect's
+//! linear parameters, and, for effects that move a known term (a delay shifts the torque, a new
+//! Stribeck curve replaces the old one), an adjustment of the residual itself. Nonlinear
+//! parameters (Stribeck velocity, cogging period, delay) are found by a grid search on the
+//! current residual; the grid size enters the significance test as a number of trials, so a
+//! wide search is not a licence to find something in noise.
+//!
+//! Every column is the derivative of a channel's model side (or minus the derivative of its
+//! measured side) with respect to the effect's parameter, at the current parameters: the fit
+//! is a Gauss-Newton step, and the selection iterates it after adding an effect.
+//!
+//! Signatures, all axis-side, r = measured - model:
+//! - Coulomb: sign(w_m) in the torque equation.
+//! - viscous: w_m.
+//! - Stribeck: exp(-(w/ws)^2) sign(w), ws searched; replaces the model's hump.
+//! - offset / asymmetric friction: a constant while moving.
+//! - backlash: -K/2 sign(twist) in the motor equation, +K/2 sign(twist) in the load equation.
+//! - stiffness: twist and twist rate, with opposite signs in the two equations.
+//! - inertia: motor and load accelerations (total acceleration with one encoder).
+//! - unbalance: cos and -sin of the angle (elevation if logged, else the axis angle).
+//! - delay: the measured torque shifted in time, delay searched.
+//! - torque constant: the measured torque itself (a scale error scales everything).
+//! - cogging: sin and cos of 2 pi q_m / P, period searched.
+
+use super::equation_error::{backlash_sign, ChannelData, EquationData, Structure};
+use super::parameters::{names, ParameterSet};
+use super::signals::weighted_least_squares;
+
+/// A named effect the model may lack.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Kind {
+    Coulomb,
+    Viscous,
+    Stribeck,
+    Offset,
+    Backlash,
+    Stiffness,
+    Inertia,
+    Unbalance,
+    Delay,
+    TorqueConstant,
+    Cogging,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 11] = [
+        Kind::Coulomb,
+        Kind::Viscous,
+        Kind::Stribeck,
+        Kind::Offset,
+        Kind::Backlash,
+        Kind::Stiffness,
+        Kind::Inertia,
+        Kind::Unbalance,
+        Kind::Delay,
+        Kind::TorqueConstant,
+        Kind::Cogging,
+    ];
+
+    /// Short name, as reports and the suite's truth files use it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Coulomb => "coulomb",
+            Kind::Viscous => "viscous",
+            Kind::Stribeck => "stribeck",
+            Kind::Offset => "offset",
+            Kind::Backlash => "backlash",
+            Kind::Stiffness => "stiffness",
+            Kind::Inertia => "inertia",
+            Kind::Unbalance => "unbalance",
+            Kind::Delay => "delay",
+            Kind::TorqueConstant => "torque_constant",
+            Kind::Cogging => "cogging",
+        }
+    }
+
+    pub fn description(self) -> &'static str {
+        match self {
+            Kind::Coulomb => "Coulomb friction level",
+            Kind::Viscous => "viscous friction",
+            Kind::Stribeck => "Stribeck / breakaway friction",
+            Kind::Offset => "asymmetric friction or torque offset",
+            Kind::Backlash => "backlash / lost motion at reversals",
+            Kind::Stiffness => "drive-path stiffness (anti-resonance) and damping",
+            Kind::Inertia => "inertia error",
+            Kind::Unbalance => "gravity / unbalance torque",
+            Kind::Delay => "time delay between logged and applied torque",
+            Kind::TorqueConstant => "torque constant (current-to-torque scale) error",
+            Kind::Cogging => "position-periodic (cogging) torque",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Kind> {
+        Kind::ALL.iter().copied().find(|k| k.name() == name)
+    }
+}
+
+/// One regressor: its values in each residual channel (empty: zero in that channel).
+#[derive(Debug, Clone)]
+pub struct Column {
+    pub label: String,
+    pub unit: String,
+    pub channels: Vec<Vec<f64>>,
+}
+
+/// A nonlinear parameter found by search, with its profile-likelihood standard deviation.
+#[derive(Debug, Clone)]
+pub struct Searched {
+    pub name: String,
+    pub unit: String,
+    pub value: f64,
+    pub sigma: f64,
+    /// The searched range, for the report.
+    pub range: (f64, f64),
+}
+
+/// Search: a new effect, nonlinear parameters found by grid search on the current residual.
+/// Refine: an accepted effect linearised at the current parameters (all parameters, including
+/// the searched ones, as Gauss-Newton increments).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    Search,
+    Refine,
+}
+
+/// A candidate made concrete on one data set.
+#[derive(Debug, Clone)]
+pub struct Instance {
+    pub kind: Kind,
+    pub mode: Mode,
+    pub columns: Vec<Column>,
+    /// Per-channel change of the residual target (empty: none).
+    pub adjust: Vec<Vec<f64>>,
+    pub searched: Vec<Searched>,
+    /// Effective number of alternatives the search tried (1 without a search).
+    pub trials: f64,
+    /// Parameters found by search that have no column (Search mode).
+    pub extra_parameters: usize,
+}
+
+impl Instance {
+    /// Number of parameters the effect adds.
+    pub fn parameter_count(&self) -> usize {
+        self.columns.len() + self.extra_parameters
+    }
+}
+
+/// Rows used by the fit: every masked sample of every channel, in channel order.
+pub fn stack(channels: &[ChannelData], per_channel: &[Vec<f64>]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for (c, channel) in channels.iter().enumerate() {
+        let values = per_channel.get(c).filter(|v| !v.is_empty());
+        for (i, &used) in channel.mask.iter().enumerate() {
+            if used {
+                out.push(values.map(|v| v[i]).unwrap_or(0.0));
+            }
+        }
+    }
+    out
+}
+
+/// Per-row weights from per-channel weights.
+pub fn stacked_weights(channels: &[ChannelData], channel_weights: &[f64]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for (c, channel) in channels.iter().enumerate() {
+        out.extend(channel.mask.iter().filter(|m| **m).map(|_| channel_weights[c]));
+    }
+    out
+}
+
+/// Weighted RSS of `target` after fitting `columns` (already stacked).
+fn fitted_rss(columns: &[Vec<f64>], target: &[f64], weights: &[f64]) -> f64 {
+    let (beta, _) = weighted_least_squares(columns, target, weights);
+    target
+        .iter()
+        .enumerate()
+        .map(|(i, y)| {
+            let fit: f64 = columns.iter().zip(&beta).map(|(c, b)| c[i] * b).sum();
+            weights[i] * (y - fit).powi(2)
+        })
+        .sum()
+}
+
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Profile standard deviation of a searched parameter: the half-width of the region where the
+/// chi-squared (weighted RSS) stays within 1 of its minimum, interpolated between grid points
+/// and never narrower than half a grid step.
+fn profile_sigma(grid: &[f64], chi2: &[f64], best: usize) -> f64 {
+    let min = chi2[best];
+    let cross = |step: isize| -> f64 {
+        let mut i = best as isize;
+        loop {
+            let j = i + step;
+            if j < 0 || j >= grid.len() as isize {
+                return (grid[i as usize] - grid[best]).abs();
+            }
+            let (a, b) = (chi2[i as usize] - min, chi2[j as usize] - min);
+            if b >= 1.0 {
+                let f = if b > a { (1.0 - a) / (b - a) } else { 1.0 };
+                return (grid[i as usize] + f * (grid[j as usize] - grid[i as usize]) - grid[best]).abs();
+            }
+            i = j;
+        }
+    };
+    let half_step = if grid.len() > 1 { 0.5 * (grid[1] - grid[0]).abs().min((grid[grid.len() - 1] - grid[grid.len() - 2]).abs()) } else { 0.0 };
+    (0.5 * (cross(-1) + cross(1))).max(half_step)
+}
+
+/// Builds a candidate on the data at the current parameters. In Search mode the nonlinear
+/// parameters are searched against the current residual (`residual` per channel,
+/// `channel_weights` = 1/(sigma^2 tau) per channel). Returns an error string when the
+/// candidate does not apply to this data.
+pub fn instantiate(
+    kind: Kind,
+    data: &EquationData,
+    params: &ParameterSet,
+    channels: &[ChannelData],
+    residual: &[Vec<f64>],
+    channel_weights: &[f64],
+    mode: Mode,
+) -> Result<Instance, String> {
+    let n = data.len();
+    let count = channels.len();
+    let torque_only = |values: Vec<f64>| -> Vec<Vec<f64>> {
+        let mut v = vec![Vec::new(); count];
+        v[data.torque_channel()] = values;
+        v
+    };
+    let column = |label: &str, unit: &str, channels: Vec<Vec<f64>>| Column { label: label.into(), unit: unit.into(), channels };
+    let simple = |columns: Vec<Column>| Instance { kind, mode, columns, adjust: Vec::new(), searched: Vec::new(), trials: 1.0, extra_parameters: 0 };
+    let weights = stacked_weights(channels, channel_weights);
+    let target = stack(channels, residual);
+    let two_mass = data.structure == Structure::TwoMass;
+    let stiffness = params.value(names::STIFFNESS);
+    let ratio = if two_mass { data.twist_scale / stiffness } else { 1.0 };
+    let delay = params.value(names::DELAY);
+
+    match kind {
+        Kind::Coulomb => {
+            let sgn = data.smooth(&data.motor_vel_inner.iter().map(|&v| sign(v)).collect::<Vec<_>>());
+            Ok(simple(vec![column("friction.coulomb change", "N m", torque_only(sgn))]))
+        }
+        Kind::Viscous => Ok(simple(vec![column("friction.viscous change", "N m s/rad", torque_only(data.motor_vel.clone()))])),
+        Kind::Offset => Ok(simple(vec![column("effect.torque_offset change", "N m", torque_only(vec![1.0; n]))])),
+        Kind::TorqueConstant => {
+            // The model side is divided by the scale s: a relative change d of s changes it by
+            // -d times itself.
+            let predicted = &channels[data.torque_channel()].predicted;
+            Ok(simple(vec![column("relative torque-constant change", "-", torque_only(predicted.iter().map(|p| -p).collect()))]))
+        }
+        Kind::Inertia => match data.structure {
+            Structure::TwoMass => Ok(simple(vec![
+                column("motor inertia change (axis side)", "kg m^2", vec![data.motor_acc.clone(), Vec::new()]),
+                column("load.inertia change", "kg m^2", vec![Vec::new(), data.load_acc.iter().map(|a| ratio * a).collect()]),
+            ])),
+            // In one total equation the motor and load accelerations differ only by the twist
+            // acceleration, so the two inertias are not separable: the load inertia is fitted
+            // and the data-sheet motor inertia kept.
+            Structure::TotalTwoEncoders => Ok(simple(vec![column("load.inertia change", "kg m^2", vec![data.load_acc.clone()])])),
+            Structure::Rigid => Ok(simple(vec![column("load.inertia change", "kg m^2", vec![data.load_acc.clone()])])),
+        },
+        Kind::Unbalance => {
+            let cos: Vec<f64> = data.angle.iter().map(|a| ratio * a.cos()).collect();
+            let minus_sin: Vec<f64> = data.angle.iter().map(|a| -ratio * a.sin()).collect();
+            let (c, s) = if two_mass { (vec![Vec::new(), cos], vec![Vec::new(), minus_sin]) } else { (vec![cos], vec![minus_sin]) };
+            // Over a small range of angle the two columns are nearly collinear with a
+            // constant; the fit reports that through a large uncertainty.
+            Ok(simple(vec![column("unbalance cos part (A cos phase)", "N m", c), column("unbalance sin part (A sin phase)", "N m", s)]))
+        }
+        Kind::Stiffness => {
+            if !two_mass {
+                return Err("needs two encoders and a stiffness in the parameter set".into());
+            }
+            let load_inertia = params.value(names::LOAD_INERTIA);
+            let damping = params.value(names::DAMPING);
+            let backlash = params.value(names::BACKLASH_WIDTH);
+            let amplitude = params.value(names::UNBALANCE_TORQUE);
+            let phase = params.value(names::UNBALANCE_PHASE);
+            let signs = if backlash > 0.0 { backlash_sign(data, params) } else { vec![0.0; n] };
+            let disturbance = data.disturbance.clone().unwrap_or_else(|| vec![0.0; n]);
+            let motor_k: Vec<f64> = (0..n).map(|i| data.twist[i] - 0.5 * backlash * signs[i]).collect();
+            let load_k: Vec<f64> = (0..n)
+                .map(|i| {
+                    let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() - disturbance[i];
+                    -data.twist_scale / (stiffness * stiffness) * (load_side - damping * data.twist_rate[i])
+                })
+                .collect();
+            let load_d: Vec<f64> = data.twist_rate.iter().map(|v| -ratio * v).collect();
+            Ok(simple(vec![
+                column("path.stiffness change", "N m/rad", vec![motor_k, load_k]),
+                column("path.damping change", "N m s/rad", vec![data.twist_rate.clone(), load_d]),
+            ]))
+        }
+        Kind::Backlash => {
+            if !two_mass {
+                return Err("needs two encoders and a stiffness in the parameter set".into());
+            }
+            let signs = backlash_sign(data, params);
+            let motor: Vec<f64> = signs.iter().map(|s| -0.5 * stiffness * s).collect();
+            let load: Vec<f64> = signs.iter().map(|s| 0.5 * data.twist_scale * s).collect();
+            Ok(simple(vec![column("backlash.width change", "rad", vec![motor, load])]))
+        }
+        Kind::Stribeck => {
+            let fc = params.value(names::COULOMB);
+            let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
+            let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
+            let hump = |vs: f64| data.smooth(&data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>());
+            if mode == Mode::Refine {
+                let slope = data.smooth(
+                    &data.motor_vel_inner.iter().map(|&v| amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>(),
+                );
+                let mut instance = simple(vec![
+                    column("Stribeck hump change", "N m", torque_only(hump(current_vs))),
+                    column("friction.stribeck_velocity change", "rad/s", torque_only(slope)),
+                ]);
+                instance.searched = vec![Searched { name: names::STRIBECK_VELOCITY.into(), unit: "rad/s".into(), value: current_vs, sigma: f64::NAN, range: (current_vs, current_vs) }];
+                return Ok(instance);
+            }
+            // The new hump replaces the model's: its old contribution goes back into the target.
+            let adjust_torque: Vec<f64> = hump(current_vs).iter().map(|h| amplitude * h).collect();
+            let mut speeds: Vec<f64> = data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
+            if speeds.len() < 10 {
+                return Err("too few moving samples".into());
+            }
+            speeds.sort_by(|a, b| a.total_cmp(b));
+            let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
+            let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
+            let grid_count = 25;
+            let grid: Vec<f64> = (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
+            let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
+            let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
+            let chi2: Vec<f64> = grid.iter().map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, &weights)).collect();
+            let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
+            let sigma = profile_sigma(&grid, &chi2, best);
+            Ok(Instance {
+                kind,
+                mode,
+                columns: vec![column("Stribeck hump (friction.static - friction.coulomb)", "N m", torque_only(hump(grid[best])))],
+                adjust: torque_only(adjust_torque),
+                searched: vec![Searched { name: names::STRIBECK_VELOCITY.into(), unit: "rad/s".into(), value: grid[best], sigma, range: (low, high) }],
+                // Neighbouring Stribeck velocities a factor 1.3 apart give nearly the same
+                // column; about a third of the grid is independent.
+                trials: (grid_count as f64 / 3.0).max(1.0),
+                extra_parameters: 1,
+            })
+        }
+        Kind::Delay => {
+            // y(t) = T(t - d): a larger delay changes the measured side by -T'(t - d) per
+            // second, so the residual column (minus the derivative of the measured side) is
+            // +T'(t - d).
+            let rate_column = |d: f64| torque_only(data.torque_rate_delayed(d));
+            if mode == Mode::Refine {
+                let mut instance = simple(vec![column("effect.delay change", "s", rate_column(delay))]);
+                instance.searched = vec![Searched { name: names::DELAY.into(), unit: "s".into(), value: delay, sigma: f64::NAN, range: (delay, delay) }];
+                return Ok(instance);
+            }
+            let max_steps = ((0.05 / data.dt).round() as usize).clamp(2, 25);
+            let grid: Vec<f64> = (0..=max_steps * 10).map(|k| k as f64 * 0.1 * data.dt).collect();
+            let base = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
+            let adjust_for = |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };
+            let chi2: Vec<f64> = grid
+                .iter()
+                .map(|&d| {
+                    let adjust = stack(channels, &torque_only(adjust_for(d)));
+                    target.iter().zip(&adjust).zip(&weights).map(|((r, a), w)| w * (r + a).powi(2)).sum()
+                })
+                .collect();
+            let best = (0..grid.len()).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
+            let sigma = profile_sigma(&grid, &chi2, best);
+            Ok(Instance {
+                kind,
+                mode,
+                // A derivative column refines the grid value between grid points.
+                columns: vec![column("effect.delay refinement", "s", rate_column(delay + grid[best]))],
+                adjust: torque_only(adjust_for(grid[best])),
+                searched: vec![Searched { name: names::DELAY.into(), unit: "s".into(), value: grid[best], sigma, range: (0.0, grid[grid.len() - 1]) }],
+                // One independent trial per whole sample of delay searched.
+                trials: max_steps as f64,
+                extra_parameters: 0,
+            })
+        }
+        Kind::Cogging => {
+            let amplitude = params.value(names::COGGING_AMPLITUDE);
+            let period = params.value(names::COGGING_PERIOD);
+            let phase = params.value(names::COGGING_PHASE);
+            let two_pi = 2.0 * std::f64::consts::PI;
+            if mode == Mode::Refine {
+                if period <= 0.0 {
+                    return Err("no cogging period to refine".into());
+                }
+                let (a0, b0) = (amplitude * phase.cos(), amplitude * phase.sin());
+                let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
+                let cos = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
+                let slope = data.smooth(
+                    &data
+                        .motor_pos_inner
+                        .iter()
+                        .map(|q| {
+                            let x = two_pi * q / period;
+                            two_pi * q / (period * period) * (-a0 * x.cos() + b0 * x.sin())
+                        })
+                        .collect::<Vec<_>>(),
+                );
+                let mut instance = simple(vec![
+                    column("cogging sin part change", "N m", torque_only(sin)),
+                    column("cogging cos part change", "N m", torque_only(cos)),
+                    column("effect.cogging_period change", "rad", torque_only(slope)),
+                ]);
+                instance.searched = vec![Searched { name: names::COGGING_PERIOD.into(), unit: "rad".into(), value: period, sigma: f64::NAN, range: (period, period) }];
+                return Ok(instance);
+            }
+            // Any cogging already in the model goes back into the target: the search fits the
+            // whole position-periodic torque afresh.
+            let existing: Vec<f64> = if amplitude != 0.0 && period > 0.0 {
+                data.smooth(&data.motor_pos_inner.iter().map(|q| amplitude * (two_pi * q / period + phase).sin()).collect::<Vec<_>>())
+            } else {
+                vec![0.0; n]
+            };
+            let adjust = torque_only(existing);
+            let adjust_stacked = stack(channels, &adjust);
+            let adjusted: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
+            let mut instance = cogging(data, channels, &adjusted, &weights, &torque_only, kind)?;
+            instance.adjust = adjust;
+            Ok(instance)
+        }
+    }
+}
+
+/// Cogging: a periodogram over the motor angle, fitted by sine and cosine at each period.
+///
+/// The period grid is uniform in spatial frequency with a step of 1/8 cycle over the angle
+/// range, so a true period is never more than 1/16 cycle of phase drift from a grid point.
+/// Periods run from a third of the angle range down to the shortest the filter passes at the
+/// median speed, and never more than 5000 grid points (a documented search limit).
+fn cogging(data: &EquationData, channels: &[ChannelData], target: &[f64], weights: &[f64], torque_only: &dyn Fn(Vec<f64>) -> Vec<Vec<f64>>, kind: Kind) -> Result<Instance, String> {
+    let mask = &channels[data.torque_channel()].mask;
+    let angles: Vec<f64> = data.motor_pos.iter().zip(mask).filter(|(_, m)| **m).map(|(q, _)| *q).collect();
+    let torque_rows = angles.len();
+    if torque_rows < 20 {
+        return Err("too few moving samples".into());
+    }
+    let (lo, hi) = angles.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), q| (a.min(*q), b.max(*q)));
+    let range = hi - lo;
+    let mut speeds: Vec<f64> = data.motor_vel.iter().zip(mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
+    speeds.sort_by(|a, b| a.total_cmp(b));
+    let median_speed = speeds[speeds.len() / 2];
+    let step = 1.0 / (8.0 * range);
+    let f_low = 3.0 / range;
+    let mut f_high = (0.5 * data.cutoff_hz / median_speed.max(1e-12)).max(2.0 * f_low);
+    f_high = f_high.min(f_low + 5000.0 * step);
+    let count = ((f_high - f_low) / step).floor() as usize + 1;
+    if count < 2 {
+        return Err("the angle range is too small for a period search".into());
+    }
+    // Only the torque channel's rows matter: the other channels get zero columns.
+    let r = &target[..torque_rows];
+    let w = &weights[..torque_rows];
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut phase: Vec<(f64, f64)> = angles.iter().map(|q| ((two_pi * q * f_low).cos(), (two_pi * q * f_low).sin())).collect();
+    let rotation: Vec<(f64, f64)> = angles.iter().map(|q| ((two_pi * q * step).cos(), (two_pi * q * step).sin())).collect();
+    let total: f64 = r.iter().zip(w).map(|(r, w)| w * r * r).sum();
+    let mut chi2 = Vec::with_capacity(count);
+    for _ in 0..count {
+        let (mut rc, mut rs, mut cc, mut ss, mut cs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..torque_rows {
+            let (c, s) = phase[i];
+            rc += w[i] * r[i] * c;
+            rs += w[i] * r[i] * s;
+            cc += w[i] * c * c;
+            ss += w[i] * s * s;
+            cs += w[i] * c * s;
+            let (rcos, rsin) = rotation[i];
+            phase[i] = (c * rcos - s * rsin, s * rcos + c * rsin);
+        }
+        let det = cc * ss - cs * cs;
+        let explained = if det > 0.0 { (ss * rc * rc - 2.0 * cs * rc * rs + cc * rs * rs) / det } else { 0.0 };
+        chi2.push(total - explained);
+    }
+    let best = (0..count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
+    // Refine the best frequency by a parabola through its neighbours.
+    let mut frequency = f_low + best as f64 * step;
+    if best > 0 && best + 1 < count {
+        let (a, b, c) = (chi2[best - 1], chi2[best], chi2[best + 1]);
+        let denominator = a - 2.0 * b + c;
+        if denominator > 0.0 {
+            frequency += 0.5 * (a - c) / denominator * step;
+        }
+    }
+    let frequencies: Vec<f64> = (0..count).map(|k| f_low + k as f64 * step).collect();
+    let frequency_sigma = profile_sigma(&frequencies, &chi2, best);
+    let period = 1.0 / frequency;
+    let period_sigma = frequency_sigma / (frequency * frequency);
+    let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q * frequency).sin()).collect::<Vec<_>>());
+    let cos = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q * frequency).cos()).collect::<Vec<_>>());
+    Ok(Instance {
+        kind,
+        mode: Mode::Search,
+        columns: vec![
+            Column { label: "cogging sin part (A cos phase)".into(), unit: "N m".into(), channels: torque_only(sin) },
+            Column { label: "cogging cos part (A sin phase)".into(), unit: "N m".into(), channels: torque_only(cos) },
+        ],
+        adjust: Vec::new(),
+        searched: vec![Searched { name: names::COGGING_PERIOD.into(), unit: "rad".into(), value: period, sigma: period_sigma, range: (1.0 / f_high, 1.0 / f_low) }],
+        // The grid oversamples the spatial-frequency resolution 1/range by 8.
+        trials: (count as f64 / 8.0).max(1.0),
+        extra_parameters: 1,
+    })
+}
+
+/// The physical parameters of a fitted effect: (name, value, standard deviation, unit).
+pub type Reported = Vec<(String, f64, f64, String)>;
+
+/// Writes a fitted effect into the parameter set: in Search mode from the coefficients of a
+/// new effect, in Refine mode as Gauss-Newton increments. `beta` are the effect's own
+/// coefficients.
+pub fn apply(instance: &Instance, beta: &[f64], data: &EquationData, params: &mut ParameterSet) {
+    let gear2 = data.gear_ratio * data.gear_ratio;
+    let refine = instance.mode == Mode::Refine;
+    match instance.kind {
+        Kind::Coulomb => {
+            let fc = params.value(names::COULOMB);
+            let fs = params.get(names::STATIC).unwrap_or(fc);
+            params.set(names::COULOMB, fc + beta[0]);
+            params.set(names::STATIC, fs + beta[0]);
+        }
+        Kind::Viscous => params.set(names::VISCOUS, params.value(names::VISCOUS) + beta[0]),
+        Kind::Offset => params.set(names::TORQUE_OFFSET, params.value(names::TORQUE_OFFSET) + beta[0]),
+        Kind::Backlash => params.set(names::BACKLASH_WIDTH, (params.value(names::BACKLASH_WIDTH) + beta[0]).max(0.0)),
+        Kind::Stiffness => {
+            params.set(names::STIFFNESS, params.value(names::STIFFNESS) + beta[0]);
+            params.set(names::DAMPING, params.value(names::DAMPING) + beta[1]);
+        }
+        Kind::Inertia => {
+            if instance.columns.len() == 2 {
+                params.set(names::MOTOR_INERTIA, params.value(names::MOTOR_INERTIA) + beta[0] / gear2);
+                params.set(names::LOAD_INERTIA, params.value(names::LOAD_INERTIA) + beta[1]);
+            } else {
+                params.set(names::LOAD_INERTIA, params.value(names::LOAD_INERTIA) + beta[0]);
+            }
+        }
+        Kind::Unbalance => {
+            let a0 = params.value(names::UNBALANCE_TORQUE);
+            let p0 = params.value(names::UNBALANCE_PHASE);
+            let (c, s) = (a0 * p0.cos() + beta[0], a0 * p0.sin() + beta[1]);
+            params.set(names::UNBALANCE_TORQUE, c.hypot(s));
+            params.set(names::UNBALANCE_PHASE, s.atan2(c));
+        }
+        Kind::Delay => {
+            let searched = if refine { 0.0 } else { instance.searched[0].value };
+            params.set(names::DELAY, params.value(names::DELAY) + searched + beta[0]);
+        }
+        Kind::TorqueConstant => {
+            let s = params.value(names::TORQUE_CONSTANT_SCALE);
+            params.set(names::TORQUE_CONSTANT_SCALE, s * (1.0 + beta[0]));
+        }
+        Kind::Stribeck => {
+            let fc = params.value(names::COULOMB);
+            if refine {
+                let fs = params.get(names::STATIC).unwrap_or(fc);
+                params.set(names::STATIC, fs + beta[0]);
+                let vs = params.value(names::STRIBECK_VELOCITY);
+                // A Gauss-Newton step may overshoot on this nonlinear parameter: keep it
+                // within a factor 2 per step.
+                params.set(names::STRIBECK_VELOCITY, (vs + beta[1]).clamp(0.5 * vs, 2.0 * vs));
+            } else {
+                params.set(names::STATIC, fc + beta[0]);
+                params.set(names::STRIBECK_VELOCITY, instance.searched[0].value);
+            }
+        }
+        Kind::Cogging => {
+            let (a, b, period) = if refine {
+                let amplitude = params.value(names::COGGING_AMPLITUDE);
+                let phase = params.value(names::COGGING_PHASE);
+                let p = params.value(names::COGGING_PERIOD);
+                (amplitude * phase.cos() + beta[0], amplitude * phase.sin() + beta[1], (p + beta[2]).clamp(0.9 * p, 1.1 * p))
+            } else {
+                (beta[0], beta[1], instance.searched[0].value)
+            };
+            params.set(names::COGGING_AMPLITUDE, a.hypot(b));
+            params.set(names::COGGING_PHASE, b.atan2(a));
+            params.set(names::COGGING_PERIOD, period);
+        }
+    }
+}
+
+/// Physical admissibility of a parameter set after an effect was fitted: inertias, friction
+/// levels, damping and backlash not negative, stiffness positive, the torque-constant scale
+/// within a factor 2 (a larger error is a units mistake, not an effect), a Stribeck velocity
+/// within the speeds the data covers (above them the hump is indistinguishable from Coulomb
+/// friction), a delay not negative beyond one sample. A fit that leaves this region has found
+/// a collinear direction of the data, not an effect.
+pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), String> {
+    let nonnegative = [names::MOTOR_INERTIA, names::LOAD_INERTIA, names::VISCOUS, names::COULOMB, names::STATIC, names::DAMPING, names::BACKLASH_WIDTH];
+    for name in nonnegative {
+        if params.get(name).is_some_and(|v| v < 0.0) {
+            return Err(format!("{name} would be negative ({:.4e})", params.value(name)));
+        }
+    }
+    if params.get(names::STIFFNESS).is_some_and(|k| k <= 0.0) && data.structure == Structure::TwoMass {
+        return Err(format!("{} would not be positive", names::STIFFNESS));
+    }
+    let scale = params.value(names::TORQUE_CONSTANT_SCALE);
+    if !(0.5..=2.0).contains(&scale) {
+        return Err(format!("{} would be {scale:.3}, outside 0.5 to 2", names::TORQUE_CONSTANT_SCALE));
+    }
+    let fastest = data.motor_vel.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let vs = params.value(names::STRIBECK_VELOCITY);
+    if params.value(names::STATIC) != params.value(names::COULOMB) && !(vs > 0.0 && vs <= fastest) {
+        return Err(format!("{} would be {vs:.3e} rad/s, outside the measured speeds (0 to {fastest:.3e})", names::STRIBECK_VELOCITY));
+    }
+    if params.value(names::DELAY) < -data.dt {
+        return Err(format!("{} would be negative ({:.3e} s)", names::DELAY, params.value(names::DELAY)));
+    }
+    Ok(())
+}
+
+/// The parameters of an accepted effect for the report, with standard deviations from the
+/// covariance of its Refine-mode coefficients at the converged parameters.
+pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[f64], data: &EquationData) -> Reported {
+    let gear2 = data.gear_ratio * data.gear_ratio;
+    let mut out: Reported = Vec::new();
+    let mut add = |name: &str, value: f64, sd: f64, unit: &str| out.push((name.to_string(), value, sd, unit.to_string()));
+    let change = |name: &str| params.value(name) - start.value(name);
+    let sd = |i: usize| sigma.get(i).copied().unwrap_or(f64::NAN);
+    match kind {
+        Kind::Coulomb => {
+            add("friction.coulomb change", change(names::COULOMB), sd(0), "N m");
+            add(names::COULOMB, params.value(names::COULOMB), sd(0), "N m");
+        }
+        Kind::Viscous => {
+            add("friction.viscous change", change(names::VISCOUS), sd(0), "N m s/rad");
+            add(names::VISCOUS, params.value(names::VISCOUS), sd(0), "N m s/rad");
+        }
+        Kind::Offset => add(names::TORQUE_OFFSET, params.value(names::TORQUE_OFFSET), sd(0), "N m"),
+        Kind::Backlash => add(names::BACKLASH_WIDTH, params.value(names::BACKLASH_WIDTH), sd(0), "rad"),
+        Kind::Stiffness => {
+            add("path.stiffness change", change(names::STIFFNESS), sd(0), "N m/rad");
+            add(names::STIFFNESS, params.value(names::STIFFNESS), sd(0), "N m/rad");
+            add(names::DAMPING, params.value(names::DAMPING), sd(1), "N m s/rad");
+        }
+        Kind::Inertia => {
+            if sigma.len() == 2 {
+                add("load.inertia change", change(names::LOAD_INERTIA), sd(1), "kg m^2");
+                add(names::LOAD_INERTIA, params.value(names::LOAD_INERTIA), sd(1), "kg m^2");
+                add(names::MOTOR_INERTIA, params.value(names::MOTOR_INERTIA), sd(0) / gear2, "kg m^2");
+            } else {
+                add("load.inertia change (total inertia)", change(names::LOAD_INERTIA), sd(0), "kg m^2");
+                add(names::LOAD_INERTIA, params.value(names::LOAD_INERTIA), sd(0), "kg m^2");
+            }
+        }
+        Kind::Unbalance => {
+            let amplitude = params.value(names::UNBALANCE_TORQUE);
+            let phase = params.value(names::UNBALANCE_PHASE);
+            let (c, s) = (amplitude * phase.cos(), amplitude * phase.sin());
+            let amp_sd = if amplitude > 0.0 { ((c * sd(0)).powi(2) + (s * sd(1)).powi(2)).sqrt() / amplitude } else { sd(0).hypot(sd(1)) };
+            let phase_sd = if amplitude > 0.0 { ((s * sd(0)).powi(2) + (c * sd(1)).powi(2)).sqrt() / (amplitude * amplitude) } else { f64::INFINITY };
+            add(names::UNBALANCE_TORQUE, amplitude, amp_sd, "N m");
+            add(names::UNBALANCE_PHASE, phase, phase_sd, "rad");
+        }
+        Kind::Delay => add(names::DELAY, params.value(names::DELAY), sd(0), "s"),
+        Kind::TorqueConstant => {
+            let s = params.value(names::TORQUE_CONSTANT_SCALE);
+            add(names::TORQUE_CONSTANT_SCALE, s, s * sd(0), "-");
+        }
+        Kind::Stribeck => {
+            add("friction.static change", change(names::STATIC) - change(names::COULOMB), sd(0), "N m");
+            add(names::STATIC, params.value(names::STATIC), sd(0), "N m");
+            add(names::STRIBECK_VELOCITY, params.value(names::STRIBECK_VELOCITY), sd(1), "rad/s");
+        }
+        Kind::Cogging => {
+            let amplitude = params.value(names::COGGING_AMPLITUDE);
+            let amp_sd = sd(0).hypot(sd(1)) / std::f64::consts::SQRT_2;
+            add(names::COGGING_AMPLITUDE, amplitude, amp_sd, "N m");
+            add(names::COGGING_PERIOD, params.value(names::COGGING_PERIOD), sd(2), "rad");
+            add(names::COGGING_PHASE, params.value(names::COGGING_PHASE), if amplitude > 0.0 { amp_sd / amplitude } else { f64::INFINITY }, "rad");
+        }
+    }
+    out
+}

@@ -1,0 +1,505 @@
+//! The equation-error (inverse-dynamics) residual: the torque the model needs to produce the
+//! measured motion, against the torque that was measured.
+//!
+//! This route needs no simulation, so it neither drifts nor depends on the initial state: it
+//! is how robot drives are identified (Gautier and Khalil; Swevers et al.). Velocities and
+//! accelerations come from zero-phase Savitzky-Golay filters of the encoder positions; the
+//! measured torque goes through the same smoothing, and every regressor that is a nonlinear
+//! function of the motion (sign of the speed, cos of the angle, ...) is smoothed after it is
+//! evaluated ("parallel filtering"), so both sides of the equation see the same filter.
+//!
+//! With two encoders (motor and load) and a drive-path stiffness in the parameter set, two
+//! equations are used, each with its own residual channel:
+//! - motor: N s T(t - d) = J_m N^2 a_m + K tw + D dtw + friction(w_m) + offset + cogging(q_m)
+//! - load:  K tw + D dtw = J_L a_L + unbalance(angle) - disturbance
+//!
+//! where tw = q_m - q_L is the twist. They split the effects by where they act: friction on the
+//! motor side shows only in the first, unbalance and load inertia only in the second, stiffness
+//! and backlash in both with opposite signs. Without a second encoder or without a stiffness,
+//! the sum of the two (the rigid-body total) is the only channel. All torques are axis side.
+
+use super::parameters::{names, ParameterSet};
+use super::signals::{gaussian_kernel, noise_sigma, SavitzkyGolay};
+use crate::measured_log::{MeasuredLog, Signal};
+
+/// Settings of the data conditioning. Defaults are documented in docs/validation.md.
+#[derive(Debug, Clone)]
+pub struct EquationOptions {
+    /// Polynomial order of the Savitzky-Golay filters.
+    pub filter_order: usize,
+    /// Bounds of the filter half-width in samples and seconds.
+    pub min_half_width: usize,
+    pub max_half_width_seconds: f64,
+    /// Samples slower than this many standard deviations of the speed noise are sticking.
+    pub stick_noise_multiple: f64,
+    /// ... and slower than this fraction of the model's Stribeck velocity, when it has one.
+    pub stick_stribeck_fraction: f64,
+}
+
+impl Default for EquationOptions {
+    fn default() -> Self {
+        EquationOptions { filter_order: 4, min_half_width: 3, max_half_width_seconds: 0.05, stick_noise_multiple: 3.0, stick_stribeck_fraction: 0.1 }
+    }
+}
+
+/// Which equations the data allows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Structure {
+    /// Motor and load equations (two encoders, a stiffness in the parameter set).
+    TwoMass,
+    /// One total-torque equation with separate motor and load accelerations (two encoders but
+    /// no stiffness in the parameter set).
+    TotalTwoEncoders,
+    /// One total-torque equation with one measured motion (one encoder).
+    Rigid,
+}
+
+/// One residual channel.
+#[derive(Debug, Clone)]
+pub struct ChannelData {
+    pub name: &'static str,
+    /// The measured side of the equation (axis N m), for NRMSE fit.
+    pub measured: Vec<f64>,
+    /// The model side at the starting parameters.
+    pub predicted: Vec<f64>,
+    /// Samples used in the fit (sticking samples are left out of equations with friction).
+    pub mask: Vec<bool>,
+}
+
+impl ChannelData {
+    pub fn residual(&self) -> Vec<f64> {
+        self.measured.iter().zip(&self.predicted).map(|(m, p)| m - p).collect()
+    }
+}
+
+/// Conditioned signals and the starting model's residual channels.
+#[derive(Debug, Clone)]
+pub struct EquationData {
+    pub structure: Structure,
+    pub dt: f64,
+    pub half_width: usize,
+    /// -3 dB frequency of the smoothing (Hz).
+    pub cutoff_hz: f64,
+    pub gear_ratio: f64,
+    /// Time, on the analysed region.
+    pub time: Vec<f64>,
+    /// Axis-side measured torque (N m), smoothed, before any delay or scale correction; the
+    /// "inner" copy covers `half_width` more samples each side, for shifting.
+    pub torque: Vec<f64>,
+    pub torque_inner: Vec<f64>,
+    pub motor_pos: Vec<f64>,
+    pub motor_vel: Vec<f64>,
+    pub motor_acc: Vec<f64>,
+    pub load_pos: Vec<f64>,
+    pub load_vel: Vec<f64>,
+    pub load_acc: Vec<f64>,
+    pub twist: Vec<f64>,
+    pub twist_rate: Vec<f64>,
+    /// The angle for unbalance: elevation when logged, else the axis angle.
+    pub angle: Vec<f64>,
+    pub angle_is_elevation: bool,
+    pub disturbance: Option<Vec<f64>>,
+    /// Inner-region copies of what nonlinear regressors are evaluated on.
+    pub motor_pos_inner: Vec<f64>,
+    pub motor_vel_inner: Vec<f64>,
+    pub twist_inner: Vec<f64>,
+    pub angle_inner: Vec<f64>,
+    pub smoother: Vec<f64>,
+    /// Model-free sensor noise estimates: torque (axis N m) and encoders (rad).
+    pub torque_sigma: f64,
+    pub motor_pos_sigma: f64,
+    pub load_pos_sigma: f64,
+    /// Speed below which a sample counts as sticking (rad/s).
+    pub stick_speed: f64,
+    /// The starting stiffness, used as a fixed unit that turns the load equation's twist into
+    /// torque (1 when the structure has no load equation).
+    pub twist_scale: f64,
+    /// Index of the first analysed sample in the log.
+    pub first_sample: usize,
+    pub channels: Vec<ChannelData>,
+    pub notes: Vec<String>,
+}
+
+impl EquationData {
+    /// Smooths a column evaluated on the inner region down to the analysed region.
+    pub fn smooth(&self, inner: &[f64]) -> Vec<f64> {
+        SavitzkyGolay::apply(&self.smoother, inner)
+    }
+
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+
+    /// The channel index of the equation that carries the measured torque.
+    pub fn torque_channel(&self) -> usize {
+        0
+    }
+
+    /// The load channel, when there is one.
+    pub fn load_channel(&self) -> Option<usize> {
+        (self.structure == Structure::TwoMass).then_some(1)
+    }
+
+    /// Time derivative of the smoothed measured torque delayed by `delay` seconds.
+    pub fn torque_rate_delayed(&self, delay: f64) -> Vec<f64> {
+        let shifted = super::signals::shift_samples(&self.torque_inner, -delay / self.dt);
+        let rate = central_first(&shifted, self.dt);
+        rate[self.half_width..self.half_width + self.len()].to_vec()
+    }
+
+    /// Smoothed measured torque delayed by `delay` seconds: the value logged `delay` earlier,
+    /// which is the torque acting now when the drive applies it `delay` after logging it.
+    pub fn torque_delayed(&self, delay: f64) -> Vec<f64> {
+        let shifted = super::signals::shift_samples(&self.torque_inner, -delay / self.dt);
+        shifted[self.half_width..self.half_width + self.len()].to_vec()
+    }
+}
+
+/// The starting model's friction torque on the motor (axis side), without the viscous part,
+/// evaluated at a speed. The model form the plant FMU implements: Coulomb plus a Stribeck hump
+/// with the sign of the speed, plus the asymmetry while moving.
+pub fn static_friction_curve(params: &ParameterSet, speed: f64) -> f64 {
+    let fc = params.value(names::COULOMB);
+    let fs = params.get(names::STATIC).unwrap_or(fc);
+    let vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
+    let sign = if speed > 0.0 {
+        1.0
+    } else if speed < 0.0 {
+        -1.0
+    } else {
+        0.0
+    };
+    (fc + (fs - fc) * (-(speed / vs).powi(2)).exp()) * sign + params.value(names::ASYMMETRY) * sign.abs()
+}
+
+/// Builds the conditioned data and the starting model's residual channels.
+pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptions) -> Result<EquationData, String> {
+    let mut notes = Vec::new();
+    let log = uniform(log, &mut notes);
+    let n = log.len();
+    let dt = log.sample_interval();
+    let gear = params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
+    let torque_constant = params.value(names::TORQUE_CONSTANT);
+    if log.torque_from_current() && params.get(names::TORQUE_CONSTANT).is_none() {
+        return Err(format!("the log has currents, not torques: the parameter set needs {}", names::TORQUE_CONSTANT));
+    }
+    let torque_raw: Vec<f64> = log.total_motor_torque(torque_constant).iter().map(|t| t * gear).collect();
+
+    let motor_pos_raw = log.signal(Signal::MotorPos).map(<[f64]>::to_vec);
+    let load_pos_raw = log.signal(Signal::LoadPos).map(<[f64]>::to_vec);
+    if log.signal(Signal::MotorVel).is_some() || log.signal(Signal::LoadVel).is_some() {
+        notes.push("logged speeds are not used: speeds come from the positions through a zero-phase filter, since a drive's own speed filter may lag".into());
+    }
+    let (motor_pos_raw, load_pos_raw, two_encoders) = match (motor_pos_raw, load_pos_raw) {
+        (Some(m), Some(l)) => (m, l, true),
+        (Some(m), None) => {
+            notes.push("no load encoder: the drive is treated as rigid (stiffness and backlash cannot be checked)".into());
+            (m.clone(), m, false)
+        }
+        (None, Some(l)) => {
+            notes.push("no motor encoder: the drive is treated as rigid (stiffness and backlash cannot be checked)".into());
+            (l.clone(), l, false)
+        }
+        (None, None) => return Err("the log has no position output".into()),
+    };
+
+    let torque_sigma = noise_sigma(&torque_raw);
+    let motor_pos_sigma = noise_sigma(&motor_pos_raw);
+    let load_pos_sigma = noise_sigma(&load_pos_raw);
+
+    let motor_inertia = params.value(names::MOTOR_INERTIA) * gear * gear;
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    // The smoothing: a Gaussian kernel, the narrowest (in steps of a quarter sample) whose
+    // acceleration noise (encoder noise through the smoothing and the second difference, times
+    // the inertia it multiplies) stays below the torque noise through the same smoothing. A
+    // narrower kernel keeps more of the dynamics; a wider one is needed when the encoders are
+    // coarse compared with the torque sensor.
+    let max_sigma = (options.max_half_width_seconds / dt / 4.0).max(options.min_half_width as f64 / 4.0);
+    let mut kernel_sigma = max_sigma;
+    let mut trial = (options.min_half_width as f64 / 4.0).max(0.75);
+    while trial <= max_sigma {
+        let kernel = gaussian_kernel(trial);
+        let torque_noise = torque_sigma * SavitzkyGolay::gain(&kernel);
+        let acc_gain = SavitzkyGolay::gain(&convolve(&kernel, &SECOND_STENCIL)) / (dt * dt);
+        let motor_noise = motor_inertia * motor_pos_sigma * acc_gain;
+        let load_noise = if two_encoders { load_inertia * load_pos_sigma * acc_gain } else { 0.0 };
+        if motor_noise.max(load_noise) <= torque_noise {
+            kernel_sigma = trial;
+            break;
+        }
+        trial += 0.25;
+    }
+    let smoother = gaussian_kernel(kernel_sigma);
+    let half_width = smoother.len() / 2;
+    if n < 8 * half_width + 16 {
+        return Err(format!("the log is too short: {n} samples for a filter of {} samples", smoother.len()));
+    }
+    let cutoff_hz = 0.1325 / (kernel_sigma * dt);
+    let h = half_width;
+
+    // Inner region: samples h..n-h of the log (one filter pass). Analysed region: 2h..n-2h.
+    let inner = |x: &[f64]| SavitzkyGolay::apply(&smoother, x);
+    let cut = |x: Vec<f64>| x[h..x.len() - h].to_vec();
+
+    // Speeds and accelerations: the smoothed positions differentiated by five-point central
+    // differences. Their error against the exact derivative is below 1e-4 over the smoothing
+    // passband, so the motion terms see exactly the smoothing the torque sees; a separate
+    // Savitzky-Golay derivative filter would smooth differently near the cut-off, and the
+    // difference would show up as an inertia or stiffness error.
+    let torque_inner = inner(&torque_raw);
+    let motor_pos_inner = inner(&motor_pos_raw);
+    let load_pos_inner = inner(&load_pos_raw);
+    let motor_vel_inner = central_first(&motor_pos_inner, dt);
+    let load_vel_inner = central_first(&load_pos_inner, dt);
+    let motor_acc_inner = central_second(&motor_pos_inner, dt);
+    let load_acc_inner = central_second(&load_pos_inner, dt);
+    let twist_inner: Vec<f64> = motor_pos_inner.iter().zip(&load_pos_inner).map(|(m, l)| m - l).collect();
+    let elevation = log.signal(Signal::Elevation);
+    let angle_is_elevation = elevation.is_some();
+    let angle_inner = match elevation {
+        Some(e) => inner(e),
+        None => load_pos_inner.clone(),
+    };
+    let disturbance = log.signal(Signal::DisturbanceTorque).map(|d| cut(inner(d)));
+
+    let first_sample = 2 * h;
+    let time = log.time[first_sample..n - first_sample].to_vec();
+    let torque = cut(torque_inner.clone());
+    let motor_pos = cut(motor_pos_inner.clone());
+    let motor_vel = cut(motor_vel_inner.clone());
+    let motor_acc = cut(motor_acc_inner);
+    let load_pos = cut(load_pos_inner.clone());
+    let load_vel = cut(load_vel_inner);
+    let load_acc = cut(load_acc_inner);
+    let twist: Vec<f64> = motor_pos.iter().zip(&load_pos).map(|(m, l)| m - l).collect();
+    let twist_rate: Vec<f64> = motor_vel.iter().zip(&load_vel).map(|(m, l)| m - l).collect();
+
+    let speed_noise = motor_pos_sigma * SavitzkyGolay::gain(&convolve(&smoother, &FIRST_STENCIL)) / dt;
+    let mut stick_speed = options.stick_noise_multiple * speed_noise;
+    if let Some(vs) = params.get(names::STRIBECK_VELOCITY) {
+        if params.value(names::STATIC) > params.value(names::COULOMB) {
+            stick_speed = stick_speed.max(options.stick_stribeck_fraction * vs);
+        }
+    }
+
+    let stiffness = params.value(names::STIFFNESS);
+    let structure = if !two_encoders {
+        Structure::Rigid
+    } else if stiffness > 0.0 && load_inertia > 0.0 {
+        Structure::TwoMass
+    } else {
+        notes.push(format!(
+            "{} or {} is not set: only the total torque equation is used, so stiffness and backlash cannot be checked",
+            names::STIFFNESS,
+            names::LOAD_INERTIA
+        ));
+        Structure::TotalTwoEncoders
+    };
+
+    let mut data = EquationData {
+        structure,
+        dt,
+        half_width: h,
+        cutoff_hz,
+        gear_ratio: gear,
+        time,
+        torque,
+        torque_inner,
+        motor_pos,
+        motor_vel,
+        motor_acc,
+        load_pos,
+        load_vel,
+        load_acc,
+        twist,
+        twist_rate,
+        angle: Vec::new(),
+        angle_is_elevation,
+        disturbance,
+        motor_pos_inner,
+        motor_vel_inner,
+        twist_inner,
+        angle_inner,
+        smoother,
+        torque_sigma,
+        motor_pos_sigma,
+        load_pos_sigma,
+        stick_speed,
+        twist_scale: if structure == Structure::TwoMass { stiffness } else { 1.0 },
+        first_sample,
+        channels: Vec::new(),
+        notes,
+    };
+    data.angle = data.smooth(&data.angle_inner);
+    data.channels = model_channels(&data, params);
+    Ok(data)
+}
+
+/// The residual channels of a parameter set on conditioned data: measured side and model side.
+pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<ChannelData> {
+    let n = data.len();
+    let gear = data.gear_ratio;
+    let motor_inertia = params.value(names::MOTOR_INERTIA) * gear * gear;
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    let stiffness = params.value(names::STIFFNESS);
+    let damping = params.value(names::DAMPING);
+    let viscous = params.value(names::VISCOUS);
+    let scale = params.value(names::TORQUE_CONSTANT_SCALE);
+    let delay = params.value(names::DELAY);
+
+    let friction_static = data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
+    let cogging_amplitude = params.value(names::COGGING_AMPLITUDE);
+    let cogging_period = params.value(names::COGGING_PERIOD);
+    let cogging = if cogging_amplitude != 0.0 && cogging_period > 0.0 {
+        let phase = params.value(names::COGGING_PHASE);
+        data.smooth(&data.motor_pos_inner.iter().map(|q| cogging_amplitude * (2.0 * std::f64::consts::PI * q / cogging_period + phase).sin()).collect::<Vec<_>>())
+    } else {
+        vec![0.0; n]
+    };
+    let unbalance_amplitude = params.value(names::UNBALANCE_TORQUE);
+    let unbalance_phase = params.value(names::UNBALANCE_PHASE);
+    let unbalance: Vec<f64> = data.angle.iter().map(|a| unbalance_amplitude * (a + unbalance_phase).cos()).collect();
+    let offset = params.value(names::TORQUE_OFFSET);
+    let disturbance = data.disturbance.clone().unwrap_or_else(|| vec![0.0; n]);
+    let backlash = params.value(names::BACKLASH_WIDTH);
+    let backlash_sign = if backlash > 0.0 { backlash_sign(data, params) } else { vec![0.0; n] };
+
+    let torque: Vec<f64> = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
+    // The torque-constant scale divides the model side: the measured torque stays fixed, so no
+    // choice of parameters can scale the equation to zero.
+    let measured_torque = torque;
+    let inverse_scale = 1.0 / scale;
+    let moving: Vec<bool> = data.motor_vel.iter().map(|v| v.abs() > data.stick_speed).collect();
+
+    match data.structure {
+        Structure::TwoMass => {
+            // The load equation K (tw - c) - K b/2 sign + D dtw = S_L, solved for the twist and
+            // scaled to torque by the starting stiffness K0 (a fixed unit, not a parameter):
+            // measured K0 tw, model K0 (b/2) sign + (K0/K) (S_L - D dtw). With the measured
+            // side fixed, no scaling of the parameters can fit it to zero; only the ratio of
+            // load inertia to stiffness (the anti-resonance) is seen here, and the motor
+            // equation fixes the stiffness itself. The twist offset c is a nuisance column.
+            let k0 = data.twist_scale;
+            let ratio = k0 / stiffness;
+            let motor_model: Vec<f64> = (0..n)
+                .map(|i| {
+                    let shaft = stiffness * data.twist[i] + damping * data.twist_rate[i] - 0.5 * stiffness * backlash * backlash_sign[i];
+                    inverse_scale * (motor_inertia * data.motor_acc[i] + shaft + viscous * data.motor_vel[i] + friction_static[i] + offset + cogging[i])
+                })
+                .collect();
+            let load_model: Vec<f64> = (0..n)
+                .map(|i| {
+                    let load_side = load_inertia * data.load_acc[i] + unbalance[i] - disturbance[i];
+                    0.5 * k0 * backlash * backlash_sign[i] + ratio * (load_side - damping * data.twist_rate[i])
+                })
+                .collect();
+            let measured_twist: Vec<f64> = data.twist.iter().map(|t| k0 * t).collect();
+            vec![
+                ChannelData { name: "motor torque balance", measured: measured_torque, predicted: motor_model, mask: moving },
+                ChannelData { name: "load torque balance", measured: measured_twist, predicted: load_model, mask: vec![true; n] },
+            ]
+        }
+        Structure::TotalTwoEncoders | Structure::Rigid => {
+            let (motor_acc, load_acc) = (&data.motor_acc, &data.load_acc);
+            let model: Vec<f64> = (0..n)
+                .map(|i| {
+                    inverse_scale
+                        * (motor_inertia * motor_acc[i] + load_inertia * load_acc[i] + viscous * data.motor_vel[i] + friction_static[i] + offset + cogging[i] + unbalance[i]
+                            - disturbance[i])
+                })
+                .collect();
+            vec![ChannelData { name: "total torque balance", measured: measured_torque, predicted: model, mask: moving }]
+        }
+    }
+}
+
+/// The sign of the twist relative to the centre of the dead zone, smoothed like the torque:
+/// the direction in which the drive path is in contact. The centre is the twist at zero shaft
+/// torque, estimated robustly (median) from the load equation.
+pub fn backlash_sign(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
+    let n = data.len();
+    let stiffness = params.value(names::STIFFNESS).max(f64::MIN_POSITIVE);
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    let amplitude = params.value(names::UNBALANCE_TORQUE);
+    let phase = params.value(names::UNBALANCE_PHASE);
+    let mut centres: Vec<f64> = (0..n)
+        .map(|i| {
+            let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos();
+            data.twist[i] - (load_side - params.value(names::DAMPING) * data.twist_rate[i]) / stiffness
+        })
+        .collect();
+    centres.sort_by(|a, b| a.total_cmp(b));
+    let centre = centres[n / 2];
+    data.smooth(&data.twist_inner.iter().map(|t| (t - centre).signum()).collect::<Vec<_>>())
+}
+
+/// Five-point central difference stencils, in units of one sample.
+const FIRST_STENCIL: [f64; 5] = [1.0 / 12.0, -8.0 / 12.0, 0.0, 8.0 / 12.0, -1.0 / 12.0];
+const SECOND_STENCIL: [f64; 5] = [-1.0 / 12.0, 16.0 / 12.0, -30.0 / 12.0, 16.0 / 12.0, -1.0 / 12.0];
+
+/// Full convolution of two coefficient vectors: the impulse response of one filter after the
+/// other.
+fn convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+/// Five-point central first derivative; the two samples at each end copy their neighbours.
+fn central_first(x: &[f64], dt: f64) -> Vec<f64> {
+    let n = x.len();
+    let mut out = vec![0.0; n];
+    for i in 2..n.saturating_sub(2) {
+        out[i] = (x[i - 2] - 8.0 * x[i - 1] + 8.0 * x[i + 1] - x[i + 2]) / (12.0 * dt);
+    }
+    fill_ends(&mut out);
+    out
+}
+
+/// Five-point central second derivative; the two samples at each end copy their neighbours.
+fn central_second(x: &[f64], dt: f64) -> Vec<f64> {
+    let n = x.len();
+    let mut out = vec![0.0; n];
+    for i in 2..n.saturating_sub(2) {
+        out[i] = (-x[i - 2] + 16.0 * x[i - 1] - 30.0 * x[i] + 16.0 * x[i + 1] - x[i + 2]) / (12.0 * dt * dt);
+    }
+    fill_ends(&mut out);
+    out
+}
+
+fn fill_ends(x: &mut [f64]) {
+    let n = x.len();
+    if n >= 5 {
+        x[0] = x[2];
+        x[1] = x[2];
+        x[n - 1] = x[n - 3];
+        x[n - 2] = x[n - 3];
+    }
+}
+
+/// Resamples a log whose sampling is uneven (more than 1 % jitter) onto a uniform grid.
+fn uniform(log: &MeasuredLog, notes: &mut Vec<String>) -> MeasuredLog {
+    let dt = log.sample_interval();
+    let uneven = log.time.windows(2).any(|w| ((w[1] - w[0]) / dt - 1.0).abs() > 0.01);
+    if !uneven {
+        return log.clone();
+    }
+    let t0 = log.time[0];
+    let count = ((log.time[log.len() - 1] - t0) / dt).floor() as usize + 1;
+    let grid: Vec<f64> = (0..count).map(|i| t0 + i as f64 * dt).collect();
+    let mut out = log.clone();
+    for channel in &mut out.channels {
+        channel.values = grid.iter().map(|&t| super::signals::interpolate(&log.time, &channel.values, t)).collect();
+    }
+    out.time = grid;
+    notes.push(format!("sampling is uneven: resampled to a uniform {dt:.6} s grid by linear interpolation"));
+    out
+}
