@@ -35,3 +35,5 @@ pub use drivetrain::NumericsStatistics;
 pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
 pub use elevation::{ElevationInputs, ElevationOutputs, ElevationParams, ElevationPlant, JackscrewParams};
 pub use params::{CoggingParams, FrictionParams, MotorParams, NumericsParams, PeriodicTorqueParams};
+
+pub mod fmi;

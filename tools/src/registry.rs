@@ -4,7 +4,9 @@ use fmu_runtime::package::FmuSpec;
 
 /// All FMU specifications of all model crates.
 pub fn fmus() -> Vec<FmuSpec> {
-    Vec::new()
+    let mut specs = Vec::new();
+    specs.extend(fmu_plant::fmi::fmus());
+    specs
 }
 
 /// The cargo package that builds a given library.

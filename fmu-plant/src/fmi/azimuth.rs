@@ -1,0 +1,376 @@
+//! The azimuth plant as an FMI 2.0 co-simulation model: its variables and how they map onto
+//! [`AzimuthParams`], [`AzimuthInputs`] and [`AzimuthOutputs`].
+
+use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, StateReader, StateWriter, Values};
+
+use super::common::{load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars};
+use crate::params::PeriodicTorqueParams;
+use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant};
+
+const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
+
+declare_variables! {
+    /// Variables of the azimuth plant FMU. Motor-side quantities are at the motor shaft;
+    /// stiffness, damping, inertia and load torques are about the azimuth axis.
+    pub enum AzVar {
+        // Inputs.
+        Current1Command = Var::real("motor1.current_command", "A").input().start(0.0)
+            .description("Current command to drive 1, before its current loop; clamped to motor1.current_limit."),
+        Current2Command = Var::real("motor2.current_command", "A").input().start(0.0)
+            .description("Current command to drive 2, before its current loop; clamped to motor2.current_limit."),
+        DisturbanceTorque = Var::real("load.disturbance_torque", "N.m").input().start(0.0)
+            .description("External torque about the azimuth axis (wind); positive drives positive azimuth."),
+        Elevation = Var::real("elevation", "deg").input().start(45.0).min(-10.0).max(120.0)
+            .description("Elevation angle of the dish, which sets the load inertia about the azimuth axis."),
+        // Outputs.
+        EncoderPosition = Var::real("axis.encoder_position", "deg").output()
+            .description("Azimuth encoder reading, quantised to encoder.bits per turn."),
+        AxisPosition = Var::real("axis.position", "deg").output()
+            .description("True azimuth angle of the load (not quantised)."),
+        AxisSpeed = Var::real("axis.speed", "deg/s").output().description("Azimuth speed of the load."),
+        Motor1Speed = Var::real("motor1.speed", "rad/s").output().description("Speed of motor 1 at its shaft."),
+        Motor2Speed = Var::real("motor2.speed", "rad/s").output().description("Speed of motor 2 at its shaft."),
+        Motor1Current = Var::real("motor1.current", "A").output().description("Current of motor 1 (output of its current loop)."),
+        Motor2Current = Var::real("motor2.current", "A").output().description("Current of motor 2 (output of its current loop)."),
+        Motor1Torque = Var::real("motor1.torque", "N.m").output().description("Electromagnetic torque of motor 1, K_phi times its current."),
+        Motor2Torque = Var::real("motor2.torque", "N.m").output().description("Electromagnetic torque of motor 2, K_phi times its current."),
+        Pinion1Torque = Var::real("pinion1.torque", "N.m").output().description("Torque pinion 1 puts on the bull gear, about the azimuth axis."),
+        Pinion2Torque = Var::real("pinion2.torque", "N.m").output().description("Torque pinion 2 puts on the bull gear, about the azimuth axis."),
+        Pinion1Flank = Var::integer("pinion1.flank").output()
+            .description("Flank of pinion 1 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
+        Pinion2Flank = Var::integer("pinion2.flank").output()
+            .description("Flank of pinion 2 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
+        LoadInertia = Var::real("load.inertia", "kg.m2").output().depends_on(&[AzVar::Elevation as u32])
+            .description("Inertia about the azimuth axis at the current elevation input."),
+        AntiResonance = Var::real("drive.anti_resonance_frequency", "Hz").output().depends_on(&[AzVar::Elevation as u32])
+            .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive at the current elevation input."),
+        // Gearing and paths.
+        GearRatio = Var::real("gear.ratio", "1").parameter().start(9000.0).min(1.0)
+            .description("Gear ratio of each drive, motor rad per axis rad (gearbox times bull gear over pinion)."),
+        Pinion1Stiffness = Var::real("pinion1.stiffness", "N.m/rad").parameter().start(7.3e9).min(0.0)
+            .description("Stiffness of drive path 1 about the axis (gearbox, pinion, teeth, bull gear); the paper measured up to 30 % spread."),
+        Pinion2Stiffness = Var::real("pinion2.stiffness", "N.m/rad").parameter().start(7.3e9).min(0.0)
+            .description("Stiffness of drive path 2 about the axis."),
+        Pinion1Damping = Var::real("pinion1.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0)
+            .description("Viscous damping of drive path 1 about the axis (the paper's K_cv, per path)."),
+        Pinion2Damping = Var::real("pinion2.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0)
+            .description("Viscous damping of drive path 2 about the axis."),
+        Pinion1Backlash = Var::real("pinion1.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0)
+            .description("Total free play of pinion 1 on the bull gear, about the axis."),
+        Pinion2Backlash = Var::real("pinion2.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0)
+            .description("Total free play of pinion 2 on the bull gear, about the axis."),
+        // Load.
+        TurningHeadInertia = Var::real("load.turning_head_inertia", "kg.m2").parameter().start(5.5e5).min(0.0)
+            .description("Inertia of the turning head (yoke, drives, cable wrap) about the azimuth axis."),
+        CrossInertia = Var::real("load.elevation_structure_cross_inertia", "kg.m2").parameter().start(2.0e5).min(0.0)
+            .description("Inertia of the elevation structure about its axis perpendicular to boresight and elevation axis (vertical at 0 deg elevation)."),
+        BoresightInertia = Var::real("load.elevation_structure_boresight_inertia", "kg.m2").parameter().start(4.0e5).min(0.0)
+            .description("Inertia of the elevation structure about its boresight (vertical at 90 deg elevation)."),
+        BearingCoulomb = Var::real("bearing.coulomb_friction", "N.m").parameter().start(1500.0).min(0.0)
+            .description("Sliding friction of the azimuth bearing and cable wrap, about the axis."),
+        BearingStatic = Var::real("bearing.static_friction", "N.m").parameter().start(2000.0).min(0.0)
+            .description("Breakaway friction of the azimuth bearing and cable wrap (at least the sliding friction)."),
+        BearingStribeck = Var::real("bearing.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
+            .description("Stribeck velocity of the bearing friction at the axis; 0 switches the Stribeck curve off."),
+        BearingAsymmetry = Var::real("bearing.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
+            .description("Direction asymmetry a of the bearing friction: (1+a) times nominal moving positive, (1-a) moving negative."),
+        BearingViscous = Var::real("bearing.viscous_friction", "N.m.s/rad").parameter().start(0.0).min(0.0)
+            .description("Viscous friction of the azimuth bearing about the axis (0 in the paper's model)."),
+        TorqueOffset = Var::real("load.torque_offset", "N.m").parameter().start(0.0)
+            .description("Constant torque on the load about the axis (for example a cable-wrap preload)."),
+        PeriodicAmplitude = Var::real("load.periodic_torque_amplitude", "N.m").parameter().start(0.0)
+            .description("Amplitude of a torque on the load that repeats with the azimuth angle (gear ripple, tilted-axis unbalance); 0 is off."),
+        PeriodicPeriod = Var::real("load.periodic_torque_period", "deg").parameter().start(360.0).min(1e-6)
+            .description("Period of the position-periodic load torque in axis degrees."),
+        PeriodicPhase = Var::real("load.periodic_torque_phase", "deg").parameter().start(0.0)
+            .description("Phase of the position-periodic load torque at azimuth 0."),
+        // Motor 1.
+        M1Inertia = Var::real("motor1.inertia", "kg.m2").parameter().start(0.006).min(0.0)
+            .description("Inertia J_M of motor 1 with its gearbox input stage."),
+        M1Viscous = Var::real("motor1.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0)
+            .description("Viscous friction B_M of motor 1 and its gearbox, at the motor."),
+        M1Coulomb = Var::real("motor1.coulomb_friction", "N.m").parameter().start(0.3).min(0.0)
+            .description("Sliding friction of motor 1 and its gearbox, at the motor."),
+        M1Static = Var::real("motor1.static_friction", "N.m").parameter().start(0.4).min(0.0)
+            .description("Breakaway friction of motor 1 and its gearbox, at the motor."),
+        M1Stribeck = Var::real("motor1.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
+            .description("Stribeck velocity of motor 1's friction; 0 switches the Stribeck curve off."),
+        M1Asymmetry = Var::real("motor1.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
+            .description("Direction asymmetry of motor 1's friction."),
+        M1TorqueConstant = Var::real("motor1.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+            .description("Torque constant K_phi of motor 1."),
+        M1TorqueScale = Var::real("motor1.torque_constant_scale", "1").parameter().start(1.0).min(0.0)
+            .description("Multiplier on motor 1's torque constant (a torque-constant error); 1 is nominal."),
+        M1CurrentLimit = Var::real("motor1.current_limit", "A").parameter().start(15.0).min(0.0)
+            .description("Current limit of drive 1: the command is clamped to +/- this."),
+        M1Bandwidth = Var::real("motor1.current_loop_bandwidth", "Hz").parameter().start(100.0).min(0.0)
+            .description("Closed-loop bandwidth of drive 1's current loop (first-order lag)."),
+        M1Delay = Var::real("motor1.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
+            .description("Pure time delay on motor 1's current command; 0 is off."),
+        M1CoggingAmplitude = Var::real("motor1.cogging_amplitude", "N.m").parameter().start(0.0)
+            .description("Amplitude of motor 1's cogging torque; 0 is off."),
+        M1CoggingPeriod = Var::real("motor1.cogging_period", "1").parameter().start(1.0).min(1e-9)
+            .description("Period of motor 1's cogging torque in motor revolutions (1/48 for 48 slots)."),
+        M1CoggingPhase = Var::real("motor1.cogging_phase", "deg").parameter().start(0.0)
+            .description("Phase of motor 1's cogging torque at motor angle 0."),
+        // Motor 2.
+        M2Inertia = Var::real("motor2.inertia", "kg.m2").parameter().start(0.006).min(0.0)
+            .description("Inertia J_M of motor 2 with its gearbox input stage."),
+        M2Viscous = Var::real("motor2.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0)
+            .description("Viscous friction B_M of motor 2 and its gearbox, at the motor."),
+        M2Coulomb = Var::real("motor2.coulomb_friction", "N.m").parameter().start(0.3).min(0.0)
+            .description("Sliding friction of motor 2 and its gearbox, at the motor."),
+        M2Static = Var::real("motor2.static_friction", "N.m").parameter().start(0.4).min(0.0)
+            .description("Breakaway friction of motor 2 and its gearbox, at the motor."),
+        M2Stribeck = Var::real("motor2.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
+            .description("Stribeck velocity of motor 2's friction; 0 switches the Stribeck curve off."),
+        M2Asymmetry = Var::real("motor2.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
+            .description("Direction asymmetry of motor 2's friction."),
+        M2TorqueConstant = Var::real("motor2.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+            .description("Torque constant K_phi of motor 2."),
+        M2TorqueScale = Var::real("motor2.torque_constant_scale", "1").parameter().start(1.0).min(0.0)
+            .description("Multiplier on motor 2's torque constant (a torque-constant error); 1 is nominal."),
+        M2CurrentLimit = Var::real("motor2.current_limit", "A").parameter().start(15.0).min(0.0)
+            .description("Current limit of drive 2: the command is clamped to +/- this."),
+        M2Bandwidth = Var::real("motor2.current_loop_bandwidth", "Hz").parameter().start(100.0).min(0.0)
+            .description("Closed-loop bandwidth of drive 2's current loop (first-order lag)."),
+        M2Delay = Var::real("motor2.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
+            .description("Pure time delay on motor 2's current command; 0 is off."),
+        M2CoggingAmplitude = Var::real("motor2.cogging_amplitude", "N.m").parameter().start(0.0)
+            .description("Amplitude of motor 2's cogging torque; 0 is off."),
+        M2CoggingPeriod = Var::real("motor2.cogging_period", "1").parameter().start(1.0).min(1e-9)
+            .description("Period of motor 2's cogging torque in motor revolutions."),
+        M2CoggingPhase = Var::real("motor2.cogging_phase", "deg").parameter().start(0.0)
+            .description("Phase of motor 2's cogging torque at motor angle 0."),
+        // Sensing, configuration and numerics.
+        EncoderBits = Var::integer("encoder.bits").parameter().start_integer(25).range_integer(0, 40)
+            .description("Resolution of the azimuth encoder in bits per turn; 0 means unquantised."),
+        InitialPosition = Var::real("initial_position", "deg").parameter().start(0.0).min(-185.0).max(275.0)
+            .description("Azimuth at which the axis starts, at rest, pinions centred in their backlash."),
+        Linear = Var::boolean("linear_configuration").parameter().start_boolean(false)
+            .description("If true, the plant is exactly the paper's linear Eq. 1 model: Coulomb/static friction, backlash, saturation, delay, cogging, extra torques and quantisation are all ignored."),
+        ParameterFile = Var::string("parameter_file").parameter().start_string("")
+            .description("A parameter file (name = value lines) applied when this is set; relative paths are looked up in the FMU's resources folder (for example linear.params)."),
+        GridCell = Var::real("numerics.parameter_grid_cell", "deg").parameter().start(0.25).min(1e-6).max(10.0)
+            .description("Elevation cell within which the load inertia is frozen at the cell centre (error measured in docs/plant-model.md)."),
+        NonlinearSubstep = Var::real("numerics.nonlinear_substep", "s").parameter().start(1e-4).min(1e-7).max(1.0)
+            .description("Internal sub-step over which Stribeck, cogging and periodic torques are held constant (used only when those are on)."),
+        EventResolution = Var::real("numerics.event_time_resolution", "s").parameter().start(1e-6).min(1e-9).max(1e-3)
+            .description("Time resolution to which stick/slip and backlash contact events are localised."),
+        EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-9).max(1.0)
+            .description("Longest interval between checks for mode switches; longer communication steps are cut into pieces."),
+        CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 100000)
+            .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
+    }
+}
+
+const MOTOR1: MotorVars<AzVar> = MotorVars {
+    inertia: AzVar::M1Inertia,
+    viscous_friction: AzVar::M1Viscous,
+    coulomb_friction: AzVar::M1Coulomb,
+    static_friction: AzVar::M1Static,
+    stribeck_velocity: AzVar::M1Stribeck,
+    friction_asymmetry: AzVar::M1Asymmetry,
+    torque_constant: AzVar::M1TorqueConstant,
+    torque_constant_scale: AzVar::M1TorqueScale,
+    current_limit: AzVar::M1CurrentLimit,
+    current_loop_bandwidth: AzVar::M1Bandwidth,
+    command_delay: AzVar::M1Delay,
+    cogging_amplitude: AzVar::M1CoggingAmplitude,
+    cogging_period: AzVar::M1CoggingPeriod,
+    cogging_phase: AzVar::M1CoggingPhase,
+};
+
+const MOTOR2: MotorVars<AzVar> = MotorVars {
+    inertia: AzVar::M2Inertia,
+    viscous_friction: AzVar::M2Viscous,
+    coulomb_friction: AzVar::M2Coulomb,
+    static_friction: AzVar::M2Static,
+    stribeck_velocity: AzVar::M2Stribeck,
+    friction_asymmetry: AzVar::M2Asymmetry,
+    torque_constant: AzVar::M2TorqueConstant,
+    torque_constant_scale: AzVar::M2TorqueScale,
+    current_limit: AzVar::M2CurrentLimit,
+    current_loop_bandwidth: AzVar::M2Bandwidth,
+    command_delay: AzVar::M2Delay,
+    cogging_amplitude: AzVar::M2CoggingAmplitude,
+    cogging_period: AzVar::M2CoggingPeriod,
+    cogging_phase: AzVar::M2CoggingPhase,
+};
+
+const BEARING: FrictionVars<AzVar> = FrictionVars {
+    coulomb: AzVar::BearingCoulomb,
+    static_: AzVar::BearingStatic,
+    stribeck_velocity: AzVar::BearingStribeck,
+    asymmetry: AzVar::BearingAsymmetry,
+};
+
+const NUMERICS: NumericsVars<AzVar> = NumericsVars {
+    grid_cell: AzVar::GridCell,
+    nonlinear_substep: AzVar::NonlinearSubstep,
+    event_resolution: AzVar::EventResolution,
+    event_check_interval: AzVar::EventCheckInterval,
+    cache_capacity: AzVar::CacheCapacity,
+};
+
+/// The plant parameters the variable values describe.
+pub fn azimuth_params(v: &Values<AzVar>) -> AzimuthParams {
+    let params = AzimuthParams {
+        gear_ratio: v.real(AzVar::GearRatio),
+        motors: [MOTOR1.read(v), MOTOR2.read(v)],
+        path_stiffness_nm_per_rad: [v.real(AzVar::Pinion1Stiffness), v.real(AzVar::Pinion2Stiffness)],
+        path_damping_nm_s_per_rad: [v.real(AzVar::Pinion1Damping), v.real(AzVar::Pinion2Damping)],
+        pinion_backlash_rad: [v.real(AzVar::Pinion1Backlash) * ARCSEC, v.real(AzVar::Pinion2Backlash) * ARCSEC],
+        turning_head_inertia_kg_m2: v.real(AzVar::TurningHeadInertia),
+        elevation_structure_cross_inertia_kg_m2: v.real(AzVar::CrossInertia),
+        elevation_structure_boresight_inertia_kg_m2: v.real(AzVar::BoresightInertia),
+        bearing_friction: BEARING.read(v),
+        bearing_viscous_friction_nm_s_per_rad: v.real(AzVar::BearingViscous),
+        torque_offset_nm: v.real(AzVar::TorqueOffset),
+        periodic_torque: PeriodicTorqueParams {
+            amplitude_nm: v.real(AzVar::PeriodicAmplitude),
+            period_deg: v.real(AzVar::PeriodicPeriod),
+            phase_deg: v.real(AzVar::PeriodicPhase),
+        },
+        encoder_bits: v.integer(AzVar::EncoderBits) as u32,
+        numerics: NUMERICS.read(v),
+    };
+    if v.boolean(AzVar::Linear) {
+        let mut linear = AzimuthParams::linear();
+        // Keep every linear parameter the master chose; drop only what Eq. 1 does not have.
+        linear.gear_ratio = params.gear_ratio;
+        linear.motors = params.motors.map(|m| m.linearised());
+        linear.path_stiffness_nm_per_rad = params.path_stiffness_nm_per_rad;
+        linear.path_damping_nm_s_per_rad = params.path_damping_nm_s_per_rad;
+        linear.turning_head_inertia_kg_m2 = params.turning_head_inertia_kg_m2;
+        linear.elevation_structure_cross_inertia_kg_m2 = params.elevation_structure_cross_inertia_kg_m2;
+        linear.elevation_structure_boresight_inertia_kg_m2 = params.elevation_structure_boresight_inertia_kg_m2;
+        linear.numerics = params.numerics;
+        return linear;
+    }
+    params
+}
+
+/// The azimuth plant FMU.
+pub struct AzimuthPlantModel {
+    plant: Option<AzimuthPlant>,
+}
+
+impl AzimuthPlantModel {
+    fn write_outputs(plant: &AzimuthPlant, v: &mut Values<AzVar>) {
+        let o = plant.outputs();
+        v.set_real(AzVar::EncoderPosition, o.encoder_position_deg);
+        v.set_real(AzVar::AxisPosition, o.axis_position_deg);
+        v.set_real(AzVar::AxisSpeed, o.axis_speed_deg_per_s);
+        v.set_real(AzVar::Motor1Speed, o.motor_speed_rad_per_s[0]);
+        v.set_real(AzVar::Motor2Speed, o.motor_speed_rad_per_s[1]);
+        v.set_real(AzVar::Motor1Current, o.motor_current_a[0]);
+        v.set_real(AzVar::Motor2Current, o.motor_current_a[1]);
+        v.set_real(AzVar::Motor1Torque, o.motor_torque_nm[0]);
+        v.set_real(AzVar::Motor2Torque, o.motor_torque_nm[1]);
+        v.set_real(AzVar::Pinion1Torque, o.pinion_torque_nm[0]);
+        v.set_real(AzVar::Pinion2Torque, o.pinion_torque_nm[1]);
+        v.set_integer(AzVar::Pinion1Flank, o.pinion_flank[0]);
+        v.set_integer(AzVar::Pinion2Flank, o.pinion_flank[1]);
+        Self::write_feedthrough(plant.params(), v);
+    }
+
+    fn write_feedthrough(params: &AzimuthParams, v: &mut Values<AzVar>) {
+        let elevation = v.real(AzVar::Elevation);
+        v.set_real(AzVar::LoadInertia, params.axis_inertia_kg_m2(elevation));
+        v.set_real(AzVar::AntiResonance, params.anti_resonance_hz(elevation));
+    }
+
+    fn build(v: &Values<AzVar>) -> Result<AzimuthPlant, String> {
+        let mut plant = AzimuthPlant::new(azimuth_params(v))?;
+        plant.set_initial_state(v.real(AzVar::InitialPosition).to_radians())?;
+        Ok(plant)
+    }
+}
+
+impl Model for AzimuthPlantModel {
+    type Var = AzVar;
+
+    fn info() -> ModelInfo {
+        model_info(
+            "AzimuthPlant",
+            "MeerKAT azimuth drive: two servo motors with 100 Hz current loops, each driving the load through its own compliant pinion path with backlash (two-mass model of the paper's Fig. 4 and corrected Eq. 1), friction, saturation and a quantised encoder. Load inertia follows the elevation input.",
+        )
+    }
+
+    fn new(_values: &Values<AzVar>, _context: &Context) -> Result<Self, String> {
+        Ok(AzimuthPlantModel { plant: None })
+    }
+
+    fn initialize(&mut self, values: &mut Values<AzVar>, _context: &Context, _notes: &mut Notes) -> Result<(), String> {
+        let plant = Self::build(values)?;
+        Self::write_outputs(&plant, values);
+        self.plant = Some(plant);
+        Ok(())
+    }
+
+    fn do_step(&mut self, values: &mut Values<AzVar>, _time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
+        let plant = self.plant.as_mut().ok_or("the plant is not initialised")?;
+        let inputs = AzimuthInputs {
+            current_command_a: [values.real(AzVar::Current1Command), values.real(AzVar::Current2Command)],
+            disturbance_torque_nm: values.real(AzVar::DisturbanceTorque),
+            elevation_deg: values.real(AzVar::Elevation),
+        };
+        let flanks_before = plant.outputs().pinion_flank;
+        plant.step(&inputs, step)?;
+        Self::write_outputs(plant, values);
+        if notes.events_enabled() {
+            let flanks = plant.outputs().pinion_flank;
+            for k in 0..2 {
+                if flanks[k] != flanks_before[k] {
+                    notes.event(format!("pinion {} flank {} -> {}", k + 1, flanks_before[k], flanks[k]));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn update_feedthrough(&mut self, values: &mut Values<AzVar>) {
+        if let Some(plant) = &self.plant {
+            Self::write_feedthrough(plant.params(), values);
+        }
+    }
+
+    fn check_real(var: AzVar, value: f64, _values: &Values<AzVar>) -> Result<(), String> {
+        match var {
+            AzVar::GearRatio | AzVar::M1Inertia | AzVar::M2Inertia | AzVar::M1TorqueConstant | AzVar::M2TorqueConstant
+            | AzVar::M1CurrentLimit | AzVar::M2CurrentLimit | AzVar::M1Bandwidth | AzVar::M2Bandwidth
+            | AzVar::M1TorqueScale | AzVar::M2TorqueScale
+                if value <= 0.0 =>
+            {
+                Err("must be positive".into())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn string_changed(&mut self, var: AzVar, values: &mut Values<AzVar>, context: &Context) -> Result<(), String> {
+        if var == AzVar::ParameterFile {
+            load_parameter_file::<Self>(var, values, context)?;
+        }
+        Ok(())
+    }
+
+    fn save_state(&self, w: &mut StateWriter) {
+        w.bool(self.plant.is_some());
+        if let Some(plant) = &self.plant {
+            plant.save_state(w);
+        }
+    }
+
+    fn load_state(&mut self, r: &mut StateReader, values: &Values<AzVar>) -> Result<(), StateError> {
+        self.plant = if r.bool()? {
+            let mut plant = Self::build(values).map_err(StateError)?;
+            plant.load_state(r)?;
+            Some(plant)
+        } else {
+            None
+        };
+        Ok(())
+    }
+}

@@ -1,0 +1,125 @@
+//! Pieces shared by the two plant FMUs: motor and friction parameter groups read from the
+//! variable values, the parameter-file hook and the model information.
+
+use fmu_runtime::{Context, DefaultExperiment, ModelInfo, Values, VariableSet};
+
+use crate::params::{CoggingParams, FrictionParams, MotorParams, NumericsParams};
+
+/// The value references of one motor's parameters.
+pub struct MotorVars<V> {
+    pub inertia: V,
+    pub viscous_friction: V,
+    pub coulomb_friction: V,
+    pub static_friction: V,
+    pub stribeck_velocity: V,
+    pub friction_asymmetry: V,
+    pub torque_constant: V,
+    pub torque_constant_scale: V,
+    pub current_limit: V,
+    pub current_loop_bandwidth: V,
+    pub command_delay: V,
+    pub cogging_amplitude: V,
+    pub cogging_period: V,
+    pub cogging_phase: V,
+}
+
+impl<V: VariableSet> MotorVars<V> {
+    pub fn read(&self, v: &Values<V>) -> MotorParams {
+        MotorParams {
+            inertia_kg_m2: v.real(self.inertia),
+            viscous_friction_nm_s_per_rad: v.real(self.viscous_friction),
+            friction: FrictionParams {
+                coulomb_nm: v.real(self.coulomb_friction),
+                static_nm: v.real(self.static_friction),
+                stribeck_velocity_rad_per_s: v.real(self.stribeck_velocity),
+                asymmetry: v.real(self.friction_asymmetry),
+            },
+            torque_constant_nm_per_a: v.real(self.torque_constant),
+            torque_constant_scale: v.real(self.torque_constant_scale),
+            current_limit_a: v.real(self.current_limit),
+            current_loop_bandwidth_hz: v.real(self.current_loop_bandwidth),
+            current_command_delay_s: v.real(self.command_delay),
+            cogging: CoggingParams {
+                amplitude_nm: v.real(self.cogging_amplitude),
+                period_motor_revolutions: v.real(self.cogging_period),
+                phase_deg: v.real(self.cogging_phase),
+            },
+        }
+    }
+}
+
+/// The value references of a Coulomb/static/Stribeck friction element.
+pub struct FrictionVars<V> {
+    pub coulomb: V,
+    pub static_: V,
+    pub stribeck_velocity: V,
+    pub asymmetry: V,
+}
+
+impl<V: VariableSet> FrictionVars<V> {
+    pub fn read(&self, v: &Values<V>) -> FrictionParams {
+        FrictionParams {
+            coulomb_nm: v.real(self.coulomb),
+            static_nm: v.real(self.static_),
+            stribeck_velocity_rad_per_s: v.real(self.stribeck_velocity),
+            asymmetry: v.real(self.asymmetry),
+        }
+    }
+}
+
+/// The value references of the numerical-scheme settings.
+pub struct NumericsVars<V> {
+    pub grid_cell: V,
+    pub nonlinear_substep: V,
+    pub event_resolution: V,
+    pub event_check_interval: V,
+    pub cache_capacity: V,
+}
+
+impl<V: VariableSet> NumericsVars<V> {
+    pub fn read(&self, v: &Values<V>) -> NumericsParams {
+        NumericsParams {
+            parameter_grid_cell_deg: v.real(self.grid_cell),
+            nonlinear_substep_s: v.real(self.nonlinear_substep),
+            event_time_resolution_s: v.real(self.event_resolution),
+            event_check_interval_s: v.real(self.event_check_interval),
+            cache_capacity: v.integer(self.cache_capacity) as usize,
+        }
+    }
+}
+
+/// Loads the parameter file named by a `parameter_file` variable, resolving a relative path
+/// against the FMU's resources folder (so `linear.params` finds the shipped file).
+pub fn load_parameter_file<M: fmu_runtime::Model>(
+    file_var: M::Var,
+    values: &mut Values<M::Var>,
+    context: &Context,
+) -> Result<(), String> {
+    let name = values.string(file_var).to_string();
+    if name.is_empty() {
+        return Ok(());
+    }
+    let path = std::path::PathBuf::from(&name);
+    let path = if path.is_absolute() {
+        path
+    } else {
+        match &context.resource_dir {
+            Some(dir) => dir.join(&path),
+            None => path,
+        }
+    };
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read parameter file {}: {e}", path.display()))?;
+    fmu_runtime::params::apply::<M>(&text, &path.display().to_string(), values)?;
+    Ok(())
+}
+
+pub fn model_info(identifier: &'static str, description: &'static str) -> ModelInfo {
+    ModelInfo {
+        model_identifier: identifier,
+        model_name: identifier,
+        description,
+        author: "MeerKAT antenna positioner reference model contributors",
+        version: env!("CARGO_PKG_VERSION"),
+        default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+    }
+}
