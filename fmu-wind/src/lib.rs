@@ -26,3 +26,4 @@ pub mod prototype;
 pub mod shaping;
 pub mod site;
 pub mod torque;
+pub mod fmi;

@@ -6,15 +6,16 @@ use fmu_runtime::package::FmuSpec;
 pub fn fmus() -> Vec<FmuSpec> {
     let mut specs = Vec::new();
     specs.extend(fmu_plant::fmi::fmus());
+    specs.extend(fmu_wind::fmi::fmus());
     specs
 }
 
 /// The cargo package that builds a given library.
 pub fn package_of(library_name: &str) -> &'static str {
     match library_name {
-        "fmu_plant" => "fmu-plant",
-        "fmu_wind" => "fmu-wind",
-        "fmu_controller" => "fmu-controller",
+        "fmu_plant_ffi" => "fmu-plant-cdylib",
+        "fmu_wind_ffi" => "fmu-wind-cdylib",
+        "fmu_controller_ffi" => "fmu-controller-cdylib",
         other => panic!("no cargo package known for library {other}"),
     }
 }

@@ -1,5 +1,6 @@
 //! The FMI 2.0 face of the plant: two co-simulation FMUs, `AzimuthPlant` and
-//! `ElevationPlant`, served by one shared library (the GUID chooses the model). The axes differ
+//! `ElevationPlant`, served by one shared library (crate `fmu-plant-cdylib`; the GUID chooses
+//! the model). The axes differ
 //! in their ports, and FMI 2.0 has no structural parameters, hence two FMUs.
 
 pub mod azimuth;
@@ -10,8 +11,6 @@ pub use azimuth::{AzVar, AzimuthPlantModel};
 pub use elevation::{ElVar, ElevationPlantModel};
 
 use fmu_runtime::package::{default_parameter_file, FmuSpec};
-
-fmu_runtime::export_fmi2!(AzimuthPlantModel, ElevationPlantModel);
 
 /// Files shipped in each plant FMU's `resources/` folder: the default parameter set (generated
 /// from the variable table) and the linear Eq. 1 configuration.
@@ -34,7 +33,7 @@ const LINEAR_PARAMS: &str = "# The paper's linear Eq. 1 configuration: friction 
 /// The FMUs this crate ships.
 pub fn fmus() -> Vec<FmuSpec> {
     vec![
-        FmuSpec::of::<AzimuthPlantModel>("fmu_plant", azimuth_resources),
-        FmuSpec::of::<ElevationPlantModel>("fmu_plant", elevation_resources),
+        FmuSpec::of::<AzimuthPlantModel>("fmu_plant_ffi", azimuth_resources),
+        FmuSpec::of::<ElevationPlantModel>("fmu_plant_ffi", elevation_resources),
     ]
 }
