@@ -41,3 +41,5 @@ pub use elevation::{ElevationController, ElevationInputs, ElevationOutputs};
 pub use params::{AzimuthControllerParams, CascadeParams, ElevationControllerParams};
 pub use status::AxisStatus;
 pub use timing::{SampleScheduler, SampledController};
+
+pub mod fmi;

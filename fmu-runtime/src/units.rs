@@ -42,6 +42,7 @@ pub const UNITS: &[UnitDefinition] = &[
     unit("deg/s", 0, 0, -1, 0, 1, DEG),
     unit("rad/s2", 0, 0, -2, 0, 1, 1.0),
     unit("deg/s2", 0, 0, -2, 0, 1, DEG),
+    unit("deg/s3", 0, 0, -3, 0, 1, DEG),
     unit("rpm", 0, 0, -1, 0, 1, 2.0 * std::f64::consts::PI / 60.0),
     unit("N.m", 1, 2, -2, 0, 0, 1.0),
     unit("N.m/A", 1, 2, -2, -1, 0, 1.0),

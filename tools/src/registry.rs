@@ -7,6 +7,7 @@ pub fn fmus() -> Vec<FmuSpec> {
     let mut specs = Vec::new();
     specs.extend(fmu_plant::fmi::fmus());
     specs.extend(fmu_wind::fmi::fmus());
+    specs.extend(fmu_controller::fmi::fmus());
     specs
 }
 

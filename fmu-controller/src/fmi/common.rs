@@ -1,0 +1,125 @@
+//! Pieces shared by the two controller FMUs: the cascade parameters (sampling, profiler,
+//! loops, feedforwards, anti-limit-cycle) read from variable values, the status outputs, and
+//! the model information.
+
+use fmu_runtime::{DefaultExperiment, ModelInfo, Values, VariableSet};
+
+use crate::params::CascadeParams;
+use crate::status::AxisStatus;
+
+const ARCSEC_DEG: f64 = 1.0 / 3600.0;
+
+/// A gain override of 0 means "use the designed gain".
+fn override_or_design(value: f64) -> Option<f64> {
+    (value > 0.0).then_some(value)
+}
+
+/// The value references of the cascade parameters both axes share.
+pub struct CascadeVars<V> {
+    pub sample_time: V,
+    pub delay_samples: V,
+    pub profiler_enabled: V,
+    pub profiler_max_velocity: V,
+    pub profiler_max_acceleration: V,
+    pub profiler_jerk_limit: V,
+    pub profiler_step_threshold: V,
+    pub velocity_feedforward: V,
+    pub acceleration_feedforward: V,
+    pub position_bandwidth: V,
+    pub position_gain_override: V,
+    pub position_integrator: V,
+    pub position_integral_corner: V,
+    pub position_max_velocity: V,
+    pub position_max_acceleration: V,
+    pub velocity_crossover: V,
+    pub velocity_integral_ratio: V,
+    pub velocity_gain_override: V,
+    pub velocity_integral_override: V,
+    pub velocity_integrator: V,
+    pub anti_windup: V,
+    pub speed_low_pass: V,
+    pub notch_frequency: V,
+    pub notch_damping: V,
+    pub notch_depth: V,
+    pub anti_limit_cycle: V,
+    pub hold_entry: V,
+    pub hold_release: V,
+}
+
+impl<V: VariableSet> CascadeVars<V> {
+    /// The cascade parameters: the axis defaults with every exposed value applied.
+    pub fn read(&self, v: &Values<V>, defaults: CascadeParams) -> CascadeParams {
+        let mut c = defaults;
+        c.sampling.sample_time_s = v.real(self.sample_time);
+        c.sampling.delay_samples = v.integer(self.delay_samples) as u32;
+        c.profiler.enabled = v.boolean(self.profiler_enabled);
+        c.profiler.max_velocity_deg_per_s = v.real(self.profiler_max_velocity);
+        c.profiler.max_acceleration_deg_per_s2 = v.real(self.profiler_max_acceleration);
+        c.profiler.jerk_limit_deg_per_s3 = v.real(self.profiler_jerk_limit);
+        c.profiler.step_threshold_deg = v.real(self.profiler_step_threshold);
+        c.feedforward.velocity_enabled = v.boolean(self.velocity_feedforward);
+        c.feedforward.acceleration_enabled = v.boolean(self.acceleration_feedforward);
+        c.position_loop.bandwidth_hz = v.real(self.position_bandwidth);
+        c.position_loop.proportional_gain_override_per_s = override_or_design(v.real(self.position_gain_override));
+        c.position_loop.integrator_enabled = v.boolean(self.position_integrator);
+        c.position_loop.integral_corner_hz = v.real(self.position_integral_corner);
+        c.position_loop.max_velocity_deg_per_s = v.real(self.position_max_velocity);
+        c.position_loop.max_acceleration_deg_per_s2 = v.real(self.position_max_acceleration);
+        c.velocity_loop.crossover_hz = v.real(self.velocity_crossover);
+        c.velocity_loop.integral_corner_ratio = v.real(self.velocity_integral_ratio);
+        c.velocity_loop.proportional_gain_override_nm_s_per_rad = override_or_design(v.real(self.velocity_gain_override));
+        c.velocity_loop.integral_corner_override_hz = override_or_design(v.real(self.velocity_integral_override));
+        c.velocity_loop.integrator_enabled = v.boolean(self.velocity_integrator);
+        c.velocity_loop.anti_windup_enabled = v.boolean(self.anti_windup);
+        c.velocity_loop.speed_low_pass_hz = v.real(self.speed_low_pass);
+        c.velocity_loop.speed_notch.frequency_hz = v.real(self.notch_frequency);
+        c.velocity_loop.speed_notch.damping = v.real(self.notch_damping);
+        c.velocity_loop.speed_notch.depth = v.real(self.notch_depth);
+        c.anti_limit_cycle.enabled = v.boolean(self.anti_limit_cycle);
+        c.anti_limit_cycle.hold_entry_error_deg = v.real(self.hold_entry) * ARCSEC_DEG;
+        c.anti_limit_cycle.hold_release_error_deg = v.real(self.hold_release) * ARCSEC_DEG;
+        c
+    }
+}
+
+/// The value references of the status outputs both axes share.
+pub struct StatusVars<V> {
+    pub reference_position: V,
+    pub reference_velocity: V,
+    pub reference_acceleration: V,
+    pub position_error: V,
+    pub command_error: V,
+    pub velocity_reference: V,
+    pub measured_velocity: V,
+    pub torque_command: V,
+    pub profiling: V,
+    pub torque_limited: V,
+    pub holding: V,
+}
+
+impl<V: VariableSet> StatusVars<V> {
+    pub fn write(&self, s: &AxisStatus, v: &mut Values<V>) {
+        v.set_real(self.reference_position, s.reference_position_deg);
+        v.set_real(self.reference_velocity, s.reference_velocity_deg_per_s);
+        v.set_real(self.reference_acceleration, s.reference_acceleration_deg_per_s2);
+        v.set_real(self.position_error, s.position_error_deg * 3600.0);
+        v.set_real(self.command_error, s.command_error_deg * 3600.0);
+        v.set_real(self.velocity_reference, s.velocity_reference_deg_per_s);
+        v.set_real(self.measured_velocity, s.measured_velocity_deg_per_s);
+        v.set_real(self.torque_command, s.torque_command_nm);
+        v.set_boolean(self.profiling, s.profiling);
+        v.set_boolean(self.torque_limited, s.torque_limited);
+        v.set_boolean(self.holding, s.holding);
+    }
+}
+
+pub fn model_info(identifier: &'static str, description: &'static str) -> ModelInfo {
+    ModelInfo {
+        model_identifier: identifier,
+        model_name: identifier,
+        description,
+        author: "MeerKAT antenna positioner reference model contributors",
+        version: env!("CARGO_PKG_VERSION"),
+        default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+    }
+}
