@@ -42,8 +42,10 @@ fn create_model<M: Model>(context: &Context) -> Result<Box<dyn DynModel>, String
 }
 
 // ---------------------------------------------------------------------------------------------
-// Panics: a hook, installed once, that keeps the message of a panic inside an FMU call for the
-// instance's logger instead of printing it to stderr; outside FMU calls the previous hook runs.
+// Panics: a hook, installed once, that keeps the message of a panic for the instance's logger
+// instead of printing it to stderr. The hook belongs to this shared library's own copy of the
+// standard library, and this library's code runs only inside exported calls, so every panic it
+// sees happened inside an FMU call: no per-call bookkeeping is needed on the happy path.
 
 thread_local! {
     static PANIC_MESSAGE: RefCell<Option<String>> = const { RefCell::new(None) };
@@ -53,28 +55,25 @@ static PANIC_HOOK: Once = Once::new();
 
 fn install_panic_hook() {
     PANIC_HOOK.call_once(|| {
-        let previous = panic::take_hook();
+        // Unit tests of this crate run in a test binary whose other panics (failed assertions)
+        // must still be reported, so there the previous hook runs as well.
+        let previous = cfg!(test).then(panic::take_hook);
         panic::set_hook(Box::new(move |info| {
-            let captured = PANIC_MESSAGE.with(|slot| {
-                let Ok(mut slot) = slot.try_borrow_mut() else { return false };
-                match slot.as_mut() {
-                    Some(message) => {
-                        let payload = info
-                            .payload()
-                            .downcast_ref::<&str>()
-                            .map(|s| s.to_string())
-                            .or_else(|| info.payload().downcast_ref::<String>().cloned())
-                            .unwrap_or_else(|| "(no message)".to_string());
-                        let location = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
-                        *message = format!("{payload}{location}");
-                        true
-                    }
-                    None => false,
-                }
-            });
-            if !captured {
+            if let Some(previous) = &previous {
                 previous(info);
             }
+            let payload = info
+                .payload()
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| info.payload().downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "(no message)".to_string());
+            let location = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
+            let _ = PANIC_MESSAGE.try_with(|slot| {
+                if let Ok(mut slot) = slot.try_borrow_mut() {
+                    *slot = Some(format!("{payload}{location}"));
+                }
+            });
         }));
     });
 }
@@ -82,10 +81,9 @@ fn install_panic_hook() {
 /// Runs `f`, turning a panic into `Err(message)`.
 fn catch<R>(f: impl FnOnce() -> R) -> Result<R, String> {
     install_panic_hook();
-    PANIC_MESSAGE.with(|slot| *slot.borrow_mut() = Some(String::new()));
-    let result = panic::catch_unwind(AssertUnwindSafe(f));
-    let message = PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_default();
-    result.map_err(|_| message)
+    panic::catch_unwind(AssertUnwindSafe(f)).map_err(|_| {
+        PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_else(|| "(no message)".to_string())
+    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -717,7 +715,8 @@ pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prio
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
         match instance.model.do_step(current, step, &mut notes) {
             Ok(()) => {
-                instance.inputs_changed = false;
+                // Feedthrough outputs are brought up to date lazily, before the next get.
+                instance.inputs_changed = instance.model.has_feedthrough();
                 instance.time = current + step;
                 instance.last_successful_time = instance.time;
                 let status = log_notes(instance, notes);

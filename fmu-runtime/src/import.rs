@@ -9,7 +9,7 @@ use std::collections::{HashMap, HashSet};
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use quick_xml::events::Event;
@@ -417,30 +417,45 @@ pub struct LogRecord {
 #[derive(Debug, Default)]
 pub struct LogBook {
     records: Mutex<Vec<LogRecord>>,
+    /// How many records were ever pushed: read on every call (to know which messages a failing
+    /// call logged) without taking the lock.
+    count: AtomicUsize,
     echo: bool,
 }
 
 impl LogBook {
     pub fn new(echo: bool) -> Self {
-        LogBook { records: Mutex::new(Vec::new()), echo }
+        LogBook { records: Mutex::new(Vec::new()), count: AtomicUsize::new(0), echo }
     }
 
     pub fn records(&self) -> Vec<LogRecord> {
         self.records.lock().map(|r| r.clone()).unwrap_or_default()
     }
 
+    /// Removes and returns the records kept so far (the count of all records ever pushed,
+    /// which [`LogBook::messages_since`] refers to, goes on).
     pub fn take(&self) -> Vec<LogRecord> {
         self.records.lock().map(|mut r| std::mem::take(&mut *r)).unwrap_or_default()
     }
 
+    /// How many records were ever pushed.
     pub fn len(&self) -> usize {
-        self.records.lock().map(|r| r.len()).unwrap_or(0)
+        self.count.load(Ordering::Acquire)
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The messages pushed after the first `start` records (as counted by [`LogBook::len`]).
     pub fn messages_since(&self, start: usize) -> Vec<String> {
+        let total = self.len();
         self.records
             .lock()
-            .map(|r| r.iter().skip(start).map(|m| format!("[{}] {}", m.category, m.message)).collect())
+            .map(|r| {
+                let kept_from = total - r.len();
+                r.iter().skip(start.saturating_sub(kept_from)).map(|m| format!("[{}] {}", m.category, m.message)).collect()
+            })
             .unwrap_or_default()
     }
 }
@@ -472,6 +487,7 @@ unsafe extern "C" fn log_sink(user: *mut c_void, instance: *const c_char, status
     }
     if let Ok(mut records) = book.records.lock() {
         records.push(record);
+        book.count.fetch_add(1, Ordering::Release);
     }
 }
 

@@ -151,6 +151,8 @@ pub trait DynModel: Send {
     fn set_string(&mut self, vrs: &[u32], values: Vec<String>, phase: SetPhase, context: &Context) -> Result<(), String>;
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String>;
     fn update_feedthrough(&mut self);
+    /// Whether any output depends directly on an input.
+    fn has_feedthrough(&self) -> bool;
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
     fn save(&self, w: &mut StateWriter);
     fn load(&mut self, r: &mut StateReader, context: &Context) -> Result<(), StateError>;
@@ -303,6 +305,10 @@ impl<M: Model> DynModel for ModelSlot<M> {
 
     fn update_feedthrough(&mut self) {
         self.model.update_feedthrough(&mut self.values);
+    }
+
+    fn has_feedthrough(&self) -> bool {
+        M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty())
     }
 
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {

@@ -92,8 +92,10 @@ pub trait Model: Sized + Send + 'static {
     fn do_step(&mut self, values: &mut Values<Self::Var>, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
 
     /// Recomputes the outputs that depend directly on inputs (those declared with
-    /// `depends_on`) after the master set inputs between steps, so that a get sees the new
-    /// inputs as the standard requires. Models without direct feedthrough keep the default.
+    /// `depends_on`) so that a get sees the current inputs as the standard requires. The
+    /// runtime calls it before the first get after a set of inputs and after every step of a
+    /// model that declares such outputs, so `do_step` need not compute them. Models without
+    /// direct feedthrough keep the default.
     fn update_feedthrough(&mut self, _values: &mut Values<Self::Var>) {}
 
     /// Extra checks on a Real value a master wants to set, beyond range and finiteness.

@@ -81,6 +81,35 @@ struct Surface {
     values: Vec<Vec<f64>>,
     /// Periodic-spline second derivatives in yaw, same shape as `values`.
     yaw_curvature: Vec<Vec<f64>>,
+    /// Natural-spline second derivatives in elevation of `values` and of `yaw_curvature`,
+    /// column by column. The elevation spline is linear in its knot values, so the curvature
+    /// of any yaw-interpolated column is the same yaw interpolation of these: evaluation then
+    /// needs no allocation and no matrix product.
+    elevation_curvature_of_values: Vec<Vec<f64>>,
+    elevation_curvature_of_yaw_curvature: Vec<Vec<f64>>,
+}
+
+impl Surface {
+    fn new(values: Vec<Vec<f64>>, yaw_curvature: Vec<Vec<f64>>, elevation_operator: &DMatrix<f64>) -> Surface {
+        let by_column = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            let (ne, ny) = (rows.len(), rows[0].len());
+            let mut out = vec![vec![0.0; ny]; ne];
+            for y in 0..ny {
+                let column = nalgebra::DVector::from_iterator(ne, rows.iter().map(|r| r[y]));
+                let curvature = elevation_operator * column;
+                for e in 0..ne {
+                    out[e][y] = curvature[e];
+                }
+            }
+            out
+        };
+        Surface {
+            elevation_curvature_of_values: by_column(&values),
+            elevation_curvature_of_yaw_curvature: by_column(&yaw_curvature),
+            values,
+            yaw_curvature,
+        }
+    }
 }
 
 /// Yawing and pitching coefficient surfaces on a yaw x elevation grid.
@@ -90,8 +119,6 @@ pub struct CoefficientTable {
     elevation: Vec<f64>,
     tau_az: Surface,
     tau_el: Surface,
-    /// Maps elevation-row values to their natural-spline second derivatives.
-    elevation_curvature: DMatrix<f64>,
 }
 
 const REQUIRED_COLUMNS: [&str; 4] = ["yaw_deg", "elevation_deg", "tau_az", "tau_el"];
@@ -226,10 +253,11 @@ impl CoefficientTable {
 
         let periodic = periodic_spline_operator(&yaw);
         let curvature = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> { rows.iter().map(|r| apply_periodic(&periodic, &yaw, r)).collect() };
+        let elevation_operator = natural_spline_operator(&elevation);
+        let (az_curvature, el_curvature) = (curvature(&az), curvature(&el));
         Ok(Self {
-            tau_az: Surface { yaw_curvature: curvature(&az), values: az },
-            tau_el: Surface { yaw_curvature: curvature(&el), values: el },
-            elevation_curvature: natural_spline_operator(&elevation),
+            tau_az: Surface::new(az, az_curvature, &elevation_operator),
+            tau_el: Surface::new(el, el_curvature, &elevation_operator),
             yaw,
             elevation,
         })
@@ -255,32 +283,55 @@ impl CoefficientTable {
         self.evaluate(&self.tau_el, yaw_deg, el_deg)
     }
 
+    /// A periodic cubic spline in yaw along each elevation row, then a natural cubic spline
+    /// in elevation through the interpolated column. Only the two rows that bracket the
+    /// elevation are needed, because the column's curvature is precomputed per yaw knot.
     fn evaluate(&self, surface: &Surface, yaw_deg: f64, el_deg: f64) -> f64 {
         let y0 = self.yaw[0];
         let yaw = y0 + (yaw_deg - y0).rem_euclid(360.0);
-        let column: Vec<f64> = surface
-            .values
-            .iter()
-            .zip(&surface.yaw_curvature)
-            .map(|(v, m)| spline_value(&self.yaw, v, m, yaw))
-            .collect();
+        let yaw_weights = SplineWeights::at(&self.yaw, yaw);
         let el = el_deg.clamp(self.elevation[0], self.elevation[self.elevation.len() - 1]);
-        let curvature: Vec<f64> = (&self.elevation_curvature * nalgebra::DVector::from_vec(column.clone())).iter().copied().collect();
-        spline_value(&self.elevation, &column, &curvature, el)
+        let el_weights = SplineWeights::at(&self.elevation, el);
+        let j = el_weights.index;
+        let column = |e: usize| yaw_weights.apply(&surface.values[e], &surface.yaw_curvature[e]);
+        let column_curvature =
+            |e: usize| yaw_weights.apply(&surface.elevation_curvature_of_values[e], &surface.elevation_curvature_of_yaw_curvature[e]);
+        el_weights.combine(column(j), column(j + 1), column_curvature(j), column_curvature(j + 1))
     }
 }
 
-/// Cubic spline value on knots `x` with values `v` and second derivatives `m` at `t`.
-fn spline_value(x: &[f64], v: &[f64], m: &[f64], t: f64) -> f64 {
-    let k = match x.partition_point(|&xi| xi <= t) {
-        0 => 0,
-        i if i >= x.len() => x.len() - 2,
-        i => i - 1,
-    };
-    let h = x[k + 1] - x[k];
-    let a = (x[k + 1] - t) / h;
-    let b = (t - x[k]) / h;
-    a * v[k] + b * v[k + 1] + ((a * a * a - a) * m[k] + (b * b * b - b) * m[k + 1]) * h * h / 6.0
+/// The weights of a cubic spline's value at one point: interval `index` and the factors of the
+/// two knot values and the two knot second derivatives.
+struct SplineWeights {
+    index: usize,
+    a: f64,
+    b: f64,
+    c: f64,
+    d: f64,
+}
+
+impl SplineWeights {
+    fn at(x: &[f64], t: f64) -> SplineWeights {
+        let k = match x.partition_point(|&xi| xi <= t) {
+            0 => 0,
+            i if i >= x.len() => x.len() - 2,
+            i => i - 1,
+        };
+        let h = x[k + 1] - x[k];
+        let a = (x[k + 1] - t) / h;
+        let b = (t - x[k]) / h;
+        SplineWeights { index: k, a, b, c: (a * a * a - a) * h * h / 6.0, d: (b * b * b - b) * h * h / 6.0 }
+    }
+
+    /// The spline's value for knot values `v` and second derivatives `m`.
+    fn apply(&self, v: &[f64], m: &[f64]) -> f64 {
+        let k = self.index;
+        self.combine(v[k], v[k + 1], m[k], m[k + 1])
+    }
+
+    fn combine(&self, v0: f64, v1: f64, m0: f64, m1: f64) -> f64 {
+        self.a * v0 + self.b * v1 + self.c * m0 + self.d * m1
+    }
 }
 
 /// The linear map from the `n - 1` distinct periodic values to their spline second derivatives.

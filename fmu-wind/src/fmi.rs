@@ -138,7 +138,17 @@ impl WindModel {
         CoefficientTable::from_file(&path).map_err(|e| format!("{}: {e}", path.display()))
     }
 
-    fn write_outputs(&self, values: &mut Values<WindVar>) {
+    /// The outputs that depend on the gust only.
+    fn write_gust(&self, values: &mut Values<WindVar>) {
+        let v_mean = values.real(WindVar::MeanSpeed);
+        let gust = self.generator.as_ref().map_or(0.0, |g| g.gust());
+        values.set_real(WindVar::Speed, v_mean + gust);
+        values.set_real(WindVar::Gust, gust);
+        values.set_real(WindVar::NormalisedGust, normalised_gust(gust, self.kappa, v_mean));
+    }
+
+    /// The outputs that also depend on the pointing inputs (direct feedthrough).
+    fn write_torques(&self, values: &mut Values<WindVar>) {
         let Some(torque) = &self.torque else { return };
         let v_mean = values.real(WindVar::MeanSpeed);
         let gust = self.generator.as_ref().map_or(0.0, |g| g.gust());
@@ -149,9 +159,6 @@ impl WindModel {
             values.real(WindVar::Azimuth),
             values.real(WindVar::Elevation),
         );
-        values.set_real(WindVar::Speed, v_mean + gust);
-        values.set_real(WindVar::Gust, gust);
-        values.set_real(WindVar::NormalisedGust, normalised_gust(gust, self.kappa, v_mean));
         values.set_real(WindVar::AzTorque, t.azimuth());
         values.set_real(WindVar::AzTorqueMean, t.azimuth_mean);
         values.set_real(WindVar::AzTorqueGust, t.azimuth_gust);
@@ -192,7 +199,8 @@ impl Model for WindModel {
         self.generator = generator;
         self.torque = Some(torque);
         self.kappa = kappa;
-        self.write_outputs(values);
+        self.write_gust(values);
+        self.write_torques(values);
         Ok(())
     }
 
@@ -203,12 +211,15 @@ impl Model for WindModel {
         if let Some(generator) = &mut self.generator {
             generator.step(step);
         }
-        self.write_outputs(values);
+        // The torques are written by `update_feedthrough`, which the runtime calls before the
+        // next get: the master usually sets the new pointing first, and computing them here
+        // too would be wasted work.
+        self.write_gust(values);
         Ok(())
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<WindVar>) {
-        self.write_outputs(values);
+        self.write_torques(values);
     }
 
     fn save_state(&self, w: &mut StateWriter) {

@@ -21,9 +21,14 @@ pub fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tools/ lives in the workspace").to_path_buf()
 }
 
-/// The documented folder the packaged `.fmu` files are written to.
+/// The documented folder the packaged `.fmu` files are written to: `target/fmu/`, or the
+/// folder named by the environment variable `MEERKAT_FMU_DIR` (to run the tools on FMUs
+/// packaged elsewhere, for example a profiling build).
 pub fn fmu_directory() -> PathBuf {
-    workspace_root().join("target").join("fmu")
+    match std::env::var_os("MEERKAT_FMU_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => workspace_root().join("target").join("fmu"),
+    }
 }
 
 /// The path of one packaged FMU.

@@ -254,6 +254,8 @@ pub fn azimuth_params(v: &Values<AzVar>) -> AzimuthParams {
 /// The azimuth plant FMU.
 pub struct AzimuthPlantModel {
     plant: Option<AzimuthPlant>,
+    /// The elevation input the feedthrough outputs were last computed for (bit pattern).
+    feedthrough_elevation: Option<u64>,
 }
 
 impl AzimuthPlantModel {
@@ -272,13 +274,19 @@ impl AzimuthPlantModel {
         v.set_real(AzVar::Pinion2Torque, o.pinion_torque_nm[1]);
         v.set_integer(AzVar::Pinion1Flank, o.pinion_flank[0]);
         v.set_integer(AzVar::Pinion2Flank, o.pinion_flank[1]);
-        Self::write_feedthrough(plant.params(), v);
     }
 
-    fn write_feedthrough(params: &AzimuthParams, v: &mut Values<AzVar>) {
+    /// The outputs that follow the elevation input, recomputed only when it changed.
+    fn write_feedthrough(&mut self, v: &mut Values<AzVar>) {
         let elevation = v.real(AzVar::Elevation);
+        if self.feedthrough_elevation == Some(elevation.to_bits()) {
+            return;
+        }
+        let Some(plant) = &self.plant else { return };
+        let params = plant.params();
         v.set_real(AzVar::LoadInertia, params.axis_inertia_kg_m2(elevation));
         v.set_real(AzVar::AntiResonance, params.anti_resonance_hz(elevation));
+        self.feedthrough_elevation = Some(elevation.to_bits());
     }
 
     fn build(v: &Values<AzVar>) -> Result<AzimuthPlant, String> {
@@ -299,13 +307,15 @@ impl Model for AzimuthPlantModel {
     }
 
     fn new(_values: &Values<AzVar>, _context: &Context) -> Result<Self, String> {
-        Ok(AzimuthPlantModel { plant: None })
+        Ok(AzimuthPlantModel { plant: None, feedthrough_elevation: None })
     }
 
     fn initialize(&mut self, values: &mut Values<AzVar>, _context: &Context, _notes: &mut Notes) -> Result<(), String> {
         let plant = Self::build(values)?;
         Self::write_outputs(&plant, values);
         self.plant = Some(plant);
+        self.feedthrough_elevation = None;
+        self.write_feedthrough(values);
         Ok(())
     }
 
@@ -316,11 +326,12 @@ impl Model for AzimuthPlantModel {
             disturbance_torque_nm: values.real(AzVar::DisturbanceTorque),
             elevation_deg: values.real(AzVar::Elevation),
         };
-        let flanks_before = plant.outputs().pinion_flank;
+        // The flanks before the step are read from the values: the previous step wrote them.
+        let flanks_before = [values.integer(AzVar::Pinion1Flank), values.integer(AzVar::Pinion2Flank)];
         plant.step(&inputs, step)?;
         Self::write_outputs(plant, values);
         if notes.events_enabled() {
-            let flanks = plant.outputs().pinion_flank;
+            let flanks = [values.integer(AzVar::Pinion1Flank), values.integer(AzVar::Pinion2Flank)];
             for k in 0..2 {
                 if flanks[k] != flanks_before[k] {
                     notes.event(format!("pinion {} flank {} -> {}", k + 1, flanks_before[k], flanks[k]));
@@ -331,9 +342,7 @@ impl Model for AzimuthPlantModel {
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<AzVar>) {
-        if let Some(plant) = &self.plant {
-            Self::write_feedthrough(plant.params(), values);
-        }
+        self.write_feedthrough(values);
     }
 
     fn check_real(var: AzVar, value: f64, _values: &Values<AzVar>) -> Result<(), String> {
@@ -371,6 +380,7 @@ impl Model for AzimuthPlantModel {
         } else {
             None
         };
+        self.feedthrough_elevation = None;
         Ok(())
     }
 }

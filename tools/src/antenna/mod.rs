@@ -1,0 +1,11 @@
+//! The coupled antenna: a fixed-step co-simulation master over the packaged FMUs, the
+//! requirement scenarios, their metrics and the requirement report.
+
+pub mod command;
+pub mod coupled;
+
+pub use command::{Command, CommandPoint, CommandTable};
+pub use coupled::{AntennaConfig, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace, WindCondition};
+pub mod metrics;
+pub mod scenario;
+pub mod report;

@@ -1,0 +1,91 @@
+//! The main job: builds and packages the FMUs, runs the coupled antenna through the
+//! requirement scenarios of the seed paper (Req. 1-5 at 15, 45 and 88 deg elevation, optimal
+//! and normal wind) and prints the requirement table; writes it as markdown and CSV with plots
+//! of the pointing error into `out/antenna/`.
+//!
+//! Options: `--no-build` uses the FMUs already in target/fmu; `--only <text>` runs the
+//! scenarios whose name contains the text; `--out <dir>` changes the output folder.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use antenna_tools::antenna::report::{csv, markdown, plot, run_scenario};
+use antenna_tools::antenna::scenario::requirement_scenarios;
+use antenna_tools::antenna::{AntennaConfig, FmuSet};
+use antenna_tools::package;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let flag = |name: &str| args.iter().any(|a| a == name);
+    let value = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let out_dir = value("--out").map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("out").join("antenna"));
+
+    if !flag("--no-build") {
+        eprintln!("building and packaging the FMUs ...");
+        if let Err(e) = package::build_and_package() {
+            eprintln!("packaging failed: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
+    let fmus = match FmuSet::open(&package::fmu_directory()) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("cannot open the FMUs in {}: {e}", package::fmu_directory().display());
+            return ExitCode::FAILURE;
+        }
+    };
+    let filter = value("--only");
+    let scenarios: Vec<_> = requirement_scenarios().into_iter().filter(|s| filter.as_ref().is_none_or(|f| s.name.contains(f.as_str()))).collect();
+    let total_sim: f64 = scenarios.iter().map(|s| s.end_s).sum();
+    let mut done_sim = 0.0;
+    let mut outcomes = Vec::new();
+    let started = std::time::Instant::now();
+    for scenario in &scenarios {
+        let mut progress = |fraction: f64| {
+            let overall = (done_sim + fraction * scenario.end_s) / total_sim;
+            let width = 30;
+            let filled = (overall * width as f64) as usize;
+            eprint!("\r[{}{}] {:5.1} %  {:<32}", "#".repeat(filled), " ".repeat(width - filled), 100.0 * overall, scenario.name);
+            let _ = std::io::stderr().flush();
+        };
+        match run_scenario(&fmus, &AntennaConfig::default(), scenario, &mut progress) {
+            Ok(o) => outcomes.push(o),
+            Err(e) => {
+                eprintln!("\n{e}");
+                return ExitCode::FAILURE;
+            }
+        }
+        done_sim += scenario.end_s;
+    }
+    let wall = started.elapsed().as_secs_f64();
+    eprintln!();
+    let table = markdown(&outcomes);
+    println!("\nRequirement report: {} scenarios, {:.0} s simulated in {:.1} s wall-clock ({:.0} x real time)\n", outcomes.len(), total_sim, wall, total_sim / wall);
+    println!("{table}");
+    println!("Jitter = worst RMS of the on-sky pointing error sqrt((d_az cos el)^2 + d_el^2) over 10 s windows.");
+    println!("Settling = from the moment the profiled command reaches the target until the error stays within 15 arcsec for the next 10 s.");
+    if let Err(e) = std::fs::create_dir_all(&out_dir) {
+        eprintln!("cannot create {}: {e}", out_dir.display());
+        return ExitCode::FAILURE;
+    }
+    let header = "# Requirement report\n\nJitter is the worst RMS of the on-sky pointing error sqrt((d_az cos el)^2 + d_el^2) over sliding 10 s windows. Settling time runs from the moment the profiled command reaches the target until the pointing error stays within 15 arcsec for the next 10 s; the time from the command itself is given beside it.\n\n";
+    let _ = std::fs::write(out_dir.join("report.md"), format!("{header}{table}"));
+    let _ = std::fs::write(out_dir.join("report.csv"), csv(&outcomes));
+    match plot(&outcomes, &out_dir) {
+        Ok(paths) => {
+            for p in paths {
+                println!("wrote {}", p.display());
+            }
+        }
+        Err(e) => eprintln!("plotting failed: {e}"),
+    }
+    println!("wrote {} and report.csv", out_dir.join("report.md").display());
+    if outcomes.iter().all(|o| o.passed) {
+        ExitCode::SUCCESS
+    } else {
+        // A failed requirement is a finding, not a crash: report it and exit 0 so the main job
+        // completes; the tests assert the optimal-wind requirements.
+        ExitCode::SUCCESS
+    }
+}
