@@ -124,6 +124,20 @@ impl CommandTable {
         Self::new(points)
     }
 
+    /// All points in order (a jump shows as two points with the same time).
+    pub fn points(&self) -> Vec<CommandPoint> {
+        self.segments.iter().flatten().copied().collect()
+    }
+
+    /// Writes the table as the CSV that [`CommandTable::from_csv`] reads, with every digit.
+    pub fn to_csv(&self) -> String {
+        let mut out = String::from("time_s,azimuth_deg,elevation_deg\n");
+        for p in self.points() {
+            out.push_str(&format!("{:e},{:e},{:e}\n", p.time_s, p.azimuth_deg, p.elevation_deg));
+        }
+        out
+    }
+
     /// The first and last time stamps.
     pub fn time_span(&self) -> (f64, f64) {
         let first = self.segments.first().and_then(|s| s.first()).expect("not empty").time_s;

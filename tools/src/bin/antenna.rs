@@ -4,7 +4,10 @@
 //! of the pointing error into `out/antenna/`.
 //!
 //! Options: `--no-build` uses the FMUs already in target/fmu; `--only <text>` runs the
-//! scenarios whose name contains the text; `--out <dir>` changes the output folder.
+//! scenarios whose name contains the text; `--out <dir>` changes the output folder;
+//! `--trace <dir>` also writes, per scenario, its command table, its configuration (wind and
+//! step, `name = value` lines) and its full trace as CSV, which the fmpy master
+//! (tests/python/coupled_master.py) reads to run the same scenario.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -42,15 +45,29 @@ fn main() -> ExitCode {
     let mut outcomes = Vec::new();
     let started = std::time::Instant::now();
     for scenario in &scenarios {
+        let mut last_percent = -1i64;
         let mut progress = |fraction: f64| {
             let overall = (done_sim + fraction * scenario.end_s) / total_sim;
+            let percent = (overall * 100.0) as i64;
+            if percent == last_percent {
+                return;
+            }
+            last_percent = percent;
             let width = 30;
             let filled = (overall * width as f64) as usize;
             eprint!("\r[{}{}] {:5.1} %  {:<32}", "#".repeat(filled), " ".repeat(width - filled), 100.0 * overall, scenario.name);
             let _ = std::io::stderr().flush();
         };
         match run_scenario(&fmus, &AntennaConfig::default(), scenario, &mut progress) {
-            Ok(o) => outcomes.push(o),
+            Ok(o) => {
+                if let Some(dir) = value("--trace").map(PathBuf::from) {
+                    if let Err(e) = write_trace(&dir, &o) {
+                        eprintln!("\ncannot write the trace: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
+                outcomes.push(o)
+            }
             Err(e) => {
                 eprintln!("\n{e}");
                 return ExitCode::FAILURE;
@@ -88,4 +105,20 @@ fn main() -> ExitCode {
         // completes; the tests assert the optimal-wind requirements.
         ExitCode::SUCCESS
     }
+}
+
+/// Writes what another master needs to rerun a scenario, and the trace to compare with.
+fn write_trace(dir: &std::path::Path, outcome: &antenna_tools::antenna::report::Outcome) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let s = &outcome.scenario;
+    let config = AntennaConfig::default();
+    std::fs::write(dir.join(format!("{}.commands.csv", s.name)), s.table.to_csv())?;
+    std::fs::write(
+        dir.join(format!("{}.config", s.name)),
+        format!(
+            "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\n",
+            config.step_s, s.end_s, s.wind.mean_speed_m_s, s.wind.roughness_length_m, s.wind.direction_deg, s.wind.seed
+        ),
+    )?;
+    std::fs::write(dir.join(format!("{}.trace.csv", s.name)), outcome.trace.to_csv())
 }
