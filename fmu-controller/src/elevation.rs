@@ -71,10 +71,21 @@ impl OutputState for ElevationOutputs {
 }
 
 /// The elevation axis controller. See the module documentation.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct ElevationController {
     params: ElevationControllerParams,
     cascade: Cascade,
+    /// Ratio, inertia and gains at the last encoder reading (bit pattern): the geometry costs
+    /// trigonometry, and the quantised encoder repeats its reading from sample to sample.
+    scheduled: Option<(u64, f64, f64, VelocityGains)>,
+}
+
+/// Two controllers are equal when their parameters and states are; the schedule cache is a
+/// pure function of the parameters and does not count.
+impl PartialEq for ElevationController {
+    fn eq(&self, other: &Self) -> bool {
+        self.params == other.params && self.cascade == other.cascade
+    }
 }
 
 impl ElevationController {
@@ -82,7 +93,7 @@ impl ElevationController {
     pub fn new(params: ElevationControllerParams) -> Result<Self, String> {
         params.validate()?;
         let cascade = Cascade::new(&params.cascade, params.drive.torque_limit_nm());
-        Ok(Self { params, cascade })
+        Ok(Self { params, cascade, scheduled: None })
     }
 
     pub fn params(&self) -> &ElevationControllerParams {
@@ -113,9 +124,17 @@ impl ElevationController {
 
     /// Executes one sample with the measurements taken at its instant.
     pub fn sample(&mut self, inputs: &ElevationInputs) -> ElevationOutputs {
-        let drive = &self.params.drive;
         let elevation = inputs.encoder_position_deg;
-        let gear_ratio = drive.gear_ratio_at(elevation);
+        let (gear_ratio, total_inertia, gains) = match self.scheduled {
+            Some((bits, n, j, g)) if bits == elevation.to_bits() => (n, j, g),
+            _ => {
+                let drive = &self.params.drive;
+                let scheduled = (drive.gear_ratio_at(elevation), drive.total_inertia_at_motor_kg_m2(elevation), self.velocity_gains_at(elevation));
+                self.scheduled = Some((elevation.to_bits(), scheduled.0, scheduled.1, scheduled.2));
+                scheduled
+            }
+        };
+        let drive = &self.params.drive;
         let friction = &self.params.friction_feedforward;
         let out = self.cascade.sample(
             &CascadeInput {
@@ -127,8 +146,8 @@ impl ElevationController {
                 axis_position: elevation.to_radians(),
                 motor_speed: inputs.motor_speed_rad_per_s,
                 gear_ratio,
-                total_inertia: drive.total_inertia_at_motor_kg_m2(elevation),
-                gains: self.velocity_gains_at(elevation),
+                total_inertia,
+                gains,
             },
             |velocity| friction_feedforward(velocity, friction),
         );

@@ -275,23 +275,28 @@ impl CoefficientTable {
 
     /// Yawing (azimuth) torque coefficient at `yaw_deg`, `el_deg`.
     pub fn tau_az(&self, yaw_deg: f64, el_deg: f64) -> f64 {
-        self.evaluate(&self.tau_az, yaw_deg, el_deg)
+        self.coefficients(yaw_deg, el_deg).0
     }
 
     /// Pitching (elevation) torque coefficient at `yaw_deg`, `el_deg`.
     pub fn tau_el(&self, yaw_deg: f64, el_deg: f64) -> f64 {
-        self.evaluate(&self.tau_el, yaw_deg, el_deg)
+        self.coefficients(yaw_deg, el_deg).1
     }
 
-    /// A periodic cubic spline in yaw along each elevation row, then a natural cubic spline
-    /// in elevation through the interpolated column. Only the two rows that bracket the
-    /// elevation are needed, because the column's curvature is precomputed per yaw knot.
-    fn evaluate(&self, surface: &Surface, yaw_deg: f64, el_deg: f64) -> f64 {
+    /// Both coefficients `(tau_az, tau_el)` at one pointing; the spline weights are shared.
+    pub fn coefficients(&self, yaw_deg: f64, el_deg: f64) -> (f64, f64) {
         let y0 = self.yaw[0];
         let yaw = y0 + (yaw_deg - y0).rem_euclid(360.0);
         let yaw_weights = SplineWeights::at(&self.yaw, yaw);
         let el = el_deg.clamp(self.elevation[0], self.elevation[self.elevation.len() - 1]);
         let el_weights = SplineWeights::at(&self.elevation, el);
+        (Self::evaluate(&self.tau_az, &yaw_weights, &el_weights), Self::evaluate(&self.tau_el, &yaw_weights, &el_weights))
+    }
+
+    /// A periodic cubic spline in yaw along each elevation row, then a natural cubic spline
+    /// in elevation through the interpolated column. Only the two rows that bracket the
+    /// elevation are needed, because the column's curvature is precomputed per yaw knot.
+    fn evaluate(surface: &Surface, yaw_weights: &SplineWeights, el_weights: &SplineWeights) -> f64 {
         let j = el_weights.index;
         let column = |e: usize| yaw_weights.apply(&surface.values[e], &surface.yaw_curvature[e]);
         let column_curvature =

@@ -90,8 +90,7 @@ impl WindTorqueModel {
     /// from, degrees from north, clockwise) and antenna pointing (degrees).
     pub fn torques(&self, v_mean: f64, v_gust: f64, wind_direction_deg: f64, azimuth_deg: f64, elevation_deg: f64) -> WindTorques {
         let yaw = yaw_deg(wind_direction_deg, azimuth_deg);
-        let tau_az = self.coefficients.tau_az(yaw, elevation_deg);
-        let tau_el = self.coefficients.tau_el(yaw, elevation_deg);
+        let (tau_az, tau_el) = self.coefficients.coefficients(yaw, elevation_deg);
         let k = self.torque_scale();
         let mean = k * v_mean * v_mean;
         let gust = match self.form {

@@ -259,11 +259,9 @@ impl ElevationPlantModel {
         v.set_real(ElVar::ScrewForce, o.screw_force_n);
         v.set_real(ElVar::Ratio, o.transmission_ratio);
         v.set_real(ElVar::ActuatorLength, o.actuator_length_m);
-        // With a frozen geometry the drive is the one at the frozen angle wherever the dish
-        // points (drive.ratio reports that ratio too), so its anti-resonance is reported there.
-        let params = plant.params();
-        let drive_angle_deg = if params.geometry_frozen { params.frozen_geometry_elevation_deg } else { o.axis_position_deg };
-        v.set_real(ElVar::AntiResonance, params.anti_resonance_hz(drive_angle_deg));
+        // The drive the simulation uses now: frozen at the centre of the current elevation cell,
+        // or at the frozen angle with a frozen geometry.
+        v.set_real(ElVar::AntiResonance, plant.two_mass_in_use().anti_resonance_hz());
     }
 
     fn build(v: &Values<ElVar>) -> Result<ElevationPlant, String> {

@@ -7,6 +7,7 @@
 //! split there, each side is interpolated on its own, and from that instant on the later point
 //! holds. Azimuth must stay inside the cable wrap.
 
+use std::cell::Cell;
 use std::fmt;
 use std::path::Path;
 
@@ -47,6 +48,9 @@ impl std::error::Error for CommandError {}
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommandTable {
     segments: Vec<Vec<CommandPoint>>,
+    /// The interval the last look-up found: a master asks for increasing times, so the next
+    /// answer is almost always in it or the next one (no search at 1 kHz).
+    hint: Cell<usize>,
 }
 
 impl CommandTable {
@@ -86,7 +90,7 @@ impl CommandTable {
                 current.push(p);
             }
         }
-        Ok(CommandTable { segments })
+        Ok(CommandTable { segments, hint: Cell::new(0) })
     }
 
     /// Reads a CSV table with columns `time_s,azimuth_deg,elevation_deg` (a header row first;
@@ -156,14 +160,37 @@ impl CommandTable {
         // The segment in force: the last one that has started.
         let index = self.segments.partition_point(|s| s[0].time_s <= t).saturating_sub(1);
         let segment = &self.segments[index];
-        let az = interpolate(segment, t, |p| p.azimuth_deg);
-        let el = interpolate(segment, t, |p| p.elevation_deg);
+        let interval = interval_of(segment, t, self.hint.get());
+        self.hint.set(interval);
+        let az = interpolate(segment, interval, t, |p| p.azimuth_deg);
+        let el = interpolate(segment, interval, t, |p| p.elevation_deg);
         Command { azimuth_deg: az.0, azimuth_rate_deg_per_s: az.1, elevation_deg: el.0, elevation_rate_deg_per_s: el.1 }
     }
 }
 
-/// Catmull-Rom cubic Hermite interpolation of one coordinate: (value, derivative).
-fn interpolate(points: &[CommandPoint], t: f64, value: impl Fn(&CommandPoint) -> f64) -> (f64, f64) {
+/// The index `i` of the interval `[t_i, t_{i+1})` holding `t` (clamped to the ends), trying
+/// the hinted interval and its successor before searching.
+fn interval_of(points: &[CommandPoint], t: f64, hint: usize) -> usize {
+    let n = points.len();
+    if n < 2 || t <= points[0].time_s {
+        return 0;
+    }
+    if t >= points[n - 1].time_s {
+        return n - 2;
+    }
+    let holds = |i: usize| i + 1 < n && points[i].time_s <= t && t < points[i + 1].time_s;
+    if holds(hint) {
+        hint
+    } else if holds(hint + 1) {
+        hint + 1
+    } else {
+        points.partition_point(|p| p.time_s <= t) - 1
+    }
+}
+
+/// Catmull-Rom cubic Hermite interpolation of one coordinate on interval `i`: (value,
+/// derivative).
+fn interpolate(points: &[CommandPoint], i: usize, t: f64, value: impl Fn(&CommandPoint) -> f64) -> (f64, f64) {
     let n = points.len();
     if n == 1 || t <= points[0].time_s {
         return (value(&points[0]), 0.0);
@@ -171,9 +198,6 @@ fn interpolate(points: &[CommandPoint], t: f64, value: impl Fn(&CommandPoint) ->
     if t >= points[n - 1].time_s {
         return (value(&points[n - 1]), 0.0);
     }
-    // Index of the interval [i, i + 1] holding t (a binary search: tables are long, but the
-    // search costs a few tens of nanoseconds).
-    let i = points.partition_point(|p| p.time_s <= t) - 1;
     let slope = |k: usize| -> f64 {
         let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
         (value(&points[b]) - value(&points[a])) / (points[b].time_s - points[a].time_s)
