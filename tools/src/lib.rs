@@ -10,3 +10,5 @@ pub mod validate;
 pub mod dsp;
 pub mod plot;
 pub mod windfit;
+pub mod wind_spectra;
+pub mod plant_identification;

@@ -1,5 +1,6 @@
 //! The coupled antenna: a fixed-step co-simulation master over the packaged FMUs, the
-//! requirement scenarios, their metrics and the requirement report.
+//! requirement scenarios, their metrics and the requirement report; and the closed
+//! velocity-loop identification of the seed paper's Figs. 7 and 9 (`bode`).
 
 pub mod command;
 pub mod coupled;
@@ -9,3 +10,4 @@ pub use coupled::{AntennaConfig, CoupledAntenna, FmuSet, Overrides, ParameterVal
 pub mod metrics;
 pub mod scenario;
 pub mod report;
+pub mod bode;

@@ -1,17 +1,38 @@
 //! validate: traces a measured log's residual to effects the model lacks.
 //!
 //! Usage:
-//!   validate run LOG.csv --params START.params [--out DIR] [--alpha 1e-3] [--verbose]
-//!       Validates one log: writes DIR/<log>_report.md, DIR/<log>_corrected.params and PNG
+//!   validate run LOG.csv --params START.params [--out DIR] [--fmu PATH | --no-fmu]
+//!                [--window SECONDS] [--alpha 1e-3] [--verbose]
+//!       Validates one log: writes DIR/<log>_report.md, DIR/<log>_corrected.params (the plant
+//!       FMU's parameter file, loadable through its `parameter_file` variable),
+//!       DIR/<log>_corrected_axis.params (the single-axis set, usable as a start) and PNG
 //!       figures, and prints the summary. Exit code 0 on success, 2 on an input error.
-//!   validate suite DIR [--out DIR2]
-//!       Validates every log of a truthgen suite against DIR/start.params and scores the
-//!       results against the hidden truth: writes results.md (table and detection curve),
+//!   validate suite --generate [--suite DIR] [--threads N] [--kuka DIR] [--fmu PATH | --no-fmu]
+//!       Generates the test suite (truthgen) into DIR (default target/validation-suite),
+//!       validates and scores every log, runs the three KUKA axes, and regenerates
+//!       docs/validation-results.md, docs/validation-detection.csv and the figures under
+//!       docs/figures/.
+//!   validate suite DIR [--out DIR2] [--threads N] [--fmu PATH | --no-fmu]
+//!       Validates and scores an existing suite: writes DIR2 (default DIR)/results.md,
 //!       detection.csv and detection.png.
+//!   validate kuka [--kuka DIR] [--out DIR]
+//!       Runs the three KUKA axes with tools/data/kuka/axisN.params and writes their reports.
+//!   validate floor [--seed N]
+//!       The investigation of the error floors on clean logs (docs/validation.md): equation-
+//!       and output-error residuals of the nominal model on clean truth logs with and without
+//!       sensor noise and with the LuGre bristles made stiff.
+//!
+//! The plant FMU defaults to target/fmu/AzimuthPlant.fmu (package it first with
+//! `cargo run --release -p antenna-tools --bin package`).
 
 use antenna_tools::measured_log::MeasuredLog;
-use antenna_tools::validate::{self, parameters::ParameterSet, report, scoring, ValidateOptions};
+use antenna_tools::truth::suite::{self, SuiteConfig};
+use antenna_tools::validate::output_error::PlantSimulator;
+use antenna_tools::validate::parameters::{fmu_parameter_text, ParameterSet};
+use antenna_tools::validate::plant_fmu::{FmuSimulator, PlantFmu};
+use antenna_tools::validate::{self, report, scoring, ValidateOptions, Validation};
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 fn main() {
     if let Err(message) = run(std::env::args().skip(1).collect()) {
@@ -20,14 +41,36 @@ fn main() {
     }
 }
 
-fn run(args: Vec<String>) -> Result<(), String> {
-    let command = args.first().ok_or("expected a command: run or suite (see the source header)")?;
-    let target = args.get(1).ok_or("expected a log file or a suite folder")?;
-    let mut params_path: Option<PathBuf> = None;
-    let mut out: Option<PathBuf> = None;
-    let mut options = ValidateOptions::default();
-    let mut verbose = false;
-    let mut i = 2;
+struct Arguments {
+    command: String,
+    target: Option<String>,
+    params: Option<PathBuf>,
+    out: Option<PathBuf>,
+    suite: Option<PathBuf>,
+    kuka: Option<PathBuf>,
+    fmu: Option<PathBuf>,
+    generate: bool,
+    verbose: bool,
+    threads: usize,
+    options: ValidateOptions,
+}
+
+fn parse(args: Vec<String>) -> Result<Arguments, String> {
+    let command = args.first().ok_or("expected a command: run, suite or kuka (see the source header)")?.clone();
+    let mut a = Arguments {
+        command,
+        target: None,
+        params: None,
+        out: None,
+        suite: None,
+        kuka: None,
+        fmu: Some(PlantFmu::default_path()),
+        generate: false,
+        verbose: false,
+        threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        options: ValidateOptions::default(),
+    };
+    let mut i = 1;
     while i < args.len() {
         let flag = args[i].as_str();
         let mut value = || -> Result<String, String> {
@@ -35,66 +78,215 @@ fn run(args: Vec<String>) -> Result<(), String> {
             args.get(i).cloned().ok_or_else(|| format!("{flag} needs a value"))
         };
         match flag {
-            "--params" => params_path = Some(PathBuf::from(value()?)),
-            "--out" => out = Some(PathBuf::from(value()?)),
-            "--alpha" => options.selection.alpha = value()?.parse().map_err(|_| "--alpha needs a number")?,
-            "--min-effect-to-noise" => options.selection.min_effect_to_noise = value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?,
-            "--verbose" => verbose = true,
+            "--params" => a.params = Some(PathBuf::from(value()?)),
+            "--out" => a.out = Some(PathBuf::from(value()?)),
+            "--suite" => a.suite = Some(PathBuf::from(value()?)),
+            "--kuka" => a.kuka = Some(PathBuf::from(value()?)),
+            "--fmu" => a.fmu = Some(PathBuf::from(value()?)),
+            "--no-fmu" => a.fmu = None,
+            "--generate" => a.generate = true,
+            "--verbose" => a.verbose = true,
+            "--threads" => a.threads = value()?.parse().map_err(|_| "--threads needs a count")?,
+            "--alpha" => a.options.selection.alpha = value()?.parse().map_err(|_| "--alpha needs a number")?,
+            "--min-effect-to-noise" => a.options.selection.min_effect_to_noise = value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?,
+            "--window" => a.options.output.window_seconds = Some(value()?.parse().map_err(|_| "--window needs seconds")?),
+            other if !other.starts_with("--") && a.target.is_none() => a.target = Some(other.to_string()),
             other => return Err(format!("unknown option '{other}'")),
         }
         i += 1;
     }
-    match command.as_str() {
+    Ok(a)
+}
+
+fn run(args: Vec<String>) -> Result<(), String> {
+    let a = parse(args)?;
+    match a.command.as_str() {
         "run" => {
-            let log_path = Path::new(target);
-            let log = MeasuredLog::read(log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
-            let params_path = params_path.ok_or("--params is required")?;
-            let start = ParameterSet::read(&params_path)?;
-            let validation = validate::validate(&log, &start, &options)?;
-            let stem = log_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "log".into());
-            let text = report::markdown(&validation, &log_path.display().to_string());
-            if let Some(dir) = &out {
-                std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-                std::fs::write(dir.join(format!("{stem}_report.md")), &text).map_err(|e| e.to_string())?;
-                validation.selection.corrected.write(
-                    &dir.join(format!("{stem}_corrected.params")),
-                    &format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display()),
-                )?;
-                for figure in report::figures(&validation, dir, &stem)? {
-                    println!("wrote {figure}");
-                }
+            let log_path = PathBuf::from(a.target.as_deref().ok_or("expected a log file")?);
+            let params_path = a.params.clone().ok_or("--params is required")?;
+            let (validation, _) = run_one(&log_path, &params_path, &a)?;
+            if let Some(dir) = &a.out {
+                write_outputs(&validation, &log_path, &params_path, dir, &stem_of(&log_path))?;
             }
-            if verbose {
-                println!("{text}");
+            if a.verbose {
+                println!("{}", report::markdown(&validation, &log_path.display().to_string()));
             } else {
                 print_summary(&validation);
             }
         }
         "suite" => {
-            let dir = Path::new(target);
-            let out = out.unwrap_or_else(|| dir.to_path_buf());
+            let root = antenna_tools::package::workspace_root();
+            if a.generate {
+                let dir = a.suite.clone().unwrap_or_else(|| root.join("target").join("validation-suite"));
+                let clock = Instant::now();
+                suite::write_suite_parallel(&dir, &SuiteConfig::default(), a.threads, &|line| println!("{line}"))?;
+                let generation = clock.elapsed().as_secs_f64();
+                let clock = Instant::now();
+                let results = score_suite(&dir, &a)?;
+                let scoring_time = clock.elapsed().as_secs_f64();
+                let kuka_dir = a.kuka.clone().unwrap_or_else(|| root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive"));
+                let docs = root.join("docs");
+                let figures = docs.join("figures");
+                std::fs::create_dir_all(&figures).map_err(|e| format!("cannot create {}: {e}", figures.display()))?;
+                let clock = Instant::now();
+                let kuka = if kuka_dir.is_dir() { Some(run_kuka(&kuka_dir, &figures, &a)?) } else { None };
+                let kuka_time = clock.elapsed().as_secs_f64();
+                let timing = format!(
+                    "Generated {} logs in {generation:.0} s and validated them in {scoring_time:.0} s on {} threads; the KUKA axes took {kuka_time:.1} s.",
+                    results.len(),
+                    a.threads
+                );
+                let text = results_document(&results, kuka.as_deref(), &timing);
+                std::fs::write(docs.join("validation-results.md"), text).map_err(|e| e.to_string())?;
+                std::fs::write(docs.join("validation-detection.csv"), scoring::detection_csv(&results)).map_err(|e| e.to_string())?;
+                scoring::detection_figure(&results, &figures.join("validation-detection.png"))?;
+                println!("{}", scoring::summary_markdown(&results));
+                println!("{timing}");
+                println!("wrote {}", docs.join("validation-results.md").display());
+            } else {
+                let dir = PathBuf::from(a.target.as_deref().ok_or("expected a suite folder (or --generate)")?);
+                let out = a.out.clone().unwrap_or_else(|| dir.clone());
+                std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
+                let results = score_suite(&dir, &a)?;
+                let mut text = String::from("## Results on the generated suite\n\n");
+                text.push_str(&scoring::summary_markdown(&results));
+                text.push_str("\n### All cases\n\n");
+                text.push_str(&scoring::table_markdown(&results));
+                std::fs::write(out.join("results.md"), &text).map_err(|e| e.to_string())?;
+                std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results)).map_err(|e| e.to_string())?;
+                scoring::detection_figure(&results, &out.join("detection.png"))?;
+                println!("{}", scoring::summary_markdown(&results));
+                println!("wrote {}", out.join("results.md").display());
+            }
+        }
+        "kuka" => {
+            let root = antenna_tools::package::workspace_root();
+            let kuka_dir = a.kuka.clone().unwrap_or_else(|| root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive"));
+            let out = a.out.clone().unwrap_or_else(|| PathBuf::from("."));
             std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-            let results = scoring::run_suite(dir, &options, &mut |r| {
-                let truth = antenna_tools::truth::suite::describe(&r.truth);
-                let found = r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
-                println!("{}: {truth} -> {found}", r.truth.log_file);
-            })?;
-            let mut text = String::from("## Results on the generated suite\n\n");
-            text.push_str(&scoring::summary_markdown(&results));
-            text.push_str("\n### All cases\n\n");
-            text.push_str(&scoring::table_markdown(&results));
-            std::fs::write(out.join("results.md"), &text).map_err(|e| e.to_string())?;
-            std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results)).map_err(|e| e.to_string())?;
-            scoring::detection_figure(&results, &out.join("detection.png"))?;
-            println!("{}", scoring::summary_markdown(&results));
-            println!("wrote {}", out.join("results.md").display());
+            let section = run_kuka(&kuka_dir, &out, &a)?;
+            println!("{section}");
+        }
+        "floor" => {
+            let seed = a.target.as_deref().map(|s| s.parse::<u64>().map_err(|_| "floor takes a seed")).transpose()?.unwrap_or(1);
+            floor(seed, &a)?;
         }
         other => return Err(format!("unknown command '{other}'")),
     }
     Ok(())
 }
 
-fn print_summary(v: &validate::Validation) {
+/// The floor investigation: what limits the residuals of the right model on clean logs.
+fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
+    use antenna_tools::truth::{simulate, NoiseConfig, TruthConfig};
+    let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
+    println!("| truth variant (seed {seed}) | torque equation RMS (axis N m) | load equation RMS (N m) | output error: axis position (arcsec) | twist (arcsec) |");
+    println!("|---|---|---|---|---|");
+    for (label, noise, presliding) in [
+        ("as in the suite: sensor noise, LuGre with 1e-5 rad presliding", true, 1e-5),
+        ("no sensor noise, LuGre", false, 1e-5),
+        ("sensor noise, LuGre with 1e-6 rad presliding (stiffer bristles)", true, 1e-6),
+        ("no sensor noise, stiffer bristles", false, 1e-6),
+    ] {
+        let mut config = TruthConfig { seed, ..TruthConfig::default() };
+        config.plant.presliding_displacement = presliding;
+        if !noise {
+            config.noise = NoiseConfig { current_sigma: 0.0, current_step: 1e-9, load_encoder_counts: 2f64.powi(40), load_encoder_sigma: 0.0, motor_encoder_counts: 2f64.powi(36) };
+        }
+        let start = config.plant.starting_parameters();
+        let log = simulate(&config).log;
+        let mut options = a.options.clone();
+        options.selection.max_effects = 0;
+        let v = validate::validate_with(&log, &start, &options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+        let arcsec = 180.0 * 3600.0 / std::f64::consts::PI;
+        let (position, twist) = match &v.output {
+            Some(o) => (
+                o.before.channel(validate::output_error::ChannelKind::AxisPosition).map_or(f64::NAN, |c| c.rms * arcsec),
+                o.before.channel(validate::output_error::ChannelKind::Twist).map_or(f64::NAN, |c| c.rms * arcsec),
+            ),
+            None => (f64::NAN, f64::NAN),
+        };
+        println!("| {label} | {:.1} | {:.2} | {position:.2} | {twist:.3} |", v.before[0].rms, v.before.get(1).map_or(f64::NAN, |c| c.rms));
+    }
+    Ok(())
+}
+
+fn stem_of(path: &Path) -> String {
+    path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "log".into())
+}
+
+/// Validates one log; returns the validation and the log.
+fn run_one(log_path: &Path, params_path: &Path, a: &Arguments) -> Result<(Validation, MeasuredLog), String> {
+    let log = MeasuredLog::read(log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+    let start = ParameterSet::read(params_path)?;
+    let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
+    let validation = validate::validate_with(&log, &start, &a.options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+    Ok((validation, log))
+}
+
+/// Writes the report, the corrected parameter sets and the figures of one validation.
+fn write_outputs(validation: &Validation, log_path: &Path, params_path: &Path, dir: &Path, stem: &str) -> Result<Vec<String>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let text = report::markdown(validation, &log_path.display().to_string());
+    std::fs::write(dir.join(format!("{stem}_report.md")), &text).map_err(|e| e.to_string())?;
+    let header = format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display());
+    validation.selection.corrected.write(&dir.join(format!("{stem}_corrected_axis.params")), &format!("{header}\nSingle-axis parameter set (validate's own form; usable as a starting set)."))?;
+    if let Some(o) = &validation.output {
+        let fmu_text = fmu_parameter_text(
+            &validation.selection.corrected,
+            &o.config,
+            &format!("{header}\nAzimuthPlant parameter file: load it through the FMU's parameter_file variable.\nMapping from the single-axis set: docs/validation.md, validate::parameters::FMU_MAPPING."),
+        )?;
+        std::fs::write(dir.join(format!("{stem}_corrected.params")), fmu_text).map_err(|e| e.to_string())?;
+    }
+    report::figures(validation, dir, stem)
+}
+
+fn score_suite(dir: &Path, a: &Arguments) -> Result<Vec<scoring::CaseResult>, String> {
+    scoring::run_suite(dir, &a.options, a.fmu.as_deref(), a.threads, &|r| {
+        let truth = suite::describe(&r.truth);
+        let found = r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
+        let ratio = r.output.as_ref().map(|o| format!("{:.2}", o.ratio())).unwrap_or_else(|| "-".into());
+        println!("{}: {truth} -> {found} (output error after/before {ratio}, {:.1} s)", r.truth.log_file, r.seconds);
+    })
+}
+
+/// Runs the KUKA axes and returns the markdown section; figures go to `figures`.
+fn run_kuka(data_dir: &Path, figures: &Path, a: &Arguments) -> Result<String, String> {
+    let root = antenna_tools::package::workspace_root();
+    let mut rows = Vec::new();
+    for axis in 1..=3 {
+        let log_path = data_dir.join(format!("axis{axis}.csv"));
+        let params_path = root.join("tools").join("data").join("kuka").join(format!("axis{axis}.params"));
+        let clock = Instant::now();
+        let (validation, _) = run_one(&log_path, &params_path, a)?;
+        let seconds = clock.elapsed().as_secs_f64();
+        let stem = format!("validation-kuka-axis{axis}");
+        let written = report::figures(&validation, figures, &stem)?;
+        rows.push((axis, validation, seconds, written));
+    }
+    Ok(report::kuka_section(&rows))
+}
+
+/// The generated results document (docs/validation-results.md).
+fn results_document(results: &[scoring::CaseResult], kuka: Option<&str>, timing: &str) -> String {
+    let mut text = String::from(
+        "# Validation results (generated)\n\nRegenerated by `cargo run --release -p antenna-tools --bin validate -- suite --generate` \
+         (package the FMUs first). Method and reading: docs/validation.md.\n\n",
+    );
+    text.push_str(&format!("{timing}\n\n## Generated suite\n\n"));
+    text.push_str(&scoring::summary_markdown(results));
+    text.push_str("\n![Detection rate against effect size](figures/validation-detection.png)\n\nCurve data: `docs/validation-detection.csv`.\n\n");
+    text.push_str("### All cases\n\nSize = RMS of what the effect adds to its channel over that channel's sensor noise. Output error: the scored position channel whose error dropped most, RMS over all windows in arcsec; equation error: the equation whose residual dropped most, axis-side N m.\n\n");
+    text.push_str(&scoring::table_markdown(results));
+    if let Some(section) = kuka {
+        text.push_str("\n## KUKA robot drive (`shared/data/kuka-robot-drive/`)\n\n");
+        text.push_str(section);
+    }
+    text
+}
+
+fn print_summary(v: &Validation) {
     if v.selection.found.is_empty() {
         println!("no significant missing effect");
     }
@@ -106,5 +298,36 @@ fn print_summary(v: &validate::Validation) {
     }
     for (b, a) in v.before.iter().zip(&v.after) {
         println!("{}: RMS {:.4} -> {:.4} N m (axis side), fit {:.1} -> {:.1} %, whiteness p {:.1e} -> {:.1e}", b.name, b.rms, a.rms, b.fit_percent, a.fit_percent, b.whiteness_p, a.whiteness_p);
+    }
+    if let Some(o) = &v.output {
+        println!("output error over {} windows of {:.3} s ({}):", o.plan.starts.len(), o.plan.seconds, o.plan.reason);
+        for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
+            println!("    {}: RMS {:.4e} -> {:.4e} {}, fit {:.1} -> {:.1} %", b.kind.name(), b.rms, a.rms, b.kind.unit(), b.fit_percent, a.fit_percent);
+        }
+        for (kind, c) in &o.confirmations {
+            println!("    confirmation of {}: {} -> {}", kind.name(), c.reason, if c.confirmed { "confirmed" } else { "rejected" });
+        }
+    }
+    if let Some(f) = &v.frequency {
+        println!(
+            "frequency response: anti-resonance measured {}, model {:.3} -> {:.3} Hz (broadband: {})",
+            f.measured_anti_resonance.map(|m| format!("{m:.3} Hz")).unwrap_or_else(|| "not resolved".into()),
+            f.before_anti_resonance,
+            f.after_anti_resonance,
+            f.broadband
+        );
+    }
+    for h in &v.hints {
+        println!(
+            "not claimed, but the output error alone would confirm {} ({}): {} (equation-error p {:.2e} above its threshold {:.2e})",
+            h.kind.name(),
+            h.changes(&v.selection.corrected),
+            h.comparison.reason,
+            h.equation_p,
+            h.threshold
+        );
+    }
+    for note in &v.notes {
+        println!("note: {note}");
     }
 }

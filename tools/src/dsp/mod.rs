@@ -12,12 +12,15 @@
 //! - Confidence intervals use the chi-squared distribution with the equivalent degrees of
 //!   freedom of the estimate (Percival & Walden, 1993, eq. 292b), which accounts for the window
 //!   and the segment overlap.
+//! - [`expected_welch_psd`] gives the exact expectation of a Welch estimate for a process of
+//!   known autocovariance (window leakage and aliasing included), to compare estimates with.
 //! - Functions that can be misconfigured return [`DspError`] instead of panicking; the simple
 //!   statistics return NaN for an empty input, as floating-point reductions conventionally do.
 
 pub mod bands;
 pub mod correlation;
 pub mod distributions;
+pub mod expectation;
 pub mod spectral;
 pub mod stats;
 pub mod window;
@@ -34,6 +37,7 @@ pub use distributions::{
     chi_squared_cdf, chi_squared_quantile, chi_squared_sf, digamma, standard_normal_quantile,
     trigamma, ChiSquaredInterval,
 };
+pub use expectation::expected_welch_psd;
 pub use rustfft::num_complex::Complex64;
 pub use spectral::{
     coherence, transfer_function_h1, unwrap_phase_deg, welch_csd, welch_psd, CrossSpectrum,

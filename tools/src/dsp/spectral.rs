@@ -189,7 +189,7 @@ impl WelchConfig {
 
 /// How many bin offsets of correlation a [`Spectrum`] carries for band averaging; beyond this
 /// the correlation of every window offered here is negligible.
-const BIN_CORRELATION_OFFSETS: usize = 64;
+pub(crate) const BIN_CORRELATION_OFFSETS: usize = 64;
 
 /// A one-sided power spectral density per Hz with what is needed to judge it.
 #[derive(Debug, Clone, PartialEq)]
@@ -350,6 +350,9 @@ impl TransferEstimate {
 struct SegmentTransformer {
     config: WelchConfig,
     window: Vec<f64>,
+    /// Sum of the squared window coefficients, computed once: the density scale needs it for
+    /// every bin, and summing it per bin made a long segment's estimate quadratic in its length.
+    window_power: f64,
     fft: Arc<dyn Fft<f64>>,
     buffer: Vec<Complex64>,
     scratch: Vec<Complex64>,
@@ -360,9 +363,12 @@ impl SegmentTransformer {
     fn new(config: WelchConfig) -> Self {
         let fft = FftPlanner::<f64>::new().plan_fft_forward(config.segment_len);
         let scratch = vec![Complex64::new(0.0, 0.0); fft.get_inplace_scratch_len()];
+        let window = config.window.coefficients(config.segment_len);
+        let window_power = window.iter().map(|w| w * w).sum();
         Self {
             config,
-            window: config.window.coefficients(config.segment_len),
+            window,
+            window_power,
             fft,
             buffer: vec![Complex64::new(0.0, 0.0); config.segment_len],
             scratch,
@@ -389,13 +395,12 @@ impl SegmentTransformer {
     /// Factor turning |X_k|^2 summed over `segments` into a one-sided density per Hz.
     fn density_scale(&self, bin: usize, segments: usize, sample_rate_hz: f64) -> f64 {
         let len = self.config.segment_len;
-        let window_power: f64 = self.window.iter().map(|w| w * w).sum();
         let one_sided = if bin == 0 || (len % 2 == 0 && bin == len / 2) {
             1.0
         } else {
             2.0
         };
-        one_sided / (sample_rate_hz * window_power * segments as f64)
+        one_sided / (sample_rate_hz * self.window_power * segments as f64)
     }
 }
 

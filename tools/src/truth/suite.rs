@@ -189,9 +189,8 @@ pub fn generate_case(base: &TruthConfig, seed: u64, kinds: &[(String, f64)], log
     Ok((text, truth))
 }
 
-/// Writes the suite: `log_NNN.csv` with `log_NNN.truth` beside it, and `start.params`.
-pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<CaseTruth>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+/// The suite's cases (seed, kinds with sizes) in their shuffled file order.
+fn suite_cases(suite: &SuiteConfig) -> Vec<(u64, Vec<(String, f64)>)> {
     let mut cases: Vec<(u64, Vec<(String, f64)>)> = Vec::new();
     for kind in &suite.kinds {
         for &size in &suite.sizes {
@@ -214,6 +213,13 @@ pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&st
         let j = rng.random_range(0..=i);
         cases.swap(i, j);
     }
+    cases
+}
+
+/// Writes the suite: `log_NNN.csv` with `log_NNN.truth` beside it, and `start.params`.
+pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<CaseTruth>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let cases = suite_cases(suite);
     let mut clean_cache = BTreeMap::new();
     let mut truths = Vec::new();
     for (index, (seed, kinds)) in cases.iter().enumerate() {
@@ -238,6 +244,59 @@ pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&st
         .starting_parameters()
         .write(&dir.join("start.params"), "Starting parameter set of the generated suite: the truth's nominal plant, no effects.")?;
     Ok(truths)
+}
+
+/// Writes the suite like [`write_suite`], generating the logs on `threads` threads (each with
+/// its own cache of clean runs), after removing the logs and truths of an earlier suite in
+/// `dir`. The files are the same as [`write_suite`]'s: every case depends only on its seed.
+pub fn write_suite_parallel(dir: &Path, suite: &SuiteConfig, threads: usize, progress: &(dyn Fn(&str) + Sync)) -> Result<Vec<CaseTruth>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    for entry in std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        if name.starts_with("log_") && (name.ends_with(".csv") || name.ends_with(".truth")) {
+            std::fs::remove_file(entry.path()).map_err(|e| format!("cannot remove {}: {e}", entry.path().display()))?;
+        }
+    }
+    let cases = suite_cases(suite);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let truths = std::sync::Mutex::new(Vec::new());
+    let failure = std::sync::Mutex::new(None);
+    std::thread::scope(|scope| {
+        for _ in 0..threads.max(1) {
+            scope.spawn(|| {
+                let mut clean_cache = BTreeMap::new();
+                loop {
+                    let index = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some((seed, kinds)) = cases.get(index) else { break };
+                    let name = format!("log_{:03}", index + 1);
+                    match generate_case(&suite.base, *seed, kinds, &format!("{name}.csv"), &mut clean_cache) {
+                        Ok((text, truth)) => {
+                            let written = std::fs::write(dir.join(format!("{name}.csv")), text)
+                                .and_then(|()| std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth)));
+                            if let Err(e) = written {
+                                *failure.lock().unwrap() = Some(format!("cannot write {name}: {e}"));
+                                return;
+                            }
+                            progress(&format!("{name}: {}", describe(&truth)));
+                            truths.lock().unwrap().push((index, truth));
+                        }
+                        Err(message) => progress(&format!("{name}: skipped: {message}")),
+                    }
+                }
+            });
+        }
+    });
+    if let Some(e) = failure.into_inner().unwrap() {
+        return Err(e);
+    }
+    suite
+        .base
+        .plant
+        .starting_parameters()
+        .write(&dir.join("start.params"), "Starting parameter set of the generated suite: the truth's nominal plant, no effects.")?;
+    let mut truths = truths.into_inner().unwrap();
+    truths.sort_by_key(|(i, _)| *i);
+    Ok(truths.into_iter().map(|(_, t)| t).collect())
 }
 
 /// A one-line description of a case, for progress output and tables.

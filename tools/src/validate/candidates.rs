@@ -16,11 +16,12 @@
 //! - Coulomb: sign(w_m) in the torque equation.
 //! - viscous: w_m.
 //! - Stribeck: exp(-(w/ws)^2) sign(w), ws searched; replaces the model's hump.
-//! - offset / asymmetric friction: a constant while moving.
+//! - offset / asymmetric friction: a constant torque on the load (load equation with two
+//!   equations; a constant while moving in the total equation).
 //! - backlash: -K/2 sign(twist) in the motor equation, +K/2 sign(twist) in the load equation.
 //! - stiffness: twist and twist rate, with opposite signs in the two equations.
 //! - inertia: motor and load accelerations (total acceleration with one encoder).
-//! - unbalance: cos and -sin of the angle (elevation if logged, else the axis angle).
+//! - unbalance: cos and -sin of the axis angle.
 //! - delay: the measured torque shifted in time, delay searched.
 //! - torque constant: the measured torque itself (a scale error scales everything).
 //! - cogging: sin and cos of 2 pi q_m / P, period searched.
@@ -253,7 +254,12 @@ pub fn instantiate(
             Ok(simple(vec![column("friction.coulomb change", "N m", torque_only(sgn))]))
         }
         Kind::Viscous => Ok(simple(vec![column("friction.viscous change", "N m s/rad", torque_only(data.motor_vel.clone()))])),
-        Kind::Offset => Ok(simple(vec![column("effect.torque_offset change", "N m", torque_only(vec![1.0; n]))])),
+        // The offset acts on the load (the plant FMU's load.torque_offset): in the load equation
+        // with two equations, in the total equation otherwise.
+        Kind::Offset => match data.structure {
+            Structure::TwoMass => Ok(simple(vec![column("effect.torque_offset change", "N m", vec![Vec::new(), vec![ratio; n]])])),
+            _ => Ok(simple(vec![column("effect.torque_offset change", "N m", torque_only(vec![1.0; n]))])),
+        },
         Kind::TorqueConstant => {
             // The model side is divided by the scale s: a relative change d of s changes it by
             // -d times itself.
@@ -288,12 +294,13 @@ pub fn instantiate(
             let backlash = params.value(names::BACKLASH_WIDTH);
             let amplitude = params.value(names::UNBALANCE_TORQUE);
             let phase = params.value(names::UNBALANCE_PHASE);
+            let offset = params.value(names::TORQUE_OFFSET);
             let signs = if backlash > 0.0 { backlash_sign(data, params) } else { vec![0.0; n] };
             let disturbance = data.disturbance.clone().unwrap_or_else(|| vec![0.0; n]);
             let motor_k: Vec<f64> = (0..n).map(|i| data.twist[i] - 0.5 * backlash * signs[i]).collect();
             let load_k: Vec<f64> = (0..n)
                 .map(|i| {
-                    let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() - disturbance[i];
+                    let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance[i];
                     -data.twist_scale / (stiffness * stiffness) * (load_side - damping * data.twist_rate[i])
                 })
                 .collect();
@@ -599,7 +606,7 @@ pub fn apply(instance: &Instance, beta: &[f64], data: &EquationData, params: &mu
 /// levels, damping and backlash not negative, stiffness positive, the torque-constant scale
 /// within a factor 2 (a larger error is a units mistake, not an effect), a Stribeck velocity
 /// within the speeds the data covers (above them the hump is indistinguishable from Coulomb
-/// friction), a delay not negative beyond one sample. A fit that leaves this region has found
+/// friction), a delay not negative, breakaway friction not below sliding friction (the plant FMU accepts nothing else). A fit that leaves this region has found
 /// a collinear direction of the data, not an effect.
 pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), String> {
     let nonnegative = [names::MOTOR_INERTIA, names::LOAD_INERTIA, names::VISCOUS, names::COULOMB, names::STATIC, names::DAMPING, names::BACKLASH_WIDTH];
@@ -620,8 +627,12 @@ pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), Stri
     if params.value(names::STATIC) != params.value(names::COULOMB) && !(vs > 0.0 && vs <= fastest) {
         return Err(format!("{} would be {vs:.3e} rad/s, outside the measured speeds (0 to {fastest:.3e})", names::STRIBECK_VELOCITY));
     }
-    if params.value(names::DELAY) < -data.dt {
+    if params.value(names::DELAY) < 0.0 {
         return Err(format!("{} would be negative ({:.3e} s)", names::DELAY, params.value(names::DELAY)));
+    }
+    // The plant FMU's friction law needs the breakaway level at least the sliding level.
+    if params.get(names::STATIC).is_some_and(|fs| fs < params.value(names::COULOMB)) {
+        return Err(format!("{} would be below {}", names::STATIC, names::COULOMB));
     }
     Ok(())
 }

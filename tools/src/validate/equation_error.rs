@@ -161,19 +161,20 @@ impl EquationData {
 
 /// The starting model's friction torque on the motor (axis side), without the viscous part,
 /// evaluated at a speed. The model form the plant FMU implements: Coulomb plus a Stribeck hump
-/// with the sign of the speed, plus the asymmetry while moving.
+/// with the sign of the speed, both levels scaled by (1 + a) moving forward and (1 - a) moving
+/// backward (multiplicative asymmetry).
 pub fn static_friction_curve(params: &ParameterSet, speed: f64) -> f64 {
     let fc = params.value(names::COULOMB);
     let fs = params.get(names::STATIC).unwrap_or(fc);
     let vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
-    let sign = if speed > 0.0 {
+    let sign: f64 = if speed > 0.0 {
         1.0
     } else if speed < 0.0 {
         -1.0
     } else {
         0.0
     };
-    (fc + (fs - fc) * (-(speed / vs).powi(2)).exp()) * sign + params.value(names::ASYMMETRY) * sign.abs()
+    (fc + (fs - fc) * (-(speed / vs).powi(2)).exp()) * (sign + params.value(names::ASYMMETRY) * sign.abs())
 }
 
 /// Builds the conditioned data and the starting model's residual channels.
@@ -258,12 +259,10 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     let motor_acc_inner = central_second(&motor_pos_inner, dt);
     let load_acc_inner = central_second(&load_pos_inner, dt);
     let twist_inner: Vec<f64> = motor_pos_inner.iter().zip(&load_pos_inner).map(|(m, l)| m - l).collect();
-    let elevation = log.signal(Signal::Elevation);
-    let angle_is_elevation = elevation.is_some();
-    let angle_inner = match elevation {
-        Some(e) => inner(e),
-        None => load_pos_inner.clone(),
-    };
+    // Unbalance acts on the axis angle, as in the plant FMU (its periodic load torque); an
+    // elevation column is an input of the azimuth plant's inertia, not of this axis' unbalance.
+    let angle_is_elevation = false;
+    let angle_inner = load_pos_inner.clone();
     let disturbance = log.signal(Signal::DisturbanceTorque).map(|d| cut(inner(d)));
 
     let first_sample = 2 * h;
@@ -388,12 +387,15 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
             let motor_model: Vec<f64> = (0..n)
                 .map(|i| {
                     let shaft = stiffness * data.twist[i] + damping * data.twist_rate[i] - 0.5 * stiffness * backlash * backlash_sign[i];
-                    inverse_scale * (motor_inertia * data.motor_acc[i] + shaft + viscous * data.motor_vel[i] + friction_static[i] + offset + cogging[i])
+                    inverse_scale * (motor_inertia * data.motor_acc[i] + shaft + viscous * data.motor_vel[i] + friction_static[i] + cogging[i])
                 })
                 .collect();
+            // The torque offset acts on the load, as the plant FMU's load.torque_offset does.
+            // With the free twist offset c, an offset at the motor and one at the load fit the
+            // data equally (they differ by a constant twist, offset/K).
             let load_model: Vec<f64> = (0..n)
                 .map(|i| {
-                    let load_side = load_inertia * data.load_acc[i] + unbalance[i] - disturbance[i];
+                    let load_side = load_inertia * data.load_acc[i] + unbalance[i] + offset - disturbance[i];
                     0.5 * k0 * backlash * backlash_sign[i] + ratio * (load_side - damping * data.twist_rate[i])
                 })
                 .collect();
@@ -421,20 +423,31 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
 /// the direction in which the drive path is in contact. The centre is the twist at zero shaft
 /// torque, estimated robustly (median) from the load equation.
 pub fn backlash_sign(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
+    let centre = twist_centre(data, params);
+    data.smooth(&data.twist_inner.iter().map(|t| (t - centre).signum()).collect::<Vec<_>>())
+}
+
+/// The measured twist at zero shaft torque (encoder zero offsets, preload, the centre of a
+/// backlash gap): the median over the log of the measured twist minus the twist the load
+/// equation needs. The output-error route starts the plant's path deflection at the measured
+/// twist minus this.
+pub fn twist_centre(data: &EquationData, params: &ParameterSet) -> f64 {
     let n = data.len();
     let stiffness = params.value(names::STIFFNESS).max(f64::MIN_POSITIVE);
     let load_inertia = params.value(names::LOAD_INERTIA);
     let amplitude = params.value(names::UNBALANCE_TORQUE);
     let phase = params.value(names::UNBALANCE_PHASE);
+    let offset = params.value(names::TORQUE_OFFSET);
+    let damping = params.value(names::DAMPING);
     let mut centres: Vec<f64> = (0..n)
         .map(|i| {
-            let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos();
-            data.twist[i] - (load_side - params.value(names::DAMPING) * data.twist_rate[i]) / stiffness
+            let disturbance = data.disturbance.as_ref().map_or(0.0, |d| d[i]);
+            let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance;
+            data.twist[i] - (load_side - damping * data.twist_rate[i]) / stiffness
         })
         .collect();
     centres.sort_by(|a, b| a.total_cmp(b));
-    let centre = centres[n / 2];
-    data.smooth(&data.twist_inner.iter().map(|t| (t - centre).signum()).collect::<Vec<_>>())
+    centres[n / 2]
 }
 
 /// Five-point central difference stencils, in units of one sample.
@@ -486,7 +499,7 @@ fn fill_ends(x: &mut [f64]) {
 }
 
 /// Resamples a log whose sampling is uneven (more than 1 % jitter) onto a uniform grid.
-fn uniform(log: &MeasuredLog, notes: &mut Vec<String>) -> MeasuredLog {
+pub fn uniform(log: &MeasuredLog, notes: &mut Vec<String>) -> MeasuredLog {
     let dt = log.sample_interval();
     let uneven = log.time.windows(2).any(|w| ((w[1] - w[0]) / dt - 1.0).abs() > 0.01);
     if !uneven {

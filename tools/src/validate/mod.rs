@@ -2,14 +2,19 @@
 //! engineer would, trace it to a named effect the model lacks, add the effect, refit, and
 //! report the error before and after. Documented in docs/validation.md.
 //!
-//! Phase 1 uses the equation-error (inverse-dynamics) residual, which needs no simulation. The
-//! output-error route (simulating the plant over windows re-initialised from the measured
-//! state) plugs in through [`output_error::PlantSimulator`].
+//! Two residuals work together. The equation error (inverse dynamics, [`equation_error`])
+//! needs no simulation: it finds candidate effects and fits their parameters. The output
+//! error ([`output_error`]) simulates the plant FMU through its C ABI ([`plant_fmu`]) over
+//! windows re-initialised from the measured state: an effect is claimed only if it also makes
+//! the simulation predict the measured motion significantly better, and the error before and
+//! after is reported on it, in physical units, as a control engineer compares models.
 
 pub mod candidates;
 pub mod equation_error;
+pub mod frequency;
 pub mod output_error;
 pub mod parameters;
+pub mod plant_fmu;
 pub mod report;
 pub mod scoring;
 pub mod selection;
@@ -17,15 +22,38 @@ pub mod signals;
 pub mod stats;
 
 use crate::measured_log::{MeasuredLog, Signal};
-use equation_error::{EquationData, EquationOptions};
-use parameters::ParameterSet;
+use candidates::Kind;
+use equation_error::{EquationData, EquationOptions, Structure};
+use output_error::{Comparison, OutputData, OutputError, PlantSimulator, WindowPlan};
+use parameters::{FmuConfig, ParameterSet};
 use selection::{Fit, Selection, SelectionOptions};
+
+/// Settings of the output-error route.
+#[derive(Debug, Clone)]
+pub struct OutputOptions {
+    /// The window is the lag at which the measured motor speed's autocorrelation falls to
+    /// this (see [`output_error::choose_window`]).
+    pub window_correlation: f64,
+    /// At least this many windows (the window is at most 1/this of the record).
+    pub minimum_windows: usize,
+    /// Fixed window length (s) instead of the rule above.
+    pub window_seconds: Option<f64>,
+    /// One-sided level of the signed-rank test that confirms an effect.
+    pub alpha: f64,
+}
+
+impl Default for OutputOptions {
+    fn default() -> Self {
+        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, alpha: 0.01 }
+    }
+}
 
 /// All settings of a validation run.
 #[derive(Debug, Clone, Default)]
 pub struct ValidateOptions {
     pub equation: EquationOptions,
     pub selection: SelectionOptions,
+    pub output: OutputOptions,
 }
 
 /// Statistics of one residual channel, as a control engineer reads them.
@@ -49,6 +77,37 @@ pub struct ChannelStats {
     pub cross_bound: f64,
 }
 
+/// The output-error side of a validation.
+#[derive(Debug, Clone)]
+pub struct OutputReport {
+    pub config: FmuConfig,
+    pub plan: WindowPlan,
+    /// Half-width (samples) of the state estimator that starts the windows.
+    pub state_half_width: usize,
+    pub before: OutputError,
+    pub after: OutputError,
+    /// Every confirmation asked during the search: the effect and the comparison of the model
+    /// with it against the model without it.
+    pub confirmations: Vec<(Kind, Comparison)>,
+    /// The corrected model against the starting one.
+    pub overall: Comparison,
+}
+
+impl OutputReport {
+    /// The scored channel whose error dropped most (relative): where the found effects show.
+    /// Returns (index, before RMS, after RMS).
+    pub fn most_improved(&self) -> Option<(usize, f64, f64)> {
+        self.before
+            .channels
+            .iter()
+            .zip(&self.after.channels)
+            .enumerate()
+            .filter(|(_, (b, _))| b.scored)
+            .map(|(i, (b, a))| (i, b.rms, a.rms))
+            .min_by(|x, y| (x.2 / x.1).total_cmp(&(y.2 / y.1)))
+    }
+}
+
 /// The result of validating one log.
 #[derive(Debug, Clone)]
 pub struct Validation {
@@ -57,12 +116,44 @@ pub struct Validation {
     pub before: Vec<ChannelStats>,
     pub after: Vec<ChannelStats>,
     pub start: ParameterSet,
+    pub output: Option<OutputReport>,
+    pub frequency: Option<frequency::FrequencyResponse>,
+    /// Effects not claimed that the output error alone would confirm.
+    pub hints: Vec<Hint>,
     pub notes: Vec<String>,
 }
 
+/// An effect the equation-error test did not find significant but the output error would
+/// confirm on top of the corrected model: reported as what a longer or richer log could
+/// establish, never claimed or written into the corrected parameters.
+#[derive(Debug, Clone)]
+pub struct Hint {
+    pub kind: Kind,
+    /// The equation-error p-value at the last step and the threshold it missed.
+    pub equation_p: f64,
+    pub threshold: f64,
+    pub comparison: Comparison,
+    /// The corrected model with the effect added.
+    pub parameters: ParameterSet,
+}
+
+impl Hint {
+    /// The effect's own parameters with their values (the refit of the others moves them
+    /// only slightly and is left out).
+    pub fn changes(&self, corrected: &ParameterSet) -> String {
+        let reset = selection::without_effect(self.kind, &self.parameters, corrected);
+        self.parameters
+            .names()
+            .filter(|name| reset.get(name) != self.parameters.get(name))
+            .map(|name| format!("{name} = {:.4e}", self.parameters.value(name)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
 impl Validation {
-    /// Index of the channel where the fit reduced the error most (relative): the equation the
-    /// found effect shows in.
+    /// Index of the equation-error channel where the fit reduced the error most (relative):
+    /// the equation the found effect shows in.
     pub fn most_improved_channel(&self) -> usize {
         (0..self.before.len())
             .min_by(|&a, &b| (self.after[a].rms / self.before[a].rms).total_cmp(&(self.after[b].rms / self.before[b].rms)))
@@ -70,15 +161,142 @@ impl Validation {
     }
 }
 
-/// Validates a measured log against a starting parameter set with the equation-error route.
+/// Number of parameters an effect adds, for the output error's information criterion.
+fn parameter_count(kind: Kind, structure: Structure) -> usize {
+    match kind {
+        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
+        Kind::Cogging => 3,
+        Kind::Inertia if structure == Structure::TwoMass => 2,
+        _ => 1,
+    }
+}
+
+/// The output error as the judge of the search: an effect is claimed only if the plant FMU
+/// with it predicts the measured motion significantly better over the windows than without it
+/// ([`output_error::compare`]), and a lower-ranked candidate replaces the equation error's
+/// choice only if it predicts significantly better than that choice.
+struct OutputJudge<'a> {
+    simulator: &'a mut dyn PlantSimulator,
+    data: &'a EquationData,
+    out: &'a OutputData,
+    plan: &'a WindowPlan,
+    cache: Vec<(ParameterSet, OutputError)>,
+    confirmations: Vec<(Kind, Comparison)>,
+    alpha: f64,
+}
+
+impl OutputJudge<'_> {
+    fn error_of(&mut self, params: &ParameterSet) -> Result<OutputError, String> {
+        if let Some((_, e)) = self.cache.iter().find(|(p, _)| p == params) {
+            return Ok(e.clone());
+        }
+        let e = output_error::output_error(self.simulator, params, self.data, self.out, self.plan)?;
+        self.cache.push((params.clone(), e.clone()));
+        Ok(e)
+    }
+}
+
+impl selection::Judge for OutputJudge<'_> {
+    fn confirm(&mut self, kind: Kind, without: &ParameterSet, with: &ParameterSet) -> Result<String, String> {
+        let baseline = self.error_of(without).map_err(|e| format!("the model without it does not simulate: {e}"))?;
+        let candidate = self.error_of(with).map_err(|e| format!("the model with it does not simulate: {e}"))?;
+        let comparison = output_error::compare(&baseline, &candidate, parameter_count(kind, self.data.structure), self.alpha);
+        let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
+        self.confirmations.push((kind, comparison));
+        result
+    }
+
+    fn prefers(&mut self, incumbent: &ParameterSet, challenger: &ParameterSet, extra: isize) -> bool {
+        match (self.error_of(incumbent), self.error_of(challenger)) {
+            (Ok(a), Ok(b)) => output_error::compare(&a, &b, extra.max(0) as usize, self.alpha).confirmed,
+            _ => false,
+        }
+    }
+
+    fn compares(&self) -> bool {
+        true
+    }
+}
+
+/// Validates a measured log against a starting parameter set with the equation-error route
+/// only (no simulator).
 pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions) -> Result<Validation, String> {
+    validate_with(log, start, options, None)
+}
+
+/// Validates a measured log against a starting parameter set. With a simulator (the plant
+/// FMU), every effect must also be confirmed by the windowed output error, and the output
+/// error before and after is reported; if the simulator cannot run the starting model, the
+/// validation falls back to the equation error with a note.
+pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
     let data = equation_error::prepare(log, start, &options.equation)?;
-    let selection = selection::select(&data, start, &options.selection);
-    let before = channel_stats(&data, &selection.before, log);
-    let after = channel_stats(&data, &selection.after, log);
     let mut notes = log.notes.clone();
     notes.extend(data.notes.iter().cloned());
-    Ok(Validation { data, selection, before, after, start: start.clone(), notes })
+    let mut output = None;
+    let mut frequency = None;
+    let mut hints = Vec::new();
+    let selection = match simulator {
+        None => selection::select(&data, start, &options.selection),
+        Some(simulator) => {
+            let prepared = OutputData::new(log, &data, start).and_then(|out| {
+                let plan = match options.output.window_seconds {
+                    Some(seconds) => WindowPlan::new((seconds / out.dt).round() as usize + 1, out.len(), out.dt, format!("fixed at {seconds} s")),
+                    None => output_error::choose_window(&out, options.output.window_correlation, options.output.minimum_windows),
+                };
+                let before = output_error::output_error(simulator, start, &data, &out, &plan)?;
+                Ok((out, plan, before))
+            });
+            match prepared {
+                Err(message) => {
+                    notes.push(format!("output error not available ({message}): effects are claimed on the equation error alone"));
+                    selection::select(&data, start, &options.selection)
+                }
+                Ok((out, plan, before)) => {
+                    let mut judge = OutputJudge {
+                        simulator: &mut *simulator,
+                        data: &data,
+                        out: &out,
+                        plan: &plan,
+                        cache: vec![(start.clone(), before.clone())],
+                        confirmations: Vec::new(),
+                        alpha: options.output.alpha,
+                    };
+                    let selection = selection::select_judged(&data, start, &options.selection, &mut judge);
+                    let OutputJudge { cache, confirmations, .. } = judge;
+                    let structure = data.structure;
+                    let after = match cache.iter().find(|(p, _)| *p == selection.corrected) {
+                        Some((_, e)) => e.clone(),
+                        None => output_error::output_error(simulator, &selection.corrected, &data, &out, &plan)?,
+                    };
+                    let overall = output_error::compare(&before, &after, selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(), options.output.alpha);
+                    // Hints: effects the equation-error test did not find significant (but at
+                    // least the noise in size) that the output error alone would confirm on top
+                    // of the corrected model. Not claimed: the equation error's test failed,
+                    // typically for want of independent samples in a short or slow log.
+                    if let Some(last) = selection.steps.last() {
+                        let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+                        for score in &last.scores {
+                            if score.not_applicable.is_some() || score.significant || accepted.contains(&score.kind) || score.effect_to_noise < options.selection.min_effect_to_noise {
+                                continue;
+                            }
+                            let Ok(with) = selection::fit_candidate(&data, &selection.corrected, &accepted, score.kind, &options.selection) else { continue };
+                            let Ok(candidate) = output_error::output_error(simulator, &with, &data, &out, &plan) else { continue };
+                            let comparison = output_error::compare(&after, &candidate, parameter_count(score.kind, structure), options.output.alpha);
+                            if comparison.confirmed {
+                                hints.push(Hint { kind: score.kind, equation_p: score.p_value, threshold: last.threshold, comparison, parameters: with });
+                            }
+                        }
+                    }
+                    frequency = frequency::compare(&data, &out, start, &selection.corrected);
+                    output = Some(OutputReport { config: out.config, plan, state_half_width: out.state_half_width, before, after, confirmations, overall });
+                    selection
+                }
+            }
+        }
+    };
+    let before = channel_stats(&data, &selection.before, log);
+    let after = channel_stats(&data, &selection.after, log);
+    Ok(Validation { data, selection, before, after, start: start.clone(), output, frequency, hints, notes })
 }
 
 /// Residual statistics of a fit, per channel.
@@ -94,27 +312,30 @@ pub fn channel_stats(data: &EquationData, fit: &Fit, log: &MeasuredLog) -> Vec<C
             // Decimate to about one sample per filter length: the smoothing correlates
             // neighbouring residual samples even when the model is right.
             let decimated: Vec<f64> = fit.residual[c].iter().step_by(decimation).copied().collect();
-            let (_, whiteness_p) = stats::ljung_box(&decimated, 20.min(decimated.len() / 4).max(1));
-            let lags_outside = stats::fraction_outside_whiteness_band(&decimated, 20.min(decimated.len() / 4).max(1));
-            let max_lag = ((1.0 / (data.dt * decimation as f64)).round() as usize).max(1);
+            let lags = 20.min(decimated.len() / 4).max(1);
+            let (whiteness_p, lags_outside) = match crate::dsp::whiteness_test(&decimated, lags, 0) {
+                Ok(test) => (test.p_value, test.fraction_outside),
+                Err(_) => (f64::NAN, f64::NAN),
+            };
+            let max_lag = ((1.0 / (data.dt * decimation as f64)).round() as usize).clamp(1, decimated.len().saturating_sub(1).max(1));
             let cross_correlation = inputs
                 .iter()
-                .map(|(name, x)| {
+                .filter_map(|(name, x)| {
                     let xd: Vec<f64> = x.iter().step_by(decimation).copied().collect();
-                    let cc = stats::cross_correlation(&xd, &decimated, max_lag);
-                    let (lag, value) = cc.iter().fold((0isize, 0.0f64), |best, &(k, v)| if v.abs() > best.1.abs() { (k, v) } else { best });
-                    (name.clone(), value, lag as f64 * data.dt * decimation as f64)
+                    let cc = crate::dsp::cross_correlation(&xd[..xd.len().min(decimated.len())], &decimated[..xd.len().min(decimated.len())], max_lag).ok()?;
+                    let (lag, value) = cc.peak();
+                    Some((name.clone(), value, lag as f64 * data.dt * decimation as f64))
                 })
                 .collect();
             ChannelStats {
                 name: channel.name.to_string(),
-                rms: stats::rms(&used),
+                rms: crate::dsp::rms(&used),
                 fit_percent: stats::nrmse_fit_percent(&measured, &used),
                 correlation_time: fit.tau[c],
                 whiteness_p,
                 lags_outside,
                 cross_correlation,
-                cross_bound: 1.96 / (decimated.len() as f64).sqrt(),
+                cross_bound: crate::dsp::whiteness_bound(decimated.len(), 0.95),
             }
         })
         .collect()

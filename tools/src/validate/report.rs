@@ -1,9 +1,13 @@
 //! Report of a validation run: a markdown summary (effects found, fitted parameters with
-//! uncertainty, error before and after, residual statistics, the search steps) and PNG figures
-//! of the residuals and the fit before and after, and of the residual spectra.
+//! uncertainty, error before and after on the output error and the equation error, residual
+//! statistics, the output-error confirmations, the frequency response, the search steps) and
+//! PNG figures: the output error (measured and simulated motion, residuals, before and after),
+//! the equation-error residuals and fit, the residual spectra, and the measured and model
+//! frequency responses.
 
-use super::stats;
-use super::{ChannelStats, Validation};
+use super::frequency::FrequencyResponse;
+use super::output_error::ChannelKind;
+use super::{ChannelStats, OutputReport, Validation};
 use crate::plot::{Figure, Panel};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -54,7 +58,34 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
         }
         let _ = writeln!(out);
     }
-    let _ = writeln!(out, "## Error before and after\n");
+    if let Some(o) = &v.output {
+        output_section(&mut out, o);
+    }
+    if let Some(f) = &v.frequency {
+        frequency_section(&mut out, f);
+    }
+    if !v.hints.is_empty() {
+        let _ = writeln!(out, "## Not claimed: what the output error alone would confirm\n");
+        let _ = writeln!(
+            out,
+            "These effects were not significant in the equation-error test (too few independent samples: the residual's correlation time against the log's length), \
+             so they are not claimed and not in the corrected parameters; added to the corrected model, the simulation would predict significantly better:\n"
+        );
+        for h in &v.hints {
+            let _ = writeln!(
+                out,
+                "- {} ({}; {}): {}; equation-error p {:.2e} against its threshold {:.2e}.",
+                h.kind.name(),
+                h.kind.description(),
+                h.changes(&v.selection.corrected),
+                h.comparison.reason,
+                h.equation_p,
+                h.threshold
+            );
+        }
+        let _ = writeln!(out);
+    }
+    let _ = writeln!(out, "## Equation error before and after\n");
     let _ = writeln!(out, "Residuals in axis-side N m (divide the torque equation by the gear ratio {} for motor-side N m).\n", d.gear_ratio);
     let _ = writeln!(out, "| model | channel | RMS | NRMSE fit % | corr. time (samples) | whiteness p | lags outside | largest cross-correlation |");
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
@@ -91,7 +122,75 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     out
 }
 
-/// Writes the figures: residuals before/after, measured vs model before/after, spectra.
+const ARCSEC: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
+
+/// A value in display units: angles in arcsec, speeds in arcsec/s.
+fn display(value: f64, unit: &str) -> (f64, &'static str) {
+    match unit {
+        "rad" => (value * ARCSEC, "arcsec"),
+        "rad/s" => (value * ARCSEC, "arcsec/s"),
+        _ => (value, "N m"),
+    }
+}
+
+fn output_section(out: &mut String, o: &OutputReport) {
+    let _ = writeln!(out, "## Output error before and after (plant FMU, windowed simulation)\n");
+    let _ = writeln!(
+        out,
+        "The plant FMU (`AzimuthPlant`, {:?} drive, {:?} input) was simulated through its C ABI over {} windows of {:.3} s ({}), each started from the measured state \
+         (Savitzky-Golay order 4 over {} samples) and driven by the logged command, held over each log interval at the mean of its two samples. \
+         RMS over all window samples; NRMSE fit against the measured signal's variation within each window.\n",
+        o.config.drive,
+        o.config.input,
+        o.plan.starts.len(),
+        o.plan.seconds,
+        o.plan.reason,
+        2 * o.state_half_width + 1
+    );
+    let _ = writeln!(out, "| output | scored | RMS before | RMS after | after/before | NRMSE fit before (%) | NRMSE fit after (%) |\n|---|---|---|---|---|---|---|");
+    for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
+        let (rb, unit) = display(b.rms, b.kind.unit());
+        let (ra, _) = display(a.rms, a.kind.unit());
+        let _ = writeln!(
+            out,
+            "| {} | {} | {rb:.4} {unit} | {ra:.4} {unit} | {:.3} | {:.1} | {:.1} |",
+            b.kind.name(),
+            if b.scored { "yes" } else { "no" },
+            a.rms / b.rms,
+            b.fit_percent,
+            a.fit_percent
+        );
+    }
+    let _ = writeln!(out, "\nCorrected against starting model: {}.\n", o.overall.reason);
+    if !o.confirmations.is_empty() {
+        let _ = writeln!(out, "Output-error confirmations asked during the search (each effect against the model without it):\n");
+        for (kind, c) in &o.confirmations {
+            let _ = writeln!(out, "- {}: {} -> **{}**", kind.name(), c.reason, if c.confirmed { "confirmed" } else { "rejected" });
+        }
+        let _ = writeln!(out);
+    }
+}
+
+fn frequency_section(out: &mut String, f: &FrequencyResponse) {
+    let _ = writeln!(out, "## Frequency response, torque to motor speed\n");
+    let measured = match f.measured_anti_resonance {
+        Some(m) => format!("{m:.3} Hz"),
+        None => "not resolved (coherence below its 95 % threshold over more than 20 % of the band)".to_string(),
+    };
+    let _ = writeln!(
+        out,
+        "H1 from the logged torque to the motor speed, band {:.2}-{:.2} Hz around the model's anti-resonance; broadband excitation there: {}. \
+         Anti-resonance (trough): measured {measured}, model before {:.3} Hz, after {:.3} Hz.\n",
+        f.band.0,
+        f.band.1,
+        if f.broadband { "yes" } else { "no" },
+        f.before_anti_resonance,
+        f.after_anti_resonance
+    );
+}
+
+/// Writes the figures: output error (measured and simulated, residuals), equation-error
+/// residuals and fit, spectra, frequency response.
 pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<String>, String> {
     let v = validation;
     let d = &v.data;
@@ -125,8 +224,14 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
     let mut spectra = Figure::new(1200, 450 * v.before.len() as u32).title(&format!("{stem}: residual spectra"));
     for (c, channel) in v.selection.before.channels.iter().enumerate() {
         let segment = (d.len() / 8).clamp(64, 4096);
-        let (f, before) = stats::welch_psd(&v.selection.before.residual[c], 1.0 / d.dt, segment);
-        let (_, after) = stats::welch_psd(&v.selection.after.residual[c], 1.0 / d.dt, segment);
+        let config = crate::dsp::WelchConfig::new(segment.min(d.len()));
+        let (Ok(before), Ok(after)) = (
+            crate::dsp::welch_psd(&v.selection.before.residual[c], 1.0 / d.dt, &config),
+            crate::dsp::welch_psd(&v.selection.after.residual[c], 1.0 / d.dt, &config),
+        ) else {
+            continue;
+        };
+        let (f, before, after) = (before.frequency_hz, before.psd, after.psd);
         spectra = spectra.panel(
             Panel::new(&format!("{}: residual PSD", channel.name))
                 .x_label("frequency (Hz)")
@@ -141,5 +246,169 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
     let path = dir.join(format!("{stem}_spectra.png"));
     spectra.save_png(&path).map_err(|e| e.to_string())?;
     written.push(path.display().to_string());
+    if let Some(o) = &v.output {
+        let path = dir.join(format!("{stem}_output.png"));
+        output_figure(o, stem).save_png(&path).map_err(|e| e.to_string())?;
+        written.push(path.display().to_string());
+    }
+    if let Some(f) = &v.frequency {
+        let path = dir.join(format!("{stem}_frequency.png"));
+        frequency_figure(f, stem).save_png(&path).map_err(|e| e.to_string())?;
+        written.push(path.display().to_string());
+    }
     Ok(written)
+}
+
+/// Values of consecutive windows with a NaN between windows, so a line breaks at each restart.
+fn with_gaps(values: &[f64], length: usize, scale: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(values.len() + values.len() / length.max(1));
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 && i % length == 0 {
+            out.push(f64::NAN);
+        }
+        out.push(v * scale);
+    }
+    out
+}
+
+/// Measured and simulated motion and the residual, before and after, per scored output.
+pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
+    let length = o.plan.length;
+    let time = with_gaps(&o.before.time, length, 1.0);
+    let scored: Vec<usize> = (0..o.before.channels.len()).filter(|&c| o.before.channels[c].scored).collect();
+    let mut figure = Figure::new(1400, 420 * 2 * scored.len() as u32).title(&format!("{stem}: output error (plant FMU over {} windows of {:.2} s)", o.plan.starts.len(), o.plan.seconds));
+    for c in scored {
+        let (b, a) = (&o.before.channels[c], &o.after.channels[c]);
+        let (scale, unit) = if b.kind.unit() == "rad" { (ARCSEC, "arcsec") } else { (ARCSEC, "arcsec/s") };
+        figure = figure.panel(
+            Panel::new(&format!("{}: measured and simulated", b.kind.name()))
+                .x_label("time (s)")
+                .y_label(unit)
+                .line("measured", &time, &with_gaps(&b.measured, length, scale))
+                .line("model before", &time, &with_gaps(&b.simulated, length, scale))
+                .line("model after", &time, &with_gaps(&a.simulated, length, scale)),
+        );
+        figure = figure.panel(
+            Panel::new(&format!("{}: residual, RMS {:.4} -> {:.4} {unit}", b.kind.name(), b.rms * scale, a.rms * scale))
+                .x_label("time (s)")
+                .y_label(unit)
+                .line("before", &time, &with_gaps(&b.residual(), length, scale))
+                .line("after", &time, &with_gaps(&a.residual(), length, scale)),
+        );
+    }
+    figure
+}
+
+/// Measured H1 with the model responses, and the coherence.
+pub fn frequency_figure(f: &FrequencyResponse, stem: &str) -> Figure {
+    let keep: Vec<usize> = (1..f.frequency_hz.len()).collect();
+    let x: Vec<f64> = keep.iter().map(|&k| f.frequency_hz[k]).collect();
+    let db = |h: &[crate::dsp::Complex64]| keep.iter().map(|&k| 20.0 * h[k].norm().log10()).collect::<Vec<_>>();
+    let mut magnitude = Panel::new("torque to motor speed |H| (dB re 1 rad/s per N m)")
+        .x_label("frequency (Hz)")
+        .y_label("dB")
+        .log_x()
+        .line("measured H1", &x, &db(&f.measured))
+        .line("model before", &x, &db(&f.before))
+        .line("model after", &x, &db(&f.after))
+        .vertical_line("model anti-resonance (before)", f.before_anti_resonance);
+    if let Some(m) = f.measured_anti_resonance {
+        magnitude = magnitude.vertical_line("measured anti-resonance", m);
+    }
+    let coherence: Vec<f64> = keep.iter().map(|&k| f.coherence[k]).collect();
+    Figure::new(1200, 900).title(&format!("{stem}: frequency response")).panel(magnitude).panel(
+        Panel::new("coherence")
+            .x_label("frequency (Hz)")
+            .y_label("coherence")
+            .log_x()
+            .y_range(0.0, 1.05)
+            .line("coherence", &x, &coherence)
+            .horizontal_line("95 % threshold", f.coherence_threshold),
+    )
+}
+
+/// The section of docs/validation-results.md on measured logs (the KUKA axes): per axis the
+/// effects found with their parameters, the output and equation errors before and after, the
+/// confirmations that were rejected, and the figures. `rows` holds (axis, validation, run time
+/// in seconds, figure paths).
+pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "Starting sets `tools/data/kuka/axisN.params`: only the published gear ratio, motor inertia and torque constant (no stiffness, \
+         so the plant FMU runs with a rigid drive and only the total torque equation is used). Output error: the plant FMU driven by the \
+         logged motor torque over windows re-initialised from the measured state; positions in arcsec (1 deg = 3600 arcsec). \
+         Equation error: axis-side N m (motor side = / gear ratio).\n"
+    );
+    let _ = writeln!(out, "| axis | effects found (value +- sd) | windows | axis position RMS before -> after | motor position RMS before -> after | NRMSE fit (axis position) | total torque RMS before -> after (axis N m) | fit (torque) | whiteness p after | run time |");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
+    for (axis, v, seconds, _) in rows {
+        let found: Vec<String> = v
+            .selection
+            .found
+            .iter()
+            .map(|f| {
+                let params: Vec<String> = f.parameters.iter().filter(|p| !p.0.ends_with("change")).map(|(n, value, sd, unit)| format!("{n} = {value:.4e} +- {sd:.2e} {unit}")).collect();
+                format!("**{}**: {}", f.kind.name(), params.join(", "))
+            })
+            .collect();
+        let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };
+        let (windows, axis_pos, motor_pos, fit) = match &v.output {
+            Some(o) => {
+                let pick = |kind: ChannelKind| -> String {
+                    match (o.before.channel(kind), o.after.channel(kind)) {
+                        (Some(b), Some(a)) => format!("{:.1} -> {:.1} ({:.2})", b.rms * ARCSEC, a.rms * ARCSEC, a.rms / b.rms),
+                        _ => "-".into(),
+                    }
+                };
+                let fit = match (o.before.channel(ChannelKind::AxisPosition), o.after.channel(ChannelKind::AxisPosition)) {
+                    (Some(b), Some(a)) => format!("{:.1} -> {:.1} %", b.fit_percent, a.fit_percent),
+                    _ => "-".into(),
+                };
+                (format!("{} x {:.2} s", o.plan.starts.len(), o.plan.seconds), pick(ChannelKind::AxisPosition), pick(ChannelKind::MotorPosition), fit)
+            }
+            None => ("-".into(), "-".into(), "-".into(), "-".into()),
+        };
+        let c = v.most_improved_channel();
+        let _ = writeln!(
+            out,
+            "| {axis} | {found} | {windows} | {axis_pos} | {motor_pos} | {fit} | {:.0} -> {:.0} ({:.2}) | {:.1} -> {:.1} % | {:.1e} | {:.1} s |",
+            v.before[c].rms,
+            v.after[c].rms,
+            v.after[c].rms / v.before[c].rms,
+            v.before[c].fit_percent,
+            v.after[c].fit_percent,
+            v.after[c].whiteness_p,
+            seconds
+        );
+    }
+    let _ = writeln!(out);
+    for (axis, v, _, figures) in rows {
+        let _ = writeln!(out, "**Axis {axis}.**");
+        if let Some(o) = &v.output {
+            let rejected: Vec<String> =
+                o.confirmations.iter().filter(|(_, c)| !c.confirmed).map(|(k, c)| format!("{} ({})", k.name(), c.reason)).collect();
+            if !rejected.is_empty() {
+                let _ = writeln!(out, "Significant in the equation error but not confirmed by the output error: {}.", rejected.join("; "));
+            }
+            let _ = writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
+        }
+        for h in &v.hints {
+            let _ = writeln!(
+                out,
+                "Not claimed (equation-error p {:.1e} above its threshold {:.1e}), but the output error alone would confirm **{}** ({}) on top of the corrected model: {}.",
+                h.equation_p,
+                h.threshold,
+                h.kind.name(),
+                h.changes(&v.selection.corrected),
+                h.comparison.reason
+            );
+        }
+        for note in &v.notes {
+            let _ = writeln!(out, "Note: {note}.");
+        }
+        let names: Vec<String> = figures.iter().filter_map(|f| Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))).collect();
+        let _ = writeln!(out, "Figures: {}.\n", names.join(", "));
+    }
+    out
 }

@@ -20,7 +20,8 @@ use super::candidates::{self, stack, stacked_weights, Column, Instance, Kind, Mo
 use super::equation_error::{model_channels, ChannelData, EquationData, Structure};
 use super::parameters::ParameterSet;
 use super::signals::weighted_least_squares;
-use super::stats::{chi_squared_sf, correlation_time};
+use super::stats::correlation_time;
+use crate::dsp::chi_squared_sf;
 
 /// Settings of the search.
 #[derive(Debug, Clone)]
@@ -103,6 +104,8 @@ pub struct Score {
     /// RMS of what the effect adds, over the sensor noise, in the channel where it is largest.
     pub effect_to_noise: f64,
     pub searched: Vec<(String, f64)>,
+    /// The confirmation's note, for the chosen candidate.
+    pub confirmation: Option<String>,
 }
 
 /// Sensor noise of each channel (raw, before smoothing), from the model-free estimates: the
@@ -148,10 +151,12 @@ fn effect_vector(instance: &Instance, beta: &[f64], channels: &[ChannelData]) ->
 /// in residual sum of squares over the variance; for a coloured one it weighs the residual's
 /// correlation at the time scales of the effect itself, so a fast effect (a delay) is not
 /// penalised for a slow misfit elsewhere, nor a slow effect credited with a fast one. The lag
-/// window per channel is three correlation times of the residual. The noise is taken from
-/// the fullest model of the step (every candidate at once), as the denominator of an F-test
-/// uses the unrestricted model: effects still missing from the current model would otherwise
-/// count as noise and hide each other.
+/// window per channel is three correlation times of the residual. The noise is the
+/// alternative's residual (the current model plus this candidate). An effect still missing
+/// from the model counts as noise there, so two large effects in one log can hide each other
+/// at the first step (a known limitation; the unrestricted model of every candidate at once
+/// was tried as the noise and made every candidate significant on such logs, leaving the
+/// choice to the ranking, which then picked a compromise effect).
 fn robust_chi2(channels: &[ChannelData], others: &[Column], effect: &[Vec<f64>], residual: &[Vec<f64>], noise: &[Vec<f64>], weights: &[f64], tau: &[f64]) -> f64 {
     let u = stack(channels, effect);
     let row_weights = stacked_weights(channels, weights);
@@ -199,19 +204,46 @@ fn robust_chi2(channels: &[ChannelData], others: &[Column], effect: &[Vec<f64>],
 /// residual when the effect's parameters go back to their values before it was added, over
 /// the channel's noise, largest over channels.
 fn refined_effect_to_noise(data: &EquationData, kind: Kind, refined: &ParameterSet, before: &ParameterSet, noise: &[f64]) -> f64 {
+    let reset = without_effect(kind, refined, before);
+    let with = model_channels(data, refined);
+    let without = model_channels(data, &reset);
+    with.iter()
+        .zip(&without)
+        .zip(noise)
+        .map(|((a, b), n)| {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for i in 0..a.mask.len() {
+                if a.mask[i] {
+                    let d = (a.measured[i] - a.predicted[i]) - (b.measured[i] - b.predicted[i]);
+                    sum += d * d;
+                    count += 1;
+                }
+            }
+            if *n > 0.0 {
+                (sum / count.max(1) as f64).sqrt() / n
+            } else {
+                0.0
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// `params` with the parameters of one effect put back to their values in `before` (the
+/// effect removed, everything else kept; for friction levels, only the effect's own change).
+pub fn without_effect(kind: Kind, params: &ParameterSet, before: &ParameterSet) -> ParameterSet {
     use super::parameters::names;
-    let mut reset = refined.clone();
+    let mut reset = params.clone();
     let copy = |reset: &mut ParameterSet, name: &str| reset.set(name, before.value(name));
     match kind {
         Kind::Coulomb => {
-            let change = refined.value(names::COULOMB) - before.value(names::COULOMB);
+            let change = params.value(names::COULOMB) - before.value(names::COULOMB);
             reset.set(names::COULOMB, before.value(names::COULOMB));
-            reset.set(names::STATIC, refined.value(names::STATIC) - change);
+            reset.set(names::STATIC, params.value(names::STATIC) - change);
         }
         Kind::Viscous => copy(&mut reset, names::VISCOUS),
         Kind::Stribeck => {
             let hump = before.value(names::STATIC) - before.value(names::COULOMB);
-            reset.set(names::STATIC, refined.value(names::COULOMB) + hump);
+            reset.set(names::STATIC, params.value(names::COULOMB) + hump);
             copy(&mut reset, names::STRIBECK_VELOCITY);
         }
         Kind::Offset => copy(&mut reset, names::TORQUE_OFFSET),
@@ -236,27 +268,7 @@ fn refined_effect_to_noise(data: &EquationData, kind: Kind, refined: &ParameterS
             copy(&mut reset, names::COGGING_PHASE);
         }
     }
-    let with = model_channels(data, refined);
-    let without = model_channels(data, &reset);
-    with.iter()
-        .zip(&without)
-        .zip(noise)
-        .map(|((a, b), n)| {
-            let (mut sum, mut count) = (0.0, 0usize);
-            for i in 0..a.mask.len() {
-                if a.mask[i] {
-                    let d = (a.measured[i] - a.predicted[i]) - (b.measured[i] - b.predicted[i]);
-                    sum += d * d;
-                    count += 1;
-                }
-            }
-            if *n > 0.0 {
-                (sum / count.max(1) as f64).sqrt() / n
-            } else {
-                0.0
-            }
-        })
-        .fold(0.0, f64::max)
+    reset
 }
 
 /// What an effect adds to each channel's model: its fitted columns minus its adjustment.
@@ -315,6 +327,9 @@ pub struct Selection {
     pub steps: Vec<Step>,
     pub found: Vec<Found>,
     pub corrected: ParameterSet,
+    /// Effects added by the forward search and removed again by the backward check, with the
+    /// reason (the model without them predicts as well).
+    pub removed: Vec<(Kind, String)>,
 }
 
 /// Nuisance columns that every model carries: with two equations, the twist offset c (encoder
@@ -430,8 +445,72 @@ fn refine(data: &EquationData, mut params: ParameterSet, accepted: &[Kind], weig
     }
 }
 
+/// A judge of candidate effects beyond the equation-error tests; the output error is one.
+pub trait Judge {
+    /// Whether an effect may be claimed: given the effect, the parameters without it and the
+    /// refined parameters with it, `Ok` with a note to keep it, `Err` with the reason to
+    /// reject it.
+    fn confirm(&mut self, kind: Kind, without: &ParameterSet, with: &ParameterSet) -> Result<String, String>;
+    /// Whether the model `challenger` predicts significantly better than `incumbent`, two
+    /// confirmed alternatives of one step (`extra` is how many more parameters the challenger
+    /// has). The equation error ranks the candidates; a judge that can compare them overrules
+    /// the ranking only on significant evidence.
+    fn prefers(&mut self, _incumbent: &ParameterSet, _challenger: &ParameterSet, _extra: isize) -> bool {
+        false
+    }
+    /// Whether [`Judge::prefers`] can ever say yes (otherwise the search stops at the first
+    /// confirmed candidate).
+    fn compares(&self) -> bool {
+        false
+    }
+}
+
+/// The judge that accepts everything: the equation-error tests alone decide.
+pub struct EquationOnly;
+
+impl Judge for EquationOnly {
+    fn confirm(&mut self, _: Kind, _: &ParameterSet, _: &ParameterSet) -> Result<String, String> {
+        Ok(String::new())
+    }
+}
+
+/// Fits one more effect on top of a model with `accepted` effects, as the search would (grid
+/// search of its nonlinear parameters, joint Gauss-Newton refit), without testing it. For
+/// diagnostics: what the effect would be if it were added.
+pub fn fit_candidate(data: &EquationData, params: &ParameterSet, accepted: &[Kind], kind: Kind, options: &SelectionOptions) -> Result<ParameterSet, String> {
+    let channels = model_channels(data, params);
+    let unit = vec![1.0; channels.len()];
+    let first = fit(&channels, &baseline_columns(data, params), &[], &unit);
+    let weights = first.channel_weights();
+    let (accepted_columns, accepted_instances) = refine_columns(data, params, &channels, accepted, &weights);
+    let current = fit(&channels, &accepted_columns, &[], &weights);
+    let instance = candidates::instantiate(kind, data, params, &channels, &current.residual, &weights, Mode::Search)?;
+    let mut columns = accepted_columns.clone();
+    columns.extend(instance.columns.iter().cloned());
+    let alternative = fit(&channels, &columns, &add_adjust(&[], &instance.adjust, channels.len()), &weights);
+    let mut offset = baseline_columns(data, params).len();
+    let mut next = params.clone();
+    for previous in &accepted_instances {
+        let k = previous.columns.len();
+        candidates::apply(previous, &alternative.beta[offset..offset + k], data, &mut next);
+        offset += k;
+    }
+    candidates::apply(&instance, &alternative.beta[offset..offset + instance.columns.len()], data, &mut next);
+    let mut trial = accepted.to_vec();
+    trial.push(kind);
+    let (refined, _, _) = refine(data, next, &trial, &weights, options.max_iterations);
+    candidates::admissible(&refined, data)?;
+    Ok(refined)
+}
+
 /// Runs the search on conditioned data from a starting parameter set.
 pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOptions) -> Selection {
+    select_judged(data, start, options, &mut EquationOnly)
+}
+
+/// Runs the search, asking the judge about every effect that passes the equation-error tests
+/// and is admissible; a rejected effect is not claimed and the next candidate is tried.
+pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &SelectionOptions, judge: &mut dyn Judge) -> Selection {
     let channel_count = data.channels.len();
     let unit = vec![1.0; channel_count];
     let first = fit(&data.channels, &baseline_columns(data, start), &[], &unit);
@@ -467,6 +546,7 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
                         explained_fraction: 0.0,
                         effect_to_noise: 0.0,
                         searched: Vec::new(),
+                        confirmation: None,
                     });
                     continue;
                 }
@@ -481,13 +561,13 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
             let adjust = add_adjust(&[], &instance.adjust, channel_count);
             let alternative = fit(&current.channels, &columns, &adjust, &weights);
             let own_beta = &alternative.beta[accepted_columns.len()..];
-            let effect = effect_vector(&instance, own_beta, &current.channels);
+            let effect = effect_vector(instance, own_beta, &current.channels);
             let lr = robust_chi2(&current.channels, &accepted_columns, &effect, &alternative.residual, &alternative.residual, &weights, &alternative.tau);
             let k = instance.parameter_count();
             let n_eff = alternative.effective_samples().max(2.0);
             let weighted = |f: &Fit| f.rss.iter().zip(&weights).map(|(r, w)| r * w).sum::<f64>();
             let explained = if weighted(&current) > 0.0 { 1.0 - weighted(&alternative) / weighted(&current) } else { 0.0 };
-            let effect_to_noise = contribution(&instance, own_beta, &current.channels)
+            let effect_to_noise = contribution(instance, own_beta, &current.channels)
                 .iter()
                 .zip(&noise)
                 .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
@@ -505,6 +585,7 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
                 explained_fraction: explained,
                 effect_to_noise,
                 searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
+                confirmation: None,
             });
             *slot = alternative;
         }
@@ -517,11 +598,14 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
                 && score.bic_gain > 0.0
                 && score.effect_to_noise >= options.min_effect_to_noise;
         }
-        // Take the significant candidates best first; the first whose refined parameters are
-        // physically admissible is added.
+        // Take the significant candidates best first (equation-error rank). Each whose refined
+        // parameters are physically admissible is put to the judge; the best-ranked confirmed
+        // one is added, unless the judge finds a lower-ranked confirmed one predicts
+        // significantly better (the equation error sees the form of an effect sharply, the
+        // simulation its consequence).
         let mut order: Vec<usize> = (0..scores.len()).filter(|&i| scores[i].significant).collect();
         order.sort_by(|&a, &b| scores[b].rank.total_cmp(&scores[a].rank));
-        let mut chosen = None;
+        let mut chosen: Option<(usize, Kind, ParameterSet, Fit, usize)> = None;
         for index in order {
             let kind = scores[index].kind;
             let Some((instance, alternative)) = evaluated.iter().find(|(i, _)| i.kind == kind) else { continue };
@@ -550,16 +634,35 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
                 }
             });
             match check {
-                Ok(()) => {
-                    chosen = Some((kind, refined, refined_fit, iterations));
-                    break;
-                }
+                Ok(()) => match judge.confirm(kind, &params, &refined) {
+                    Ok(note) => {
+                        scores[index].confirmation = Some(note);
+                        let replace = match &chosen {
+                            None => true,
+                            Some((_, _, incumbent, _, _)) => {
+                                let extra = scores[index].parameters as isize - chosen.as_ref().map_or(0, |c| scores[c.0].parameters as isize);
+                                judge.prefers(incumbent, &refined, extra)
+                            }
+                        };
+                        if replace {
+                            chosen = Some((index, kind, refined, refined_fit, iterations));
+                        }
+                        if !judge.compares() {
+                            break;
+                        }
+                    }
+                    Err(reason) => {
+                        scores[index].significant = false;
+                        scores[index].not_applicable = Some(format!("significant but not confirmed: {reason}"));
+                    }
+                },
                 Err(reason) => {
                     scores[index].significant = false;
                     scores[index].not_applicable = Some(format!("significant but not admissible: {reason}"));
                 }
             }
         }
+        let chosen = chosen.map(|(_, kind, refined, fit, iterations)| (kind, refined, fit, iterations));
         let Some((kind, refined, refined_fit, iterations)) = chosen else {
             steps.push(Step { scores, chosen: None, threshold, iterations: 0 });
             break;
@@ -568,6 +671,33 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
         steps.push(Step { scores, chosen: Some(kind), threshold, iterations });
         params = refined;
         current = refined_fit;
+    }
+
+    // Backward check: with several effects, each must still earn its place in the final
+    // model. An effect found early can be a compensation for effects found later (a
+    // torque-constant change standing in for Coulomb friction and an unbalance together);
+    // it is removed when the model without it (the others refitted) passes the confirmation
+    // as well as with it, i.e. the confirmation of the effect against that model fails.
+    let mut removed = Vec::new();
+    while accepted.len() >= 2 {
+        let mut dropped = None;
+        for index in 0..accepted.len() {
+            let kind = accepted[index];
+            let others: Vec<Kind> = accepted.iter().copied().filter(|k| *k != kind).collect();
+            let weights = current.channel_weights();
+            let (without, without_fit, _) = refine(data, without_effect(kind, &params, start), &others, &weights, options.max_iterations);
+            if candidates::admissible(&without, data).is_err() {
+                continue;
+            }
+            if let Err(reason) = judge.confirm(kind, &without, &params) {
+                dropped = Some((index, without, without_fit, reason));
+                break;
+            }
+        }
+        let Some((index, without, without_fit, reason)) = dropped else { break };
+        removed.push((accepted.remove(index), reason));
+        params = without;
+        current = without_fit;
     }
 
     // A last fit with weights from the final residual, so the covariance reflects the final
@@ -586,7 +716,7 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
             offset += k;
         }
     }
-    Selection { before, after: current, steps, found, corrected: params }
+    Selection { before, after: current, steps, found, corrected: params, removed }
 }
 
 #[cfg(test)]

@@ -1,0 +1,132 @@
+//! Measured against model frequency response, torque to motor speed, where the data has
+//! broadband excitation.
+//!
+//! The measured response is the H1 estimate (Welch cross spectrum over input spectrum,
+//! `antenna_tools::dsp`) from the logged axis torque to the motor speed, with its coherence;
+//! the model's is the corrected Eq. 1 two-mass response (`fmu_plant::analytic`) with the
+//! model's viscous friction, the delay and the torque-constant scale, in axis-side units.
+//! The anti-resonance is the trough of the torque-to-motor-speed response: its frequency is
+//! sqrt(K/J_L) (damped), so a stiffness error shows as a shift of the measured trough against
+//! the model's. Coulomb friction is not in a linear response; it shows as lower coherence at
+//! low frequency.
+
+use super::equation_error::EquationData;
+use super::output_error::OutputData;
+use super::parameters::{names, ParameterSet};
+use crate::dsp::{transfer_function_h1, Complex64, WelchConfig};
+use fmu_plant::analytic::TwoMassParameters;
+
+/// The comparison of measured and model responses.
+#[derive(Debug, Clone)]
+pub struct FrequencyResponse {
+    pub frequency_hz: Vec<f64>,
+    /// Measured H1 (rad/s per N m) and its coherence.
+    pub measured: Vec<Complex64>,
+    pub coherence: Vec<f64>,
+    /// The coherence two unrelated records would exceed with 5 % probability.
+    pub coherence_threshold: f64,
+    /// Model responses before and after.
+    pub before: Vec<Complex64>,
+    pub after: Vec<Complex64>,
+    /// The band searched for the anti-resonance (Hz) and whether the data excites it: the
+    /// coherence exceeds its threshold over at least 80 % of the band's bins.
+    pub band: (f64, f64),
+    pub broadband: bool,
+    /// Anti-resonance frequencies (Hz): the trough of the measured response within the band
+    /// (None when the band is not excited), and of the two models' responses.
+    pub measured_anti_resonance: Option<f64>,
+    pub before_anti_resonance: f64,
+    pub after_anti_resonance: f64,
+}
+
+/// The model's torque-to-motor-speed response at `f` Hz, axis-side units.
+pub fn model_response(params: &ParameterSet, f: f64) -> Complex64 {
+    let gear = params.value(names::GEAR_RATIO);
+    let two_mass = TwoMassParameters {
+        motor_inertia: params.value(names::MOTOR_INERTIA) * gear * gear,
+        motor_friction: params.value(names::VISCOUS),
+        shaft_stiffness: params.value(names::STIFFNESS),
+        cross_coupled_damping: params.value(names::DAMPING),
+        load_inertia: params.value(names::LOAD_INERTIA),
+    };
+    let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+    let delay = (-s * params.value(names::DELAY)).exp();
+    two_mass.motor_speed_per_torque(s) * delay * params.value(names::TORQUE_CONSTANT_SCALE)
+}
+
+/// The frequency of the smallest |H| among `values` at `frequency` within `band`, refined
+/// between bins by a parabola through the log-magnitudes of the smallest and its neighbours.
+fn trough(frequency: &[f64], values: &[f64], band: (f64, f64)) -> Option<f64> {
+    let k = (0..frequency.len()).filter(|&k| frequency[k] >= band.0 && frequency[k] <= band.1).min_by(|&a, &b| values[a].total_cmp(&values[b]))?;
+    if k == 0 || k + 1 >= frequency.len() {
+        return Some(frequency[k]);
+    }
+    let (a, b, c) = (values[k - 1].ln(), values[k].ln(), values[k + 1].ln());
+    let curvature = a - 2.0 * b + c;
+    let shift = if curvature > 0.0 { (0.5 * (a - c) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+    Some(frequency[k] + shift * (frequency[k + 1] - frequency[k]))
+}
+
+/// Compares the measured response with the models', when the models have a compliant drive
+/// (a stiffness and a load inertia) whose anti-resonance lies below the Nyquist frequency.
+pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, after: &ParameterSet) -> Option<FrequencyResponse> {
+    let stiffness = before.value(names::STIFFNESS);
+    let load = before.value(names::LOAD_INERTIA);
+    if stiffness <= 0.0 || load <= 0.0 {
+        return None;
+    }
+    let sample_rate = 1.0 / data.dt;
+    let anti_resonance = (stiffness / load).sqrt() / (2.0 * std::f64::consts::PI);
+    let band = (0.5 * anti_resonance, 2.0 * anti_resonance);
+    if band.1 >= 0.5 * sample_rate {
+        return None;
+    }
+    // Segments of an eighth of the record (15 averages with 50 % overlap): fine resolution
+    // with a coherence that separates excited from unexcited bins. At least 16 bins must fall
+    // in the band.
+    let segment = data.len() / 8;
+    if segment < 16 || (band.1 - band.0) * segment as f64 / sample_rate < 16.0 {
+        return None;
+    }
+    let config = WelchConfig::new(segment);
+    let torque = &out.axis_torque;
+    // The motor speed by five-point central differences of the logged motor angle: a flat
+    // response to far above the drive modes. Its encoder noise is uncorrelated with the
+    // torque, which H1 tolerates (it biases only with noise on the input).
+    let k0 = out.first_sample;
+    let x = &out.motor_pos;
+    let speed: Vec<f64> = (0..data.len())
+        .map(|i| {
+            let k = (k0 + i).clamp(2, x.len() - 3);
+            (x[k - 2] - 8.0 * x[k - 1] + 8.0 * x[k + 1] - x[k + 2]) / (12.0 * data.dt)
+        })
+        .collect();
+    let speed = &speed;
+    let estimate = transfer_function_h1(torque, speed, sample_rate, &config).ok()?;
+    let threshold = estimate.coherence_threshold(0.95);
+    let in_band: Vec<usize> = (0..estimate.frequency_hz.len()).filter(|&k| estimate.frequency_hz[k] >= band.0 && estimate.frequency_hz[k] <= band.1).collect();
+    let excited = in_band.iter().filter(|&&k| estimate.coherence[k] > threshold).count();
+    let broadband = !in_band.is_empty() && excited as f64 >= 0.8 * in_band.len() as f64;
+    let magnitude: Vec<f64> = estimate.h1.iter().map(|h| h.norm()).collect();
+    let model = |p: &ParameterSet| estimate.frequency_hz.iter().map(|&f| model_response(p, f)).collect::<Vec<_>>();
+    let (model_before, model_after) = (model(before), model(after));
+    // The model troughs on a fine grid, so they do not carry the Welch resolution.
+    let fine: Vec<f64> = (0..=2000).map(|k| band.0 + (band.1 - band.0) * k as f64 / 2000.0).collect();
+    let fine_trough = |p: &ParameterSet| {
+        let values: Vec<f64> = fine.iter().map(|&f| model_response(p, f).norm()).collect();
+        trough(&fine, &values, band).unwrap_or(f64::NAN)
+    };
+    Some(FrequencyResponse {
+        measured_anti_resonance: if broadband { trough(&estimate.frequency_hz, &magnitude, band) } else { None },
+        before_anti_resonance: fine_trough(before),
+        after_anti_resonance: fine_trough(after),
+        frequency_hz: estimate.frequency_hz,
+        measured: estimate.h1,
+        coherence: estimate.coherence,
+        coherence_threshold: threshold,
+        before: model_before,
+        after: model_after,
+        band,
+        broadband,
+    })
+}
