@@ -1,0 +1,50 @@
+"""Locates the packaged FMUs for the Python tests.
+
+The FMUs are in target/fmu/ relative to the repository (written by
+`cargo run --release -p antenna-tools --bin package`). Tests that take the fixture `fmu_path`
+run once for every .fmu found there, so FMUs added later are covered without editing the tests;
+a missing folder or a missing plant FMU is a test failure with the instruction to package,
+never a silent skip.
+"""
+
+import pathlib
+
+import pytest
+
+REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
+FMU_DIRECTORY = REPOSITORY / "target" / "fmu"
+PLANTS = ("AzimuthPlant", "ElevationPlant")
+PACKAGE_HINT = "package the FMUs first: cargo run --release -p antenna-tools --bin package"
+
+
+def packaged_fmus():
+    """Every .fmu in the packaging folder, sorted."""
+    return sorted(FMU_DIRECTORY.glob("*.fmu"))
+
+
+def plant_path(model_identifier):
+    """The packaged plant FMU with this model identifier; fails the test if it is missing."""
+    path = FMU_DIRECTORY / f"{model_identifier}.fmu"
+    if not path.is_file():
+        pytest.fail(f"{path} is missing: {PACKAGE_HINT}")
+    return path
+
+
+def pytest_generate_tests(metafunc):
+    if "fmu_path" in metafunc.fixturenames:
+        paths = packaged_fmus()
+        # An empty folder still yields one test, which fails with the instruction.
+        metafunc.parametrize("fmu_path", paths or [None], ids=[p.stem for p in paths] or ["no-fmu"], indirect=True)
+
+
+@pytest.fixture
+def fmu_path(request):
+    if request.param is None:
+        pytest.fail(f"no .fmu in {FMU_DIRECTORY}: {PACKAGE_HINT}")
+    return request.param
+
+
+@pytest.fixture(params=PLANTS)
+def plant(request):
+    """The model identifier and path of each plant FMU."""
+    return request.param, plant_path(request.param)

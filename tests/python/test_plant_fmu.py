@@ -1,0 +1,288 @@
+"""The packaged FMUs under fmpy, an FMI master written independently of this project.
+
+Every .fmu in target/fmu/ must pass `fmpy validate` and run under `simulate_fmu`; the plant
+FMUs must reproduce their linear configuration (both ways of choosing it), refuse misuse with
+fmi2Error and a logged message without crashing, restore and transfer FMU states bitwise, and
+never write to stdout or stderr. The Rust integration tests in tests/rust/ check the same FMUs
+against the analytic solution of Eq. 1; these tests make sure a foreign master sees the same.
+"""
+
+import math
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.validation import validate_fmu
+
+from conftest import PLANTS, plant_path
+from fmu_slave import FMI2_ERROR, Packaged
+
+HERE = pathlib.Path(__file__).resolve().parent
+
+
+@pytest.fixture(scope="module")
+def packaged():
+    """Each plant FMU unpacked once per module, by model identifier."""
+    unpacked = {}
+
+    def get(model_identifier):
+        if model_identifier not in unpacked:
+            unpacked[model_identifier] = Packaged(plant_path(model_identifier))
+        return unpacked[model_identifier]
+
+    yield get
+    for p in unpacked.values():
+        p.close()
+
+
+def current_inputs(model_identifier):
+    """The current-command inputs of a plant."""
+    return ["motor1.current_command", "motor2.current_command"] if model_identifier == "AzimuthPlant" else ["motor.current_command"]
+
+
+def step_input(model_identifier, amplitude, at=0.05, stop=0.5):
+    """A structured array for simulate_fmu: every current command steps from 0 to `amplitude`
+    at `at` seconds (the repeated time marks the discontinuity)."""
+    names = current_inputs(model_identifier)
+    dtype = [("time", np.float64)] + [(n, np.float64) for n in names]
+    rows = [(0.0,) + (0.0,) * len(names), (at,) + (0.0,) * len(names), (at,) + (amplitude,) * len(names), (stop,) + (amplitude,) * len(names)]
+    return np.array(rows, dtype=dtype)
+
+
+def relative_to_range(a, b):
+    span = np.max(b) - np.min(b)
+    assert span > 0, "the reference does not move: a range-relative difference means nothing"
+    return float(np.max(np.abs(a - b)) / span)
+
+
+# --- Every packaged FMU -------------------------------------------------------------------
+
+
+def test_fmpy_validate_reports_no_problem(fmu_path):
+    problems = validate_fmu(str(fmu_path))
+    assert problems == [], f"{fmu_path.name}: {problems}"
+
+
+def test_simulate_fmu_runs_the_default_experiment(fmu_path):
+    # Warnings and errors would reach fmpy's logger; a run that ends at the stop time with
+    # finite outputs is what a user of simulate_fmu needs.
+    result = simulate_fmu(str(fmu_path))
+    assert len(result) > 10
+    for name in result.dtype.names:
+        if np.issubdtype(result[name].dtype, np.floating):
+            assert np.all(np.isfinite(result[name])), f"{fmu_path.name}: {name} is not finite"
+    experiment = read_model_description(str(fmu_path)).defaultExperiment
+    assert math.isclose(result["time"][-1], float(experiment.stopTime)), f"{fmu_path.name} stopped at {result['time'][-1]}"
+
+
+# --- The plant FMUs under simulate_fmu ------------------------------------------------------
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_simulate_fmu_drives_each_plant_with_a_current_step(model_identifier):
+    path = plant_path(model_identifier)
+    result = simulate_fmu(str(path), stop_time=0.5, output_interval=1e-3, input=step_input(model_identifier, 2.0), output=["axis.position", "axis.speed"])
+    before = result["time"] <= 0.05
+    assert np.all(result["axis.speed"][before] == 0.0), "the axis moved before the step"
+    assert result["axis.speed"][-1] > 0.0 and result["axis.position"][-1] > result["axis.position"][0], "a positive current did not move the axis positively"
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_linear_configuration_by_parameter_file_and_by_flag_agree(model_identifier):
+    path = str(plant_path(model_identifier))
+    signal = step_input(model_identifier, 1.5)
+    outputs = ["axis.position", "axis.speed", "motor.speed" if model_identifier == "ElevationPlant" else "motor1.speed"]
+    by_file = simulate_fmu(path, stop_time=0.5, output_interval=1e-3, input=signal, output=outputs, start_values={"parameter_file": "linear.params"})
+    by_flag = simulate_fmu(path, stop_time=0.5, output_interval=1e-3, input=signal, output=outputs, start_values={"linear_configuration": True})
+    default = simulate_fmu(path, stop_time=0.5, output_interval=1e-3, input=signal, output=outputs)
+    for name in outputs:
+        assert np.array_equal(by_file[name], by_flag[name]), f"{model_identifier}: {name} differs between the two linear configurations"
+    # And it is a different plant from the default one (friction, saturation are gone).
+    assert not np.array_equal(by_file["axis.speed"], default["axis.speed"])
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_linear_configuration_is_linear_and_the_default_is_not(model_identifier):
+    # Homogeneity: twice the current gives exactly twice the response in the linear
+    # configuration; with friction (the default) it does not.
+    path = str(plant_path(model_identifier))
+    outputs = ["axis.speed"]
+
+    def run(amplitude, start_values):
+        return simulate_fmu(path, stop_time=0.5, output_interval=1e-3, input=step_input(model_identifier, amplitude), output=outputs, start_values=start_values)["axis.speed"]
+
+    linear = {"linear_configuration": True}
+    assert relative_to_range(2.0 * run(1.0, linear), run(2.0, linear)) < 1e-12
+    assert relative_to_range(2.0 * run(1.0, {}), run(2.0, {})) > 1e-3
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_linear_configuration_does_not_depend_on_the_communication_step(model_identifier):
+    path = str(plant_path(model_identifier))
+    outputs = ["axis.position", "axis.speed", "motor.current" if model_identifier == "ElevationPlant" else "motor1.current"]
+    signal = step_input(model_identifier, 1.0, at=0.1)
+    coarse = simulate_fmu(path, stop_time=0.5, output_interval=1e-3, input=signal, output=outputs, start_values={"parameter_file": "linear.params"})
+    fine = simulate_fmu(path, stop_time=0.5, output_interval=1e-4, input=signal, output=outputs, start_values={"parameter_file": "linear.params"})
+    common = fine[::10]
+    assert np.allclose(common["time"], coarse["time"], rtol=0, atol=1e-12)
+    for name in outputs:
+        assert relative_to_range(coarse[name], common[name]) < 1e-10, f"{model_identifier}: {name} depends on the step"
+
+
+# --- Misuse through FMU2Slave -------------------------------------------------------------
+
+
+def assert_error(call, logger, what):
+    """The call raises fmpy's FMICallException with fmi2Error, and the FMU logged why."""
+    with pytest.raises(FMICallException) as caught:
+        call()
+    assert caught.value.status == FMI2_ERROR, f"{what}: status {caught.value.status}, expected fmi2Error"
+    assert logger.errors(), f"{what}: no error message through the logger"
+    return logger.errors()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_a_wrong_guid_raises_with_a_logged_message_and_does_not_crash(packaged, model_identifier):
+    p = packaged(model_identifier)
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        p.slave(guid="{00000000-0000-0000-0000-000000000000}")
+    # The library still serves correct instances afterwards.
+    fmu, _ = p.initialized()
+    fmu.doStep(0.0, 1e-3)
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_non_finite_input_is_an_error(packaged, model_identifier, bad):
+    p = packaged(model_identifier)
+    fmu, logger = p.initialized()
+    name = current_inputs(model_identifier)[0]
+    messages = assert_error(lambda: fmu.setReal([p.vr[name]], [bad]), logger, f"{name} = {bad}")
+    assert any(name in m[2] for m in messages)
+    assert fmu.getReal([p.vr[name]]) == [0.0], "the rejected value was stored"
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_do_step_before_initialisation_is_an_error(packaged, model_identifier):
+    fmu, logger = packaged(model_identifier).slave()
+    assert_error(lambda: fmu.doStep(0.0, 1e-3), logger, "DoStep before initialisation")
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_do_step_after_terminate_and_a_second_terminate_are_errors(packaged, model_identifier):
+    p = packaged(model_identifier)
+    fmu, logger = p.initialized()
+    fmu.doStep(0.0, 1e-3)
+    fmu.terminate()
+    assert_error(lambda: fmu.doStep(1e-3, 1e-3), logger, "DoStep after Terminate")
+    fmu.freeInstance()
+    fmu, logger = p.initialized()
+    fmu.terminate()
+    assert_error(fmu.terminate, logger, "second Terminate")
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_an_unknown_value_reference_is_an_error(packaged, model_identifier):
+    p = packaged(model_identifier)
+    unknown = max(p.vr.values()) + 1
+    fmu, logger = p.initialized()
+    assert_error(lambda: fmu.getReal([unknown]), logger, "GetReal of an unknown reference")
+    fmu.freeInstance()
+    fmu, logger = p.initialized()
+    assert_error(lambda: fmu.setReal([unknown], [1.0]), logger, "SetReal of an unknown reference")
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+@pytest.mark.parametrize("step", [-1e-3, 0.0])
+def test_a_negative_or_zero_step_is_an_error(packaged, model_identifier, step):
+    fmu, logger = packaged(model_identifier).initialized()
+    assert_error(lambda: fmu.doStep(0.0, step), logger, f"step {step}")
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_a_wrong_communication_point_is_an_error(packaged, model_identifier):
+    fmu, logger = packaged(model_identifier).initialized()
+    fmu.doStep(0.0, 1e-3)
+    messages = assert_error(lambda: fmu.doStep(0.5, 1e-3), logger, "DoStep at 0.5 when at 0.001")
+    assert any("currentCommunicationPoint" in m[2] for m in messages)
+    fmu.freeInstance()
+
+
+# --- FMU states -----------------------------------------------------------------------------
+
+
+def drive(p, model_identifier, fmu, start_ms, stop_ms):
+    """Steps 1 ms at a time with commands that reverse the drive every second and returns
+    every Real output at every step, as float64 bit patterns."""
+    outputs = [p.vr[n] for n in p.names("output", "Real")]
+    inputs = [p.vr[n] for n in current_inputs(model_identifier)]
+    record = []
+    for ms in range(start_ms, stop_ms):
+        command = 1.5 * math.sin(2 * math.pi * ms * 1e-3) + 0.2 * math.sin(0.37 * ms)
+        fmu.setReal(inputs, [command] * len(inputs))
+        fmu.doStep(ms * 1e-3, 1e-3)
+        record.append(fmu.getReal(outputs))
+    return np.array(record).view(np.uint64)
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_get_run_set_run_again_is_bitwise_identical(packaged, model_identifier):
+    p = packaged(model_identifier)
+    fmu, _ = p.initialized()
+    drive(p, model_identifier, fmu, 0, 500)
+    state = fmu.getFMUstate()
+    first = drive(p, model_identifier, fmu, 500, 1500)
+    fmu.setFMUstate(state)
+    second = drive(p, model_identifier, fmu, 500, 1500)
+    assert np.array_equal(first, second)
+    assert not np.array_equal(first[0], first[-1]), "the outputs did not change"
+    fmu.freeFMUstate(state)
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_a_serialized_state_continues_identically_in_another_instance(packaged, model_identifier):
+    p = packaged(model_identifier)
+    original, _ = p.initialized("original")
+    drive(p, model_identifier, original, 0, 500)
+    state = original.getFMUstate()
+    serialized = original.serializeFMUstate(state)
+    other, _ = p.initialized("other")
+    drive(p, model_identifier, other, 0, 123)
+    restored = other.deSerializeFMUstate(serialized)
+    other.setFMUstate(restored)
+    assert np.array_equal(drive(p, model_identifier, original, 500, 1500), drive(p, model_identifier, other, 500, 1500))
+    for fmu, s in ((original, state), (other, restored)):
+        fmu.freeFMUstate(s)
+        fmu.freeInstance()
+
+
+# --- Silence --------------------------------------------------------------------------------
+
+
+def test_the_fmus_write_nothing_to_stdout_or_stderr_even_when_misused(tmp_path):
+    # The misuse script runs in its own interpreter so that its file descriptors 1 and 2 can be
+    # captured whole, including anything the native code might write around Python.
+    paths = [str(plant_path(p)) for p in PLANTS]
+    report = tmp_path / "report.txt"
+    completed = subprocess.run(
+        [sys.executable, str(HERE / "silent_misuse.py"), str(report), *paths],
+        capture_output=True,
+        cwd=HERE,
+        timeout=300,
+    )
+    summary = report.read_text() if report.exists() else "(no report)"
+    assert completed.returncode == 0, f"the misuse script failed: {summary}"
+    assert completed.stdout == b"", f"stdout: {completed.stdout!r}"
+    assert completed.stderr == b"", f"stderr: {completed.stderr!r}"
+    assert "deliberate errors" in summary
