@@ -42,3 +42,55 @@ def test_fmpy_master_agrees_with_the_rust_master(tmp_path, scenario):
     assert relative.max() <= 1e-9, dict(zip(coupled_master.COLUMNS.split(","), relative))
     # The run did something: the axes moved and the wind pushed.
     assert np.ptp(rust[:, 3]) > 0.0 and np.abs(rust[:, 10]).max() > 0.0
+
+
+def pointing_error_arcsec(trace):
+    """On-sky error between the command and the true pointing, as the requirement report defines it."""
+    trace = np.asarray(trace)
+    d_az = trace[:, 1] - trace[:, 3]
+    d_el = trace[:, 2] - trace[:, 4]
+    return np.hypot(d_az * np.cos(np.radians(trace[:, 4])), d_el) * 3600.0
+
+
+def test_fmpy_master_meets_the_tracking_jitter_requirement(tmp_path):
+    """Req. 1 judged on the fmpy master's own trace: worst 10 s RMS window below 15 arcsec."""
+    folder = rust_scenario(tmp_path, "track-sidereal-el45")
+    config = coupled_master.read_config(folder / "track-sidereal-el45.config")
+    table = coupled_master.CommandTable.read(folder / "track-sidereal-el45.commands.csv")
+    trace = np.array(coupled_master.run(config, table, config["end_s"]))
+    error = pointing_error_arcsec(trace)
+    dt = trace[1, 0] - trace[0, 0]
+    window = int(round(10.0 / dt))
+    # Judge the tracking after the first 10 s in which the axes take up the track.
+    tracked = error[trace[:, 0] >= trace[0, 0] + 10.0]
+    mean_square = np.convolve(tracked**2, np.ones(window) / window, mode="valid")
+    worst_rms = np.sqrt(mean_square.max())
+    assert worst_rms < 15.0, worst_rms
+    # The axes did track: they moved by the sidereal rate over the run.
+    assert np.ptp(trace[:, 3]) > 1e-3
+
+
+def test_fmpy_master_settles_a_30_arcmin_step_within_4_s(tmp_path):
+    """Req. 4 judged on the fmpy master's own trace: within 15 arcsec for 10 s, less than 4 s
+    after the profiled reference reaches the new target."""
+    folder = rust_scenario(tmp_path, "step-30arcmin-el15")
+    config = coupled_master.read_config(folder / "step-30arcmin-el15.config")
+    table = coupled_master.CommandTable.read(folder / "step-30arcmin-el15.commands.csv")
+    trace = np.array(coupled_master.run(config, table, config["end_s"]))
+    error = pointing_error_arcsec(trace)
+    time = trace[:, 0]
+    target = trace[-1, 1:3]
+    jumped = np.abs(trace[:, 1] - target[0]) + np.abs(trace[:, 2] - target[1]) < 1e-9
+    jump_index = int(np.argmax(jumped))
+    assert jump_index > 0, "the command never stepped"
+    arrived = jumped & (np.abs(trace[:, 7] - target[0]) < 1e-5) & (np.abs(trace[:, 8] - target[1]) < 1e-5)
+    arrival = int(np.argmax(arrived))
+    assert arrived[arrival], "the profiled reference never reached the target"
+    hold = int(round(10.0 / (time[1] - time[0])))
+    outside = np.flatnonzero(error[arrival:] > 15.0)
+    settled = arrival if outside.size == 0 else arrival + outside[-1] + 1
+    assert len(error) - settled >= hold, "the run ended before the error had stayed in the band for 10 s"
+    assert time[settled] - time[arrival] < 4.0
+    # The command really stepped by 30 arcmin on each axis.
+    step = np.abs(trace[jump_index, 1:3] - trace[jump_index - 1, 1:3])
+    assert np.allclose(step, 0.5, atol=1e-6), step
