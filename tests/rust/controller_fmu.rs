@@ -14,38 +14,13 @@
 //!   inputs held over it, and the output is the newest one due, nothing interpolated. Each is
 //!   checked bitwise against a 1 ms run fed the inputs the samples see.
 
-use antenna_tests::{initialized, open, output_bits, real, set_reals, test_signal};
-use fmu_runtime::ffi::Status;
+use antenna_tests::{expect_error, initialized, open, output_bits, real, real_inputs, set_reals, test_signal, vr};
 use fmu_runtime::import::{Fmu, ImportError, Instance};
 
 const CONTROLLERS: [&str; 2] = ["AzimuthController", "ElevationController"];
 
 /// The controllers' sample time, s (the FMUs' default, which these tests rely on).
 const TS: f64 = 1e-3;
-
-/// Asserts fmi2Error with a message under logStatusError; returns the messages.
-fn expect_error<T: std::fmt::Debug>(result: Result<T, ImportError>, instance: &Instance, what: &str) -> Vec<String> {
-    match result {
-        Err(ImportError::Call { status: Status::Error, messages, .. }) => {
-            assert!(!messages.is_empty(), "{what}: fmi2Error without a logged message");
-            let logged = instance.log_records();
-            assert!(
-                logged.iter().any(|r| r.status == Status::Error && r.category == "logStatusError" && !r.message.is_empty()),
-                "{what}: no message under logStatusError ({logged:?})"
-            );
-            messages
-        }
-        other => panic!("{what}: expected fmi2Error, got {other:?}"),
-    }
-}
-
-fn vr(fmu: &Fmu, name: &str) -> u32 {
-    fmu.description.vr(name).unwrap()
-}
-
-fn real_inputs(fmu: &Fmu) -> Vec<String> {
-    fmu.description.variables.iter().filter(|v| v.causality == "input" && v.type_name == "Real").map(|v| v.name.clone()).collect()
-}
 
 #[test]
 fn the_controllers_sample_every_millisecond_by_default() {

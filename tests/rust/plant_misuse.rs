@@ -4,35 +4,8 @@
 //! fmi2Reset. Calls with NULL pointers are tested in fmu-runtime's `real_fmu_null_pointers`
 //! (they need `unsafe`, which only that crate may contain).
 
-use antenna_tests::{initialized, open, output_bits, real, set_reals, PLANTS};
-use fmu_runtime::ffi::Status;
-use fmu_runtime::import::{Fmu, ImportError, Instance};
-
-/// Asserts that a call failed with exactly fmi2Error and that the FMU explained why through the
-/// logger, under logStatusError; returns the messages.
-fn expect_error<T: std::fmt::Debug>(result: Result<T, ImportError>, instance: &Instance, what: &str) -> Vec<String> {
-    match result {
-        Err(ImportError::Call { status: Status::Error, messages, .. }) => {
-            assert!(!messages.is_empty(), "{what}: fmi2Error without a logged message");
-            let logged = instance.log_records();
-            assert!(
-                logged.iter().any(|r| r.status == Status::Error && r.category == "logStatusError" && !r.message.is_empty()),
-                "{what}: no message under logStatusError ({logged:?})"
-            );
-            messages
-        }
-        other => panic!("{what}: expected fmi2Error, got {other:?}"),
-    }
-}
-
-fn vr(fmu: &Fmu, name: &str) -> u32 {
-    fmu.description.vr(name).unwrap()
-}
-
-/// The Real inputs of a model, from its model description.
-fn real_inputs(fmu: &Fmu) -> Vec<String> {
-    fmu.description.variables.iter().filter(|v| v.causality == "input" && v.type_name == "Real").map(|v| v.name.clone()).collect()
-}
+use antenna_tests::{expect_error, initialized, open, output_bits, real, real_inputs, set_reals, vr, PLANTS};
+use fmu_runtime::import::{ImportError, Instance};
 
 #[test]
 fn do_step_before_initialisation_is_an_error_with_a_logged_message() {

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use fmu_runtime::ffi::Status;
 use fmu_runtime::import::{Fmu, ImportError, Instance};
 
 /// The two plant FMUs the plant tests run on.
@@ -113,4 +114,31 @@ pub fn test_signal(index: u64, seed: u64) -> f64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^= z >> 31;
     (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+}
+
+/// Asserts that a call failed with exactly fmi2Error and that the FMU explained why through the
+/// logger, under logStatusError; returns the messages.
+pub fn expect_error<T: std::fmt::Debug>(result: Result<T, ImportError>, instance: &Instance, what: &str) -> Vec<String> {
+    match result {
+        Err(ImportError::Call { status: Status::Error, messages, .. }) => {
+            assert!(!messages.is_empty(), "{what}: fmi2Error without a logged message");
+            let logged = instance.log_records();
+            assert!(
+                logged.iter().any(|r| r.status == Status::Error && r.category == "logStatusError" && !r.message.is_empty()),
+                "{what}: no message under logStatusError ({logged:?})"
+            );
+            messages
+        }
+        other => panic!("{what}: expected fmi2Error, got {other:?}"),
+    }
+}
+
+/// The value reference of a variable, from the model description.
+pub fn vr(fmu: &Fmu, name: &str) -> u32 {
+    fmu.description.vr(name).unwrap()
+}
+
+/// The Real inputs of a model, from its model description.
+pub fn real_inputs(fmu: &Fmu) -> Vec<String> {
+    fmu.description.variables.iter().filter(|v| v.causality == "input" && v.type_name == "Real").map(|v| v.name.clone()).collect()
 }
