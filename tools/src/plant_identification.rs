@@ -32,8 +32,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::dsp::{transfer_function_h1, Complex64, Detrend, WelchConfig};
-use crate::plot::{Figure, Panel};
+use crate::dsp::{transfer_function_h1, Complex64, Detrend, ResponseComparison, WelchConfig};
+use crate::plot::{measured_against_model, Figure, Panel};
 
 /// Which plant FMU to identify.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -242,24 +242,25 @@ impl Identification {
         (0.7 * f, 1.3 * f)
     }
 
+    /// The estimate beside the corrected Eq. 1, bin by bin.
+    pub fn comparison(&self) -> ResponseComparison<'_> {
+        ResponseComparison { frequency_hz: &self.frequency_hz, measured: &self.measured, analytic: &self.analytic, coherence: &self.coherence }
+    }
+
     /// Bins where the coherence exceeds `threshold`, below `max_frequency_hz`.
     pub fn coherent_bins(&self, threshold: f64, max_frequency_hz: f64) -> Vec<usize> {
-        (0..self.frequency_hz.len())
-            .filter(|&i| self.coherence[i] > threshold && self.frequency_hz[i] <= max_frequency_hz)
-            .collect()
+        self.comparison().coherent_bins(threshold, max_frequency_hz)
     }
 
     /// Largest |20 log10 |measured/analytic|| over the given bins, dB, with its frequency.
     pub fn max_magnitude_error_db(&self, bins: &[usize]) -> (f64, f64) {
-        bins.iter()
-            .map(|&i| ((20.0 * (self.measured[i].norm() / self.analytic[i].norm()).log10()).abs(), self.frequency_hz[i]))
-            .fold((0.0, f64::NAN), |best, e| if e.0 > best.0 { e } else { best })
+        self.comparison().max_magnitude_error_db(bins)
     }
 
     /// Largest phase difference measured - analytic over the given bins, deg (wrapped to
     /// +/-180).
     pub fn max_phase_error_deg(&self, bins: &[usize]) -> f64 {
-        bins.iter().map(|&i| (self.measured[i] / self.analytic[i]).arg().to_degrees().abs()).fold(0.0, f64::max)
+        self.comparison().max_phase_error_deg(bins)
     }
 
     /// Normalised random error of |H1| (one standard deviation) at a bin, Bendat & Piersol
@@ -273,52 +274,20 @@ impl Identification {
     /// The Bode figure: measured H1 against the corrected Eq. 1 (magnitude, phase), and the
     /// coherence, over 0.1 Hz to `max_frequency_hz`.
     pub fn figure(&self, max_frequency_hz: f64) -> Figure {
-        let keep: Vec<usize> = (0..self.frequency_hz.len()).filter(|&i| self.frequency_hz[i] <= max_frequency_hz).collect();
-        let f: Vec<f64> = keep.iter().map(|&i| self.frequency_hz[i]).collect();
-        let db = |h: &[Complex64]| -> Vec<f64> { keep.iter().map(|&i| 20.0 * h[i].norm().log10()).collect() };
-        let phase = |h: &[Complex64]| -> Vec<f64> {
-            let wrapped: Vec<f64> = keep.iter().map(|&i| h[i].arg().to_degrees()).collect();
-            crate::dsp::unwrap_phase_deg(&wrapped)
-        };
-        let coherence: Vec<f64> = keep.iter().map(|&i| self.coherence[i]).collect();
         let measured_trough = self.measured_trough();
         let analytic_trough = self.analytic_trough();
-        let config = &self.config;
         let title = format!(
             "{} plant FMU at {} deg elevation: motor speed per current command (open loop)",
-            capitalise(config.axis.name()),
-            config.elevation_deg
+            capitalise(self.config.axis.name()),
+            self.config.elevation_deg
         );
         let model = "corrected Eq. 1 x current loop x K_phi (held, sampled)";
-        Figure::new(1100, 1000)
-            .title(&title)
-            .panel(
-                Panel::new("Magnitude")
-                    .x_label("Frequency (Hz)")
-                    .y_label("|V_M / I_C| (dB re 1 rad/s/A)")
-                    .log_x()
-                    .line("measured H1 (FMU, Welch)", &f, &db(&self.measured))
-                    .dashed(model, &f, &db(&self.analytic))
-                    .vertical_line(&format!("measured trough {:.2} Hz", measured_trough.frequency_hz), measured_trough.frequency_hz)
-                    .vertical_line(&format!("analytic trough {:.2} Hz", analytic_trough.frequency_hz), analytic_trough.frequency_hz),
-            )
-            .panel(
-                Panel::new("Phase")
-                    .x_label("Frequency (Hz)")
-                    .y_label("Phase (deg)")
-                    .log_x()
-                    .line("measured H1", &f, &phase(&self.measured))
-                    .dashed(model, &f, &phase(&self.analytic)),
-            )
-            .panel(
-                Panel::new("Coherence")
-                    .x_label("Frequency (Hz)")
-                    .y_label("Coherence")
-                    .log_x()
-                    .y_range(0.0, 1.05)
-                    .line("measured", &f, &coherence)
-                    .horizontal_line("0.9", 0.9),
-            )
+        let magnitude = Panel::new("Magnitude").x_label("Frequency (Hz)").y_label("|V_M / I_C| (dB re 1 rad/s/A)");
+        measured_against_model(&title, &self.comparison(), max_frequency_hz, magnitude, "measured H1 (FMU, Welch)", model, |magnitude| {
+            magnitude
+                .vertical_line(&format!("measured trough {:.2} Hz", measured_trough.frequency_hz), measured_trough.frequency_hz)
+                .vertical_line(&format!("analytic trough {:.2} Hz", analytic_trough.frequency_hz), analytic_trough.frequency_hz)
+        })
     }
 }
 

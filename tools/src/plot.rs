@@ -25,7 +25,7 @@
 //!     .unwrap();
 //! ```
 
-use crate::dsp::{unwrap_phase_deg, Complex64};
+use crate::dsp::{unwrap_phase_deg, Complex64, ResponseComparison};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::coord::Shift;
 use plotters::element::{
@@ -1472,6 +1472,49 @@ pub fn bode(title: &str, curves: &[(&str, &[f64], &[Complex64])]) -> Figure {
         .title(title)
         .panel(magnitude)
         .panel(phase)
+}
+
+/// A measured frequency response against its model, up to `max_frequency_hz`: magnitude in dB
+/// (the panel `magnitude`, already labelled, which `decorate` may mark up further), unwrapped
+/// phase and coherence (with the 0.9 line the comparisons use).
+pub fn measured_against_model(
+    title: &str,
+    comparison: &ResponseComparison,
+    max_frequency_hz: f64,
+    magnitude: Panel,
+    measured_label: &str,
+    model_label: &str,
+    decorate: impl FnOnce(Panel) -> Panel,
+) -> Figure {
+    let keep: Vec<usize> = (0..comparison.frequency_hz.len()).filter(|&i| comparison.frequency_hz[i] <= max_frequency_hz).collect();
+    let f: Vec<f64> = keep.iter().map(|&i| comparison.frequency_hz[i]).collect();
+    let db = |h: &[Complex64]| -> Vec<f64> { keep.iter().map(|&i| 20.0 * h[i].norm().log10()).collect() };
+    let phase = |h: &[Complex64]| -> Vec<f64> {
+        let wrapped: Vec<f64> = keep.iter().map(|&i| h[i].arg().to_degrees()).collect();
+        unwrap_phase_deg(&wrapped)
+    };
+    let coherence: Vec<f64> = keep.iter().map(|&i| comparison.coherence[i]).collect();
+    let magnitude = magnitude.log_x().line(measured_label, &f, &db(comparison.measured)).dashed(model_label, &f, &db(comparison.analytic));
+    Figure::new(1100, 1000)
+        .title(title)
+        .panel(decorate(magnitude))
+        .panel(
+            Panel::new("Phase")
+                .x_label("Frequency (Hz)")
+                .y_label("Phase (deg)")
+                .log_x()
+                .line("measured H1", &f, &phase(comparison.measured))
+                .dashed(model_label, &f, &phase(comparison.analytic)),
+        )
+        .panel(
+            Panel::new("Coherence")
+                .x_label("Frequency (Hz)")
+                .y_label("Coherence")
+                .log_x()
+                .y_range(0.0, 1.05)
+                .line("measured", &f, &coherence)
+                .horizontal_line("0.9", 0.9),
+        )
 }
 
 #[cfg(test)]

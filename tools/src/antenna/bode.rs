@@ -36,8 +36,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::dsp::{transfer_function_h1, Complex64, Detrend, WelchConfig};
-use crate::plot::{Figure, Panel};
+use crate::dsp::{transfer_function_h1, Complex64, Detrend, ResponseComparison, WelchConfig};
+use crate::plot::{measured_against_model, Figure, Panel};
 
 /// Which axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -427,75 +427,46 @@ impl VelocityBode {
         self.min_motor_speed_rad_per_s > 0.0 && self.flank_changes == 0 && self.max_torque_nm < self.bias_fade_start_nm
     }
 
+    /// The estimate beside the analytic loop, bin by bin.
+    pub fn comparison(&self) -> ResponseComparison<'_> {
+        ResponseComparison { frequency_hz: &self.frequency_hz, measured: &self.measured, analytic: &self.analytic, coherence: &self.coherence }
+    }
+
     /// Bins with coherence above `threshold` up to `max_frequency_hz`.
     pub fn coherent_bins(&self, threshold: f64, max_frequency_hz: f64) -> Vec<usize> {
-        (0..self.frequency_hz.len()).filter(|&i| self.coherence[i] > threshold && self.frequency_hz[i] <= max_frequency_hz).collect()
+        self.comparison().coherent_bins(threshold, max_frequency_hz)
     }
 
     /// Largest |20 log10 |measured / analytic||, dB, with its frequency, over `bins`.
     pub fn max_magnitude_error_db(&self, bins: &[usize]) -> (f64, f64) {
-        bins.iter()
-            .map(|&i| ((20.0 * (self.measured[i].norm() / self.analytic[i].norm()).log10()).abs(), self.frequency_hz[i]))
-            .fold((0.0, f64::NAN), |best, e| if e.0 > best.0 { e } else { best })
+        self.comparison().max_magnitude_error_db(bins)
     }
 
     /// Largest |phase(measured / analytic)|, deg, over `bins`.
     pub fn max_phase_error_deg(&self, bins: &[usize]) -> f64 {
-        bins.iter().map(|&i| (self.measured[i] / self.analytic[i]).arg().to_degrees().abs()).fold(0.0, f64::max)
+        self.comparison().max_phase_error_deg(bins)
     }
 
     /// Magnitude (dB), phase and coherence from the first bin to `max_frequency_hz`, measured
     /// against analytic, with the -3 dB points.
     pub fn figure(&self, max_frequency_hz: f64) -> Figure {
-        let keep: Vec<usize> = (0..self.frequency_hz.len()).filter(|&i| self.frequency_hz[i] <= max_frequency_hz).collect();
-        let f: Vec<f64> = keep.iter().map(|&i| self.frequency_hz[i]).collect();
-        let db = |h: &[Complex64]| -> Vec<f64> { keep.iter().map(|&i| 20.0 * h[i].norm().log10()).collect() };
-        let phase = |h: &[Complex64]| -> Vec<f64> {
-            let wrapped: Vec<f64> = keep.iter().map(|&i| h[i].arg().to_degrees()).collect();
-            crate::dsp::unwrap_phase_deg(&wrapped)
-        };
-        let coherence: Vec<f64> = keep.iter().map(|&i| self.coherence[i]).collect();
-        let c = &self.config;
         let title = format!(
             "Closed velocity loop of the {} axis at {} deg elevation (controller and plant FMUs, velocity mode)",
             self.config.axis.name(),
-            c.elevation_deg
+            self.config.elevation_deg
         );
         let model = format!("analytic: fmu_controller::linear closed loop on the two-mass model at {:.1} deg", self.model_elevation_deg);
-        let model = model.as_str();
-        let mut magnitude = Panel::new("Magnitude")
-            .x_label("Frequency (Hz)")
-            .y_label("|v / v_cmd| (dB)")
-            .log_x()
-            .line("measured H1 (Welch)", &f, &db(&self.measured))
-            .dashed(model, &f, &db(&self.analytic))
-            .horizontal_line("-3 dB", -3.0);
-        if let Some(b) = self.measured_bandwidth_hz {
-            magnitude = magnitude.vertical_line(&format!("measured -3 dB {b:.2} Hz"), b);
-        }
-        if let Some(b) = self.analytic_bandwidth_hz {
-            magnitude = magnitude.vertical_line(&format!("analytic -3 dB {b:.2} Hz"), b);
-        }
-        Figure::new(1100, 1000)
-            .title(&title)
-            .panel(magnitude)
-            .panel(
-                Panel::new("Phase")
-                    .x_label("Frequency (Hz)")
-                    .y_label("Phase (deg)")
-                    .log_x()
-                    .line("measured H1", &f, &phase(&self.measured))
-                    .dashed(model, &f, &phase(&self.analytic)),
-            )
-            .panel(
-                Panel::new("Coherence")
-                    .x_label("Frequency (Hz)")
-                    .y_label("Coherence")
-                    .log_x()
-                    .y_range(0.0, 1.05)
-                    .line("measured", &f, &coherence)
-                    .horizontal_line("0.9", 0.9),
-            )
+        let magnitude = Panel::new("Magnitude").x_label("Frequency (Hz)").y_label("|v / v_cmd| (dB)");
+        measured_against_model(&title, &self.comparison(), max_frequency_hz, magnitude, "measured H1 (Welch)", &model, |mut magnitude| {
+            magnitude = magnitude.horizontal_line("-3 dB", -3.0);
+            if let Some(b) = self.measured_bandwidth_hz {
+                magnitude = magnitude.vertical_line(&format!("measured -3 dB {b:.2} Hz"), b);
+            }
+            if let Some(b) = self.analytic_bandwidth_hz {
+                magnitude = magnitude.vertical_line(&format!("analytic -3 dB {b:.2} Hz"), b);
+            }
+            magnitude
+        })
     }
 }
 

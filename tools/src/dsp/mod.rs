@@ -18,6 +18,7 @@
 //!   statistics return NaN for an empty input, as floating-point reductions conventionally do.
 
 pub mod bands;
+pub mod comparison;
 pub mod correlation;
 pub mod distributions;
 pub mod expectation;
@@ -29,6 +30,7 @@ pub mod window;
 pub(crate) mod test_signals;
 
 pub use bands::{log_band_average, BandSpectrum};
+pub use comparison::ResponseComparison;
 pub use correlation::{
     autocorrelation, cross_correlation, whiteness_bound, whiteness_test, CrossCorrelation,
     WhitenessTest,
