@@ -20,6 +20,7 @@ pub mod scoring;
 pub mod selection;
 pub mod signals;
 pub mod stats;
+pub mod twist;
 
 use crate::measured_log::{MeasuredLog, Signal};
 use candidates::Kind;
@@ -54,6 +55,7 @@ pub struct ValidateOptions {
     pub equation: EquationOptions,
     pub selection: SelectionOptions,
     pub output: OutputOptions,
+    pub twist: twist::TwistOptions,
 }
 
 /// Statistics of one residual channel, as a control engineer reads them.
@@ -118,6 +120,11 @@ pub struct Validation {
     pub start: ParameterSet,
     pub output: Option<OutputReport>,
     pub frequency: Option<frequency::FrequencyResponse>,
+    /// The two-encoder check of the twist ([`twist`]); for a log whose load encoder was found
+    /// to lag, the analysis that found it (the data above are then the corrected ones).
+    pub twist: Option<twist::TwistAnalysis>,
+    /// The timing skew the load encoder was corrected by (s), when one was found.
+    pub encoder_skew: Option<f64>,
     /// Effects not claimed that the output error alone would confirm.
     pub hints: Vec<Hint>,
     pub notes: Vec<String>,
@@ -228,7 +235,33 @@ pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptio
 /// FMU), every effect must also be confirmed by the windowed output error, and the output
 /// error before and after is reported; if the simulator cannot run the starting model, the
 /// validation falls back to the equation error with a note.
-pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
+///
+/// With two encoders, the twist is checked after the search ([`twist`]): a significant timing
+/// skew between the encoders is corrected in the data (the load encoder shifted back) and the
+/// log validated once more, so the effects are found on consistent data.
+pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, mut simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
+    // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
+    let reborrowed = match simulator.as_mut() {
+        Some(s) => Some(&mut **s as &mut dyn PlantSimulator),
+        None => None,
+    };
+    let mut first = validate_once(log, start, options, reborrowed)?;
+    first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
+    let Some(skew) = first.twist.as_ref().and_then(|t| t.claimed_skew()) else { return Ok(first) };
+    let corrected_log = twist::shift_load_encoder(log, skew);
+    let mut second = validate_once(&corrected_log, start, options, simulator)?;
+    second.notes.push(format!(
+        "the load encoder lags the motor encoder by {:.3} ms ({:.2} samples): it was shifted back by that much and the log validated again; the results above are on the corrected data",
+        skew * 1e3,
+        skew / second.data.dt
+    ));
+    second.twist = first.twist;
+    second.encoder_skew = Some(skew);
+    Ok(second)
+}
+
+/// One pass of [`validate_with`] on a log as it is.
+fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
     let data = equation_error::prepare(log, start, &options.equation)?;
     let mut notes = log.notes.clone();
     notes.extend(data.notes.iter().cloned());
@@ -296,7 +329,7 @@ pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &Validate
     };
     let before = channel_stats(&data, &selection.before, log);
     let after = channel_stats(&data, &selection.after, log);
-    Ok(Validation { data, selection, before, after, start: start.clone(), output, frequency, hints, notes })
+    Ok(Validation { data, selection, before, after, start: start.clone(), output, frequency, twist: None, encoder_skew: None, hints, notes })
 }
 
 /// Residual statistics of a fit, per channel.

@@ -5,8 +5,10 @@
 //! the equation-error residuals and fit, the residual spectra, and the measured and model
 //! frequency responses.
 
+use super::equation_error::Structure;
 use super::frequency::FrequencyResponse;
 use super::output_error::ChannelKind;
+use super::twist::TwistAnalysis;
 use super::{ChannelStats, OutputReport, Validation};
 use crate::plot::{Figure, Panel};
 use std::fmt::Write as _;
@@ -57,6 +59,9 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
+    }
+    if let Some(t) = &v.twist {
+        twist_section(&mut out, t, v.encoder_skew);
     }
     if let Some(o) = &v.output {
         output_section(&mut out, o);
@@ -171,6 +176,58 @@ fn output_section(out: &mut String, o: &OutputReport) {
     }
 }
 
+/// One line on what the twist says, for the KUKA summary and the report.
+pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
+    let mut parts = Vec::new();
+    let skew = t.skew();
+    parts.push(match corrected {
+        Some(tau) => format!("load encoder **{:.2} ms behind** the motor encoder (+- {:.2} ms; data corrected)", tau * 1e3, skew.sd * 1e3),
+        None => format!("no encoder timing skew ({:.3} +- {:.3} ms, not significant)", skew.value * 1e3, skew.sd * 1e3),
+    });
+    if let Some((k, sd)) = t.rigid_stiffness() {
+        parts.push(format!("path compliance: K = {k:.3e} +- {sd:.1e} N m/rad (twist {:.1} arcsec RMS)", t.compliance().rms * ARCSEC));
+    } else if t.structure != Structure::TwoMass {
+        parts.push(format!("no significant path compliance (1/K = {:.2e} +- {:.1e} rad/(N m))", t.compliance().value, t.compliance().sd));
+    }
+    let b = t.lost_motion();
+    if b.significant && t.structure != Structure::TwoMass {
+        parts.push(format!("lost motion {:.1} +- {:.1} arcsec", b.value * ARCSEC, b.sd * ARCSEC));
+    }
+    let position = t.position_dependent();
+    if position.significant {
+        parts.push(format!("position-dependent twist (transmission error) {:.1} arcsec RMS", position.rms * ARCSEC));
+    }
+    parts.push(format!("twist residual {:.1} -> {:.1} arcsec RMS (sensor noise {:.2} arcsec)", t.rms_before * ARCSEC, t.rms_after * ARCSEC, t.noise * ARCSEC));
+    parts.join("; ")
+}
+
+fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
+    let _ = writeln!(out, "## Two encoders: what the twist says\n");
+    let _ = writeln!(
+        out,
+        "The measured twist (motor encoder referred to the axis minus load encoder) less the model's own twist, regressed on a constant (encoder offsets), \
+         the load speed (a timing skew between the encoders), the shaft torque the model says the motor delivers (compliance), its smoothed sign \
+         (lost motion) and a cubic in the axis angle (transmission error); {} samples, residual correlation time {:.1} samples. {}.\n",
+        t.samples,
+        t.correlation_time,
+        twist_summary(t, corrected)
+    );
+    let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist (arcsec) | significant |\n|---|---|---|---|---|---|");
+    for term in &t.terms {
+        let _ = writeln!(out, "| {} | {:.4e} | {:.2e} | {} | {:.3} | {} |", term.name, term.value, term.sd, term.unit, term.rms * ARCSEC, if term.significant { "yes" } else { "no" });
+    }
+    if t.structure == Structure::TwoMass {
+        let _ = writeln!(out, "\nWith a two-mass starting set, compliance and lost motion are judged by the candidate library (stiffness, backlash); only the skew is acted on here.");
+    } else if t.rigid_stiffness().is_some() || t.lost_motion().significant {
+        let _ = writeln!(
+            out,
+            "\nNot written into the corrected parameters: a compliant plant also needs the split of the inertia between motor and load, which a rigid starting set does not have. \
+             Give path.stiffness and load.inertia in the starting set to check compliance and lost motion in the two torque equations."
+        );
+    }
+    let _ = writeln!(out);
+}
+
 fn frequency_section(out: &mut String, f: &FrequencyResponse) {
     let _ = writeln!(out, "## Frequency response, torque to motor speed\n");
     let measured = match f.measured_anti_resonance {
@@ -251,12 +308,43 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
         output_figure(o, stem).save_png(&path).map_err(|e| e.to_string())?;
         written.push(path.display().to_string());
     }
+    if let Some(t) = &v.twist {
+        let path = dir.join(format!("{stem}_twist.png"));
+        twist_figure(t, v.encoder_skew, stem).save_png(&path).map_err(|e| e.to_string())?;
+        written.push(path.display().to_string());
+    }
     if let Some(f) = &v.frequency {
         let path = dir.join(format!("{stem}_frequency.png"));
         frequency_figure(f, stem).save_png(&path).map_err(|e| e.to_string())?;
         written.push(path.display().to_string());
     }
     Ok(written)
+}
+
+/// The measured twist less the model's, what the significant terms fit of it, and what is
+/// left, in arcsec.
+pub fn twist_figure(t: &TwistAnalysis, corrected: Option<f64>, stem: &str) -> Figure {
+    let scale = |x: &[f64]| x.iter().map(|v| v * ARCSEC).collect::<Vec<f64>>();
+    let residual: Vec<f64> = t.before.iter().zip(&t.fitted).map(|(b, f)| (b - f) * ARCSEC).collect();
+    let skew = match corrected {
+        Some(tau) => format!("load encoder {:.2} ms behind the motor encoder", tau * 1e3),
+        None => "no timing skew".to_string(),
+    };
+    Figure::new(1400, 900)
+        .title(&format!("{stem}: twist (motor minus load encoder) less the model's; {skew}"))
+        .panel(
+            Panel::new(&format!("measured (RMS {:.2} arcsec) and the significant terms", t.rms_before * ARCSEC))
+                .x_label("time (s)")
+                .y_label("arcsec")
+                .line("measured less model", &t.time, &scale(&t.before))
+                .line("fitted terms", &t.time, &scale(&t.fitted)),
+        )
+        .panel(
+            Panel::new(&format!("left after the terms (RMS {:.2} arcsec; sensor noise {:.2} arcsec)", t.rms_after * ARCSEC, t.noise * ARCSEC))
+                .x_label("time (s)")
+                .y_label("arcsec")
+                .line("residual", &t.time, &residual),
+        )
 }
 
 /// Values of consecutive windows with a NaN between windows, so a line breaks at each restart.
@@ -352,6 +440,10 @@ pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
                 format!("**{}**: {}", f.kind.name(), params.join(", "))
             })
             .collect();
+        let mut found = found;
+        if let Some(skew) = v.encoder_skew {
+            found.insert(0, format!("**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)", skew * 1e3));
+        }
         let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };
         let (windows, axis_pos, motor_pos, fit) = match &v.output {
             Some(o) => {
@@ -392,6 +484,9 @@ pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
                 let _ = writeln!(out, "Significant in the equation error but not confirmed by the output error: {}.", rejected.join("; "));
             }
             let _ = writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
+        }
+        if let Some(t) = &v.twist {
+            let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
         }
         for h in &v.hints {
             let _ = writeln!(
