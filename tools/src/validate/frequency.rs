@@ -63,7 +63,7 @@ fn trough(frequency: &[f64], values: &[f64], band: (f64, f64)) -> Option<f64> {
     }
     let (a, b, c) = (values[k - 1].ln(), values[k].ln(), values[k + 1].ln());
     let curvature = a - 2.0 * b + c;
-    let shift = if curvature > 0.0 { (0.5 * (a - c) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+    let shift = if curvature > 0.0 && a.is_finite() && c.is_finite() { (0.5 * (a - c) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
     Some(frequency[k] + shift * (frequency[k + 1] - frequency[k]))
 }
 
@@ -107,7 +107,9 @@ pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, aft
     let in_band: Vec<usize> = (0..estimate.frequency_hz.len()).filter(|&k| estimate.frequency_hz[k] >= band.0 && estimate.frequency_hz[k] <= band.1).collect();
     let excited = in_band.iter().filter(|&&k| estimate.coherence[k] > threshold).count();
     let broadband = !in_band.is_empty() && excited as f64 >= 0.8 * in_band.len() as f64;
-    let magnitude: Vec<f64> = estimate.h1.iter().map(|h| h.norm()).collect();
+    // The trough is searched among the coherent bins only: an incoherent bin's |H1| is noise
+    // and can dip below the true trough.
+    let magnitude: Vec<f64> = estimate.h1.iter().zip(&estimate.coherence).map(|(h, &c)| if c > threshold { h.norm() } else { f64::INFINITY }).collect();
     let model = |p: &ParameterSet| estimate.frequency_hz.iter().map(|&f| model_response(p, f)).collect::<Vec<_>>();
     let (model_before, model_after) = (model(before), model(after));
     // The model troughs on a fine grid, so they do not carry the Welch resolution.
