@@ -351,14 +351,7 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
     let delay = params.value(names::DELAY);
 
     let friction_static = data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
-    let cogging_amplitude = params.value(names::COGGING_AMPLITUDE);
-    let cogging_period = params.value(names::COGGING_PERIOD);
-    let cogging = if cogging_amplitude != 0.0 && cogging_period > 0.0 {
-        let phase = params.value(names::COGGING_PHASE);
-        data.smooth(&data.motor_pos_inner.iter().map(|q| cogging_amplitude * (2.0 * std::f64::consts::PI * q / cogging_period + phase).sin()).collect::<Vec<_>>())
-    } else {
-        vec![0.0; n]
-    };
+    let cogging = cogging_torque(data, params);
     let unbalance_amplitude = params.value(names::UNBALANCE_TORQUE);
     let unbalance_phase = params.value(names::UNBALANCE_PHASE);
     let unbalance: Vec<f64> = data.angle.iter().map(|a| unbalance_amplitude * (a + unbalance_phase).cos()).collect();
@@ -417,6 +410,18 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
             vec![ChannelData { name: "total torque balance", measured: measured_torque, predicted: model, mask: moving }]
         }
     }
+}
+
+/// The parameter set's position-periodic (cogging) torque on the motor, smoothed like the
+/// measured torque (axis side, N m); zero when the set has none.
+pub fn cogging_torque(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
+    let amplitude = params.value(names::COGGING_AMPLITUDE);
+    let period = params.value(names::COGGING_PERIOD);
+    if amplitude == 0.0 || period <= 0.0 {
+        return vec![0.0; data.len()];
+    }
+    let phase = params.value(names::COGGING_PHASE);
+    data.smooth(&data.motor_pos_inner.iter().map(|q| amplitude * (2.0 * std::f64::consts::PI * q / period + phase).sin()).collect::<Vec<_>>())
 }
 
 /// The sign of the twist relative to the centre of the dead zone, smoothed like the torque:

@@ -28,7 +28,7 @@
 //! be at least [`TwistOptions::min_skew_samples`] of a sample interval: below that it changes
 //! nothing a sampled comparison can see.
 
-use super::equation_error::{static_friction_curve, EquationData, Structure};
+use super::equation_error::{cogging_torque, static_friction_curve, EquationData, Structure};
 use super::parameters::{names, ParameterSet};
 use super::signals::{shift_samples, weighted_least_squares};
 use crate::measured_log::{MeasuredLog, Signal};
@@ -123,14 +123,7 @@ pub fn motor_side_shaft_torque(data: &EquationData, params: &ParameterSet) -> Ve
     let delay = params.value(names::DELAY);
     let torque = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
     let friction = data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
-    let amplitude = params.value(names::COGGING_AMPLITUDE);
-    let period = params.value(names::COGGING_PERIOD);
-    let cogging = if amplitude != 0.0 && period > 0.0 {
-        let phase = params.value(names::COGGING_PHASE);
-        data.smooth(&data.motor_pos_inner.iter().map(|q| amplitude * (2.0 * std::f64::consts::PI * q / period + phase).sin()).collect::<Vec<_>>())
-    } else {
-        vec![0.0; data.len()]
-    };
+    let cogging = cogging_torque(data, params);
     (0..data.len()).map(|i| scale * torque[i] - motor_inertia * data.motor_acc[i] - viscous * data.motor_vel[i] - friction[i] - cogging[i]).collect()
 }
 
