@@ -163,9 +163,9 @@ class CoupledAntenna:
         self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time, [("initial_position", az0), ("elevation", el0)])
         self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time, [("initial_position", el0)])
         self.az_ctrl = Unit("AzimuthController", "azimuth_controller", start_time,
-                            [("command.position", az0), ("measured.position", az0), ("sampling.sample_time", self.step_s)])
+                            [("command.position", az0), ("measured.position", az0)])
         self.el_ctrl = Unit("ElevationController", "elevation_controller", start_time,
-                            [("command.position", el0), ("measured.position", el0), ("sampling.sample_time", self.step_s)])
+                            [("command.position", el0), ("measured.position", el0)])
         self.wind = Unit("Wind", "wind", start_time, [
             ("wind.mean_speed", max(mean, 0.5)),
             ("wind.roughness_length", config["wind.roughness_length"]),

@@ -49,7 +49,9 @@ impl WindCondition {
 /// Everything a coupled run needs besides the command table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AntennaConfig {
-    /// Communication step, s; the controllers' sample time by default.
+    /// Communication step, s. The controllers keep their own sample time (1 ms by default, a
+    /// parameter): a step that is a multiple of it runs several samples per step on held
+    /// measurements, as docs/controller.md describes; the master never retunes them.
     pub step_s: f64,
     pub wind: WindCondition,
     pub azimuth_plant: Overrides,
@@ -267,13 +269,11 @@ impl CoupledAntenna {
         let mut az_ctrl_overrides = vec![
             real(&fmus.azimuth_controller.description, "command.position", start.azimuth_deg)?,
             real(&fmus.azimuth_controller.description, "measured.position", start.azimuth_deg)?,
-            real(&fmus.azimuth_controller.description, "sampling.sample_time", config.step_s)?,
         ];
         az_ctrl_overrides.extend(config.azimuth_controller.iter().cloned());
         let mut el_ctrl_overrides = vec![
             real(&fmus.elevation_controller.description, "command.position", start.elevation_deg)?,
             real(&fmus.elevation_controller.description, "measured.position", start.elevation_deg)?,
-            real(&fmus.elevation_controller.description, "sampling.sample_time", config.step_s)?,
         ];
         el_ctrl_overrides.extend(config.elevation_controller.iter().cloned());
         let w = &config.wind;

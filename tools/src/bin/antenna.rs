@@ -7,22 +7,47 @@
 //! scenarios whose name contains the text; `--out <dir>` changes the output folder;
 //! `--trace <dir>` also writes, per scenario, its command table, its configuration (wind and
 //! step, `name = value` lines) and its full trace as CSV, which the fmpy master
-//! (tests/python/coupled_master.py) reads to run the same scenario.
+//! (tests/python/coupled_master.py) reads to run the same scenario; `--commands <file.csv>`
+//! runs a pointing table of your own (`time_s,azimuth_deg,elevation_deg`, a repeated time
+//! marks a jump) instead of the requirement scenarios, in `--wind calm|optimal|normal`
+//! (default optimal) with `--seed <n>`, and judges it by the Req. 1 jitter.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use antenna_tools::antenna::report::{csv, markdown, plot, run_scenario};
-use antenna_tools::antenna::scenario::requirement_scenarios;
+use antenna_tools::antenna::command::CommandTable;
+use antenna_tools::antenna::coupled::WindCondition;
+use antenna_tools::antenna::scenario::{normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S};
 use antenna_tools::antenna::{AntennaConfig, FmuSet};
 use antenna_tools::package;
+
+const USAGE: &str = "usage: antenna [--no-build] [--only <name part>] [--out <dir>] [--trace <dir>]
+               [--commands <table.csv> [--wind calm|optimal|normal] [--seed <n>]]";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let flag = |name: &str| args.iter().any(|a| a == name);
     let value = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    if flag("--help") || flag("-h") {
+        println!("{USAGE}");
+        return ExitCode::SUCCESS;
+    }
     let out_dir = value("--out").map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("out").join("antenna"));
+    let scenarios = match value("--commands") {
+        Some(path) => match user_scenario(&PathBuf::from(path), value("--wind").as_deref().unwrap_or("optimal"), value("--seed").as_deref().unwrap_or("1")) {
+            Ok(s) => vec![s],
+            Err(e) => {
+                eprintln!("{e}\n{USAGE}");
+                return ExitCode::FAILURE;
+            }
+        },
+        None => {
+            let filter = value("--only");
+            requirement_scenarios().into_iter().filter(|s| filter.as_ref().is_none_or(|f| s.name.contains(f.as_str()))).collect()
+        }
+    };
 
     if !flag("--no-build") {
         eprintln!("building and packaging the FMUs ...");
@@ -38,8 +63,6 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let filter = value("--only");
-    let scenarios: Vec<_> = requirement_scenarios().into_iter().filter(|s| filter.as_ref().is_none_or(|f| s.name.contains(f.as_str()))).collect();
     let total_sim: f64 = scenarios.iter().map(|s| s.end_s).sum();
     let mut done_sim = 0.0;
     let mut outcomes = Vec::new();
@@ -80,13 +103,12 @@ fn main() -> ExitCode {
     let table = markdown(&outcomes);
     println!("\nRequirement report: {} scenarios, {:.0} s simulated in {:.1} s wall-clock ({:.0} x real time)\n", outcomes.len(), total_sim, wall, total_sim / wall);
     println!("{table}");
-    println!("Jitter = worst RMS of the on-sky pointing error sqrt((d_az cos el)^2 + d_el^2) over 10 s windows.");
-    println!("Settling = from the moment the profiled command reaches the target until the error stays within 15 arcsec for the next 10 s.");
+    println!("{}", antenna_tools::antenna::report::DEFINITIONS);
     if let Err(e) = std::fs::create_dir_all(&out_dir) {
         eprintln!("cannot create {}: {e}", out_dir.display());
         return ExitCode::FAILURE;
     }
-    let header = "# Requirement report\n\nJitter is the worst RMS of the on-sky pointing error sqrt((d_az cos el)^2 + d_el^2) over sliding 10 s windows. Settling time runs from the moment the profiled command reaches the target until the pointing error stays within 15 arcsec for the next 10 s; the time from the command itself is given beside it.\n\n";
+    let header = format!("# Requirement report\n\n{}\n\n", antenna_tools::antenna::report::DEFINITIONS.replace('\n', "\n\n"));
     let _ = std::fs::write(out_dir.join("report.md"), format!("{header}{table}"));
     let _ = std::fs::write(out_dir.join("report.csv"), csv(&outcomes));
     match plot(&outcomes, &out_dir) {
@@ -105,6 +127,34 @@ fn main() -> ExitCode {
         // completes; the tests assert the optimal-wind requirements.
         ExitCode::SUCCESS
     }
+}
+
+/// A scenario from a pointing table of the user's: run from its first to its last time stamp
+/// and judged by the worst 10 s RMS pointing error after the first 10 s.
+fn user_scenario(path: &std::path::Path, wind: &str, seed: &str) -> Result<Scenario, String> {
+    let table = CommandTable::from_csv(path).map_err(|e| e.to_string())?;
+    let seed: i32 = seed.parse().map_err(|_| format!("--seed {seed} is not a whole number"))?;
+    let (start, end) = table.time_span();
+    if end - start < 2.0 * JITTER_WINDOW_S {
+        return Err(format!("{}: the table spans {:.1} s; at least {:.0} s are needed for a jitter window after the first {:.0} s", path.display(), end - start, 2.0 * JITTER_WINDOW_S, JITTER_WINDOW_S));
+    }
+    let azimuth = table.at(start).azimuth_deg;
+    let (wind, label, requirement) = match wind {
+        "calm" => (WindCondition::CALM, "calm", Requirement::TrackingJitter),
+        "optimal" => (optimal_wind(azimuth, seed), "optimal", Requirement::TrackingJitter),
+        "normal" => (normal_wind(azimuth, seed), "normal", Requirement::TrackingNormalWind),
+        other => return Err(format!("--wind {other}: expected calm, optimal or normal")),
+    };
+    Ok(Scenario {
+        name: path.file_stem().map_or("commands".into(), |s| s.to_string_lossy().into_owned()),
+        requirement,
+        elevation_deg: table.at(start).elevation_deg,
+        wind_label: label,
+        wind,
+        end_s: end,
+        analysis: Analysis::Jitter { from_s: start + JITTER_WINDOW_S },
+        table,
+    })
 }
 
 /// Writes what another master needs to rerun a scenario, and the trace to compare with.
