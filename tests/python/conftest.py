@@ -1,18 +1,20 @@
 """Locates the packaged FMUs for the Python tests.
 
 The FMUs are in target/fmu/ relative to the repository (written by
-`cargo run --release -p antenna-tools --bin package`). Tests that take the fixture `fmu_path`
+`cargo run --release -p antenna-tools --bin package`), or in the folder that the environment
+variable MEERKAT_FMU_DIR names (as for the Rust tools). Tests that take the fixture `fmu_path`
 run once for every .fmu found there, so FMUs added later are covered without editing the tests;
 a missing folder or a missing plant FMU is a test failure with the instruction to package,
 never a silent skip.
 """
 
+import os
 import pathlib
 
 import pytest
 
 REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
-FMU_DIRECTORY = REPOSITORY / "target" / "fmu"
+FMU_DIRECTORY = pathlib.Path(os.environ.get("MEERKAT_FMU_DIR", REPOSITORY / "target" / "fmu"))
 PLANTS = ("AzimuthPlant", "ElevationPlant")
 PACKAGE_HINT = "package the FMUs first: cargo run --release -p antenna-tools --bin package"
 
