@@ -19,7 +19,7 @@ static SPECTRUM: EnumerationType = EnumerationType {
     description: "How the gust spectrum is realised.",
     items: &[
         ("davenport", "A shaping filter derived at initialisation that follows Eq. 2 within 0.06 dB from 0.001 to 30 rad/s, variance 6 kappa v_m^2."),
-        ("paper", "The seed paper's filters exactly: H3 for v_m = 3 m/s, H10 for v_m = 9.5 m/s (other speeds are an error)."),
+        ("paper", "The seed paper's filters exactly: H3 for v_m = 3 m/s, H10 for v_m = 9.5 m/s, at the paper's site z = 10 m, z0 = 0.4 m (other speeds or sites are an error)."),
         ("off", "No gust: the wind is steady at v_m."),
     ],
 };
@@ -109,7 +109,7 @@ impl WindModel {
         let v_mean = values.real(WindVar::MeanSpeed);
         let davenport = Davenport::new(v_mean, values.real(WindVar::Height), values.real(WindVar::Roughness))?;
         let filter = match Self::spectrum_item(values) {
-            "paper" => Some(ShapingFilter::paper(v_mean)?),
+            "paper" => Some(ShapingFilter::paper_at_site(v_mean, davenport.z, davenport.z0)?),
             "off" => None,
             _ => Some(ShapingFilter::davenport(&davenport)),
         };

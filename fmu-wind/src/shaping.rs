@@ -32,6 +32,11 @@ pub const PAPER_H3: ([f64; 4], [f64; 5]) = ([2.93, 203.5, 978.0, 3.616], [0.662,
 /// The seed paper's H10(s) for v_m = 9.5 m/s: numerator and denominator, highest power first.
 pub const PAPER_H10: ([f64; 4], [f64; 5]) = ([3.95, 370.8, 947.1, 5.12], [0.333, 38.4, 229.0, 23.6, 0.346]);
 
+/// The reference height the paper's H3 and H10 were fitted for, m.
+pub const PAPER_REFERENCE_HEIGHT: f64 = crate::site::REFERENCE_HEIGHT;
+/// The roughness length the paper's H3 and H10 were fitted for, m.
+pub const PAPER_ROUGHNESS_LENGTH: f64 = crate::site::PAPER_ROUGHNESS;
+
 /// How the filter's transfer function is evaluated independently of the modal form.
 #[derive(Debug, Clone, PartialEq)]
 enum Response {
@@ -95,6 +100,26 @@ impl ShapingFilter {
         filter.scale_gain(scale);
         filter.level_correction_db = 20.0 * scale.log10();
         filter
+    }
+
+    /// The seed paper's filter for `v_mean` at a site of reference height `z` and roughness
+    /// length `z0`: [`ShapingFilter::paper`], refused unless the site is the one the paper
+    /// fitted H3 and H10 for (z = 10 m, z0 = 0.4 m).
+    ///
+    /// The filters themselves do not depend on `z` and `z0`, but everything the wind unit
+    /// derives from kappa does (the normalised gust dv0, the linearised torque gain k_t, the
+    /// comparison with Eq. 2), so another site would pair the paper's spectrum with a kappa it
+    /// was never fitted to, silently.
+    pub fn paper_at_site(v_mean: f64, z: f64, z0: f64) -> Result<Self, String> {
+        let filter = Self::paper(v_mean)?;
+        if z != PAPER_REFERENCE_HEIGHT || z0 != PAPER_ROUGHNESS_LENGTH {
+            return Err(format!(
+                "spectrum mode 'paper': H3 and H10 are the paper's fits for reference height z = {PAPER_REFERENCE_HEIGHT} m \
+                 and roughness length z0 = {PAPER_ROUGHNESS_LENGTH} m; got z = {z} m, z0 = {z0} m. \
+                 Use the default Davenport mode for another site."
+            ));
+        }
+        Ok(filter)
     }
 
     /// The seed paper's filter for `v_mean`: H3 for 3 m/s, H10 for 9.5 m/s, an error otherwise.
@@ -364,6 +389,17 @@ mod tests {
         let err = ShapingFilter::paper(5.0).unwrap_err();
         assert!(err.contains("3 m/s") && err.contains("9.5 m/s") && err.contains("5"));
         assert!(ShapingFilter::paper(3.0).is_ok() && ShapingFilter::paper(9.5).is_ok());
+    }
+
+    #[test]
+    fn paper_mode_rejects_a_site_other_than_the_papers_naming_z_and_z0() {
+        for (z, z0) in [(15.0, 0.4), (10.0, 0.026), (2.0, 0.1)] {
+            let err = ShapingFilter::paper_at_site(3.0, z, z0).unwrap_err();
+            assert!(err.contains("z = 10 m") && err.contains("z0 = 0.4 m") && err.contains(&format!("got z = {z} m, z0 = {z0} m")), "{err}");
+        }
+        // The speed check still comes first, and the paper's own site is accepted.
+        assert!(ShapingFilter::paper_at_site(5.0, 15.0, 0.4).unwrap_err().contains("9.5 m/s"));
+        assert_eq!(ShapingFilter::paper_at_site(9.5, 10.0, 0.4).unwrap(), ShapingFilter::paper(9.5).unwrap());
     }
 
     /// `C exp(A t) B` of the controllable canonical form built from the printed polynomials:

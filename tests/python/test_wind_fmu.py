@@ -178,6 +178,25 @@ def test_paper_mode_at_5_m_per_s_is_refused_naming_h3_and_h10(packaged):
         assert np.ptp(result["wind.gust"]) > 0.0
 
 
+@pytest.mark.parametrize("height, roughness", [(15.0, ROUGHNESS), (HEIGHT, 0.026)])
+def test_paper_mode_at_another_site_is_refused_naming_z_and_z0(packaged, height, roughness):
+    # H3 and H10 are the paper's fits for z = 10 m and z0 = 0.4 m: moving either alone, at a
+    # speed the paper has a filter for, must fail initialisation with a message naming both.
+    fmu, logger = packaged.slave()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.setInteger([packaged.vr["spectrum"]], [PAPER])
+    names = ["wind.mean_speed", "wind.reference_height", "wind.roughness_length"]
+    fmu.setReal([packaged.vr[n] for n in names], [3.0, height, roughness])
+    fmu.enterInitializationMode()
+    with pytest.raises(FMICallException) as caught:
+        fmu.exitInitializationMode()
+    assert caught.value.status == FMI2_ERROR
+    messages = [m[2] for m in logger.errors()]
+    expected = ("z = 10 m", "z0 = 0.4 m", f"got z = {height:g} m, z0 = {roughness:g} m")
+    assert any(all(e in m for e in expected) for m in messages), messages
+    fmu.freeInstance()
+
+
 def test_steady_torque_equals_eq3_computed_by_hand():
     # Wind from 10 deg, antenna at azimuth 235 deg: yaw = 10 - 235 = -225, wrapped to 135 deg (a
     # back-quartering wind), at 30 deg elevation, a table node where the spline equals the table.

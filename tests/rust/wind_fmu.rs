@@ -731,6 +731,34 @@ fn paper_mode_at_another_speed_is_refused_at_initialisation_naming_h3_and_h10() 
     }
 }
 
+#[test]
+fn paper_mode_at_another_site_is_refused_at_initialisation_naming_z_and_z0() {
+    // H3 and H10 are the paper's fits for z = 10 m and z0 = 0.4 m; each site parameter moved
+    // alone, at both of the paper's speeds, must be refused with a message that names the
+    // paper's site and the values given, and the paper's own site accepted.
+    let fmu = open("Wind");
+    for v in [3.0, 9.5] {
+        for (z, z0) in [(15.0, 0.4), (10.0, 0.026)] {
+            let parameters = [("wind.mean_speed", v), ("wind.reference_height", z), ("wind.roughness_length", z0)];
+            match wind(&fmu, "paper-site", &parameters, &[("spectrum", PAPER)]) {
+                Err(ImportError::Call { function, status: Status::Error, messages }) => {
+                    println!("v_m = {v} m/s, z = {z} m, z0 = {z0} m: {function} returned fmi2Error: {messages:?}");
+                    assert_eq!(function, "fmi2ExitInitializationMode");
+                    let expected = [String::from("z = 10 m"), String::from("z0 = 0.4 m"), format!("got z = {z} m, z0 = {z0} m")];
+                    assert!(
+                        messages.iter().any(|m| expected.iter().all(|e| m.contains(e.as_str()))),
+                        "the message does not name the paper's site and the values given: {messages:?}"
+                    );
+                }
+                Err(other) => panic!("expected fmi2Error from initialisation, got {other}"),
+                Ok(_) => panic!("paper mode at z = {z} m, z0 = {z0} m was accepted"),
+            }
+        }
+        let accepted = wind(&fmu, "paper-site", &[("wind.mean_speed", v), ("wind.reference_height", 10.0), ("wind.roughness_length", 0.4)], &[("spectrum", PAPER)]);
+        assert!(accepted.is_ok(), "paper mode at the paper's own site was refused at {v} m/s");
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Torques.
 
