@@ -57,9 +57,9 @@ declare_variables! {
         ElTorqueGust = Var::real("torque.elevation_gust", "N.m").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
             .description("Gust part of the elevation torque."),
         TauAz = Var::real("coefficient.azimuth", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
-            .description("Yawing torque coefficient tau_az at the current yaw and elevation."),
+            .description("Yawing torque coefficient tau_az at the current yaw and elevation, from coefficient_file. The shipped table is a synthetic stand-in, not measured data: only the yaw of its largest azimuth torque (about 130 deg, JPL 64 m antenna, DSN Progress Report XV, 1973) is sourced; its magnitudes and shape are not (docs/wind-model.md)."),
         TauEl = Var::real("coefficient.elevation", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
-            .description("Pitching torque coefficient tau_el at the current yaw and elevation."),
+            .description("Pitching torque coefficient tau_el at the current yaw and elevation, from coefficient_file. The shipped table is a synthetic stand-in, not measured data: no pitching value in it is sourced (docs/wind-model.md)."),
         Yaw = Var::real("wind.yaw", "deg").output().depends_on(&[WindVar::Azimuth as u32])
             .description("Wind direction minus antenna azimuth, wrapped to (-180, 180]."),
         MeanSpeed = Var::real("wind.mean_speed", "m/s").parameter().start(3.0).min(0.5).max(25.0)
@@ -81,7 +81,7 @@ declare_variables! {
         Form = Var::enumeration("torque_form", &TORQUE_FORM).parameter().start_integer(1)
             .description("Torque law: quadratic (default) or the paper's linearised form."),
         CoefficientFile = Var::string("coefficient_file").parameter().start_string("wind_coefficients.csv")
-            .description("Torque coefficient table (CSV, documented in the file); relative paths are looked up in the resources folder. Replace it with measured surfaces."),
+            .description("Torque coefficient table (CSV, documented in the file); relative paths are looked up in the resources folder. The shipped wind_coefficients.csv is a synthetic stand-in, not measured data: replace it with measured surfaces."),
         Kappa = Var::real("wind.kappa", "1").calculated_parameter()
             .description("Terrain drag coefficient kappa = 1 / (2.5 ln(z/z0))^2."),
         Sigma = Var::real("wind.sigma", "m/s").calculated_parameter()
