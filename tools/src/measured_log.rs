@@ -76,6 +76,10 @@ impl Signal {
     }
 }
 
+/// The largest interval between two rows, in median sample intervals, that still counts as
+/// one continuous run (a logger's clock jitters by a few percent, never by a factor of ten).
+pub const MAX_GAP_INTERVALS: f64 = 10.0;
+
 /// The accepted unit suffixes: name, dimension, factor to SI (value_SI = factor * value).
 pub const UNITS: [(&str, Dimension, f64); 15] = [
     ("s", Dimension::Time, 1.0),
@@ -422,6 +426,26 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
         }
     }
 
+    // A gap many times the usual interval is a record stitched from separate runs (or a
+    // logger that stalled): the analyses assume one continuous run, and resampling across the
+    // gap would invent data (and, for a long gap, exhaust memory). Say where to split it.
+    let median_interval = {
+        let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+        steps.sort_by(|a, b| a.total_cmp(b));
+        steps[steps.len() / 2]
+    };
+    if let Some(i) = (1..time.len()).find(|&i| time[i] - time[i - 1] > MAX_GAP_INTERVALS * median_interval) {
+        return Err(LogError::new(
+            Some(row_lines[i]),
+            Some(&names[time_index]),
+            format!(
+                "a gap of {} s after {} s is more than {MAX_GAP_INTERVALS} times the usual sample interval {median_interval} s: split the log into continuous runs at this row",
+                time[i] - time[i - 1],
+                time[i - 1]
+            ),
+        ));
+    }
+
     let mut channels = Vec::new();
     for (j, kind) in kinds.into_iter().enumerate() {
         if let ColumnKind::Known { signal, motor, unit, .. } = kind {
@@ -581,6 +605,23 @@ mod tests {
         assert_eq!((e.line, e.column.as_deref()), (Some(4), Some("time_s")));
         let e = error_of("time_s,motor_torque_Nm,load_pos_rad\n0,1,0\n0.1,1,0\n0.05,1,0\n");
         assert_eq!(e.line, Some(4));
+    }
+
+    #[test]
+    fn a_gap_in_the_sampling_names_the_row_instead_of_being_resampled() {
+        let mut text = String::from("time_s,motor_torque_Nm,load_pos_rad\n");
+        for k in 0..2000 {
+            text.push_str(&format!("{},1,0\n", k as f64 * 2e-3));
+        }
+        text.push_str("1e7,1,0\n");
+        let e = error_of(&text);
+        assert_eq!((e.line, e.column.as_deref()), (Some(2002), Some("time_s")));
+        assert!(e.to_string().contains("split the log"), "{e}");
+        // Ordinary jitter of the logger's clock is not a gap.
+        let jittered: String = std::iter::once("time_s,motor_torque_Nm,load_pos_rad\n".to_string())
+            .chain((0..200).map(|k| format!("{},1,0\n", k as f64 * 2e-3 + if k % 2 == 0 { 3e-4 } else { 0.0 })))
+            .collect();
+        assert!(parse_str(&jittered).is_ok());
     }
 
     #[test]
