@@ -71,8 +71,9 @@ def test_fmpy_master_meets_the_tracking_jitter_requirement(tmp_path):
 
 
 def test_fmpy_master_settles_a_30_arcmin_step_within_4_s(tmp_path):
-    """Req. 4 judged on the fmpy master's own trace: within 15 arcsec for 10 s, less than 4 s
-    after the profiled reference reaches the new target."""
+    """Req. 4 judged on the fmpy master's own trace as the Rust report judges it: within
+    15 arcsec for good less than 4 s after the command (the profile's duration included), and
+    the issue's own figure, from the profiled reference's arrival, under 4 s too."""
     folder = rust_scenario(tmp_path, "step-30arcmin-el15")
     config = coupled_master.read_config(folder / "step-30arcmin-el15.config")
     table = coupled_master.CommandTable.read(folder / "step-30arcmin-el15.commands.csv")
@@ -91,6 +92,9 @@ def test_fmpy_master_settles_a_30_arcmin_step_within_4_s(tmp_path):
     settled = arrival if outside.size == 0 else arrival + outside[-1] + 1
     assert len(error) - settled >= hold, "the run ended before the error had stayed in the band for 10 s"
     assert time[settled] - time[arrival] < 4.0
+    outside_after_command = np.flatnonzero(error[jump_index:] > 15.0)
+    settled_from_command = jump_index + (outside_after_command[-1] + 1 if outside_after_command.size else 0)
+    assert time[settled_from_command] - time[jump_index] < 4.0, time[settled_from_command] - time[jump_index]
     # The command really stepped by 30 arcmin on each axis.
     step = np.abs(trace[jump_index, 1:3] - trace[jump_index - 1, 1:3])
     assert np.allclose(step, 0.5, atol=1e-6), step
