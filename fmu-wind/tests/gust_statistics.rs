@@ -1,7 +1,8 @@
 //! Statistical checks of generated gust records that run in a few seconds: variance over seeds
 //! against Davenport within the interval the record length allows, spectra against their exact
 //! expectation within their confidence band, independence of the step size and of seeds.
-//! The 2 h, many-seed versions are in `long_statistics.rs` (ignored by default).
+//! The 2 h, many-seed versions are in `long_statistics.rs` (run in release, ignored without
+//! optimisation).
 
 use fmu_wind::analysis::{
     expected_welch_psd, independent_correlation_std, psd_interval, record, sample_variance_std, welch_psd,
