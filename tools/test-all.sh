@@ -13,8 +13,8 @@ fi
 echo "== generated files are fresh"
 cargo run --release --quiet -p antenna-tools --bin codegen -- --check
 
-echo "== build and package the FMUs into target/fmu/"
-cargo run --release --quiet -p antenna-tools --bin package
+echo "== build and package the FMUs into target/fmu/, and again from a copy at another path: byte-identical"
+cargo run --release --quiet -p antenna-tools --bin package -- --reproducibility-check
 
 echo "== Rust tests"
 cargo test --release --workspace --quiet

@@ -43,12 +43,19 @@ pub fn model_description_directory() -> PathBuf {
 
 /// Builds the release shared libraries of the model crates with cargo.
 pub fn build_libraries(target_dir: &Path) -> Result<(), String> {
+    build_libraries_from(&workspace_root(), target_dir)
+}
+
+/// Builds the FMUs' shared libraries from the sources checked out at `source_root` (the same
+/// package set every time: building one library alone may unify features differently and give
+/// other bytes).
+pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let mut packages: Vec<&str> = all_fmus().iter().map(|s| crate::registry::package_of(s.library_name)).collect();
     packages.sort();
     packages.dedup();
     let mut command = Command::new(cargo);
-    command.current_dir(workspace_root()).args(["build", "--release", "--quiet"]).arg("--target-dir").arg(target_dir);
+    command.current_dir(source_root).args(["build", "--release", "--quiet"]).arg("--target-dir").arg(target_dir);
     for p in &packages {
         command.args(["-p", p]);
     }

@@ -53,19 +53,12 @@ fn reproducibility_check(reference: &[std::path::PathBuf]) -> Result<(), String>
         std::fs::create_dir_all(to.parent().unwrap()).map_err(|e| e.to_string())?;
         std::fs::copy(&from, &to).map_err(|e| format!("copy {file}: {e}"))?;
     }
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    // Only the shared libraries are built from the copy (they are what a checkout path could
+    // leak into); they are packaged by this binary's own code, as the first build was.
     let target = copy.join("target");
     let out = copy.join("fmu");
-    let status = std::process::Command::new(cargo)
-        .current_dir(copy.join("checkout"))
-        .args(["run", "--release", "--quiet", "-p", "antenna-tools", "--bin", "package-into", "--"])
-        .arg(&out)
-        .env("CARGO_TARGET_DIR", &target)
-        .status()
-        .map_err(|e| e.to_string())?;
-    if !status.success() {
-        return Err("the second build failed".into());
-    }
+    package::build_libraries_from(&copy.join("checkout"), &target).map_err(|e| format!("the second build failed: {e}"))?;
+    package::package_all(&target, &out)?;
     for path in reference {
         let name = path.file_name().unwrap();
         let a = std::fs::read(path).map_err(|e| e.to_string())?;
