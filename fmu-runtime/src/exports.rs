@@ -6,7 +6,8 @@
 //! instance's phase (table in [`crate::instance::legal`]); checks every argument before
 //! anything changes; and reports failures through the master's logger with fmi2Error. An error
 //! moves the instance to the `Error` phase, from which the standard allows getters, status
-//! queries, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance.
+//! queries, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance. The exception are the functions
+//! this FMU does not provide ([`unsupported`]): they fail in every phase and change nothing.
 //!
 //! The functions are `pub` only for the export macro. Their raw-pointer arguments come from a
 //! C caller bound by the FMI 2.0 standard, which is what every `// SAFETY:` comment relies on.
@@ -732,7 +733,7 @@ pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prio
 }
 
 pub fn cancel_step(c: fmi2Component) -> fmi2Status {
-    with_instance(c, "fmi2CancelStep", legal::CANCEL_STEP, |_| Err("no asynchronous step to cancel".into()))
+    unsupported(c, "fmi2CancelStep", WHY_CANCEL_STEP)
 }
 
 pub fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
@@ -804,15 +805,36 @@ pub fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi
     })
 }
 
-/// Functions this FMU does not provide: they log why and return fmi2Error.
-pub fn unsupported(c: fmi2Component, function: &'static str, allowed: u32, why: &'static str) -> fmi2Status {
-    with_instance(c, function, allowed, |_| Err(format!("not supported: {why}")))
+/// Functions this FMU does not provide. In every phase they log why under logStatusError and
+/// return fmi2Error, and they leave the instance exactly as it was, its phase included.
+///
+/// They do not go through [`with_instance`], which would move the instance to the Error phase:
+/// nothing was attempted, so there is nothing to recover from, and a master that probes a
+/// capability by calling the function (instead of reading the model description) must not
+/// lose the instance by asking. FMI 2.0.2 (section 2.1.3) allows a master to give up on an
+/// instance after fmi2Error; it does not require the FMU to refuse further calls, so a master
+/// that does give up is served as well as one that carries on. A NULL or foreign instance
+/// pointer is still answered with fmi2Error alone, as everywhere.
+pub fn unsupported(c: fmi2Component, function: &'static str, why: &'static str) -> fmi2Status {
+    let Some(instance) = instance_from(c) else { return fmi2Error };
+    // Logging formats a message and calls the master's logger; a panic there must not unwind
+    // into C, and there is nothing else to report it through, so it is dropped.
+    let _ = catch(|| {
+        if instance.category_enabled(CAT_CALLS) {
+            instance.log(Status::Ok, CAT_CALLS, &format!("{function} (phase {})", instance.phase.name()));
+        }
+        instance.error(function, &format!("{why}; the call changed nothing and the instance stays usable"));
+    });
+    fmi2Error
 }
 
-pub const WHY_MODEL_EXCHANGE: &str = "this is a co-simulation FMU; model-exchange functions are not provided";
-pub const WHY_DIRECTIONAL_DERIVATIVE: &str = "providesDirectionalDerivative is false";
-pub const WHY_INPUT_DERIVATIVES: &str = "canInterpolateInputs is false: inputs are held constant over a step";
-pub const WHY_OUTPUT_DERIVATIVES: &str = "maxOutputDerivativeOrder is 0";
+pub const WHY_MODEL_EXCHANGE: &str =
+    "not supported in co-simulation: this is a model-exchange function, and this FMU implements co-simulation only";
+pub const WHY_DIRECTIONAL_DERIVATIVE: &str = "not supported: providesDirectionalDerivative is false";
+pub const WHY_INPUT_DERIVATIVES: &str = "not supported: canInterpolateInputs is false, inputs are held constant over a step";
+pub const WHY_OUTPUT_DERIVATIVES: &str = "not supported: maxOutputDerivativeOrder is 0";
+pub const WHY_CANCEL_STEP: &str =
+    "not supported: canRunAsynchronuously is false, so every fmi2DoStep has completed when it returns and there is no step to cancel";
 
 /// Exports the 44 `fmi2*` functions of FMI 2.0 from a cdylib, serving the listed models (the
 /// GUID given to fmi2Instantiate selects one).
@@ -826,7 +848,6 @@ macro_rules! export_fmi2 {
             use super::*;
             use $crate::ffi::*;
             use $crate::exports as x;
-            use $crate::instance::legal;
             use ::std::ffi::c_char;
 
             const MODELS: &[x::ModelEntry] = &[$(x::ModelEntry::of::<$model>()),+];
@@ -855,21 +876,21 @@ macro_rules! export_fmi2 {
             #[no_mangle] pub extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status { x::serialized_fmu_state_size(c, s, size) }
             #[no_mangle] pub extern "C" fn fmi2SerializeFMUstate(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status { x::serialize_fmu_state(c, s, b, size) }
             #[no_mangle] pub extern "C" fn fmi2DeSerializeFMUstate(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status { x::deserialize_fmu_state(c, b, size, s) }
-            #[no_mangle] pub extern "C" fn fmi2GetDirectionalDerivative(c: fmi2Component, _u: *const fmi2ValueReference, _nu: usize, _z: *const fmi2ValueReference, _nz: usize, _dv: *const fmi2Real, _dz: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetDirectionalDerivative", legal::DIRECTIONAL_DERIVATIVE, x::WHY_DIRECTIONAL_DERIVATIVE) }
+            #[no_mangle] pub extern "C" fn fmi2GetDirectionalDerivative(c: fmi2Component, _u: *const fmi2ValueReference, _nu: usize, _z: *const fmi2ValueReference, _nz: usize, _dv: *const fmi2Real, _dz: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetDirectionalDerivative", x::WHY_DIRECTIONAL_DERIVATIVE) }
             // Model exchange: not provided.
-            #[no_mangle] pub extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterEventMode", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, _info: *mut ::std::ffi::c_void) -> fmi2Status { x::unsupported(c, "fmi2NewDiscreteStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterContinuousTimeMode", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2CompletedIntegratorStep(c: fmi2Component, _nsp: fmi2Boolean, _em: *mut fmi2Boolean, _ts: *mut fmi2Boolean) -> fmi2Status { x::unsupported(c, "fmi2CompletedIntegratorStep", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2SetTime(c: fmi2Component, _t: fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetTime", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2SetContinuousStates(c: fmi2Component, _x: *const fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2SetContinuousStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetDerivatives(c: fmi2Component, _dx: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetDerivatives", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetEventIndicators(c: fmi2Component, _ei: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetEventIndicators", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetContinuousStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetNominalsOfContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetNominalsOfContinuousStates", legal::MODEL_EXCHANGE, x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterEventMode", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, _info: *mut ::std::ffi::c_void) -> fmi2Status { x::unsupported(c, "fmi2NewDiscreteStates", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterContinuousTimeMode", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2CompletedIntegratorStep(c: fmi2Component, _nsp: fmi2Boolean, _em: *mut fmi2Boolean, _ts: *mut fmi2Boolean) -> fmi2Status { x::unsupported(c, "fmi2CompletedIntegratorStep", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2SetTime(c: fmi2Component, _t: fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetTime", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2SetContinuousStates(c: fmi2Component, _x: *const fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2SetContinuousStates", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetDerivatives(c: fmi2Component, _dx: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetDerivatives", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetEventIndicators(c: fmi2Component, _ei: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetEventIndicators", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetContinuousStates", x::WHY_MODEL_EXCHANGE) }
+            #[no_mangle] pub extern "C" fn fmi2GetNominalsOfContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetNominalsOfContinuousStates", x::WHY_MODEL_EXCHANGE) }
             // Co-simulation.
-            #[no_mangle] pub extern "C" fn fmi2SetRealInputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *const fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetRealInputDerivatives", legal::SET_INPUT_DERIVATIVES, x::WHY_INPUT_DERIVATIVES) }
-            #[no_mangle] pub extern "C" fn fmi2GetRealOutputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetRealOutputDerivatives", legal::GET_OUTPUT_DERIVATIVES, x::WHY_OUTPUT_DERIVATIVES) }
+            #[no_mangle] pub extern "C" fn fmi2SetRealInputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *const fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetRealInputDerivatives", x::WHY_INPUT_DERIVATIVES) }
+            #[no_mangle] pub extern "C" fn fmi2GetRealOutputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetRealOutputDerivatives", x::WHY_OUTPUT_DERIVATIVES) }
             #[no_mangle] pub extern "C" fn fmi2DoStep(c: fmi2Component, t: fmi2Real, h: fmi2Real, nsp: fmi2Boolean) -> fmi2Status { x::do_step(c, t, h, nsp) }
             #[no_mangle] pub extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status { x::cancel_step(c) }
             #[no_mangle] pub extern "C" fn fmi2GetStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Status) -> fmi2Status { x::get_status(c, k, v) }

@@ -485,13 +485,27 @@ fn reset_returns_to_the_instantiated_phase_with_start_values() {
 }
 
 #[test]
-fn unsupported_functions_log_why_and_fail() {
-    let m = Master::initialized();
-    assert_eq!(unsupported(m.c, "fmi2GetDirectionalDerivative", legal::DIRECTIONAL_DERIVATIVE, WHY_DIRECTIONAL_DERIVATIVE), fmi2Error);
-    assert!(m.last_error().contains("providesDirectionalDerivative is false"));
-    let m = Master::initialized();
-    assert_eq!(unsupported(m.c, "fmi2SetTime", legal::MODEL_EXCHANGE, WHY_MODEL_EXCHANGE), fmi2Error);
-    assert!(m.last_error().contains("fmi2SetTime"));
+fn unsupported_functions_log_why_fail_and_leave_the_instance_in_its_phase() {
+    // Before initialisation, while stepping and after termination: each call fails with its
+    // reason and the instance carries on in the phase it was in.
+    let instantiated = Master::new();
+    let stepping = Master::initialized();
+    let terminated = Master::initialized();
+    assert_eq!(terminate(terminated.c), fmi2OK);
+    for (m, phase) in [(&instantiated, Phase::Instantiated), (&stepping, Phase::StepComplete), (&terminated, Phase::Terminated)] {
+        assert_eq!(unsupported(m.c, "fmi2SetTime", WHY_MODEL_EXCHANGE), fmi2Error);
+        assert!(m.last_error().contains("fmi2SetTime: not supported in co-simulation"), "{}", m.last_error());
+        assert_eq!(unsupported(m.c, "fmi2GetDirectionalDerivative", WHY_DIRECTIONAL_DERIVATIVE), fmi2Error);
+        assert!(m.last_error().contains("providesDirectionalDerivative is false"), "{}", m.last_error());
+        assert_eq!(cancel_step(m.c), fmi2Error);
+        assert!(m.last_error().contains("fmi2CancelStep: not supported"), "{}", m.last_error());
+        assert_eq!(m.phase(), phase, "an unsupported call moved the instance out of {phase:?}");
+    }
+    // The instance that was stepping still steps, from where it was.
+    assert_eq!(do_step(stepping.c, 0.0, 0.1, 0), fmi2OK, "{}", stepping.last_error());
+    // A NULL instance gets fmi2Error and nothing else.
+    assert_eq!(unsupported(null_mut(), "fmi2SetTime", WHY_MODEL_EXCHANGE), fmi2Error);
+    assert_eq!(cancel_step(null_mut()), fmi2Error);
 }
 
 #[test]

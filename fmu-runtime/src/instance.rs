@@ -83,15 +83,12 @@ pub mod legal {
     pub const SET_REAL: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
     pub const SET_OTHER: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
     pub const FMU_STATE: u32 = FREE_INSTANCE;
-    pub const DIRECTIONAL_DERIVATIVE: u32 = mask(&[InitializationMode, StepComplete, StepFailed, Terminated, Error]);
-    pub const SET_INPUT_DERIVATIVES: u32 = mask(&[Instantiated, InitializationMode, StepComplete]);
-    pub const GET_OUTPUT_DERIVATIVES: u32 = mask(&[StepComplete, StepFailed, Terminated, Error]);
     pub const DO_STEP: u32 = mask(&[StepComplete]);
-    /// CancelStep is legal only while an asynchronous step is pending; this FMU never has one.
-    pub const CANCEL_STEP: u32 = 0;
     pub const STATUS: u32 = mask(&[StepComplete, StepFailed, Terminated, Error]);
-    /// Model-exchange functions: never legal in a co-simulation instance.
-    pub const MODEL_EXCHANGE: u32 = 0;
+    // The functions this FMU does not provide (model exchange, directional and input/output
+    // derivatives, fmi2CancelStep) have no entry: `exports::unsupported` answers them in every
+    // phase without touching the instance, so that a master probing a capability does not lose
+    // the instance by asking.
 
     pub fn describe(mask: u32) -> String {
         let names: Vec<&str> = [Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error, Fatal]
@@ -99,11 +96,7 @@ pub mod legal {
             .filter(|p| mask & (**p as u32) != 0)
             .map(|p| p.name())
             .collect();
-        if names.is_empty() {
-            "no phase of a co-simulation instance".to_string()
-        } else {
-            names.join(", ")
-        }
+        names.join(", ")
     }
 }
 

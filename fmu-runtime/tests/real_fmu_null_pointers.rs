@@ -4,37 +4,16 @@
 //! and a message through the logger, never with a crash.
 //!
 //! These calls break the importer's safe API on purpose, so they need `unsafe`, which only this
-//! crate may contain. The FMUs are the ones `cargo run --release -p antenna-tools --bin package`
-//! writes to `target/fmu/`, loaded through `fmu_runtime::import` exactly as a master loads
-//! them; every `.fmu` there is tested, since all share this runtime.
+//! crate may contain. The FMUs are loaded through `fmu_runtime::import` exactly as a master
+//! loads them (where they are found: `common`).
+
+mod common;
 
 use std::ffi::{c_void, CString};
-use std::path::{Path, PathBuf};
 
+use common::{packaged_fmus, ready, Others};
 use fmu_runtime::ffi::*;
 use fmu_runtime::import::{Fmu, Instance, LoggerCallbacks};
-
-fn packaged_fmus() -> Vec<Fmu> {
-    let directory = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace").join("target").join("fmu");
-    let hint = "package the FMUs first (cargo run --release -p antenna-tools --bin package)";
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&directory)
-        .unwrap_or_else(|e| panic!("cannot read {}: {e}; {hint}", directory.display()))
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "fmu"))
-        .collect();
-    paths.sort();
-    for plant in ["AzimuthPlant.fmu", "ElevationPlant.fmu"] {
-        assert!(paths.iter().any(|p| p.file_name().is_some_and(|n| n == plant)), "{plant} is missing in {}: {hint}", directory.display());
-    }
-    paths.iter().map(|p| Fmu::open(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))).collect()
-}
-
-/// An instance through initialisation, in the StepComplete phase.
-fn ready(fmu: &Fmu) -> Instance {
-    let mut instance = fmu.instantiate("null-pointers", false).expect("instantiate");
-    instance.initialize(0.0, &[]).expect("initialise");
-    instance
-}
 
 /// Asserts fmi2Error and a message about a NULL pointer in the instance's log.
 fn assert_null_error(fmu: &Fmu, instance: &Instance, status: fmi2Status, call: &str) {
@@ -45,79 +24,6 @@ fn assert_null_error(fmu: &Fmu, instance: &Instance, status: fmi2Status, call: &
         log.iter().any(|r| r.status == fmu_runtime::ffi::Status::Error && r.message.contains("NULL")),
         "{name}: {call} logged no message about the NULL pointer: {log:?}"
     );
-}
-
-type FnDirectionalDerivative = unsafe extern "C" fn(fmi2Component, *const u32, usize, *const u32, usize, *const f64, *mut f64) -> fmi2Status;
-type FnNewDiscreteStates = unsafe extern "C" fn(fmi2Component, *mut c_void) -> fmi2Status;
-type FnComponent = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
-type FnCompletedIntegratorStep = unsafe extern "C" fn(fmi2Component, fmi2Boolean, *mut fmi2Boolean, *mut fmi2Boolean) -> fmi2Status;
-type FnSetTime = unsafe extern "C" fn(fmi2Component, f64) -> fmi2Status;
-type FnSetArray = unsafe extern "C" fn(fmi2Component, *const f64, usize) -> fmi2Status;
-type FnGetArray = unsafe extern "C" fn(fmi2Component, *mut f64, usize) -> fmi2Status;
-type FnSetInputDerivatives = unsafe extern "C" fn(fmi2Component, *const u32, usize, *const fmi2Integer, *const f64) -> fmi2Status;
-type FnGetOutputDerivatives = unsafe extern "C" fn(fmi2Component, *const u32, usize, *const fmi2Integer, *mut f64) -> fmi2Status;
-
-/// The functions the importer does not keep a pointer to (model exchange, derivatives),
-/// looked up in the FMU's already loaded library.
-struct Others {
-    handle: *mut c_void,
-    get_directional_derivative: FnDirectionalDerivative,
-    new_discrete_states: FnNewDiscreteStates,
-    enter_continuous_time_mode: FnComponent,
-    completed_integrator_step: FnCompletedIntegratorStep,
-    set_time: FnSetTime,
-    set_continuous_states: FnSetArray,
-    get_arrays: [(&'static str, FnGetArray); 4],
-    set_real_input_derivatives: FnSetInputDerivatives,
-    get_real_output_derivatives: FnGetOutputDerivatives,
-}
-
-impl Others {
-    fn load(fmu: &Fmu) -> Others {
-        let path = CString::new(fmu.library.path.as_os_str().as_encoded_bytes()).unwrap();
-        // SAFETY: the library is already loaded by the importer, so dlopen only raises its
-        // reference count and returns the same handle; it is closed again on drop.
-        let handle = unsafe { libc::dlopen(path.as_ptr(), libc::RTLD_NOW | libc::RTLD_LOCAL) };
-        assert!(!handle.is_null(), "dlopen {}", fmu.library.path.display());
-        let symbol = |name: &str| -> *mut c_void {
-            let c = CString::new(name).unwrap();
-            // SAFETY: a valid handle and a NUL-terminated name.
-            let p = unsafe { libc::dlsym(handle, c.as_ptr()) };
-            assert!(!p.is_null(), "{} does not export {name}", fmu.library.path.display());
-            p
-        };
-        macro_rules! function {
-            ($name:literal, $type:ty) => {
-                // SAFETY: the symbol exists and has this signature by the FMI 2.0 standard
-                // (fmi2FunctionTypes.h); function and data pointers have the same size here.
-                unsafe { std::mem::transmute::<*mut c_void, $type>(symbol($name)) }
-            };
-        }
-        Others {
-            handle,
-            get_directional_derivative: function!("fmi2GetDirectionalDerivative", FnDirectionalDerivative),
-            new_discrete_states: function!("fmi2NewDiscreteStates", FnNewDiscreteStates),
-            enter_continuous_time_mode: function!("fmi2EnterContinuousTimeMode", FnComponent),
-            completed_integrator_step: function!("fmi2CompletedIntegratorStep", FnCompletedIntegratorStep),
-            set_time: function!("fmi2SetTime", FnSetTime),
-            set_continuous_states: function!("fmi2SetContinuousStates", FnSetArray),
-            get_arrays: [
-                ("fmi2GetDerivatives", function!("fmi2GetDerivatives", FnGetArray)),
-                ("fmi2GetEventIndicators", function!("fmi2GetEventIndicators", FnGetArray)),
-                ("fmi2GetContinuousStates", function!("fmi2GetContinuousStates", FnGetArray)),
-                ("fmi2GetNominalsOfContinuousStates", function!("fmi2GetNominalsOfContinuousStates", FnGetArray)),
-            ],
-            set_real_input_derivatives: function!("fmi2SetRealInputDerivatives", FnSetInputDerivatives),
-            get_real_output_derivatives: function!("fmi2GetRealOutputDerivatives", FnGetOutputDerivatives),
-        }
-    }
-}
-
-impl Drop for Others {
-    fn drop(&mut self) {
-        // SAFETY: the handle came from dlopen above; the importer keeps its own reference.
-        unsafe { libc::dlclose(self.handle) };
-    }
 }
 
 #[test]
@@ -381,8 +287,7 @@ fn unsupported_functions_with_null_arrays_are_errors_with_a_message() {
         let o = Others::load(&fmu);
         let null_vr: *const u32 = std::ptr::null();
         for k in 0..10 {
-            // A fresh instance per call: after the first error the instance is in the Error
-            // phase, where the others would be refused for that reason instead.
+            // A fresh instance per call, so that each log holds one call's message only.
             let instance = ready(&fmu);
             let c = instance.component();
             // SAFETY: a live instance; these functions are not provided and must refuse before
