@@ -689,28 +689,47 @@ pub fn deserialize_fmu_state(c: fmi2Component, bytes: *const fmi2Byte, size: usi
 // ---------------------------------------------------------------------------------------------
 // Co-simulation.
 
-/// Relative tolerance on the communication point: masters accumulate `t += h` in floating
-/// point, so a point a few ulps away from the instance's time is the same point.
+/// Relative tolerance on the communication point and on the stop time: masters accumulate
+/// `t += h` in floating point, so a point a few ulps away from the instance's time (or a step
+/// that ends a few ulps after the stop time) is the same point. Relative to the time itself,
+/// never to the step: the rounding of `t + h` is a few ulps of `t`, and a tolerance that grew
+/// with the step would let a huge step start anywhere or run far past the stop time.
 pub const TIME_TOLERANCE: f64 = 1e-9;
+
+/// The longest communication step accepted, s: one day of simulated time.
+///
+/// The models cut a step into internal pieces of at most about a millisecond (the plants'
+/// event check interval, the controllers' 1 kHz sample clock), so a step's cost grows with its
+/// length: a step of 1e300 s would keep the call busy for ever. One day, longer than any
+/// observation, costs a few seconds of computing per FMU (docs/plant-fmu-tests.md, section 5),
+/// so that a master gets an answer in seconds, never a hang; longer runs take several steps.
+pub const MAX_STEP_SIZE: f64 = 86_400.0;
 
 pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prior: fmi2Boolean) -> fmi2Status {
     with_instance(c, "fmi2DoStep", legal::DO_STEP, |instance| {
         if !step.is_finite() || step <= 0.0 {
             return Err(format!("communicationStepSize must be positive and finite, got {step}"));
         }
+        if step > MAX_STEP_SIZE {
+            return Err(format!(
+                "communicationStepSize {step} s is longer than the longest step this FMU takes, {MAX_STEP_SIZE} s (one day): a step is computed in pieces of about a millisecond, so a longer one would keep the call busy for minutes or for ever; take several steps"
+            ));
+        }
         if !current.is_finite() {
             return Err(format!("currentCommunicationPoint {current} is not finite"));
         }
-        let tolerance = TIME_TOLERANCE * instance.time.abs().max(step).max(1.0);
-        if (current - instance.time).abs() > tolerance {
+        if (current - instance.time).abs() > TIME_TOLERANCE * instance.time.abs().max(1.0) {
             return Err(format!(
                 "currentCommunicationPoint {current} is not where the instance is ({}); steps must be contiguous (use fmi2SetFMUstate to go back)",
                 instance.time
             ));
         }
         if let Some(stop) = instance.stop_time {
-            if current + step > stop + tolerance {
-                return Err(format!("step to {} goes beyond the stopTime {stop} given in fmi2SetupExperiment", current + step));
+            let end = current + step;
+            if end > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
+                return Err(format!(
+                    "the step from {current} by {step} s ends at {end}, after the stopTime {stop} given in fmi2SetupExperiment"
+                ));
             }
         }
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));

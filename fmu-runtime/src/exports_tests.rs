@@ -509,6 +509,53 @@ fn unsupported_functions_log_why_fail_and_leave_the_instance_in_its_phase() {
 }
 
 #[test]
+fn a_step_longer_than_the_maximum_is_rejected_without_being_computed() {
+    let m = Master::initialized();
+    let vr = TestVar::PanicOnStep as u32;
+    // The model would panic if it were asked to step: the rejection must come first.
+    assert_eq!(set_boolean(m.c, &vr, 1, &1), fmi2OK);
+    assert_eq!(do_step(m.c, 0.0, 1e300, 0), fmi2Error);
+    assert!(m.last_error().contains("longer than the longest step"), "{}", m.last_error());
+    let m = Master::initialized();
+    assert_eq!(do_step(m.c, 0.0, MAX_STEP_SIZE * (1.0 + 1e-15), 0), fmi2Error);
+    // The maximum itself is a legal step.
+    let m = Master::initialized();
+    assert_eq!(do_step(m.c, 0.0, MAX_STEP_SIZE, 0), fmi2OK, "{}", m.last_error());
+}
+
+#[test]
+fn a_step_that_ends_after_the_stop_time_is_rejected_but_rounding_is_tolerated() {
+    let with_stop = |stop: f64| {
+        let m = Master::new();
+        assert_eq!(setup_experiment(m.c, 0, 0.0, 0.0, 1, stop), fmi2OK);
+        assert_eq!(enter_initialization_mode(m.c), fmi2OK);
+        assert_eq!(exit_initialization_mode(m.c), fmi2OK);
+        m
+    };
+    let m = with_stop(1.0);
+    assert_eq!(do_step(m.c, 0.0, 1.5, 0), fmi2Error);
+    assert!(m.last_error().contains("after the stopTime 1"), "{}", m.last_error());
+    assert_eq!(m.get(Y), 0.0, "the rejected step changed the output");
+    // A huge step cannot hide behind a tolerance that grows with it.
+    let m = with_stop(1.0);
+    assert_eq!(do_step(m.c, 0.0, 1e4, 0), fmi2Error);
+    assert!(m.last_error().contains("stopTime"), "{}", m.last_error());
+    // Ten steps of 0.1 accumulated in floating point end a few ulps from 1.0: accepted, as is
+    // a step that ends within the relative tolerance of 1e-9; one beyond it is not.
+    let m = with_stop(1.0);
+    let mut t = 0.0;
+    for _ in 0..10 {
+        assert_eq!(do_step(m.c, t, 0.1, 0), fmi2OK, "{}", m.last_error());
+        t += 0.1;
+    }
+    assert_ne!(t, 1.0, "the accumulated time is expected to be off by rounding");
+    let m = with_stop(1.0);
+    assert_eq!(do_step(m.c, 0.0, 1.0 + 0.5e-9, 0), fmi2OK, "{}", m.last_error());
+    let m = with_stop(1.0);
+    assert_eq!(do_step(m.c, 0.0, 1.0 + 2e-9, 0), fmi2Error);
+}
+
+#[test]
 fn instances_run_independently_on_several_threads() {
     let handles: Vec<_> = (0..4)
         .map(|k| {

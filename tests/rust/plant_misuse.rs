@@ -125,6 +125,64 @@ fn negative_zero_and_non_finite_step_sizes_are_rejected() {
 }
 
 #[test]
+fn a_step_longer_than_a_day_is_rejected_at_once_and_changes_nothing() {
+    // Steps are computed in pieces of a millisecond: before the cap, a step of 1e300 s kept
+    // fmi2DoStep busy for ever. The maximum, one day, is fmu_runtime::exports::MAX_STEP_SIZE.
+    let day = fmu_runtime::exports::MAX_STEP_SIZE;
+    assert_eq!(day, 86_400.0);
+    for plant in PLANTS {
+        let fmu = open(plant);
+        for h in [1e300, f64::MAX, 2.0 * day, day * (1.0 + 1e-12)] {
+            let mut instance = initialized(&fmu, "huge-step", &[]);
+            set_reals(&fmu, &mut instance, &[(real_inputs(&fmu)[0].as_str(), 1.0)]);
+            let before = output_bits(&fmu, &mut instance);
+            let started = std::time::Instant::now();
+            let messages = expect_error(instance.do_step(0.0, h), &instance, &format!("{plant}: step {h}"));
+            // Computing even a thousandth of such a step would take seconds; a rejection
+            // takes microseconds. One second leaves room for a loaded machine.
+            assert!(started.elapsed().as_secs_f64() < 1.0, "{plant}: rejecting a step of {h} s took {:?}", started.elapsed());
+            assert!(messages.iter().any(|m| m.contains("longer than the longest step")), "{plant}: {messages:?}");
+            assert_eq!(instance.last_successful_time().unwrap(), 0.0, "{plant}: the rejected step moved the time");
+            assert_eq!(output_bits(&fmu, &mut instance), before, "{plant}: the rejected step changed the outputs");
+        }
+    }
+}
+
+#[test]
+fn a_step_past_the_stop_time_is_rejected_and_a_run_that_ends_on_it_is_not() {
+    for plant in PLANTS {
+        let fmu = open(plant);
+        let with_stop_time = |name: &str| {
+            let mut instance = fmu.instantiate(name, false).unwrap();
+            instance.setup_experiment(0.0, Some(0.1)).unwrap();
+            instance.enter_initialization_mode().unwrap();
+            instance.exit_initialization_mode().unwrap();
+            instance
+        };
+        // 100 steps of 1 ms, the time accumulated as t += h, end a few ulps away from 0.1:
+        // that is the stop time, not past it.
+        let mut instance = with_stop_time("to-the-stop-time");
+        let mut t = 0.0;
+        for _ in 0..100 {
+            instance.do_step(t, 1e-3).unwrap_or_else(|e| panic!("{plant}: step at {t}: {e}"));
+            t += 1e-3;
+        }
+        assert_ne!(t, 0.1, "the accumulated time is expected to be off by rounding");
+        // One more step is past it.
+        let messages = expect_error(instance.do_step(t, 1e-3), &instance, &format!("{plant}: a step after the stop time"));
+        assert!(messages.iter().any(|m| m.contains("stopTime")), "{plant}: {messages:?}");
+        // So is a step that jumps over it, short or long.
+        for h in [0.2, 1e4] {
+            let mut instance = with_stop_time("over-the-stop-time");
+            let before = output_bits(&fmu, &mut instance);
+            let messages = expect_error(instance.do_step(0.0, h), &instance, &format!("{plant}: a step of {h} s over the stop time"));
+            assert!(messages.iter().any(|m| m.contains("after the stopTime 0.1")), "{plant}: {messages:?}");
+            assert_eq!(output_bits(&fmu, &mut instance), before, "{plant}: the rejected step changed the outputs");
+        }
+    }
+}
+
+#[test]
 fn a_wrong_communication_point_is_rejected() {
     for plant in PLANTS {
         let fmu = open(plant);
