@@ -2,13 +2,15 @@
 //!
 //! Usage:
 //!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
-//!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs]
+//!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD]
 //!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
 //!   truthgen start --out FILE.params
 //!
 //! `suite` writes `log_NNN.csv` logs with a hidden `log_NNN.truth` beside each and the starting
 //! parameter set `start.params`. `one` writes a single log (and FILE.truth). Sizes are the RMS
 //! of what the effect adds to its channel divided by that channel's sensor noise.
+//! `--presliding` sets the truth's LuGre bristle deflection at breakaway (axis rad, default
+//! 1e-5), for studies of the friction-model-form floor; the suite uses the default.
 
 use antenna_tools::truth::suite::{self, SuiteConfig};
 use antenna_tools::truth::TruthConfig;
@@ -53,6 +55,12 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 suite_config.clean_seeds = (101..101 + n).collect();
             }
             "--no-pairs" => suite_config.pairs.clear(),
+            "--presliding" => {
+                base.plant.presliding_displacement = value(&args, &mut i, flag)?.parse().map_err(|_| "--presliding needs a displacement in rad")?;
+                if !(base.plant.presliding_displacement > 0.0) {
+                    return Err("--presliding needs a positive displacement in rad".into());
+                }
+            }
             "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
             "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,
             "--effect" => {

@@ -2,7 +2,7 @@
 //!
 //! Usage:
 //!   validate run LOG.csv --params START.params [--out DIR] [--fmu PATH | --no-fmu]
-//!                [--window SECONDS] [--alpha 1e-3] [--verbose]
+//!                [--window SECONDS] [--drive-window SECONDS] [--alpha 1e-3] [--verbose]
 //!       Validates one log: writes DIR/<log>_report.md, DIR/<log>_corrected.params (the plant
 //!       FMU's parameter file, loadable through its `parameter_file` variable),
 //!       DIR/<log>_corrected_axis.params (the single-axis set, usable as a start) and PNG
@@ -90,6 +90,7 @@ fn parse(args: Vec<String>) -> Result<Arguments, String> {
             "--alpha" => a.options.selection.alpha = value()?.parse().map_err(|_| "--alpha needs a number")?,
             "--min-effect-to-noise" => a.options.selection.min_effect_to_noise = value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?,
             "--window" => a.options.output.window_seconds = Some(value()?.parse().map_err(|_| "--window needs seconds")?),
+            "--drive-window" => a.options.output.drive_window_seconds = Some(value()?.parse().map_err(|_| "--drive-window needs seconds")?),
             other if !other.starts_with("--") && a.target.is_none() => a.target = Some(other.to_string()),
             other => return Err(format!("unknown option '{other}'")),
         }
@@ -247,7 +248,12 @@ fn score_suite(dir: &Path, a: &Arguments) -> Result<Vec<scoring::CaseResult>, St
         let truth = suite::describe(&r.truth);
         let found = r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
         let ratio = r.output.as_ref().map(|o| format!("{:.2}", o.ratio())).unwrap_or_else(|| "-".into());
-        println!("{}: {truth} -> {found} (output error after/before {ratio}, {:.1} s)", r.truth.log_file, r.seconds);
+        let summed = r.score_ratio.map(|x| format!("{x:.2}")).unwrap_or_else(|| "-".into());
+        let response = r.response.as_ref().map(|o| format!("{:.2}", o.ratio())).unwrap_or_else(|| "-".into());
+        println!(
+            "{}: {truth} -> {found} (output error after/before {ratio} most-improved channel, {summed} all scored channels; response error {response}; {:.1} s)",
+            r.truth.log_file, r.seconds
+        );
     })
 }
 
@@ -300,7 +306,7 @@ fn print_summary(v: &Validation) {
         println!("{}: RMS {:.4} -> {:.4} N m (axis side), fit {:.1} -> {:.1} %, whiteness p {:.1e} -> {:.1e}", b.name, b.rms, a.rms, b.fit_percent, a.fit_percent, b.whiteness_p, a.whiteness_p);
     }
     if let Some(o) = &v.output {
-        println!("output error over {} windows of {:.3} s ({}):", o.plan.starts.len(), o.plan.seconds, o.plan.reason);
+        println!("output error over {} windows of {:.3} s ({}); twist on pieces of {} samples:", o.plan.starts.len(), o.plan.seconds, o.plan.reason, o.plan.drive_length);
         for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
             println!("    {}: RMS {:.4e} -> {:.4e} {}, fit {:.1} -> {:.1} %", b.kind.name(), b.rms, a.rms, b.kind.unit(), b.fit_percent, a.fit_percent);
         }

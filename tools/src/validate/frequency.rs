@@ -37,6 +37,46 @@ pub struct FrequencyResponse {
     pub measured_anti_resonance: Option<f64>,
     pub before_anti_resonance: f64,
     pub after_anti_resonance: f64,
+    /// The complex response error of each model (see [`response_error`]) over the coherent
+    /// bins of [`RESPONSE_BAND`], and how many bins entered it; None when fewer than
+    /// [`MIN_RESPONSE_BINS`] are coherent.
+    pub response_error_before: Option<f64>,
+    pub response_error_after: Option<f64>,
+    pub response_bins: usize,
+}
+
+/// The band of the complex response error (Hz): above the closed loop and the Coulomb
+/// friction, which make H1 depart from the linear plant below about 2 Hz, and below the
+/// frequencies where the current loop and the encoder noise dominate. It holds the drive's
+/// anti-resonance and resonance (about 4 and 7 Hz on an antenna-like drive) and the phase
+/// that a delay adds (2 pi f d grows with frequency), so it sees a stiffness and a delay alike.
+pub const RESPONSE_BAND: (f64, f64) = (2.0, 60.0);
+
+/// At least this many coherent bins for a response error.
+pub const MIN_RESPONSE_BINS: usize = 20;
+
+/// The complex error of a model's torque-to-motor-speed response against the measured H1:
+/// the root of the weighted mean of |H_measured - H_model|^2 / |H_measured|^2 over the bins
+/// of `band` whose coherence exceeds its 95 % threshold, each weighted by g^2 / (1 - g^2)
+/// (g^2 the coherence), the inverse of the relative variance of an H1 estimate. Relative, so
+/// the error in the troughs counts as much as at the peaks; complex, so a phase error (a
+/// delay) counts like a gain error. Returns the error and the number of bins.
+pub fn response_error(frequency: &[f64], measured: &[Complex64], coherence: &[f64], threshold: f64, model: &[Complex64], band: (f64, f64)) -> (f64, usize) {
+    let (mut sum, mut weights, mut bins) = (0.0, 0.0, 0usize);
+    for k in 0..frequency.len() {
+        if frequency[k] < band.0 || frequency[k] > band.1 || coherence[k] <= threshold || !(coherence[k] < 1.0) {
+            continue;
+        }
+        let magnitude = measured[k].norm_sqr();
+        if !(magnitude > 0.0) {
+            continue;
+        }
+        let weight = coherence[k] / (1.0 - coherence[k]);
+        sum += weight * (measured[k] - model[k]).norm_sqr() / magnitude;
+        weights += weight;
+        bins += 1;
+    }
+    (if weights > 0.0 { (sum / weights).sqrt() } else { f64::NAN }, bins)
 }
 
 /// The model's torque-to-motor-speed response at `f` Hz, axis-side units.
@@ -112,6 +152,9 @@ pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, aft
     let magnitude: Vec<f64> = estimate.h1.iter().zip(&estimate.coherence).map(|(h, &c)| if c > threshold { h.norm() } else { f64::INFINITY }).collect();
     let model = |p: &ParameterSet| estimate.frequency_hz.iter().map(|&f| model_response(p, f)).collect::<Vec<_>>();
     let (model_before, model_after) = (model(before), model(after));
+    let band_error = |m: &[Complex64]| response_error(&estimate.frequency_hz, &estimate.h1, &estimate.coherence, threshold, m, RESPONSE_BAND);
+    let ((error_before, bins), (error_after, _)) = (band_error(&model_before), band_error(&model_after));
+    let enough = bins >= MIN_RESPONSE_BINS;
     // The model troughs on a fine grid, so they do not carry the Welch resolution.
     let fine: Vec<f64> = (0..=2000).map(|k| band.0 + (band.1 - band.0) * k as f64 / 2000.0).collect();
     let fine_trough = |p: &ParameterSet| {
@@ -122,6 +165,9 @@ pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, aft
         measured_anti_resonance: if broadband { trough(&estimate.frequency_hz, &magnitude, band) } else { None },
         before_anti_resonance: fine_trough(before),
         after_anti_resonance: fine_trough(after),
+        response_error_before: enough.then_some(error_before),
+        response_error_after: enough.then_some(error_after),
+        response_bins: bins,
         frequency_hz: estimate.frequency_hz,
         measured: estimate.h1,
         coherence: estimate.coherence,
@@ -131,4 +177,28 @@ pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, aft
         band,
         broadband,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn response_error_of_a_delayed_model_is_the_phase_chord() {
+        // A model that only lacks a delay d errs by |1 - exp(-j w d)| = 2 |sin(pi f d)| in
+        // every bin; with equal coherence the weighted mean is the plain mean.
+        let frequency: Vec<f64> = (0..200).map(|k| 0.5 * k as f64).collect();
+        let d = 2e-3;
+        let measured: Vec<Complex64> = frequency.iter().map(|&f| Complex64::new(0.0, -2.0 * std::f64::consts::PI * f * d).exp() * (1.0 + f)).collect();
+        let model: Vec<Complex64> = frequency.iter().map(|&f| Complex64::new(1.0 + f, 0.0)).collect();
+        let coherence = vec![0.9; frequency.len()];
+        let (error, bins) = response_error(&frequency, &measured, &coherence, 0.5, &model, RESPONSE_BAND);
+        let inside: Vec<f64> = frequency.iter().copied().filter(|f| *f >= RESPONSE_BAND.0 && *f <= RESPONSE_BAND.1).collect();
+        let expected = (inside.iter().map(|f| (2.0 * (std::f64::consts::PI * f * d).sin()).powi(2)).sum::<f64>() / inside.len() as f64).sqrt();
+        assert_eq!(bins, inside.len());
+        assert!((error - expected).abs() < 1e-12 * expected, "{error} against {expected}");
+        // The measured response itself has no error, and incoherent bins are left out.
+        assert_eq!(response_error(&frequency, &measured, &coherence, 0.5, &measured, RESPONSE_BAND).0, 0.0);
+        assert_eq!(response_error(&frequency, &measured, &coherence, 0.95, &model, RESPONSE_BAND).1, 0);
+    }
 }

@@ -39,13 +39,17 @@ pub struct OutputOptions {
     pub minimum_windows: usize,
     /// Fixed window length (s) instead of the rule above.
     pub window_seconds: Option<f64>,
+    /// Fixed length (s) of the drive-path channel's pieces instead of the drive mode's decay
+    /// time (see [`output_error::drive_window`]); a length of at least the window scores the
+    /// twist on the windows themselves.
+    pub drive_window_seconds: Option<f64>,
     /// One-sided level of the signed-rank test that confirms an effect.
     pub alpha: f64,
 }
 
 impl Default for OutputOptions {
     fn default() -> Self {
-        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, alpha: 0.01 }
+        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, drive_window_seconds: None, alpha: 0.01 }
     }
 }
 
@@ -272,10 +276,17 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
         None => selection::select(&data, start, &options.selection),
         Some(simulator) => {
             let prepared = OutputData::new(log, &data, start).and_then(|out| {
-                let plan = match options.output.window_seconds {
+                let mut plan = match options.output.window_seconds {
                     Some(seconds) => WindowPlan::new((seconds / out.dt).round() as usize + 1, out.len(), out.dt, format!("fixed at {seconds} s")),
                     None => output_error::choose_window(&out, options.output.window_correlation, options.output.minimum_windows),
                 };
+                let drive = match options.output.drive_window_seconds {
+                    Some(seconds) => Some(((seconds / out.dt).round() as usize + 1, format!("fixed at {seconds} s"))),
+                    None => output_error::drive_window(start, out.dt),
+                };
+                if let (Some((length, reason)), Structure::TwoMass) = (drive, data.structure) {
+                    plan = plan.with_drive_length(length, reason);
+                }
                 let before = output_error::output_error(simulator, start, &data, &out, &plan)?;
                 Ok((out, plan, before))
             });

@@ -263,14 +263,65 @@ pub struct WindowPlan {
     pub seconds: f64,
     /// How the length was chosen, for the report.
     pub reason: String,
+    /// Length (samples) of the shorter windows the drive-path channel (the twist) is scored
+    /// on, each window split into pieces restarted from the measured state; equal to `length`
+    /// when the twist is scored on the windows themselves. See [`drive_window`].
+    pub drive_length: usize,
+    pub drive_reason: String,
 }
 
 impl WindowPlan {
     pub fn new(length: usize, samples: usize, dt: f64, reason: String) -> WindowPlan {
         let length = length.clamp(2, samples.max(2));
         let starts = (0..samples / length).map(|w| w * length).collect();
-        WindowPlan { length, starts, seconds: (length - 1) as f64 * dt, reason }
+        WindowPlan { length, starts, seconds: (length - 1) as f64 * dt, reason, drive_length: length, drive_reason: String::new() }
     }
+
+    /// The same windows with the drive-path channel scored on pieces of `drive_length`
+    /// samples (at least 10 and at most the window).
+    pub fn with_drive_length(mut self, drive_length: usize, reason: String) -> WindowPlan {
+        self.drive_length = drive_length.clamp(10.min(self.length), self.length);
+        self.drive_reason = reason;
+        self
+    }
+
+    /// The pieces (offset within the window, length) the drive-path channel is simulated on:
+    /// the window divided into the whole number of equal pieces (lengths differing by at most
+    /// one sample) nearest to `drive_length` samples each.
+    pub fn drive_pieces(&self) -> Vec<(usize, usize)> {
+        let count = ((self.length as f64 / self.drive_length.max(2) as f64).round() as usize).clamp(1, self.length / 2);
+        (0..count)
+            .map(|m| {
+                let (a, b) = (m * self.length / count, (m + 1) * self.length / count);
+                (a, b - a)
+            })
+            .collect()
+    }
+}
+
+/// The drive-path window: the decay time of the drive's mechanical mode, 2 / (D (1/J_M +
+/// 1/J_L)) (the time constant of the envelope of the two-mass resonance, with J_M the
+/// reflected motor inertia and D the path damping), for a model with a compliant path.
+///
+/// The twist is what a drive-path effect (a stiffness, a lost motion, a delay) changes in the
+/// simulated motion, and it is set by the drive mode: a twist error started from the measured
+/// state has either decayed or become a drift of the slow motion after one decay time. Scored
+/// over the rigid-body window (the motor speed's correlation lag, typically longer), the twist
+/// error of a drive-path effect is mixed with the slow drift that friction and the open-loop
+/// integration of the torque add, which is not the drive path's. None for a rigid model or a
+/// mode without damping.
+pub fn drive_window(params: &ParameterSet, dt: f64) -> Option<(usize, String)> {
+    let gear = params.value(names::GEAR_RATIO);
+    let motor = params.value(names::MOTOR_INERTIA) * gear * gear;
+    let load = params.value(names::LOAD_INERTIA);
+    let stiffness = params.value(names::STIFFNESS);
+    let damping = params.value(names::DAMPING);
+    if !(stiffness > 0.0 && motor > 0.0 && load > 0.0 && damping > 0.0) {
+        return None;
+    }
+    let decay = 2.0 / (damping * (1.0 / motor + 1.0 / load));
+    let length = (decay / dt).round() as usize + 1;
+    Some((length, format!("the drive mode's decay time 2 / (D (1/J_M + 1/J_L)) = {decay:.3} s")))
 }
 
 /// Output-error results of one channel.
@@ -376,6 +427,23 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
         if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
             return Err(format!("the simulation of the window at {:.3} s failed", out.time[i0]));
         }
+        // The drive-path channel on its shorter pieces, each restarted from the measured state
+        // (the window's own simulation when the pieces are the window).
+        let drive_twist: Option<Vec<f64>> = if plan.drive_length < length && kinds.iter().any(|(k, _)| *k == ChannelKind::Twist) {
+            let mut twist = Vec::with_capacity(length);
+            for (offset, piece) in plan.drive_pieces() {
+                let (i, k) = (i0 + offset, k0 + offset);
+                let piece_start = window_start(out, i, params, centre);
+                let piece_sim = simulator.simulate(&piece_start, &out.held[k..k + piece - 1], &out.disturbance_held[k..k + piece - 1], out.dt)?;
+                if piece_sim.len() != piece || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite()) {
+                    return Err(format!("the simulation of the drive-path piece at {:.3} s failed", out.time[i]));
+                }
+                twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
+            }
+            Some(twist)
+        } else {
+            None
+        };
         // Positions are compared as the logged values against the simulation started at the
         // smoothed measured state; speeds against the zero-phase derivative of the positions.
         for (c, (kind, _)) in kinds.iter().enumerate() {
@@ -386,7 +454,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
                     match kind {
                         ChannelKind::AxisPosition => (out.load_pos[k], sim.load_pos[j]),
                         ChannelKind::MotorPosition => (out.motor_pos[k], sim.motor_pos[j]),
-                        ChannelKind::Twist => (out.motor_pos[k] - out.load_pos[k], sim.motor_pos[j] - sim.load_pos[j]),
+                        ChannelKind::Twist => (out.motor_pos[k] - out.load_pos[k], drive_twist.as_ref().map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j])),
                         ChannelKind::AxisSpeed => (out.state_load_vel[i], sim.load_vel[j]),
                         ChannelKind::MotorSpeed => (out.state_motor_vel[i], sim.motor_vel[j]),
                     }
@@ -607,6 +675,21 @@ impl PlantSimulator for RigidReferenceSimulator {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn drive_pieces_tile_each_window_without_gaps_or_tiny_remainders() {
+        for (length, piece) in [(400, 150), (400, 100), (400, 400), (37, 10), (400, 1000)] {
+            let plan = WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
+            let pieces = plan.drive_pieces();
+            let mut next = 0;
+            for &(offset, len) in &pieces {
+                assert_eq!(offset, next, "window {length}, piece {piece}: {pieces:?}");
+                assert!(3 * len + 3 >= 2 * plan.drive_length && 2 * len <= 3 * plan.drive_length + 2, "{pieces:?}");
+                next += len;
+            }
+            assert_eq!(next, length, "{pieces:?}");
+        }
+    }
 
     #[test]
     fn signed_rank_p_values_match_exact_small_cases() {
