@@ -15,6 +15,7 @@ pub mod frequency;
 pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
+pub mod refit;
 pub mod report;
 pub mod scoring;
 pub mod selection;
@@ -45,11 +46,13 @@ pub struct OutputOptions {
     pub drive_window_seconds: Option<f64>,
     /// One-sided level of the signed-rank test that confirms an effect.
     pub alpha: f64,
+    /// Refit the found effects' parameters on the output error ([`refit`]).
+    pub refit: bool,
 }
 
 impl Default for OutputOptions {
     fn default() -> Self {
-        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, drive_window_seconds: None, alpha: 0.01 }
+        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, drive_window_seconds: None, alpha: 0.01, refit: true }
     }
 }
 
@@ -97,6 +100,9 @@ pub struct OutputReport {
     pub confirmations: Vec<(Kind, Comparison)>,
     /// The corrected model against the starting one.
     pub overall: Comparison,
+    /// The found effects' parameters refitted on the output error ([`refit`]), when that
+    /// lowered its score; the corrected model and "after" are then the refitted ones.
+    pub refit: Option<refit::Refit>,
 }
 
 impl OutputReport {
@@ -305,13 +311,26 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                         confirmations: Vec::new(),
                         alpha: options.output.alpha,
                     };
-                    let selection = selection::select_judged(&data, start, &options.selection, &mut judge);
+                    let mut selection = selection::select_judged(&data, start, &options.selection, &mut judge);
                     let OutputJudge { cache, confirmations, .. } = judge;
                     let structure = data.structure;
-                    let after = match cache.iter().find(|(p, _)| *p == selection.corrected) {
+                    let mut after = match cache.iter().find(|(p, _)| *p == selection.corrected) {
                         Some((_, e)) => e.clone(),
                         None => output_error::output_error(simulator, &selection.corrected, &data, &out, &plan)?,
                     };
+                    // The found effects' parameters refitted on the output error: the model is
+                    // used as a simulation, so its parameters end where it predicts best. The
+                    // equation error is then reported at those parameters as they are.
+                    let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+                    let refitted = if options.output.refit { refit::refit(simulator, &data, &out, &plan, start, &kinds, &selection.corrected, &after) } else { None };
+                    if let Some(r) = &refitted {
+                        let weights = selection.after.channel_weights();
+                        let (_, found) = selection::final_fit(&data, start, &r.params, &kinds, &weights);
+                        selection.after = selection::fit_fixed(&data, &r.params, &weights);
+                        selection.found = found;
+                        selection.corrected = r.params.clone();
+                        after = r.error.clone();
+                    }
                     let overall = output_error::compare(&before, &after, selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(), options.output.alpha);
                     // Hints: effects the equation-error test did not find significant (but at
                     // least the noise in size) that the output error alone would confirm on top
@@ -332,7 +351,7 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                         }
                     }
                     frequency = frequency::compare(&data, &out, start, &selection.corrected);
-                    output = Some(OutputReport { config: out.config, plan, state_half_width: out.state_half_width, before, after, confirmations, overall });
+                    output = Some(OutputReport { config: out.config, plan, state_half_width: out.state_half_width, before, after, confirmations, overall, refit: refitted });
                     selection
                 }
             }

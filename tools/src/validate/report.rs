@@ -152,6 +152,13 @@ fn output_section(out: &mut String, o: &OutputReport) {
         o.plan.reason,
         2 * o.state_half_width + 1
     );
+    if o.plan.drive_length < o.plan.length {
+        let _ = writeln!(
+            out,
+            "The twist (the drive-path channel) is simulated on pieces of about {} samples ({}), each restarted from the measured state.\n",
+            o.plan.drive_length, o.plan.drive_reason
+        );
+    }
     let _ = writeln!(out, "| output | scored | RMS before | RMS after | after/before | NRMSE fit before (%) | NRMSE fit after (%) |\n|---|---|---|---|---|---|---|");
     for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
         let (rb, unit) = display(b.rms, b.kind.unit());
@@ -167,6 +174,16 @@ fn output_section(out: &mut String, o: &OutputReport) {
         );
     }
     let _ = writeln!(out, "\nCorrected against starting model: {}.\n", o.overall.reason);
+    if let Some(r) = &o.refit {
+        let changes: Vec<String> = r.changes.iter().map(|(name, a, b)| format!("{name} {a:.4e} -> {b:.4e}")).collect();
+        let _ = writeln!(
+            out,
+            "Parameters refitted on the output error (Levenberg-Marquardt, {} iterations): {}; score {:.3} of the equation-error fit's.\n",
+            r.iterations,
+            changes.join(", "),
+            r.score_after
+        );
+    }
     if !o.confirmations.is_empty() {
         let _ = writeln!(out, "Output-error confirmations asked during the search (each effect against the model without it):\n");
         for (kind, c) in &o.confirmations {

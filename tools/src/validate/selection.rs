@@ -704,19 +704,35 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
     // residual level.
     let mut found = Vec::new();
     if !accepted.is_empty() {
-        let weights = current.channel_weights();
-        let channels = model_channels(data, &params);
-        let (columns, instances) = refine_columns(data, &params, &channels, &accepted, &weights);
-        current = fit(&channels, &columns, &[], &weights);
-        let mut offset = baseline_columns(data, &params).len();
-        for instance in &instances {
-            let k = instance.columns.len();
-            let sigma: Vec<f64> = (offset..offset + k).map(|i| current.covariance[(i, i)].max(0.0).sqrt()).collect();
-            found.push(Found { kind: instance.kind, parameters: candidates::report(instance.kind, start, &params, &sigma, data) });
-            offset += k;
-        }
+        (current, found) = final_fit(data, start, &params, &accepted, &current.channel_weights());
     }
     Selection { before, after: current, steps, found, corrected: params, removed }
+}
+
+/// The equation-error fit of the model with the accepted effects at `params` (their
+/// increments fitted but not applied) and the effects' reported parameters, with standard
+/// deviations from the covariance of the increments.
+pub fn final_fit(data: &EquationData, start: &ParameterSet, params: &ParameterSet, accepted: &[Kind], weights: &[f64]) -> (Fit, Vec<Found>) {
+    let channels = model_channels(data, params);
+    let (columns, instances) = refine_columns(data, params, &channels, accepted, weights);
+    let result = fit(&channels, &columns, &[], weights);
+    let mut found = Vec::new();
+    let mut offset = baseline_columns(data, params).len();
+    for instance in &instances {
+        let k = instance.columns.len();
+        let sigma: Vec<f64> = (offset..offset + k).map(|i| result.covariance[(i, i)].max(0.0).sqrt()).collect();
+        found.push(Found { kind: instance.kind, parameters: candidates::report(instance.kind, start, params, &sigma, data) });
+        offset += k;
+    }
+    (result, found)
+}
+
+/// The equation-error residual of the model at `params` with only the baseline nuisance
+/// columns fitted: how the equations see a parameter set fixed elsewhere (an output-error
+/// refit), without moving its parameters.
+pub fn fit_fixed(data: &EquationData, params: &ParameterSet, weights: &[f64]) -> Fit {
+    let channels = model_channels(data, params);
+    fit(&channels, &baseline_columns(data, params), &[], weights)
 }
 
 #[cfg(test)]
