@@ -98,7 +98,11 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     stats_rows(&mut out, "after", &v.after);
     let _ = writeln!(out, "\n## Search steps\n");
     for (i, step) in v.selection.steps.iter().enumerate() {
-        let chosen = step.chosen.map(|k| k.name()).unwrap_or("none");
+        let chosen = match (step.chosen, step.paired) {
+            (Some(a), Some(b)) => format!("{} and {} (jointly: no single effect passed, the pair did)", a.name(), b.name()),
+            (Some(a), None) => a.name().to_string(),
+            _ => "none".to_string(),
+        };
         let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
         let _ = writeln!(out, "| candidate | chi2 | parameters | p | trials | BIC gain | effect/noise | significant | searched |");
         let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");

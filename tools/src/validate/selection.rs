@@ -306,6 +306,8 @@ fn contribution(instance: &Instance, beta: &[f64], channels: &[ChannelData]) -> 
 pub struct Step {
     pub scores: Vec<Score>,
     pub chosen: Option<Kind>,
+    /// The second effect when a pair was taken jointly (no single one passed).
+    pub paired: Option<Kind>,
     /// The p-value threshold in force (alpha / total trials).
     pub threshold: f64,
     /// Gauss-Newton iterations used after adding the chosen effect.
@@ -664,11 +666,26 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         }
         let chosen = chosen.map(|(_, kind, refined, fit, iterations)| (kind, refined, fit, iterations));
         let Some((kind, refined, refined_fit, iterations)) = chosen else {
-            steps.push(Step { scores, chosen: None, threshold, iterations: 0 });
-            break;
+            // No single effect: two large missing effects can hide each other, each counting
+            // as noise in the other's test. Pairs are tested jointly before giving up.
+            let pair = if accepted.len() + 2 <= options.max_effects {
+                search_pair(data, &params, &current, &accepted, &evaluated, &weights, &noise, threshold, options, judge)
+            } else {
+                None
+            };
+            let Some((a, b, refined, refined_fit, iterations)) = pair else {
+                steps.push(Step { scores, chosen: None, paired: None, threshold, iterations: 0 });
+                break;
+            };
+            accepted.push(a);
+            accepted.push(b);
+            steps.push(Step { scores, chosen: Some(a), paired: Some(b), threshold, iterations });
+            params = refined;
+            current = refined_fit;
+            continue;
         };
         accepted.push(kind);
-        steps.push(Step { scores, chosen: Some(kind), threshold, iterations });
+        steps.push(Step { scores, chosen: Some(kind), paired: None, threshold, iterations });
         params = refined;
         current = refined_fit;
     }
@@ -700,6 +717,54 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         current = without_fit;
     }
 
+    // Swap re-test: an effect chosen early was judged against a model that still lacked the
+    // effects found later (or held a compensation the backward check has since removed). Each
+    // accepted effect is compared once more with every alternative that was significant and
+    // confirmed at some step, in the final model: the alternative replaces it when the model
+    // with it (the others refitted) predicts significantly better. An offset and an unbalance
+    // over a short angle range are the typical case: nearly collinear in the equations, told
+    // apart only by what they do to the simulated motion.
+    let mut swapped = Vec::new();
+    if judge.compares() && !accepted.is_empty() {
+        let alternatives: Vec<Kind> = {
+            let mut kinds: Vec<Kind> = steps.iter().flat_map(|s| s.scores.iter().filter(|x| x.confirmation.is_some() || x.not_applicable.as_deref().is_some_and(|r| r.starts_with("significant but not confirmed"))).map(|x| x.kind)).collect();
+            kinds.sort_by_key(|k| Kind::ALL.iter().position(|x| x == k));
+            kinds.dedup();
+            kinds
+        };
+        for index in 0..accepted.len() {
+            let kind = accepted[index];
+            let mut best: Option<(Kind, ParameterSet, Fit)> = None;
+            for &alternative in &alternatives {
+                if accepted.contains(&alternative) {
+                    continue;
+                }
+                let mut trial: Vec<Kind> = accepted.clone();
+                trial[index] = alternative;
+                let weights = current.channel_weights();
+                let Ok(seeded) = fit_candidate(data, &without_effect(kind, &params, start), &trial[..index].iter().chain(&trial[index + 1..]).copied().collect::<Vec<_>>(), alternative, options) else { continue };
+                let (refined, refined_fit, _) = refine(data, seeded, &trial, &weights, options.max_iterations);
+                if candidates::admissible(&refined, data).is_err() {
+                    continue;
+                }
+                let extra = kind_parameters(alternative, data) as isize - kind_parameters(kind, data) as isize;
+                let incumbent = best.as_ref().map_or(&params, |b| &b.1);
+                if judge.prefers(incumbent, &refined, extra) {
+                    best = Some((alternative, refined, refined_fit));
+                }
+            }
+            if let Some((alternative, refined, refined_fit)) = best {
+                swapped.push((kind, alternative));
+                accepted[index] = alternative;
+                params = refined;
+                current = refined_fit;
+            }
+        }
+    }
+    for (from, to) in &swapped {
+        removed.push((*from, format!("replaced by {} in the final model, which then predicts significantly better", to.name())));
+    }
+
     // A last fit with weights from the final residual, so the covariance reflects the final
     // residual level.
     let mut found = Vec::new();
@@ -707,6 +772,99 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         (current, found) = final_fit(data, start, &params, &accepted, &current.channel_weights());
     }
     Selection { before, after: current, steps, found, corrected: params, removed }
+}
+
+/// Parameters an effect adds (as the output error's information criterion counts them).
+fn kind_parameters(kind: Kind, data: &EquationData) -> usize {
+    match kind {
+        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
+        Kind::Cogging => 3,
+        Kind::Inertia if data.structure == Structure::TwoMass => 2,
+        _ => 1,
+    }
+}
+
+/// The joint test of two candidates, for a step at which no single one was significant and
+/// confirmed: both fitted together on top of the accepted effects, each tested against the
+/// residual of the joint alternative (so neither counts as noise in the other's test) at the
+/// step's level divided by the number of pairs (Bonferroni), each at least the noise in size.
+/// The passing pairs are tried best-ranked first (explained fraction less the BIC penalty of
+/// both); a pair is taken when its refined parameters are admissible and the judge confirms
+/// each effect against the model with only the other.
+#[allow(clippy::too_many_arguments)]
+fn search_pair(
+    data: &EquationData,
+    params: &ParameterSet,
+    current: &Fit,
+    accepted: &[Kind],
+    evaluated: &[(Instance, Fit)],
+    weights: &[f64],
+    noise: &[f64],
+    threshold: f64,
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Option<(Kind, Kind, ParameterSet, Fit, usize)> {
+    let channel_count = data.channels.len();
+    let (accepted_columns, _) = refine_columns(data, params, &current.channels, accepted, weights);
+    let count = evaluated.len() * evaluated.len().saturating_sub(1) / 2;
+    if count == 0 {
+        return None;
+    }
+    let level = threshold / count as f64;
+    let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
+    let mut passing: Vec<(f64, usize, usize)> = Vec::new();
+    for i in 0..evaluated.len() {
+        for j in i + 1..evaluated.len() {
+            let (a, b) = (&evaluated[i].0, &evaluated[j].0);
+            let mut columns = accepted_columns.clone();
+            columns.extend(a.columns.iter().cloned());
+            columns.extend(b.columns.iter().cloned());
+            let adjust = add_adjust(&a.adjust, &b.adjust, channel_count);
+            let joint = fit(&current.channels, &columns, &adjust, weights);
+            let offset_a = accepted_columns.len();
+            let offset_b = offset_a + a.columns.len();
+            let beta_a = &joint.beta[offset_a..offset_b];
+            let beta_b = &joint.beta[offset_b..];
+            let mut ok = true;
+            for (instance, beta, other) in [(a, beta_a, b), (b, beta_b, a)] {
+                let mut others = accepted_columns.clone();
+                others.extend(other.columns.iter().cloned());
+                let effect = effect_vector(instance, beta, &current.channels);
+                let chi2 = robust_chi2(&current.channels, &others, &effect, &joint.residual, &joint.residual, weights, &joint.tau);
+                let size = contribution(instance, beta, &current.channels).iter().zip(noise).map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 }).fold(0.0, f64::max);
+                let p = chi_squared_sf(chi2, instance.parameter_count() as f64);
+                if !(p < level) || size < options.min_effect_to_noise {
+                    ok = false;
+                }
+            }
+            if !ok {
+                continue;
+            }
+            let k = (a.parameter_count() + b.parameter_count()) as f64;
+            let n_eff = joint.effective_samples().max(2.0);
+            let explained = if weighted(current) > 0.0 { 1.0 - weighted(&joint) / weighted(current) } else { 0.0 };
+            passing.push((explained - k * n_eff.ln() / n_eff, i, j));
+        }
+    }
+    passing.sort_by(|x, y| y.0.total_cmp(&x.0));
+    for (_, i, j) in passing {
+        let (a, b) = (evaluated[i].0.kind, evaluated[j].0.kind);
+        let mut trial = accepted.to_vec();
+        let Ok(seeded) = fit_candidate(data, params, &trial, a, options) else { continue };
+        trial.push(a);
+        let Ok(seeded) = fit_candidate(data, &seeded, &trial, b, options) else { continue };
+        trial.push(b);
+        let (refined, refined_fit, iterations) = refine(data, seeded, &trial, weights, options.max_iterations);
+        if candidates::admissible(&refined, data).is_err() {
+            continue;
+        }
+        let only_b = without_effect(a, &refined, params);
+        let only_a = without_effect(b, &refined, params);
+        if judge.confirm(a, &only_b, &refined).is_ok() && judge.confirm(b, &only_a, &refined).is_ok() {
+            return Some((a, b, refined, refined_fit, iterations));
+        }
+    }
+    None
 }
 
 /// The equation-error fit of the model with the accepted effects at `params` (their
