@@ -176,3 +176,31 @@ fn the_written_parameter_file_reproduces_the_corrected_models_output_error_in_th
     // And the file really is the corrected model: the starting model's error is larger.
     assert!(report.after.channels[0].rms < 0.5 * report.before.channels[0].rms);
 }
+
+#[test]
+fn the_output_error_refit_recovers_parameters_of_an_fmu_made_log_from_a_biased_start() {
+    // On a log the FMU itself made, the model with the true delay and offset is exact, so the
+    // Levenberg-Marquardt refit started 20 % off must find them again and lower the score.
+    use antenna_tools::validate::candidates::Kind;
+    use antenna_tools::validate::refit::refit;
+    let mut sim = simulator();
+    let mut truth = TruthPlant::default().starting_parameters();
+    truth.set(names::DELAY, 0.006);
+    truth.set(names::TORQUE_OFFSET, 900.0);
+    let log = fmu_log(&mut sim, &truth);
+    let mut biased = truth.clone();
+    biased.set(names::DELAY, 0.8 * 0.006);
+    biased.set(names::TORQUE_OFFSET, 0.8 * 900.0);
+    let start = TruthPlant::default().starting_parameters();
+    let data = prepare(&log, &start, &EquationOptions::default()).unwrap();
+    let out = OutputData::new(&log, &data, &start).unwrap();
+    let plan = WindowPlan::new(500, out.len(), out.dt, "1 s".into());
+    let error = output_error(&mut sim, &biased, &data, &out, &plan).unwrap();
+    let result = refit(&mut sim, &data, &out, &plan, &start, &[Kind::Delay, Kind::Offset], &biased, &error).expect("the refit lowers the score");
+    let delay = result.params.value(names::DELAY);
+    let offset = result.params.value(names::TORQUE_OFFSET);
+    println!("delay {delay:.6e}, offset {offset:.4}, score {:.4}", result.score_after);
+    assert!((delay / 0.006 - 1.0).abs() < 0.01, "delay {delay}");
+    assert!((offset / 900.0 - 1.0).abs() < 0.01, "offset {offset}");
+    assert!(result.score_after < 0.1, "score {}", result.score_after);
+}
