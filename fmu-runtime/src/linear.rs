@@ -7,12 +7,34 @@
 
 use nalgebra::DMatrix;
 
+/// Largest 1-norm of a matrix whose exponential is computed.
+///
+/// nalgebra's scaling-and-squaring forms the powers of the unscaled matrix up to the tenth
+/// before choosing the scaling: above a norm of about 1.3e30 they overflow, the number of
+/// squarings becomes infinite, and `exp` loops for ever (a hang, found with a drive stiffness of
+/// 1e50 N m/rad). The models here stay far below: the drives' largest exponent, over a 1 s
+/// piece, has a norm of about 1e4.
+pub const MAX_EXPONENT_NORM: f64 = 1e30;
+
+/// `exp(m)`, or a matrix of NaN when `m` has a non-finite entry or a norm above
+/// [`MAX_EXPONENT_NORM`]: the caller's finiteness check then reports the extreme parameters,
+/// where computing the exponential would hang or return rubbish.
+fn exp_or_nan(m: DMatrix<f64>) -> DMatrix<f64> {
+    let norm = m.column_iter().map(|c| c.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
+    // `!(norm <= bound)` is also true for a NaN norm.
+    if !(norm <= MAX_EXPONENT_NORM) {
+        return DMatrix::from_element(m.nrows(), m.ncols(), f64::NAN);
+    }
+    m.exp()
+}
+
 /// Zero-order-hold discretisation of `dx/dt = A x + B u` over a step `h`.
 ///
 /// Returns `(Ad, Bd)` with `x(t+h) = Ad x(t) + Bd u` for `u` held constant over the step. Both
 /// come from one matrix exponential of the block matrix `[[A, B], [0, 0]] h`, which is exact
 /// (to the accuracy of the Pade approximant, about machine precision) even when `A` is singular,
-/// as it is for every drive (the rigid-body mode is a pure integrator).
+/// as it is for every drive (the rigid-body mode is a pure integrator). For an exponent too
+/// large to compute (norm above [`MAX_EXPONENT_NORM`], or not finite) both are NaN.
 pub fn zoh(a: &DMatrix<f64>, b: &DMatrix<f64>, h: f64) -> (DMatrix<f64>, DMatrix<f64>) {
     let n = a.nrows();
     let m = b.ncols();
@@ -21,7 +43,7 @@ pub fn zoh(a: &DMatrix<f64>, b: &DMatrix<f64>, h: f64) -> (DMatrix<f64>, DMatrix
     let mut block = DMatrix::<f64>::zeros(n + m, n + m);
     block.view_mut((0, 0), (n, n)).copy_from(&(a * h));
     block.view_mut((0, n), (n, m)).copy_from(&(b * h));
-    let e = block.exp();
+    let e = exp_or_nan(block);
     (e.view((0, 0), (n, n)).into_owned(), e.view((0, n), (n, m)).into_owned())
 }
 
@@ -30,7 +52,8 @@ pub fn zoh(a: &DMatrix<f64>, b: &DMatrix<f64>, h: f64) -> (DMatrix<f64>, DMatrix
 /// Returns `(Ad, Qd)`: `x(t+h) = Ad x(t) + w` with `w ~ N(0, Qd)` and
 /// `Qd = integral_0^h exp(A s) G Q G' exp(A' s) ds`, the exact covariance of the noise that the
 /// continuous process accumulates over the step. Sampling with `Qd` reproduces the continuous
-/// process at the sample times, so statistics do not depend on the step.
+/// process at the sample times, so statistics do not depend on the step. NaN, as for [`zoh`],
+/// when the exponent is too large to compute.
 pub fn van_loan(a: &DMatrix<f64>, g: &DMatrix<f64>, q: &DMatrix<f64>, h: f64) -> (DMatrix<f64>, DMatrix<f64>) {
     let n = a.nrows();
     let gqg = g * q * g.transpose();
@@ -38,7 +61,7 @@ pub fn van_loan(a: &DMatrix<f64>, g: &DMatrix<f64>, q: &DMatrix<f64>, h: f64) ->
     block.view_mut((0, 0), (n, n)).copy_from(&(-a * h));
     block.view_mut((0, n), (n, n)).copy_from(&(&gqg * h));
     block.view_mut((n, n), (n, n)).copy_from(&(a.transpose() * h));
-    let e = block.exp();
+    let e = exp_or_nan(block);
     let ad = e.view((n, n), (n, n)).transpose();
     let qd = &ad * e.view((0, n), (n, n));
     // Symmetrise: the product is symmetric in exact arithmetic only.
@@ -87,6 +110,23 @@ mod tests {
         let expected_bd = DMatrix::from_row_slice(2, 1, &[h * h / 2.0, h]);
         assert!((ad - expected_ad).abs().max() < 1e-14);
         assert!((bd - expected_bd).abs().max() < 1e-14);
+    }
+
+    #[test]
+    fn an_exponent_too_large_to_compute_gives_nan_instead_of_hanging() {
+        // With these, nalgebra's exp never returned (its squaring count overflowed).
+        let b = DMatrix::from_row_slice(2, 1, &[0.0, 1.0]);
+        for huge in [1e40, 1e300, f64::INFINITY, f64::NAN] {
+            let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -huge, -1.0]);
+            let (ad, bd) = zoh(&a, &b, 1e-3);
+            assert!(ad.iter().chain(bd.iter()).all(|v| v.is_nan()), "A entry {huge}: {ad} {bd}");
+            let (ad, qd) = van_loan(&a, &b, &DMatrix::from_element(1, 1, 1.0), 1e-3);
+            assert!(ad.iter().chain(qd.iter()).all(|v| v.is_nan()), "A entry {huge}");
+        }
+        // Just inside the bound the exponential is still computed: a fast decay to zero.
+        let a = DMatrix::from_element(2, 2, 0.0) - DMatrix::identity(2, 2) * 0.9e30;
+        let (ad, _) = zoh(&a, &DMatrix::from_element(2, 1, 0.0), 1.0);
+        assert!(ad.iter().all(|v| *v == 0.0), "{ad}");
     }
 
     #[test]
