@@ -285,8 +285,11 @@ impl AzimuthPlant {
     /// Validates the parameters and builds the plant at rest at 0 deg azimuth.
     pub fn new(params: AzimuthParams) -> Result<Self, String> {
         params.validate()?;
+        // At 90 deg the load inertia is at its smallest or largest; the rates differ between
+        // elevations by less than a factor of two, which the bound's decades make irrelevant.
         let cell = params.cell_of(90.0);
         let core = DriveCore::new(params.core_config(), cell, params.cell_model(cell));
+        core.check_rates("azimuth")?;
         Ok(Self { params, core })
     }
 
@@ -306,7 +309,8 @@ impl AzimuthPlant {
     }
 
     /// Advances by `h` seconds with the inputs held constant over `[t, t + h)`. On an error
-    /// the state is unchanged.
+    /// the state is unchanged: also when the step itself produced a non-finite state (extreme
+    /// parameters or inputs), which is then undone and reported with its likely cause.
     pub fn step(&mut self, inputs: &AzimuthInputs, h: f64) -> Result<(), String> {
         if !(h.is_finite() && h > 0.0) {
             return Err(format!("step size ({h}) must be finite and positive"));
@@ -317,6 +321,7 @@ impl AzimuthPlant {
         if !finite_inputs {
             return Err(format!("azimuth inputs must be finite: {inputs:?}"));
         }
+        let checkpoint = self.core.checkpoint();
         let cell = self.params.cell_of(inputs.elevation_deg);
         if cell != self.core.cell() {
             self.core.set_cell(cell, self.params.cell_model(cell));
@@ -328,6 +333,12 @@ impl AzimuthPlant {
         };
         let load_torque = inputs.disturbance_torque_nm + params.torque_offset_nm;
         self.core.step(inputs.current_command_a, load_torque, h, &position_torques);
+        if !self.core.is_finite() {
+            let cause = self.core.likely_cause_of_non_finite_state(&inputs.current_command_a, load_torque);
+            let params = &self.params;
+            self.core.rollback(checkpoint, |cell| params.cell_model(cell));
+            return Err(non_finite_step_message("azimuth", self.core.time(), h, &cause));
+        }
         Ok(())
     }
 
@@ -401,6 +412,14 @@ impl AzimuthPlant {
     pub(crate) fn core(&self) -> &DriveCore<PATHS, STATES, INPUTS> {
         &self.core
     }
+}
+
+/// The error of a step that produced a non-finite state and was undone.
+pub(crate) fn non_finite_step_message(axis: &str, time: f64, h: f64, cause: &str) -> String {
+    format!(
+        "the {axis} step of {h} s from t = {time} s produced a non-finite state (NaN or infinity) and was undone: \
+         the plant is as it was before the step. Likely cause: {cause}"
+    )
 }
 
 /// An angle rounded down to whole counts of a `bits`-bit-per-turn encoder; 0 bits is exact.
@@ -603,6 +622,61 @@ mod tests {
     }
 
     #[test]
+    fn parameters_too_fast_for_the_discretisation_are_refused_with_the_rate_named() {
+        // The values the audit set through the FMU, which made every step return NaN (or, from
+        // 1e50 N m/rad on, never return), and a damping so small beside backlash that the
+        // spring's relaxation in the gap is as extreme.
+        let d = AzimuthParams::default();
+        let mut bandwidth = d;
+        bandwidth.motors[1].current_loop_bandwidth_hz = 1e300;
+        let cases = [
+            ("stiffness", AzimuthParams { path_stiffness_nm_per_rad: [1e308, 7.3e9], ..d }, "stiffness of path 1 / damping of path 1"),
+            ("damping", AzimuthParams { path_damping_nm_s_per_rad: [5.3e6, 1e308], ..d }, "damping of path 2 / motor inertia"),
+            ("tiny damping", AzimuthParams { path_damping_nm_s_per_rad: [1e-100, 5.3e6], ..d }, "relaxation in the backlash gap"),
+            ("bandwidth", bandwidth, "current-loop bandwidth of motor 2"),
+        ];
+        for (what, params, source) in cases {
+            let error = AzimuthPlant::new(params).expect_err(what);
+            assert!(error.contains(source) && error.contains("fastest rate"), "{what}: {error}");
+        }
+        // The defaults are seven decades below the bound.
+        let (rate, _) = AzimuthPlant::new(d).unwrap().core().fastest_rate();
+        assert!(rate < 2e3, "default fastest rate {rate}");
+    }
+
+    #[test]
+    fn a_step_that_overflows_is_undone_and_reported_with_its_cause() {
+        // A disturbance of 1e308 N m accelerates the axis until its angle overflows after some
+        // 43 s. A command delay is on so that the delay lines must be restored too.
+        let mut params = AzimuthParams::default();
+        params.motors[0].current_command_delay_s = 2.5e-3;
+        let mut plant = AzimuthPlant::new(params).unwrap();
+        let mut failure = None;
+        for k in 0..100_000 {
+            let inputs = AzimuthInputs {
+                current_command_a: [signal(k, 3), signal(k, 4)],
+                disturbance_torque_nm: 1e308,
+                elevation_deg: 45.0,
+            };
+            let mut before = StateWriter::new();
+            plant.save_state(&mut before);
+            let outputs = plant.outputs();
+            if let Err(error) = plant.step(&inputs, 1e-3) {
+                failure = Some((k, error, before.into_bytes(), outputs));
+                break;
+            }
+        }
+        let (k, error, before, outputs) = failure.expect("the state never overflowed");
+        assert!(k > 1000, "the overflow came after {k} steps, too early to be the disturbance's doing");
+        assert!(error.contains("non-finite") && error.contains("load torque 1e308"), "{error}");
+        let mut after = StateWriter::new();
+        plant.save_state(&mut after);
+        assert!(after.into_bytes() == before, "the failed step changed the saved state");
+        assert_eq!(plant.outputs(), outputs, "the failed step changed the outputs");
+        assert!(plant.outputs().axis_position_deg.is_finite());
+    }
+
+    #[test]
     fn bodies_start_sticking_where_there_is_friction() {
         let plant = AzimuthPlant::new(AzimuthParams::default()).unwrap();
         assert_eq!(plant.core().load_motion(), Motion::Stuck);
@@ -611,3 +685,4 @@ mod tests {
         assert_eq!(linear.core().load_motion(), Motion::Forward);
     }
 }
+

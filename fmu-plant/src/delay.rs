@@ -26,6 +26,14 @@ impl DelayLine {
         self.entries.clear();
     }
 
+    /// Makes this line a copy of `other`, reusing its buffer: no allocation once the buffer has
+    /// grown to the other's length, unlike `clone`, which the derived `clone_from` calls.
+    pub fn copy_from(&mut self, other: &DelayLine) {
+        self.delay = other.delay;
+        self.entries.clear();
+        self.entries.extend(other.entries.iter().copied());
+    }
+
     /// Records that from time `now` on the command is `value`.
     pub fn push(&mut self, now: f64, value: f64) {
         if self.entries.back().is_some_and(|&(_, last)| last == value) {

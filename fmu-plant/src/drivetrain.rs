@@ -42,6 +42,15 @@ use crate::cache::{BoundedCache, DiscretisationKey};
 use crate::delay::DelayLine;
 use crate::params::FrictionParams;
 
+/// Fastest rate of the linear dynamics a plant accepts, 1/s.
+///
+/// Above it the matrix exponential, though finite, loses accuracy: with tiny motor inertias
+/// the linear configuration's 1 ms and 0.1 ms runs, which agree to 1e-14 at the defaults,
+/// differ by 1.6e-11 of their range at a rate of 6.5e7 1/s, 6.7e-10 at 6.5e9, 2.6e-8 at 6.5e10
+/// and 1.6e-2 at 6.5e16. The default drives' fastest rate is about 1.4e3 1/s (the spring's
+/// relaxation in the backlash gap), so this leaves seven decades for studies.
+pub(crate) const MAX_RATE_PER_S: f64 = 1e10;
+
 pub(crate) const LOAD_ANGLE: usize = 0;
 pub(crate) const LOAD_SPEED: usize = 1;
 
@@ -391,6 +400,22 @@ impl<const S: usize, const U: usize> Discretisation<S, U> {
     }
 }
 
+/// What a step changes in a drive, taken before the step so that a step whose result is not
+/// finite can be undone ([`DriveCore::checkpoint`], [`DriveCore::rollback`]). It is small and
+/// `Copy`, so taking one on every step costs a copy of about a hundred bytes and no allocation.
+/// The delay lines, which own a buffer, are copied into spare lines kept by the core instead,
+/// and only when a delay is on. The cell's model is not kept: it follows from the cell.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Checkpoint<const P: usize, const S: usize> {
+    x: SVector<f64, S>,
+    load_angle_low: f64,
+    load_motion: Motion,
+    motor_motion: [Motion; P],
+    mesh: [Mesh; P],
+    time: f64,
+    cell: i64,
+}
+
 /// A drive train with `P` paths, `S = 2 + 4P` states and `U = 2P + 1` inputs.
 #[derive(Debug, Clone)]
 pub(crate) struct DriveCore<const P: usize, const S: usize, const U: usize> {
@@ -406,6 +431,8 @@ pub(crate) struct DriveCore<const P: usize, const S: usize, const U: usize> {
     mesh: [Mesh; P],
     time: f64,
     delay: [DelayLine; P],
+    /// Copies of the delay lines at the last checkpoint (used only when a delay is on).
+    delay_at_checkpoint: [DelayLine; P],
     cell: i64,
     model: CellModel<P>,
     /// Speeds at which the Stribeck excess is sampled for the current piece (load in axis
@@ -431,6 +458,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             motor_motion: [Motion::Forward; P],
             mesh: [Mesh::PositiveFlank; P],
             time: 0.0,
+            delay_at_checkpoint: delay.clone(),
             delay,
             cell,
             model,
@@ -510,6 +538,106 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     pub fn set_cell(&mut self, cell: i64, model: CellModel<P>) {
         self.cell = cell;
         self.model = model;
+    }
+
+    /// Everything a step changes, to undo it with [`rollback`](Self::rollback).
+    pub fn checkpoint(&mut self) -> Checkpoint<P, S> {
+        for k in 0..P {
+            if self.config.command_delay[k] > 0.0 {
+                self.delay_at_checkpoint[k].copy_from(&self.delay[k]);
+            }
+        }
+        Checkpoint {
+            x: self.x,
+            load_angle_low: self.load_angle_low,
+            load_motion: self.load_motion,
+            motor_motion: self.motor_motion,
+            mesh: self.mesh,
+            time: self.time,
+            cell: self.cell,
+        }
+    }
+
+    /// Puts the drive back where it was at `checkpoint`, the last one taken; `model_of_cell`
+    /// gives the model of the checkpoint's cell if the cell changed since.
+    pub fn rollback(&mut self, checkpoint: Checkpoint<P, S>, model_of_cell: impl FnOnce(i64) -> CellModel<P>) {
+        if self.cell != checkpoint.cell {
+            self.set_cell(checkpoint.cell, model_of_cell(checkpoint.cell));
+        }
+        self.x = checkpoint.x;
+        self.load_angle_low = checkpoint.load_angle_low;
+        self.load_motion = checkpoint.load_motion;
+        self.motor_motion = checkpoint.motor_motion;
+        self.mesh = checkpoint.mesh;
+        self.time = checkpoint.time;
+        for k in 0..P {
+            if self.config.command_delay[k] > 0.0 {
+                std::mem::swap(&mut self.delay[k], &mut self.delay_at_checkpoint[k]);
+            }
+        }
+    }
+
+    /// True if every state is a finite number. Ten comparisons: cheap enough for every step.
+    pub fn is_finite(&self) -> bool {
+        self.x.iter().all(|v| v.is_finite()) && self.load_angle_low.is_finite()
+    }
+
+    /// The fastest rate of the linear dynamics in use, 1/s, and where it comes from: the
+    /// largest of the current-loop bandwidths, the path and viscous rates, and (with backlash)
+    /// the spring's relaxation rate in the gap. A NaN rate (0/0) counts as the fastest.
+    pub fn fastest_rate(&self) -> (f64, String) {
+        let m = &self.model;
+        let mut rates: Vec<(f64, String)> = Vec::new();
+        for k in 0..P {
+            let path = if P > 1 { format!(" of path {}", k + 1) } else { String::new() };
+            let (stiffness, damping, jm) = (m.stiffness[k], m.damping[k], m.motor_inertia[k]);
+            rates.push(((stiffness / jm).sqrt(), format!("sqrt(stiffness{path} / motor inertia)")));
+            rates.push(((stiffness / m.load_inertia).sqrt(), format!("sqrt(stiffness{path} / load inertia)")));
+            rates.push((damping / jm, format!("damping{path} / motor inertia")));
+            rates.push((damping / m.load_inertia, format!("damping{path} / load inertia")));
+            if self.config.backlash[k] > 0.0 {
+                rates.push((stiffness / damping, format!("stiffness{path} / damping{path} (relaxation in the backlash gap)")));
+            }
+            rates.push((m.motor_viscous[k] / jm, format!("viscous friction / inertia of motor {}", k + 1)));
+            rates.push((m.current_loop_rad_per_s[k], format!("current-loop bandwidth of motor {}", k + 1)));
+        }
+        rates.push((m.load_viscous / m.load_inertia, "load viscous friction / load inertia".to_string()));
+        rates
+            .into_iter()
+            .max_by(|a, b| a.0.is_nan().cmp(&b.0.is_nan()).then(a.0.total_cmp(&b.0)))
+            .expect("at least one rate")
+    }
+
+    /// Checks that the dynamics in use are no faster than [`MAX_RATE_PER_S`].
+    pub fn check_rates(&self, axis: &str) -> Result<(), String> {
+        let (rate, source) = self.fastest_rate();
+        if rate <= MAX_RATE_PER_S {
+            return Ok(());
+        }
+        Err(format!(
+            "invalid {axis} parameters: the drive's fastest rate, {source}, is {rate:.3e} 1/s, above the {MAX_RATE_PER_S:e} 1/s \
+             up to which the exact discretisation keeps about 1e-9 relative accuracy (the default drive's fastest is \
+             about 1.4e3 1/s; docs/plant-model.md, section 7): a stiffness, damping or current-loop bandwidth \
+             this large, an inertia this small, or a damping this small beside backlash, is outside any real drive"
+        ))
+    }
+
+    /// Why a step may have produced a non-finite state, for the error message: the fastest
+    /// rate of the linear dynamics in use when it is too fast, otherwise the inputs.
+    pub fn likely_cause_of_non_finite_state(&self, commands: &[f64; P], load_torque_axis: f64) -> String {
+        let (rate, source) = self.fastest_rate();
+        if !(rate <= MAX_RATE_PER_S) {
+            format!(
+                "the drive's fastest rate, {source}, is {rate:.3e} 1/s (the default drive's is about 1.4e3 1/s): \
+                 a stiffness, damping or current-loop bandwidth this large, or an inertia this small, \
+                 is beyond what the exact discretisation can represent"
+            )
+        } else {
+            format!(
+                "the inputs, or the torques and speeds they cause, are too large to represent (current commands \
+                 {commands:?} A, load torque {load_torque_axis:e} N m about the axis)"
+            )
+        }
     }
 
     /// Path torque at the motor side, N m: what the spring-damper transmits (zero in the gap).

@@ -23,7 +23,7 @@ use fmu_runtime::state::{StateError, StateReader, StateWriter};
 use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
-use crate::azimuth::quantise;
+use crate::azimuth::{non_finite_step_message, quantise};
 use crate::drivetrain::{
     current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics, LOAD_ANGLE,
     LOAD_SPEED,
@@ -587,6 +587,9 @@ impl ElevationPlant {
         params.validate()?;
         let cell = params.cell_of(Self::STOW_ELEVATION_DEG);
         let core = DriveCore::new(params.core_config(), cell, params.cell_model(cell));
+        // The rates vary with the ratio over the travel by some 20 %, which the bound's decades
+        // make irrelevant: checking the stow cell suffices.
+        core.check_rates("elevation")?;
         let mut plant = Self { params, kinematics: Kinematics::new(&params), core, angle_rad: 0.0, ratio: 1.0 };
         plant.set_initial_state(Self::STOW_ELEVATION_DEG.to_radians())?;
         Ok(plant)
@@ -624,6 +627,7 @@ impl ElevationPlant {
         if !(inputs.current_command_a.is_finite() && inputs.disturbance_torque_nm.is_finite()) {
             return Err(format!("elevation inputs must be finite: {inputs:?}"));
         }
+        let checkpoint = self.core.checkpoint();
         let cell = self.params.cell_of(self.angle_rad.to_degrees());
         if cell != self.core.cell() {
             // The state's coordinates do not depend on the cell: only the frozen parameters change.
@@ -650,6 +654,13 @@ impl ElevationPlant {
         let load_torque = inputs.disturbance_torque_nm + params.torque_offset_nm;
         self.core.step([inputs.current_command_a], load_torque, h, &position_torques);
         self.update_derived();
+        if !(self.core.is_finite() && self.angle_rad.is_finite() && self.ratio.is_finite()) {
+            let cause = self.core.likely_cause_of_non_finite_state(&[inputs.current_command_a], load_torque);
+            let params = &self.params;
+            self.core.rollback(checkpoint, |cell| params.cell_model(cell));
+            self.update_derived();
+            return Err(non_finite_step_message("elevation", self.core.time(), h, &cause));
+        }
         Ok(())
     }
 
@@ -805,6 +816,41 @@ mod tests {
         }
         let out = plant.outputs();
         assert!(out.axis_position_deg > 100.0 && out.motor_speed_rad_per_s.is_finite() && out.screw_force_n.is_finite());
+    }
+
+    #[test]
+    fn parameters_too_fast_for_the_discretisation_are_refused_and_an_overflowing_step_is_undone() {
+        let d = ElevationParams::default();
+        let mut stiff = d;
+        stiff.jackscrew.series_stiffness_n_per_m = 1e300;
+        stiff.jackscrew.screw_axial_rigidity_n = 1e300;
+        let error = ElevationPlant::new(stiff).expect_err("a stiffness of 1e300 N/m");
+        assert!(error.contains("fastest rate") && error.contains("stiffness"), "{error}");
+        let mut fast = d;
+        fast.motor.current_loop_bandwidth_hz = 1e300;
+        let error = ElevationPlant::new(fast).expect_err("a bandwidth of 1e300 Hz");
+        assert!(error.contains("current-loop bandwidth"), "{error}");
+
+        // A disturbance of 1e308 N m until the state overflows: that step is undone.
+        let mut plant = ElevationPlant::new(d).unwrap();
+        let inputs = ElevationInputs { current_command_a: 1.0, disturbance_torque_nm: 1e308 };
+        let mut failure = None;
+        for k in 0..100_000 {
+            let mut before = StateWriter::new();
+            plant.save_state(&mut before);
+            let outputs = plant.outputs();
+            if let Err(error) = plant.step(&inputs, 1e-3) {
+                failure = Some((k, error, before.into_bytes(), outputs));
+                break;
+            }
+        }
+        let (k, error, before, outputs) = failure.expect("the state never overflowed");
+        assert!(k > 100, "the overflow came after {k} steps, too early to be the disturbance's doing");
+        assert!(error.contains("non-finite") && error.contains("load torque 1e308"), "{error}");
+        let mut after = StateWriter::new();
+        plant.save_state(&mut after);
+        assert!(after.into_bytes() == before, "the failed step changed the saved state");
+        assert_eq!(plant.outputs(), outputs, "the failed step changed the outputs");
     }
 
     #[test]
