@@ -3,7 +3,10 @@
 
 use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, StateReader, StateWriter, Values};
 
-use super::common::{load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars};
+use super::common::{
+    load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_CURRENT_LOOP_BANDWIDTH, MAX_PATH_DAMPING,
+    MAX_PATH_STIFFNESS, MIN_MOTOR_INERTIA, TINY,
+};
 use crate::params::PeriodicTorqueParams;
 use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant};
 
@@ -47,21 +50,21 @@ declare_variables! {
         // Gearing and paths.
         GearRatio = Var::real("gear.ratio", "1").parameter().start(9000.0).min(1.0)
             .description("Gear ratio of each drive, motor rad per axis rad (gearbox times bull gear over pinion)."),
-        Pinion1Stiffness = Var::real("pinion1.stiffness", "N.m/rad").parameter().start(7.3e9).min(0.0)
-            .description("Stiffness of drive path 1 about the axis (gearbox, pinion, teeth, bull gear); the paper measured up to 30 % spread."),
-        Pinion2Stiffness = Var::real("pinion2.stiffness", "N.m/rad").parameter().start(7.3e9).min(0.0)
-            .description("Stiffness of drive path 2 about the axis."),
-        Pinion1Damping = Var::real("pinion1.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0)
-            .description("Viscous damping of drive path 1 about the axis (the paper's K_cv, per path)."),
-        Pinion2Damping = Var::real("pinion2.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0)
-            .description("Viscous damping of drive path 2 about the axis."),
+        Pinion1Stiffness = Var::real("pinion1.stiffness", "N.m/rad").parameter().start(7.3e9).min(TINY).max(MAX_PATH_STIFFNESS)
+            .description("Stiffness of drive path 1 about the axis (gearbox, pinion, teeth, bull gear); the paper measured up to 30 % spread. Must be positive."),
+        Pinion2Stiffness = Var::real("pinion2.stiffness", "N.m/rad").parameter().start(7.3e9).min(TINY).max(MAX_PATH_STIFFNESS)
+            .description("Stiffness of drive path 2 about the axis. Must be positive."),
+        Pinion1Damping = Var::real("pinion1.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0).max(MAX_PATH_DAMPING)
+            .description("Viscous damping of drive path 1 about the axis (the paper's K_cv, per path). With backlash it must be positive, and at least the stiffness times 1e-10 s (the spring relaxes through it in the gap)."),
+        Pinion2Damping = Var::real("pinion2.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0).max(MAX_PATH_DAMPING)
+            .description("Viscous damping of drive path 2 about the axis. With backlash it must be positive, and at least the stiffness times 1e-10 s."),
         Pinion1Backlash = Var::real("pinion1.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0)
             .description("Total free play of pinion 1 on the bull gear, about the axis."),
         Pinion2Backlash = Var::real("pinion2.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0)
             .description("Total free play of pinion 2 on the bull gear, about the axis."),
         // Load.
         TurningHeadInertia = Var::real("load.turning_head_inertia", "kg.m2").parameter().start(5.5e5).min(0.0)
-            .description("Inertia of the turning head (yoke, drives, cable wrap) about the azimuth axis."),
+            .description("Inertia of the turning head (yoke, drives, cable wrap) about the azimuth axis. It and the smaller of the two elevation-structure inertias must not both be 0."),
         CrossInertia = Var::real("load.elevation_structure_cross_inertia", "kg.m2").parameter().start(2.0e5).min(0.0)
             .description("Inertia of the elevation structure about its axis perpendicular to boresight and elevation axis (vertical at 0 deg elevation)."),
         BoresightInertia = Var::real("load.elevation_structure_boresight_inertia", "kg.m2").parameter().start(4.0e5).min(0.0)
@@ -85,25 +88,25 @@ declare_variables! {
         PeriodicPhase = Var::real("load.periodic_torque_phase", "deg").parameter().start(0.0)
             .description("Phase of the position-periodic load torque at azimuth 0."),
         // Motor 1.
-        M1Inertia = Var::real("motor1.inertia", "kg.m2").parameter().start(0.006).min(0.0)
+        M1Inertia = Var::real("motor1.inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA)
             .description("Inertia J_M of motor 1 with its gearbox input stage."),
         M1Viscous = Var::real("motor1.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0)
             .description("Viscous friction B_M of motor 1 and its gearbox, at the motor."),
         M1Coulomb = Var::real("motor1.coulomb_friction", "N.m").parameter().start(0.3).min(0.0)
             .description("Sliding friction of motor 1 and its gearbox, at the motor."),
         M1Static = Var::real("motor1.static_friction", "N.m").parameter().start(0.4).min(0.0)
-            .description("Breakaway friction of motor 1 and its gearbox, at the motor."),
+            .description("Breakaway friction of motor 1 and its gearbox, at the motor (at least the sliding friction)."),
         M1Stribeck = Var::real("motor1.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
             .description("Stribeck velocity of motor 1's friction; 0 switches the Stribeck curve off."),
         M1Asymmetry = Var::real("motor1.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of motor 1's friction."),
-        M1TorqueConstant = Var::real("motor1.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+        M1TorqueConstant = Var::real("motor1.torque_constant", "N.m/A").parameter().start(0.8).min(TINY)
             .description("Torque constant K_phi of motor 1."),
-        M1TorqueScale = Var::real("motor1.torque_constant_scale", "1").parameter().start(1.0).min(0.0)
+        M1TorqueScale = Var::real("motor1.torque_constant_scale", "1").parameter().start(1.0).min(TINY)
             .description("Multiplier on motor 1's torque constant (a torque-constant error); 1 is nominal."),
-        M1CurrentLimit = Var::real("motor1.current_limit", "A").parameter().start(15.0).min(0.0)
+        M1CurrentLimit = Var::real("motor1.current_limit", "A").parameter().start(15.0).min(TINY)
             .description("Current limit of drive 1: the command is clamped to +/- this."),
-        M1Bandwidth = Var::real("motor1.current_loop_bandwidth", "Hz").parameter().start(100.0).min(0.0)
+        M1Bandwidth = Var::real("motor1.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
             .description("Closed-loop bandwidth of drive 1's current loop (first-order lag)."),
         M1Delay = Var::real("motor1.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
             .description("Pure time delay on motor 1's current command; 0 is off."),
@@ -114,25 +117,25 @@ declare_variables! {
         M1CoggingPhase = Var::real("motor1.cogging_phase", "deg").parameter().start(0.0)
             .description("Phase of motor 1's cogging torque at motor angle 0."),
         // Motor 2.
-        M2Inertia = Var::real("motor2.inertia", "kg.m2").parameter().start(0.006).min(0.0)
+        M2Inertia = Var::real("motor2.inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA)
             .description("Inertia J_M of motor 2 with its gearbox input stage."),
         M2Viscous = Var::real("motor2.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0)
             .description("Viscous friction B_M of motor 2 and its gearbox, at the motor."),
         M2Coulomb = Var::real("motor2.coulomb_friction", "N.m").parameter().start(0.3).min(0.0)
             .description("Sliding friction of motor 2 and its gearbox, at the motor."),
         M2Static = Var::real("motor2.static_friction", "N.m").parameter().start(0.4).min(0.0)
-            .description("Breakaway friction of motor 2 and its gearbox, at the motor."),
+            .description("Breakaway friction of motor 2 and its gearbox, at the motor (at least the sliding friction)."),
         M2Stribeck = Var::real("motor2.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
             .description("Stribeck velocity of motor 2's friction; 0 switches the Stribeck curve off."),
         M2Asymmetry = Var::real("motor2.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of motor 2's friction."),
-        M2TorqueConstant = Var::real("motor2.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+        M2TorqueConstant = Var::real("motor2.torque_constant", "N.m/A").parameter().start(0.8).min(TINY)
             .description("Torque constant K_phi of motor 2."),
-        M2TorqueScale = Var::real("motor2.torque_constant_scale", "1").parameter().start(1.0).min(0.0)
+        M2TorqueScale = Var::real("motor2.torque_constant_scale", "1").parameter().start(1.0).min(TINY)
             .description("Multiplier on motor 2's torque constant (a torque-constant error); 1 is nominal."),
-        M2CurrentLimit = Var::real("motor2.current_limit", "A").parameter().start(15.0).min(0.0)
+        M2CurrentLimit = Var::real("motor2.current_limit", "A").parameter().start(15.0).min(TINY)
             .description("Current limit of drive 2: the command is clamped to +/- this."),
-        M2Bandwidth = Var::real("motor2.current_loop_bandwidth", "Hz").parameter().start(100.0).min(0.0)
+        M2Bandwidth = Var::real("motor2.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
             .description("Closed-loop bandwidth of drive 2's current loop (first-order lag)."),
         M2Delay = Var::real("motor2.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
             .description("Pure time delay on motor 2's current command; 0 is off."),
@@ -157,8 +160,8 @@ declare_variables! {
             .description("Internal sub-step over which Stribeck, cogging and periodic torques are held constant (used only when those are on)."),
         EventResolution = Var::real("numerics.event_time_resolution", "s").parameter().start(1e-6).min(1e-9).max(1e-3)
             .description("Time resolution to which stick/slip and backlash contact events are localised."),
-        EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-9).max(1.0)
-            .description("Longest interval between checks for mode switches; longer communication steps are cut into pieces."),
+        EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-6).max(1.0)
+            .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
         CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 100000)
             .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
     }
@@ -343,19 +346,6 @@ impl Model for AzimuthPlantModel {
 
     fn update_feedthrough(&mut self, values: &mut Values<AzVar>) {
         self.write_feedthrough(values);
-    }
-
-    fn check_real(var: AzVar, value: f64, _values: &Values<AzVar>) -> Result<(), String> {
-        match var {
-            AzVar::GearRatio | AzVar::M1Inertia | AzVar::M2Inertia | AzVar::M1TorqueConstant | AzVar::M2TorqueConstant
-            | AzVar::M1CurrentLimit | AzVar::M2CurrentLimit | AzVar::M1Bandwidth | AzVar::M2Bandwidth
-            | AzVar::M1TorqueScale | AzVar::M2TorqueScale
-                if value <= 0.0 =>
-            {
-                Err("must be positive".into())
-            }
-            _ => Ok(()),
-        }
     }
 
     fn string_changed(&mut self, var: AzVar, values: &mut Values<AzVar>, context: &Context) -> Result<(), String> {

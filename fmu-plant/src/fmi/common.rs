@@ -5,6 +5,42 @@ use fmu_runtime::{Context, DefaultExperiment, ModelInfo, Values, VariableSet};
 
 use crate::params::{CoggingParams, FrictionParams, MotorParams, NumericsParams};
 
+// Declared bounds. FMI 2.0 bounds are inclusive, so a parameter that must be positive cannot
+// declare min = 0 (which the plant would then refuse): it declares the bound below. Upper
+// bounds keep each parameter, varied alone from the defaults, far inside the range where the
+// exact discretisation is accurate (fastest rate at most 1e10 1/s, docs/plant-model.md
+// section 7): the audit found that 1e308 N m/rad, 1e308 N m s/rad or 1e300 Hz, then within
+// the declared ranges, gave NaN outputs. Combinations of extremes are refused at
+// initialisation with the rate named.
+
+/// Declared minimum of a parameter that must be positive and has no smaller meaningful bound
+/// (a torque constant, a current limit, a length): any positive value works, so the bound only
+/// says "greater than 0" in terms a master can read.
+pub const TINY: f64 = 1e-9;
+
+/// Smallest motor inertia, kg m^2: the rotor of the smallest servo motors. With the largest
+/// path damping the fastest rate is then 1.2e7 1/s, three decades inside the plant's bound.
+pub const MIN_MOTOR_INERTIA: f64 = 1e-6;
+
+/// Largest path stiffness about the azimuth axis, N m/rad: 137 times the default, an
+/// anti-resonance near 260 Hz, which no drive of a 13.5 m dish reaches.
+pub const MAX_PATH_STIFFNESS: f64 = 1e12;
+
+/// Largest path damping about the azimuth axis, N m s/rad: 190 times the default, an
+/// anti-resonance damped some ten times beyond critical.
+pub const MAX_PATH_DAMPING: f64 = 1e9;
+
+/// Largest current-loop bandwidth, Hz: 100 times the default and above the switching
+/// frequency of servo amplifiers, which bounds any real current loop.
+pub const MAX_CURRENT_LOOP_BANDWIDTH: f64 = 1e4;
+
+/// Largest axial stiffness of the jackscrew parts, N/m (and N for the rigidity E A): 200 to 600
+/// times the defaults, the rigidity of a steel bar of 5 m^2 section.
+pub const MAX_AXIAL_STIFFNESS: f64 = 1e12;
+
+/// Largest axial damping of the jackscrew, N s/m: 700 times the default.
+pub const MAX_AXIAL_DAMPING: f64 = 1e9;
+
 /// The value references of one motor's parameters.
 pub struct MotorVars<V> {
     pub inertia: V,

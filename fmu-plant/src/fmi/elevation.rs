@@ -3,7 +3,10 @@
 
 use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, StateReader, StateWriter, Values};
 
-use super::common::{load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars};
+use super::common::{
+    load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS,
+    MAX_CURRENT_LOOP_BANDWIDTH, MIN_MOTOR_INERTIA, TINY,
+};
 use crate::params::{FrictionParams, PeriodicTorqueParams};
 use crate::{ElevationInputs, ElevationParams, ElevationPlant, JackscrewParams};
 
@@ -31,25 +34,25 @@ declare_variables! {
         AntiResonance = Var::real("drive.anti_resonance_frequency", "Hz").output()
             .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive at the current angle."),
         // Motor.
-        MInertia = Var::real("motor.inertia", "kg.m2").parameter().start(0.002).min(0.0)
+        MInertia = Var::real("motor.inertia", "kg.m2").parameter().start(0.002).min(MIN_MOTOR_INERTIA)
             .description("Inertia J_M of the motor with its gearbox input stage."),
         MViscous = Var::real("motor.viscous_friction", "N.m.s/rad").parameter().start(5.0e-4).min(0.0)
             .description("Viscous friction B_M of motor and gearbox, at the motor."),
         MCoulomb = Var::real("motor.coulomb_friction", "N.m").parameter().start(0.15).min(0.0)
             .description("Sliding friction of motor and gearbox, at the motor."),
         MStatic = Var::real("motor.static_friction", "N.m").parameter().start(0.2).min(0.0)
-            .description("Breakaway friction of motor and gearbox, at the motor."),
+            .description("Breakaway friction of motor and gearbox, at the motor (at least the sliding friction)."),
         MStribeck = Var::real("motor.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
             .description("Stribeck velocity of the motor friction; 0 switches the Stribeck curve off."),
         MAsymmetry = Var::real("motor.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of the motor friction."),
-        MTorqueConstant = Var::real("motor.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+        MTorqueConstant = Var::real("motor.torque_constant", "N.m/A").parameter().start(0.8).min(TINY)
             .description("Torque constant K_phi."),
-        MTorqueScale = Var::real("motor.torque_constant_scale", "1").parameter().start(1.0).min(0.0)
+        MTorqueScale = Var::real("motor.torque_constant_scale", "1").parameter().start(1.0).min(TINY)
             .description("Multiplier on the torque constant (a torque-constant error); 1 is nominal."),
-        MCurrentLimit = Var::real("motor.current_limit", "A").parameter().start(15.0).min(0.0)
+        MCurrentLimit = Var::real("motor.current_limit", "A").parameter().start(15.0).min(TINY)
             .description("Current limit: the command is clamped to +/- this."),
-        MBandwidth = Var::real("motor.current_loop_bandwidth", "Hz").parameter().start(100.0).min(0.0)
+        MBandwidth = Var::real("motor.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
             .description("Closed-loop bandwidth of the current loop (first-order lag)."),
         MDelay = Var::real("motor.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
             .description("Pure time delay on the current command; 0 is off."),
@@ -60,45 +63,45 @@ declare_variables! {
         MCoggingPhase = Var::real("motor.cogging_phase", "deg").parameter().start(0.0)
             .description("Phase of the cogging torque at motor angle 0."),
         // Jackscrew.
-        DishRadius = Var::real("jackscrew.dish_attachment_radius", "m").parameter().start(2.0).min(0.0)
-            .description("Distance from the elevation pivot to the actuator's attachment on the dish."),
-        YokeRadius = Var::real("jackscrew.yoke_attachment_radius", "m").parameter().start(3.6).min(0.0)
-            .description("Distance from the elevation pivot to the actuator's trunnion on the yoke."),
+        DishRadius = Var::real("jackscrew.dish_attachment_radius", "m").parameter().start(2.0).min(TINY)
+            .description("Distance from the elevation pivot to the actuator's attachment on the dish. With the other geometry parameters it must keep the lever arm and the nut on the screw over the whole travel."),
+        YokeRadius = Var::real("jackscrew.yoke_attachment_radius", "m").parameter().start(3.6).min(TINY)
+            .description("Distance from the elevation pivot to the actuator's trunnion on the yoke. With the other geometry parameters it must keep the lever arm and the nut on the screw over the whole travel."),
         AttachmentAngle = Var::real("jackscrew.attachment_angle_at_zero_elevation", "deg").parameter().start(20.0)
             .description("Angle at the pivot between the two attachment radii at 0 deg elevation; it grows one-for-one with elevation."),
-        Lead = Var::real("jackscrew.lead", "m").parameter().start(0.02).min(0.0)
+        Lead = Var::real("jackscrew.lead", "m").parameter().start(0.02).min(TINY)
             .description("Screw lead: nut travel per screw revolution."),
-        GearboxRatio = Var::real("jackscrew.gearbox_ratio", "1").parameter().start(28.0).min(0.0)
-            .description("Gearbox ratio between motor and screw, motor revolutions per screw revolution."),
-        ScrewLength = Var::real("jackscrew.length_between_bearings", "m").parameter().start(3.5).min(0.0)
-            .description("Length of screw between its two axial bearings."),
+        GearboxRatio = Var::real("jackscrew.gearbox_ratio", "1").parameter().start(28.0).min(0.1)
+            .description("Gearbox ratio between motor and screw, motor revolutions per screw revolution. At least 0.1: the screw's stiffness and damping reach the motor divided by its square, and near 1e-3 the drive would become faster than the 1e10 1/s its discretisation resolves."),
+        ScrewLength = Var::real("jackscrew.length_between_bearings", "m").parameter().start(3.5).min(TINY)
+            .description("Length of screw between its two axial bearings. With the other geometry parameters it must keep the nut on the screw over the whole travel."),
         NutOffset = Var::real("jackscrew.nut_offset", "m").parameter().start(1.57)
             .description("Actuator length minus the nut's distance from the first bearing."),
-        AxialRigidity = Var::real("jackscrew.axial_rigidity", "N").parameter().start(1.65e9).min(0.0)
+        AxialRigidity = Var::real("jackscrew.axial_rigidity", "N").parameter().start(1.65e9).min(TINY).max(MAX_AXIAL_STIFFNESS)
             .description("Axial rigidity E A of the screw's root section."),
         FixedBothEnds = Var::boolean("jackscrew.fixed_at_both_ends").parameter().start_boolean(true)
             .description("True if the screw is held axially at both ends (both segments carry load in parallel)."),
-        SeriesStiffness = Var::real("jackscrew.series_stiffness", "N/m").parameter().start(5.0e9).min(0.0)
+        SeriesStiffness = Var::real("jackscrew.series_stiffness", "N/m").parameter().start(5.0e9).min(TINY).max(MAX_AXIAL_STIFFNESS)
             .description("Axial stiffness of everything in series with the screw (bearings, nut, housing, trunnion)."),
-        AxialDamping = Var::real("jackscrew.axial_damping", "N.s/m").parameter().start(1.4e6).min(0.0)
-            .description("Axial damping of the drive path."),
+        AxialDamping = Var::real("jackscrew.axial_damping", "N.s/m").parameter().start(1.4e6).min(0.0).max(MAX_AXIAL_DAMPING)
+            .description("Axial damping of the drive path. With axial backlash it must be positive, and large enough that the fastest rate stays below 1e10 1/s."),
         AxialBacklash = Var::real("jackscrew.axial_backlash", "m").parameter().start(0.0).min(0.0)
             .description("Axial free play of the nut; 0 for the preloaded nut."),
         ScrewCoulomb = Var::real("jackscrew.coulomb_friction", "N.m").parameter().start(8.0).min(0.0)
             .description("Sliding friction of the preloaded nut and screw bearings, at the screw."),
         ScrewStatic = Var::real("jackscrew.static_friction", "N.m").parameter().start(10.0).min(0.0)
-            .description("Breakaway friction of the preloaded nut and screw bearings, at the screw."),
+            .description("Breakaway friction of the preloaded nut and screw bearings, at the screw (at least the sliding friction)."),
         ScrewStribeck = Var::real("jackscrew.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
             .description("Stribeck velocity of the screw friction (screw speed); 0 switches the curve off."),
         ScrewAsymmetry = Var::real("jackscrew.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of the screw friction (raising versus lowering)."),
         // Load.
-        DishInertia = Var::real("load.inertia", "kg.m2").parameter().start(3.5e5).min(0.0)
-            .description("Inertia of the elevation structure about the elevation axis (constant: the dish is balanced about the pivot)."),
+        DishInertia = Var::real("load.inertia", "kg.m2").parameter().start(3.5e5).min(1.0)
+            .description("Inertia of the elevation structure about the elevation axis (constant: the dish is balanced about the pivot). At least 1 kg m2, far below any dish; near 1e-4 kg m2 the drive would become faster than the 1e10 1/s its discretisation resolves."),
         PivotCoulomb = Var::real("pivot.coulomb_friction", "N.m").parameter().start(500.0).min(0.0)
             .description("Sliding friction of the elevation pivot bearings, about the axis."),
         PivotStatic = Var::real("pivot.static_friction", "N.m").parameter().start(650.0).min(0.0)
-            .description("Breakaway friction of the elevation pivot bearings, about the axis."),
+            .description("Breakaway friction of the elevation pivot bearings, about the axis (at least the sliding friction)."),
         PivotStribeck = Var::real("pivot.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
             .description("Stribeck velocity of the pivot friction; 0 switches the curve off."),
         PivotAsymmetry = Var::real("pivot.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
@@ -140,8 +143,8 @@ declare_variables! {
             .description("Internal sub-step over which Stribeck, cogging, unbalance and periodic torques are held constant (used only when those are on)."),
         EventResolution = Var::real("numerics.event_time_resolution", "s").parameter().start(1e-6).min(1e-9).max(1e-3)
             .description("Time resolution to which stick/slip events are localised."),
-        EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-9).max(1.0)
-            .description("Longest interval between checks for mode switches; longer communication steps are cut into pieces."),
+        EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-6).max(1.0)
+            .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
         CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 100000)
             .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
     }
@@ -301,18 +304,6 @@ impl Model for ElevationPlantModel {
         plant.step(&inputs, step)?;
         Self::write_outputs(plant, values);
         Ok(())
-    }
-
-    fn check_real(var: ElVar, value: f64, _values: &Values<ElVar>) -> Result<(), String> {
-        match var {
-            ElVar::MInertia | ElVar::MTorqueConstant | ElVar::MCurrentLimit | ElVar::MBandwidth | ElVar::MTorqueScale
-            | ElVar::Lead | ElVar::GearboxRatio | ElVar::DishInertia
-                if value <= 0.0 =>
-            {
-                Err("must be positive".into())
-            }
-            _ => Ok(()),
-        }
     }
 
     fn string_changed(&mut self, var: ElVar, values: &mut Values<ElVar>, context: &Context) -> Result<(), String> {

@@ -37,3 +37,141 @@ pub fn fmus() -> Vec<FmuSpec> {
         FmuSpec::of::<ElevationPlantModel>("fmu_plant_ffi", elevation_resources),
     ]
 }
+
+#[cfg(test)]
+mod tests {
+    use std::fmt::Debug;
+
+    use fmu_runtime::variables::{Causality, Kind};
+    use fmu_runtime::{Values, VariableSet};
+
+    use super::azimuth::{azimuth_params, AzVar};
+    use super::elevation::{elevation_params, ElVar};
+    use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant, ElevationInputs, ElevationParams, ElevationPlant};
+
+    /// The fields in which two parameter sets differ, found line by line in their pretty
+    /// `Debug` forms (one field, or array element, per line), with the line for orientation.
+    fn differing_fields(built: &impl Debug, default: &impl Debug) -> Vec<String> {
+        let (built, default) = (format!("{built:#?}"), format!("{default:#?}"));
+        assert_eq!(built.lines().count(), default.lines().count(), "the two sets differ in shape:\n{built}\n{default}");
+        built
+            .lines()
+            .zip(default.lines())
+            .enumerate()
+            .filter(|(_, (b, d))| b != d)
+            .map(|(line, (b, d))| format!("line {}: FMU start values give `{}`, the default is `{}`", line + 1, b.trim(), d.trim()))
+            .collect()
+    }
+
+    #[test]
+    fn azimuth_start_values_are_the_default_parameters_field_by_field() {
+        // The variable table repeats AzimuthParams::default() as start values; this keeps the
+        // two copies equal (the backlash is declared in arcsec and must convert back exactly).
+        let built = azimuth_params(&Values::<AzVar>::at_start());
+        let differences = differing_fields(&built, &AzimuthParams::default());
+        assert!(differences.is_empty(), "{}", differences.join("\n"));
+        assert_eq!(built, AzimuthParams::default());
+    }
+
+    #[test]
+    fn elevation_start_values_are_the_default_parameters_field_by_field() {
+        let built = elevation_params(&Values::<ElVar>::at_start());
+        let differences = differing_fields(&built, &ElevationParams::default());
+        assert!(differences.is_empty(), "{}", differences.join("\n"));
+        assert_eq!(built, ElevationParams::default());
+    }
+
+    /// Every declared minimum and maximum of a Real parameter, with the variable.
+    fn declared_bounds<V: VariableSet>() -> Vec<(V, f64)> {
+        let mut bounds = Vec::new();
+        for (index, var) in V::TABLE.iter().enumerate() {
+            if let (Causality::Parameter, Kind::Real { min, max, .. }) = (var.causality, var.kind) {
+                let typed = V::from_index(index).expect("index from the table");
+                bounds.extend(min.into_iter().chain(max).map(|b| (typed, b)));
+            }
+        }
+        bounds
+    }
+
+    /// Parameters whose bound is joint with others, so that a declared bound alone cannot be
+    /// the truth: the jackscrew geometry must keep the lever arm and the nut on the screw over
+    /// the travel (their descriptions say so).
+    const JOINTLY_BOUNDED: [&str; 3] =
+        ["jackscrew.dish_attachment_radius", "jackscrew.yoke_attachment_radius", "jackscrew.length_between_bearings"];
+
+    /// The values of `values` with `var` at `bound`, and the partner that a documented joint
+    /// rule ties to it moved where the rule holds: a breakaway friction of 0 needs a sliding
+    /// friction of 0 ("at least the sliding friction"), a path damping of 0 needs no backlash
+    /// ("with backlash it must be positive"), the shortest event check interval needs the
+    /// finest event resolution ("at least numerics.event_time_resolution"). The description
+    /// must state the rule.
+    fn at_bound<V: VariableSet>(var: V, bound: f64) -> Values<V> {
+        let mut values = Values::<V>::at_start();
+        values.set_real(var, bound);
+        let (name, description) = (var.var().name, var.var().description);
+        let partner = if let Some(body) = name.strip_suffix(".static_friction") {
+            assert!(description.contains("at least the sliding friction"), "{name}: the joint rule is not described");
+            Some(format!("{body}.coulomb_friction"))
+        } else if let Some(path) = name.strip_suffix(".damping").filter(|p| p.starts_with("pinion")) {
+            assert!(description.contains("With backlash it must be positive"), "{name}: the joint rule is not described");
+            Some(format!("{path}.backlash"))
+        } else if name == "numerics.event_check_interval" {
+            assert!(description.contains("at least numerics.event_time_resolution"), "{name}: the joint rule is not described");
+            let resolution = V::by_name("numerics.event_time_resolution").expect("the partner exists");
+            values.set_real(resolution, values.real(resolution).min(bound));
+            None
+        } else {
+            None
+        };
+        if let Some(partner) = partner.filter(|_| bound == 0.0) {
+            values.set_real(V::by_name(&partner).expect("the partner exists"), 0.0);
+        }
+        values
+    }
+
+    #[test]
+    fn every_declared_bound_of_an_azimuth_parameter_is_a_value_the_plant_runs_with() {
+        let bounds = declared_bounds::<AzVar>();
+        assert!(bounds.len() > 40, "only {} bounds found", bounds.len());
+        for (var, bound) in bounds {
+            let name = var.var().name;
+            let values = at_bound(var, bound);
+            let mut plant = AzimuthPlant::new(azimuth_params(&values)).unwrap_or_else(|e| panic!("{name} = {bound}: {e}"));
+            plant.set_initial_state(values.real(AzVar::InitialPosition).to_radians()).unwrap();
+            // Torque-biased drive that reverses, so friction, backlash and saturation all act.
+            for k in 0..300 {
+                let common = if (k / 100) % 2 == 0 { 4.0 } else { -4.0 };
+                let inputs = AzimuthInputs {
+                    current_command_a: [common + 1.0, common - 1.0],
+                    disturbance_torque_nm: 1e3,
+                    elevation_deg: values.real(AzVar::Elevation),
+                };
+                plant.step(&inputs, 1e-3).unwrap_or_else(|e| panic!("{name} = {bound}, step {k}: {e}"));
+            }
+            let o = plant.outputs();
+            assert!(o.axis_position_deg.is_finite() && o.pinion_torque_nm.iter().all(|t| t.is_finite()), "{name} = {bound}: {o:?}");
+        }
+    }
+
+    #[test]
+    fn every_declared_bound_of_an_elevation_parameter_is_a_value_the_plant_runs_with() {
+        let bounds = declared_bounds::<ElVar>();
+        assert!(bounds.len() > 30, "only {} bounds found", bounds.len());
+        for (var, bound) in bounds {
+            let name = var.var().name;
+            if JOINTLY_BOUNDED.contains(&name) {
+                assert!(var.var().description.contains("over the whole travel"), "{name} must describe its joint bound");
+                continue;
+            }
+            let values = at_bound(var, bound);
+            let mut plant = ElevationPlant::new(elevation_params(&values)).unwrap_or_else(|e| panic!("{name} = {bound}: {e}"));
+            plant.set_initial_state(values.real(ElVar::InitialPosition).to_radians()).unwrap();
+            for k in 0..300 {
+                let inputs = ElevationInputs { current_command_a: if (k / 100) % 2 == 0 { 3.0 } else { -3.0 }, disturbance_torque_nm: 1e3 };
+                plant.step(&inputs, 1e-3).unwrap_or_else(|e| panic!("{name} = {bound}, step {k}: {e}"));
+            }
+            let o = plant.outputs();
+            assert!(o.axis_position_deg.is_finite() && o.drive_torque_nm.is_finite(), "{name} = {bound}: {o:?}");
+        }
+    }
+}
