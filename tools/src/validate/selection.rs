@@ -522,6 +522,8 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
     let mut accepted: Vec<Kind> = Vec::new();
     let mut steps = Vec::new();
     let noise = channel_noise(data);
+    // Effects taken as a pair: each was claimed only jointly with the other.
+    let mut pairs: Vec<(Kind, Kind)> = Vec::new();
 
     while accepted.len() < options.max_effects {
         let weights = current.channel_weights();
@@ -667,8 +669,9 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         let chosen = chosen.map(|(_, kind, refined, fit, iterations)| (kind, refined, fit, iterations));
         let Some((kind, refined, refined_fit, iterations)) = chosen else {
             // No single effect: two large missing effects can hide each other, each counting
-            // as noise in the other's test. Pairs are tested jointly before giving up.
-            let pair = if accepted.len() + 2 <= options.max_effects {
+            // as noise in the other's test. Pairs are tested jointly before giving up, when a
+            // judge that compares models (the output error) confirms each member.
+            let pair = if judge.compares() && accepted.len() + 2 <= options.max_effects {
                 search_pair(data, &params, &current, &accepted, &evaluated, &weights, &noise, threshold, options, judge)
             } else {
                 None
@@ -679,6 +682,7 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
             };
             accepted.push(a);
             accepted.push(b);
+            pairs.push((a, b));
             steps.push(Step { scores, chosen: Some(a), paired: Some(b), threshold, iterations });
             params = refined;
             current = refined_fit;
@@ -715,6 +719,31 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         removed.push((accepted.remove(index), reason));
         params = without;
         current = without_fit;
+    }
+
+    // A pair's members were claimed only jointly: when the backward check removed one, the
+    // other goes too (a Coulomb change and a viscous change that compensate each other pass
+    // jointly on friction with dynamics, and either alone is what the single test rejected).
+    for &(a, b) in &pairs {
+        for (gone, partner) in [(a, b), (b, a)] {
+            if accepted.contains(&gone) || !accepted.contains(&partner) {
+                continue;
+            }
+            let others: Vec<Kind> = accepted.iter().copied().filter(|k| *k != partner).collect();
+            let weights = current.channel_weights();
+            let (without, without_fit, _) = refine(data, without_effect(partner, &params, start), &others, &weights, options.max_iterations);
+            accepted.retain(|k| *k != partner);
+            removed.push((partner, format!("claimed only jointly with {}, which the backward check removed", gone.name())));
+            params = without;
+            current = without_fit;
+        }
+    }
+
+    // With every effect removed again the model is the starting one, exactly (the resets of
+    // a friction level are differences that need not round back).
+    if accepted.is_empty() {
+        params = start.clone();
+        current = before.clone();
     }
 
     // Swap re-test: an effect chosen early was judged against a model that still lacked the
