@@ -3,9 +3,10 @@
 //! serialized from one instance and deserialized into another (even one that was never
 //! initialised) continues bitwise as the original does. The runs use the default, nonlinear
 //! configuration with inputs that make the drives stick, slip and (in azimuth) cross the
-//! backlash, so the discrete modes are part of what must be restored.
+//! backlash, so the discrete modes are part of what must be restored. A state saved before an
+//! fmi2Error recovers the run bitwise.
 
-use antenna_tests::{initialized, open, output_bits, set_reals, test_signal, PLANTS};
+use antenna_tests::{expect_error, initialized, open, output_bits, real_inputs, set_reals, test_signal, vr, PLANTS};
 use fmu_runtime::import::{Fmu, Instance};
 
 /// Inputs at a millisecond index that reverse the drive every second with some noise.
@@ -108,5 +109,44 @@ fn a_state_restores_parameters_and_inputs_as_well() {
         other.set_state(&state).unwrap();
         assert_eq!(antenna_tests::real(&fmu, &mut other, parameter), 3e-3, "{plant}: {parameter} was not restored");
         assert!(run(&fmu, plant, &mut other, 300, 800) == run(&fmu, plant, &mut original, 300, 800), "{plant}: continuation differs");
+    }
+}
+
+#[test]
+fn after_an_error_a_restored_state_continues_bitwise_as_an_uninterrupted_run() {
+    // FMI 2.0 lets a master recover from fmi2Error by restoring a state saved before it; this
+    // holds only if the rejected call changed nothing the state does not restore.
+    for plant in PLANTS {
+        let fmu = open(plant);
+        let mut uninterrupted = initialized(&fmu, "uninterrupted", &[]);
+        run(&fmu, plant, &mut uninterrupted, 0, 1000);
+        let expected = run(&fmu, plant, &mut uninterrupted, 1000, 3000);
+
+        let mut instance = initialized(&fmu, "recovering", &[]);
+        run(&fmu, plant, &mut instance, 0, 1000);
+        let state = instance.get_state().unwrap();
+        let input = real_inputs(&fmu).remove(0);
+        let provocations: [(&str, &dyn Fn(&mut Instance)); 2] = [
+            ("a NaN input", &|instance| {
+                expect_error(instance.set_real(&[vr(&fmu, &input)], &[f64::NAN]), instance, &format!("{plant}: NaN {input}"));
+            }),
+            ("a wrong communication point", &|instance| {
+                let at = instance.last_successful_time().unwrap();
+                expect_error(instance.do_step(at + 0.5, 1e-3), instance, &format!("{plant}: DoStep ahead of time"));
+            }),
+        ];
+        for (what, provoke) in provocations {
+            // Run on past the saved point, so that restoring has something to undo.
+            run(&fmu, plant, &mut instance, 1000, 1377);
+            provoke(&mut instance);
+            // The instance is in the Error phase: it refuses to step until restored.
+            expect_error(instance.do_step(1.377, 1e-3), &instance, &format!("{plant}: DoStep after {what}"));
+            instance.set_state(&state).unwrap_or_else(|e| panic!("{plant}: fmi2SetFMUstate after {what}: {e}"));
+            assert!(
+                run(&fmu, plant, &mut instance, 1000, 3000) == expected,
+                "{plant}: after {what} and fmi2SetFMUstate the run differs from the uninterrupted one"
+            );
+            instance.set_state(&state).unwrap();
+        }
     }
 }
