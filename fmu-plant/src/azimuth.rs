@@ -285,11 +285,11 @@ impl AzimuthPlant {
     /// Validates the parameters and builds the plant at rest at 0 deg azimuth.
     pub fn new(params: AzimuthParams) -> Result<Self, String> {
         params.validate()?;
-        // At 90 deg the load inertia is at its smallest or largest; the rates differ between
-        // elevations by less than a factor of two, which the bound's decades make irrelevant.
         let cell = params.cell_of(90.0);
         let core = DriveCore::new(params.core_config(), cell, params.cell_model(cell));
-        core.check_rates("azimuth")?;
+        // The load inertia J_head + I_cross cos^2 + I_boresight sin^2 is extreme at 0 and at
+        // 90 deg, so the drive is fastest in one of those cells.
+        core.check_rates("azimuth", [0.0, 90.0].map(|el| params.cell_model(params.cell_of(el))))?;
         Ok(Self { params, core })
     }
 
@@ -634,6 +634,17 @@ mod tests {
             ("damping", AzimuthParams { path_damping_nm_s_per_rad: [5.3e6, 1e308], ..d }, "damping of path 2 / motor inertia"),
             ("tiny damping", AzimuthParams { path_damping_nm_s_per_rad: [1e-100, 5.3e6], ..d }, "relaxation in the backlash gap"),
             ("bandwidth", bandwidth, "current-loop bandwidth of motor 2"),
+            // Extreme only near 0 deg elevation, not in the 90 deg cell the plant starts in.
+            (
+                "load inertia at the horizon",
+                AzimuthParams {
+                    turning_head_inertia_kg_m2: 0.0,
+                    elevation_structure_cross_inertia_kg_m2: 1e-9,
+                    elevation_structure_boresight_inertia_kg_m2: 1e-3,
+                    ..d
+                },
+                "load inertia",
+            ),
         ];
         for (what, params, source) in cases {
             let error = AzimuthPlant::new(params).expect_err(what);

@@ -51,6 +51,11 @@ use crate::params::FrictionParams;
 /// relaxation in the backlash gap), so this leaves seven decades for studies.
 pub(crate) const MAX_RATE_PER_S: f64 = 1e10;
 
+/// True for a rate above [`MAX_RATE_PER_S`], or NaN (0/0), which is as unusable.
+fn too_fast(rate: f64) -> bool {
+    rate.is_nan() || rate > MAX_RATE_PER_S
+}
+
 pub(crate) const LOAD_ANGLE: usize = 0;
 pub(crate) const LOAD_SPEED: usize = 1;
 
@@ -586,7 +591,11 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// largest of the current-loop bandwidths, the path and viscous rates, and (with backlash)
     /// the spring's relaxation rate in the gap. A NaN rate (0/0) counts as the fastest.
     pub fn fastest_rate(&self) -> (f64, String) {
-        let m = &self.model;
+        self.fastest_rate_of(&self.model)
+    }
+
+    /// [`fastest_rate`](Self::fastest_rate) of another cell's model, with this drive's backlash.
+    pub fn fastest_rate_of(&self, m: &CellModel<P>) -> (f64, String) {
         let mut rates: Vec<(f64, String)> = Vec::new();
         for k in 0..P {
             let path = if P > 1 { format!(" of path {}", k + 1) } else { String::new() };
@@ -608,12 +617,14 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             .expect("at least one rate")
     }
 
-    /// Checks that the dynamics in use are no faster than [`MAX_RATE_PER_S`].
-    pub fn check_rates(&self, axis: &str) -> Result<(), String> {
-        let (rate, source) = self.fastest_rate();
-        if rate <= MAX_RATE_PER_S {
+    /// Checks that the dynamics of each of `models` (the cells where the owner's parameters
+    /// are most extreme) are no faster than [`MAX_RATE_PER_S`].
+    pub fn check_rates(&self, axis: &str, models: impl IntoIterator<Item = CellModel<P>>) -> Result<(), String> {
+        let Some((rate, source)) =
+            models.into_iter().map(|m| self.fastest_rate_of(&m)).find(|(rate, _)| too_fast(*rate))
+        else {
             return Ok(());
-        }
+        };
         Err(format!(
             "invalid {axis} parameters: the drive's fastest rate, {source}, is {rate:.3e} 1/s, above the {MAX_RATE_PER_S:e} 1/s \
              up to which the exact discretisation keeps about 1e-9 relative accuracy (the default drive's fastest is \
@@ -626,7 +637,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// rate of the linear dynamics in use when it is too fast, otherwise the inputs.
     pub fn likely_cause_of_non_finite_state(&self, commands: &[f64; P], load_torque_axis: f64) -> String {
         let (rate, source) = self.fastest_rate();
-        if !(rate <= MAX_RATE_PER_S) {
+        if too_fast(rate) {
             format!(
                 "the drive's fastest rate, {source}, is {rate:.3e} 1/s (the default drive's is about 1.4e3 1/s): \
                  a stiffness, damping or current-loop bandwidth this large, or an inertia this small, \

@@ -587,9 +587,11 @@ impl ElevationPlant {
         params.validate()?;
         let cell = params.cell_of(Self::STOW_ELEVATION_DEG);
         let core = DriveCore::new(params.core_config(), cell, params.cell_model(cell));
-        // The rates vary with the ratio over the travel by some 20 %, which the bound's decades
-        // make irrelevant: checking the stow cell suffices.
-        core.check_rates("elevation")?;
+        // The ratio, and with it the reflected stiffness and inertia, varies over the travel by
+        // some 20 %, not monotonically: the ends and the middle stand for the whole travel,
+        // given the bound's seven decades of headroom over the defaults.
+        let (low, high) = (params.travel_min_deg, params.travel_max_deg);
+        core.check_rates("elevation", [low, 0.5 * (low + high), high].map(|el| params.cell_model(params.cell_of(el))))?;
         let mut plant = Self { params, kinematics: Kinematics::new(&params), core, angle_rad: 0.0, ratio: 1.0 };
         plant.set_initial_state(Self::STOW_ELEVATION_DEG.to_radians())?;
         Ok(plant)
