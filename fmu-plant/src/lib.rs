@@ -1,7 +1,8 @@
 //! Physics of the MeerKAT antenna positioner: the azimuth and elevation drive trains.
 //!
-//! This crate is the plant only; the FMI 2.0 wrapping lives in `fmu-runtime` and is wired up by
-//! the lead. Everything here is plain, safe Rust with SI units inside (rad, rad/s, N m, A,
+//! The physics modules know nothing of FMI; [`fmi`] holds the two FMUs' variable tables and
+//! maps them onto the parameter, input and output types, and the C API itself lives in
+//! `fmu-runtime`. Everything here is plain, safe Rust with SI units inside (rad, rad/s, N m, A,
 //! kg m^2, s); degrees appear only at the API edge in names ending in `_deg`.
 //!
 //! * [`analytic`]: the seed paper's two-mass model (Fig. 4) in the frequency domain, with Eq. 1

@@ -21,8 +21,7 @@ pub const MAX_EXPONENT_NORM: f64 = 1e30;
 /// where computing the exponential would hang or return rubbish.
 fn exp_or_nan(m: DMatrix<f64>) -> DMatrix<f64> {
     let norm = m.column_iter().map(|c| c.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
-    // `!(norm <= bound)` is also true for a NaN norm.
-    if !(norm <= MAX_EXPONENT_NORM) {
+    if norm.is_nan() || norm > MAX_EXPONENT_NORM {
         return DMatrix::from_element(m.nrows(), m.ncols(), f64::NAN);
     }
     m.exp()

@@ -31,7 +31,8 @@ fn probe_every_unsupported_function(fmu: &Fmu, instance: &Instance) -> usize {
     let mut output = [sentinel];
     let mut event_info = [0xA5u8; 64];
     let mut flags = [7 as fmi2Boolean; 2];
-    let mut calls: Vec<(&str, Box<dyn FnMut() -> fmi2Status + '_>)> = Vec::new();
+    type Call<'a> = Box<dyn FnMut() -> fmi2Status + 'a>;
+    let mut calls: Vec<(&str, Call)> = Vec::new();
     let out = output.as_mut_ptr();
     let info = event_info.as_mut_ptr() as *mut c_void;
     let (flag0, flag1) = (&mut flags[0] as *mut fmi2Boolean, &mut flags[1] as *mut fmi2Boolean);
