@@ -151,18 +151,74 @@ pub trait DynModel: Send {
     fn load(&mut self, r: &mut StateReader, context: &Context) -> Result<(), StateError>;
 }
 
+/// What a get or set of one value reference needs on the hot path, packed into a small entry:
+/// a master exchanges a few dozen values every millisecond, and reading the whole declaration
+/// (names, descriptions, units) for each costs more than the model's own step. The
+/// declaration stays the one source: this is derived from it, and every failed check falls
+/// back to the declaration's own checks, which word the error.
+#[derive(Debug, Clone, Copy)]
+struct Access {
+    base: BaseType,
+    settable_before_stepping: bool,
+    settable_while_stepping: bool,
+    /// The declared range of a Real (infinite where none is declared).
+    min: f64,
+    max: f64,
+}
+
+impl Access {
+    fn of(var: &Var) -> Access {
+        let (min, max) = match var.kind {
+            Kind::Real { min, max, .. } => (min.unwrap_or(f64::NEG_INFINITY), max.unwrap_or(f64::INFINITY)),
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        };
+        Access {
+            base: var.base_type(),
+            settable_before_stepping: var.settable_in(SetPhase::Initialization),
+            settable_while_stepping: var.settable_in(SetPhase::Stepping),
+            min,
+            max,
+        }
+    }
+
+    fn settable_in(&self, phase: SetPhase) -> bool {
+        match phase {
+            SetPhase::Stepping => self.settable_while_stepping,
+            SetPhase::BeforeInitialization | SetPhase::Initialization => self.settable_before_stepping,
+        }
+    }
+
+    /// Whether a Real passes the declaration's checks (finite, in range, settable now); the
+    /// model's own check comes on top.
+    fn accepts_real(&self, value: f64, phase: SetPhase) -> bool {
+        self.base == BaseType::Real && self.settable_in(phase) && value.is_finite() && value >= self.min && value <= self.max
+    }
+}
+
 /// A model with its values; implements [`DynModel`] for any [`Model`].
 pub struct ModelSlot<M: Model> {
     model: M,
     values: Values<M::Var>,
     guid: String,
+    /// One entry per value reference, from the variable table.
+    access: Vec<Access>,
+    /// Whether any output depends directly on an input (from the table, computed once).
+    feedthrough: bool,
 }
 
 impl<M: Model> ModelSlot<M> {
     pub fn create(context: &Context, guid: String) -> Result<Self, String> {
         let values = Values::<M::Var>::at_start();
         let model = M::new(&values, context)?;
-        Ok(ModelSlot { model, values, guid })
+        let access = M::Var::TABLE.iter().map(Access::of).collect();
+        let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
+        Ok(ModelSlot { model, values, guid, access, feedthrough })
+    }
+
+    /// Whether `vr` is a Real variable (the hot-path form of [`Self::lookup`]).
+    #[inline]
+    fn is_real(&self, vr: u32) -> bool {
+        self.access.get(vr as usize).is_some_and(|a| a.base == BaseType::Real)
     }
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
@@ -209,8 +265,11 @@ impl<M: Model> DynModel for ModelSlot<M> {
 
     fn get_real(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
         for (slot, &vr) in out.iter_mut().zip(vrs) {
-            let (i, _) = Self::lookup(vr, BaseType::Real)?;
-            *slot = self.values.real_at(i);
+            if !self.is_real(vr) {
+                // The declaration's own check words the error.
+                Self::lookup(vr, BaseType::Real)?;
+            }
+            *slot = self.values.real_at(vr as usize);
         }
         Ok(())
     }
@@ -240,9 +299,20 @@ impl<M: Model> DynModel for ModelSlot<M> {
     fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), String> {
         // Check everything first, then write: a rejected call changes nothing.
         for (&vr, &value) in vrs.iter().zip(values) {
-            let (_, var) = Self::lookup(vr, BaseType::Real)?;
-            Self::check_settable(var, vr, phase)?;
-            check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)?;
+            let accepted = self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase));
+            let var = if accepted {
+                M::Var::from_index(vr as usize).expect("index checked")
+            } else {
+                // The declaration's own checks word the error (and agree with the fast one).
+                let (_, decl) = Self::lookup(vr, BaseType::Real)?;
+                Self::check_settable(decl, vr, phase)?;
+                M::Var::from_index(vr as usize).expect("index checked")
+            };
+            if accepted {
+                check_model_real::<M>(var, value, &self.values)?;
+            } else {
+                check_real_value::<M>(var, value, &self.values)?;
+            }
         }
         for (&vr, &value) in vrs.iter().zip(values) {
             *self.values.real_at_mut(vr as usize) = value;
@@ -301,7 +371,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn has_feedthrough(&self) -> bool {
-        M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty())
+        self.feedthrough
     }
 
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
@@ -345,7 +415,12 @@ pub fn check_real_value<M: Model>(var: M::Var, value: f64, values: &Values<M::Va
             }
         }
     }
-    M::check_real(var, value, values).map_err(|e| format!("'{}' = {value}: {e}", decl.name))
+    check_model_real::<M>(var, value, values)
+}
+
+/// The model's own check of a Real value, after the declaration's.
+fn check_model_real<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), String> {
+    M::check_real(var, value, values).map_err(|e| format!("'{}' = {value}: {e}", var.var().name))
 }
 
 /// Checks an Integer (or enumeration) value against its declared range or items and the
