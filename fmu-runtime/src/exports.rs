@@ -184,7 +184,17 @@ fn set_phase(instance: &Instance) -> Result<SetPhase, String> {
     }
 }
 
+#[inline]
 fn log_notes(instance: &Instance, notes: Notes) -> Status {
+    // Almost every step has nothing to say: keep that case to two comparisons.
+    if notes.events.is_empty() && notes.warnings.is_empty() {
+        return Status::Ok;
+    }
+    log_notes_slow(instance, notes)
+}
+
+#[cold]
+fn log_notes_slow(instance: &Instance, notes: Notes) -> Status {
     for event in &notes.events {
         instance.log(Status::Ok, CAT_EVENTS, event);
     }
