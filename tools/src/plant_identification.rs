@@ -86,6 +86,10 @@ pub struct IdentificationConfig {
     pub initial_position_deg: f64,
     /// Seed of the excitation and the sensor noise.
     pub seed: u64,
+    /// Run the plant in its linear configuration (exactly the paper's Eq. 1 with the current
+    /// loop: no friction but the viscous B_M, no backlash, saturation or quantisation) instead
+    /// of the default nonlinear plant.
+    pub linear_configuration: bool,
 }
 
 impl IdentificationConfig {
@@ -113,6 +117,7 @@ impl IdentificationConfig {
                 sensor_noise_rad_per_s: 0.01,
                 initial_position_deg: -150.0,
                 seed: 20_260_001,
+                linear_configuration: false,
             },
             Axis::Elevation => IdentificationConfig {
                 axis,
@@ -127,6 +132,7 @@ impl IdentificationConfig {
                 sensor_noise_rad_per_s: 0.01,
                 initial_position_deg: 15.0,
                 seed: 20_260_002,
+                linear_configuration: false,
             },
         }
     }
@@ -405,6 +411,9 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
     let mut instance = fmu.instantiate(&format!("{}-identification", config.axis.name()), false)?;
     instance.setup_experiment(0.0, None)?;
     instance.enter_initialization_mode()?;
+    if config.linear_configuration {
+        instance.set_boolean(&[md.vr("linear_configuration")?], &[true])?;
+    }
     match config.axis {
         Axis::Azimuth => {
             instance.set_real(&md.vrs(&["elevation", "initial_position"])?, &[config.elevation_deg, config.initial_position_deg])?;
