@@ -2,7 +2,7 @@
 //!
 //! Usage:
 //!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
-//!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD]
+//!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD] [--internal-rate HZ]
 //!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
 //!   truthgen start --out FILE.params
 //!
@@ -10,7 +10,8 @@
 //! parameter set `start.params`. `one` writes a single log (and FILE.truth). Sizes are the RMS
 //! of what the effect adds to its channel divided by that channel's sensor noise.
 //! `--presliding` sets the truth's LuGre bristle deflection at breakaway (axis rad, default
-//! 1e-5), for studies of the friction-model-form floor; the suite uses the default.
+//! 1e-5), for studies of the friction-model-form floor; the suite uses the default. Stiffer
+//! bristles need a higher `--internal-rate` (RK4 rate, default 20 kHz): about 250 kHz at 1e-7.
 
 use antenna_tools::truth::suite::{self, SuiteConfig};
 use antenna_tools::truth::TruthConfig;
@@ -59,6 +60,12 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 base.plant.presliding_displacement = value(&args, &mut i, flag)?.parse().map_err(|_| "--presliding needs a displacement in rad")?;
                 if !(base.plant.presliding_displacement > 0.0) {
                     return Err("--presliding needs a positive displacement in rad".into());
+                }
+            }
+            "--internal-rate" => {
+                base.internal_rate = value(&args, &mut i, flag)?.parse().map_err(|_| "--internal-rate needs a rate in Hz")?;
+                if !(base.internal_rate >= base.controller_rate) {
+                    return Err("--internal-rate must be at least the controller rate".into());
                 }
             }
             "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
