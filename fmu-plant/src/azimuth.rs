@@ -81,6 +81,8 @@ impl Default for AzimuthParams {
             current_loop_bandwidth_hz: 100.0,
             current_command_delay_s: 0.0,
             cogging: CoggingParams::NONE,
+            presliding_stiffness_nm_per_rad: 0.0,
+            presliding_damping_nm_s_per_rad: 0.0,
         };
         Self {
             gear_ratio: 9000.0,
@@ -214,6 +216,8 @@ impl AzimuthParams {
             current_loop_rad_per_s: self.motors.map(|m| std::f64::consts::TAU * m.current_loop_bandwidth_hz),
             stiffness: self.path_stiffness_nm_per_rad.map(|k| k / n2),
             damping: self.path_damping_nm_s_per_rad.map(|c| c / n2),
+            presliding_stiffness: self.motors.map(|m| if m.friction.is_present() { m.presliding_stiffness_nm_per_rad } else { 0.0 }),
+            presliding_damping: self.motors.map(|m| m.presliding_damping_nm_s_per_rad),
         }
     }
 
@@ -461,6 +465,8 @@ mod tests {
             current_loop_rad_per_s: [m.current_loop_rad_per_s[0]],
             stiffness: [m.stiffness[0] + m.stiffness[1]],
             damping: [m.damping[0] + m.damping[1]],
+            presliding_stiffness: [m.presliding_stiffness[0] + m.presliding_stiffness[1]],
+            presliding_damping: [m.presliding_damping[0] + m.presliding_damping[1]],
         };
         let c = params.core_config();
         let motor_friction = c.motor_friction[0].elements[0];

@@ -94,6 +94,10 @@ pub(crate) struct CellModel<const P: usize> {
     pub stiffness: [f64; P],
     /// Path damping divided by `N^2`, N m s/rad.
     pub damping: [f64; P],
+    /// Presliding (bristle) stiffness and damping of each motor's friction, N m/rad and
+    /// N m s/rad at the motor; 0 is a rigid stick. See [`DriveCore`]'s anchors.
+    pub presliding_stiffness: [f64; P],
+    pub presliding_damping: [f64; P],
 }
 
 /// Friction on one body, made of up to two elements that act together (the elevation motor
@@ -336,6 +340,12 @@ pub(crate) fn continuous_model<const P: usize>(model: &CellModel<P>, mode: u32) 
         let gap = mode & (1 << (1 + P + k)) != 0;
         let (d, v, i, beta) = (twist_index(k), motor_speed_index(k), current_index(k), backlash_index(k));
         let (stiffness, damping, jm) = (model.stiffness[k], model.damping[k], model.motor_inertia[k]);
+        // A sticking motor with a presliding element moves: it is held to its friction anchor
+        // by the bristle spring sigma (theta_M - anchor) and damper c v_M, with theta_M = d_k +
+        // p_L. The anchor enters as a constant input (DriveCore::propagate), so the mode stays
+        // linear; without the element a sticking motor is rigidly at rest (zero rows).
+        let presliding = motor_stuck && model.presliding_stiffness[k] > 0.0;
+        let motor_stuck = motor_stuck && !presliding;
         a[(d, v)] = 1.0;
         a[(d, LOAD_SPEED)] = -1.0;
         if gap {
@@ -363,6 +373,12 @@ pub(crate) fn continuous_model<const P: usize>(model: &CellModel<P>, mode: u32) 
             a[(v, v)] -= model.motor_viscous[k] / jm;
             a[(v, i)] += model.torque_per_amp[k] / jm;
             b[(v, P + k)] = 1.0 / jm;
+        }
+        if presliding {
+            let sigma = model.presliding_stiffness[k];
+            a[(v, d)] -= sigma / jm;
+            a[(v, LOAD_ANGLE)] -= sigma / jm;
+            a[(v, v)] -= model.presliding_damping[k] / jm;
         }
         a[(i, i)] = -model.current_loop_rad_per_s[k];
         b[(i, k)] = model.current_loop_rad_per_s[k];
@@ -417,6 +433,7 @@ pub(crate) struct Checkpoint<const P: usize, const S: usize> {
     load_motion: Motion,
     motor_motion: [Motion; P],
     mesh: [Mesh; P],
+    anchor: [f64; P],
     time: f64,
     cell: i64,
 }
@@ -434,6 +451,10 @@ pub(crate) struct DriveCore<const P: usize, const S: usize, const U: usize> {
     load_motion: Motion,
     motor_motion: [Motion; P],
     mesh: [Mesh; P],
+    /// Friction anchor of each motor with a presliding element, motor rad: while the motor
+    /// sticks, its bristle deflection is theta_M - anchor = d_k + p_L - anchor. Set when the
+    /// motor comes to rest, so that the bristle torque then equals the friction it had.
+    anchor: [f64; P],
     time: f64,
     delay: [DelayLine; P],
     /// Copies of the delay lines at the last checkpoint (used only when a delay is on).
@@ -462,6 +483,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             load_motion: Motion::Forward,
             motor_motion: [Motion::Forward; P],
             mesh: [Mesh::PositiveFlank; P],
+            anchor: [0.0; P],
             time: 0.0,
             delay_at_checkpoint: delay.clone(),
             delay,
@@ -490,6 +512,8 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
                 if self.config.motor_friction[k].is_present() { Motion::Stuck } else { Motion::Forward };
             self.mesh[k] = if self.config.backlash[k] > 0.0 { Mesh::Gap } else { Mesh::PositiveFlank };
             self.delay[k].clear();
+            // At rest with a relaxed bristle.
+            self.anchor[k] = load_angle_motor_rad;
         }
         self.time = 0.0;
     }
@@ -558,6 +582,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             load_motion: self.load_motion,
             motor_motion: self.motor_motion,
             mesh: self.mesh,
+            anchor: self.anchor,
             time: self.time,
             cell: self.cell,
         }
@@ -574,6 +599,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         self.load_motion = checkpoint.load_motion;
         self.motor_motion = checkpoint.motor_motion;
         self.mesh = checkpoint.mesh;
+        self.anchor = checkpoint.anchor;
         self.time = checkpoint.time;
         for k in 0..P {
             if self.config.command_delay[k] > 0.0 {
@@ -609,6 +635,10 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             }
             rates.push((m.motor_viscous[k] / jm, format!("viscous friction / inertia of motor {}", k + 1)));
             rates.push((m.current_loop_rad_per_s[k], format!("current-loop bandwidth of motor {}", k + 1)));
+            if m.presliding_stiffness[k] > 0.0 {
+                rates.push(((m.presliding_stiffness[k] / jm).sqrt(), format!("sqrt(presliding stiffness / inertia of motor {})", k + 1)));
+                rates.push((m.presliding_damping[k] / jm, format!("presliding damping / inertia of motor {}", k + 1)));
+            }
         }
         rates.push((m.load_viscous / m.load_inertia, "load viscous friction / load inertia".to_string()));
         rates
@@ -841,9 +871,42 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         let d = &self.last.as_ref().expect("set just above").1.rungs[level as usize];
         // The load angle's column of Ad is exactly a unit vector (nothing depends on the
         // angle), so leaving it out yields the increment in that entry and changes no other.
+        // A sticking motor's bristle does depend on the angle: its torque -sigma (d_k + p_L -
+        // anchor) is split into the part in the increment of p_L over the piece (in A) and the
+        // constant sigma (anchor - p_L) at the piece's start, added to the motor's input here.
         let mut x = self.x;
         x[LOAD_ANGLE] = 0.0;
+        if self.any_presliding() {
+            let mut u = *u;
+            for k in 0..P {
+                if self.presliding_sticks(k) {
+                    u[P + k] += self.model.presliding_stiffness[k] * (self.anchor[k] - self.load_angle_now());
+                }
+            }
+            return d.ad * x + d.bd * u;
+        }
         d.ad * x + d.bd * u
+    }
+
+    /// True if some motor has a presliding element and sticks (the bristle holds it).
+    fn any_presliding(&self) -> bool {
+        (0..P).any(|k| self.presliding_sticks(k))
+    }
+
+    fn presliding_sticks(&self, k: usize) -> bool {
+        self.motor_motion[k] == Motion::Stuck && self.model.presliding_stiffness[k] > 0.0
+    }
+
+    /// The load angle, motor rad, with its low-order part.
+    fn load_angle_now(&self) -> f64 {
+        self.x[LOAD_ANGLE] + self.load_angle_low
+    }
+
+    /// The bristle torque on sticking motor `k` (the friction it carries, positive opposing
+    /// forward motion) for a propagated candidate, whose load-angle entry is the increment.
+    fn bristle_torque(&self, candidate: &SVector<f64, S>, k: usize) -> f64 {
+        let deflection = candidate[twist_index(k)] + (candidate[LOAD_ANGLE] + self.load_angle_now() - self.anchor[k]);
+        self.model.presliding_stiffness[k] * deflection + self.model.presliding_damping[k] * candidate[motor_speed_index(k)]
     }
 
     /// Takes a propagated state, adding its load-angle increment with compensated summation.
@@ -966,6 +1029,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             let consistent = match self.motor_motion[k] {
                 Motion::Forward => v >= 0.0,
                 Motion::Backward => v <= 0.0,
+                Motion::Stuck if self.model.presliding_stiffness[k] > 0.0 => Self::holds(friction, self.bristle_torque(x, k), 1.0),
                 Motion::Stuck => Self::holds(friction, self.motor_holding_torque(x, inputs, k), 1.0),
             };
             if !consistent {
@@ -1017,7 +1081,11 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             let v = self.x[motor_speed_index(k)];
             let motion = self.motor_motion[k];
             if (motion == Motion::Forward && v < 0.0) || (motion == Motion::Backward && v > 0.0) {
-                self.x[motor_speed_index(k)] = 0.0;
+                // With a presliding element the motor keeps its (tiny) speed: the bristle
+                // takes it over; without, it comes to rest exactly.
+                if self.model.presliding_stiffness[k] == 0.0 {
+                    self.x[motor_speed_index(k)] = 0.0;
+                }
                 motor_candidate[k] = true;
             }
         }
@@ -1037,6 +1105,31 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             self.load_motion = next;
         }
         for k in 0..P {
+            let sigma = self.model.presliding_stiffness[k];
+            if sigma > 0.0 && self.config.motor_friction[k].is_present() {
+                // Presliding: a motor that came to rest sticks to an anchor placed so that the
+                // bristle carries the friction it had at zero speed in its direction (torque
+                // continuous); a sticking motor slips when the bristle torque passes breakaway,
+                // in the direction of that torque, keeping its speed.
+                let friction = self.config.motor_friction[k];
+                if motor_candidate[k] {
+                    let direction = self.motor_motion[k].direction();
+                    let level = direction * friction.breakaway(direction);
+                    let held = level - self.model.presliding_damping[k] * self.x[motor_speed_index(k)];
+                    self.anchor[k] = self.x[twist_index(k)] + self.load_angle_now() - held / sigma;
+                    self.motor_motion[k] = Motion::Stuck;
+                } else if self.motor_motion[k] == Motion::Stuck {
+                    // The accepted state holds the angle itself, not an increment.
+                    let mut here = self.x;
+                    here[LOAD_ANGLE] = 0.0;
+                    let torque = self.bristle_torque(&here, k);
+                    if !Self::holds(&friction, torque, 1.0) {
+                        self.motor_motion[k] = if torque > 0.0 { Motion::Forward } else { Motion::Backward };
+                        self.stribeck_speed[1 + k] = 0.0;
+                    }
+                }
+                continue;
+            }
             if motor_candidate[k] || self.motor_motion[k] == Motion::Stuck {
                 let torque = self.motor_holding_torque(&self.x, inputs, k);
                 let next = if Self::holds(&self.config.motor_friction[k], torque, 1.0) {
@@ -1067,6 +1160,13 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             w.u8(self.mesh[k].code());
             self.delay[k].save(w);
         }
+        // The anchors only when a presliding element is on, so a state without one keeps the
+        // layout of docs/plant-model.md section 7 byte for byte.
+        for k in 0..P {
+            if self.model.presliding_stiffness[k] > 0.0 {
+                w.f64(self.anchor[k]);
+            }
+        }
     }
 
     /// Reads what [`save`](Self::save) wrote. Returns the cell index; the caller must install
@@ -1085,8 +1185,15 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             mesh[k] = Mesh::from_code(r.u8()?)?;
             delay[k].load(r)?;
         }
+        let mut anchor = self.anchor;
+        for (k, a) in anchor.iter_mut().enumerate() {
+            if self.model.presliding_stiffness[k] > 0.0 {
+                *a = r.f64()?;
+            }
+        }
         self.time = time;
         self.cell = cell;
+        self.anchor = anchor;
         self.x = SVector::from_column_slice(&values);
         self.load_angle_low = load_angle_low;
         self.load_motion = load_motion;
@@ -1112,6 +1219,8 @@ mod tests {
             current_loop_rad_per_s: [628.0],
             stiffness: [90.0],
             damping: [0.06],
+            presliding_stiffness: [0.0],
+            presliding_damping: [0.0],
         }
     }
 

@@ -225,6 +225,8 @@ impl Default for ElevationParams {
                 current_loop_bandwidth_hz: 100.0,
                 current_command_delay_s: 0.0,
                 cogging: CoggingParams::NONE,
+                presliding_stiffness_nm_per_rad: 0.0,
+                presliding_damping_nm_s_per_rad: 0.0,
             },
             jackscrew: JackscrewParams {
                 dish_attachment_radius_m: 2.0,
@@ -387,6 +389,8 @@ impl ElevationParams {
             current_loop_rad_per_s: [std::f64::consts::TAU * self.motor.current_loop_bandwidth_hz],
             stiffness: [two_mass.shaft_stiffness],
             damping: [two_mass.cross_coupled_damping],
+            presliding_stiffness: [0.0],
+            presliding_damping: [0.0],
         }
     }
 

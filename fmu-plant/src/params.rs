@@ -150,6 +150,13 @@ pub struct MotorParams {
     pub current_command_delay_s: f64,
     /// Cogging torque of the motor. Off by default.
     pub cogging: CoggingParams,
+    /// Presliding (bristle) stiffness of the motor's friction, N m/rad at the motor: while the
+    /// motor sticks it is tied to a friction anchor through this spring and the damper below
+    /// (an elasto-plastic, single Maxwell-slip element), and it slips when the spring torque
+    /// reaches the breakaway level. 0 (the default) is a rigid stick.
+    pub presliding_stiffness_nm_per_rad: f64,
+    /// Damping of that bristle spring, N m s/rad at the motor (used only with a stiffness).
+    pub presliding_damping_nm_s_per_rad: f64,
 }
 
 impl MotorParams {
@@ -170,6 +177,8 @@ impl MotorParams {
             current_limit_a: f64::INFINITY,
             current_command_delay_s: 0.0,
             cogging: CoggingParams::NONE,
+            presliding_stiffness_nm_per_rad: 0.0,
+            presliding_damping_nm_s_per_rad: 0.0,
             ..*self
         }
     }
@@ -192,6 +201,8 @@ impl MotorParams {
             ));
         }
         self.cogging.validate(&format!("{name}.cogging"), errors);
+        finite_non_negative(&format!("{name}.presliding_stiffness_nm_per_rad"), self.presliding_stiffness_nm_per_rad, errors);
+        finite_non_negative(&format!("{name}.presliding_damping_nm_s_per_rad"), self.presliding_damping_nm_s_per_rad, errors);
     }
 }
 

@@ -452,3 +452,92 @@ fn a_long_communication_step_gives_the_same_motion_as_many_short_ones() {
     println!("20 ms vs 1 ms steps: {worst:.2e} arcsec, {events} events");
     assert!(worst < 1e-3, "20 ms and 1 ms steps differ by {worst} arcsec");
 }
+
+/// The motor side of the azimuth drive: both motors commanded with `current` for `seconds`,
+/// the pinions without backlash and the load held by a bearing friction far above what the
+/// motors can apply (`held`), or the default one.
+fn held_azimuth(presliding: f64, current: f64, seconds: f64, held: bool) -> fmu_plant::AzimuthOutputs {
+    let mut params = AzimuthParams { pinion_backlash_rad: [0.0; 2], ..AzimuthParams::default() };
+    if held {
+        params.bearing_friction = FrictionParams::coulomb_and_static(1e7, 1e7);
+    }
+    for m in params.motors.iter_mut() {
+        m.presliding_stiffness_nm_per_rad = presliding;
+        m.presliding_damping_nm_s_per_rad = 2.0 * (presliding * m.inertia_kg_m2).sqrt();
+    }
+    let mut plant = azimuth_at(params);
+    let inputs = AzimuthInputs { current_command_a: [current; 2], disturbance_torque_nm: 0.0, elevation_deg: 45.0 };
+    for _ in 0..(seconds * 1e3).round() as usize {
+        plant.step(&inputs, 1e-3).unwrap();
+    }
+    plant.outputs()
+}
+
+#[test]
+fn a_presliding_motor_yields_elastically_below_breakaway_where_a_rigid_stick_does_not_move() {
+    // 0.25 A gives 0.2 N m per motor, half the 0.4 N m breakaway: a rigid stick holds the motor
+    // exactly (no twist reaches the pinion); a bristle of stiffness sigma lets it turn until the
+    // bristle and the path (K / N^2 at the motor) share the torque, so the pinion carries the
+    // fraction K' / (sigma + K') of it (the load held).
+    let params = AzimuthParams::default();
+    let path_at_motor = params.path_stiffness_nm_per_rad[0] / (params.gear_ratio * params.gear_ratio);
+    let rigid = held_azimuth(0.0, 0.25, 0.5, true);
+    assert_eq!(rigid.motor_speed_rad_per_s, [0.0; 2]);
+    assert_eq!(rigid.pinion_torque_nm, [0.0; 2]);
+    let sigma = 10.0;
+    let yielding = held_azimuth(sigma, 0.25, 0.5, true);
+    let motor_torque = yielding.motor_torque_nm[0];
+    let expected = motor_torque * path_at_motor / (sigma + path_at_motor) * params.gear_ratio;
+    for k in 0..2 {
+        assert!(yielding.motor_speed_rad_per_s[k].abs() < 1e-6, "settled: {:?}", yielding.motor_speed_rad_per_s);
+        let relative = (yielding.pinion_torque_nm[k] - expected).abs() / expected;
+        assert!(relative < 1e-3, "pinion {k}: {} N m against {expected} N m", yielding.pinion_torque_nm[k]);
+    }
+}
+
+#[test]
+fn a_presliding_motor_slips_once_its_bristle_torque_passes_breakaway() {
+    // 6 A gives 4.8 N m per motor: the bristle's share sigma / (sigma + K') of it passes the
+    // 0.4 N m breakaway, so the motor slides and the axis turns, with or without the bristle.
+    let sliding = held_azimuth(10.0, 6.0, 0.3, false);
+    assert!(sliding.motor_speed_rad_per_s.iter().all(|v| *v > 1.0), "{:?}", sliding.motor_speed_rad_per_s);
+    let rigid = held_azimuth(0.0, 6.0, 0.3, false);
+    let relative = (sliding.axis_speed_deg_per_s - rigid.axis_speed_deg_per_s).abs() / rigid.axis_speed_deg_per_s.abs();
+    assert!(relative < 0.05, "sliding axis speed {} against {} with a rigid stick", sliding.axis_speed_deg_per_s, rigid.axis_speed_deg_per_s);
+}
+
+
+#[test]
+fn a_saved_azimuth_state_with_presliding_motors_reproduces_the_future_bitwise() {
+    // The friction anchors are part of the state: a restored plant continues exactly, through
+    // stick phases (the commands reverse) where the bristles hold the motors.
+    let mut params = AzimuthParams::default();
+    for m in params.motors.iter_mut() {
+        m.presliding_stiffness_nm_per_rad = 20.0;
+        m.presliding_damping_nm_s_per_rad = 0.5;
+    }
+    let mut plant = azimuth_at(params);
+    let inputs = |k: usize| AzimuthInputs {
+        current_command_a: [0.6 * (k as f64 * 0.01).sin(), 0.6 * (k as f64 * 0.013).sin()],
+        disturbance_torque_nm: 0.0,
+        elevation_deg: 45.0,
+    };
+    for k in 0..700 {
+        plant.step(&inputs(k), 1e-3).unwrap();
+    }
+    let bytes = save(|w| plant.save_state(w));
+    let mut expected = Vec::new();
+    for k in 700..2000 {
+        plant.step(&inputs(k), 1e-3).unwrap();
+        expected.push(plant.outputs());
+    }
+    assert!(expected.iter().any(|o| o.motor_speed_rad_per_s[0] != 0.0), "the motors must move");
+    let mut restored = AzimuthPlant::new(params).unwrap();
+    let mut reader = StateReader::new(&bytes);
+    restored.load_state(&mut reader).unwrap();
+    reader.finish().unwrap();
+    for (i, k) in (700..2000).enumerate() {
+        restored.step(&inputs(k), 1e-3).unwrap();
+        assert_eq!(restored.outputs(), expected[i], "step {k}");
+    }
+}

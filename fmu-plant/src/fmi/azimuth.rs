@@ -164,6 +164,15 @@ declare_variables! {
             .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
         CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 100000)
             .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
+        // Presliding friction of the motors (appended: existing value references keep their numbers).
+        M1PreslidingStiffness = Var::real("motor1.presliding_stiffness", "N.m/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_STIFFNESS)
+            .description("Presliding (bristle) stiffness of motor 1's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
+        M1PreslidingDamping = Var::real("motor1.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
+            .description("Damping of motor 1's presliding spring (used only with a presliding stiffness)."),
+        M2PreslidingStiffness = Var::real("motor2.presliding_stiffness", "N.m/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_STIFFNESS)
+            .description("Presliding (bristle) stiffness of motor 2's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
+        M2PreslidingDamping = Var::real("motor2.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
+            .description("Damping of motor 2's presliding spring (used only with a presliding stiffness)."),
     }
 }
 
@@ -182,6 +191,8 @@ const MOTOR1: MotorVars<AzVar> = MotorVars {
     cogging_amplitude: AzVar::M1CoggingAmplitude,
     cogging_period: AzVar::M1CoggingPeriod,
     cogging_phase: AzVar::M1CoggingPhase,
+    presliding_stiffness: Some(AzVar::M1PreslidingStiffness),
+    presliding_damping: Some(AzVar::M1PreslidingDamping),
 };
 
 const MOTOR2: MotorVars<AzVar> = MotorVars {
@@ -199,6 +210,8 @@ const MOTOR2: MotorVars<AzVar> = MotorVars {
     cogging_amplitude: AzVar::M2CoggingAmplitude,
     cogging_period: AzVar::M2CoggingPeriod,
     cogging_phase: AzVar::M2CoggingPhase,
+    presliding_stiffness: Some(AzVar::M2PreslidingStiffness),
+    presliding_damping: Some(AzVar::M2PreslidingDamping),
 };
 
 const BEARING: FrictionVars<AzVar> = FrictionVars {

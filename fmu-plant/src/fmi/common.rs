@@ -57,6 +57,9 @@ pub struct MotorVars<V> {
     pub cogging_amplitude: V,
     pub cogging_period: V,
     pub cogging_phase: V,
+    /// The presliding element (the azimuth motors have one; None reads as a rigid stick).
+    pub presliding_stiffness: Option<V>,
+    pub presliding_damping: Option<V>,
 }
 
 impl<V: VariableSet> MotorVars<V> {
@@ -80,6 +83,8 @@ impl<V: VariableSet> MotorVars<V> {
                 period_motor_revolutions: v.real(self.cogging_period),
                 phase_deg: v.real(self.cogging_phase),
             },
+            presliding_stiffness_nm_per_rad: self.presliding_stiffness.map_or(0.0, |r| v.real(r)),
+            presliding_damping_nm_s_per_rad: self.presliding_damping.map_or(0.0, |r| v.real(r)),
         }
     }
 }

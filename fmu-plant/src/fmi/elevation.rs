@@ -165,6 +165,8 @@ const MOTOR: MotorVars<ElVar> = MotorVars {
     cogging_amplitude: ElVar::MCoggingAmplitude,
     cogging_period: ElVar::MCoggingPeriod,
     cogging_phase: ElVar::MCoggingPhase,
+    presliding_stiffness: None,
+    presliding_damping: None,
 };
 
 const SCREW: FrictionVars<ElVar> = FrictionVars {
