@@ -2,7 +2,7 @@
 //!
 //! Usage:
 //!   validate run LOG.csv --params START.params [--out DIR] [--fmu PATH | --no-fmu]
-//!                [--window SECONDS] [--drive-window SECONDS] [--no-refit] [--alpha 1e-3] [--verbose]
+//!                [--window SECONDS] [--drive-window SECONDS] [--no-refit] [--no-presliding] [--alpha 1e-3] [--verbose]
 //!       Validates one log: writes DIR/<log>_report.md, DIR/<log>_corrected.params (the plant
 //!       FMU's parameter file, loadable through its `parameter_file` variable),
 //!       DIR/<log>_corrected_axis.params (the single-axis set, usable as a start) and PNG
@@ -91,6 +91,7 @@ fn parse(args: Vec<String>) -> Result<Arguments, String> {
             "--min-effect-to-noise" => a.options.selection.min_effect_to_noise = value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?,
             "--window" => a.options.output.window_seconds = Some(value()?.parse().map_err(|_| "--window needs seconds")?),
             "--no-refit" => a.options.output.refit = false,
+            "--no-presliding" => a.options.output.presliding = false,
             "--drive-window" => a.options.output.drive_window_seconds = Some(value()?.parse().map_err(|_| "--drive-window needs seconds")?),
             other if !other.starts_with("--") && a.target.is_none() => a.target = Some(other.to_string()),
             other => return Err(format!("unknown option '{other}'")),

@@ -15,6 +15,7 @@ pub mod frequency;
 pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
+pub mod presliding;
 pub mod refit;
 pub mod report;
 pub mod scoring;
@@ -48,11 +49,13 @@ pub struct OutputOptions {
     pub alpha: f64,
     /// Refit the found effects' parameters on the output error ([`refit`]).
     pub refit: bool,
+    /// Calibrate the friction's presliding compliance before the search ([`presliding`]).
+    pub presliding: bool,
 }
 
 impl Default for OutputOptions {
     fn default() -> Self {
-        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, drive_window_seconds: None, alpha: 0.01, refit: true }
+        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, drive_window_seconds: None, alpha: 0.01, refit: true, presliding: true }
     }
 }
 
@@ -103,6 +106,10 @@ pub struct OutputReport {
     /// The found effects' parameters refitted on the output error ([`refit`]), when that
     /// lowered its score; the corrected model and "after" are then the refitted ones.
     pub refit: Option<refit::Refit>,
+    /// The friction-form calibration ([`presliding`]), when it was tried; when kept, `before`
+    /// is the calibrated starting model's error and `starting` the uncalibrated one's.
+    pub calibration: Option<presliding::Calibration>,
+    pub starting: Option<OutputError>,
 }
 
 impl OutputReport {
@@ -302,6 +309,16 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                     selection::select(&data, start, &options.selection)
                 }
                 Ok((out, plan, before)) => {
+                    // The friction-form calibration: the presliding compliance of the friction,
+                    // fitted once on the output error and used in the "before" and "after"
+                    // models alike (presliding.rs). The starting model's own error is kept
+                    // for the report.
+                    let calibration = if options.output.presliding { presliding::calibrate(simulator, &data, &out, &plan, start, &before, options.output.alpha) } else { None };
+                    let (calibrated, before, starting) = match &calibration {
+                        Some(c) if c.kept => (presliding::with_displacement(start, c.displacement), c.error.clone(), Some(before)),
+                        _ => (start.clone(), before, None),
+                    };
+                    let start = &calibrated;
                     let mut judge = OutputJudge {
                         simulator: &mut *simulator,
                         data: &data,
@@ -351,7 +368,7 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                         }
                     }
                     frequency = frequency::compare(&data, &out, start, &selection.corrected);
-                    output = Some(OutputReport { config: out.config, plan, state_half_width: out.state_half_width, before, after, confirmations, overall, refit: refitted });
+                    output = Some(OutputReport { config: out.config, plan, state_half_width: out.state_half_width, before, after, confirmations, overall, refit: refitted, calibration, starting });
                     selection
                 }
             }

@@ -37,6 +37,8 @@ pub mod names {
     pub const COGGING_PERIOD: &str = "effect.cogging_period";
     pub const COGGING_PHASE: &str = "effect.cogging_phase";
     pub const BACKLASH_WIDTH: &str = "backlash.width";
+    pub const PRESLIDING_STIFFNESS: &str = "friction.presliding_stiffness";
+    pub const PRESLIDING_DAMPING: &str = "friction.presliding_damping";
 }
 
 /// What one parameter means. Torques, stiffness, damping and load inertia are on the axis
@@ -52,7 +54,7 @@ pub struct ParameterInfo {
 }
 
 /// Every parameter the model knows, in the order the files list them.
-pub const PARAMETERS: [ParameterInfo; 20] = [
+pub const PARAMETERS: [ParameterInfo; 22] = [
     ParameterInfo { name: names::GEAR_RATIO, unit: "-", description: "gear ratio, motor turns per axis turn", neutral: 1.0 },
     ParameterInfo { name: names::MOTOR_INERTIA, unit: "kg m^2", description: "motor rotor inertia (motor side, all motors together)", neutral: 0.0 },
     ParameterInfo { name: names::TORQUE_CONSTANT, unit: "N m/A", description: "motor torque constant (per motor)", neutral: 1.0 },
@@ -73,6 +75,8 @@ pub const PARAMETERS: [ParameterInfo; 20] = [
     ParameterInfo { name: names::COGGING_PERIOD, unit: "rad", description: "period of the position-periodic torque in axis-referred motor angle", neutral: 0.0 },
     ParameterInfo { name: names::COGGING_PHASE, unit: "rad", description: "phase of the position-periodic torque", neutral: 0.0 },
     ParameterInfo { name: names::BACKLASH_WIDTH, unit: "rad", description: "total lost motion (dead zone width) of the drive path, axis side", neutral: 0.0 },
+    ParameterInfo { name: names::PRESLIDING_STIFFNESS, unit: "N m/rad", description: "presliding (bristle) stiffness of the motor friction while it sticks, referred to the axis; 0 is a rigid stick", neutral: 0.0 },
+    ParameterInfo { name: names::PRESLIDING_DAMPING, unit: "N m s/rad", description: "damping of the presliding spring, referred to the axis", neutral: 0.0 },
 ];
 
 /// Looks up the description of a known parameter.
@@ -158,7 +162,7 @@ pub struct FmuMapping {
 /// axis is two identical half-motors, each with its own half-stiffness path; everything the
 /// axis set holds for "all motors" is halved per motor. Torques and speeds on the motor side
 /// are the axis-side values through the gear ratio.
-pub const FMU_MAPPING: [FmuMapping; 17] = [
+pub const FMU_MAPPING: [FmuMapping; 19] = [
     FmuMapping { parameters: &[names::GEAR_RATIO], variables: &["gear.ratio"], rule: "N" },
     FmuMapping { parameters: &[names::MOTOR_INERTIA], variables: &["motor1.inertia", "motor2.inertia"], rule: "J_m/2 each" },
     FmuMapping {
@@ -174,6 +178,8 @@ pub const FMU_MAPPING: [FmuMapping; 17] = [
     FmuMapping { parameters: &[names::STIFFNESS], variables: &["pinion1.stiffness", "pinion2.stiffness"], rule: "K_s/2 each (paths in parallel)" },
     FmuMapping { parameters: &[names::DAMPING], variables: &["pinion1.damping", "pinion2.damping"], rule: "D/2 each" },
     FmuMapping { parameters: &[names::VISCOUS], variables: &["motor1.viscous_friction", "motor2.viscous_friction"], rule: "B/(2 N^2) each" },
+    FmuMapping { parameters: &[names::PRESLIDING_STIFFNESS], variables: &["motor1.presliding_stiffness", "motor2.presliding_stiffness"], rule: "sigma/(2 N^2) each" },
+    FmuMapping { parameters: &[names::PRESLIDING_DAMPING], variables: &["motor1.presliding_damping", "motor2.presliding_damping"], rule: "c/(2 N^2) each" },
     FmuMapping { parameters: &[names::COULOMB], variables: &["motor1.coulomb_friction", "motor2.coulomb_friction"], rule: "F_c/(2 N) each" },
     FmuMapping { parameters: &[names::STATIC], variables: &["motor1.static_friction", "motor2.static_friction"], rule: "F_s/(2 N) each (F_s = F_c when not set)" },
     FmuMapping { parameters: &[names::STRIBECK_VELOCITY], variables: &["motor1.stribeck_velocity", "motor2.stribeck_velocity"], rule: "w_s N (motor rad/s)" },
@@ -272,6 +278,8 @@ pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Resul
     both("motor#.torque_constant", torque_constant, "motor.torque_constant per half-motor (see FMU_MAPPING)", &mut out);
     both("motor#.torque_constant_scale", params.value(names::TORQUE_CONSTANT_SCALE), "effect.torque_constant_scale", &mut out);
     both("motor#.viscous_friction", params.value(names::VISCOUS) / (2.0 * n2), "friction.viscous / (2 N^2), N m s/rad at the motor", &mut out);
+    both("motor#.presliding_stiffness", params.value(names::PRESLIDING_STIFFNESS) / (2.0 * n2), "friction.presliding_stiffness / (2 N^2), N m/rad at the motor", &mut out);
+    both("motor#.presliding_damping", params.value(names::PRESLIDING_DAMPING) / (2.0 * n2), "friction.presliding_damping / (2 N^2), N m s/rad at the motor", &mut out);
     both("motor#.coulomb_friction", coulomb / (2.0 * gear), "friction.coulomb / (2 N), N m at the motor", &mut out);
     both("motor#.static_friction", static_friction / (2.0 * gear), "friction.static / (2 N), N m at the motor", &mut out);
     both("motor#.stribeck_velocity", params.value(names::STRIBECK_VELOCITY) * gear, "friction.stribeck_velocity N, motor rad/s", &mut out);

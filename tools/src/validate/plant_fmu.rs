@@ -106,6 +106,8 @@ struct StateTemplate {
     cell: i64,
     load_motion: u8,
     motor_has_friction: [bool; PATHS],
+    /// Motors with a presliding element: their friction anchors follow the delay lines.
+    motor_presliding: [bool; PATHS],
 }
 
 impl StateTemplate {
@@ -152,8 +154,18 @@ impl StateTemplate {
                 r.f64().map_err(error)?;
             }
         }
-        r.finish().map_err(error)?;
         let has_friction = |coulomb: AzVar, stat: AzVar| values.real(coulomb) > 0.0 || values.real(stat) > 0.0;
+        let motor_has_friction = [has_friction(AzVar::M1Coulomb, AzVar::M1Static), has_friction(AzVar::M2Coulomb, AzVar::M2Static)];
+        let motor_presliding = [
+            motor_has_friction[0] && values.real(AzVar::M1PreslidingStiffness) > 0.0,
+            motor_has_friction[1] && values.real(AzVar::M2PreslidingStiffness) > 0.0,
+        ];
+        for presliding in motor_presliding {
+            if presliding {
+                r.f64().map_err(error)?;
+            }
+        }
+        r.finish().map_err(error)?;
         Ok(StateTemplate {
             identifier,
             guid,
@@ -162,7 +174,8 @@ impl StateTemplate {
             values: bytes[values_start..values_end].to_vec(),
             cell,
             load_motion,
-            motor_has_friction: [has_friction(AzVar::M1Coulomb, AzVar::M1Static), has_friction(AzVar::M2Coulomb, AzVar::M2Static)],
+            motor_has_friction,
+            motor_presliding,
         })
     }
 }
@@ -259,6 +272,14 @@ impl Session {
             for (t, v) in entries {
                 w.f64(t);
                 w.f64(v);
+            }
+        }
+        // Friction anchors of presliding motors at the motor angle (d_k + p_L): a relaxed
+        // bristle. Only a motor that starts sticking uses it; a sliding one sets its own when it
+        // comes to rest.
+        for k in 0..PATHS {
+            if self.template.motor_presliding[k] {
+                w.f64(x[2 + 4 * k] + x[0]);
             }
         }
         bytes.extend_from_slice(&w.into_bytes());

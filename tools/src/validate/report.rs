@@ -178,6 +178,34 @@ fn output_section(out: &mut String, o: &OutputReport) {
         );
     }
     let _ = writeln!(out, "\nCorrected against starting model: {}.\n", o.overall.reason);
+    if let Some(c) = &o.calibration {
+        let _ = writeln!(
+            out,
+            "Friction-form calibration (presliding compliance, not an effect): presliding displacement at breakaway {:.3e} rad (bristle stiffness {:.4e} N m/rad, damping {:.4e} N m s/rad, axis side), {} evaluations; {}; {}.\n",
+            c.displacement,
+            c.stiffness,
+            c.damping,
+            c.evaluations.len(),
+            c.comparison.reason,
+            if c.kept { "kept: \"before\" and \"after\" above are with it" } else { "not kept: the rigid stick stays" }
+        );
+        if let Some(starting) = &o.starting {
+            let rows: Vec<String> = starting
+                .channels
+                .iter()
+                .zip(&o.before.channels)
+                .zip(&o.after.channels)
+                .filter(|((s, _), _)| s.scored)
+                .map(|((s, b), a)| {
+                    let (rs, unit) = display(s.rms, s.kind.unit());
+                    let (rb, _) = display(b.rms, b.kind.unit());
+                    let (ra, _) = display(a.rms, a.kind.unit());
+                    format!("{} {rs:.4} -> {rb:.4} -> {ra:.4} {unit}", s.kind.name())
+                })
+                .collect();
+            let _ = writeln!(out, "Starting model (rigid stick) -> calibrated -> corrected: {}.\n", rows.join("; "));
+        }
+    }
     if let Some(r) = &o.refit {
         let changes: Vec<String> = r.changes.iter().map(|(name, a, b)| format!("{name} {a:.4e} -> {b:.4e}")).collect();
         let _ = writeln!(
