@@ -204,3 +204,23 @@ fn the_output_error_refit_recovers_parameters_of_an_fmu_made_log_from_a_biased_s
     assert!((offset / 900.0 - 1.0).abs() < 0.01, "offset {offset}");
     assert!(result.score_after < 0.1, "score {}", result.score_after);
 }
+
+#[test]
+fn the_presliding_calibration_finds_the_displacement_of_an_fmu_made_log() {
+    // A log the FMU made with presliding friction of 3 urad at breakaway: the golden-section
+    // search over the output error finds it to a tenth of a decade and keeps it, since the
+    // rigid stick predicts significantly worse.
+    use antenna_tools::validate::presliding::{calibrate, with_displacement};
+    let mut sim = simulator();
+    let start = TruthPlant::default().starting_parameters();
+    let truth = with_displacement(&start, 3e-6);
+    let log = fmu_log(&mut sim, &truth);
+    let data = prepare(&log, &start, &EquationOptions::default()).unwrap();
+    let out = OutputData::new(&log, &data, &start).unwrap();
+    let plan = WindowPlan::new(500, out.len(), out.dt, "1 s".into());
+    let before = output_error(&mut sim, &start, &data, &out, &plan).unwrap();
+    let calibration = calibrate(&mut sim, &data, &out, &plan, &start, &before, 0.01).expect("the calibration runs");
+    println!("displacement {:.3e}: {}", calibration.displacement, calibration.comparison.reason);
+    assert!((calibration.displacement / 3e-6).log10().abs() < 0.1, "displacement {}", calibration.displacement);
+    assert!(calibration.kept, "{}", calibration.comparison.reason);
+}
