@@ -66,7 +66,7 @@ pub fn calibrate(simulator: &mut dyn PlantSimulator, data: &EquationData, out: &
     }
     let mut evaluations = Vec::new();
     let mut best: Option<(f64, OutputError, f64)> = None;
-    let mut score = |x: f64, simulator: &mut dyn PlantSimulator, evaluations: &mut Vec<(f64, f64)>, best: &mut Option<(f64, OutputError, f64)>| -> f64 {
+    let score = |x: f64, simulator: &mut dyn PlantSimulator, evaluations: &mut Vec<(f64, f64)>, best: &mut Option<(f64, OutputError, f64)>| -> f64 {
         let params = with_displacement(start, 10f64.powf(x));
         let value = match output_error::output_error(simulator, &params, data, out, plan) {
             Ok(e) => {
