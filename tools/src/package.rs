@@ -41,7 +41,10 @@ pub fn model_description_directory() -> PathBuf {
     workspace_root().join("modelDescription")
 }
 
-/// Builds the release shared libraries of the model crates with cargo.
+/// The cargo profile the FMUs' shared libraries are built with (see the workspace Cargo.toml).
+pub const LIBRARY_PROFILE: &str = "fmu-release";
+
+/// Builds the shared libraries of the model crates with cargo, in [`LIBRARY_PROFILE`].
 pub fn build_libraries(target_dir: &Path) -> Result<(), String> {
     build_libraries_from(&workspace_root(), target_dir)
 }
@@ -55,7 +58,7 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<(),
     packages.sort();
     packages.dedup();
     let mut command = Command::new(cargo);
-    command.current_dir(source_root).args(["build", "--release", "--quiet"]).arg("--target-dir").arg(target_dir);
+    command.current_dir(source_root).args(["build", "--profile", LIBRARY_PROFILE, "--quiet"]).arg("--target-dir").arg(target_dir);
     for p in &packages {
         command.args(["-p", p]);
     }
@@ -66,12 +69,12 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<(),
     Ok(())
 }
 
-/// Packages every FMU from the libraries in `target_dir/release` into `output`.
+/// Packages every FMU from the libraries in `target_dir/<LIBRARY_PROFILE>` into `output`.
 pub fn package_all(target_dir: &Path, output: &Path) -> Result<Vec<PathBuf>, String> {
     std::fs::create_dir_all(output).map_err(|e| format!("cannot create {}: {e}", output.display()))?;
     let mut written = Vec::new();
     for spec in all_fmus() {
-        let library = target_dir.join("release").join(format!("lib{}.so", spec.library_name));
+        let library = target_dir.join(LIBRARY_PROFILE).join(format!("lib{}.so", spec.library_name));
         let path = output.join(format!("{}.fmu", spec.model_identifier));
         write_fmu(&spec, &library, &path)?;
         written.push(path);
