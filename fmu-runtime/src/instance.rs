@@ -299,19 +299,14 @@ impl<M: Model> DynModel for ModelSlot<M> {
     fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), String> {
         // Check everything first, then write: a rejected call changes nothing.
         for (&vr, &value) in vrs.iter().zip(values) {
-            let accepted = self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase));
-            let var = if accepted {
-                M::Var::from_index(vr as usize).expect("index checked")
+            if self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase)) {
+                let var = M::Var::from_index(vr as usize).expect("the access table has one entry per variable");
+                check_model_real::<M>(var, value, &self.values)?;
             } else {
                 // The declaration's own checks word the error (and agree with the fast one).
                 let (_, decl) = Self::lookup(vr, BaseType::Real)?;
                 Self::check_settable(decl, vr, phase)?;
-                M::Var::from_index(vr as usize).expect("index checked")
-            };
-            if accepted {
-                check_model_real::<M>(var, value, &self.values)?;
-            } else {
-                check_real_value::<M>(var, value, &self.values)?;
+                check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)?;
             }
         }
         for (&vr, &value) in vrs.iter().zip(values) {

@@ -426,26 +426,6 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
         }
     }
 
-    // A gap many times the usual interval is a record stitched from separate runs (or a
-    // logger that stalled): the analyses assume one continuous run, and resampling across the
-    // gap would invent data (and, for a long gap, exhaust memory). Say where to split it.
-    let median_interval = {
-        let mut steps: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(|a, b| a.total_cmp(b));
-        steps[steps.len() / 2]
-    };
-    if let Some(i) = (1..time.len()).find(|&i| time[i] - time[i - 1] > MAX_GAP_INTERVALS * median_interval) {
-        return Err(LogError::new(
-            Some(row_lines[i]),
-            Some(&names[time_index]),
-            format!(
-                "a gap of {} s after {} s is more than {MAX_GAP_INTERVALS} times the usual sample interval {median_interval} s: split the log into continuous runs at this row",
-                time[i] - time[i - 1],
-                time[i - 1]
-            ),
-        ));
-    }
-
     let mut channels = Vec::new();
     for (j, kind) in kinds.into_iter().enumerate() {
         if let ColumnKind::Known { signal, motor, unit, .. } = kind {
@@ -456,9 +436,22 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
         }
     }
 
-    let log = MeasuredLog { metadata, time, channels, notes };
-    let mut log = log;
+    let mut log = MeasuredLog { metadata, time, channels, notes };
     let dt = log.sample_interval();
+    // A gap many times the usual interval is a record stitched from separate runs (or a
+    // logger that stalled): the analyses assume one continuous run, and resampling across the
+    // gap would invent data (and, for a long gap, exhaust memory). Say where to split it.
+    if let Some(i) = (1..log.time.len()).find(|&i| log.time[i] - log.time[i - 1] > MAX_GAP_INTERVALS * dt) {
+        return Err(LogError::new(
+            Some(row_lines[i]),
+            Some(&names[time_index]),
+            format!(
+                "a gap of {} s after {} s is more than {MAX_GAP_INTERVALS} times the usual sample interval {dt} s: split the log into continuous runs at this row",
+                log.time[i] - log.time[i - 1],
+                log.time[i - 1]
+            ),
+        ));
+    }
     let worst = log.time.windows(2).map(|w| ((w[1] - w[0]) / dt - 1.0).abs()).fold(0.0, f64::max);
     if worst > 0.01 {
         log.notes.push(format!("sampling is uneven: an interval differs from the median {dt:.6} s by {:.0} %", worst * 100.0));
