@@ -79,8 +79,12 @@ pub fn seed_from_fmi_integer(seed: i32) -> u64 {
 struct Discretisation {
     step_bits: u64,
     decay: Vec<f64>,
-    /// `n x rank`, row-major: `w_i = sum_k factor[i * rank + k] xi_k`.
-    factor: Vec<f64>,
+    /// The noise factor `L` (`n x rank`) stored column after column: column `k` is
+    /// `columns[k * n..(k + 1) * n]`. Adding one scaled column at a time to the noise vector
+    /// touches contiguous memory with no index checks in the loop, and every `w_i` still sums
+    /// its terms in the order `k = 0, 1, ..`, so the gusts are the same bits as a row-by-row
+    /// dot product gives.
+    columns: Vec<f64>,
     rank: usize,
     last_used: u64,
 }
@@ -95,6 +99,8 @@ pub struct GustGenerator {
     cache: Vec<Discretisation>,
     clock: u64,
     normals: Vec<f64>,
+    /// Scratch for the noise increment `w = L xi` of one step.
+    noise: Vec<f64>,
 }
 
 impl GustGenerator {
@@ -105,7 +111,7 @@ impl GustGenerator {
         let (factor, rank) = pivoted_cholesky(&filter.stationary_covariance());
         let xi: Vec<f64> = (0..rank).map(|_| StandardNormal.sample(&mut rng)).collect();
         let state = (0..n).map(|i| (0..rank).map(|k| factor[i * rank + k] * xi[k]).sum()).collect();
-        Self { filter, seed, rng, state, cache: Vec::new(), clock: 0, normals: vec![0.0; n] }
+        Self { filter, seed, rng, state, cache: Vec::new(), clock: 0, normals: vec![0.0; n], noise: vec![0.0; n] }
     }
 
     pub fn filter(&self) -> &ShapingFilter {
@@ -131,14 +137,17 @@ impl GustGenerator {
         }
         let index = self.cached_discretisation(h);
         let entry = &self.cache[index];
-        let rank = entry.rank;
-        for xi in &mut self.normals[..rank] {
+        let n = self.state.len();
+        debug_assert_eq!(entry.columns.len(), n * entry.rank);
+        let normals = &mut self.normals[..entry.rank];
+        for xi in normals.iter_mut() {
             *xi = StandardNormal.sample(&mut self.rng);
         }
-        for (i, x) in self.state.iter_mut().enumerate() {
-            let row = &entry.factor[i * rank..(i + 1) * rank];
-            let noise: f64 = row.iter().zip(&self.normals[..rank]).map(|(l, xi)| l * xi).sum();
-            *x = entry.decay[i] * *x + noise;
+        match n {
+            // The Davenport filter's order: with the length known to the compiler the loops
+            // are unrolled and use both lanes of the vector registers.
+            DAVENPORT_ORDER => advance_fixed::<DAVENPORT_ORDER>(&mut self.state, &entry.decay, &entry.columns, normals),
+            _ => advance(&mut self.state, &entry.decay, &entry.columns, normals, &mut self.noise[..n]),
         }
         self.gust()
     }
@@ -154,7 +163,9 @@ impl GustGenerator {
         }
         let (decay, qd) = modal_discretisation(&self.filter, h);
         let (factor, rank) = pivoted_cholesky(&qd);
-        let entry = Discretisation { step_bits: bits, decay, factor, rank, last_used: self.clock };
+        let n = decay.len();
+        let columns = (0..rank).flat_map(|k| (0..n).map(move |i| (k, i))).map(|(k, i)| factor[i * rank + k]).collect();
+        let entry = Discretisation { step_bits: bits, decay, columns, rank, last_used: self.clock };
         if self.cache.len() < CACHE_CAPACITY {
             self.cache.push(entry);
             self.cache.len() - 1
@@ -218,6 +229,45 @@ impl GustGenerator {
         self.state = state;
         self.rng = rng;
         Ok(())
+    }
+}
+
+/// The order of the Davenport shaping filter (the stored prototype's), for which the step
+/// has a version with fixed-size loops; any other order takes the general one.
+const DAVENPORT_ORDER: usize = 10;
+
+/// `x <- decay x + L xi`, with `L` given column after column (`columns`, `n` numbers each) and
+/// `noise` as scratch. `w = L xi` is accumulated one column at a time from -0.0, the identity
+/// of addition, so each `w_i` is the same left-to-right sum over `k` as a row-by-row dot
+/// product: the gusts do not depend on which of the two versions ran.
+fn advance(state: &mut [f64], decay: &[f64], columns: &[f64], normals: &[f64], noise: &mut [f64]) {
+    noise.fill(-0.0);
+    for (column, &xi) in columns.chunks_exact(state.len()).zip(normals) {
+        for (w, &l) in noise.iter_mut().zip(column) {
+            *w += l * xi;
+        }
+    }
+    for ((x, &d), &w) in state.iter_mut().zip(decay).zip(noise.iter()) {
+        *x = d * *x + w;
+    }
+}
+
+/// [`advance`] for a state of `N` numbers, the same operations in the same order.
+// Index loops over three arrays of one fixed length say this more plainly than zips.
+#[allow(clippy::needless_range_loop)]
+fn advance_fixed<const N: usize>(state: &mut [f64], decay: &[f64], columns: &[f64], normals: &[f64]) {
+    let (Ok(state), Ok(decay)) = (<&mut [f64; N]>::try_from(state), <&[f64; N]>::try_from(decay)) else {
+        unreachable!("the caller checked the order");
+    };
+    let mut noise = [-0.0; N];
+    for (column, &xi) in columns.chunks_exact(N).zip(normals) {
+        let Ok(column) = <&[f64; N]>::try_from(column) else { unreachable!("chunks of N") };
+        for i in 0..N {
+            noise[i] += column[i] * xi;
+        }
+    }
+    for i in 0..N {
+        state[i] = decay[i] * state[i] + noise[i];
     }
 }
 
