@@ -112,6 +112,10 @@ impl Surface {
     }
 }
 
+/// The eight knot numbers one grid cell needs from one surface, side by side: the values and
+/// yaw curvatures at the cell's two yaw knots, then the elevation curvatures of both.
+type CellKnots = [f64; 8];
+
 /// Yawing and pitching coefficient surfaces on a yaw x elevation grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CoefficientTable {
@@ -119,6 +123,15 @@ pub struct CoefficientTable {
     elevation: Vec<f64>,
     tau_az: Surface,
     tau_el: Surface,
+    /// Knots per grid cell `(e, k)` at `e * (yaw.len() - 1) + k`, `[tau_az, tau_el]`: what an
+    /// evaluation reads, gathered once so that it reads two contiguous blocks instead of
+    /// thirty-two entries of nested vectors. The numbers are the surfaces' own, unchanged.
+    cells: Vec<[CellKnots; 2]>,
+    /// Knots per unit of yaw and of elevation, from the first to the last knot: a first guess
+    /// of the interval, which [`SplineWeights::at`] then corrects, so any grid works and a
+    /// uniform one is found in one step.
+    yaw_density: f64,
+    elevation_density: f64,
 }
 
 const REQUIRED_COLUMNS: [&str; 4] = ["yaw_deg", "elevation_deg", "tau_az", "tau_el"];
@@ -255,9 +268,31 @@ impl CoefficientTable {
         let curvature = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> { rows.iter().map(|r| apply_periodic(&periodic, &yaw, r)).collect() };
         let elevation_operator = natural_spline_operator(&elevation);
         let (az_curvature, el_curvature) = (curvature(&az), curvature(&el));
+        let tau_az = Surface::new(az, az_curvature, &elevation_operator);
+        let tau_el = Surface::new(el, el_curvature, &elevation_operator);
+        let knots = |s: &Surface, e: usize, k: usize| -> CellKnots {
+            [
+                s.values[e][k],
+                s.values[e][k + 1],
+                s.yaw_curvature[e][k],
+                s.yaw_curvature[e][k + 1],
+                s.elevation_curvature_of_values[e][k],
+                s.elevation_curvature_of_values[e][k + 1],
+                s.elevation_curvature_of_yaw_curvature[e][k],
+                s.elevation_curvature_of_yaw_curvature[e][k + 1],
+            ]
+        };
+        let cells = (0..elevation.len())
+            .flat_map(|e| (0..yaw.len() - 1).map(move |k| (e, k)))
+            .map(|(e, k)| [knots(&tau_az, e, k), knots(&tau_el, e, k)])
+            .collect();
+        let density = |x: &[f64]| (x.len() - 1) as f64 / (x[x.len() - 1] - x[0]);
         Ok(Self {
-            tau_az: Surface::new(az, az_curvature, &elevation_operator),
-            tau_el: Surface::new(el, el_curvature, &elevation_operator),
+            yaw_density: density(&yaw),
+            elevation_density: density(&elevation),
+            tau_az,
+            tau_el,
+            cells,
             yaw,
             elevation,
         })
@@ -286,22 +321,42 @@ impl CoefficientTable {
     /// Both coefficients `(tau_az, tau_el)` at one pointing; the spline weights are shared.
     pub fn coefficients(&self, yaw_deg: f64, el_deg: f64) -> (f64, f64) {
         let y0 = self.yaw[0];
-        let yaw = y0 + (yaw_deg - y0).rem_euclid(360.0);
-        let yaw_weights = SplineWeights::at(&self.yaw, yaw);
+        let yaw = y0 + wrap_360(yaw_deg - y0);
+        let yaw_weights = SplineWeights::at(&self.yaw, yaw, self.yaw_density);
         let el = el_deg.clamp(self.elevation[0], self.elevation[self.elevation.len() - 1]);
-        let el_weights = SplineWeights::at(&self.elevation, el);
-        (Self::evaluate(&self.tau_az, &yaw_weights, &el_weights), Self::evaluate(&self.tau_el, &yaw_weights, &el_weights))
+        let el_weights = SplineWeights::at(&self.elevation, el, self.elevation_density);
+        let row = self.yaw.len() - 1;
+        let below = &self.cells[el_weights.index * row + yaw_weights.index];
+        let above = &self.cells[(el_weights.index + 1) * row + yaw_weights.index];
+        (
+            Self::evaluate(&below[0], &above[0], &yaw_weights, &el_weights),
+            Self::evaluate(&below[1], &above[1], &yaw_weights, &el_weights),
+        )
     }
 
     /// A periodic cubic spline in yaw along each elevation row, then a natural cubic spline
     /// in elevation through the interpolated column. Only the two rows that bracket the
     /// elevation are needed, because the column's curvature is precomputed per yaw knot.
-    fn evaluate(surface: &Surface, yaw_weights: &SplineWeights, el_weights: &SplineWeights) -> f64 {
-        let j = el_weights.index;
-        let column = |e: usize| yaw_weights.apply(&surface.values[e], &surface.yaw_curvature[e]);
-        let column_curvature =
-            |e: usize| yaw_weights.apply(&surface.elevation_curvature_of_values[e], &surface.elevation_curvature_of_yaw_curvature[e]);
-        el_weights.combine(column(j), column(j + 1), column_curvature(j), column_curvature(j + 1))
+    fn evaluate(below: &CellKnots, above: &CellKnots, yaw_weights: &SplineWeights, el_weights: &SplineWeights) -> f64 {
+        let column = |c: &CellKnots| yaw_weights.combine(c[0], c[1], c[2], c[3]);
+        let column_curvature = |c: &CellKnots| yaw_weights.combine(c[4], c[5], c[6], c[7]);
+        el_weights.combine(column(below), column(above), column_curvature(below), column_curvature(above))
+    }
+}
+
+/// `x.rem_euclid(360.0)`, the same bits, without the library `fmod` for the usual angles: for
+/// `|x| < 360` the remainder is `x` itself, so `rem_euclid` returns `x`, or `x + 360` when
+/// `x` is negative, which is what this computes.
+#[inline]
+pub(crate) fn wrap_360(x: f64) -> f64 {
+    if x.abs() < 360.0 {
+        if x < 0.0 {
+            x + 360.0
+        } else {
+            x
+        }
+    } else {
+        x.rem_euclid(360.0)
     }
 }
 
@@ -316,22 +371,25 @@ struct SplineWeights {
 }
 
 impl SplineWeights {
-    fn at(x: &[f64], t: f64) -> SplineWeights {
-        let k = match x.partition_point(|&xi| xi <= t) {
-            0 => 0,
-            i if i >= x.len() => x.len() - 2,
-            i => i - 1,
-        };
+    /// The weights at `t` on the knots `x`. The interval is the last one whose left knot is at
+    /// or below `t` (the first or the last interval outside the knots): found from a guess,
+    /// `density` knots per unit after the first one, moved until it brackets `t`, which gives
+    /// the interval a binary search gives on any grid, in one step on a uniform one.
+    fn at(x: &[f64], t: f64, density: f64) -> SplineWeights {
+        let last = x.len() - 2;
+        let guess = (t - x[0]) * density;
+        // `as usize` maps NaN and negative guesses to 0 and saturates large ones.
+        let mut k = (guess as usize).min(last);
+        while k > 0 && x[k] > t {
+            k -= 1;
+        }
+        while k < last && x[k + 1] <= t {
+            k += 1;
+        }
         let h = x[k + 1] - x[k];
         let a = (x[k + 1] - t) / h;
         let b = (t - x[k]) / h;
         SplineWeights { index: k, a, b, c: (a * a * a - a) * h * h / 6.0, d: (b * b * b - b) * h * h / 6.0 }
-    }
-
-    /// The spline's value for knot values `v` and second derivatives `m`.
-    fn apply(&self, v: &[f64], m: &[f64]) -> f64 {
-        let k = self.index;
-        self.combine(v[k], v[k + 1], m[k], m[k + 1])
     }
 
     fn combine(&self, v0: f64, v1: f64, m0: f64, m1: f64) -> f64 {

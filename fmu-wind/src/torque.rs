@@ -114,7 +114,7 @@ impl WindTorqueModel {
 
 /// Wind direction minus azimuth, wrapped to (-180, 180] degrees.
 pub fn yaw_deg(wind_direction_deg: f64, azimuth_deg: f64) -> f64 {
-    let y = (wind_direction_deg - azimuth_deg).rem_euclid(360.0);
+    let y = crate::coefficients::wrap_360(wind_direction_deg - azimuth_deg);
     if y > 180.0 { y - 360.0 } else { y }
 }
 
