@@ -363,7 +363,7 @@ impl ElevationParams {
             return 0;
         }
         let clamped = elevation_deg.clamp(self.travel_min_deg, self.travel_max_deg);
-        (clamped / self.numerics.parameter_grid_cell_deg).floor() as i64
+        crate::azimuth::floor(clamped / self.numerics.parameter_grid_cell_deg) as i64
     }
 
     /// The elevation whose parameters a cell uses.
