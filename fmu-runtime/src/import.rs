@@ -670,7 +670,19 @@ pub struct Instance {
 unsafe impl Send for Instance {}
 
 impl Instance {
+    /// The call's status as a `Result`: fmi2OK, the answer of almost every call, is decided
+    /// inline; anything else goes to [`Self::check_slow`].
+    #[inline]
     fn check(&self, function: &'static str, raw: fmi2Status, log_start: usize) -> Result<Status, ImportError> {
+        if raw == fmi2OK {
+            return Ok(Status::Ok);
+        }
+        self.check_slow(function, raw, log_start)
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn check_slow(&self, function: &'static str, raw: fmi2Status, log_start: usize) -> Result<Status, ImportError> {
         let status = Status::from_raw(raw);
         match status {
             Status::Ok | Status::Warning => Ok(status),
@@ -758,6 +770,8 @@ impl Instance {
         Ok(())
     }
 
+    // Inlined into the master's loop: these are the calls of every communication step.
+    #[inline]
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<Status, ImportError> {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
@@ -766,6 +780,8 @@ impl Instance {
         self.check("fmi2GetReal", raw, start)
     }
 
+    // Inlined into the master's loop: these are the calls of every communication step.
+    #[inline]
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status, ImportError> {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
@@ -837,6 +853,8 @@ impl Instance {
         self.check("fmi2SetString", raw, start)
     }
 
+    // Inlined into the master's loop: these are the calls of every communication step.
+    #[inline]
     pub fn do_step(&mut self, current_time: f64, step: f64) -> Result<Status, ImportError> {
         let start = self.log.len();
         // SAFETY: valid component.
