@@ -51,6 +51,20 @@ pub struct CommandTable {
     /// The interval the last look-up found: a master asks for increasing times, so the next
     /// answer is almost always in it or the next one (no search at 1 kHz).
     hint: Cell<usize>,
+    /// The Hermite curves of the interval the last look-up used: at 1 kHz a table interval
+    /// serves many steps, and its slopes and knot values need computing only once.
+    piece: Cell<Option<Piece>>,
+}
+
+/// One interval's cubic Hermite curves, both axes: `[y0, y1, m0, m1]` with the slopes already
+/// multiplied by the interval's length, as [`interpolate`] uses them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Piece {
+    segment: usize,
+    t0: f64,
+    t1: f64,
+    azimuth: [f64; 4],
+    elevation: [f64; 4],
 }
 
 impl CommandTable {
@@ -90,7 +104,7 @@ impl CommandTable {
                 current.push(p);
             }
         }
-        Ok(CommandTable { segments, hint: Cell::new(0) })
+        Ok(CommandTable { segments, hint: Cell::new(0), piece: Cell::new(None) })
     }
 
     /// Reads a CSV table with columns `time_s,azimuth_deg,elevation_deg` (a header row first;
@@ -160,10 +174,26 @@ impl CommandTable {
         // The segment in force: the last one that has started.
         let index = self.segments.partition_point(|s| s[0].time_s <= t).saturating_sub(1);
         let segment = &self.segments[index];
-        let interval = interval_of(segment, t, self.hint.get());
-        self.hint.set(interval);
-        let az = interpolate(segment, interval, t, |p| p.azimuth_deg);
-        let el = interpolate(segment, interval, t, |p| p.elevation_deg);
+        let n = segment.len();
+        let inside = n > 1 && t > segment[0].time_s && t < segment[n - 1].time_s;
+        let (az, el) = match self.piece.get() {
+            // Inside the segment the interval holding t is the one with t0 <= t < t1: the
+            // cached curves are the ones `interpolate` would build.
+            Some(p) if inside && p.segment == index && p.t0 <= t && t < p.t1 => {
+                (hermite(&p.azimuth, p.t0, p.t1, t), hermite(&p.elevation, p.t0, p.t1, t))
+            }
+            _ => {
+                let interval = interval_of(segment, t, self.hint.get());
+                self.hint.set(interval);
+                if inside {
+                    let (t0, t1) = (segment[interval].time_s, segment[interval + 1].time_s);
+                    let azimuth = hermite_knots(segment, interval, |p| p.azimuth_deg);
+                    let elevation = hermite_knots(segment, interval, |p| p.elevation_deg);
+                    self.piece.set(Some(Piece { segment: index, t0, t1, azimuth, elevation }));
+                }
+                (interpolate(segment, interval, t, |p| p.azimuth_deg), interpolate(segment, interval, t, |p| p.elevation_deg))
+            }
+        };
         Command { azimuth_deg: az.0, azimuth_rate_deg_per_s: az.1, elevation_deg: el.0, elevation_rate_deg_per_s: el.1 }
     }
 }
@@ -198,15 +228,26 @@ fn interpolate(points: &[CommandPoint], i: usize, t: f64, value: impl Fn(&Comman
     if t >= points[n - 1].time_s {
         return (value(&points[n - 1]), 0.0);
     }
+    hermite(&hermite_knots(points, i, value), points[i].time_s, points[i + 1].time_s, t)
+}
+
+/// `[y0, y1, m0, m1]` of interval `i` (inside the segment): the knot values and the
+/// Catmull-Rom slopes times the interval's length.
+fn hermite_knots(points: &[CommandPoint], i: usize, value: impl Fn(&CommandPoint) -> f64) -> [f64; 4] {
+    let n = points.len();
     let slope = |k: usize| -> f64 {
         let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
         (value(&points[b]) - value(&points[a])) / (points[b].time_s - points[a].time_s)
     };
-    let (t0, t1) = (points[i].time_s, points[i + 1].time_s);
+    let h = points[i + 1].time_s - points[i].time_s;
+    [value(&points[i]), value(&points[i + 1]), slope(i) * h, slope(i + 1) * h]
+}
+
+/// The cubic Hermite curve with knots `[y0, y1, m0, m1]` on `[t0, t1]` at `t`: (value,
+/// derivative).
+fn hermite(&[y0, y1, m0, m1]: &[f64; 4], t0: f64, t1: f64, t: f64) -> (f64, f64) {
     let h = t1 - t0;
     let s = (t - t0) / h;
-    let (y0, y1) = (value(&points[i]), value(&points[i + 1]));
-    let (m0, m1) = (slope(i) * h, slope(i + 1) * h);
     let s2 = s * s;
     let s3 = s2 * s;
     let position = (2.0 * s3 - 3.0 * s2 + 1.0) * y0 + (s3 - 2.0 * s2 + s) * m0 + (-2.0 * s3 + 3.0 * s2) * y1 + (s3 - s2) * m1;
