@@ -208,10 +208,22 @@ fn log_notes_slow(instance: &Instance, notes: Notes) -> Status {
     }
 }
 
-/// Brings outputs up to date before they are read: calculated values during initialisation,
-/// feedthrough outputs after new inputs while stepping.
-fn ensure_initialized(instance: &mut Instance) -> Result<Status, String> {
-    if instance.inputs_changed && instance.phase == Phase::StepComplete {
+/// Brings outputs up to date before `vrs` are read: calculated values during initialisation,
+/// feedthrough outputs after new inputs while stepping. The feedthrough outputs are recomputed
+/// only when one of them is read: a master that reads the other outputs every step (the
+/// coupled antenna never reads the azimuth plant's inertia) does not pay for them, and the
+/// pending update waits, still marked, for the first get that needs it.
+#[inline]
+fn ensure_initialized(instance: &mut Instance, vrs: &[u32]) -> Result<Status, String> {
+    // The common case, nothing pending, decided without a call.
+    if !instance.inputs_changed && !instance.needs_initialize {
+        return Ok(Status::Ok);
+    }
+    ensure_initialized_slow(instance, vrs)
+}
+
+fn ensure_initialized_slow(instance: &mut Instance, vrs: &[u32]) -> Result<Status, String> {
+    if instance.inputs_changed && instance.phase == Phase::StepComplete && instance.model.reads_feedthrough(vrs) {
         instance.model.update_feedthrough();
         instance.inputs_changed = false;
     }
@@ -377,6 +389,7 @@ pub fn instantiate(
             last_step_status: Status::Ok,
             needs_initialize: true,
             inputs_changed: false,
+            feedthrough: model.has_feedthrough(),
             context,
             model,
             create: entry.create,
@@ -489,7 +502,7 @@ pub fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value
     with_instance(c, "fmi2GetReal", legal::GET, |instance| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
-        let status = ensure_initialized(instance)?;
+        let status = ensure_initialized(instance, vrs)?;
         instance.model.get_real(vrs, out)?;
         Ok(status)
     })
@@ -499,7 +512,7 @@ pub fn get_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, va
     with_instance(c, "fmi2GetInteger", legal::GET, |instance| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
-        let status = ensure_initialized(instance)?;
+        let status = ensure_initialized(instance, vrs)?;
         instance.model.get_integer(vrs, out)?;
         Ok(status)
     })
@@ -509,7 +522,7 @@ pub fn get_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, va
     with_instance(c, "fmi2GetBoolean", legal::GET, |instance| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
-        let status = ensure_initialized(instance)?;
+        let status = ensure_initialized(instance, vrs)?;
         let mut values = vec![false; n];
         instance.model.get_boolean(vrs, &mut values)?;
         for (o, v) in out.iter_mut().zip(values) {
@@ -523,7 +536,7 @@ pub fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, val
     with_instance(c, "fmi2GetString", legal::GET, |instance| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
-        let status = ensure_initialized(instance)?;
+        let status = ensure_initialized(instance, vrs)?;
         let strings = instance.model.get_string(vrs)?;
         instance.returned_strings = strings.into_iter().map(|s| CString::new(s.replace('\0', " ")).unwrap_or_default()).collect();
         for (o, s) in out.iter_mut().zip(&instance.returned_strings) {
@@ -537,7 +550,7 @@ fn mark_changed(instance: &mut Instance) {
     if matches!(instance.phase, Phase::Instantiated | Phase::InitializationMode) {
         instance.needs_initialize = true;
     } else {
-        instance.inputs_changed = true;
+        instance.inputs_changed = instance.feedthrough;
     }
 }
 
@@ -717,16 +730,9 @@ pub const MAX_STEP_SIZE: f64 = 86_400.0;
 
 pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prior: fmi2Boolean) -> fmi2Status {
     with_instance(c, "fmi2DoStep", legal::DO_STEP, |instance| {
-        if !step.is_finite() || step <= 0.0 {
-            return Err(format!("communicationStepSize must be positive and finite, got {step}"));
-        }
-        if step > MAX_STEP_SIZE {
-            return Err(format!(
-                "communicationStepSize {step} s is longer than the longest step this FMU takes, {MAX_STEP_SIZE} s (one day): a step is computed in pieces of about a millisecond, so a longer one would keep the call busy for minutes or for ever; take several steps"
-            ));
-        }
-        if !current.is_finite() {
-            return Err(format!("currentCommunicationPoint {current} is not finite"));
+        // One test for the usual call (NaN fails every comparison); the reasons on the cold path.
+        if !(step > 0.0 && step <= MAX_STEP_SIZE && current.abs() <= f64::MAX) {
+            return Err(step_arguments_error(current, step));
         }
         if (current - instance.time).abs() > TIME_TOLERANCE * instance.time.abs().max(1.0) {
             return Err(format!(
@@ -745,8 +751,9 @@ pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prio
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
         match instance.model.do_step(current, step, &mut notes) {
             Ok(()) => {
-                // Feedthrough outputs are brought up to date lazily, before the next get.
-                instance.inputs_changed = instance.model.has_feedthrough();
+                // Feedthrough outputs are brought up to date lazily, before the next get that
+                // reads one of them.
+                instance.inputs_changed = instance.feedthrough;
                 instance.time = current + step;
                 instance.last_successful_time = instance.time;
                 let status = log_notes(instance, notes);
@@ -759,6 +766,20 @@ pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prio
             }
         }
     })
+}
+
+/// Why `fmi2DoStep`'s step size or communication point is refused (one of them is).
+#[cold]
+fn step_arguments_error(current: f64, step: f64) -> String {
+    if !step.is_finite() || step <= 0.0 {
+        return format!("communicationStepSize must be positive and finite, got {step}");
+    }
+    if step > MAX_STEP_SIZE {
+        return format!(
+            "communicationStepSize {step} s is longer than the longest step this FMU takes, {MAX_STEP_SIZE} s (one day): a step is computed in pieces of about a millisecond, so a longer one would keep the call busy for minutes or for ever; take several steps"
+        );
+    }
+    format!("currentCommunicationPoint {current} is not finite")
 }
 
 pub fn cancel_step(c: fmi2Component) -> fmi2Status {

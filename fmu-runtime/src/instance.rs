@@ -146,6 +146,8 @@ pub trait DynModel: Send {
     fn update_feedthrough(&mut self);
     /// Whether any output depends directly on an input.
     fn has_feedthrough(&self) -> bool;
+    /// Whether any of `vrs` is an output with direct feedthrough (unknown references are not).
+    fn reads_feedthrough(&self, vrs: &[u32]) -> bool;
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
     fn save(&self, w: &mut StateWriter);
     fn load(&mut self, r: &mut StateReader, context: &Context) -> Result<(), StateError>;
@@ -159,39 +161,36 @@ pub trait DynModel: Send {
 #[derive(Debug, Clone, Copy)]
 struct Access {
     base: BaseType,
-    settable_before_stepping: bool,
-    settable_while_stepping: bool,
-    /// The declared range of a Real (infinite where none is declared).
-    min: f64,
-    max: f64,
+    /// The values fmi2SetReal accepts for this variable by the declaration's checks, as
+    /// `(lo, hi)`, before stepping (index 0: before and during initialisation) and while
+    /// stepping (index 1). For a Real settable in that phase it is the declared range
+    /// narrowed to finite numbers, so that `lo <= value && value <= hi` is the whole check
+    /// (finite, in range, settable now; NaN fails every comparison); otherwise both bounds are
+    /// NaN and no value passes. The model's own check comes on top.
+    settable_range: [(f64, f64); 2],
 }
 
 impl Access {
     fn of(var: &Var) -> Access {
         let (min, max) = match var.kind {
-            Kind::Real { min, max, .. } => (min.unwrap_or(f64::NEG_INFINITY), max.unwrap_or(f64::INFINITY)),
-            _ => (f64::NEG_INFINITY, f64::INFINITY),
+            Kind::Real { min, max, .. } => (min.unwrap_or(f64::MIN).max(f64::MIN), max.unwrap_or(f64::MAX).min(f64::MAX)),
+            _ => (f64::MIN, f64::MAX),
         };
-        Access {
-            base: var.base_type(),
-            settable_before_stepping: var.settable_in(SetPhase::Initialization),
-            settable_while_stepping: var.settable_in(SetPhase::Stepping),
-            min,
-            max,
-        }
+        let range = |phase: SetPhase| {
+            if var.base_type() == BaseType::Real && var.settable_in(phase) {
+                (min, max)
+            } else {
+                (f64::NAN, f64::NAN)
+            }
+        };
+        Access { base: var.base_type(), settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)] }
     }
 
-    fn settable_in(&self, phase: SetPhase) -> bool {
-        match phase {
-            SetPhase::Stepping => self.settable_while_stepping,
-            SetPhase::BeforeInitialization | SetPhase::Initialization => self.settable_before_stepping,
-        }
-    }
-
-    /// Whether a Real passes the declaration's checks (finite, in range, settable now); the
-    /// model's own check comes on top.
-    fn accepts_real(&self, value: f64, phase: SetPhase) -> bool {
-        self.base == BaseType::Real && self.settable_in(phase) && value.is_finite() && value >= self.min && value <= self.max
+    /// Whether a Real passes the declaration's checks in a phase (index as `settable_range`).
+    #[inline]
+    fn accepts_real(&self, value: f64, phase_index: usize) -> bool {
+        let (lo, hi) = self.settable_range[phase_index];
+        lo <= value && value <= hi
     }
 }
 
@@ -204,6 +203,8 @@ pub struct ModelSlot<M: Model> {
     access: Vec<Access>,
     /// Whether any output depends directly on an input (from the table, computed once).
     feedthrough: bool,
+    /// Bit `vr % 64` of word `vr / 64` is set for the outputs with direct feedthrough.
+    feedthrough_outputs: Vec<u64>,
 }
 
 impl<M: Model> ModelSlot<M> {
@@ -212,7 +213,13 @@ impl<M: Model> ModelSlot<M> {
         let model = M::new(&values, context)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
-        Ok(ModelSlot { model, values, guid, access, feedthrough })
+        let mut feedthrough_outputs = vec![0u64; M::Var::TABLE.len().div_ceil(64)];
+        for (vr, var) in M::Var::TABLE.iter().enumerate() {
+            if !var.depends_on.is_empty() {
+                feedthrough_outputs[vr / 64] |= 1 << (vr % 64);
+            }
+        }
+        Ok(ModelSlot { model, values, guid, access, feedthrough, feedthrough_outputs })
     }
 
     /// Whether `vr` is a Real variable (the hot-path form of [`Self::lookup`]).
@@ -298,8 +305,9 @@ impl<M: Model> DynModel for ModelSlot<M> {
 
     fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), String> {
         // Check everything first, then write: a rejected call changes nothing.
+        let phase_index = usize::from(phase == SetPhase::Stepping);
         for (&vr, &value) in vrs.iter().zip(values) {
-            if self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase)) {
+            if self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase_index)) {
                 let var = M::Var::from_index(vr as usize).expect("the access table has one entry per variable");
                 check_model_real::<M>(var, value, &self.values)?;
             } else {
@@ -367,6 +375,15 @@ impl<M: Model> DynModel for ModelSlot<M> {
 
     fn has_feedthrough(&self) -> bool {
         self.feedthrough
+    }
+
+    fn reads_feedthrough(&self, vrs: &[u32]) -> bool {
+        // Branch-free over the usual handful of references: OR the bits together.
+        let mut hit = 0u64;
+        for &vr in vrs {
+            hit |= self.feedthrough_outputs.get(vr as usize / 64).map_or(0, |word| word >> (vr % 64));
+        }
+        self.feedthrough && hit & 1 != 0
     }
 
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
@@ -460,9 +477,13 @@ pub struct Instance {
     pub last_step_status: Status,
     /// Parameters changed since the model last initialised: recompute before reading outputs.
     pub needs_initialize: bool,
-    /// Inputs changed since the last step: outputs with direct feedthrough are recomputed
-    /// before the next get.
+    /// Inputs changed since the last step (or the step moved what they act on): outputs with
+    /// direct feedthrough are recomputed before the next get that reads one of them. Only
+    /// ever set for a model that has such outputs.
     pub inputs_changed: bool,
+    /// Whether the model has outputs with direct feedthrough (`DynModel::has_feedthrough`,
+    /// kept here because every set and step asks).
+    pub feedthrough: bool,
     pub context: Context,
     pub model: Box<dyn DynModel>,
     /// Rebuilds the model for fmi2Reset.
