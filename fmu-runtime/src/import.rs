@@ -438,7 +438,8 @@ impl LogBook {
         self.records.lock().map(|mut r| std::mem::take(&mut *r)).unwrap_or_default()
     }
 
-    /// How many records were ever pushed.
+    /// How many records were ever pushed (read before every call, hence inline).
+    #[inline]
     pub fn len(&self) -> usize {
         self.count.load(Ordering::Acquire)
     }
@@ -672,7 +673,7 @@ unsafe impl Send for Instance {}
 impl Instance {
     /// The call's status as a `Result`: fmi2OK, the answer of almost every call, is decided
     /// inline; anything else goes to [`Self::check_slow`].
-    #[inline]
+    #[inline(always)]
     fn check(&self, function: &'static str, raw: fmi2Status, log_start: usize) -> Result<Status, ImportError> {
         if raw == fmi2OK {
             return Ok(Status::Ok);
@@ -771,7 +772,7 @@ impl Instance {
     }
 
     // Inlined into the master's loop: these are the calls of every communication step.
-    #[inline]
+    #[inline(always)]
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<Status, ImportError> {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
@@ -781,7 +782,7 @@ impl Instance {
     }
 
     // Inlined into the master's loop: these are the calls of every communication step.
-    #[inline]
+    #[inline(always)]
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status, ImportError> {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
@@ -854,7 +855,7 @@ impl Instance {
     }
 
     // Inlined into the master's loop: these are the calls of every communication step.
-    #[inline]
+    #[inline(always)]
     pub fn do_step(&mut self, current_time: f64, step: f64) -> Result<Status, ImportError> {
         let start = self.log.len();
         // SAFETY: valid component.
