@@ -10,8 +10,9 @@
 //! parameter set `start.params`. `one` writes a single log (and FILE.truth). Sizes are the RMS
 //! of what the effect adds to its channel divided by that channel's sensor noise.
 //! `--presliding` sets the truth's LuGre bristle deflection at breakaway (axis rad, default
-//! 1e-5), for studies of the friction-model-form floor; the suite uses the default. Stiffer
-//! bristles need a higher `--internal-rate` (RK4 rate, default 20 kHz): about 250 kHz at 1e-7.
+//! 1e-7), for studies of the friction-model-form floor; the suite uses the default.
+//! `--internal-rate` sets the RK4 base rate (default 20 kHz; steps are cut into substeps
+//! while the bristles relax faster than that).
 
 use antenna_tools::truth::suite::{self, SuiteConfig};
 use antenna_tools::truth::TruthConfig;

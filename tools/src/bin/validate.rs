@@ -19,8 +19,8 @@
 //!       Runs the three KUKA axes with tools/data/kuka/axisN.params and writes their reports.
 //!   validate floor [--seed N]
 //!       The investigation of the error floors on clean logs (docs/validation.md): equation-
-//!       and output-error residuals of the nominal model on clean truth logs with and without
-//!       sensor noise and with the LuGre bristles made stiff.
+//!       and output-error residuals of the nominal model on clean truth logs with each sensor
+//!       noise switched off in turn, and with softer LuGre bristles.
 //!
 //! The plant FMU defaults to target/fmu/AzimuthPlant.fmu (package it first with
 //! `cargo run --release -p antenna-tools --bin package`).
@@ -183,33 +183,32 @@ fn run(args: Vec<String>) -> Result<(), String> {
 fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
     use antenna_tools::truth::{simulate, NoiseConfig, TruthConfig};
     let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
-    println!("| truth variant (seed {seed}) | torque equation RMS (axis N m) | load equation RMS (N m) | output error: axis position (arcsec) | twist (arcsec) |");
-    println!("|---|---|---|---|---|");
+    println!("| truth variant (seed {seed}) | torque equation RMS (axis N m) | load equation RMS (N m) | output error: axis position (arcsec) | twist (arcsec) | load side driven by the motor encoder (arcsec) |");
+    println!("|---|---|---|---|---|---|");
+    let quiet = NoiseConfig { current_sigma: 0.0, current_step: 1e-9, load_encoder_counts: 2f64.powi(40), load_encoder_sigma: 0.0, motor_encoder_counts: 2f64.powi(36) };
+    let current_only = NoiseConfig { current_sigma: NoiseConfig::default().current_sigma, current_step: NoiseConfig::default().current_step, ..quiet.clone() };
+    let encoders_only = NoiseConfig { current_sigma: 0.0, current_step: 1e-9, ..NoiseConfig::default() };
     for (label, noise, presliding) in [
-        ("as in the suite: sensor noise, LuGre with 1e-5 rad presliding", true, 1e-5),
-        ("no sensor noise, LuGre", false, 1e-5),
-        ("sensor noise, LuGre with 1e-6 rad presliding (stiffer bristles)", true, 1e-6),
-        ("no sensor noise, stiffer bristles", false, 1e-6),
+        ("as in the suite: sensor noise, LuGre with 1e-7 rad presliding", NoiseConfig::default(), 1e-7),
+        ("no sensor noise", quiet.clone(), 1e-7),
+        ("current noise only", current_only, 1e-7),
+        ("encoder noise and quantisation only", encoders_only, 1e-7),
+        ("sensor noise, softer bristles (1e-5 rad presliding)", NoiseConfig::default(), 1e-5),
+        ("no sensor noise, softer bristles", quiet, 1e-5),
     ] {
         let mut config = TruthConfig { seed, ..TruthConfig::default() };
         config.plant.presliding_displacement = presliding;
-        if !noise {
-            config.noise = NoiseConfig { current_sigma: 0.0, current_step: 1e-9, load_encoder_counts: 2f64.powi(40), load_encoder_sigma: 0.0, motor_encoder_counts: 2f64.powi(36) };
-        }
+        config.noise = noise;
         let start = config.plant.starting_parameters();
         let log = simulate(&config).log;
         let mut options = a.options.clone();
         options.selection.max_effects = 0;
         let v = validate::validate_with(&log, &start, &options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
         let arcsec = 180.0 * 3600.0 / std::f64::consts::PI;
-        let (position, twist) = match &v.output {
-            Some(o) => (
-                o.before.channel(validate::output_error::ChannelKind::AxisPosition).map_or(f64::NAN, |c| c.rms * arcsec),
-                o.before.channel(validate::output_error::ChannelKind::Twist).map_or(f64::NAN, |c| c.rms * arcsec),
-            ),
-            None => (f64::NAN, f64::NAN),
-        };
-        println!("| {label} | {:.1} | {:.2} | {position:.2} | {twist:.3} |", v.before[0].rms, v.before.get(1).map_or(f64::NAN, |c| c.rms));
+        use validate::output_error::ChannelKind;
+        let rms_of = |kind: ChannelKind| v.output.as_ref().and_then(|o| o.before.channel(kind)).map_or(f64::NAN, |c| c.rms * arcsec);
+        let (position, twist, load_side) = (rms_of(ChannelKind::AxisPosition), rms_of(ChannelKind::Twist), rms_of(ChannelKind::LoadSide));
+        println!("| {label} | {:.1} | {:.2} | {position:.2} | {twist:.3} | {load_side:.3} |", v.before[0].rms, v.before.get(1).map_or(f64::NAN, |c| c.rms));
     }
     Ok(())
 }

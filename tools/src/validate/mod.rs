@@ -121,7 +121,7 @@ impl OutputReport {
             .iter()
             .zip(&self.after.channels)
             .enumerate()
-            .filter(|(_, (b, _))| b.scored)
+            .filter(|(_, (b, _))| b.criterion)
             .map(|(i, (b, a))| (i, b.rms, a.rms))
             .min_by(|x, y| (x.2 / x.1).total_cmp(&(y.2 / y.1)))
     }

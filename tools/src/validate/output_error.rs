@@ -227,6 +227,9 @@ pub enum ChannelKind {
     AxisPosition,
     MotorPosition,
     Twist,
+    /// The axis position simulated by the model's load side alone, driven by the measured
+    /// motor motion ([`simulate_load_side`]).
+    LoadSide,
     AxisSpeed,
     MotorSpeed,
 }
@@ -237,6 +240,7 @@ impl ChannelKind {
             ChannelKind::AxisPosition => "axis position",
             ChannelKind::MotorPosition => "motor position",
             ChannelKind::Twist => "twist (motor - axis)",
+            ChannelKind::LoadSide => "axis position, load side driven by the motor encoder",
             ChannelKind::AxisSpeed => "axis speed",
             ChannelKind::MotorSpeed => "motor speed",
         }
@@ -330,6 +334,8 @@ pub struct OutputChannel {
     pub kind: ChannelKind,
     /// Enters the confirmation test and the before/after criterion.
     pub scored: bool,
+    /// Enters the before/after criterion (every scored channel, and the load side).
+    pub criterion: bool,
     /// Measured and simulated values, window after window (window starts in `plan`).
     pub measured: Vec<f64>,
     pub simulated: Vec<f64>,
@@ -412,7 +418,11 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
 pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, data: &EquationData, out: &OutputData, plan: &WindowPlan) -> Result<OutputError, String> {
     simulator.configure(params, &out.config)?;
     let centre = if out.structure == Structure::TwoMass { twist_centre(data, params) } else { 0.0 };
-    let kinds = out.channels();
+    let mut kinds = out.channels();
+    let load_side = out.structure == Structure::TwoMass && out.two_encoders;
+    if load_side {
+        kinds.push((ChannelKind::LoadSide, false));
+    }
     let mut measured: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
     let mut simulated: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
     let mut window_sse: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
@@ -444,6 +454,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
         } else {
             None
         };
+        let load_side_sim = if load_side { simulate_load_side(out, params, centre, i0, length) } else { Vec::new() };
         // Positions are compared as the logged values against the simulation started at the
         // smoothed measured state; speeds against the zero-phase derivative of the positions.
         for (c, (kind, _)) in kinds.iter().enumerate() {
@@ -455,6 +466,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
                         ChannelKind::AxisPosition => (out.load_pos[k], sim.load_pos[j]),
                         ChannelKind::MotorPosition => (out.motor_pos[k], sim.motor_pos[j]),
                         ChannelKind::Twist => (out.motor_pos[k] - out.load_pos[k], drive_twist.as_ref().map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j])),
+                        ChannelKind::LoadSide => (out.load_pos[k], load_side_sim[j]),
                         ChannelKind::AxisSpeed => (out.state_load_vel[i], sim.load_vel[j]),
                         ChannelKind::MotorSpeed => (out.state_motor_vel[i], sim.motor_vel[j]),
                     }
@@ -477,6 +489,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
             OutputChannel {
                 kind: *kind,
                 scored: *scored,
+                criterion: *scored || *kind == ChannelKind::LoadSide,
                 measured: std::mem::take(&mut measured[c]),
                 simulated: std::mem::take(&mut simulated[c]),
                 window_sse: std::mem::take(&mut window_sse[c]),
@@ -486,6 +499,119 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
         })
         .collect();
     Ok(OutputError { plan: plan.clone(), channels, twist_centre: centre, time })
+}
+
+/// The load side of a two-mass model alone, driven by the measured motor motion: the axis
+/// position over one window of `length` samples from analysed sample `i0`.
+///
+/// With two encoders the drive path can be checked without the motor side: the load inertia
+/// hangs on the path's spring, damper and backlash, whose other end moves as the motor encoder
+/// says (referred to the axis, less the twist centre `centre`). What this simulation does not
+/// contain is what makes a whole-plant simulation of the twist noisy: the current's sensor
+/// noise, which drives the simulated drive mode near its resonance, and the motor's friction
+/// law. Only the load-side physics is in it (load inertia, stiffness, damping, backlash,
+/// unbalance, load torque offset, logged disturbance), so a drive-path effect shows here on a
+/// floor set by the encoders alone; motor-side effects do not show at all, which is why the
+/// channel is not scored in the confirmation test, only compared before and after.
+///
+/// The path law is the plant FMU's (docs/plant-model.md): in contact `T = K e + D (v_M - v_L)`
+/// with the spring deflection `e = d - b/2` on the positive flank (`d + b/2` on the other),
+/// `d` the total angle difference; in the gap `T = 0` and the massless spring relaxes,
+/// `de/dt = -(K/D) e`; a pinion leaves a flank when it would pull. The motor motion between
+/// log samples is the cubic Hermite interpolant of the smoothed motor position and speed; the
+/// equations are integrated with RK4, 20 steps per log interval.
+pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centre: f64, i0: usize, length: usize) -> Vec<f64> {
+    let inertia = params.value(names::LOAD_INERTIA).max(f64::MIN_POSITIVE);
+    let stiffness = params.value(names::STIFFNESS);
+    let damping = params.value(names::DAMPING).max(0.0);
+    let half_gap = 0.5 * params.value(names::BACKLASH_WIDTH).max(0.0);
+    let (amplitude, phase) = (params.value(names::UNBALANCE_TORQUE), params.value(names::UNBALANCE_PHASE));
+    let offset = params.value(names::TORQUE_OFFSET);
+    let dt = out.dt;
+    let k0 = out.first_sample + i0;
+    #[derive(Clone, Copy, PartialEq)]
+    enum Flank {
+        Positive,
+        Negative,
+        Gap,
+    }
+    // The motor side (axis rad, rad/s) at fraction s of log interval j of the window.
+    let motor = |j: usize, s: f64| -> (f64, f64) {
+        let (p0, p1) = (out.state_motor_pos[i0 + j], out.state_motor_pos[i0 + j + 1]);
+        let (v0, v1) = (out.state_motor_vel[i0 + j] * dt, out.state_motor_vel[i0 + j + 1] * dt);
+        let (s2, s3) = (s * s, s * s * s);
+        let position = (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * v1;
+        let speed = ((6.0 * s2 - 6.0 * s) * p0 + (3.0 * s2 - 4.0 * s + 1.0) * v0 + (-6.0 * s2 + 6.0 * s) * p1 + (3.0 * s2 - 2.0 * s) * v1) / dt;
+        (position - centre, speed)
+    };
+    // State: load angle, load speed, spring deflection (only moving in the gap).
+    let (mut angle, mut speed) = (out.state_load_pos[i0], out.state_load_vel[i0]);
+    let d0 = out.state_motor_pos[i0] - centre - angle;
+    let (mut flank, mut deflection) = if half_gap == 0.0 || d0 > half_gap {
+        (Flank::Positive, d0 - half_gap)
+    } else if d0 < -half_gap {
+        (Flank::Negative, d0 + half_gap)
+    } else {
+        (Flank::Gap, 0.0)
+    };
+    let relaxation = if damping > 0.0 { stiffness / damping } else { f64::INFINITY };
+    let mut positions = Vec::with_capacity(length);
+    positions.push(angle);
+    let substeps = 20;
+    let h = dt / substeps as f64;
+    for j in 0..length - 1 {
+        let disturbance = out.disturbance_held[k0 + j];
+        for m in 0..substeps {
+            // Derivatives of (angle, speed, deflection) at motor sample fraction s.
+            let derivative = |s: f64, x: [f64; 3]| -> [f64; 3] {
+                let (motor_angle, motor_speed) = motor(j, s);
+                let d = motor_angle - x[0];
+                let (torque, deflection_rate) = match flank {
+                    Flank::Positive => (stiffness * (d - half_gap) + damping * (motor_speed - x[1]), 0.0),
+                    Flank::Negative => (stiffness * (d + half_gap) + damping * (motor_speed - x[1]), 0.0),
+                    Flank::Gap => (0.0, if relaxation.is_finite() { -relaxation * x[2] } else { 0.0 }),
+                };
+                let load_torque = torque - amplitude * (x[0] + phase).cos() - offset + disturbance;
+                [x[1], load_torque / inertia, deflection_rate]
+            };
+            let s = m as f64 / substeps as f64;
+            let ds = 1.0 / substeps as f64;
+            let x = [angle, speed, deflection];
+            let k1 = derivative(s, x);
+            let k2 = derivative(s + 0.5 * ds, [x[0] + 0.5 * h * k1[0], x[1] + 0.5 * h * k1[1], x[2] + 0.5 * h * k1[2]]);
+            let k3 = derivative(s + 0.5 * ds, [x[0] + 0.5 * h * k2[0], x[1] + 0.5 * h * k2[1], x[2] + 0.5 * h * k2[2]]);
+            let k4 = derivative(s + ds, [x[0] + h * k3[0], x[1] + h * k3[1], x[2] + h * k3[2]]);
+            angle += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
+            speed += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
+            deflection += h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
+            if half_gap > 0.0 {
+                // Mode changes at the substep: leave a flank that would pull, meet a flank
+                // that the gap has closed on.
+                let (motor_angle, motor_speed) = motor(j, s + ds);
+                let d = motor_angle - angle;
+                match flank {
+                    Flank::Positive | Flank::Negative => {
+                        let beta = if flank == Flank::Positive { half_gap } else { -half_gap };
+                        let torque = stiffness * (d - beta) + damping * (motor_speed - speed);
+                        deflection = d - beta;
+                        if (flank == Flank::Positive && torque < 0.0) || (flank == Flank::Negative && torque > 0.0) {
+                            flank = Flank::Gap;
+                        }
+                    }
+                    Flank::Gap => {
+                        let beta = d - deflection;
+                        if beta >= half_gap {
+                            flank = Flank::Positive;
+                        } else if beta <= -half_gap {
+                            flank = Flank::Negative;
+                        }
+                    }
+                }
+            }
+        }
+        positions.push(angle);
+    }
+    positions
 }
 
 /// The paired comparison of two models' output errors over the same windows.
@@ -675,6 +801,54 @@ impl PlantSimulator for RigidReferenceSimulator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::truth::{simulate, Effect, TruthConfig};
+
+    /// RMS (rad) of the measured axis position less the load-side simulation with `params`,
+    /// over 1 s windows of a truth log.
+    fn load_side_error(config: &TruthConfig, params: &ParameterSet) -> f64 {
+        let log = simulate(config).log;
+        let start = config.plant.starting_parameters();
+        let data = super::super::equation_error::prepare(&log, &start, &Default::default()).unwrap();
+        let out = OutputData::new(&log, &data, &start).unwrap();
+        assert!(out.two_encoders && out.structure == Structure::TwoMass);
+        let centre = twist_centre(&data, params);
+        let length = (1.0 / out.dt) as usize;
+        let (mut sum, mut count) = (0.0, 0);
+        for i0 in (0..out.len() - length).step_by(length) {
+            let simulated = simulate_load_side(&out, params, centre, i0, length);
+            for (j, y) in simulated.iter().enumerate() {
+                sum += (out.load_pos[out.first_sample + i0 + j] - y).powi(2);
+                count += 1;
+            }
+        }
+        (sum / count as f64).sqrt()
+    }
+
+    #[test]
+    fn load_side_follows_a_two_mass_truth_to_the_encoder_noise_and_sees_a_stiffness_error() {
+        let config = TruthConfig { duration: 12.0, ..TruthConfig::default() };
+        let right = config.plant.starting_parameters();
+        let noise = config.noise.twist_sigma(&config.plant);
+        let floor = load_side_error(&config, &right);
+        assert!(floor < 2.5 * noise, "load-side error {floor:e} rad against twist noise {noise:e} rad");
+        let mut soft = right.clone();
+        soft.set(names::STIFFNESS, 0.8 * right.value(names::STIFFNESS));
+        let wrong = load_side_error(&config, &soft);
+        assert!(wrong > 4.0 * floor, "a 20 % stiffness error gives {wrong:e} rad against {floor:e} rad");
+    }
+
+    #[test]
+    fn load_side_with_the_backlash_follows_a_truth_with_lost_motion() {
+        // The truth's contact is smooth (rounded over a tenth of the gap), the model's a
+        // sharp flank law: the right width must still explain most of what the gap adds.
+        let width = 2.0e-6;
+        let config = TruthConfig { duration: 12.0, effects: vec![Effect::Backlash(width)], ..TruthConfig::default() };
+        let without = config.plant.starting_parameters();
+        let mut with = without.clone();
+        with.set(names::BACKLASH_WIDTH, width);
+        let (before, after) = (load_side_error(&config, &without), load_side_error(&config, &with));
+        assert!(after < 0.3 * before, "backlash in the model: {after:e} rad against {before:e} rad without");
+    }
 
     #[test]
     fn drive_pieces_tile_each_window_without_gaps_or_tiny_remainders() {

@@ -171,7 +171,13 @@ fn output_section(out: &mut String, o: &OutputReport) {
             out,
             "| {} | {} | {rb:.4} {unit} | {ra:.4} {unit} | {:.3} | {:.1} | {:.1} |",
             b.kind.name(),
-            if b.scored { "yes" } else { "no" },
+            if b.scored {
+                "yes"
+            } else if b.criterion {
+                "before/after only"
+            } else {
+                "no"
+            },
             a.rms / b.rms,
             b.fit_percent,
             a.fit_percent
@@ -412,7 +418,7 @@ fn with_gaps(values: &[f64], length: usize, scale: f64) -> Vec<f64> {
 pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
     let length = o.plan.length;
     let time = with_gaps(&o.before.time, length, 1.0);
-    let scored: Vec<usize> = (0..o.before.channels.len()).filter(|&c| o.before.channels[c].scored).collect();
+    let scored: Vec<usize> = (0..o.before.channels.len()).filter(|&c| o.before.channels[c].criterion).collect();
     let mut figure = Figure::new(1400, 420 * 2 * scored.len() as u32).title(&format!("{stem}: output error (plant FMU over {} windows of {:.2} s)", o.plan.starts.len(), o.plan.seconds));
     for c in scored {
         let (b, a) = (&o.before.channels[c], &o.after.channels[c]);

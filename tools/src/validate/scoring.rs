@@ -219,7 +219,9 @@ pub fn run_suite(dir: &Path, options: &ValidateOptions, fmu: Option<&Path>, thre
     let mut logs: Vec<_> = std::fs::read_dir(dir)
         .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        // The suite's own logs only: the results a previous run wrote into the same folder
+        // (detection.csv) are not logs.
+        .filter(|p| p.extension().is_some_and(|x| x == "csv") && p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("log_")))
         .collect();
     logs.sort();
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -510,4 +512,22 @@ pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), Strin
         )
         .save_png(path)
         .map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_suite_folder_validated_before_is_not_read_as_logs() {
+        // A previous `validate suite DIR` leaves detection.csv beside the logs; it has no
+        // .truth sidecar and must not be taken for a log.
+        let dir = std::env::temp_dir().join(format!("suite-rerun-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        crate::truth::TruthPlant::default().starting_parameters().write(&dir.join("start.params"), "test").unwrap();
+        std::fs::write(dir.join("detection.csv"), "size,rate\n10,1\n").unwrap();
+        let results = run_suite(&dir, &ValidateOptions::default(), None, 1, &|_| {});
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(results.map(|r| r.len()), Ok(0));
+    }
 }
