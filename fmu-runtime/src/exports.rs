@@ -502,8 +502,13 @@ pub fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value
     with_instance(c, "fmi2GetReal", legal::GET, |instance| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
-        let status = ensure_initialized(instance, vrs)?;
-        instance.model.get_real(vrs, out)?;
+        // The feedthrough part of `ensure_initialized` is done by the model's get, which looks
+        // at each reference anyway (the hottest get: no second pass over them).
+        let status = if instance.needs_initialize { ensure_initialized(instance, &[])? } else { Status::Ok };
+        let refresh = instance.inputs_changed && instance.phase == Phase::StepComplete;
+        if instance.model.get_real(vrs, out, refresh)? {
+            instance.inputs_changed = false;
+        }
         Ok(status)
     })
 }

@@ -438,7 +438,7 @@ fn a_string_parameter_can_load_values_atomically() {
     // Nothing of the failed file landed: restore is by recreating from the state machine's view.
     let instance = instance_from(m.c).unwrap();
     let mut out = [0.0];
-    instance.model.get_real(&[TestVar::Gain as u32], &mut out).unwrap();
+    instance.model.get_real(&[TestVar::Gain as u32], &mut out, false).unwrap();
     assert_eq!(out[0], 2.0);
 }
 

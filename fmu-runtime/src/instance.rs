@@ -134,7 +134,9 @@ pub trait DynModel: Send {
     fn model_identifier(&self) -> &'static str;
     fn guid(&self) -> &str;
     fn get(&self, vr: u32, ty: BaseType) -> Result<&'static Var, String>;
-    fn get_real(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String>;
+    /// Reads Reals. With `refresh`, the outputs with direct feedthrough are brought up to date
+    /// first if any of `vrs` is one of them; returns whether that happened.
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], refresh: bool) -> Result<bool, String>;
     fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), String>;
     fn get_boolean(&self, vrs: &[u32], out: &mut [bool]) -> Result<(), String>;
     fn get_string(&self, vrs: &[u32]) -> Result<Vec<String>, String>;
@@ -161,6 +163,8 @@ pub trait DynModel: Send {
 #[derive(Debug, Clone, Copy)]
 struct Access {
     base: BaseType,
+    /// An output that depends on inputs within the step (declared with `depends_on`).
+    feedthrough: bool,
     /// The values fmi2SetReal accepts for this variable by the declaration's checks, as
     /// `(lo, hi)`, before stepping (index 0: before and during initialisation) and while
     /// stepping (index 1). For a Real settable in that phase it is the declared range
@@ -183,7 +187,11 @@ impl Access {
                 (f64::NAN, f64::NAN)
             }
         };
-        Access { base: var.base_type(), settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)] }
+        Access {
+            base: var.base_type(),
+            feedthrough: !var.depends_on.is_empty(),
+            settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)],
+        }
     }
 
     /// Whether a Real passes the declaration's checks in a phase (index as `settable_range`).
@@ -203,8 +211,6 @@ pub struct ModelSlot<M: Model> {
     access: Vec<Access>,
     /// Whether any output depends directly on an input (from the table, computed once).
     feedthrough: bool,
-    /// Bit `vr % 64` of word `vr / 64` is set for the outputs with direct feedthrough.
-    feedthrough_outputs: Vec<u64>,
 }
 
 impl<M: Model> ModelSlot<M> {
@@ -213,19 +219,7 @@ impl<M: Model> ModelSlot<M> {
         let model = M::new(&values, context)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
-        let mut feedthrough_outputs = vec![0u64; M::Var::TABLE.len().div_ceil(64)];
-        for (vr, var) in M::Var::TABLE.iter().enumerate() {
-            if !var.depends_on.is_empty() {
-                feedthrough_outputs[vr / 64] |= 1 << (vr % 64);
-            }
-        }
-        Ok(ModelSlot { model, values, guid, access, feedthrough, feedthrough_outputs })
-    }
-
-    /// Whether `vr` is a Real variable (the hot-path form of [`Self::lookup`]).
-    #[inline]
-    fn is_real(&self, vr: u32) -> bool {
-        self.access.get(vr as usize).is_some_and(|a| a.base == BaseType::Real)
+        Ok(ModelSlot { model, values, guid, access, feedthrough })
     }
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
@@ -270,15 +264,26 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Self::lookup(vr, ty).map(|(_, v)| v)
     }
 
-    fn get_real(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
-        for (slot, &vr) in out.iter_mut().zip(vrs) {
-            if !self.is_real(vr) {
-                // The declaration's own check words the error.
-                Self::lookup(vr, BaseType::Real)?;
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], refresh: bool) -> Result<bool, String> {
+        // Check every reference first (and note whether one is a feedthrough output), bring
+        // the feedthrough outputs up to date if needed, then copy: no value is read stale.
+        let mut reads_feedthrough = false;
+        for &vr in vrs {
+            match self.access.get(vr as usize) {
+                Some(a) if a.base == BaseType::Real => reads_feedthrough |= a.feedthrough,
+                // The declaration's own check words the error (it fails here: the entry
+                // agrees with the declaration).
+                _ => return Err(Self::lookup(vr, BaseType::Real).err().unwrap_or_else(|| format!("value reference {vr} is not a Real"))),
             }
+        }
+        let refreshed = refresh && reads_feedthrough;
+        if refreshed {
+            self.model.update_feedthrough(&mut self.values);
+        }
+        for (slot, &vr) in out.iter_mut().zip(vrs) {
             *slot = self.values.real_at(vr as usize);
         }
-        Ok(())
+        Ok(refreshed)
     }
 
     fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), String> {
@@ -378,12 +383,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool {
-        // Branch-free over the usual handful of references: OR the bits together.
-        let mut hit = 0u64;
-        for &vr in vrs {
-            hit |= self.feedthrough_outputs.get(vr as usize / 64).map_or(0, |word| word >> (vr % 64));
-        }
-        self.feedthrough && hit & 1 != 0
+        vrs.iter().any(|&vr| self.access.get(vr as usize).is_some_and(|a| a.feedthrough))
     }
 
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
