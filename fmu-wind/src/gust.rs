@@ -101,6 +101,9 @@ pub struct GustGenerator {
     normals: Vec<f64>,
     /// Scratch for the noise increment `w = L xi` of one step.
     noise: Vec<f64>,
+    /// `C x` of the current state, computed whenever the state changes (the FMU reads it
+    /// twice a step).
+    gust: f64,
 }
 
 impl GustGenerator {
@@ -111,7 +114,10 @@ impl GustGenerator {
         let (factor, rank) = pivoted_cholesky(&filter.stationary_covariance());
         let xi: Vec<f64> = (0..rank).map(|_| StandardNormal.sample(&mut rng)).collect();
         let state = (0..n).map(|i| (0..rank).map(|k| factor[i * rank + k] * xi[k]).sum()).collect();
-        Self { filter, seed, rng, state, cache: Vec::new(), clock: 0, normals: vec![0.0; n], noise: vec![0.0; n] }
+        let mut generator =
+            Self { filter, seed, rng, state, cache: Vec::new(), clock: 0, normals: vec![0.0; n], noise: vec![0.0; n], gust: 0.0 };
+        generator.gust = generator.output();
+        generator
     }
 
     pub fn filter(&self) -> &ShapingFilter {
@@ -124,6 +130,11 @@ impl GustGenerator {
 
     /// The current gust `v_t = C x`, m/s.
     pub fn gust(&self) -> f64 {
+        self.gust
+    }
+
+    /// `C x`, computed.
+    fn output(&self) -> f64 {
         self.state.iter().zip(self.filter.residues()).map(|(x, r)| x * r).sum()
     }
 
@@ -149,7 +160,8 @@ impl GustGenerator {
             DAVENPORT_ORDER => advance_fixed::<DAVENPORT_ORDER>(&mut self.state, &entry.decay, &entry.columns, normals),
             _ => advance(&mut self.state, &entry.decay, &entry.columns, normals, &mut self.noise[..n]),
         }
-        self.gust()
+        self.gust = self.output();
+        self.gust
     }
 
     /// Index of the discretisation for `h`, computing it (and evicting the least recently
@@ -228,6 +240,7 @@ impl GustGenerator {
         self.seed = seed;
         self.state = state;
         self.rng = rng;
+        self.gust = self.output();
         Ok(())
     }
 }
