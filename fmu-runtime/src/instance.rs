@@ -233,6 +233,25 @@ impl<M: Model> ModelSlot<M> {
         Ok((index, var))
     }
 
+    /// Why `vr` cannot be read as a Real: the declaration's own check words it. Out of line
+    /// and cold, so that the loops of the hot gets and sets keep few registers.
+    #[cold]
+    #[inline(never)]
+    fn not_a_real(vr: u32) -> String {
+        Self::lookup(vr, BaseType::Real).err().unwrap_or_else(|| format!("value reference {vr} is not a Real"))
+    }
+
+    /// The declaration's checks of a Real set, one by one, for a value the packed check
+    /// refused (they agree with it, and word the error). Out of line and cold, as
+    /// [`Self::not_a_real`].
+    #[cold]
+    #[inline(never)]
+    fn check_real_by_declaration(&self, vr: u32, value: f64, phase: SetPhase) -> Result<(), String> {
+        let (_, decl) = Self::lookup(vr, BaseType::Real)?;
+        Self::check_settable(decl, vr, phase)?;
+        check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)
+    }
+
     fn check_settable(var: &Var, vr: u32, phase: SetPhase) -> Result<(), String> {
         if var.settable_in(phase) {
             return Ok(());
@@ -271,9 +290,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         for &vr in vrs {
             match self.access.get(vr as usize) {
                 Some(a) if a.base == BaseType::Real => reads_feedthrough |= a.feedthrough,
-                // The declaration's own check words the error (it fails here: the entry
-                // agrees with the declaration).
-                _ => return Err(Self::lookup(vr, BaseType::Real).err().unwrap_or_else(|| format!("value reference {vr} is not a Real"))),
+                _ => return Err(Self::not_a_real(vr)),
             }
         }
         let refreshed = refresh && reads_feedthrough;
@@ -316,10 +333,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
                 let var = M::Var::from_index(vr as usize).expect("the access table has one entry per variable");
                 check_model_real::<M>(var, value, &self.values)?;
             } else {
-                // The declaration's own checks word the error (and agree with the fast one).
-                let (_, decl) = Self::lookup(vr, BaseType::Real)?;
-                Self::check_settable(decl, vr, phase)?;
-                check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)?;
+                self.check_real_by_declaration(vr, value, phase)?;
             }
         }
         for (&vr, &value) in vrs.iter().zip(values) {
