@@ -130,8 +130,8 @@ impl Model for ElevationControllerModel {
             .scheduler
             .get_or_insert_with(|| SampleScheduler::new(time, &controller.params().cascade.sampling, controller.idle_outputs()));
         let inputs = Self::inputs(values);
-        let outputs = *scheduler.do_step(controller, time, step, &inputs);
-        Self::write_outputs(&outputs, values);
+        // Written from the scheduler's own copy: the outputs are a few dozen numbers.
+        Self::write_outputs(scheduler.do_step(controller, time, step, &inputs), values);
         Ok(())
     }
 
