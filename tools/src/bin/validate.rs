@@ -194,7 +194,8 @@ fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
         ("current noise only", current_only, 1e-7),
         ("encoder noise and quantisation only", encoders_only, 1e-7),
         ("sensor noise, softer bristles (1e-5 rad presliding)", NoiseConfig::default(), 1e-5),
-        ("no sensor noise, softer bristles", quiet, 1e-5),
+        ("no sensor noise, softer bristles", quiet.clone(), 1e-5),
+        ("no sensor noise, stiffer bristles (1e-8 rad)", quiet, 1e-8),
     ] {
         let mut config = TruthConfig { seed, ..TruthConfig::default() };
         config.plant.presliding_displacement = presliding;
