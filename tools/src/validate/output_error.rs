@@ -555,6 +555,13 @@ pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centre: f64, 
         (Flank::Gap, 0.0)
     };
     let relaxation = if damping > 0.0 { stiffness / damping } else { f64::INFINITY };
+    // The backlash position of a flank in contact (none in the gap), and the path torque there.
+    let contact_position = |flank: Flank| match flank {
+        Flank::Positive => Some(half_gap),
+        Flank::Negative => Some(-half_gap),
+        Flank::Gap => None,
+    };
+    let contact_torque = |d: f64, relative_speed: f64, beta: f64| stiffness * (d - beta) + damping * relative_speed;
     let mut positions = Vec::with_capacity(length);
     positions.push(angle);
     let substeps = 20;
@@ -566,10 +573,9 @@ pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centre: f64, 
             let derivative = |s: f64, x: [f64; 3]| -> [f64; 3] {
                 let (motor_angle, motor_speed) = motor(j, s);
                 let d = motor_angle - x[0];
-                let (torque, deflection_rate) = match flank {
-                    Flank::Positive => (stiffness * (d - half_gap) + damping * (motor_speed - x[1]), 0.0),
-                    Flank::Negative => (stiffness * (d + half_gap) + damping * (motor_speed - x[1]), 0.0),
-                    Flank::Gap => (0.0, if relaxation.is_finite() { -relaxation * x[2] } else { 0.0 }),
+                let (torque, deflection_rate) = match contact_position(flank) {
+                    Some(beta) => (contact_torque(d, motor_speed - x[1], beta), 0.0),
+                    None => (0.0, if relaxation.is_finite() { -relaxation * x[2] } else { 0.0 }),
                 };
                 let load_torque = torque - amplitude * (x[0] + phase).cos() - offset + disturbance;
                 [x[1], load_torque / inertia, deflection_rate]
@@ -589,16 +595,15 @@ pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centre: f64, 
                 // that the gap has closed on.
                 let (motor_angle, motor_speed) = motor(j, s + ds);
                 let d = motor_angle - angle;
-                match flank {
-                    Flank::Positive | Flank::Negative => {
-                        let beta = if flank == Flank::Positive { half_gap } else { -half_gap };
-                        let torque = stiffness * (d - beta) + damping * (motor_speed - speed);
+                match contact_position(flank) {
+                    Some(beta) => {
                         deflection = d - beta;
-                        if (flank == Flank::Positive && torque < 0.0) || (flank == Flank::Negative && torque > 0.0) {
+                        // A pinion leaves its flank when the torque would pull on it.
+                        if contact_torque(d, motor_speed - speed, beta) * beta < 0.0 {
                             flank = Flank::Gap;
                         }
                     }
-                    Flank::Gap => {
+                    None => {
                         let beta = d - deflection;
                         if beta >= half_gap {
                             flank = Flank::Positive;
