@@ -3,6 +3,7 @@
 //! Usage:
 //!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
 //!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD] [--internal-rate HZ]
+//!                  [--log-rate HZ] [--noise-scale X] [--anti-resonance HZ] [--load-inertia KGM2]
 //!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
 //!   truthgen start --out FILE.params
 //!
@@ -13,6 +14,10 @@
 //! 1e-7), for studies of the friction-model-form floor; the suite uses the default.
 //! `--internal-rate` sets the RK4 base rate (default 20 kHz; steps are cut into substeps
 //! while the bristles relax faster than that).
+//! `--log-rate`, `--noise-scale` (current and load-encoder noise times X), `--anti-resonance`
+//! (the nominal path stiffness set for this locked-motor anti-resonance, damping ratio kept)
+//! and `--load-inertia` make logs unlike the suite's, to check that `validate` is not tuned to
+//! the suite (docs/validation.md, "Logs unlike the suite"); the starting set follows the plant.
 
 use antenna_tools::truth::suite::{self, SuiteConfig};
 use antenna_tools::truth::TruthConfig;
@@ -29,6 +34,13 @@ fn main() {
 fn value<'a>(args: &'a [String], i: &mut usize, flag: &str) -> Result<&'a str, String> {
     *i += 1;
     args.get(*i).map(String::as_str).ok_or_else(|| format!("{flag} needs a value"))
+}
+
+fn positive(text: &str, flag: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
+        _ => Err(format!("{flag} needs a positive number, not '{text}'")),
+    }
 }
 
 fn list<T: std::str::FromStr>(text: &str, flag: &str) -> Result<Vec<T>, String> {
@@ -68,6 +80,27 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 if !(base.internal_rate >= base.controller_rate) {
                     return Err("--internal-rate must be at least the controller rate".into());
                 }
+            }
+            "--log-rate" => {
+                base.log_rate = positive(value(&args, &mut i, flag)?, flag)?;
+                if base.log_rate > base.controller_rate {
+                    return Err("--log-rate must not exceed the controller rate".into());
+                }
+            }
+            "--noise-scale" => {
+                let scale = positive(value(&args, &mut i, flag)?, flag)?;
+                base.noise.current_sigma *= scale;
+                base.noise.load_encoder_sigma *= scale;
+            }
+            "--anti-resonance" => {
+                let hz = positive(value(&args, &mut i, flag)?, flag)?;
+                base.plant.set_anti_resonance(hz);
+            }
+            "--load-inertia" => {
+                let inertia = positive(value(&args, &mut i, flag)?, flag)?;
+                let hz = base.plant.anti_resonance();
+                base.plant.load_inertia = inertia;
+                base.plant.set_anti_resonance(hz);
             }
             "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
             "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,

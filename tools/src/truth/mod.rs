@@ -79,6 +79,19 @@ impl TruthPlant {
         self.motor_inertia * self.gear_ratio * self.gear_ratio
     }
 
+    /// The anti-resonance (Hz) with the motor locked: sqrt(K / J_L) / 2 pi.
+    pub fn anti_resonance(&self) -> f64 {
+        (self.stiffness / self.load_inertia).sqrt() / (2.0 * std::f64::consts::PI)
+    }
+
+    /// Sets the path stiffness for a locked-motor anti-resonance of `hz`, keeping the path's
+    /// damping ratio.
+    pub fn set_anti_resonance(&mut self, hz: f64) {
+        let ratio = self.damping / (2.0 * (self.stiffness * self.load_inertia).sqrt());
+        self.stiffness = self.load_inertia * (2.0 * std::f64::consts::PI * hz).powi(2);
+        self.damping = 2.0 * ratio * (self.stiffness * self.load_inertia).sqrt();
+    }
+
     /// The model's starting parameter set: the nominal values, with every effect absent.
     pub fn starting_parameters(&self) -> ParameterSet {
         let mut set = ParameterSet::new();
@@ -550,6 +563,18 @@ mod tests {
 
     fn rms(x: &[f64]) -> f64 {
         (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn setting_the_anti_resonance_keeps_the_path_damping_ratio() {
+        let mut plant = TruthPlant::default();
+        let ratio = |p: &TruthPlant| p.damping / (2.0 * (p.stiffness * p.load_inertia).sqrt());
+        let before = ratio(&plant);
+        assert!((plant.anti_resonance() - 4.0).abs() < 1e-12);
+        plant.set_anti_resonance(6.5);
+        assert!((plant.anti_resonance() - 6.5).abs() < 1e-12);
+        assert!((ratio(&plant) - before).abs() < 1e-15);
+        assert!((plant.stiffness - plant.load_inertia * (2.0 * std::f64::consts::PI * 6.5).powi(2)).abs() < 1e-6 * plant.stiffness);
     }
 
     #[test]
