@@ -305,15 +305,22 @@ impl WindowPlan {
 
 /// The drive-path window: the decay time of the drive's mechanical mode, 2 / (D (1/J_M +
 /// 1/J_L)) (the time constant of the envelope of the two-mass resonance, with J_M the
-/// reflected motor inertia and D the path damping), for a model with a compliant path.
+/// reflected motor inertia and D the path damping), for a model with a compliant path; shorter
+/// where the model's friction makes its open-loop simulation unstable faster than that.
 ///
 /// The twist is what a drive-path effect (a stiffness, a lost motion, a delay) changes in the
 /// simulated motion, and it is set by the drive mode: a twist error started from the measured
 /// state has either decayed or become a drift of the slow motion after one decay time. Scored
 /// over the rigid-body window (the motor speed's correlation lag, typically longer), the twist
 /// error of a drive-path effect is mixed with the slow drift that friction and the open-loop
-/// integration of the torque add, which is not the drive path's. None for a rigid model or a
-/// mode without damping.
+/// integration of the torque add, which is not the drive path's.
+///
+/// A Stribeck curve falls with speed: below the Stribeck velocity the friction is a negative
+/// damping, steepest at v_s / sqrt(2) with slope (F_s - F_c) sqrt(2/e) / v_s. Acting on the
+/// motor it makes the open-loop simulation grow any difference (sensor noise on the current,
+/// the friction's form) at up to that slope over J_M per second. The pieces are then cut at
+/// one e-folding time, 1 / rate, so that no difference grows by more than e before the next
+/// restart from the measured state. None for a rigid model or a mode without damping.
 pub fn drive_window(params: &ParameterSet, dt: f64) -> Option<(usize, String)> {
     let gear = params.value(names::GEAR_RATIO);
     let motor = params.value(names::MOTOR_INERTIA) * gear * gear;
@@ -324,8 +331,27 @@ pub fn drive_window(params: &ParameterSet, dt: f64) -> Option<(usize, String)> {
         return None;
     }
     let decay = 2.0 / (damping * (1.0 / motor + 1.0 / load));
-    let length = (decay / dt).round() as usize + 1;
-    Some((length, format!("the drive mode's decay time 2 / (D (1/J_M + 1/J_L)) = {decay:.3} s")))
+    let (seconds, reason) = match stribeck_growth_time(params, motor) {
+        Some(growth) if growth < decay => (
+            growth,
+            format!("the e-folding time J_M v_s / ((F_s - F_c) sqrt(2/e)) = {growth:.3} s of the Stribeck range's negative damping, shorter than the drive mode's decay time {decay:.3} s"),
+        ),
+        _ => (decay, format!("the drive mode's decay time 2 / (D (1/J_M + 1/J_L)) = {decay:.3} s")),
+    };
+    let length = (seconds / dt).round() as usize + 1;
+    Some((length, reason))
+}
+
+/// The e-folding time (s) of the fastest growth the Stribeck curve's negative damping gives
+/// the motor of inertia `motor` (axis side), or None without a Stribeck excess.
+fn stribeck_growth_time(params: &ParameterSet, motor: f64) -> Option<f64> {
+    let excess = params.value(names::STATIC) - params.value(names::COULOMB);
+    let velocity = params.value(names::STRIBECK_VELOCITY);
+    if !(excess > 0.0 && velocity > 0.0 && motor > 0.0) {
+        return None;
+    }
+    let steepest_slope = excess * (2.0 / std::f64::consts::E).sqrt() / velocity;
+    Some(motor / steepest_slope)
 }
 
 /// Output-error results of one channel.
@@ -853,6 +879,31 @@ mod tests {
         with.set(names::BACKLASH_WIDTH, width);
         let (before, after) = (load_side_error(&config, &without), load_side_error(&config, &with));
         assert!(after < 0.3 * before, "backlash in the model: {after:e} rad against {before:e} rad without");
+    }
+
+    #[test]
+    fn drive_pieces_are_cut_at_the_stribeck_growth_time_when_it_is_shorter_than_the_decay() {
+        let params = TruthConfig::default().plant.starting_parameters();
+        let dt = 2e-3;
+        let gear = params.value(names::GEAR_RATIO);
+        let motor = params.value(names::MOTOR_INERTIA) * gear * gear;
+        let decay = 2.0 / (params.value(names::DAMPING) * (1.0 / motor + 1.0 / params.value(names::LOAD_INERTIA)));
+        // The steepest point of the Gaussian Stribeck excess, by finite differences.
+        let excess = |v: f64| (params.value(names::STATIC) - params.value(names::COULOMB)) * (-(v / params.value(names::STRIBECK_VELOCITY)).powi(2)).exp();
+        let vs = params.value(names::STRIBECK_VELOCITY);
+        let steepest = (1..2000).map(|k| k as f64 * 1e-3 * vs).map(|v| (excess(v) - excess(v + 1e-9)) / 1e-9).fold(0.0, f64::max);
+        let growth = motor / steepest;
+        assert!(growth < decay, "the suite's plant has a Stribeck range faster than its drive decay");
+        let (length, reason) = drive_window(&params, dt).unwrap();
+        assert_eq!(length, (growth / dt).round() as usize + 1, "{reason}");
+        assert!(reason.contains("Stribeck"), "{reason}");
+        let mut without_stribeck = params.clone();
+        without_stribeck.set(names::STATIC, params.value(names::COULOMB));
+        let (length, reason) = drive_window(&without_stribeck, dt).unwrap();
+        assert_eq!(length, (decay / dt).round() as usize + 1, "{reason}");
+        let mut rigid = params.clone();
+        rigid.set(names::STIFFNESS, 0.0);
+        assert!(drive_window(&rigid, dt).is_none());
     }
 
     #[test]
