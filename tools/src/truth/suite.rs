@@ -50,6 +50,32 @@ impl Default for SuiteConfig {
     }
 }
 
+/// Suites unlike the main one, to check that `validate` is not tuned to it: other log rates,
+/// noise levels, drive resonances and inertias, new seeds, every effect kind at 10 and 20
+/// times the noise and four clean logs each. (name, what differs, suite)
+pub fn holdout_suites() -> Vec<(&'static str, &'static str, SuiteConfig)> {
+    let holdout = |seeds: Vec<u64>, clean_seeds: Vec<u64>, log_rate: f64, noise_scale: f64, anti_resonance: f64, load_inertia: f64| {
+        let mut base = TruthConfig { log_rate, ..TruthConfig::default() };
+        base.noise.current_sigma *= noise_scale;
+        base.noise.load_encoder_sigma *= noise_scale;
+        base.plant.load_inertia = load_inertia;
+        base.plant.set_anti_resonance(anti_resonance);
+        SuiteConfig { sizes: vec![10.0, 20.0], seeds, clean_seeds, pairs: Vec::new(), base, ..SuiteConfig::default() }
+    };
+    vec![
+        (
+            "fast-stiff",
+            "logged at 1 kHz, twice the sensor noise, a stiffer and lighter drive (anti-resonance 6 Hz, load inertia 3e4 kg m^2)",
+            holdout(vec![21, 22], (201..=204).collect(), 1000.0, 2.0, 6.0, 3.0e4),
+        ),
+        (
+            "slow-soft",
+            "logged at 250 Hz, half the sensor noise, a softer and heavier drive (anti-resonance 2.5 Hz, load inertia 1.2e5 kg m^2)",
+            holdout(vec![23, 24], (205..=208).collect(), 250.0, 0.5, 2.5, 1.2e5),
+        ),
+    ]
+}
+
 /// The hidden truth of one generated log.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaseTruth {
@@ -408,5 +434,18 @@ mod tests {
         let Effect::Cogging { amplitude, .. } = sized_effect("cogging", 7.0, &clean, &config, &mut rng).unwrap() else { panic!() };
         assert!((amplitude / std::f64::consts::SQRT_2 - 7.0 * sigma).abs() < 1e-9);
         assert!(sized_effect("warp_drive", 1.0, &clean, &config, &mut rng).is_err());
+    }
+
+    #[test]
+    fn holdout_suites_share_no_seed_rate_or_plant_with_the_main_suite() {
+        let main = SuiteConfig::default();
+        for (name, _, holdout) in holdout_suites() {
+            assert!(holdout.seeds.iter().chain(&holdout.clean_seeds).all(|s| !main.seeds.contains(s) && !main.clean_seeds.contains(s)), "{name}");
+            assert_ne!(holdout.base.log_rate, main.base.log_rate, "{name}");
+            assert_ne!(holdout.base.noise.current_sigma, main.base.noise.current_sigma, "{name}");
+            assert_ne!(holdout.base.plant.anti_resonance(), main.base.plant.anti_resonance(), "{name}");
+            assert_ne!(holdout.base.plant.load_inertia, main.base.plant.load_inertia, "{name}");
+            assert_eq!(holdout.kinds.len(), EFFECT_KINDS.len(), "{name}: every effect kind");
+        }
     }
 }

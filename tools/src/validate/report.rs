@@ -59,6 +59,16 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
+        let alike = v.selection.equally_consistent(found.kind);
+        if !alike.is_empty() {
+            let names: Vec<String> = alike.iter().map(|k| format!("{} ({})", k.name(), k.description())).collect();
+            let _ = writeln!(
+                out,
+                "The data cannot tell it from: {}. Each was confirmed on its own and predicts the log as well as {}; a log with a wider range of motion (angle, speed) would separate them.\n",
+                names.join(", "),
+                found.kind.name()
+            );
+        }
     }
     if let Some(t) = &v.twist {
         twist_section(&mut out, t, v.encoder_skew);

@@ -27,6 +27,9 @@ pub struct CaseResult {
     pub named: bool,
     /// Effects found that are not in the truth.
     pub extras: Vec<String>,
+    /// Per found effect, the candidates the data could not tell from it (reported, never
+    /// counted as named).
+    pub equally_consistent: Vec<(String, Vec<String>)>,
     /// Output error (the windowed simulation of the plant FMU): the scored channel whose error
     /// dropped most, its RMS before and after (rad) and NRMSE fit before and after (%).
     pub output: Option<ErrorFigures>,
@@ -116,6 +119,13 @@ fn compare(effect: &Effect, start: &ParameterSet, corrected: &ParameterSet) -> (
 /// Scores one validated case against its truth.
 pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, seconds: f64) -> CaseResult {
     let mut found: Vec<String> = validation.selection.found.iter().map(|f| f.kind.name().to_string()).collect();
+    let equally_consistent = validation
+        .selection
+        .found
+        .iter()
+        .map(|f| (f.kind.name().to_string(), validation.selection.equally_consistent(f.kind).iter().map(|k| k.name().to_string()).collect::<Vec<_>>()))
+        .filter(|(_, alike)| !alike.is_empty())
+        .collect();
     // A timing skew between the encoders is a claim too: the suite's logs have none.
     if validation.encoder_skew.is_some() {
         found.push("encoder_skew".to_string());
@@ -181,7 +191,7 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
         })
     });
     let score_ratio = validation.output.as_ref().map(|o| (o.overall.score_after / o.overall.score_before).sqrt());
-    CaseResult { truth: truth.clone(), found, parameters, named, extras, output, equation, anti_resonance, measured_trough, response, score_ratio, error: None, seconds }
+    CaseResult { truth: truth.clone(), found, parameters, named, extras, equally_consistent, output, equation, anti_resonance, measured_trough, response, score_ratio, error: None, seconds }
 }
 
 /// Validates one log of a suite folder against its truth.
@@ -200,6 +210,7 @@ pub fn run_case(path: &Path, start: &ParameterSet, options: &ValidateOptions, si
             parameters: Vec::new(),
             named: false,
             extras: Vec::new(),
+            equally_consistent: Vec::new(),
             output: None,
             equation: None,
             anti_resonance: None,
@@ -294,7 +305,21 @@ pub fn table_markdown(results: &[CaseResult]) -> String {
     for r in rows {
         let effect = if r.truth.effects.is_empty() { "clean".to_string() } else { r.truth.effects.iter().map(|e| e.0.clone()).collect::<Vec<_>>().join(" + ") };
         let size = if r.truth.effects.is_empty() { "-".to_string() } else { format!("{}", r.size()) };
-        let found = if let Some(e) = &r.error { format!("error: {e}") } else if r.found.is_empty() { "none".to_string() } else { r.found.join(", ") };
+        let found = if let Some(e) = &r.error {
+            format!("error: {e}")
+        } else if r.found.is_empty() {
+            "none".to_string()
+        } else {
+            let shown: Vec<String> = r
+                .found
+                .iter()
+                .map(|f| match r.equally_consistent.iter().find(|(g, _)| g == f) {
+                    Some((_, alike)) => format!("{f} (the data cannot tell it from {})", alike.join(", ")),
+                    None => f.clone(),
+                })
+                .collect();
+            shown.join(", ")
+        };
         let params: Vec<String> = r
             .parameters
             .iter()

@@ -312,6 +312,10 @@ pub struct Step {
     pub threshold: f64,
     /// Gauss-Newton iterations used after adding the chosen effect.
     pub iterations: usize,
+    /// Other candidates the judge confirmed in this step that the chosen effect does not
+    /// predict significantly better: the data cannot tell them from it (an unbalance over a
+    /// few degrees of axis angle near its extremum is a constant torque, an offset).
+    pub equally_consistent: Vec<Kind>,
 }
 
 /// An effect the search added, with its fitted parameters.
@@ -332,6 +336,14 @@ pub struct Selection {
     /// Effects added by the forward search and removed again by the backward check, with the
     /// reason (the model without them predicts as well).
     pub removed: Vec<(Kind, String)>,
+}
+
+impl Selection {
+    /// The candidates the data cannot tell from a found effect (confirmed in the step that
+    /// chose it, and not predicted significantly worse).
+    pub fn equally_consistent(&self, kind: Kind) -> Vec<Kind> {
+        self.steps.iter().filter(|s| s.chosen == Some(kind) && s.paired.is_none()).flat_map(|s| s.equally_consistent.iter().copied()).collect()
+    }
 }
 
 /// Nuisance columns that every model carries: with two equations, the twist offset c (encoder
@@ -610,6 +622,7 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         let mut order: Vec<usize> = (0..scores.len()).filter(|&i| scores[i].significant).collect();
         order.sort_by(|&a, &b| scores[b].rank.total_cmp(&scores[a].rank));
         let mut chosen: Option<(usize, Kind, ParameterSet, Fit, usize)> = None;
+        let mut confirmed: Vec<(usize, Kind, ParameterSet)> = Vec::new();
         for index in order {
             let kind = scores[index].kind;
             let Some((instance, alternative)) = evaluated.iter().find(|(i, _)| i.kind == kind) else { continue };
@@ -641,6 +654,7 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
                 Ok(()) => match judge.confirm(kind, &params, &refined) {
                     Ok(note) => {
                         scores[index].confirmation = Some(note);
+                        confirmed.push((index, kind, refined.clone()));
                         let replace = match &chosen {
                             None => true,
                             Some((_, _, incumbent, _, _)) => {
@@ -666,6 +680,19 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
                 }
             }
         }
+        // The confirmed alternatives the chosen effect does not beat significantly.
+        let equally_consistent: Vec<Kind> = match &chosen {
+            Some((chosen_index, chosen_kind, chosen_params, _, _)) => confirmed
+                .iter()
+                .filter(|(_, kind, _)| kind != chosen_kind)
+                .filter(|(index, _, other)| {
+                    let extra = scores[*chosen_index].parameters as isize - scores[*index].parameters as isize;
+                    !judge.prefers(other, chosen_params, extra)
+                })
+                .map(|(_, kind, _)| *kind)
+                .collect(),
+            None => Vec::new(),
+        };
         let chosen = chosen.map(|(_, kind, refined, fit, iterations)| (kind, refined, fit, iterations));
         let Some((kind, refined, refined_fit, iterations)) = chosen else {
             // No single effect: two large missing effects can hide each other, each counting
@@ -677,19 +704,19 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
                 None
             };
             let Some((a, b, refined, refined_fit, iterations)) = pair else {
-                steps.push(Step { scores, chosen: None, paired: None, threshold, iterations: 0 });
+                steps.push(Step { scores, chosen: None, paired: None, threshold, iterations: 0, equally_consistent: Vec::new() });
                 break;
             };
             accepted.push(a);
             accepted.push(b);
             pairs.push((a, b));
-            steps.push(Step { scores, chosen: Some(a), paired: Some(b), threshold, iterations });
+            steps.push(Step { scores, chosen: Some(a), paired: Some(b), threshold, iterations, equally_consistent: Vec::new() });
             params = refined;
             current = refined_fit;
             continue;
         };
         accepted.push(kind);
-        steps.push(Step { scores, chosen: Some(kind), paired: None, threshold, iterations });
+        steps.push(Step { scores, chosen: Some(kind), paired: None, threshold, iterations, equally_consistent });
         params = refined;
         current = refined_fit;
     }
@@ -951,5 +978,39 @@ mod tests {
         assert!((amplitude / 3000.0 - 1.0).abs() < 0.1, "{amplitude}");
         let (before, after) = (selection.before.sigma[1], selection.after.sigma[1]);
         assert!(after < 0.2 * before, "load-equation RMS {before} -> {after}");
+    }
+
+    /// A judge that confirms every effect and never finds one model better than another: the
+    /// data cannot separate any two confirmed candidates.
+    struct Undecided;
+
+    impl Judge for Undecided {
+        fn confirm(&mut self, _: Kind, _: &ParameterSet, _: &ParameterSet) -> Result<String, String> {
+            Ok(String::new())
+        }
+        fn compares(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn confirmed_candidates_the_chosen_effect_does_not_beat_are_reported_as_equally_consistent() {
+        let config = TruthConfig { duration: 30.0, effects: vec![Effect::Unbalance { amplitude: 3000.0, phase: 0.4 }], seed: 6, ..TruthConfig::default() };
+        let start = config.plant.starting_parameters();
+        let data = prepare(&simulate(&config).log, &start, &EquationOptions::default()).unwrap();
+        let options = SelectionOptions { max_effects: 1, ..SelectionOptions::default() };
+        let undecided = select_judged(&data, &start, &options, &mut Undecided);
+        let chosen = undecided.steps[0].chosen.expect("an effect is chosen");
+        let significant: Vec<Kind> = undecided.steps[0].scores.iter().filter(|s| s.confirmation.is_some() && s.kind != chosen).map(|s| s.kind).collect();
+        assert!(!significant.is_empty(), "the test needs a second confirmed candidate");
+        let mut alike = undecided.equally_consistent(chosen);
+        alike.sort_by_key(|k| k.name());
+        let mut significant = significant;
+        significant.sort_by_key(|k| k.name());
+        assert_eq!(alike, significant);
+        // A judge that stops at the first confirmed candidate compares nothing and claims no
+        // ambiguity.
+        let first_only = select_judged(&data, &start, &options, &mut EquationOnly);
+        assert!(first_only.steps.iter().all(|s| s.equally_consistent.is_empty()));
     }
 }
