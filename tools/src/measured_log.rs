@@ -142,6 +142,9 @@ pub struct Channel {
     pub values: Vec<f64>,
 }
 
+/// The unit recorded for a motor position integrated from a motor speed.
+pub const INTEGRATED_UNIT: &str = "rad, integrated from the motor speed";
+
 /// A measured log in SI units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredLog {
@@ -202,6 +205,63 @@ impl MeasuredLog {
             }
         }
         total
+    }
+
+    /// A log whose drive has a motor speed sensor (a tachometer, a resolver's speed) but no
+    /// motor encoder, with the motor position integrated from that speed, so the twist and the
+    /// compliant-drive analysis stay available. None when the log has a motor position, no
+    /// motor speed or no load position to anchor the integral to.
+    ///
+    /// Each motor speed column is integrated by the trapezoid rule. An integrated speed starts
+    /// at an unknown angle and drifts with the sensor's bias; a twist cannot grow without bound,
+    /// so the straight line fitted to (integral - load position) is removed: the result sits on
+    /// the load position with zero mean twist (the twist offset is a nuisance parameter of the
+    /// analysis anyway) and no drift. The unit is marked "integrated" so that readers know.
+    pub fn with_motor_position_from_speed(&self) -> Option<MeasuredLog> {
+        if self.signal(Signal::MotorPos).is_some() {
+            return None;
+        }
+        let load = self.signal(Signal::LoadPos)?;
+        let speeds = self.signals(Signal::MotorVel);
+        if speeds.is_empty() || self.len() < 2 {
+            return None;
+        }
+        let t0 = self.time[0];
+        let mut log = self.clone();
+        for speed in speeds {
+            let mut integral = Vec::with_capacity(self.len());
+            let mut angle = 0.0;
+            integral.push(angle);
+            for k in 1..self.len() {
+                angle += 0.5 * (speed.values[k] + speed.values[k - 1]) * (self.time[k] - self.time[k - 1]);
+                integral.push(angle);
+            }
+            // Least-squares line through (t, integral - load).
+            let n = self.len() as f64;
+            let (mut st, mut sy, mut stt, mut sty) = (0.0, 0.0, 0.0, 0.0);
+            for k in 0..self.len() {
+                let (t, y) = (self.time[k] - t0, integral[k] - load[k]);
+                st += t;
+                sy += y;
+                stt += t * t;
+                sty += t * y;
+            }
+            let slope = (n * sty - st * sy) / (n * stt - st * st);
+            let intercept = (sy - slope * st) / n;
+            let values: Vec<f64> = integral.iter().enumerate().map(|(k, q)| q - intercept - slope * (self.time[k] - t0)).collect();
+            log.notes.push(format!(
+                "no motor encoder: the motor position is integrated from '{}' and put on the load encoder (its mean twist and a drift of {slope:.3e} rad/s, the speed sensor's bias, removed)",
+                speed.column
+            ));
+            log.channels.push(Channel { signal: Signal::MotorPos, motor: speed.motor, column: format!("motor_pos (integrated from {})", speed.column), unit: INTEGRATED_UNIT.into(), values });
+        }
+        Some(log)
+    }
+
+    /// True when the motor position was integrated from a motor speed
+    /// ([`MeasuredLog::with_motor_position_from_speed`]).
+    pub fn motor_position_is_integrated(&self) -> bool {
+        self.signals(Signal::MotorPos).iter().any(|c| c.unit == INTEGRATED_UNIT)
     }
 
     /// True when the torque comes from current columns (so a torque constant is needed).
@@ -657,6 +717,40 @@ mod tests {
         let mut bytes = b"time_s,motor_torque_Nm,load_pos_rad\n0,1,0\n".to_vec();
         bytes.extend_from_slice(&[0xff, 0xfe, b'\n']);
         assert_eq!(parse_bytes(&bytes).unwrap_err().line, Some(3));
+    }
+
+    #[test]
+    fn motor_position_is_integrated_from_a_motor_speed_without_a_motor_encoder() {
+        // A drive twisting sinusoidally about a ramp; the log has the motor speed (with a bias,
+        // as a tachometer has) and the load encoder, but no motor encoder.
+        let dt = 0.002;
+        let (twist_amplitude, bias) = (2e-6, 3e-7);
+        let mut text = String::from("time_s,motor_current_A,load_pos_rad,motor_vel_rad_s\n");
+        let motor_pos = |t: f64| 0.01 * t + twist_amplitude * (7.0 * t).sin();
+        for k in 0..2000 {
+            let t = k as f64 * dt;
+            let speed = 0.01 + 7.0 * twist_amplitude * (7.0 * t).cos() + bias;
+            text.push_str(&format!("{t:.4},1.0,{:.12e},{speed:.12e}\n", 0.01 * t));
+        }
+        let log = parse_str(&text).unwrap();
+        assert!(!log.motor_position_is_integrated());
+        let integrated = log.with_motor_position_from_speed().expect("a motor position from the speed");
+        assert!(integrated.motor_position_is_integrated());
+        assert!(integrated.notes.iter().any(|n| n.contains("integrated from 'motor_vel_rad_s'")), "{:?}", integrated.notes);
+        // The result is the motor position less its mean twist and the bias's drift: what is
+        // left is the twist's own variation, to the trapezoid rule's accuracy.
+        let load = integrated.signal(Signal::LoadPos).unwrap();
+        let twist: Vec<f64> = integrated.signal(Signal::MotorPos).unwrap().iter().zip(load).map(|(m, l)| m - l).collect();
+        let true_twist: Vec<f64> = integrated.time.iter().zip(load).map(|(t, l)| motor_pos(*t) - l).collect();
+        let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+        let (m_twist, m_true) = (mean(&twist), mean(&true_twist));
+        let worst = twist.iter().zip(&true_twist).map(|(a, b)| ((a - m_twist) - (b - m_true)).abs()).fold(0.0, f64::max);
+        assert!(m_twist.abs() < 1e-12, "mean twist {m_twist}");
+        assert!(worst < 0.03 * twist_amplitude, "twist error {worst:e} against an amplitude {twist_amplitude:e}");
+        // A log with a motor encoder, or without a load encoder to anchor to, is left alone.
+        assert!(parse_str(GOOD).unwrap().with_motor_position_from_speed().is_none());
+        let no_load = parse_str("time_s,motor_current_A,motor_vel_rad_s,motor_pos_rad\n0,1,1,0\n0.1,1,1,0.1\n").unwrap();
+        assert!(no_load.with_motor_position_from_speed().is_none());
     }
 
     #[test]

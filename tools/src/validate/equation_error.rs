@@ -192,7 +192,7 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
 
     let motor_pos_raw = log.signal(Signal::MotorPos).map(<[f64]>::to_vec);
     let load_pos_raw = log.signal(Signal::LoadPos).map(<[f64]>::to_vec);
-    if log.signal(Signal::MotorVel).is_some() || log.signal(Signal::LoadVel).is_some() {
+    if (log.signal(Signal::MotorVel).is_some() && !log.motor_position_is_integrated()) || log.signal(Signal::LoadVel).is_some() {
         notes.push("logged speeds are not used: speeds come from the positions through a zero-phase filter, since a drive's own speed filter may lag".into());
     }
     let (motor_pos_raw, load_pos_raw, two_encoders) = match (motor_pos_raw, load_pos_raw) {

@@ -257,6 +257,9 @@ pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptio
 /// skew between the encoders is corrected in the data (the load encoder shifted back) and the
 /// log validated once more, so the effects are found on consistent data.
 pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, mut simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
+    // A motor speed sensor without a motor encoder: the motor position is its integral.
+    let integrated = log.with_motor_position_from_speed();
+    let log = integrated.as_ref().unwrap_or(log);
     // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
     let reborrowed = match simulator.as_mut() {
         Some(s) => Some(&mut **s as &mut dyn PlantSimulator),
