@@ -30,6 +30,10 @@ use super::equation_error::{backlash_sign, ChannelData, EquationData, Structure}
 use super::parameters::{names, ParameterSet};
 use super::signals::weighted_least_squares;
 
+/// The longest delay the grid search looks at, in seconds: a few times a drive's current-loop
+/// and sampling delays, and beyond what a velocity loop of a few hertz survives.
+pub const DELAY_SEARCH_SECONDS: f64 = 0.05;
+
 /// A named effect the model may lack.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Kind {
@@ -373,7 +377,9 @@ pub fn instantiate(
                 instance.searched = vec![Searched { name: names::DELAY.into(), unit: "s".into(), value: delay, sigma: f64::NAN, range: (delay, delay) }];
                 return Ok(instance);
             }
-            let max_steps = ((0.05 / data.dt).round() as usize).clamp(2, 25);
+            // The search covers DELAY_SEARCH_SECONDS whatever the log rate, in tenths of a
+            // sample; the trials below make a longer search (more samples) stricter.
+            let max_steps = ((DELAY_SEARCH_SECONDS / data.dt).round() as usize).max(2);
             let grid: Vec<f64> = (0..=max_steps * 10).map(|k| k as f64 * 0.1 * data.dt).collect();
             let base = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
             let adjust_for = |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };

@@ -19,7 +19,7 @@
 //! the sum of the two (the rigid-body total) is the only channel. All torques are axis side.
 
 use super::parameters::{names, ParameterSet};
-use super::signals::{gaussian_kernel, noise_sigma, SavitzkyGolay};
+use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, SavitzkyGolay};
 use crate::measured_log::{MeasuredLog, Signal};
 
 /// Settings of the data conditioning. Defaults are documented in docs/validation.md.
@@ -208,7 +208,8 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
         (None, None) => return Err("the log has no position output".into()),
     };
 
-    let torque_sigma = noise_sigma(&torque_raw);
+    let positions: Vec<&[f64]> = if two_encoders { vec![&motor_pos_raw, &load_pos_raw] } else { vec![&motor_pos_raw] };
+    let torque_sigma = torque_noise_sigma(&torque_raw, &positions);
     let motor_pos_sigma = noise_sigma(&motor_pos_raw);
     let load_pos_sigma = noise_sigma(&load_pos_raw);
 
