@@ -236,22 +236,19 @@ impl MeasuredLog {
                 angle += 0.5 * (speed.values[k] + speed.values[k - 1]) * (self.time[k] - self.time[k - 1]);
                 integral.push(angle);
             }
-            // Least-squares line through (t, integral - load).
-            let n = self.len() as f64;
-            let (mut st, mut sy, mut stt, mut sty) = (0.0, 0.0, 0.0, 0.0);
-            for k in 0..self.len() {
-                let (t, y) = (self.time[k] - t0, integral[k] - load[k]);
-                st += t;
-                sy += y;
-                stt += t * t;
-                sty += t * y;
-            }
-            let slope = (n * sty - st * sy) / (n * stt - st * st);
-            let intercept = (sy - slope * st) / n;
-            let values: Vec<f64> = integral.iter().enumerate().map(|(k, q)| q - intercept - slope * (self.time[k] - t0)).collect();
+            // (integral - load) = c + b t + e load + (1 + e) twist, with c the unknown start, b
+            // the sensor's bias and e its scale error: least squares on [1, t, load] finds them,
+            // and the motor position is (integral - c - b t) / (1 + e).
+            let columns = [vec![1.0; self.len()], self.time.iter().map(|t| t - t0).collect::<Vec<_>>(), load.to_vec()];
+            let target: Vec<f64> = integral.iter().zip(load).map(|(q, l)| q - l).collect();
+            let Some([start, bias, scale_error]) = least_squares_3(&columns, &target) else {
+                return None;
+            };
+            let values: Vec<f64> = integral.iter().enumerate().map(|(k, q)| (q - start - bias * (self.time[k] - t0)) / (1.0 + scale_error)).collect();
             log.notes.push(format!(
-                "no motor encoder: the motor position is integrated from '{}' and put on the load encoder (its mean twist and a drift of {slope:.3e} rad/s, the speed sensor's bias, removed)",
-                speed.column
+                "no motor encoder: the motor position is integrated from '{}' and put on the load encoder (its mean twist, a bias of {bias:.3e} rad/s and a scale error of {:.3} % of the speed sensor removed)",
+                speed.column,
+                100.0 * scale_error
             ));
             log.channels.push(Channel { signal: Signal::MotorPos, motor: speed.motor, column: format!("motor_pos (integrated from {})", speed.column), unit: INTEGRATED_UNIT.into(), values });
         }
@@ -312,6 +309,38 @@ impl MeasuredLog {
         }
         out
     }
+}
+
+/// Least squares with three columns by the normal equations (columns centred and scaled
+/// first, so a column of large values next to a constant stays well conditioned). None when
+/// the columns are collinear.
+fn least_squares_3(columns: &[Vec<f64>; 3], y: &[f64]) -> Option<[f64; 3]> {
+    let n = y.len() as f64;
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / n;
+    // Column 0 is the constant; columns 1 and 2 are centred and scaled.
+    let centred: Vec<(f64, f64, Vec<f64>)> = columns[1..]
+        .iter()
+        .map(|c| {
+            let m = mean(c);
+            let d: Vec<f64> = c.iter().map(|v| v - m).collect();
+            let scale = (d.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
+            (m, scale, d.iter().map(|v| v / scale.max(f64::MIN_POSITIVE)).collect())
+        })
+        .collect();
+    let y_mean = mean(y);
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, z)| x * z).sum::<f64>();
+    let (u, v) = (&centred[0].2, &centred[1].2);
+    let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
+    let (a11, a12, a22) = (dot(u, u), dot(u, v), dot(v, v));
+    let det = a11 * a22 - a12 * a12;
+    if !(det > 1e-9 * a11 * a22) || centred.iter().any(|c| !(c.1 > 0.0)) {
+        return None;
+    }
+    let (r1, r2) = (dot(u, &yc), dot(v, &yc));
+    let b1 = (a22 * r1 - a12 * r2) / det / centred[0].1;
+    let b2 = (a11 * r2 - a12 * r1) / det / centred[1].1;
+    let b0 = y_mean - b1 * centred[0].0 - b2 * centred[1].0;
+    Some([b0, b1, b2]).filter(|b| b.iter().all(|x| x.is_finite()))
 }
 
 fn si_unit(dimension: Dimension) -> &'static str {
@@ -721,32 +750,36 @@ mod tests {
 
     #[test]
     fn motor_position_is_integrated_from_a_motor_speed_without_a_motor_encoder() {
-        // A drive twisting sinusoidally about a ramp; the log has the motor speed (with a bias,
-        // as a tachometer has) and the load encoder, but no motor encoder.
+        // A drive swinging back and forth and twisting at a higher frequency; the log has the
+        // motor speed (with the bias and scale error of an analogue speed output) and the load
+        // encoder, but no motor encoder.
         let dt = 0.002;
-        let (twist_amplitude, bias) = (2e-6, 3e-7);
+        let (twist_amplitude, bias, scale_error) = (2e-6, 3e-7, 5e-3);
+        let load_pos = |t: f64| 0.01 * t + 0.02 * (0.5 * t).sin();
+        let load_vel = |t: f64| 0.01 + 0.01 * (0.5 * t).cos();
+        let motor_pos = |t: f64| load_pos(t) + twist_amplitude * (7.0 * t).sin();
         let mut text = String::from("time_s,motor_current_A,load_pos_rad,motor_vel_rad_s\n");
-        let motor_pos = |t: f64| 0.01 * t + twist_amplitude * (7.0 * t).sin();
-        for k in 0..2000 {
+        for k in 0..10_000 {
             let t = k as f64 * dt;
-            let speed = 0.01 + 7.0 * twist_amplitude * (7.0 * t).cos() + bias;
-            text.push_str(&format!("{t:.4},1.0,{:.12e},{speed:.12e}\n", 0.01 * t));
+            let speed = (1.0 + scale_error) * (load_vel(t) + 7.0 * twist_amplitude * (7.0 * t).cos()) + bias;
+            text.push_str(&format!("{t:.4},1.0,{:.12e},{speed:.12e}\n", load_pos(t)));
         }
         let log = parse_str(&text).unwrap();
         assert!(!log.motor_position_is_integrated());
         let integrated = log.with_motor_position_from_speed().expect("a motor position from the speed");
         assert!(integrated.motor_position_is_integrated());
         assert!(integrated.notes.iter().any(|n| n.contains("integrated from 'motor_vel_rad_s'")), "{:?}", integrated.notes);
-        // The result is the motor position less its mean twist and the bias's drift: what is
-        // left is the twist's own variation, to the trapezoid rule's accuracy.
+        // The result is the motor position less its mean twist, the bias's drift and the scale
+        // error: what is left is the twist's own variation, to the trapezoid rule's accuracy.
         let load = integrated.signal(Signal::LoadPos).unwrap();
         let twist: Vec<f64> = integrated.signal(Signal::MotorPos).unwrap().iter().zip(load).map(|(m, l)| m - l).collect();
         let true_twist: Vec<f64> = integrated.time.iter().zip(load).map(|(t, l)| motor_pos(*t) - l).collect();
         let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
         let (m_twist, m_true) = (mean(&twist), mean(&true_twist));
         let worst = twist.iter().zip(&true_twist).map(|(a, b)| ((a - m_twist) - (b - m_true)).abs()).fold(0.0, f64::max);
-        assert!(m_twist.abs() < 1e-12, "mean twist {m_twist}");
-        assert!(worst < 0.03 * twist_amplitude, "twist error {worst:e} against an amplitude {twist_amplitude:e}");
+        assert!(worst < 0.05 * twist_amplitude, "twist error {worst:e} against an amplitude {twist_amplitude:e}");
+        // Without the scale correction the twist would be off by the scale error times the
+        // swing (1e-4 rad here), fifty times the twist itself.
         // A log with a motor encoder, or without a load encoder to anchor to, is left alone.
         assert!(parse_str(GOOD).unwrap().with_motor_position_from_speed().is_none());
         let no_load = parse_str("time_s,motor_current_A,motor_vel_rad_s,motor_pos_rad\n0,1,1,0\n0.1,1,1,0.1\n").unwrap();

@@ -4,6 +4,7 @@
 //!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
 //!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD] [--internal-rate HZ]
 //!                  [--log-rate HZ] [--noise-scale X] [--anti-resonance HZ] [--load-inertia KGM2]
+//!                  [--motor-speed | --no-motor-sensor] [--motors 2]
 //!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
 //!   truthgen start --out FILE.params
 //!
@@ -18,9 +19,13 @@
 //! (the nominal path stiffness set for this locked-motor anti-resonance, damping ratio kept)
 //! and `--load-inertia` make logs unlike the suite's, to check that `validate` is not tuned to
 //! the suite (docs/validation.md, "Logs unlike the suite"); the starting set follows the plant.
+//! `--motor-speed` logs a motor speed signal (truth::SpeedSensor's default: noise, bias, scale
+//! error) instead of the motor encoder, `--no-motor-sensor` neither (the load encoder is the
+//! only position), and `--motors 2` the current of two identical motors in
+//! columns of their own, as an antenna's azimuth drive logs them.
 
 use antenna_tools::truth::suite::{self, SuiteConfig};
-use antenna_tools::truth::TruthConfig;
+use antenna_tools::truth::{MotorSensor, SpeedSensor, TruthConfig};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -101,6 +106,14 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 let hz = base.plant.anti_resonance();
                 base.plant.load_inertia = inertia;
                 base.plant.set_anti_resonance(hz);
+            }
+            "--motor-speed" => base.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default()),
+            "--no-motor-sensor" => base.noise.motor_sensor = MotorSensor::None,
+            "--motors" => {
+                base.noise.motors = value(&args, &mut i, flag)?.parse().map_err(|_| "--motors needs 1 or 2")?;
+                if !(1..=2).contains(&base.noise.motors) {
+                    return Err("--motors needs 1 or 2".into());
+                }
             }
             "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
             "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,

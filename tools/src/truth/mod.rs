@@ -185,6 +185,42 @@ pub struct NoiseConfig {
     pub load_encoder_sigma: f64,
     /// Counts per motor revolution of the motor encoder (referred to the axis via the gear).
     pub motor_encoder_counts: f64,
+    /// What the log holds of the motor side.
+    pub motor_sensor: MotorSensor,
+    /// Motors whose currents the log holds in columns of their own (1 or 2). The truth's drive
+    /// is one lumped motor; with 2 each logged current is half of its current with its own
+    /// sensor noise and quantisation, as two identical motors without a bias would carry.
+    pub motors: usize,
+}
+
+/// The motor-side sensor a log holds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MotorSensor {
+    /// The motor encoder (`motor_pos`), as the suite's logs.
+    Encoder,
+    /// A speed signal instead (`motor_vel`, one per motor).
+    Speed(SpeedSensor),
+    /// Nothing: the load encoder is the only position (as the paper's closed-loop logs).
+    None,
+}
+
+/// A motor speed signal instead of a motor encoder, as a servo amplifier's analogue speed
+/// output (the paper's identification logged these): the true motor speed referred to the axis
+/// times (1 + scale_error), plus a bias and white noise, all axis side.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedSensor {
+    /// White noise at the log instants (rad/s).
+    pub sigma: f64,
+    pub bias: f64,
+    pub scale_error: f64,
+}
+
+impl Default for SpeedSensor {
+    /// A digital drive's speed estimate through an analogue output: 2e-6 rad/s at the axis
+    /// (0.023 rpm at a 1200:1 motor), a bias of a tenth of that and a 0.5 % scale tolerance.
+    fn default() -> Self {
+        SpeedSensor { sigma: 2.0e-6, bias: 2.0e-7, scale_error: 5.0e-3 }
+    }
 }
 
 impl Default for NoiseConfig {
@@ -195,6 +231,8 @@ impl Default for NoiseConfig {
             load_encoder_counts: 2f64.powi(25),
             load_encoder_sigma: 1.0e-7,
             motor_encoder_counts: 2f64.powi(20),
+            motor_sensor: MotorSensor::Encoder,
+            motors: 1,
         }
     }
 }
@@ -202,7 +240,8 @@ impl Default for NoiseConfig {
 impl NoiseConfig {
     /// Standard deviation of the logged torque noise, axis side (N m).
     pub fn torque_sigma(&self, plant: &TruthPlant) -> f64 {
-        plant.gear_ratio * plant.torque_constant * (self.current_sigma.powi(2) + self.current_step.powi(2) / 12.0).sqrt()
+        let per_motor = self.current_sigma.powi(2) + self.current_step.powi(2) / 12.0;
+        plant.gear_ratio * plant.torque_constant * (per_motor * self.motors.max(1) as f64).sqrt()
     }
 
     /// Standard deviation of the measured twist (motor minus load encoder), rad.
@@ -374,6 +413,10 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     let actual = Actual::new(config);
     let nominal = &config.plant;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed);
+    // The sensors a log variant adds (a second current, a speed signal) draw from a stream of
+    // their own, so the default logs stay bit for bit what they were.
+    let mut sensor_rng = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0x5e50_5e50_5e50_5e50);
+    let motors = config.noise.motors.clamp(1, 2);
     let unit_normal = Normal::new(0.0, 1.0).expect("unit normal");
     let trajectory = Trajectory::generate(&config.trajectory, config.duration, config.seed);
 
@@ -428,6 +471,8 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     let n_log = steps / log_every + 1;
     let mut time = Vec::with_capacity(n_log);
     let mut log_current = Vec::with_capacity(n_log);
+    let mut log_current_2 = Vec::new();
+    let mut log_speed: Vec<Vec<f64>> = vec![Vec::new(); motors];
     let mut log_ref = Vec::with_capacity(n_log);
     let mut log_motor = Vec::with_capacity(n_log);
     let mut log_load = Vec::with_capacity(n_log);
@@ -466,9 +511,18 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
             }
         }
         if step % log_every == 0 {
-            let measured_current = quantise(x[5] + config.noise.current_sigma * unit_normal.sample(&mut rng), config.noise.current_step);
+            let share = x[5] / motors as f64;
+            let measured_current = quantise(share + config.noise.current_sigma * unit_normal.sample(&mut rng), config.noise.current_step);
             time.push(t);
             log_current.push(measured_current);
+            if motors == 2 {
+                log_current_2.push(quantise(share + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng), config.noise.current_step));
+            }
+            if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
+                for speeds in log_speed.iter_mut() {
+                    speeds.push((1.0 + sensor.scale_error) * x[1] + sensor.bias + sensor.sigma * unit_normal.sample(&mut sensor_rng));
+                }
+            }
             log_ref.push(trajectory.position(t));
             log_motor.push(quantise(x[0], motor_step));
             log_load.push(quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step));
@@ -516,18 +570,23 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
 
     let mut metadata = BTreeMap::new();
     metadata.insert("generated_by".to_string(), "truthgen (antenna-tools)".to_string());
-    let channel = |signal: Signal, values: Vec<f64>| Channel { signal, motor: None, column: String::new(), unit: String::new(), values };
-    let log = MeasuredLog {
-        metadata,
-        time,
-        channels: vec![
-            channel(Signal::RefPos, log_ref),
-            channel(Signal::MotorCurrent, log_current),
-            channel(Signal::MotorPos, log_motor),
-            channel(Signal::LoadPos, log_load),
-        ],
-        notes: Vec::new(),
-    };
+    let channel = |signal: Signal, motor: Option<u32>, values: Vec<f64>| Channel { signal, motor, column: String::new(), unit: String::new(), values };
+    let numbered = |k: u32| (motors == 2).then_some(k);
+    let mut channels = vec![channel(Signal::RefPos, None, log_ref), channel(Signal::MotorCurrent, numbered(1), log_current)];
+    if motors == 2 {
+        channels.push(channel(Signal::MotorCurrent, numbered(2), log_current_2));
+    }
+    match config.noise.motor_sensor {
+        MotorSensor::Encoder => channels.push(channel(Signal::MotorPos, None, log_motor)),
+        MotorSensor::Speed(_) => {
+            for (k, speeds) in log_speed.into_iter().enumerate() {
+                channels.push(channel(Signal::MotorVel, numbered(k as u32 + 1), speeds));
+            }
+        }
+        MotorSensor::None => {}
+    }
+    channels.push(channel(Signal::LoadPos, None, log_load));
+    let log = MeasuredLog { metadata, time, channels, notes: Vec::new() };
     TruthRun { log, clean }
 }
 
@@ -550,12 +609,42 @@ fn add(x: &[f64; 6], k: &[f64; 6], h: f64) -> [f64; 6] {
 }
 
 /// The units the generated logs use, like a drive's own logging.
-pub const LOG_UNITS: [(Signal, &str); 5] =
-    [(Signal::Time, "s"), (Signal::RefPos, "deg"), (Signal::MotorCurrent, "A"), (Signal::MotorPos, "deg"), (Signal::LoadPos, "deg")];
+pub const LOG_UNITS: [(Signal, &str); 6] =
+    [(Signal::Time, "s"), (Signal::RefPos, "deg"), (Signal::MotorCurrent, "A"), (Signal::MotorPos, "deg"), (Signal::LoadPos, "deg"), (Signal::MotorVel, "deg_s")];
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sensor_variants_log_their_own_columns_and_leave_the_physics_alone() {
+        let plain = TruthConfig { duration: 4.0, ..TruthConfig::default() };
+        let mut variant = plain.clone();
+        variant.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
+        variant.noise.motors = 2;
+        let (a, b) = (simulate(&plain), simulate(&variant));
+        // The same motion, measured by the same load encoder with the same noise.
+        assert_eq!(a.log.signal(Signal::LoadPos), b.log.signal(Signal::LoadPos));
+        assert!(b.log.signal(Signal::MotorPos).is_none());
+        let speeds = b.log.signals(Signal::MotorVel);
+        let currents = b.log.signals(Signal::MotorCurrent);
+        assert_eq!((speeds.len(), currents.len()), (2, 2));
+        assert_eq!((currents[0].motor, currents[1].motor), (Some(1), Some(2)));
+        // Two half currents with their own noise sum to the one current within that noise.
+        let single = a.log.signal(Signal::MotorCurrent).unwrap();
+        let sigma = plain.noise.current_sigma;
+        let worst = (0..single.len()).map(|k| (currents[0].values[k] + currents[1].values[k] - single[k]).abs()).fold(0.0, f64::max);
+        assert!(worst < 12.0 * sigma, "{worst}");
+        // The speed signal is the true motor speed with its scale error, bias and noise.
+        let sensor = SpeedSensor::default();
+        let errors: Vec<f64> = speeds[0].values.iter().zip(&b.clean.motor_vel).map(|(m, v)| m - (1.0 + sensor.scale_error) * v - sensor.bias).collect();
+        let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+        assert!((rms / sensor.sigma - 1.0).abs() < 0.1, "speed noise {rms:e}");
+        // With no motor sensor the load encoder is the only position.
+        variant.noise.motor_sensor = MotorSensor::None;
+        let c = simulate(&variant);
+        assert!(c.log.signal(Signal::MotorPos).is_none() && c.log.signal(Signal::MotorVel).is_none());
+    }
 
     fn short(effects: Vec<Effect>) -> TruthConfig {
         TruthConfig { duration: 8.0, effects, ..TruthConfig::default() }

@@ -7,7 +7,7 @@
 //! the same thing for every effect. Each log gets an opaque name and a sidecar `.truth` file
 //! for scoring; the log itself declares nothing.
 
-use super::{simulate, CleanSignals, Effect, TruthConfig, LOG_UNITS};
+use super::{simulate, CleanSignals, Effect, MotorSensor, SpeedSensor, TruthConfig, LOG_UNITS};
 use rand::{RngExt, SeedableRng};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -62,7 +62,23 @@ pub fn holdout_suites() -> Vec<(&'static str, &'static str, SuiteConfig)> {
         base.plant.set_anti_resonance(anti_resonance);
         SuiteConfig { sizes: vec![10.0, 20.0], seeds, clean_seeds, pairs: Vec::new(), base, ..SuiteConfig::default() }
     };
+    let sensors = |seeds: Vec<u64>, clean_seeds: Vec<u64>, motor_sensor: MotorSensor, motors: usize| {
+        let mut base = TruthConfig::default();
+        base.noise.motor_sensor = motor_sensor;
+        base.noise.motors = motors;
+        SuiteConfig { sizes: vec![10.0, 20.0], seeds, clean_seeds, pairs: Vec::new(), base, ..SuiteConfig::default() }
+    };
     vec![
+        (
+            "speed-sensor",
+            "a motor speed signal (noise 2e-6 rad/s, bias 2e-7 rad/s, scale error 0.5 %, axis side) instead of the motor encoder, and two motors' currents in columns of their own, as an antenna's azimuth drive logs them; the suite's drive",
+            sensors(vec![25, 26], (209..=212).collect(), MotorSensor::Speed(SpeedSensor::default()), 2),
+        ),
+        (
+            "load-encoder-only",
+            "the load encoder is the only position (no motor encoder or speed), as the paper's closed-loop logs; the suite's drive",
+            sensors(vec![27, 28], (213..=216).collect(), MotorSensor::None, 1),
+        ),
         (
             "fast-stiff",
             "logged at 1 kHz, twice the sensor noise, a stiffer and lighter drive (anti-resonance 6 Hz, load inertia 3e4 kg m^2)",
@@ -437,14 +453,15 @@ mod tests {
     }
 
     #[test]
-    fn holdout_suites_share_no_seed_rate_or_plant_with_the_main_suite() {
+    fn holdout_suites_share_no_seed_and_differ_from_the_main_suite() {
         let main = SuiteConfig::default();
         for (name, _, holdout) in holdout_suites() {
             assert!(holdout.seeds.iter().chain(&holdout.clean_seeds).all(|s| !main.seeds.contains(s) && !main.clean_seeds.contains(s)), "{name}");
-            assert_ne!(holdout.base.log_rate, main.base.log_rate, "{name}");
-            assert_ne!(holdout.base.noise.current_sigma, main.base.noise.current_sigma, "{name}");
-            assert_ne!(holdout.base.plant.anti_resonance(), main.base.plant.anti_resonance(), "{name}");
-            assert_ne!(holdout.base.plant.load_inertia, main.base.plant.load_inertia, "{name}");
+            let (h, m) = (&holdout.base, &main.base);
+            let other_log = h.log_rate != m.log_rate && h.noise.current_sigma != m.noise.current_sigma;
+            let other_drive = h.plant.anti_resonance() != m.plant.anti_resonance() && h.plant.load_inertia != m.plant.load_inertia;
+            let other_sensors = h.noise.motor_sensor != m.noise.motor_sensor;
+            assert!(other_log && other_drive || other_sensors, "{name}: the same log rate, noise, drive and sensors as the main suite");
             assert_eq!(holdout.kinds.len(), EFFECT_KINDS.len(), "{name}: every effect kind");
         }
     }

@@ -19,7 +19,7 @@
 //! the sum of the two (the rigid-body total) is the only channel. All torques are axis side.
 
 use super::parameters::{names, ParameterSet};
-use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, SavitzkyGolay};
+use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, weighted_least_squares, SavitzkyGolay};
 use crate::measured_log::{MeasuredLog, Signal};
 
 /// Settings of the data conditioning. Defaults are documented in docs/validation.md.
@@ -114,6 +114,10 @@ pub struct EquationData {
     /// The starting stiffness, used as a fixed unit that turns the load equation's twist into
     /// torque (1 when the structure has no load equation).
     pub twist_scale: f64,
+    /// Knot times (s) of the slowly varying twist offset when the motor position was integrated
+    /// from a speed signal, whose slow part a speed sensor cannot measure; empty when the twist
+    /// offset is one constant (two encoders).
+    pub slow_twist_knots: Vec<f64>,
     /// Index of the first analysed sample in the log.
     pub first_sample: usize,
     pub channels: Vec<ChannelData>,
@@ -177,6 +181,38 @@ pub fn static_friction_curve(params: &ParameterSet, speed: f64) -> f64 {
     (fc + (fs - fc) * (-(speed / vs).powi(2)).exp()) * (sign + params.value(names::ASYMMETRY) * sign.abs())
 }
 
+/// With one encoder on a compliant drive, the rigid-body equation's smoothing cut-off is the
+/// starting set's anti-resonance divided by this.
+pub const RIGID_CUTOFF_FRACTION_OF_ANTI_RESONANCE: f64 = 3.0;
+
+/// Shortest and longest knot spacing (s) of the slowly varying twist offset of an integrated
+/// motor position.
+pub const SLOW_TWIST_KNOT_SPACING: (f64, f64) = (0.5, 10.0);
+
+/// The hat functions of a piecewise linear interpolation through `knots`, evaluated at `time`:
+/// one column per knot, summing to one everywhere.
+pub fn hat_functions(knots: &[f64], time: &[f64]) -> Vec<Vec<f64>> {
+    (0..knots.len())
+        .map(|j| {
+            time.iter()
+                .map(|&t| {
+                    let left = if j > 0 { knots[j - 1] } else { f64::NEG_INFINITY };
+                    let right = knots.get(j + 1).copied().unwrap_or(f64::INFINITY);
+                    if t <= knots[j] {
+                        if j == 0 { 1.0 } else if t <= left { 0.0 } else { (t - left) / (knots[j] - left) }
+                    } else if j + 1 == knots.len() {
+                        1.0
+                    } else if t >= right {
+                        0.0
+                    } else {
+                        (right - t) / (right - knots[j])
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// Builds the conditioned data and the starting model's residual channels.
 pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptions) -> Result<EquationData, String> {
     let mut notes = Vec::new();
@@ -235,6 +271,23 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
         }
         trial += 0.25;
     }
+    // One encoder on a compliant drive: the equation error takes the motor and load as one
+    // rigid body, which holds only well below the drive's anti-resonance (the motor's extra
+    // acceleration, the twist's second derivative, grows as (f / f_ar)^2 above it and would
+    // look like a delay or an inertia error). The smoothing then stops at a third of the
+    // starting set's anti-resonance, where that error is under a ninth of the motor's share
+    // of the inertia torque; the output error still simulates the compliant plant.
+    let stiffness = params.value(names::STIFFNESS);
+    if !two_encoders && stiffness > 0.0 && load_inertia > 0.0 {
+        let anti_resonance_hz = (stiffness / load_inertia).sqrt() / (2.0 * std::f64::consts::PI);
+        let rigid_cutoff_hz = anti_resonance_hz / RIGID_CUTOFF_FRACTION_OF_ANTI_RESONANCE;
+        if 0.1325 / (kernel_sigma * dt) > rigid_cutoff_hz {
+            kernel_sigma = 0.1325 / (rigid_cutoff_hz * dt);
+            notes.push(format!(
+                "one encoder on a compliant drive: the rigid-body equation is smoothed to {rigid_cutoff_hz:.2} Hz, a third of the starting set's anti-resonance {anti_resonance_hz:.2} Hz, below which the drive moves as one body"
+            ));
+        }
+    }
     let smoother = gaussian_kernel(kernel_sigma);
     let half_width = smoother.len() / 2;
     if n < 8 * half_width + 16 {
@@ -286,7 +339,6 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
         }
     }
 
-    let stiffness = params.value(names::STIFFNESS);
     let structure = if !two_encoders {
         Structure::Rigid
     } else if stiffness > 0.0 && load_inertia > 0.0 {
@@ -298,6 +350,26 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
             names::LOAD_INERTIA
         ));
         Structure::TotalTwoEncoders
+    };
+
+    // A motor position integrated from a speed signal drifts as a random walk of the speed
+    // noise; its twist is trusted over the time T in which that walk stays within the load
+    // encoder's noise, sigma_v sqrt(dt T) = sigma_l, and the twist offset becomes a piecewise
+    // linear function with knots T apart (0.5 to 10 s).
+    let slow_twist_knots = match log.signal(Signal::MotorVel).filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass) {
+        Some(speed) => {
+            let speed_sigma = noise_sigma(speed).max(f64::MIN_POSITIVE);
+            let spacing = ((load_pos_sigma / speed_sigma).powi(2) / dt).clamp(SLOW_TWIST_KNOT_SPACING.0, SLOW_TWIST_KNOT_SPACING.1);
+            let (t0, t1) = (time[0], time[time.len() - 1]);
+            let count = ((t1 - t0) / spacing).ceil().max(1.0) as usize;
+            notes.push(format!(
+                "the motor position is integrated from a speed signal (noise {speed_sigma:.2e} rad/s): its twist is trusted over {:.2} s, and the twist offset is a free piecewise linear function of time with {} knots",
+                (t1 - t0) / count as f64,
+                count + 1
+            ));
+            (0..=count).map(|j| t0 + (t1 - t0) * j as f64 / count as f64).collect()
+        }
+        None => Vec::new(),
     };
 
     let mut data = EquationData {
@@ -330,6 +402,7 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
         load_pos_sigma,
         stick_speed,
         twist_scale: if structure == Structure::TwoMass { stiffness } else { 1.0 },
+        slow_twist_knots,
         first_sample,
         channels: Vec::new(),
         notes,
@@ -429,8 +502,43 @@ pub fn cogging_torque(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
 /// the direction in which the drive path is in contact. The centre is the twist at zero shaft
 /// torque, estimated robustly (median) from the load equation.
 pub fn backlash_sign(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
-    let centre = twist_centre(data, params);
-    data.smooth(&data.twist_inner.iter().map(|t| (t - centre).signum()).collect::<Vec<_>>())
+    let centres = twist_centres(data, params);
+    let h = data.half_width;
+    let last = centres.len() - 1;
+    // The inner region reaches h samples beyond the analysed one each side.
+    data.smooth(&data.twist_inner.iter().enumerate().map(|(j, t)| (t - centres[j.saturating_sub(h).min(last)]).signum()).collect::<Vec<_>>())
+}
+
+/// The twist at zero shaft torque on every analysed sample: the constant [`twist_centre`], or,
+/// for a motor position integrated from a speed signal, a piecewise linear function of time on
+/// the data's slow-twist knots fitted by least squares to the same per-sample estimates (the
+/// slow part of such a twist is the speed sensor's drift, which only a model can put back;
+/// every parameter set gets its own, as it gets its own constant centre).
+pub fn twist_centres(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
+    if data.slow_twist_knots.is_empty() {
+        return vec![twist_centre(data, params); data.len()];
+    }
+    let implied = implied_twist_centres(data, params);
+    let hats = hat_functions(&data.slow_twist_knots, &data.time);
+    let (beta, _) = weighted_least_squares(&hats, &implied, &vec![1.0; implied.len()]);
+    (0..data.len()).map(|i| hats.iter().zip(&beta).map(|(h, b)| h[i] * b).sum()).collect()
+}
+
+/// Per analysed sample, the measured twist less the twist the load equation needs.
+fn implied_twist_centres(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
+    let stiffness = params.value(names::STIFFNESS).max(f64::MIN_POSITIVE);
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    let amplitude = params.value(names::UNBALANCE_TORQUE);
+    let phase = params.value(names::UNBALANCE_PHASE);
+    let offset = params.value(names::TORQUE_OFFSET);
+    let damping = params.value(names::DAMPING);
+    (0..data.len())
+        .map(|i| {
+            let disturbance = data.disturbance.as_ref().map_or(0.0, |d| d[i]);
+            let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance;
+            data.twist[i] - (load_side - damping * data.twist_rate[i]) / stiffness
+        })
+        .collect()
 }
 
 /// The measured twist at zero shaft torque (encoder zero offsets, preload, the centre of a
@@ -438,22 +546,9 @@ pub fn backlash_sign(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
 /// equation needs. The output-error route starts the plant's path deflection at the measured
 /// twist minus this.
 pub fn twist_centre(data: &EquationData, params: &ParameterSet) -> f64 {
-    let n = data.len();
-    let stiffness = params.value(names::STIFFNESS).max(f64::MIN_POSITIVE);
-    let load_inertia = params.value(names::LOAD_INERTIA);
-    let amplitude = params.value(names::UNBALANCE_TORQUE);
-    let phase = params.value(names::UNBALANCE_PHASE);
-    let offset = params.value(names::TORQUE_OFFSET);
-    let damping = params.value(names::DAMPING);
-    let mut centres: Vec<f64> = (0..n)
-        .map(|i| {
-            let disturbance = data.disturbance.as_ref().map_or(0.0, |d| d[i]);
-            let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance;
-            data.twist[i] - (load_side - damping * data.twist_rate[i]) / stiffness
-        })
-        .collect();
+    let mut centres = implied_twist_centres(data, params);
     centres.sort_by(|a, b| a.total_cmp(b));
-    centres[n / 2]
+    centres[centres.len() / 2]
 }
 
 /// Five-point central difference stencils, in units of one sample.
@@ -521,4 +616,26 @@ pub fn uniform(log: &MeasuredLog, notes: &mut Vec<String>) -> MeasuredLog {
     out.time = grid;
     notes.push(format!("sampling is uneven: resampled to a uniform {dt:.6} s grid by linear interpolation"));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hat_functions_interpolate_linearly_and_sum_to_one() {
+        let knots = [0.0, 1.0, 3.0];
+        let time: Vec<f64> = (0..=30).map(|k| k as f64 * 0.1).collect();
+        let hats = hat_functions(&knots, &time);
+        assert_eq!(hats.len(), 3);
+        for (i, t) in time.iter().enumerate() {
+            let sum: f64 = hats.iter().map(|h| h[i]).sum();
+            assert!((sum - 1.0).abs() < 1e-12, "sum {sum} at {t}");
+            // Values at the knots interpolate linearly: sum of h_j(t) x_j for x = t^1 is t.
+            let interpolated: f64 = hats.iter().zip(&knots).map(|(h, x)| h[i] * x).sum();
+            assert!((interpolated - t).abs() < 1e-12, "{interpolated} at {t}");
+        }
+        assert_eq!(hats[1][10], 1.0);
+        assert_eq!(hats[0][20], 0.0);
+    }
 }

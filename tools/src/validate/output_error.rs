@@ -13,7 +13,7 @@
 //! The simulator is a trait; [`super::plant_fmu::FmuSimulator`] is the plant FMU through the C
 //! ABI, [`RigidReferenceSimulator`] a small native stand-in for tests of the windowing.
 
-use super::equation_error::{twist_centre, EquationData, Structure};
+use super::equation_error::{twist_centres, EquationData, Structure};
 use super::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use super::signals::SavitzkyGolay;
 use crate::measured_log::{MeasuredLog, Signal};
@@ -443,7 +443,7 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
 /// Simulates every window with a parameter set and collects the output errors.
 pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, data: &EquationData, out: &OutputData, plan: &WindowPlan) -> Result<OutputError, String> {
     simulator.configure(params, &out.config)?;
-    let centre = if out.structure == Structure::TwoMass { twist_centre(data, params) } else { 0.0 };
+    let centres = if out.structure == Structure::TwoMass { twist_centres(data, params) } else { vec![0.0; data.len()] };
     let mut kinds = out.channels();
     let load_side = out.structure == Structure::TwoMass && out.two_encoders;
     if load_side {
@@ -457,7 +457,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
     let length = plan.length;
     for &i0 in &plan.starts {
         let k0 = out.first_sample + i0;
-        let start = window_start(out, i0, params, centre);
+        let start = window_start(out, i0, params, centres[i0]);
         let steps = length - 1;
         let sim = simulator.simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)?;
         if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
@@ -469,7 +469,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
             let mut twist = Vec::with_capacity(length);
             for (offset, piece) in plan.drive_pieces() {
                 let (i, k) = (i0 + offset, k0 + offset);
-                let piece_start = window_start(out, i, params, centre);
+                let piece_start = window_start(out, i, params, centres[i]);
                 let piece_sim = simulator.simulate(&piece_start, &out.held[k..k + piece - 1], &out.disturbance_held[k..k + piece - 1], out.dt)?;
                 if piece_sim.len() != piece || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite()) {
                     return Err(format!("the simulation of the drive-path piece at {:.3} s failed", out.time[i]));
@@ -480,7 +480,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
         } else {
             None
         };
-        let load_side_sim = if load_side { simulate_load_side(out, params, centre, i0, length) } else { Vec::new() };
+        let load_side_sim = if load_side { simulate_load_side(out, params, &centres, i0, length) } else { Vec::new() };
         // Positions are compared as the logged values against the simulation started at the
         // smoothed measured state; speeds against the zero-phase derivative of the positions.
         for (c, (kind, _)) in kinds.iter().enumerate() {
@@ -524,7 +524,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
             }
         })
         .collect();
-    Ok(OutputError { plan: plan.clone(), channels, twist_centre: centre, time })
+    Ok(OutputError { plan: plan.clone(), channels, twist_centre: centres.first().copied().unwrap_or(0.0), time })
 }
 
 /// The load side of a two-mass model alone, driven by the measured motor motion: the axis
@@ -546,7 +546,7 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
 /// `de/dt = -(K/D) e`; a pinion leaves a flank when it would pull. The motor motion between
 /// log samples is the cubic Hermite interpolant of the smoothed motor position and speed; the
 /// equations are integrated with RK4, 20 steps per log interval.
-pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centre: f64, i0: usize, length: usize) -> Vec<f64> {
+pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centres: &[f64], i0: usize, length: usize) -> Vec<f64> {
     let inertia = params.value(names::LOAD_INERTIA).max(f64::MIN_POSITIVE);
     let stiffness = params.value(names::STIFFNESS);
     let damping = params.value(names::DAMPING).max(0.0);
@@ -568,11 +568,12 @@ pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centre: f64, 
         let (s2, s3) = (s * s, s * s * s);
         let position = (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * v1;
         let speed = ((6.0 * s2 - 6.0 * s) * p0 + (3.0 * s2 - 4.0 * s + 1.0) * v0 + (-6.0 * s2 + 6.0 * s) * p1 + (3.0 * s2 - 2.0 * s) * v1) / dt;
+        let centre = centres[i0 + j] + s * (centres[(i0 + j + 1).min(centres.len() - 1)] - centres[i0 + j]);
         (position - centre, speed)
     };
     // State: load angle, load speed, spring deflection (only moving in the gap).
     let (mut angle, mut speed) = (out.state_load_pos[i0], out.state_load_vel[i0]);
-    let d0 = out.state_motor_pos[i0] - centre - angle;
+    let d0 = out.state_motor_pos[i0] - centres[i0] - angle;
     let (mut flank, mut deflection) = if half_gap == 0.0 || d0 > half_gap {
         (Flank::Positive, d0 - half_gap)
     } else if d0 < -half_gap {
@@ -842,11 +843,11 @@ mod tests {
         let data = super::super::equation_error::prepare(&log, &start, &Default::default()).unwrap();
         let out = OutputData::new(&log, &data, &start).unwrap();
         assert!(out.two_encoders && out.structure == Structure::TwoMass);
-        let centre = twist_centre(&data, params);
+        let centres = twist_centres(&data, params);
         let length = (1.0 / out.dt) as usize;
         let (mut sum, mut count) = (0.0, 0);
         for i0 in (0..out.len() - length).step_by(length) {
-            let simulated = simulate_load_side(&out, params, centre, i0, length);
+            let simulated = simulate_load_side(&out, params, &centres, i0, length);
             for (j, y) in simulated.iter().enumerate() {
                 sum += (out.load_pos[out.first_sample + i0 + j] - y).powi(2);
                 count += 1;

@@ -355,7 +355,19 @@ fn baseline_columns(data: &EquationData, params: &ParameterSet) -> Vec<Column> {
     }
     let n = data.len();
     let k = params.value(super::parameters::names::STIFFNESS);
-    vec![Column { label: "twist offset (nuisance)".into(), unit: "rad".into(), channels: vec![vec![-k; n], vec![data.twist_scale; n]] }]
+    if data.slow_twist_knots.is_empty() {
+        return vec![Column { label: "twist offset (nuisance)".into(), unit: "rad".into(), channels: vec![vec![-k; n], vec![data.twist_scale; n]] }];
+    }
+    // An integrated motor position: the twist offset varies slowly, one hat function a knot.
+    super::equation_error::hat_functions(&data.slow_twist_knots, &data.time)
+        .into_iter()
+        .enumerate()
+        .map(|(j, hat)| Column {
+            label: format!("twist offset at knot {j} (nuisance)"),
+            unit: "rad".into(),
+            channels: vec![hat.iter().map(|h| -k * h).collect(), hat.iter().map(|h| data.twist_scale * h).collect()],
+        })
+        .collect()
 }
 
 /// Fits `columns` to the residual of `channels` plus `adjust` with per-channel weights.

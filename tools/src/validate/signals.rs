@@ -170,6 +170,21 @@ pub fn shift_samples(x: &[f64], shift: f64) -> Vec<f64> {
         .collect()
 }
 
+/// The half-open index ranges where `x` is not zero, runs of zeros shorter than 64 samples
+/// bridged (they cost less to sum than to skip).
+fn non_zero_runs(x: &[f64]) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (i, v) in x.iter().enumerate() {
+        if *v != 0.0 {
+            match runs.last_mut() {
+                Some(last) if i - last.1 < 64 => last.1 = i + 1,
+                _ => runs.push((i, i + 1)),
+            }
+        }
+    }
+    runs
+}
+
 /// Solves a small weighted least-squares problem `min sum w_i (y_i - X_i b)^2` through the
 /// normal equations with columns scaled to unit norm and a pseudo-inverse, so collinear
 /// columns give a finite (minimum-norm) answer instead of a failure. Returns the coefficients
@@ -182,13 +197,28 @@ pub fn weighted_least_squares(columns: &[Vec<f64>], y: &[f64], weights: &[f64]) 
     }
     let mut gram = DMatrix::<f64>::zeros(k, k);
     let mut rhs = DVector::<f64>::zeros(k);
+    // Each column's runs of non-zero values: a column that is zero over most rows (a hat
+    // function of a slowly varying nuisance) costs only where it is not, the same sums.
+    let runs: Vec<Vec<(usize, usize)>> = columns.iter().map(|c| non_zero_runs(c)).collect();
     for a in 0..k {
         for b in a..k {
-            let s: f64 = columns[a].iter().zip(&columns[b]).zip(weights).map(|((x, z), w)| w * x * z).sum();
+            let mut s = 0.0;
+            let (mut i, mut j) = (0, 0);
+            while i < runs[a].len() && j < runs[b].len() {
+                let (start, end) = (runs[a][i].0.max(runs[b][j].0), runs[a][i].1.min(runs[b][j].1));
+                if start < end {
+                    s += columns[a][start..end].iter().zip(&columns[b][start..end]).zip(&weights[start..end]).map(|((x, z), w)| w * x * z).sum::<f64>();
+                }
+                if runs[a][i].1 <= runs[b][j].1 {
+                    i += 1;
+                } else {
+                    j += 1;
+                }
+            }
             gram[(a, b)] = s;
             gram[(b, a)] = s;
         }
-        rhs[a] = columns[a].iter().zip(y).zip(weights).map(|((x, v), w)| w * x * v).sum();
+        rhs[a] = runs[a].iter().map(|&(start, end)| columns[a][start..end].iter().zip(&y[start..end]).zip(&weights[start..end]).map(|((x, v), w)| w * x * v).sum::<f64>()).sum();
     }
     let scale: Vec<f64> = (0..k).map(|a| if gram[(a, a)] > 0.0 { 1.0 / gram[(a, a)].sqrt() } else { 0.0 }).collect();
     let scaled = DMatrix::from_fn(k, k, |a, b| gram[(a, b)] * scale[a] * scale[b]);
