@@ -102,6 +102,9 @@ pub struct OutputData {
     pub state_load_vel: Vec<f64>,
     pub state_motor_pos: Vec<f64>,
     pub state_motor_vel: Vec<f64>,
+    /// Axis acceleration at each analysed sample (same filter), for the path deflection a
+    /// compliant model starts from when the log has one encoder.
+    pub state_load_acc: Vec<f64>,
     /// Half-width (samples) of the state estimator.
     pub state_half_width: usize,
     /// Logged torque on the analysed region, axis side (N m), unsmoothed.
@@ -162,6 +165,7 @@ impl OutputData {
         let state_load_vel = estimate(&load_pos, &sg.first);
         let state_motor_pos = estimate(&motor_pos, &sg.smooth);
         let state_motor_vel = estimate(&motor_pos, &sg.first);
+        let state_load_acc = estimate(&load_pos, &sg.second);
         Ok(OutputData {
             config: FmuConfig { drive, input, sample_interval: data.dt },
             structure: data.structure,
@@ -177,6 +181,7 @@ impl OutputData {
             state_load_vel,
             state_motor_pos,
             state_motor_vel,
+            state_load_acc,
             state_half_width: half_width,
             axis_torque,
             time: data.time.clone(),
@@ -434,10 +439,28 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
         load_speed: if rigid { motor_speed } else { out.state_load_vel[i] },
         motor_angle: out.state_motor_pos[i],
         motor_speed,
-        twist: if rigid { 0.0 } else { out.state_motor_pos[i] - out.state_load_pos[i] - centre },
+        twist: if rigid { equilibrium_deflection(out, i, params) } else { out.state_motor_pos[i] - out.state_load_pos[i] - centre },
         currents,
         history,
     }
+}
+
+/// The path deflection a compliant model starts a window from when the log does not measure
+/// the twist (one encoder): the one whose shaft torque carries the load side at that instant,
+/// (J_L a_L + unbalance + offset - disturbance) / K, plus half the backlash on the side the
+/// torque pushes. Starting unloaded instead would ring the drive mode with the whole load
+/// torque at every window start. A rigid model (no stiffness) needs none.
+fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> f64 {
+    let stiffness = params.value(names::STIFFNESS);
+    if !(stiffness > 0.0) {
+        return 0.0;
+    }
+    let angle = out.state_load_pos[i];
+    let (amplitude, phase) = (params.value(names::UNBALANCE_TORQUE), params.value(names::UNBALANCE_PHASE));
+    let k = out.first_sample + i;
+    let shaft = params.value(names::LOAD_INERTIA) * out.state_load_acc[i] + amplitude * (angle + phase).cos() + params.value(names::TORQUE_OFFSET)
+        - out.disturbance_held.get(k).copied().unwrap_or(0.0);
+    shaft / stiffness + 0.5 * params.value(names::BACKLASH_WIDTH).max(0.0) * shaft.signum()
 }
 
 /// Simulates every window with a parameter set and collects the output errors.
