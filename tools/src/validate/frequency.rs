@@ -112,7 +112,9 @@ fn trough(frequency: &[f64], values: &[f64], band: (f64, f64)) -> Option<f64> {
 pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, after: &ParameterSet) -> Option<FrequencyResponse> {
     let stiffness = before.value(names::STIFFNESS);
     let load = before.value(names::LOAD_INERTIA);
-    if stiffness <= 0.0 || load <= 0.0 {
+    // The trough is in the response of the motor: a log with the load encoder alone does not
+    // measure it (its "motor" angle is the load's, which has a resonance there, not a trough).
+    if stiffness <= 0.0 || load <= 0.0 || !out.motor_measured {
         return None;
     }
     let sample_rate = 1.0 / data.dt;

@@ -97,6 +97,8 @@ pub struct OutputData {
     pub load_pos: Vec<f64>,
     pub motor_pos: Vec<f64>,
     pub two_encoders: bool,
+    /// The log measures the motor side (a motor encoder, or a speed integrated to one).
+    pub motor_measured: bool,
     /// Smoothed state on the analysed region (from the equation-error conditioning).
     pub state_load_pos: Vec<f64>,
     pub state_load_vel: Vec<f64>,
@@ -177,6 +179,7 @@ impl OutputData {
             load_pos,
             motor_pos,
             two_encoders: motor.is_some() && load.is_some(),
+            motor_measured: motor.is_some(),
             state_load_pos,
             state_load_vel,
             state_motor_pos,
@@ -433,13 +436,17 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
         }
     }
     let rigid = out.structure != Structure::TwoMass;
-    let motor_speed = out.state_motor_vel[i];
+    let (twist, motor_speed) = if rigid {
+        (equilibrium_deflection(out, i, params), out.state_motor_vel[i])
+    } else {
+        (out.state_motor_pos[i] - out.state_load_pos[i] - centre, out.state_motor_vel[i])
+    };
     WindowStart {
         load_angle: out.state_load_pos[i],
-        load_speed: if rigid { motor_speed } else { out.state_load_vel[i] },
+        load_speed: if rigid { out.state_motor_vel[i] } else { out.state_load_vel[i] },
         motor_angle: out.state_motor_pos[i],
         motor_speed,
-        twist: if rigid { equilibrium_deflection(out, i, params) } else { out.state_motor_pos[i] - out.state_load_pos[i] - centre },
+        twist,
         currents,
         history,
     }
@@ -449,7 +456,9 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
 /// the twist (one encoder): the one whose shaft torque carries the load side at that instant,
 /// (J_L a_L + unbalance + offset - disturbance) / K, plus half the backlash on the side the
 /// torque pushes. Starting unloaded instead would ring the drive mode with the whole load
-/// torque at every window start. A rigid model (no stiffness) needs none.
+/// torque at every window start. (Its rate, J_L times the load's jerk over K, was tried: the
+/// jerk from the load encoder is too noisy and tripled the error.) A rigid model (no
+/// stiffness) needs none.
 fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> f64 {
     let stiffness = params.value(names::STIFFNESS);
     if !(stiffness > 0.0) {
