@@ -241,9 +241,7 @@ impl MeasuredLog {
             // and the motor position is (integral - c - b t) / (1 + e).
             let columns = [vec![1.0; self.len()], self.time.iter().map(|t| t - t0).collect::<Vec<_>>(), load.to_vec()];
             let target: Vec<f64> = integral.iter().zip(load).map(|(q, l)| q - l).collect();
-            let Some([start, bias, scale_error]) = least_squares_3(&columns, &target) else {
-                return None;
-            };
+            let [start, bias, scale_error] = least_squares_3(&columns, &target)?;
             let values: Vec<f64> = integral.iter().enumerate().map(|(k, q)| (q - start - bias * (self.time[k] - t0)) / (1.0 + scale_error)).collect();
             log.notes.push(format!(
                 "no motor encoder: the motor position is integrated from '{}' and put on the load encoder (its mean twist, a bias of {bias:.3e} rad/s and a scale error of {:.3} % of the speed sensor removed)",

@@ -100,7 +100,8 @@ fn logs_with_other_sensors_get_no_false_claim_and_their_effect_named() {
     speed_sensor.noise.motors = 2;
     let mut load_encoder = SuiteConfig::default().base;
     load_encoder.noise.motor_sensor = MotorSensor::None;
-    let cases: Vec<(&TruthConfig, u64, Vec<(&str, f64)>)> = vec![
+    type Case<'a> = (&'a TruthConfig, u64, Vec<(&'a str, f64)>);
+    let cases: Vec<Case> = vec![
         (&speed_sensor, 301, vec![]),
         (&speed_sensor, 31, vec![("stiffness", 20.0)]),
         (&load_encoder, 302, vec![]),
