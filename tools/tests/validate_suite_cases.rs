@@ -93,11 +93,13 @@ fn suite_cases_meet_the_issue_criteria_at_twenty_times_the_noise() {
 #[test]
 fn logs_with_other_sensors_get_no_false_claim_and_their_effect_named() {
     // A speed signal instead of the motor encoder (integrated, its slow drift a nuisance) and
-    // two motors' currents, as an antenna's azimuth drive logs them; and the load encoder
-    // alone (a rigid-body equation below the anti-resonance). Seeds outside the suite's.
+    // two motors' currents with a 2 A torque bias, as an antenna's azimuth drive logs them (the
+    // plant's paths start counter-deflected by the bias); and the load encoder alone (a
+    // rigid-body equation below the anti-resonance). Seeds outside the suite's.
     let mut speed_sensor = SuiteConfig::default().base;
     speed_sensor.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
     speed_sensor.noise.motors = 2;
+    speed_sensor.noise.current_bias = 2.0;
     let mut load_encoder = SuiteConfig::default().base;
     load_encoder.noise.motor_sensor = MotorSensor::None;
     type Case<'a> = (&'a TruthConfig, u64, Vec<(&'a str, f64)>);

@@ -4,7 +4,7 @@
 //!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
 //!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD] [--internal-rate HZ]
 //!                  [--log-rate HZ] [--noise-scale X] [--anti-resonance HZ] [--load-inertia KGM2]
-//!                  [--motor-speed | --no-motor-sensor] [--motors 2]
+//!                  [--motor-speed | --no-motor-sensor] [--motors 2 [--current-bias A]]
 //!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
 //!   truthgen start --out FILE.params
 //!
@@ -22,7 +22,8 @@
 //! `--motor-speed` logs a motor speed signal (truth::SpeedSensor's default: noise, bias, scale
 //! error) instead of the motor encoder, `--no-motor-sensor` neither (the load encoder is the
 //! only position), and `--motors 2` the current of two identical motors in
-//! columns of their own, as an antenna's azimuth drive logs them.
+//! columns of their own, as an antenna's azimuth drive logs them, with `--current-bias` amperes
+//! added to motor 1's and taken from motor 2's.
 
 use antenna_tools::truth::suite::{self, SuiteConfig};
 use antenna_tools::truth::{MotorSensor, SpeedSensor, TruthConfig};
@@ -115,6 +116,7 @@ fn run(args: Vec<String>) -> Result<(), String> {
                     return Err("--motors needs 1 or 2".into());
                 }
             }
+            "--current-bias" => base.noise.current_bias = value(&args, &mut i, flag)?.parse().map_err(|_| "--current-bias needs amperes")?,
             "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
             "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,
             "--effect" => {

@@ -191,6 +191,11 @@ pub struct NoiseConfig {
     /// is one lumped motor; with 2 each logged current is half of its current with its own
     /// sensor noise and quantisation, as two identical motors without a bias would carry.
     pub motors: usize,
+    /// With two motors, a torque bias (A): added to motor 1's current and taken from motor
+    /// 2's. The truth's two motors share one lumped path, so the bias cancels in the drive as
+    /// it does on a real one without backlash (with backlash a real bias also keeps the
+    /// pinions on opposite flanks, which the lumped truth does not).
+    pub current_bias: f64,
 }
 
 /// The motor-side sensor a log holds.
@@ -233,6 +238,7 @@ impl Default for NoiseConfig {
             motor_encoder_counts: 2f64.powi(20),
             motor_sensor: MotorSensor::Encoder,
             motors: 1,
+            current_bias: 0.0,
         }
     }
 }
@@ -512,11 +518,12 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
         }
         if step % log_every == 0 {
             let share = x[5] / motors as f64;
-            let measured_current = quantise(share + config.noise.current_sigma * unit_normal.sample(&mut rng), config.noise.current_step);
+            let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
+            let measured_current = quantise(share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng), config.noise.current_step);
             time.push(t);
             log_current.push(measured_current);
             if motors == 2 {
-                log_current_2.push(quantise(share + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng), config.noise.current_step));
+                log_current_2.push(quantise(share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng), config.noise.current_step));
             }
             if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
                 for speeds in log_speed.iter_mut() {
@@ -622,6 +629,7 @@ mod tests {
         let mut variant = plain.clone();
         variant.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
         variant.noise.motors = 2;
+        variant.noise.current_bias = 1.5;
         let (a, b) = (simulate(&plain), simulate(&variant));
         // The same motion, measured by the same load encoder with the same noise.
         assert_eq!(a.log.signal(Signal::LoadPos), b.log.signal(Signal::LoadPos));
@@ -635,6 +643,9 @@ mod tests {
         let sigma = plain.noise.current_sigma;
         let worst = (0..single.len()).map(|k| (currents[0].values[k] + currents[1].values[k] - single[k]).abs()).fold(0.0, f64::max);
         assert!(worst < 12.0 * sigma, "{worst}");
+        // The bias is in each current and cancels in their sum.
+        let mean_difference = (0..single.len()).map(|k| currents[0].values[k] - currents[1].values[k]).sum::<f64>() / single.len() as f64;
+        assert!((mean_difference - 3.0).abs() < 0.01, "{mean_difference}");
         // The speed signal is the true motor speed with its scale error, bias and noise.
         let sensor = SpeedSensor::default();
         let errors: Vec<f64> = speeds[0].values.iter().zip(&b.clean.motor_vel).map(|(m, v)| m - (1.0 + sensor.scale_error) * v - sensor.bias).collect();

@@ -81,8 +81,18 @@ impl PlantFmu {
         let file = absolute.to_str().ok_or("the parameter file path is not UTF-8")?;
         instance.set_string(&[vr("parameter_file")?], &[file]).map_err(|e| format!("the plant FMU rejects the parameter set: {e}"))?;
         instance.initialize(0.0, &[]).map_err(|e| format!("the plant FMU does not initialise: {e}"))?;
-        let parameters = [vr("gear.ratio")?, vr("pinion1.backlash")?, vr("pinion2.backlash")?];
-        let mut values = [0.0; 3];
+        let parameters = [
+            vr("gear.ratio")?,
+            vr("pinion1.backlash")?,
+            vr("pinion2.backlash")?,
+            vr("pinion1.stiffness")?,
+            vr("pinion2.stiffness")?,
+            vr("motor1.torque_constant")?,
+            vr("motor2.torque_constant")?,
+            vr("motor1.torque_constant_scale")?,
+            vr("motor2.torque_constant_scale")?,
+        ];
+        let mut values = [0.0; 9];
         instance.get_real(&parameters, &mut values).map_err(|e| e.to_string())?;
         let template = StateTemplate::capture(&mut instance)?;
         Ok(Session {
@@ -90,6 +100,8 @@ impl PlantFmu {
             template,
             gear_ratio: values[0],
             backlash_motor_rad: [values[1], values[2]].map(|b| b * std::f64::consts::PI / (180.0 * 3600.0) * values[0]),
+            path_stiffness: [values[3], values[4]],
+            axis_torque_per_input: [values[0] * values[5] * values[7], values[0] * values[6] * values[8]],
             inputs: [vr("motor1.current_command")?, vr("motor2.current_command")?, vr("load.disturbance_torque")?],
             outputs: [vr("axis.position")?, vr("axis.speed")?, vr("motor1.speed")?, vr("motor2.speed")?],
         })
@@ -186,6 +198,10 @@ pub struct Session {
     template: StateTemplate,
     gear_ratio: f64,
     backlash_motor_rad: [f64; PATHS],
+    /// Each path's stiffness (axis side, N m/rad) and each motor's axis torque per unit of its
+    /// input (A or N m), for the paths' counter-deflection under a torque bias.
+    path_stiffness: [f64; PATHS],
+    axis_torque_per_input: [f64; PATHS],
     inputs: [u32; 3],
     outputs: [u32; 4],
 }
@@ -229,8 +245,16 @@ impl Session {
         x[0] = n * start.load_angle;
         x[1] = n * start.load_speed;
         let mut meshes = [POSITIVE_FLANK; PATHS];
+        // Two motors with different torques (a torque bias) deflect their paths against each
+        // other: moving together, with equal inertias and friction, the path torques differ by
+        // the motor torques' difference, half of it each way about the common twist. Without
+        // this every window of a biased drive would start with the bias unbalanced and ring.
+        let torques: Vec<f64> = (0..PATHS).map(|k| self.axis_torque_per_input[k] * start.currents[k]).collect();
+        let imbalance = 0.5 * (torques[0] - torques[1]);
         for k in 0..PATHS {
-            let d = n * start.twist;
+            let sign = if k == 0 { 1.0 } else { -1.0 };
+            let counter = if self.path_stiffness[k] > 0.0 { sign * imbalance / self.path_stiffness[k] } else { 0.0 };
+            let d = n * (start.twist + counter);
             x[2 + 4 * k] = d;
             x[3 + 4 * k] = n * start.motor_speed;
             x[4 + 4 * k] = start.currents[k];
