@@ -237,11 +237,24 @@ impl MeasuredLog {
                 integral.push(angle);
             }
             // (integral - load) = c + b t + e load + (1 + e) twist, with c the unknown start, b
-            // the sensor's bias and e its scale error: least squares on [1, t, load] finds them,
-            // and the motor position is (integral - c - b t) / (1 + e).
-            let columns = [vec![1.0; self.len()], self.time.iter().map(|t| t - t0).collect::<Vec<_>>(), load.to_vec()];
+            // the sensor's bias and e its scale error: least squares on [1, t, load] finds them
+            // (time and load centred, so the constant stays well conditioned beside them), and
+            // the motor position is (integral - c - b t) / (1 + e). A load that stands still or
+            // moves at one speed cannot tell a scale error from a bias: no position then.
+            let n = self.len() as f64;
+            let time: Vec<f64> = self.time.iter().map(|t| t - t0).collect();
+            let (time_mean, load_mean) = (time.iter().sum::<f64>() / n, load.iter().sum::<f64>() / n);
+            let centred = |x: &[f64], m: f64| x.iter().map(|v| v - m).collect::<Vec<f64>>();
+            let columns = [vec![1.0; self.len()], centred(&time, time_mean), centred(load, load_mean)];
+            let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, z)| x * z).sum::<f64>();
+            let (tt, ll, tl) = (dot(&columns[1], &columns[1]), dot(&columns[2], &columns[2]), dot(&columns[1], &columns[2]));
+            if !(tt * ll - tl * tl > 1e-9 * tt * ll) {
+                return None;
+            }
             let target: Vec<f64> = integral.iter().zip(load).map(|(q, l)| q - l).collect();
-            let [start, bias, scale_error] = least_squares_3(&columns, &target)?;
+            let (beta, _) = crate::validate::signals::weighted_least_squares(&columns, &target, &vec![1.0; self.len()]);
+            let (bias, scale_error) = (beta[1], beta[2]);
+            let start = beta[0] - bias * time_mean - scale_error * load_mean;
             let values: Vec<f64> = integral.iter().enumerate().map(|(k, q)| (q - start - bias * (self.time[k] - t0)) / (1.0 + scale_error)).collect();
             log.notes.push(format!(
                 "no motor encoder: the motor position is integrated from '{}' and put on the load encoder (its mean twist, a bias of {bias:.3e} rad/s and a scale error of {:.3} % of the speed sensor removed)",
@@ -307,38 +320,6 @@ impl MeasuredLog {
         }
         out
     }
-}
-
-/// Least squares with three columns by the normal equations (columns centred and scaled
-/// first, so a column of large values next to a constant stays well conditioned). None when
-/// the columns are collinear.
-fn least_squares_3(columns: &[Vec<f64>; 3], y: &[f64]) -> Option<[f64; 3]> {
-    let n = y.len() as f64;
-    let mean = |x: &[f64]| x.iter().sum::<f64>() / n;
-    // Column 0 is the constant; columns 1 and 2 are centred and scaled.
-    let centred: Vec<(f64, f64, Vec<f64>)> = columns[1..]
-        .iter()
-        .map(|c| {
-            let m = mean(c);
-            let d: Vec<f64> = c.iter().map(|v| v - m).collect();
-            let scale = (d.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
-            (m, scale, d.iter().map(|v| v / scale.max(f64::MIN_POSITIVE)).collect())
-        })
-        .collect();
-    let y_mean = mean(y);
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, z)| x * z).sum::<f64>();
-    let (u, v) = (&centred[0].2, &centred[1].2);
-    let yc: Vec<f64> = y.iter().map(|v| v - y_mean).collect();
-    let (a11, a12, a22) = (dot(u, u), dot(u, v), dot(v, v));
-    let det = a11 * a22 - a12 * a12;
-    if !(det > 1e-9 * a11 * a22) || centred.iter().any(|c| !(c.1 > 0.0)) {
-        return None;
-    }
-    let (r1, r2) = (dot(u, &yc), dot(v, &yc));
-    let b1 = (a22 * r1 - a12 * r2) / det / centred[0].1;
-    let b2 = (a11 * r2 - a12 * r1) / det / centred[1].1;
-    let b0 = y_mean - b1 * centred[0].0 - b2 * centred[1].0;
-    Some([b0, b1, b2]).filter(|b| b.iter().all(|x| x.is_finite()))
 }
 
 fn si_unit(dimension: Dimension) -> &'static str {

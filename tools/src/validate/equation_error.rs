@@ -114,10 +114,11 @@ pub struct EquationData {
     /// The starting stiffness, used as a fixed unit that turns the load equation's twist into
     /// torque (1 when the structure has no load equation).
     pub twist_scale: f64,
-    /// Knot times (s) of the slowly varying twist offset when the motor position was integrated
-    /// from a speed signal, whose slow part a speed sensor cannot measure; empty when the twist
-    /// offset is one constant (two encoders).
-    pub slow_twist_knots: Vec<f64>,
+    /// The slowly varying twist offset's basis when the motor position was integrated from a
+    /// speed signal, whose slow part a speed sensor cannot measure: one hat function a knot
+    /// ([`hat_functions`]) on the analysed samples, computed once; empty when the twist offset is
+    /// one constant (two encoders).
+    pub slow_twist_hats: Vec<Vec<f64>>,
     /// Index of the first analysed sample in the log.
     pub first_sample: usize,
     pub channels: Vec<ChannelData>,
@@ -356,7 +357,7 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     // noise; its twist is trusted over the time T in which that walk stays within the load
     // encoder's noise, sigma_v sqrt(dt T) = sigma_l, and the twist offset becomes a piecewise
     // linear function with knots T apart (0.5 to 10 s).
-    let slow_twist_knots = match log.signal(Signal::MotorVel).filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass) {
+    let slow_twist_hats = match log.signal(Signal::MotorVel).filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass) {
         Some(speed) => {
             let speed_sigma = noise_sigma(speed).max(f64::MIN_POSITIVE);
             let spacing = ((load_pos_sigma / speed_sigma).powi(2) / dt).clamp(SLOW_TWIST_KNOT_SPACING.0, SLOW_TWIST_KNOT_SPACING.1);
@@ -367,7 +368,8 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
                 (t1 - t0) / count as f64,
                 count + 1
             ));
-            (0..=count).map(|j| t0 + (t1 - t0) * j as f64 / count as f64).collect()
+            let knots: Vec<f64> = (0..=count).map(|j| t0 + (t1 - t0) * j as f64 / count as f64).collect();
+            hat_functions(&knots, &time)
         }
         None => Vec::new(),
     };
@@ -402,7 +404,7 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
         load_pos_sigma,
         stick_speed,
         twist_scale: if structure == Structure::TwoMass { stiffness } else { 1.0 },
-        slow_twist_knots,
+        slow_twist_hats,
         first_sample,
         channels: Vec::new(),
         notes,
@@ -515,12 +517,12 @@ pub fn backlash_sign(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
 /// slow part of such a twist is the speed sensor's drift, which only a model can put back;
 /// every parameter set gets its own, as it gets its own constant centre).
 pub fn twist_centres(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
-    if data.slow_twist_knots.is_empty() {
+    if data.slow_twist_hats.is_empty() {
         return vec![twist_centre(data, params); data.len()];
     }
     let implied = implied_twist_centres(data, params);
-    let hats = hat_functions(&data.slow_twist_knots, &data.time);
-    let (beta, _) = weighted_least_squares(&hats, &implied, &vec![1.0; implied.len()]);
+    let hats = &data.slow_twist_hats;
+    let (beta, _) = weighted_least_squares(hats, &implied, &vec![1.0; implied.len()]);
     (0..data.len()).map(|i| hats.iter().zip(&beta).map(|(h, b)| h[i] * b).sum()).collect()
 }
 

@@ -249,7 +249,7 @@ impl Session {
         // other: moving together, with equal inertias and friction, the path torques differ by
         // the motor torques' difference, half of it each way about the common twist. Without
         // this every window of a biased drive would start with the bias unbalanced and ring.
-        let torques: Vec<f64> = (0..PATHS).map(|k| self.axis_torque_per_input[k] * start.currents[k]).collect();
+        let torques: [f64; PATHS] = std::array::from_fn(|k| self.axis_torque_per_input[k] * start.currents[k]);
         let imbalance = 0.5 * (torques[0] - torques[1]);
         for k in 0..PATHS {
             let sign = if k == 0 { 1.0 } else { -1.0 };

@@ -355,12 +355,12 @@ fn baseline_columns(data: &EquationData, params: &ParameterSet) -> Vec<Column> {
     }
     let n = data.len();
     let k = params.value(super::parameters::names::STIFFNESS);
-    if data.slow_twist_knots.is_empty() {
+    if data.slow_twist_hats.is_empty() {
         return vec![Column { label: "twist offset (nuisance)".into(), unit: "rad".into(), channels: vec![vec![-k; n], vec![data.twist_scale; n]] }];
     }
     // An integrated motor position: the twist offset varies slowly, one hat function a knot.
-    super::equation_error::hat_functions(&data.slow_twist_knots, &data.time)
-        .into_iter()
+    data.slow_twist_hats
+        .iter()
         .enumerate()
         .map(|(j, hat)| Column {
             label: format!("twist offset at knot {j} (nuisance)"),
