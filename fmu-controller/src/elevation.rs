@@ -129,7 +129,11 @@ impl ElevationController {
             Some((bits, n, j, g)) if bits == elevation.to_bits() => (n, j, g),
             _ => {
                 let drive = &self.params.drive;
-                let scheduled = (drive.gear_ratio_at(elevation), drive.total_inertia_at_motor_kg_m2(elevation), self.velocity_gains_at(elevation));
+                let scheduled = (
+                    drive.gear_ratio_at(elevation),
+                    drive.total_inertia_at_motor_kg_m2(elevation),
+                    self.velocity_gains_at(elevation),
+                );
                 self.scheduled = Some((elevation.to_bits(), scheduled.0, scheduled.1, scheduled.2));
                 scheduled
             }

@@ -89,7 +89,10 @@ fn main() {
     let (f_lo, f_hi, _) = spread(&f);
     println!("  K_axis {ka_lo:.3e} .. {ka_hi:.3e} N m/rad, spread {:.1} % (of max)", 100.0 * ka_spread);
     println!("  K_s reflected {kr_lo:.2} .. {kr_hi:.2} N m/rad, spread {:.1} %", 100.0 * kr_spread);
-    println!("  N {n_lo:.0} .. {n_hi:.0}; motor speed for 1 deg/s at the largest N: {:.0} rpm", n_hi * 1f64.to_radians() * rpm);
+    println!(
+        "  N {n_lo:.0} .. {n_hi:.0}; motor speed for 1 deg/s at the largest N: {:.0} rpm",
+        n_hi * 1f64.to_radians() * rpm
+    );
     println!("  f_AR {f_lo:.2} .. {f_hi:.2} Hz over {} .. {} deg", el.travel_min_deg, el.travel_max_deg);
     let m = el.motor;
     println!(

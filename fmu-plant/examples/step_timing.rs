@@ -63,13 +63,18 @@ fn azimuth(name: &str, params: AzimuthParams, speed_deg_per_s: f64, steps: usize
     let mut plant = AzimuthPlant::new(params).unwrap();
     plant.set_initial_state(0.0).unwrap();
     let t = params.two_mass_at(45.0);
-    let mut control = VelocityLoop::new(t.motor_inertia + t.load_inertia, 2.0 * params.motors[0].torque_constant_nm_per_a, 8.0);
+    let mut control =
+        VelocityLoop::new(t.motor_inertia + t.load_inertia, 2.0 * params.motors[0].torque_constant_nm_per_a, 8.0);
     let reference = speed_deg_per_s.to_radians() * params.gear_ratio;
     let mut run = |plant: &mut AzimuthPlant, n: usize| {
         for _ in 0..n {
             let o = plant.outputs();
             let i = control.current(reference, 0.5 * (o.motor_speed_rad_per_s[0] + o.motor_speed_rad_per_s[1]));
-            let inputs = AzimuthInputs { current_command_a: [i + 2.0, i - 2.0], disturbance_torque_nm: 0.0, elevation_deg: 45.0 };
+            let inputs = AzimuthInputs {
+                current_command_a: [i + 2.0, i - 2.0],
+                disturbance_torque_nm: 0.0,
+                elevation_deg: 45.0,
+            };
             plant.step(black_box(&inputs), H).unwrap();
         }
     };
@@ -127,8 +132,15 @@ fn slew() {
     for k in 0..steps {
         let ramp = (k as f64 * H).min(1.0);
         let (ao, eo) = (az.outputs(), el.outputs());
-        let i = az_loop.current(2f64.to_radians() * ramp * az_params.gear_ratio, 0.5 * (ao.motor_speed_rad_per_s[0] + ao.motor_speed_rad_per_s[1]));
-        let az_inputs = AzimuthInputs { current_command_a: [i + 2.0, i - 2.0], disturbance_torque_nm: 0.0, elevation_deg: eo.axis_position_deg };
+        let i = az_loop.current(
+            2f64.to_radians() * ramp * az_params.gear_ratio,
+            0.5 * (ao.motor_speed_rad_per_s[0] + ao.motor_speed_rad_per_s[1]),
+        );
+        let az_inputs = AzimuthInputs {
+            current_command_a: [i + 2.0, i - 2.0],
+            disturbance_torque_nm: 0.0,
+            elevation_deg: eo.axis_position_deg,
+        };
         az.step(&az_inputs, H).unwrap();
         let j = el_loop.current(1f64.to_radians() * ramp * eo.transmission_ratio, eo.motor_speed_rad_per_s);
         el.step(&ElevationInputs { current_command_a: j, disturbance_torque_nm: 0.0 }, H).unwrap();

@@ -66,13 +66,7 @@ impl TwoMassParameters {
     /// Coefficients of the determinant `D(s)` in ascending powers of `s` (degree 4, no constant).
     pub fn determinant(&self) -> Vec<f64> {
         let (jm, bm, ks, kcv, jl) = self.unpack();
-        vec![
-            0.0,
-            bm * ks,
-            (jm + jl) * ks + bm * kcv,
-            jm * kcv + jl * (bm + kcv),
-            jm * jl,
-        ]
+        vec![0.0, bm * ks, (jm + jl) * ks + bm * kcv, jm * kcv + jl * (bm + kcv), jm * jl]
     }
 
     /// Numerator of `P_M/T_E` in ascending powers: `K_s + K_cv s + J_L s^2`.
@@ -148,13 +142,7 @@ impl TwoMassParameters {
     }
 
     fn unpack(&self) -> (f64, f64, f64, f64, f64) {
-        (
-            self.motor_inertia,
-            self.motor_friction,
-            self.shaft_stiffness,
-            self.cross_coupled_damping,
-            self.load_inertia,
-        )
+        (self.motor_inertia, self.motor_friction, self.shaft_stiffness, self.cross_coupled_damping, self.load_inertia)
     }
 }
 

@@ -13,8 +13,8 @@ use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
 use crate::drivetrain::{
-    current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics, LOAD_ANGLE,
-    LOAD_SPEED,
+    current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics,
+    LOAD_ANGLE, LOAD_SPEED,
 };
 use crate::params::{
     finite, finite_non_negative, finite_positive, into_result, CoggingParams, FrictionParams, MotorParams,
@@ -127,7 +127,11 @@ impl AzimuthParams {
         for k in 0..PATHS {
             self.motors[k].validate(&format!("motors[{k}]"), &mut errors);
             finite_positive(&format!("path_stiffness_nm_per_rad[{k}]"), self.path_stiffness_nm_per_rad[k], &mut errors);
-            finite_non_negative(&format!("path_damping_nm_s_per_rad[{k}]"), self.path_damping_nm_s_per_rad[k], &mut errors);
+            finite_non_negative(
+                &format!("path_damping_nm_s_per_rad[{k}]"),
+                self.path_damping_nm_s_per_rad[k],
+                &mut errors,
+            );
             finite_non_negative(&format!("pinion_backlash_rad[{k}]"), self.pinion_backlash_rad[k], &mut errors);
             if self.pinion_backlash_rad[k] > 0.0 && self.path_damping_nm_s_per_rad[k] == 0.0 {
                 errors.push(format!(
@@ -216,7 +220,13 @@ impl AzimuthParams {
             current_loop_rad_per_s: self.motors.map(|m| std::f64::consts::TAU * m.current_loop_bandwidth_hz),
             stiffness: self.path_stiffness_nm_per_rad.map(|k| k / n2),
             damping: self.path_damping_nm_s_per_rad.map(|c| c / n2),
-            presliding_stiffness: self.motors.map(|m| if m.friction.is_present() { m.presliding_stiffness_nm_per_rad } else { 0.0 }),
+            presliding_stiffness: self.motors.map(|m| {
+                if m.friction.is_present() {
+                    m.presliding_stiffness_nm_per_rad
+                } else {
+                    0.0
+                }
+            }),
             presliding_damping: self.motors.map(|m| m.presliding_damping_nm_s_per_rad),
         }
     }
@@ -533,7 +543,11 @@ mod tests {
         for k in 0..3000 {
             let current = if k % 500 < 40 { 20.0 * signal(k / 20, 5) } else { 0.0 };
             let disturbance = 1e3 * signal(k / 50, 6);
-            let inputs = AzimuthInputs { current_command_a: [current; 2], disturbance_torque_nm: disturbance, elevation_deg: elevation };
+            let inputs = AzimuthInputs {
+                current_command_a: [current; 2],
+                disturbance_torque_nm: disturbance,
+                elevation_deg: elevation,
+            };
             plant.step(&inputs, 1e-3).unwrap();
             single.step([current], disturbance, 1e-3, &none);
             let o = plant.outputs();
@@ -541,7 +555,8 @@ mod tests {
             two.1.push(o.motor_speed_rad_per_s[0]);
             two.2.push(o.pinion_torque_nm[0] + o.pinion_torque_nm[1]);
             two.3.push(o.motor_speed_rad_per_s[1]);
-            stuck_seen |= plant.core().load_motion() == Motion::Stuck && plant.core().motor_motion()[0] == Motion::Stuck;
+            stuck_seen |=
+                plant.core().load_motion() == Motion::Stuck && plant.core().motor_motion()[0] == Motion::Stuck;
             sliding_seen |= plant.core().load_motion() != Motion::Stuck;
             saturated_seen |= o.motor_current_a[0].abs() > 0.99 * params.motors[0].current_limit_a;
             let x = single.state();
@@ -566,9 +581,26 @@ mod tests {
 
     #[test]
     fn branch_free_floor_gives_the_library_floor_bit_for_bit() {
-        let mut samples = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5, 2.0f64.powi(52) - 0.5, -(2.0f64.powi(52) - 0.5)];
-        samples.extend([2.0f64.powi(52), -(2.0f64.powi(52)), 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY, f64::MIN_POSITIVE, -f64::MIN_POSITIVE]);
-        samples.extend([f64::EPSILON, -f64::EPSILON, 1.0 - f64::EPSILON / 2.0, -(1.0 - f64::EPSILON / 2.0), 1.0 + f64::EPSILON, -1.0 - f64::EPSILON]);
+        let mut samples =
+            vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5, 2.0f64.powi(52) - 0.5, -(2.0f64.powi(52) - 0.5)];
+        samples.extend([
+            2.0f64.powi(52),
+            -(2.0f64.powi(52)),
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ]);
+        samples.extend([
+            f64::EPSILON,
+            -f64::EPSILON,
+            1.0 - f64::EPSILON / 2.0,
+            -(1.0 - f64::EPSILON / 2.0),
+            1.0 + f64::EPSILON,
+            -1.0 - f64::EPSILON,
+        ]);
         let mut x = 0x1234_5678_9abc_def0u64;
         for _ in 0..100_000 {
             x ^= x << 13;
@@ -582,7 +614,10 @@ mod tests {
         for value in samples {
             let expected = value.floor();
             let got = floor(value);
-            assert!(got.to_bits() == expected.to_bits() || (got.is_nan() && expected.is_nan()), "floor({value:e}) = {got:e}, expected {expected:e}");
+            assert!(
+                got.to_bits() == expected.to_bits() || (got.is_nan() && expected.is_nan()),
+                "floor({value:e}) = {got:e}, expected {expected:e}"
+            );
         }
     }
 
@@ -643,10 +678,16 @@ mod tests {
                 let s = C64::new(0.0, omega);
                 let expected_speed = kt * current_loop_response(s, bandwidth) * two_mass.motor_speed_per_torque(s);
                 let speed = state_space_response(&model, motor_speed_index(0), &[0, 1], s);
-                assert!((speed / expected_speed - 1.0).norm() < 1e-9, "el {elevation}, omega {omega}: {speed} vs {expected_speed}");
+                assert!(
+                    (speed / expected_speed - 1.0).norm() < 1e-9,
+                    "el {elevation}, omega {omega}: {speed} vs {expected_speed}"
+                );
                 let expected_load = kt * current_loop_response(s, bandwidth) * two_mass.load_position_per_torque(s);
                 let load = state_space_response(&model, LOAD_ANGLE, &[0, 1], s);
-                assert!((load / expected_load - 1.0).norm() < 1e-9, "el {elevation}, omega {omega}: {load} vs {expected_load}");
+                assert!(
+                    (load / expected_load - 1.0).norm() < 1e-9,
+                    "el {elevation}, omega {omega}: {load} vs {expected_load}"
+                );
             }
         }
     }
@@ -679,9 +720,21 @@ mod tests {
         let mut bandwidth = d;
         bandwidth.motors[1].current_loop_bandwidth_hz = 1e300;
         let cases = [
-            ("stiffness", AzimuthParams { path_stiffness_nm_per_rad: [1e308, 7.3e9], ..d }, "stiffness of path 1 / damping of path 1"),
-            ("damping", AzimuthParams { path_damping_nm_s_per_rad: [5.3e6, 1e308], ..d }, "damping of path 2 / motor inertia"),
-            ("tiny damping", AzimuthParams { path_damping_nm_s_per_rad: [1e-100, 5.3e6], ..d }, "relaxation in the backlash gap"),
+            (
+                "stiffness",
+                AzimuthParams { path_stiffness_nm_per_rad: [1e308, 7.3e9], ..d },
+                "stiffness of path 1 / damping of path 1",
+            ),
+            (
+                "damping",
+                AzimuthParams { path_damping_nm_s_per_rad: [5.3e6, 1e308], ..d },
+                "damping of path 2 / motor inertia",
+            ),
+            (
+                "tiny damping",
+                AzimuthParams { path_damping_nm_s_per_rad: [1e-100, 5.3e6], ..d },
+                "relaxation in the backlash gap",
+            ),
             ("bandwidth", bandwidth, "current-loop bandwidth of motor 2"),
             // Extreme only near 0 deg elevation, not in the 90 deg cell the plant starts in.
             (
@@ -745,4 +798,3 @@ mod tests {
         assert_eq!(linear.core().load_motion(), Motion::Forward);
     }
 }
-

@@ -631,12 +631,18 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             rates.push((damping / jm, format!("damping{path} / motor inertia")));
             rates.push((damping / m.load_inertia, format!("damping{path} / load inertia")));
             if self.config.backlash[k] > 0.0 {
-                rates.push((stiffness / damping, format!("stiffness{path} / damping{path} (relaxation in the backlash gap)")));
+                rates.push((
+                    stiffness / damping,
+                    format!("stiffness{path} / damping{path} (relaxation in the backlash gap)"),
+                ));
             }
             rates.push((m.motor_viscous[k] / jm, format!("viscous friction / inertia of motor {}", k + 1)));
             rates.push((m.current_loop_rad_per_s[k], format!("current-loop bandwidth of motor {}", k + 1)));
             if m.presliding_stiffness[k] > 0.0 {
-                rates.push(((m.presliding_stiffness[k] / jm).sqrt(), format!("sqrt(presliding stiffness / inertia of motor {})", k + 1)));
+                rates.push((
+                    (m.presliding_stiffness[k] / jm).sqrt(),
+                    format!("sqrt(presliding stiffness / inertia of motor {})", k + 1),
+                ));
                 rates.push((m.presliding_damping[k] / jm, format!("presliding damping / inertia of motor {}", k + 1)));
             }
         }
@@ -715,13 +721,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// held constant. `position_torques` returns the position-dependent torques (motor side
     /// per motor, axis side on the load) for a state; it is evaluated at the start of every
     /// internal sub-step and held over it.
-    pub fn step(
-        &mut self,
-        commands: [f64; P],
-        load_torque_axis: f64,
-        h: f64,
-        position_torques: PositionTorques<P, S>,
-    ) {
+    pub fn step(&mut self, commands: [f64; P], load_torque_axis: f64, h: f64, position_torques: PositionTorques<P, S>) {
         let start = self.time;
         self.statistics.steps += 1;
         // Pieces no longer than the event check interval, and no longer than the sub-step when
@@ -831,7 +831,8 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         let mut u = SVector::<f64, U>::zeros();
         for k in 0..P {
             u[k] = inputs.commands[k];
-            u[P + k] = inputs.motor_torque[k] - self.friction_torque(&self.config.motor_friction[k], self.motor_motion[k], 1 + k);
+            u[P + k] = inputs.motor_torque[k]
+                - self.friction_torque(&self.config.motor_friction[k], self.motor_motion[k], 1 + k);
         }
         let load_friction = self.friction_torque(&self.config.load_friction, self.load_motion, 0);
         u[2 * P] = (inputs.load_torque_axis - load_friction) / self.model.gear_ratio;
@@ -863,7 +864,8 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             self.last = Some((key, ladder));
         }
         if level as usize >= self.last.as_ref().expect("set just above").1.rungs.len() {
-            let completed = Arc::new(self.last.as_ref().expect("set above").1.completed(&self.model, key.mode, length, levels));
+            let completed =
+                Arc::new(self.last.as_ref().expect("set above").1.completed(&self.model, key.mode, length, levels));
             self.statistics.discretisations_computed += 1;
             self.cache.replace(key, Arc::clone(&completed));
             self.last = Some((key, completed));
@@ -906,7 +908,8 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// forward motion) for a propagated candidate, whose load-angle entry is the increment.
     fn bristle_torque(&self, candidate: &SVector<f64, S>, k: usize) -> f64 {
         let deflection = candidate[twist_index(k)] + (candidate[LOAD_ANGLE] + self.load_angle_now() - self.anchor[k]);
-        self.model.presliding_stiffness[k] * deflection + self.model.presliding_damping[k] * candidate[motor_speed_index(k)]
+        self.model.presliding_stiffness[k] * deflection
+            + self.model.presliding_damping[k] * candidate[motor_speed_index(k)]
     }
 
     /// Takes a propagated state, adding its load-angle increment with compensated summation.
@@ -1029,7 +1032,9 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             let consistent = match self.motor_motion[k] {
                 Motion::Forward => v >= 0.0,
                 Motion::Backward => v <= 0.0,
-                Motion::Stuck if self.model.presliding_stiffness[k] > 0.0 => Self::holds(friction, self.bristle_torque(x, k), 1.0),
+                Motion::Stuck if self.model.presliding_stiffness[k] > 0.0 => {
+                    Self::holds(friction, self.bristle_torque(x, k), 1.0)
+                }
                 Motion::Stuck => Self::holds(friction, self.motor_holding_torque(x, inputs, k), 1.0),
             };
             if !consistent {

@@ -25,8 +25,8 @@ use nalgebra::SVector;
 use crate::analytic::TwoMassParameters;
 use crate::azimuth::{non_finite_step_message, quantise};
 use crate::drivetrain::{
-    current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics, LOAD_ANGLE,
-    LOAD_SPEED,
+    current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics,
+    LOAD_ANGLE, LOAD_SPEED,
 };
 use crate::params::{
     finite, finite_non_negative, finite_positive, into_result, CoggingParams, FrictionParams, MotorParams,
@@ -306,7 +306,8 @@ impl ElevationParams {
             && self.travel_max_deg.is_finite()
             && self.travel_min_deg < self.travel_max_deg;
         if !self.frozen_geometry_elevation_deg.is_finite() {
-            errors.push(format!("frozen_geometry_elevation_deg ({}) must be finite", self.frozen_geometry_elevation_deg));
+            errors
+                .push(format!("frozen_geometry_elevation_deg ({}) must be finite", self.frozen_geometry_elevation_deg));
         }
         if travel_ok {
             self.jackscrew.validate((self.travel_min_deg, self.travel_max_deg), &mut errors);
@@ -749,7 +750,8 @@ mod tests {
     const RPM: f64 = std::f64::consts::TAU / 60.0;
 
     fn travel(params: &ElevationParams) -> impl Iterator<Item = f64> + '_ {
-        (0..=770).map(move |j| params.travel_min_deg + (params.travel_max_deg - params.travel_min_deg) * j as f64 / 770.0)
+        (0..=770)
+            .map(move |j| params.travel_min_deg + (params.travel_max_deg - params.travel_min_deg) * j as f64 / 770.0)
     }
 
     #[test]
@@ -821,7 +823,9 @@ mod tests {
             plant.step(&ElevationInputs { current_command_a: 5.0, disturbance_torque_nm: 0.0 }, 1e-3).unwrap();
         }
         let out = plant.outputs();
-        assert!(out.axis_position_deg > 100.0 && out.motor_speed_rad_per_s.is_finite() && out.screw_force_n.is_finite());
+        assert!(
+            out.axis_position_deg > 100.0 && out.motor_speed_rad_per_s.is_finite() && out.screw_force_n.is_finite()
+        );
     }
 
     #[test]

@@ -32,8 +32,8 @@ mod drivetrain;
 pub mod elevation;
 pub mod params;
 
-pub use drivetrain::NumericsStatistics;
 pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
+pub use drivetrain::NumericsStatistics;
 pub use elevation::{ElevationInputs, ElevationOutputs, ElevationParams, ElevationPlant, JackscrewParams};
 pub use params::{CoggingParams, FrictionParams, MotorParams, NumericsParams, PeriodicTorqueParams};
 

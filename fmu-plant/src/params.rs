@@ -110,7 +110,8 @@ pub struct PeriodicTorqueParams {
 }
 
 impl PeriodicTorqueParams {
-    pub const NONE: PeriodicTorqueParams = PeriodicTorqueParams { amplitude_nm: 0.0, period_deg: 360.0, phase_deg: 0.0 };
+    pub const NONE: PeriodicTorqueParams =
+        PeriodicTorqueParams { amplitude_nm: 0.0, period_deg: 360.0, phase_deg: 0.0 };
 
     /// Torque at an axis angle (rad), N m.
     pub fn torque_nm(&self, axis_angle_rad: f64) -> f64 {
@@ -185,12 +186,19 @@ impl MotorParams {
 
     pub(crate) fn validate(&self, name: &str, errors: &mut Vec<String>) {
         finite_positive(&format!("{name}.inertia_kg_m2"), self.inertia_kg_m2, errors);
-        finite_non_negative(&format!("{name}.viscous_friction_nm_s_per_rad"), self.viscous_friction_nm_s_per_rad, errors);
+        finite_non_negative(
+            &format!("{name}.viscous_friction_nm_s_per_rad"),
+            self.viscous_friction_nm_s_per_rad,
+            errors,
+        );
         self.friction.validate(&format!("{name}.friction"), errors);
         finite_positive(&format!("{name}.torque_constant_nm_per_a"), self.torque_constant_nm_per_a, errors);
         finite_positive(&format!("{name}.torque_constant_scale"), self.torque_constant_scale, errors);
         if self.current_limit_a.is_nan() || self.current_limit_a <= 0.0 {
-            errors.push(format!("{name}.current_limit_a ({}) must be positive (INFINITY for no limit)", self.current_limit_a));
+            errors.push(format!(
+                "{name}.current_limit_a ({}) must be positive (INFINITY for no limit)",
+                self.current_limit_a
+            ));
         }
         finite_positive(&format!("{name}.current_loop_bandwidth_hz"), self.current_loop_bandwidth_hz, errors);
         if !(self.current_command_delay_s >= 0.0 && self.current_command_delay_s <= Self::MAX_COMMAND_DELAY_S) {
@@ -201,8 +209,16 @@ impl MotorParams {
             ));
         }
         self.cogging.validate(&format!("{name}.cogging"), errors);
-        finite_non_negative(&format!("{name}.presliding_stiffness_nm_per_rad"), self.presliding_stiffness_nm_per_rad, errors);
-        finite_non_negative(&format!("{name}.presliding_damping_nm_s_per_rad"), self.presliding_damping_nm_s_per_rad, errors);
+        finite_non_negative(
+            &format!("{name}.presliding_stiffness_nm_per_rad"),
+            self.presliding_stiffness_nm_per_rad,
+            errors,
+        );
+        finite_non_negative(
+            &format!("{name}.presliding_damping_nm_s_per_rad"),
+            self.presliding_damping_nm_s_per_rad,
+            errors,
+        );
     }
 }
 
@@ -332,7 +348,8 @@ mod tests {
     #[test]
     fn friction_validation_names_the_offending_field() {
         let mut errors = Vec::new();
-        FrictionParams { coulomb_nm: 0.5, static_nm: 0.4, ..FrictionParams::NONE }.validate("motor.friction", &mut errors);
+        FrictionParams { coulomb_nm: 0.5, static_nm: 0.4, ..FrictionParams::NONE }
+            .validate("motor.friction", &mut errors);
         assert_eq!(errors.len(), 1);
         assert!(errors[0].contains("motor.friction.static_nm"), "{}", errors[0]);
     }

@@ -144,7 +144,12 @@ fn linear_azimuth_results_do_not_depend_on_the_step_size() {
                 plant.step(&inputs, 1e-3 / substeps as f64).unwrap();
             }
             let o = plant.outputs();
-            samples.push([o.axis_position_deg, o.motor_speed_rad_per_s[0], o.motor_speed_rad_per_s[1], o.pinion_torque_nm[1]]);
+            samples.push([
+                o.axis_position_deg,
+                o.motor_speed_rad_per_s[0],
+                o.motor_speed_rad_per_s[1],
+                o.pinion_torque_nm[1],
+            ]);
         }
         samples
     };
@@ -166,7 +171,10 @@ fn linear_elevation_results_do_not_depend_on_the_step_size_within_a_cell() {
         plant.set_initial_state(30.125f64.to_radians()).unwrap();
         let mut samples = Vec::new();
         for ms in 0..500 {
-            let inputs = ElevationInputs { current_command_a: 0.3 * command_at(ms, 7), disturbance_torque_nm: 1e4 * command_at(ms, 8) };
+            let inputs = ElevationInputs {
+                current_command_a: 0.3 * command_at(ms, 7),
+                disturbance_torque_nm: 1e4 * command_at(ms, 8),
+            };
             for _ in 0..substeps {
                 plant.step(&inputs, 1e-3 / substeps as f64).unwrap();
             }

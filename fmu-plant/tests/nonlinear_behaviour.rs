@@ -118,7 +118,10 @@ fn backlash_lets_a_lone_motor_cross_the_gap_before_its_pinion_pushes_the_load() 
         let out = plant.outputs();
         motor_travel += 0.5 * (before + out.motor_speed_rad_per_s[0]) * 1e-3;
         if contact_after.is_none() && out.pinion_flank[0] == 0 {
-            assert_eq!(out.axis_position_deg, start.axis_position_deg, "the load moved before the pinion reached a flank");
+            assert_eq!(
+                out.axis_position_deg, start.axis_position_deg,
+                "the load moved before the pinion reached a flank"
+            );
             assert_eq!(out.pinion_torque_nm[0], 0.0);
         } else if contact_after.is_none() {
             contact_after = Some(k);
@@ -279,7 +282,10 @@ fn a_command_delay_that_is_not_a_whole_step_splits_the_step_exactly() {
             shifted.step(&ElevationInputs { current_command_a: earlier, disturbance_torque_nm: 0.0 }, 0.5e-3).unwrap();
         }
         let (a, b) = (delayed.outputs(), shifted.outputs());
-        assert!((a.motor_speed_rad_per_s - b.motor_speed_rad_per_s).abs() < 1e-11 * range.max(a.motor_speed_rad_per_s.abs()));
+        assert!(
+            (a.motor_speed_rad_per_s - b.motor_speed_rad_per_s).abs()
+                < 1e-11 * range.max(a.motor_speed_rad_per_s.abs())
+        );
         assert!((a.motor_current_a - b.motor_current_a).abs() < 1e-12);
     }
 }
@@ -358,7 +364,10 @@ fn a_saved_azimuth_state_reproduces_the_future_bitwise() {
 fn a_saved_elevation_state_reproduces_the_future_bitwise_across_grid_cells() {
     let params = ElevationParams::default();
     let mut plant = elevation_at(params, 30.0);
-    let inputs = |k: usize| ElevationInputs { current_command_a: 3.0 * (k as f64 * 0.004).sin() + 1.0, disturbance_torque_nm: 0.0 };
+    let inputs = |k: usize| ElevationInputs {
+        current_command_a: 3.0 * (k as f64 * 0.004).sin() + 1.0,
+        disturbance_torque_nm: 0.0,
+    };
     for k in 0..1500 {
         plant.step(&inputs(k), 1e-3).unwrap();
     }
@@ -370,10 +379,7 @@ fn a_saved_elevation_state_reproduces_the_future_bitwise_across_grid_cells() {
         expected.push(plant.outputs());
     }
     let cell = params.numerics.parameter_grid_cell_deg;
-    assert!(
-        (plant.outputs().axis_position_deg - before).abs() > 2.0 * cell,
-        "the run must cross parameter cells"
-    );
+    assert!((plant.outputs().axis_position_deg - before).abs() > 2.0 * cell, "the run must cross parameter cells");
     let mut restored = ElevationPlant::new(params).unwrap();
     restored.load_state(&mut StateReader::new(&bytes)).unwrap();
     for (i, k) in (1500..4000).enumerate() {
@@ -437,7 +443,11 @@ fn a_long_communication_step_gives_the_same_motion_as_many_short_ones() {
         for k in 0..100 {
             let t = k as f64 * 0.02;
             let current = 6.0 * (std::f64::consts::TAU * t / 1.5).sin();
-            let inputs = AzimuthInputs { current_command_a: [current + 1.0, current - 1.0], disturbance_torque_nm: 0.0, elevation_deg: 45.0 };
+            let inputs = AzimuthInputs {
+                current_command_a: [current + 1.0, current - 1.0],
+                disturbance_torque_nm: 0.0,
+                elevation_deg: 45.0,
+            };
             for _ in 0..(0.02 / h).round() as usize {
                 plant.step(&inputs, h).unwrap();
             }
@@ -503,9 +513,13 @@ fn a_presliding_motor_slips_once_its_bristle_torque_passes_breakaway() {
     assert!(sliding.motor_speed_rad_per_s.iter().all(|v| *v > 1.0), "{:?}", sliding.motor_speed_rad_per_s);
     let rigid = held_azimuth(0.0, 6.0, 0.3, false);
     let relative = (sliding.axis_speed_deg_per_s - rigid.axis_speed_deg_per_s).abs() / rigid.axis_speed_deg_per_s.abs();
-    assert!(relative < 0.05, "sliding axis speed {} against {} with a rigid stick", sliding.axis_speed_deg_per_s, rigid.axis_speed_deg_per_s);
+    assert!(
+        relative < 0.05,
+        "sliding axis speed {} against {} with a rigid stick",
+        sliding.axis_speed_deg_per_s,
+        rigid.axis_speed_deg_per_s
+    );
 }
-
 
 #[test]
 fn a_saved_azimuth_state_with_presliding_motors_reproduces_the_future_bitwise() {

@@ -66,19 +66,25 @@ fn elevation_slew(params: ElevationParams, substeps: usize, seconds: f64) -> Vec
     let mut plant = ElevationPlant::new(params).unwrap();
     plant.set_initial_state(15f64.to_radians()).unwrap();
     let mid = params.two_mass_at(50.0);
-    let mut control = VelocityLoop::new(mid.motor_inertia + mid.load_inertia, params.motor.torque_constant_nm_per_a, 8.0);
+    let mut control =
+        VelocityLoop::new(mid.motor_inertia + mid.load_inertia, params.motor.torque_constant_nm_per_a, 8.0);
     let mut samples = Vec::new();
     let h = 1e-3;
     for k in 0..(seconds / h) as usize {
         let out = plant.outputs();
-        let reference = slew_speed(k as f64 * h, 1.0, 1.0, seconds - 1.0).to_radians() * params.ratio_at(out.axis_position_deg);
+        let reference =
+            slew_speed(k as f64 * h, 1.0, 1.0, seconds - 1.0).to_radians() * params.ratio_at(out.axis_position_deg);
         let current = control.current(reference, out.motor_speed_rad_per_s, h);
         let inputs = ElevationInputs { current_command_a: current, disturbance_torque_nm: 0.0 };
         for _ in 0..substeps {
             plant.step(&inputs, h / substeps as f64).unwrap();
         }
         let o = plant.outputs();
-        samples.push(Sample { position_deg: o.axis_position_deg, current_a: o.motor_current_a, torque_nm: o.drive_torque_nm });
+        samples.push(Sample {
+            position_deg: o.axis_position_deg,
+            current_a: o.motor_current_a,
+            torque_nm: o.drive_torque_nm,
+        });
     }
     samples
 }
@@ -216,13 +222,15 @@ fn elevation_tracking_with_effects(substep: f64, substeps_per_ms: usize) -> Vec<
     params.numerics.nonlinear_substep_s = substep;
     params.motor.friction.stribeck_velocity_rad_per_s = 2.0;
     params.jackscrew.screw_friction.stribeck_velocity_rad_per_s = 2.0 / params.jackscrew.gearbox_ratio;
-    params.motor.cogging = fmu_plant::CoggingParams { amplitude_nm: 0.03, period_motor_revolutions: 1.0 / 48.0, phase_deg: 0.0 };
+    params.motor.cogging =
+        fmu_plant::CoggingParams { amplitude_nm: 0.03, period_motor_revolutions: 1.0 / 48.0, phase_deg: 0.0 };
     params.unbalance_moment_nm = 3e3;
     params.periodic_torque = fmu_plant::PeriodicTorqueParams { amplitude_nm: 200.0, period_deg: 0.5, phase_deg: 0.0 };
     let mut plant = ElevationPlant::new(params).unwrap();
     plant.set_initial_state(40f64.to_radians()).unwrap();
     let mid = params.two_mass_at(40.0);
-    let mut control = VelocityLoop::new(mid.motor_inertia + mid.load_inertia, params.motor.torque_constant_nm_per_a, 8.0);
+    let mut control =
+        VelocityLoop::new(mid.motor_inertia + mid.load_inertia, params.motor.torque_constant_nm_per_a, 8.0);
     let mut samples = Vec::new();
     let h = 1e-3;
     for k in 0..20_000 {
@@ -230,13 +238,18 @@ fn elevation_tracking_with_effects(substep: f64, substeps_per_ms: usize) -> Vec<
         let out = plant.outputs();
         // Sidereal-like rate with slow reversals, so the drive passes through zero speed.
         let speed = 0.004 * (std::f64::consts::TAU * t / 8.0).sin();
-        let current = control.current(speed.to_radians() * params.ratio_at(out.axis_position_deg), out.motor_speed_rad_per_s, h);
+        let current =
+            control.current(speed.to_radians() * params.ratio_at(out.axis_position_deg), out.motor_speed_rad_per_s, h);
         let inputs = ElevationInputs { current_command_a: current, disturbance_torque_nm: 0.0 };
         for _ in 0..substeps_per_ms {
             plant.step(&inputs, h / substeps_per_ms as f64).unwrap();
         }
         let o = plant.outputs();
-        samples.push(Sample { position_deg: o.axis_position_deg, current_a: o.motor_current_a, torque_nm: o.drive_torque_nm });
+        samples.push(Sample {
+            position_deg: o.axis_position_deg,
+            current_a: o.motor_current_a,
+            torque_nm: o.drive_torque_nm,
+        });
     }
     samples
 }
@@ -311,20 +324,29 @@ fn elevation_slew_and_reversals(params: ElevationParams, substeps_per_ms: usize)
     let mut plant = ElevationPlant::new(params).unwrap();
     plant.set_initial_state(30f64.to_radians()).unwrap();
     let mid = params.two_mass_at(40.0);
-    let mut control = VelocityLoop::new(mid.motor_inertia + mid.load_inertia, params.motor.torque_constant_nm_per_a, 8.0);
+    let mut control =
+        VelocityLoop::new(mid.motor_inertia + mid.load_inertia, params.motor.torque_constant_nm_per_a, 8.0);
     let mut samples = Vec::new();
     let h = 1e-3;
     for k in 0..20_000 {
         let t = k as f64 * h;
         let out = plant.outputs();
         let speed = if t < 8.0 { slew_speed(t, 1.0, 1.0, 8.0) } else { 0.01 * (std::f64::consts::TAU * t / 3.0).sin() };
-        let current = control.current(speed.to_radians() * params.ratio_at(out.axis_position_deg), out.motor_speed_rad_per_s, h);
-        let inputs = ElevationInputs { current_command_a: current, disturbance_torque_nm: 2e3 * (std::f64::consts::TAU * t / 0.7).sin() };
+        let current =
+            control.current(speed.to_radians() * params.ratio_at(out.axis_position_deg), out.motor_speed_rad_per_s, h);
+        let inputs = ElevationInputs {
+            current_command_a: current,
+            disturbance_torque_nm: 2e3 * (std::f64::consts::TAU * t / 0.7).sin(),
+        };
         for _ in 0..substeps_per_ms {
             plant.step(&inputs, h / substeps_per_ms as f64).unwrap();
         }
         let o = plant.outputs();
-        samples.push(Sample { position_deg: o.axis_position_deg, current_a: o.motor_current_a, torque_nm: o.drive_torque_nm });
+        samples.push(Sample {
+            position_deg: o.axis_position_deg,
+            current_a: o.motor_current_a,
+            torque_nm: o.drive_torque_nm,
+        });
     }
     (samples, plant.numerics_statistics().events)
 }
@@ -348,5 +370,8 @@ fn elevation_step_size_dependence_with_the_nonlinear_effects_on_is_within_the_do
     let linear = ElevationParams { geometry_frozen: false, ..ElevationParams::linear() };
     let (coarse, _) = elevation_slew_and_reversals(linear, 1);
     let (fine, _) = elevation_slew_and_reversals(linear, 10);
-    check(report("elevation, linear drive with varying geometry, step 1e-3 s vs 1e-4 s", &coarse, &fine), &STEP_SIZE_BOUND);
+    check(
+        report("elevation, linear drive with varying geometry, step 1e-3 s vs 1e-4 s", &coarse, &fine),
+        &STEP_SIZE_BOUND,
+    );
 }

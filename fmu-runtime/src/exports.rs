@@ -21,7 +21,10 @@ use std::path::PathBuf;
 use std::sync::Once;
 
 use crate::ffi::*;
-use crate::instance::{legal, DynModel, Instance, ModelSlot, Phase, SavedState, CAT_CALLS, CAT_DISCARD, CAT_ERROR, CAT_WARNING, CAT_EVENTS, INSTANCE_MAGIC, LOG_CATEGORIES, STATE_MAGIC};
+use crate::instance::{
+    legal, DynModel, Instance, ModelSlot, Phase, SavedState, CAT_CALLS, CAT_DISCARD, CAT_ERROR, CAT_EVENTS,
+    CAT_WARNING, INSTANCE_MAGIC, LOG_CATEGORIES, STATE_MAGIC,
+};
 use crate::model::{Context, Model, ModelInfo, Notes};
 use crate::variables::SetPhase;
 
@@ -82,9 +85,8 @@ fn install_panic_hook() {
 /// Runs `f`, turning a panic into `Err(message)`.
 fn catch<R>(f: impl FnOnce() -> R) -> Result<R, String> {
     install_panic_hook();
-    panic::catch_unwind(AssertUnwindSafe(f)).map_err(|_| {
-        PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_else(|| "(no message)".to_string())
-    })
+    panic::catch_unwind(AssertUnwindSafe(f))
+        .map_err(|_| PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_else(|| "(no message)".to_string()))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -247,7 +249,12 @@ pub fn get_version() -> *const c_char {
     c"2.0".as_ptr()
 }
 
-pub fn set_debug_logging(c: fmi2Component, logging_on: fmi2Boolean, n: usize, categories: *const fmi2String) -> fmi2Status {
+pub fn set_debug_logging(
+    c: fmi2Component,
+    logging_on: fmi2Boolean,
+    n: usize,
+    categories: *const fmi2String,
+) -> fmi2Status {
     with_instance(c, "fmi2SetDebugLogging", legal::SET_DEBUG_LOGGING, |instance| {
         let on = logging_on != fmi2False;
         let names = slice(categories, n, "categories")?;
@@ -304,7 +311,8 @@ pub fn resource_path_from_uri(uri: &str) -> Result<PathBuf, String> {
         decoded.push(bytes[i]);
         i += 1;
     }
-    let text = String::from_utf8(decoded).map_err(|_| format!("resource location '{uri}' is not UTF-8 once decoded"))?;
+    let text =
+        String::from_utf8(decoded).map_err(|_| format!("resource location '{uri}' is not UTF-8 once decoded"))?;
     Ok(PathBuf::from(text))
 }
 
@@ -403,7 +411,11 @@ pub fn instantiate(
             std::ptr::null_mut()
         }
         Err(panic_message) => {
-            log_without_instance(&callbacks, c"?", &format!("fmi2Instantiate: internal error (panic): {panic_message}"));
+            log_without_instance(
+                &callbacks,
+                c"?",
+                &format!("fmi2Instantiate: internal error (panic): {panic_message}"),
+            );
             std::ptr::null_mut()
         }
     }
@@ -543,7 +555,8 @@ pub fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, val
         let out = slice_mut(value, n, "value")?;
         let status = ensure_initialized(instance, vrs)?;
         let strings = instance.model.get_string(vrs)?;
-        instance.returned_strings = strings.into_iter().map(|s| CString::new(s.replace('\0', " ")).unwrap_or_default()).collect();
+        instance.returned_strings =
+            strings.into_iter().map(|s| CString::new(s.replace('\0', " ")).unwrap_or_default()).collect();
         for (o, s) in out.iter_mut().zip(&instance.returned_strings) {
             *o = s.as_ptr();
         }
@@ -598,7 +611,11 @@ pub fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, val
         let vrs = slice(vr, n, "vr")?;
         let raw = slice(value, n, "value")?;
         let phase = set_phase(instance)?;
-        let values = raw.iter().enumerate().map(|(i, &s)| copy_string(s, &format!("value[{i}]"))).collect::<Result<Vec<_>, _>>()?;
+        let values = raw
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| copy_string(s, &format!("value[{i}]")))
+            .collect::<Result<Vec<_>, _>>()?;
         let context = instance.context.clone();
         instance.model.set_string(vrs, values, phase, &context)?;
         mark_changed(instance);
@@ -686,7 +703,10 @@ pub fn serialize_fmu_state(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fm
     with_instance(c, "fmi2SerializeFMUstate", legal::FMU_STATE, |_instance| {
         let saved = saved_state(state)?;
         if size != saved.bytes.len() {
-            return Err(format!("buffer has {size} bytes, the state needs exactly {} (fmi2SerializedFMUstateSize)", saved.bytes.len()));
+            return Err(format!(
+                "buffer has {size} bytes, the state needs exactly {} (fmi2SerializedFMUstateSize)",
+                saved.bytes.len()
+            ));
         }
         let out = slice_mut(bytes as *mut u8, size, "serializedState")?;
         out.copy_from_slice(&saved.bytes);
@@ -694,7 +714,12 @@ pub fn serialize_fmu_state(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fm
     })
 }
 
-pub fn deserialize_fmu_state(c: fmi2Component, bytes: *const fmi2Byte, size: usize, state: *mut fmi2FMUstate) -> fmi2Status {
+pub fn deserialize_fmu_state(
+    c: fmi2Component,
+    bytes: *const fmi2Byte,
+    size: usize,
+    state: *mut fmi2FMUstate,
+) -> fmi2Status {
     with_instance(c, "fmi2DeSerializeFMUstate", legal::FMU_STATE, |instance| {
         let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
         if state.is_null() {
@@ -801,7 +826,11 @@ pub fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Status
             unsafe { *value = instance.last_step_status as fmi2Status };
             Ok(Status::Ok)
         } else {
-            instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetStatus: status kind {kind} is not provided (steps are synchronous)"));
+            instance.log(
+                Status::Discard,
+                CAT_DISCARD,
+                &format!("fmi2GetStatus: status kind {kind} is not provided (steps are synchronous)"),
+            );
             Ok(Status::Discard)
         }
     })
@@ -817,7 +846,11 @@ pub fn get_real_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2R
             unsafe { *value = instance.last_successful_time };
             Ok(Status::Ok)
         } else {
-            instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetRealStatus: status kind {kind} is not provided"));
+            instance.log(
+                Status::Discard,
+                CAT_DISCARD,
+                &format!("fmi2GetRealStatus: status kind {kind} is not provided"),
+            );
             Ok(Status::Discard)
         }
     })
@@ -828,7 +861,11 @@ pub fn get_integer_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fm
         if value.is_null() {
             return Err("value is NULL".into());
         }
-        instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetIntegerStatus: status kind {kind} is not provided"));
+        instance.log(
+            Status::Discard,
+            CAT_DISCARD,
+            &format!("fmi2GetIntegerStatus: status kind {kind} is not provided"),
+        );
         Ok(Status::Discard)
     })
 }
@@ -844,7 +881,11 @@ pub fn get_boolean_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fm
             unsafe { *value = fmi2False };
             Ok(Status::Ok)
         } else {
-            instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetBooleanStatus: status kind {kind} is not provided"));
+            instance.log(
+                Status::Discard,
+                CAT_DISCARD,
+                &format!("fmi2GetBooleanStatus: status kind {kind} is not provided"),
+            );
             Ok(Status::Discard)
         }
     })
@@ -855,7 +896,11 @@ pub fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi
         if value.is_null() {
             return Err("value is NULL".into());
         }
-        instance.log(Status::Discard, CAT_DISCARD, &format!("fmi2GetStringStatus: status kind {kind} is not provided (steps are synchronous)"));
+        instance.log(
+            Status::Discard,
+            CAT_DISCARD,
+            &format!("fmi2GetStringStatus: status kind {kind} is not provided (steps are synchronous)"),
+        );
         Ok(Status::Discard)
     })
 }
@@ -886,7 +931,8 @@ pub fn unsupported(c: fmi2Component, function: &'static str, why: &'static str) 
 pub const WHY_MODEL_EXCHANGE: &str =
     "not supported in co-simulation: this is a model-exchange function, and this FMU implements co-simulation only";
 pub const WHY_DIRECTIONAL_DERIVATIVE: &str = "not supported: providesDirectionalDerivative is false";
-pub const WHY_INPUT_DERIVATIVES: &str = "not supported: canInterpolateInputs is false, inputs are held constant over a step";
+pub const WHY_INPUT_DERIVATIVES: &str =
+    "not supported: canInterpolateInputs is false, inputs are held constant over a step";
 pub const WHY_OUTPUT_DERIVATIVES: &str = "not supported: maxOutputDerivativeOrder is 0";
 pub const WHY_CANCEL_STEP: &str =
     "not supported: canRunAsynchronuously is false, so every fmi2DoStep has completed when it returns and there is no step to cancel";

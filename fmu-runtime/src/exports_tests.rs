@@ -53,14 +53,25 @@ impl Model for TestModel {
         Ok(TestModel { state: 0.0 })
     }
 
-    fn initialize(&mut self, values: &mut Values<TestVar>, _context: &Context, notes: &mut Notes) -> Result<(), String> {
+    fn initialize(
+        &mut self,
+        values: &mut Values<TestVar>,
+        _context: &Context,
+        notes: &mut Notes,
+    ) -> Result<(), String> {
         values.set_real(TestVar::DoubleGain, 2.0 * values.real(TestVar::Gain));
         values.set_real(TestVar::Output, self.state);
         notes.event("initialised with 100% of the gain");
         Ok(())
     }
 
-    fn do_step(&mut self, values: &mut Values<TestVar>, _time: f64, step: f64, _notes: &mut Notes) -> Result<(), String> {
+    fn do_step(
+        &mut self,
+        values: &mut Values<TestVar>,
+        _time: f64,
+        step: f64,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
         if values.boolean(TestVar::PanicOnStep) {
             panic!("deliberate panic with 50% probability");
         }
@@ -118,7 +129,16 @@ impl Master {
         let name = CString::new("test").unwrap();
         let guid = CString::new(guid).unwrap();
         let uri = CString::new("file:///tmp/some%20folder/resources").unwrap();
-        let c = instantiate(MODELS, name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), callbacks.functions(), 0, 0);
+        let c = instantiate(
+            MODELS,
+            name.as_ptr(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            uri.as_ptr(),
+            callbacks.functions(),
+            0,
+            0,
+        );
         if c.is_null() {
             (None, callbacks)
         } else {
@@ -130,7 +150,8 @@ impl Master {
         let callbacks = LoggerCallbacks::new(false);
         let name = CString::new("test").unwrap();
         let guid = CString::new(crate::xml::guid::<TestModel>()).unwrap();
-        let c = instantiate(MODELS, name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), callbacks.functions(), 0, 0);
+        let c =
+            instantiate(MODELS, name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), callbacks.functions(), 0, 0);
         assert!(!c.is_null());
         Master { callbacks, c }
     }
@@ -188,9 +209,11 @@ fn instantiate_rejects_model_exchange_and_missing_names() {
     let guid = CString::new(crate::xml::guid::<TestModel>()).unwrap();
     let name = CString::new("x").unwrap();
     let empty = CString::new("").unwrap();
-    assert!(instantiate(MODELS, name.as_ptr(), fmi2ModelExchange, guid.as_ptr(), null(), callbacks.functions(), 0, 0).is_null());
+    assert!(instantiate(MODELS, name.as_ptr(), fmi2ModelExchange, guid.as_ptr(), null(), callbacks.functions(), 0, 0)
+        .is_null());
     assert!(instantiate(MODELS, null(), fmi2CoSimulation, guid.as_ptr(), null(), callbacks.functions(), 0, 0).is_null());
-    assert!(instantiate(MODELS, empty.as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), callbacks.functions(), 0, 0).is_null());
+    assert!(instantiate(MODELS, empty.as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), callbacks.functions(), 0, 0)
+        .is_null());
     assert!(instantiate(MODELS, name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), null(), 0, 0).is_null());
     let messages: Vec<String> = callbacks.book.records().into_iter().map(|r| r.message).collect();
     assert_eq!(messages.len(), 3, "{messages:?}");
@@ -352,7 +375,8 @@ fn percent_signs_reach_the_logger_unchanged_after_printf_formatting() {
     let c = instantiate(MODELS, name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), callbacks.functions(), 0, 1);
     assert_eq!(enter_initialization_mode(c), fmi2OK);
     assert_eq!(exit_initialization_mode(c), fmi2OK);
-    let events: Vec<String> = callbacks.book.records().into_iter().filter(|r| r.category == "logEvents").map(|r| r.message).collect();
+    let events: Vec<String> =
+        callbacks.book.records().into_iter().filter(|r| r.category == "logEvents").map(|r| r.message).collect();
     assert_eq!(events, vec!["initialised with 100% of the gain".to_string()]);
     free_instance(c);
 }
@@ -506,7 +530,9 @@ fn unsupported_functions_log_why_fail_and_leave_the_instance_in_its_phase() {
     let stepping = Master::initialized();
     let terminated = Master::initialized();
     assert_eq!(terminate(terminated.c), fmi2OK);
-    for (m, phase) in [(&instantiated, Phase::Instantiated), (&stepping, Phase::StepComplete), (&terminated, Phase::Terminated)] {
+    for (m, phase) in
+        [(&instantiated, Phase::Instantiated), (&stepping, Phase::StepComplete), (&terminated, Phase::Terminated)]
+    {
         assert_eq!(unsupported(m.c, "fmi2SetTime", WHY_MODEL_EXCHANGE), fmi2Error);
         assert!(m.last_error().contains("fmi2SetTime: not supported in co-simulation"), "{}", m.last_error());
         assert_eq!(unsupported(m.c, "fmi2GetDirectionalDerivative", WHY_DIRECTIONAL_DERIVATIVE), fmi2Error);

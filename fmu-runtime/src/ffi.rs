@@ -77,9 +77,8 @@ pub const fmi2Terminated: fmi2StatusKind = 3;
 
 /// The logger is variadic in C: the message is a printf format. FMUs of this project never
 /// pass arguments and escape `%` as `%%`.
-pub type fmi2CallbackLogger = Option<
-    unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...),
->;
+pub type fmi2CallbackLogger =
+    Option<unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...)>;
 pub type fmi2CallbackAllocateMemory = Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>;
 pub type fmi2CallbackFreeMemory = Option<unsafe extern "C" fn(*mut c_void)>;
 pub type fmi2StepFinished = Option<unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2Status)>;

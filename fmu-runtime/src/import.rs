@@ -25,14 +25,22 @@ pub enum ImportError {
     Description(String),
     Library(String),
     /// An fmi2 call returned an error status; `messages` are what the FMU logged during the call.
-    Call { function: &'static str, status: Status, messages: Vec<String> },
-    Instantiate { messages: Vec<String> },
+    Call {
+        function: &'static str,
+        status: Status,
+        messages: Vec<String>,
+    },
+    Instantiate {
+        messages: Vec<String>,
+    },
 }
 
 impl fmt::Display for ImportError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            ImportError::Io(m) | ImportError::Archive(m) | ImportError::Description(m) | ImportError::Library(m) => f.write_str(m),
+            ImportError::Io(m) | ImportError::Archive(m) | ImportError::Description(m) | ImportError::Library(m) => {
+                f.write_str(m)
+            }
             ImportError::Call { function, status, messages } => {
                 write!(f, "{function} returned {}", status.name())?;
                 if !messages.is_empty() {
@@ -107,7 +115,8 @@ impl ModelDescription {
         let mut current: Option<ScalarVariable> = None;
         let mut in_outputs = false;
         loop {
-            let event = reader.read_event().map_err(|e| bad(format!("XML error at byte {}: {e}", reader.buffer_position())))?;
+            let event =
+                reader.read_event().map_err(|e| bad(format!("XML error at byte {}: {e}", reader.buffer_position())))?;
             let (element, is_empty) = match &event {
                 Event::Start(e) => (Some(e.clone()), false),
                 Event::Empty(e) => (Some(e.clone()), true),
@@ -131,7 +140,10 @@ impl ModelDescription {
             for a in e.attributes() {
                 let a = a.map_err(|err| bad(format!("bad attribute: {err}")))?;
                 let key = a.key.into_inner().to_string();
-                let value = a.normalized_value(quick_xml::XmlVersion::Explicit1_0).map_err(|err| bad(format!("bad attribute value: {err}")))?.to_string();
+                let value = a
+                    .normalized_value(quick_xml::XmlVersion::Explicit1_0)
+                    .map_err(|err| bad(format!("bad attribute value: {err}")))?
+                    .to_string();
                 attrs.insert(key, value);
             }
             let get = |k: &str| attrs.get(k).cloned();
@@ -143,7 +155,8 @@ impl ModelDescription {
                     md.description = get("description").unwrap_or_default();
                 }
                 "CoSimulation" => {
-                    md.model_identifier = get("modelIdentifier").ok_or_else(|| bad("CoSimulation has no modelIdentifier".into()))?;
+                    md.model_identifier =
+                        get("modelIdentifier").ok_or_else(|| bad("CoSimulation has no modelIdentifier".into()))?;
                     md.capabilities = attrs.clone();
                 }
                 "DefaultExperiment" => {
@@ -185,8 +198,10 @@ impl ModelDescription {
                 }
                 "Outputs" => in_outputs = !is_empty,
                 "Unknown" if in_outputs => {
-                    let index = get("index").and_then(|s| s.parse().ok()).ok_or_else(|| bad("Unknown without index".into()))?;
-                    let deps = get("dependencies").map(|d| d.split_whitespace().filter_map(|x| x.parse().ok()).collect());
+                    let index =
+                        get("index").and_then(|s| s.parse().ok()).ok_or_else(|| bad("Unknown without index".into()))?;
+                    let deps =
+                        get("dependencies").map(|d| d.split_whitespace().filter_map(|x| x.parse().ok()).collect());
                     md.output_dependencies.push((index, deps));
                 }
                 _ => {}
@@ -221,10 +236,18 @@ impl ModelDescription {
 
 type FnGetTypesPlatform = unsafe extern "C" fn() -> *const c_char;
 type FnSetDebugLogging = unsafe extern "C" fn(fmi2Component, fmi2Boolean, usize, *const fmi2String) -> fmi2Status;
-type FnInstantiate =
-    unsafe extern "C" fn(fmi2String, fmi2Type, fmi2String, fmi2String, *const fmi2CallbackFunctions, fmi2Boolean, fmi2Boolean) -> fmi2Component;
+type FnInstantiate = unsafe extern "C" fn(
+    fmi2String,
+    fmi2Type,
+    fmi2String,
+    fmi2String,
+    *const fmi2CallbackFunctions,
+    fmi2Boolean,
+    fmi2Boolean,
+) -> fmi2Component;
 type FnFreeInstance = unsafe extern "C" fn(fmi2Component);
-type FnSetupExperiment = unsafe extern "C" fn(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real, fmi2Boolean, fmi2Real) -> fmi2Status;
+type FnSetupExperiment =
+    unsafe extern "C" fn(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real, fmi2Boolean, fmi2Real) -> fmi2Status;
 type FnComponent = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
 type FnGet<T> = unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut T) -> fmi2Status;
 type FnSet<T> = unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const T) -> fmi2Status;
@@ -238,16 +261,50 @@ type FnStatus<T> = unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut T) -
 
 /// Every function name of the FMI 2.0 API, for checking that a binary exports all of them.
 pub const ALL_FUNCTIONS: [&str; 44] = [
-    "fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate", "fmi2FreeInstance",
-    "fmi2SetupExperiment", "fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset",
-    "fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString", "fmi2SetReal", "fmi2SetInteger",
-    "fmi2SetBoolean", "fmi2SetString", "fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate",
-    "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative",
-    "fmi2EnterEventMode", "fmi2NewDiscreteStates", "fmi2EnterContinuousTimeMode", "fmi2CompletedIntegratorStep",
-    "fmi2SetTime", "fmi2SetContinuousStates", "fmi2GetDerivatives", "fmi2GetEventIndicators",
-    "fmi2GetContinuousStates", "fmi2GetNominalsOfContinuousStates", "fmi2SetRealInputDerivatives",
-    "fmi2GetRealOutputDerivatives", "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus", "fmi2GetRealStatus",
-    "fmi2GetIntegerStatus", "fmi2GetBooleanStatus", "fmi2GetStringStatus",
+    "fmi2GetTypesPlatform",
+    "fmi2GetVersion",
+    "fmi2SetDebugLogging",
+    "fmi2Instantiate",
+    "fmi2FreeInstance",
+    "fmi2SetupExperiment",
+    "fmi2EnterInitializationMode",
+    "fmi2ExitInitializationMode",
+    "fmi2Terminate",
+    "fmi2Reset",
+    "fmi2GetReal",
+    "fmi2GetInteger",
+    "fmi2GetBoolean",
+    "fmi2GetString",
+    "fmi2SetReal",
+    "fmi2SetInteger",
+    "fmi2SetBoolean",
+    "fmi2SetString",
+    "fmi2GetFMUstate",
+    "fmi2SetFMUstate",
+    "fmi2FreeFMUstate",
+    "fmi2SerializedFMUstateSize",
+    "fmi2SerializeFMUstate",
+    "fmi2DeSerializeFMUstate",
+    "fmi2GetDirectionalDerivative",
+    "fmi2EnterEventMode",
+    "fmi2NewDiscreteStates",
+    "fmi2EnterContinuousTimeMode",
+    "fmi2CompletedIntegratorStep",
+    "fmi2SetTime",
+    "fmi2SetContinuousStates",
+    "fmi2GetDerivatives",
+    "fmi2GetEventIndicators",
+    "fmi2GetContinuousStates",
+    "fmi2GetNominalsOfContinuousStates",
+    "fmi2SetRealInputDerivatives",
+    "fmi2GetRealOutputDerivatives",
+    "fmi2DoStep",
+    "fmi2CancelStep",
+    "fmi2GetStatus",
+    "fmi2GetRealStatus",
+    "fmi2GetIntegerStatus",
+    "fmi2GetBooleanStatus",
+    "fmi2GetStringStatus",
 ];
 
 /// The co-simulation functions of a loaded library. Fields are public so that tests in this
@@ -315,7 +372,11 @@ impl Library {
             // SAFETY: dlerror returns a thread-local message or NULL.
             let reason = unsafe {
                 let e = libc::dlerror();
-                if e.is_null() { "unknown error".to_string() } else { CStr::from_ptr(e).to_string_lossy().to_string() }
+                if e.is_null() {
+                    "unknown error".to_string()
+                } else {
+                    CStr::from_ptr(e).to_string_lossy().to_string()
+                }
             };
             return Err(ImportError::Library(format!("cannot load {}: {reason}", path.display())));
         }
@@ -455,7 +516,10 @@ impl LogBook {
             .lock()
             .map(|r| {
                 let kept_from = total - r.len();
-                r.iter().skip(start.saturating_sub(kept_from)).map(|m| format!("[{}] {}", m.category, m.message)).collect()
+                r.iter()
+                    .skip(start.saturating_sub(kept_from))
+                    .map(|m| format!("[{}] {}", m.category, m.message))
+                    .collect()
             })
             .unwrap_or_default()
     }
@@ -468,10 +532,23 @@ struct LogEnvironment {
 }
 
 extern "C" {
-    fn fmu_runtime_logger(environment: *mut c_void, instance: fmi2String, status: c_int, category: fmi2String, format: fmi2String, ...);
+    fn fmu_runtime_logger(
+        environment: *mut c_void,
+        instance: fmi2String,
+        status: c_int,
+        category: fmi2String,
+        format: fmi2String,
+        ...
+    );
 }
 
-unsafe extern "C" fn log_sink(user: *mut c_void, instance: *const c_char, status: c_int, category: *const c_char, message: *const c_char) {
+unsafe extern "C" fn log_sink(
+    user: *mut c_void,
+    instance: *const c_char,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) {
     let text = |p: *const c_char| {
         if p.is_null() {
             String::new()
@@ -482,7 +559,12 @@ unsafe extern "C" fn log_sink(user: *mut c_void, instance: *const c_char, status
     };
     // SAFETY: `user` is the LogBook the instance keeps alive in an Arc for its whole life.
     let book = unsafe { &*(user as *const LogBook) };
-    let record = LogRecord { instance: text(instance), status: Status::from_raw(status), category: text(category), message: text(message) };
+    let record = LogRecord {
+        instance: text(instance),
+        status: Status::from_raw(status),
+        category: text(category),
+        message: text(message),
+    };
     if book.echo {
         eprintln!("[{}] {} {}: {}", record.instance, record.status.name(), record.category, record.message);
     }
@@ -511,15 +593,19 @@ impl Fmu {
     /// Unpacks and loads a `.fmu` file.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
         let path = path.as_ref();
-        let file = std::fs::File::open(path).map_err(|e| ImportError::Io(format!("cannot open {}: {e}", path.display())))?;
-        let mut archive = zip::ZipArchive::new(file).map_err(|e| ImportError::Archive(format!("{} is not a valid .fmu (zip): {e}", path.display())))?;
+        let file =
+            std::fs::File::open(path).map_err(|e| ImportError::Io(format!("cannot open {}: {e}", path.display())))?;
+        let mut archive = zip::ZipArchive::new(file)
+            .map_err(|e| ImportError::Archive(format!("{} is not a valid .fmu (zip): {e}", path.display())))?;
         let directory = std::env::temp_dir().join(format!(
             "meerkat-fmu-{}-{}-{}",
             std::process::id(),
             UNPACK_COUNTER.fetch_add(1, Ordering::Relaxed),
             path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default()
         ));
-        archive.extract(&directory).map_err(|e| ImportError::Archive(format!("cannot unpack {}: {e}", path.display())))?;
+        archive
+            .extract(&directory)
+            .map_err(|e| ImportError::Archive(format!("cannot unpack {}: {e}", path.display())))?;
         Self::from_directory(directory, true)
     }
 
@@ -554,11 +640,18 @@ impl Fmu {
     }
 
     /// A new instance with full control over the GUID and echoing of log messages to stderr.
-    pub fn instantiate_with(&self, name: &str, guid: &str, logging_on: bool, echo_log: bool) -> Result<Instance, ImportError> {
+    pub fn instantiate_with(
+        &self,
+        name: &str,
+        guid: &str,
+        logging_on: bool,
+        echo_log: bool,
+    ) -> Result<Instance, ImportError> {
         let callbacks = LoggerCallbacks::new(echo_log);
         let c_name = CString::new(name).map_err(|_| ImportError::Io("instance name contains NUL".into()))?;
         let c_guid = CString::new(guid).map_err(|_| ImportError::Io("GUID contains NUL".into()))?;
-        let c_uri = CString::new(self.resource_uri()).map_err(|_| ImportError::Io("resource URI contains NUL".into()))?;
+        let c_uri =
+            CString::new(self.resource_uri()).map_err(|_| ImportError::Io("resource URI contains NUL".into()))?;
         // SAFETY: every pointer is valid for the call; the callbacks and the log environment are
         // boxed and owned by the returned Instance, so they outlive the FMU instance.
         let component = unsafe {
@@ -598,8 +691,14 @@ impl LoggerCallbacks {
     pub fn new(echo: bool) -> Self {
         let book = Arc::new(LogBook::new(echo));
         let environment = Box::new(LogEnvironment { sink: log_sink, user: Arc::as_ptr(&book) });
-        let logger: unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...) =
-            fmu_runtime_logger;
+        let logger: unsafe extern "C" fn(
+            fmi2ComponentEnvironment,
+            fmi2String,
+            fmi2Status,
+            fmi2String,
+            fmi2String,
+            ...
+        ) = fmu_runtime_logger;
         let functions = Box::new(fmi2CallbackFunctions {
             logger: Some(logger),
             allocateMemory: Some(libc_calloc),
@@ -715,7 +814,12 @@ impl Instance {
         let start = self.log.len();
         // SAFETY: valid component and an array of valid strings.
         let raw = unsafe {
-            (self.library.functions.set_debug_logging)(self.component, if on { fmi2True } else { fmi2False }, pointers.len(), pointers.as_ptr())
+            (self.library.functions.set_debug_logging)(
+                self.component,
+                if on { fmi2True } else { fmi2False },
+                pointers.len(),
+                pointers.as_ptr(),
+            )
         };
         self.check("fmi2SetDebugLogging", raw, start)
     }
@@ -777,7 +881,8 @@ impl Instance {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
         // SAFETY: valid component; both arrays have vrs.len() elements.
-        let raw = unsafe { (self.library.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
+        let raw =
+            unsafe { (self.library.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
         self.check("fmi2GetReal", raw, start)
     }
 
@@ -787,7 +892,8 @@ impl Instance {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
         // SAFETY: as for get_real.
-        let raw = unsafe { (self.library.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let raw =
+            unsafe { (self.library.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
         self.check("fmi2SetReal", raw, start)
     }
 
@@ -795,7 +901,9 @@ impl Instance {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
         // SAFETY: as for get_real.
-        let raw = unsafe { (self.library.functions.get_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
+        let raw = unsafe {
+            (self.library.functions.get_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
+        };
         self.check("fmi2GetInteger", raw, start)
     }
 
@@ -803,7 +911,8 @@ impl Instance {
         assert_eq!(vrs.len(), values.len(), "one value per value reference");
         let start = self.log.len();
         // SAFETY: as for get_real.
-        let raw = unsafe { (self.library.functions.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let raw =
+            unsafe { (self.library.functions.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
         self.check("fmi2SetInteger", raw, start)
     }
 
@@ -811,7 +920,9 @@ impl Instance {
         let mut raw_values = vec![0; vrs.len()];
         let start = self.log.len();
         // SAFETY: as for get_real.
-        let raw = unsafe { (self.library.functions.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_values.as_mut_ptr()) };
+        let raw = unsafe {
+            (self.library.functions.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_values.as_mut_ptr())
+        };
         for (v, r) in values.iter_mut().zip(raw_values) {
             *v = r != fmi2False;
         }
@@ -822,7 +933,9 @@ impl Instance {
         let raw_values: Vec<fmi2Boolean> = values.iter().map(|&b| if b { fmi2True } else { fmi2False }).collect();
         let start = self.log.len();
         // SAFETY: as for get_real.
-        let raw = unsafe { (self.library.functions.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_values.as_ptr()) };
+        let raw = unsafe {
+            (self.library.functions.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_values.as_ptr())
+        };
         self.check("fmi2SetBoolean", raw, start)
     }
 
@@ -830,7 +943,9 @@ impl Instance {
         let mut pointers: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
         let start = self.log.len();
         // SAFETY: as for get_real.
-        let raw = unsafe { (self.library.functions.get_string)(self.component, vrs.as_ptr(), vrs.len(), pointers.as_mut_ptr()) };
+        let raw = unsafe {
+            (self.library.functions.get_string)(self.component, vrs.as_ptr(), vrs.len(), pointers.as_mut_ptr())
+        };
         self.check("fmi2GetString", raw, start)?;
         Ok(pointers
             .iter()
@@ -850,7 +965,8 @@ impl Instance {
         let pointers: Vec<fmi2String> = owned.iter().map(|s| s.as_ptr()).collect();
         let start = self.log.len();
         // SAFETY: as for get_real; the strings outlive the call.
-        let raw = unsafe { (self.library.functions.set_string)(self.component, vrs.as_ptr(), vrs.len(), pointers.as_ptr()) };
+        let raw =
+            unsafe { (self.library.functions.set_string)(self.component, vrs.as_ptr(), vrs.len(), pointers.as_ptr()) };
         self.check("fmi2SetString", raw, start)
     }
 
@@ -867,7 +983,8 @@ impl Instance {
         let mut value = f64::NAN;
         let start = self.log.len();
         // SAFETY: valid component and output pointer.
-        let raw = unsafe { (self.library.functions.get_real_status)(self.component, fmi2LastSuccessfulTime, &mut value) };
+        let raw =
+            unsafe { (self.library.functions.get_real_status)(self.component, fmi2LastSuccessfulTime, &mut value) };
         self.check("fmi2GetRealStatus", raw, start)?;
         Ok(value)
     }
@@ -918,11 +1035,19 @@ impl Instance {
         let mut size = 0usize;
         let start = self.log.len();
         // SAFETY: valid component, state and output pointer.
-        let raw = unsafe { (self.library.functions.serialized_fmu_state_size)(self.component, state.pointer, &mut size) };
+        let raw =
+            unsafe { (self.library.functions.serialized_fmu_state_size)(self.component, state.pointer, &mut size) };
         self.check("fmi2SerializedFMUstateSize", raw, start)?;
         let mut bytes = vec![0u8; size];
         // SAFETY: the buffer has exactly `size` bytes.
-        let raw = unsafe { (self.library.functions.serialize_fmu_state)(self.component, state.pointer, bytes.as_mut_ptr() as *mut fmi2Byte, size) };
+        let raw = unsafe {
+            (self.library.functions.serialize_fmu_state)(
+                self.component,
+                state.pointer,
+                bytes.as_mut_ptr() as *mut fmi2Byte,
+                size,
+            )
+        };
         self.check("fmi2SerializeFMUstate", raw, start)?;
         Ok(bytes)
     }
@@ -932,7 +1057,12 @@ impl Instance {
         let start = self.log.len();
         // SAFETY: valid component and buffer.
         let raw = unsafe {
-            (self.library.functions.deserialize_fmu_state)(self.component, bytes.as_ptr() as *const fmi2Byte, bytes.len(), &mut pointer)
+            (self.library.functions.deserialize_fmu_state)(
+                self.component,
+                bytes.as_ptr() as *const fmi2Byte,
+                bytes.len(),
+                &mut pointer,
+            )
         };
         self.check("fmi2DeSerializeFMUstate", raw, start)?;
         self.states.insert(pointer as usize);

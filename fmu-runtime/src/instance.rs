@@ -72,8 +72,10 @@ pub mod legal {
         m
     }
     pub const ANY: u32 = mask(&[Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error, Fatal]);
-    pub const SET_DEBUG_LOGGING: u32 = mask(&[Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error]);
-    pub const FREE_INSTANCE: u32 = mask(&[Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error]);
+    pub const SET_DEBUG_LOGGING: u32 =
+        mask(&[Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error]);
+    pub const FREE_INSTANCE: u32 =
+        mask(&[Instantiated, InitializationMode, StepComplete, StepFailed, Terminated, Error]);
     pub const SETUP_EXPERIMENT: u32 = mask(&[Instantiated]);
     pub const ENTER_INITIALIZATION_MODE: u32 = mask(&[Instantiated]);
     pub const EXIT_INITIALIZATION_MODE: u32 = mask(&[InitializationMode]);
@@ -143,7 +145,13 @@ pub trait DynModel: Send {
     fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), String>;
     fn set_integer(&mut self, vrs: &[u32], values: &[i32], phase: SetPhase) -> Result<(), String>;
     fn set_boolean(&mut self, vrs: &[u32], values: &[bool], phase: SetPhase) -> Result<(), String>;
-    fn set_string(&mut self, vrs: &[u32], values: Vec<String>, phase: SetPhase, context: &Context) -> Result<(), String>;
+    fn set_string(
+        &mut self,
+        vrs: &[u32],
+        values: Vec<String>,
+        phase: SetPhase,
+        context: &Context,
+    ) -> Result<(), String>;
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String>;
     fn update_feedthrough(&mut self);
     /// Whether any output depends directly on an input.
@@ -177,7 +185,9 @@ struct Access {
 impl Access {
     fn of(var: &Var) -> Access {
         let (min, max) = match var.kind {
-            Kind::Real { min, max, .. } => (min.unwrap_or(f64::MIN).max(f64::MIN), max.unwrap_or(f64::MAX).min(f64::MAX)),
+            Kind::Real { min, max, .. } => {
+                (min.unwrap_or(f64::MIN).max(f64::MIN), max.unwrap_or(f64::MAX).min(f64::MAX))
+            }
             _ => (f64::MIN, f64::MAX),
         };
         let range = |phase: SetPhase| {
@@ -224,9 +234,9 @@ impl<M: Model> ModelSlot<M> {
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
         let index = vr as usize;
-        let var = M::Var::TABLE
-            .get(index)
-            .ok_or_else(|| format!("unknown value reference {vr} (this model has {} variables)", M::Var::TABLE.len()))?;
+        let var = M::Var::TABLE.get(index).ok_or_else(|| {
+            format!("unknown value reference {vr} (this model has {} variables)", M::Var::TABLE.len())
+        })?;
         if var.base_type() != ty {
             return Err(format!("value reference {vr} ('{}') is of type {}, not {ty}", var.name, var.base_type()));
         }
@@ -267,7 +277,6 @@ impl<M: Model> ModelSlot<M> {
             var.variability.xml_name()
         ))
     }
-
 }
 
 impl<M: Model> DynModel for ModelSlot<M> {
@@ -365,7 +374,13 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Ok(())
     }
 
-    fn set_string(&mut self, vrs: &[u32], values: Vec<String>, phase: SetPhase, context: &Context) -> Result<(), String> {
+    fn set_string(
+        &mut self,
+        vrs: &[u32],
+        values: Vec<String>,
+        phase: SetPhase,
+        context: &Context,
+    ) -> Result<(), String> {
         for &vr in vrs {
             let (_, var) = Self::lookup(vr, BaseType::String)?;
             Self::check_settable(var, vr, phase)?;
@@ -468,7 +483,12 @@ pub fn check_integer_value<M: Model>(var: M::Var, value: i32, values: &Values<M:
             if declared_type.name_of(value).is_none() {
                 let items: Vec<String> =
                     declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
-                return Err(format!("'{}' = {value} is not an item of {} ({})", decl.name, declared_type.name, items.join(", ")));
+                return Err(format!(
+                    "'{}' = {value} is not an item of {} ({})",
+                    decl.name,
+                    declared_type.name,
+                    items.join(", ")
+                ));
             }
         }
         _ => {}
@@ -602,7 +622,8 @@ impl Instance {
             )));
         }
         let phase_byte = r.u8()?;
-        let phase = Phase::from_byte(phase_byte).ok_or_else(|| StateError(format!("invalid phase {phase_byte} in state")))?;
+        let phase =
+            Phase::from_byte(phase_byte).ok_or_else(|| StateError(format!("invalid phase {phase_byte} in state")))?;
         let time = r.f64()?;
         let start_time = r.f64()?;
         let has_stop = r.bool()?;

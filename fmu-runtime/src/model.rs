@@ -85,11 +85,22 @@ pub trait Model: Sized + Send + 'static {
     /// Parameters are final (or the master asked for initial values during initialisation):
     /// build what depends on them and compute the initial outputs and calculated parameters.
     /// It may be called more than once before the first step.
-    fn initialize(&mut self, values: &mut Values<Self::Var>, context: &Context, notes: &mut Notes) -> Result<(), String>;
+    fn initialize(
+        &mut self,
+        values: &mut Values<Self::Var>,
+        context: &Context,
+        notes: &mut Notes,
+    ) -> Result<(), String>;
 
     /// Advances the model from `time` to `time + step`, inputs held constant over the step,
     /// and writes the outputs at `time + step`.
-    fn do_step(&mut self, values: &mut Values<Self::Var>, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
+    fn do_step(
+        &mut self,
+        values: &mut Values<Self::Var>,
+        time: f64,
+        step: f64,
+        notes: &mut Notes,
+    ) -> Result<(), String>;
 
     /// Recomputes the outputs that depend directly on inputs (those declared with
     /// `depends_on`) so that a get sees the current inputs as the standard requires. The

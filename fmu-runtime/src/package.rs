@@ -54,7 +54,9 @@ pub fn default_parameter_file<M: Model>() -> String {
                 (format!("\"{}\"", declared_type.name_of(start.unwrap_or(1)).unwrap_or("?")), String::new())
             }
             Kind::Boolean { start } => (start.unwrap_or(false).to_string(), String::new()),
-            Kind::String { start } => (format!("\"{}\"", start.unwrap_or("").replace('\\', "\\\\").replace('"', "\\\"")), String::new()),
+            Kind::String { start } => {
+                (format!("\"{}\"", start.unwrap_or("").replace('\\', "\\\\").replace('"', "\\\"")), String::new())
+            }
         };
         // A parameter file may not set the file-loading parameter itself.
         if var.name == "parameter_file" {

@@ -120,27 +120,39 @@ pub fn apply<M: Model>(text: &str, origin: &str, values: &mut Values<M::Var>) ->
     let assignments = parse(text, origin)?;
     let mut updated = values.clone();
     for a in &assignments {
-        let var = M::Var::by_name(&a.name).ok_or_else(|| format!("{origin}:{}: unknown variable `{}`", a.line, a.name))?;
+        let var =
+            M::Var::by_name(&a.name).ok_or_else(|| format!("{origin}:{}: unknown variable `{}`", a.line, a.name))?;
         let decl = var.var();
         if !decl.settable_in(SetPhase::Initialization) {
-            return Err(format!("{origin}:{}: `{}` is a {} and cannot be set from a parameter file", a.line, a.name, decl.causality.xml_name()));
+            return Err(format!(
+                "{origin}:{}: `{}` is a {} and cannot be set from a parameter file",
+                a.line,
+                a.name,
+                decl.causality.xml_name()
+            ));
         }
-        let mismatch = || format!("{origin}:{}: `{}` is of type {}, the file gives `{}`", a.line, a.name, decl.base_type(), a.value);
+        let mismatch = || {
+            format!("{origin}:{}: `{}` is of type {}, the file gives `{}`", a.line, a.name, decl.base_type(), a.value)
+        };
         match (decl.base_type(), &a.value) {
             (BaseType::Real, ParameterValue::Number(x)) => {
-                crate::instance::check_real_value::<M>(var, *x, &updated).map_err(|e| format!("{origin}:{}: {e}", a.line))?;
+                crate::instance::check_real_value::<M>(var, *x, &updated)
+                    .map_err(|e| format!("{origin}:{}: {e}", a.line))?;
                 updated.set_real(var, *x);
             }
             (BaseType::Integer, ParameterValue::Number(x)) => {
                 if x.fract() != 0.0 || *x < f64::from(i32::MIN) || *x > f64::from(i32::MAX) {
                     return Err(format!("{origin}:{}: `{}` needs an integer, the file gives {x}", a.line, a.name));
                 }
-                crate::instance::check_integer_value::<M>(var, *x as i32, &updated).map_err(|e| format!("{origin}:{}: {e}", a.line))?;
+                crate::instance::check_integer_value::<M>(var, *x as i32, &updated)
+                    .map_err(|e| format!("{origin}:{}: {e}", a.line))?;
                 updated.set_integer(var, *x as i32);
             }
             (BaseType::Integer, ParameterValue::Text(item)) => {
                 // Enumerations may be given by item name.
-                let crate::variables::Kind::Enumeration { declared_type, .. } = decl.kind else { return Err(mismatch()) };
+                let crate::variables::Kind::Enumeration { declared_type, .. } = decl.kind else {
+                    return Err(mismatch());
+                };
                 let value = declared_type
                     .value_of(item)
                     .ok_or_else(|| format!("{origin}:{}: `{item}` is not an item of {}", a.line, declared_type.name))?;

@@ -79,7 +79,9 @@ pub fn validate<M: Model>() -> Result<(), String> {
             return Err(format!("variable '{}' is calculated and must not have a start value", var.name));
         }
         for &dep in var.depends_on {
-            let target = table.get(dep as usize).ok_or_else(|| format!("'{}' depends on unknown value reference {dep}", var.name))?;
+            let target = table
+                .get(dep as usize)
+                .ok_or_else(|| format!("'{}' depends on unknown value reference {dep}", var.name))?;
             if target.causality != Causality::Input {
                 return Err(format!("'{}' depends on '{}', which is not an input", var.name, target.name));
             }
@@ -293,7 +295,8 @@ fn render<M: Model>(guid: &str) -> String {
 
     // ModelStructure: indices are 1-based positions in ModelVariables.
     write(&mut w, Event::Start(BytesStart::new("ModelStructure")));
-    let outputs: Vec<(usize, &Var)> = table.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).collect();
+    let outputs: Vec<(usize, &Var)> =
+        table.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).collect();
     if !outputs.is_empty() {
         write(&mut w, Event::Start(BytesStart::new("Outputs")));
         for (i, var) in &outputs {
@@ -307,7 +310,10 @@ fn render<M: Model>(guid: &str) -> String {
         .filter(|(_, v)| {
             v.causality == Causality::CalculatedParameter
                 || (v.causality == Causality::Output
-                    && matches!(v.initial, Some(crate::variables::Initial::Calculated) | Some(crate::variables::Initial::Approx)))
+                    && matches!(
+                        v.initial,
+                        Some(crate::variables::Initial::Calculated) | Some(crate::variables::Initial::Approx)
+                    ))
         })
         .collect();
     if !initial_unknowns.is_empty() {

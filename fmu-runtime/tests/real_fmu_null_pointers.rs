@@ -79,19 +79,39 @@ fn every_function_given_a_null_instance_returns_fmi2_error() {
                 ("fmi2SerializedFMUstateSize", (f.serialized_fmu_state_size)(null, state, &mut size)),
                 ("fmi2SerializeFMUstate", (f.serialize_fmu_state)(null, state, bytes.as_mut_ptr(), bytes.len())),
                 ("fmi2DeSerializeFMUstate", (f.deserialize_fmu_state)(null, bytes.as_ptr(), bytes.len(), &mut state)),
-                ("fmi2GetDirectionalDerivative", (o.get_directional_derivative)(null, vr.as_ptr(), 1, vr.as_ptr(), 1, real.as_ptr(), real.as_mut_ptr())),
+                (
+                    "fmi2GetDirectionalDerivative",
+                    (o.get_directional_derivative)(
+                        null,
+                        vr.as_ptr(),
+                        1,
+                        vr.as_ptr(),
+                        1,
+                        real.as_ptr(),
+                        real.as_mut_ptr(),
+                    ),
+                ),
                 ("fmi2EnterEventMode", (f.enter_event_mode)(null)),
                 ("fmi2NewDiscreteStates", (o.new_discrete_states)(null, bytes.as_mut_ptr() as *mut c_void)),
                 ("fmi2EnterContinuousTimeMode", (o.enter_continuous_time_mode)(null)),
-                ("fmi2CompletedIntegratorStep", (o.completed_integrator_step)(null, fmi2True, &mut flags[0], &mut flags[1])),
+                (
+                    "fmi2CompletedIntegratorStep",
+                    (o.completed_integrator_step)(null, fmi2True, &mut flags[0], &mut flags[1]),
+                ),
                 ("fmi2SetTime", (o.set_time)(null, 0.0)),
                 ("fmi2SetContinuousStates", (o.set_continuous_states)(null, real.as_ptr(), 1)),
                 (o.get_arrays[0].0, (o.get_arrays[0].1)(null, real.as_mut_ptr(), 1)),
                 (o.get_arrays[1].0, (o.get_arrays[1].1)(null, real.as_mut_ptr(), 1)),
                 (o.get_arrays[2].0, (o.get_arrays[2].1)(null, real.as_mut_ptr(), 1)),
                 (o.get_arrays[3].0, (o.get_arrays[3].1)(null, real.as_mut_ptr(), 1)),
-                ("fmi2SetRealInputDerivatives", (o.set_real_input_derivatives)(null, vr.as_ptr(), 1, orders.as_ptr(), real.as_ptr())),
-                ("fmi2GetRealOutputDerivatives", (o.get_real_output_derivatives)(null, vr.as_ptr(), 1, orders.as_ptr(), real.as_mut_ptr())),
+                (
+                    "fmi2SetRealInputDerivatives",
+                    (o.set_real_input_derivatives)(null, vr.as_ptr(), 1, orders.as_ptr(), real.as_ptr()),
+                ),
+                (
+                    "fmi2GetRealOutputDerivatives",
+                    (o.get_real_output_derivatives)(null, vr.as_ptr(), 1, orders.as_ptr(), real.as_mut_ptr()),
+                ),
                 ("fmi2DoStep", (f.do_step)(null, 0.0, 1e-3, fmi2True)),
                 ("fmi2CancelStep", (f.cancel_step)(null)),
                 ("fmi2GetStatus", (f.get_status)(null, fmi2DoStepStatus, &mut status)),
@@ -131,7 +151,11 @@ fn null_arrays_are_accepted_when_no_elements_are_announced() {
             ]
         };
         for (name, status) in results {
-            assert_eq!(status, fmi2OK, "{}: {name} with n = 0 and NULL arrays returned {status}", fmu.description.model_identifier);
+            assert_eq!(
+                status, fmi2OK,
+                "{}: {name} with n = 0 and NULL arrays returned {status}",
+                fmu.description.model_identifier
+            );
         }
         instance.do_step(0.0, 1e-3).expect("the instance is still usable");
     }
@@ -156,24 +180,57 @@ fn null_arrays_with_elements_announced_are_errors_with_a_message() {
         // pointer points to one element; the NULL one is the misuse under test.
         let calls: Vec<(&str, Call)> = vec![
             ("fmi2GetReal(vr = NULL)", Box::new(|f, c| unsafe { (f.get_real)(c, null_vr, 1, real_ptr) })),
-            ("fmi2GetReal(value = NULL)", Box::new(|f, c| unsafe { (f.get_real)(c, vr.as_ptr(), 1, std::ptr::null_mut()) })),
+            (
+                "fmi2GetReal(value = NULL)",
+                Box::new(|f, c| unsafe { (f.get_real)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
+            ),
             ("fmi2GetInteger(vr = NULL)", Box::new(|f, c| unsafe { (f.get_integer)(c, null_vr, 1, integer_ptr) })),
-            ("fmi2GetInteger(value = NULL)", Box::new(|f, c| unsafe { (f.get_integer)(c, vr.as_ptr(), 1, std::ptr::null_mut()) })),
+            (
+                "fmi2GetInteger(value = NULL)",
+                Box::new(|f, c| unsafe { (f.get_integer)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
+            ),
             ("fmi2GetBoolean(vr = NULL)", Box::new(|f, c| unsafe { (f.get_boolean)(c, null_vr, 1, integer_ptr) })),
-            ("fmi2GetBoolean(value = NULL)", Box::new(|f, c| unsafe { (f.get_boolean)(c, vr.as_ptr(), 1, std::ptr::null_mut()) })),
+            (
+                "fmi2GetBoolean(value = NULL)",
+                Box::new(|f, c| unsafe { (f.get_boolean)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
+            ),
             ("fmi2GetString(vr = NULL)", Box::new(|f, c| unsafe { (f.get_string)(c, null_vr, 1, string_ptr) })),
-            ("fmi2GetString(value = NULL)", Box::new(|f, c| unsafe { (f.get_string)(c, vr.as_ptr(), 1, std::ptr::null_mut()) })),
+            (
+                "fmi2GetString(value = NULL)",
+                Box::new(|f, c| unsafe { (f.get_string)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
+            ),
             ("fmi2SetReal(vr = NULL)", Box::new(|f, c| unsafe { (f.set_real)(c, null_vr, 1, real.as_ptr()) })),
-            ("fmi2SetReal(value = NULL)", Box::new(|f, c| unsafe { (f.set_real)(c, vr.as_ptr(), 1, std::ptr::null()) })),
+            (
+                "fmi2SetReal(value = NULL)",
+                Box::new(|f, c| unsafe { (f.set_real)(c, vr.as_ptr(), 1, std::ptr::null()) }),
+            ),
             ("fmi2SetInteger(vr = NULL)", Box::new(|f, c| unsafe { (f.set_integer)(c, null_vr, 1, integer.as_ptr()) })),
-            ("fmi2SetInteger(value = NULL)", Box::new(|f, c| unsafe { (f.set_integer)(c, vr.as_ptr(), 1, std::ptr::null()) })),
+            (
+                "fmi2SetInteger(value = NULL)",
+                Box::new(|f, c| unsafe { (f.set_integer)(c, vr.as_ptr(), 1, std::ptr::null()) }),
+            ),
             ("fmi2SetBoolean(vr = NULL)", Box::new(|f, c| unsafe { (f.set_boolean)(c, null_vr, 1, integer.as_ptr()) })),
-            ("fmi2SetBoolean(value = NULL)", Box::new(|f, c| unsafe { (f.set_boolean)(c, vr.as_ptr(), 1, std::ptr::null()) })),
+            (
+                "fmi2SetBoolean(value = NULL)",
+                Box::new(|f, c| unsafe { (f.set_boolean)(c, vr.as_ptr(), 1, std::ptr::null()) }),
+            ),
             ("fmi2SetString(vr = NULL)", Box::new(|f, c| unsafe { (f.set_string)(c, null_vr, 1, texts.as_ptr()) })),
-            ("fmi2SetString(value = NULL)", Box::new(|f, c| unsafe { (f.set_string)(c, vr.as_ptr(), 1, std::ptr::null()) })),
-            ("fmi2SetString(value[0] = NULL)", Box::new(|f, c| unsafe { (f.set_string)(c, vr.as_ptr(), 1, [std::ptr::null()].as_ptr()) })),
-            ("fmi2SetDebugLogging(categories = NULL)", Box::new(|f, c| unsafe { (f.set_debug_logging)(c, fmi2True, 1, std::ptr::null()) })),
-            ("fmi2SetDebugLogging(categories[0] = NULL)", Box::new(|f, c| unsafe { (f.set_debug_logging)(c, fmi2True, 1, [std::ptr::null()].as_ptr()) })),
+            (
+                "fmi2SetString(value = NULL)",
+                Box::new(|f, c| unsafe { (f.set_string)(c, vr.as_ptr(), 1, std::ptr::null()) }),
+            ),
+            (
+                "fmi2SetString(value[0] = NULL)",
+                Box::new(|f, c| unsafe { (f.set_string)(c, vr.as_ptr(), 1, [std::ptr::null()].as_ptr()) }),
+            ),
+            (
+                "fmi2SetDebugLogging(categories = NULL)",
+                Box::new(|f, c| unsafe { (f.set_debug_logging)(c, fmi2True, 1, std::ptr::null()) }),
+            ),
+            (
+                "fmi2SetDebugLogging(categories[0] = NULL)",
+                Box::new(|f, c| unsafe { (f.set_debug_logging)(c, fmi2True, 1, [std::ptr::null()].as_ptr()) }),
+            ),
         ];
         for (name, call) in calls {
             let instance = ready(&fmu);
@@ -200,7 +257,12 @@ fn null_state_pointers_are_errors_with_a_message_and_freeing_null_is_harmless() 
         let (instance, _) = fresh();
         let f = instance.functions();
         // SAFETY: a live instance; the standard makes freeing a NULL state a no-op.
-        let statuses = unsafe { [(f.free_fmu_state)(instance.component(), std::ptr::null_mut()), (f.free_fmu_state)(instance.component(), &mut out)] };
+        let statuses = unsafe {
+            [
+                (f.free_fmu_state)(instance.component(), std::ptr::null_mut()),
+                (f.free_fmu_state)(instance.component(), &mut out),
+            ]
+        };
         assert_eq!(statuses, [fmi2OK, fmi2OK], "{}: freeing a NULL state", fmu.description.model_identifier);
 
         let (instance, _) = fresh();
@@ -215,12 +277,19 @@ fn null_state_pointers_are_errors_with_a_message_and_freeing_null_is_harmless() 
 
         let (instance, _) = fresh();
         // SAFETY: as above.
-        let status = unsafe { (instance.functions().serialized_fmu_state_size)(instance.component(), std::ptr::null_mut(), &mut size) };
+        let status = unsafe {
+            (instance.functions().serialized_fmu_state_size)(instance.component(), std::ptr::null_mut(), &mut size)
+        };
         assert_null_error(&fmu, &instance, status, "fmi2SerializedFMUstateSize(state = NULL)");
 
         // The remaining calls need a real state; the importer's handle is private, so the state
         // is made here with a raw call and freed by the instance's own fmi2FreeFMUstate.
-        for (name, which) in [("fmi2SerializedFMUstateSize(size = NULL)", 0), ("fmi2SerializeFMUstate(buffer = NULL)", 1), ("fmi2DeSerializeFMUstate(buffer = NULL)", 2), ("fmi2DeSerializeFMUstate(state = NULL)", 3)] {
+        for (name, which) in [
+            ("fmi2SerializedFMUstateSize(size = NULL)", 0),
+            ("fmi2SerializeFMUstate(buffer = NULL)", 1),
+            ("fmi2DeSerializeFMUstate(buffer = NULL)", 2),
+            ("fmi2DeSerializeFMUstate(state = NULL)", 3),
+        ] {
             let (instance, _) = fresh();
             let (f, c) = (instance.functions(), instance.component());
             let mut state: fmi2FMUstate = std::ptr::null_mut();
@@ -246,7 +315,9 @@ fn null_state_pointers_are_errors_with_a_message_and_freeing_null_is_harmless() 
         // An empty buffer is no state either; the n == 0 short-cut must not make it one.
         let (instance, _) = fresh();
         // SAFETY: size 0 with a NULL buffer touches no memory.
-        let status = unsafe { (instance.functions().deserialize_fmu_state)(instance.component(), std::ptr::null(), 0, &mut out) };
+        let status = unsafe {
+            (instance.functions().deserialize_fmu_state)(instance.component(), std::ptr::null(), 0, &mut out)
+        };
         assert_eq!(status, fmi2Error, "{}: an empty serialized state was accepted", fmu.description.model_identifier);
         assert!(out.is_null());
     }
@@ -294,7 +365,15 @@ fn unsupported_functions_with_null_arrays_are_errors_with_a_message() {
             // touching the NULL arrays.
             let status = unsafe {
                 match k {
-                    0 => (o.get_directional_derivative)(c, null_vr, 1, null_vr, 1, std::ptr::null(), std::ptr::null_mut()),
+                    0 => (o.get_directional_derivative)(
+                        c,
+                        null_vr,
+                        1,
+                        null_vr,
+                        1,
+                        std::ptr::null(),
+                        std::ptr::null_mut(),
+                    ),
                     1 => (o.new_discrete_states)(c, std::ptr::null_mut()),
                     2 => (o.completed_integrator_step)(c, fmi2True, std::ptr::null_mut(), std::ptr::null_mut()),
                     3 => (o.set_continuous_states)(c, std::ptr::null(), 3),
@@ -306,7 +385,10 @@ fn unsupported_functions_with_null_arrays_are_errors_with_a_message() {
             let id = &fmu.description.model_identifier;
             assert_eq!(status, fmi2Error, "{id}: unsupported function #{k} returned {status}");
             let log = instance.log_records();
-            assert!(log.iter().any(|r| r.status == fmu_runtime::ffi::Status::Error && !r.message.is_empty()), "{id}: function #{k} logged nothing");
+            assert!(
+                log.iter().any(|r| r.status == fmu_runtime::ffi::Status::Error && !r.message.is_empty()),
+                "{id}: function #{k} logged nothing"
+            );
         }
     }
 }
@@ -322,13 +404,40 @@ fn instantiate_with_null_arguments_returns_null_and_says_why() {
         // SAFETY: every pointer is valid or NULL; NULL callbacks, name and GUID are the misuse.
         let (no_callbacks, no_name, no_guid) = unsafe {
             (
-                (f.instantiate)(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), std::ptr::null(), fmi2False, fmi2False),
-                (f.instantiate)(std::ptr::null(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), callbacks.functions(), fmi2False, fmi2False),
-                (f.instantiate)(name.as_ptr(), fmi2CoSimulation, std::ptr::null(), uri.as_ptr(), callbacks.functions(), fmi2False, fmi2False),
+                (f.instantiate)(
+                    name.as_ptr(),
+                    fmi2CoSimulation,
+                    guid.as_ptr(),
+                    uri.as_ptr(),
+                    std::ptr::null(),
+                    fmi2False,
+                    fmi2False,
+                ),
+                (f.instantiate)(
+                    std::ptr::null(),
+                    fmi2CoSimulation,
+                    guid.as_ptr(),
+                    uri.as_ptr(),
+                    callbacks.functions(),
+                    fmi2False,
+                    fmi2False,
+                ),
+                (f.instantiate)(
+                    name.as_ptr(),
+                    fmi2CoSimulation,
+                    std::ptr::null(),
+                    uri.as_ptr(),
+                    callbacks.functions(),
+                    fmi2False,
+                    fmi2False,
+                ),
             )
         };
         let id = &fmu.description.model_identifier;
-        assert!(no_callbacks.is_null() && no_name.is_null() && no_guid.is_null(), "{id}: an instance was made from NULL arguments");
+        assert!(
+            no_callbacks.is_null() && no_name.is_null() && no_guid.is_null(),
+            "{id}: an instance was made from NULL arguments"
+        );
         let messages = callbacks.book.records();
         assert!(messages.iter().any(|r| r.message.contains("instanceName is NULL")), "{id}: {messages:?}");
         assert!(messages.iter().any(|r| r.message.contains("fmuGUID is NULL")), "{id}: {messages:?}");
@@ -341,10 +450,26 @@ fn an_instance_without_a_logger_or_resource_location_fails_quietly_instead_of_cr
         let f = &fmu.library.functions;
         let name = CString::new("no-logger").unwrap();
         let guid = CString::new(fmu.description.guid.clone()).unwrap();
-        let callbacks = fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() };
+        let callbacks = fmi2CallbackFunctions {
+            logger: None,
+            allocateMemory: None,
+            freeMemory: None,
+            stepFinished: None,
+            componentEnvironment: std::ptr::null_mut(),
+        };
         // SAFETY: valid name, GUID and callback struct; a NULL logger and a NULL resource
         // location are what is tested (a master without resources may pass NULL).
-        let c = unsafe { (f.instantiate)(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &callbacks, fmi2False, fmi2True) };
+        let c = unsafe {
+            (f.instantiate)(
+                name.as_ptr(),
+                fmi2CoSimulation,
+                guid.as_ptr(),
+                std::ptr::null(),
+                &callbacks,
+                fmi2False,
+                fmi2True,
+            )
+        };
         let id = &fmu.description.model_identifier;
         assert!(!c.is_null(), "{id}: no instance without a logger and a resource location");
         // SAFETY: `c` is a live instance of this library, freed once at the end.

@@ -41,7 +41,10 @@ fn probe_every_unsupported_function(fmu: &Fmu, instance: &Instance) -> usize {
     calls.push(("fmi2EnterEventMode", Box::new(|| unsafe { (f.enter_event_mode)(c) })));
     calls.push(("fmi2NewDiscreteStates", Box::new(|| unsafe { (o.new_discrete_states)(c, info) })));
     calls.push(("fmi2EnterContinuousTimeMode", Box::new(|| unsafe { (o.enter_continuous_time_mode)(c) })));
-    calls.push(("fmi2CompletedIntegratorStep", Box::new(|| unsafe { (o.completed_integrator_step)(c, fmi2True, flag0, flag1) })));
+    calls.push((
+        "fmi2CompletedIntegratorStep",
+        Box::new(|| unsafe { (o.completed_integrator_step)(c, fmi2True, flag0, flag1) }),
+    ));
     calls.push(("fmi2SetTime", Box::new(|| unsafe { (o.set_time)(c, 0.5) })));
     calls.push(("fmi2SetContinuousStates", Box::new(|| unsafe { (o.set_continuous_states)(c, input.as_ptr(), 1) })));
     for (name, get) in o.get_arrays {
@@ -66,7 +69,8 @@ fn probe_every_unsupported_function(fmu: &Fmu, instance: &Instance) -> usize {
         let status = call();
         assert_eq!(status, fmi2Error, "{id}: {name} returned {status}");
         let logged = instance.log_records();
-        let messages: Vec<&str> = logged[before..].iter().filter(|r| r.category == "logStatusError").map(|r| r.message.as_str()).collect();
+        let messages: Vec<&str> =
+            logged[before..].iter().filter(|r| r.category == "logStatusError").map(|r| r.message.as_str()).collect();
         assert!(
             messages.iter().any(|m| m.starts_with(&format!("{name}: not supported"))),
             "{id}: {name} did not log why it is not supported: {messages:?}"
@@ -74,17 +78,27 @@ fn probe_every_unsupported_function(fmu: &Fmu, instance: &Instance) -> usize {
     }
     drop(calls);
     assert_eq!(output[0].to_bits(), sentinel.to_bits(), "{id}: an unsupported function wrote into the master's buffer");
-    assert!(event_info.iter().all(|&b| b == 0xA5) && flags == [7, 7], "{id}: an unsupported function wrote into the master's flags");
+    assert!(
+        event_info.iter().all(|&b| b == 0xA5) && flags == [7, 7],
+        "{id}: an unsupported function wrote into the master's flags"
+    );
     count
 }
 
 /// Every Real output, as bits, after `steps` steps of 1 ms from `from`.
 fn run(fmu: &Fmu, instance: &mut Instance, from: usize, steps: usize) -> Vec<u64> {
     for k in from..from + steps {
-        instance.do_step(k as f64 * 1e-3, 1e-3).unwrap_or_else(|e| panic!("{}: step {k}: {e}", fmu.description.model_identifier));
+        instance
+            .do_step(k as f64 * 1e-3, 1e-3)
+            .unwrap_or_else(|e| panic!("{}: step {k}: {e}", fmu.description.model_identifier));
     }
-    let vrs: Vec<u32> =
-        fmu.description.variables.iter().filter(|v| v.causality == "output" && v.type_name == "Real").map(|v| v.value_reference).collect();
+    let vrs: Vec<u32> = fmu
+        .description
+        .variables
+        .iter()
+        .filter(|v| v.causality == "output" && v.type_name == "Real")
+        .map(|v| v.value_reference)
+        .collect();
     let mut values = vec![0.0; vrs.len()];
     instance.get_real(&vrs, &mut values).unwrap();
     values.iter().map(|v| v.to_bits()).collect()
@@ -98,10 +112,18 @@ fn unsupported_functions_log_not_supported_and_the_instance_steps_on_as_if_never
         let mut probed = ready(&fmu);
         run(&fmu, &mut untouched, 0, 100);
         run(&fmu, &mut probed, 0, 100);
-        assert_eq!(probe_every_unsupported_function(&fmu, &probed), 14, "{id}: the list of unsupported functions changed");
+        assert_eq!(
+            probe_every_unsupported_function(&fmu, &probed),
+            14,
+            "{id}: the list of unsupported functions changed"
+        );
         // The probed instance is still stepping, from where it was, exactly as the other.
         assert_eq!(probed.last_successful_time().unwrap(), 0.1, "{id}");
-        assert_eq!(run(&fmu, &mut probed, 100, 100), run(&fmu, &mut untouched, 100, 100), "{id}: probing changed the run");
+        assert_eq!(
+            run(&fmu, &mut probed, 100, 100),
+            run(&fmu, &mut untouched, 100, 100),
+            "{id}: probing changed the run"
+        );
     }
 }
 

@@ -23,7 +23,10 @@ fn db(x: f64) -> f64 {
 }
 
 fn main() -> std::io::Result<()> {
-    let dir = std::env::args().nth(1).map(std::path::PathBuf::from).unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data"));
+    let dir = std::env::args()
+        .nth(1)
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data"));
     std::fs::create_dir_all(&dir)?;
     let d3 = Davenport::new(3.0, 10.0, 0.4).unwrap();
     let d95 = Davenport::new(9.5, 10.0, 0.4).unwrap();
@@ -31,17 +34,28 @@ fn main() -> std::io::Result<()> {
     let (h3, h10) = (ShapingFilter::paper(3.0).unwrap(), ShapingFilter::paper(9.5).unwrap());
 
     // Exact filter responses.
-    let mut csv = String::from("omega_rad_s,eq2_v3,h3,ours_v3,eq2_v9p5,h10,ours_v9p5,h3_err_db,ours_v3_err_db,h10_err_db,ours_v9p5_err_db\n");
+    let mut csv = String::from(
+        "omega_rad_s,eq2_v3,h3,ours_v3,eq2_v9p5,h10,ours_v9p5,h3_err_db,ours_v3_err_db,h10_err_db,ours_v9p5_err_db\n",
+    );
     for w in log_grid(1e-3, 30.0, 401) {
         let (e3, e95) = (d3.psd_at_omega(w), d95.psd_at_omega(w));
         let (a, b, c, e) = (h3.psd_at_omega(w), ours3.psd_at_omega(w), h10.psd_at_omega(w), ours95.psd_at_omega(w));
-        writeln!(csv, "{w:.6e},{e3:.6e},{a:.6e},{b:.6e},{e95:.6e},{c:.6e},{e:.6e},{:.4},{:.4},{:.4},{:.4}", db(a / e3), db(b / e3), db(c / e95), db(e / e95)).unwrap();
+        writeln!(
+            csv,
+            "{w:.6e},{e3:.6e},{a:.6e},{b:.6e},{e95:.6e},{c:.6e},{e:.6e},{:.4},{:.4},{:.4},{:.4}",
+            db(a / e3),
+            db(b / e3),
+            db(c / e95),
+            db(e / e95)
+        )
+        .unwrap();
     }
     std::fs::write(dir.join("filter_response.csv"), csv)?;
 
     // Paper filters: level and shape against Eq. 2 over 0.01-10 rad/s.
     for (name, f, d) in [("H3", &h3, &d3), ("H10", &h10, &d95)] {
-        let errs: Vec<f64> = log_grid(0.01, 10.0, 301).iter().map(|&w| db(f.psd_at_omega(w) / d.psd_at_omega(w))).collect();
+        let errs: Vec<f64> =
+            log_grid(0.01, 10.0, 301).iter().map(|&w| db(f.psd_at_omega(w) / d.psd_at_omega(w))).collect();
         let mean = errs.iter().sum::<f64>() / errs.len() as f64;
         let (lo, hi) = errs.iter().fold((f64::MAX, f64::MIN), |(l, h), e| (l.min(e - mean), h.max(e - mean)));
         println!(
@@ -77,7 +91,9 @@ fn main() -> std::io::Result<()> {
     }
 
     // Welch spectra of 2 h records.
-    let mut csv = String::from("v_mean,f_hz,omega_rad_s,psd_estimate,true_psd_ci95_lo,true_psd_ci95_hi,dof,expected_estimate,filter_psd,eq2\n");
+    let mut csv = String::from(
+        "v_mean,f_hz,omega_rad_s,psd_estimate,true_psd_ci95_lo,true_psd_ci95_hi,dof,expected_estimate,filter_psd,eq2\n",
+    );
     let (step, bins) = (0.01, 8.0);
     for (d, f) in [(&d3, &ours3), (&d95, &ours95)] {
         let r = record(f, 2024, step, 7200.0);

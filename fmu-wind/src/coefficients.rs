@@ -157,12 +157,17 @@ impl CoefficientTable {
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim()))
             .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let (header_line, header) = lines.next().ok_or_else(|| CoefficientError::general("no header line (the table is empty)"))?;
+        let (header_line, header) =
+            lines.next().ok_or_else(|| CoefficientError::general("no header line (the table is empty)"))?;
         let names: Vec<&str> = header.split(',').map(str::trim).collect();
         let mut index = [0usize; 4];
         for (k, required) in REQUIRED_COLUMNS.iter().enumerate() {
             index[k] = names.iter().position(|n| n == required).ok_or_else(|| {
-                CoefficientError::at(header_line, Some(required), format!("missing column '{required}' in header '{header}'"))
+                CoefficientError::at(
+                    header_line,
+                    Some(required),
+                    format!("missing column '{required}' in header '{header}'"),
+                )
             })?;
         }
 
@@ -171,7 +176,11 @@ impl CoefficientTable {
         for (line, text) in lines {
             let fields: Vec<&str> = text.split(',').map(str::trim).collect();
             if fields.len() != names.len() {
-                return Err(CoefficientError::at(line, None, format!("{} fields, but the header has {}", fields.len(), names.len())));
+                return Err(CoefficientError::at(
+                    line,
+                    None,
+                    format!("{} fields, but the header has {}", fields.len(), names.len()),
+                ));
             }
             let mut values = [0.0; 4];
             for (k, &column) in index.iter().enumerate() {
@@ -180,7 +189,11 @@ impl CoefficientTable {
                     CoefficientError::at(line, Some(REQUIRED_COLUMNS[k]), format!("'{cell}' is not a number"))
                 })?;
                 if !value.is_finite() {
-                    return Err(CoefficientError::at(line, Some(REQUIRED_COLUMNS[k]), format!("'{cell}' is not a finite number")));
+                    return Err(CoefficientError::at(
+                        line,
+                        Some(REQUIRED_COLUMNS[k]),
+                        format!("'{cell}' is not a finite number"),
+                    ));
                 }
                 values[k] = value;
             }
@@ -201,14 +214,21 @@ impl CoefficientTable {
             if new_group {
                 if let Some(&previous) = elevation.last() {
                     if e < previous {
-                        return Err(CoefficientError::at(line, Some("elevation_deg"), format!(
-                            "elevation {e} follows {previous}: elevation groups must be strictly increasing"
-                        )));
+                        return Err(CoefficientError::at(
+                            line,
+                            Some("elevation_deg"),
+                            format!("elevation {e} follows {previous}: elevation groups must be strictly increasing"),
+                        ));
                     }
                     if position_in_group != yaw.len() {
-                        return Err(CoefficientError::at(line, Some("yaw_deg"), format!(
-                            "elevation {previous} has {position_in_group} yaw values, the first elevation has {}", yaw.len()
-                        )));
+                        return Err(CoefficientError::at(
+                            line,
+                            Some("yaw_deg"),
+                            format!(
+                                "elevation {previous} has {position_in_group} yaw values, the first elevation has {}",
+                                yaw.len()
+                            ),
+                        ));
                     }
                 }
                 elevation.push(e);
@@ -219,9 +239,11 @@ impl CoefficientTable {
             if elevation.len() == 1 {
                 if let Some(&last) = yaw.last() {
                     if y <= last {
-                        return Err(CoefficientError::at(line, Some("yaw_deg"), format!(
-                            "yaw {y} follows {last}: yaw must be strictly increasing within an elevation"
-                        )));
+                        return Err(CoefficientError::at(
+                            line,
+                            Some("yaw_deg"),
+                            format!("yaw {y} follows {last}: yaw must be strictly increasing within an elevation"),
+                        ));
                     }
                 }
                 yaw.push(y);
@@ -237,11 +259,15 @@ impl CoefficientTable {
         }
         if position_in_group != yaw.len() {
             return Err(CoefficientError::general(format!(
-                "the last elevation has {position_in_group} yaw values, the first has {}", yaw.len()
+                "the last elevation has {position_in_group} yaw values, the first has {}",
+                yaw.len()
             )));
         }
         if yaw.len() < 4 {
-            return Err(CoefficientError::general(format!("at least 4 yaw values are needed for a periodic spline, got {}", yaw.len())));
+            return Err(CoefficientError::general(format!(
+                "at least 4 yaw values are needed for a periodic spline, got {}",
+                yaw.len()
+            )));
         }
         if elevation.len() < 2 {
             return Err(CoefficientError::general("at least 2 elevations are needed"));
@@ -265,7 +291,9 @@ impl CoefficientTable {
         }
 
         let periodic = periodic_spline_operator(&yaw);
-        let curvature = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> { rows.iter().map(|r| apply_periodic(&periodic, &yaw, r)).collect() };
+        let curvature = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            rows.iter().map(|r| apply_periodic(&periodic, &yaw, r)).collect()
+        };
         let elevation_operator = natural_spline_operator(&elevation);
         let (az_curvature, el_curvature) = (curvature(&az), curvature(&el));
         let tau_az = Surface::new(az, az_curvature, &elevation_operator);
@@ -501,7 +529,11 @@ pub fn reference_table_csv() -> String {
             // Round to 5 decimals and clear negative zeros, so the file reads cleanly.
             let clean = |v: f64| {
                 let r = (v * 1e5).round() / 1e5;
-                if r == 0.0 { 0.0 } else { r }
+                if r == 0.0 {
+                    0.0
+                } else {
+                    r
+                }
             };
             out.push_str(&format!("{y},{e},{:.5},{:.5}\n", clean(az), clean(el)));
         }

@@ -118,7 +118,13 @@ pub fn expected_gust(d: &Davenport, gust_duration: f64, averaging_period: f64) -
     let (mut m0, mut m2) = (0.0, 0.0);
     for k in 0..=intervals {
         let n = (u_lo + k as f64 * du).exp();
-        let c = if k == 0 || k == intervals { 1.0 } else if k % 2 == 1 { 4.0 } else { 2.0 };
+        let c = if k == 0 || k == intervals {
+            1.0
+        } else if k % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
         let f = d.psd_one_sided_per_hz(n) * weight(n) * n;
         m0 += c * f;
         m2 += c * f * n * n;

@@ -105,7 +105,10 @@ impl WindModel {
         SPECTRUM.name_of(values.integer(WindVar::Spectrum)).unwrap_or("davenport")
     }
 
-    fn build(values: &Values<WindVar>, context: &Context) -> Result<(Option<GustGenerator>, WindTorqueModel, f64), String> {
+    fn build(
+        values: &Values<WindVar>,
+        context: &Context,
+    ) -> Result<(Option<GustGenerator>, WindTorqueModel, f64), String> {
         let v_mean = values.real(WindVar::MeanSpeed);
         let davenport = Davenport::new(v_mean, values.real(WindVar::Height), values.real(WindVar::Roughness))?;
         let filter = match Self::spectrum_item(values) {
@@ -189,7 +192,12 @@ impl Model for WindModel {
         Ok(WindModel { context: context.clone(), generator: None, torque: None, kappa: 0.0 })
     }
 
-    fn initialize(&mut self, values: &mut Values<WindVar>, context: &Context, _notes: &mut Notes) -> Result<(), String> {
+    fn initialize(
+        &mut self,
+        values: &mut Values<WindVar>,
+        context: &Context,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
         let (generator, torque, kappa) = Self::build(values, context)?;
         let v_mean = values.real(WindVar::MeanSpeed);
         let sigma = generator.as_ref().map_or(0.0, |g| g.filter().stationary_variance().sqrt());
@@ -204,7 +212,13 @@ impl Model for WindModel {
         Ok(())
     }
 
-    fn do_step(&mut self, values: &mut Values<WindVar>, _time: f64, step: f64, _notes: &mut Notes) -> Result<(), String> {
+    fn do_step(
+        &mut self,
+        values: &mut Values<WindVar>,
+        _time: f64,
+        step: f64,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
         if self.torque.is_none() {
             return Err("the wind model is not initialised".into());
         }

@@ -114,8 +114,17 @@ impl GustGenerator {
         let (factor, rank) = pivoted_cholesky(&filter.stationary_covariance());
         let xi: Vec<f64> = (0..rank).map(|_| StandardNormal.sample(&mut rng)).collect();
         let state = (0..n).map(|i| (0..rank).map(|k| factor[i * rank + k] * xi[k]).sum()).collect();
-        let mut generator =
-            Self { filter, seed, rng, state, cache: Vec::new(), clock: 0, normals: vec![0.0; n], noise: vec![0.0; n], gust: 0.0 };
+        let mut generator = Self {
+            filter,
+            seed,
+            rng,
+            state,
+            cache: Vec::new(),
+            clock: 0,
+            normals: vec![0.0; n],
+            noise: vec![0.0; n],
+            gust: 0.0,
+        };
         generator.gust = generator.output();
         generator
     }
@@ -224,7 +233,9 @@ impl GustGenerator {
     pub fn load_state(&mut self, reader: &mut StateReader) -> Result<(), StateError> {
         let version = reader.u8()?;
         if version != STATE_VERSION {
-            return Err(StateError(format!("wind gust state version {version} is not supported (expected {STATE_VERSION})")));
+            return Err(StateError(format!(
+                "wind gust state version {version} is not supported (expected {STATE_VERSION})"
+            )));
         }
         let seed = reader.u64()?;
         let state = reader.f64s(Some(self.filter.order()))?;

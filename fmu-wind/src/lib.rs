@@ -21,9 +21,9 @@
 pub mod analysis;
 pub mod coefficients;
 pub mod davenport;
+pub mod fmi;
 pub mod gust;
 pub mod prototype;
 pub mod shaping;
 pub mod site;
 pub mod torque;
-pub mod fmi;

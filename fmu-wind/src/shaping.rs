@@ -135,10 +135,7 @@ impl ShapingFilter {
             ));
         };
         let rates = real_pole_rates(&den)?;
-        let residues = rates
-            .iter()
-            .map(|&p| polyval(&num, -p) / polyval(&polyder(&den), -p))
-            .collect();
+        let residues = rates.iter().map(|&p| polyval(&num, -p) / polyval(&polyder(&den), -p)).collect();
         Ok(Self {
             kind: FilterKind::Paper { v_mean },
             rates,
@@ -228,7 +225,8 @@ impl ShapingFilter {
     /// `(A, B B' / 2)`.
     pub fn stationary_covariance(&self) -> DMatrix<f64> {
         let w = self.b() * self.b().transpose() * NOISE_INTENSITY;
-        fmu_runtime::linear::lyapunov_continuous(&self.a(), &w).expect("a stable modal A has a unique Lyapunov solution")
+        fmu_runtime::linear::lyapunov_continuous(&self.a(), &w)
+            .expect("a stable modal A has a unique Lyapunov solution")
     }
 
     /// The exact stationary output variance `C P C'`, in (m/s)^2.
@@ -286,7 +284,8 @@ fn real_pole_rates(den: &[f64]) -> Result<Vec<f64>, String> {
             companion[(k + 1, k)] = 1.0;
         }
     }
-    let roots = companion.eigenvalues().ok_or("denominator has complex roots: the modal realisation needs real poles")?;
+    let roots =
+        companion.eigenvalues().ok_or("denominator has complex roots: the modal realisation needs real poles")?;
     let derivative = polyder(den);
     let mut rates = Vec::with_capacity(degree);
     for &root in roots.iter() {
@@ -344,7 +343,11 @@ mod tests {
 
     #[test]
     fn modal_form_reproduces_the_transfer_function() {
-        for f in [ShapingFilter::davenport(&dav(0.5)), ShapingFilter::davenport(&dav(25.0)), ShapingFilter::paper(3.0).unwrap()] {
+        for f in [
+            ShapingFilter::davenport(&dav(0.5)),
+            ShapingFilter::davenport(&dav(25.0)),
+            ShapingFilter::paper(3.0).unwrap(),
+        ] {
             for omega in [1e-4, 1e-2, 0.3, 2.0, 30.0, 500.0] {
                 let (mut re, mut im) = (0.0, 0.0);
                 for (p, r) in f.rates().iter().zip(f.residues()) {
@@ -395,7 +398,12 @@ mod tests {
     fn paper_mode_rejects_a_site_other_than_the_papers_naming_z_and_z0() {
         for (z, z0) in [(15.0, 0.4), (10.0, 0.026), (2.0, 0.1)] {
             let err = ShapingFilter::paper_at_site(3.0, z, z0).unwrap_err();
-            assert!(err.contains("z = 10 m") && err.contains("z0 = 0.4 m") && err.contains(&format!("got z = {z} m, z0 = {z0} m")), "{err}");
+            assert!(
+                err.contains("z = 10 m")
+                    && err.contains("z0 = 0.4 m")
+                    && err.contains(&format!("got z = {z} m, z0 = {z0} m")),
+                "{err}"
+            );
         }
         // The speed check still comes first, and the paper's own site is accepted.
         assert!(ShapingFilter::paper_at_site(5.0, 15.0, 0.4).unwrap_err().contains("9.5 m/s"));
@@ -428,7 +436,10 @@ mod tests {
             for t in [0.0, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0] {
                 let modal = f.impulse_response(t);
                 let independent = companion_impulse_response(&num, &den, t);
-                assert!((modal - independent).abs() < 1e-8 * (1.0 + independent.abs()), "v = {v}, t = {t}: {modal} vs {independent}");
+                assert!(
+                    (modal - independent).abs() < 1e-8 * (1.0 + independent.abs()),
+                    "v = {v}, t = {t}: {modal} vs {independent}"
+                );
             }
             // h(0+) is the ratio of the leading coefficients for a relative degree of one.
             assert!((f.impulse_response(0.0) - num[0] / den[0]).abs() < 1e-9);

@@ -66,7 +66,12 @@ pub struct WindTorqueModel {
 
 impl WindTorqueModel {
     /// Checks that density and diameter are positive and finite.
-    pub fn new(coefficients: CoefficientTable, air_density: f64, dish_diameter: f64, form: TorqueForm) -> Result<Self, String> {
+    pub fn new(
+        coefficients: CoefficientTable,
+        air_density: f64,
+        dish_diameter: f64,
+        form: TorqueForm,
+    ) -> Result<Self, String> {
         if !(air_density.is_finite() && air_density > 0.0) {
             return Err(format!("air density must be positive and finite, got {air_density} kg/m^3"));
         }
@@ -88,7 +93,14 @@ impl WindTorqueModel {
 
     /// Torques for mean speed `v_mean`, gust `v_gust` (m/s), wind direction (where the wind comes
     /// from, degrees from north, clockwise) and antenna pointing (degrees).
-    pub fn torques(&self, v_mean: f64, v_gust: f64, wind_direction_deg: f64, azimuth_deg: f64, elevation_deg: f64) -> WindTorques {
+    pub fn torques(
+        &self,
+        v_mean: f64,
+        v_gust: f64,
+        wind_direction_deg: f64,
+        azimuth_deg: f64,
+        elevation_deg: f64,
+    ) -> WindTorques {
         let yaw = yaw_deg(wind_direction_deg, azimuth_deg);
         let (tau_az, tau_el) = self.coefficients.coefficients(yaw, elevation_deg);
         let k = self.torque_scale();
@@ -115,7 +127,11 @@ impl WindTorqueModel {
 /// Wind direction minus azimuth, wrapped to (-180, 180] degrees.
 pub fn yaw_deg(wind_direction_deg: f64, azimuth_deg: f64) -> f64 {
     let y = crate::coefficients::wrap_360(wind_direction_deg - azimuth_deg);
-    if y > 180.0 { y - 360.0 } else { y }
+    if y > 180.0 {
+        y - 360.0
+    } else {
+        y
+    }
 }
 
 /// The paper's gust torque gain on the axis side, `k_t = 2 tau k sqrt(6 kappa) v_m^2`, N m.
@@ -148,7 +164,9 @@ mod tests {
         let m = model(TorqueForm::Quadratic);
         // (wind direction, azimuth, elevation): the coefficient comes from the grid node at
         // yaw = wind - azimuth, where the table holds the reference model exactly (5 decimals).
-        for (wind, az, el, v) in [(130.0, 0.0, 0.0, 10.0), (40.0, 100.0, 30.0, 9.8), (200.0, 20.0, 45.0, 2.9), (350.0, 5.0, 15.0, 25.0)] {
+        for (wind, az, el, v) in
+            [(130.0, 0.0, 0.0, 10.0), (40.0, 100.0, 30.0, 9.8), (200.0, 20.0, 45.0, 2.9), (350.0, 5.0, 15.0, 25.0)]
+        {
             let (tau_az, tau_el) = reference_model(yaw_deg(wind, az), el);
             let t = m.torques(v, 0.0, wind, az, el);
             assert!((t.azimuth_mean - tau_az * k * v * v).abs() < 1e-5 * k * v * v, "az at ({wind}, {az}, {el})");

@@ -100,7 +100,9 @@ fn records_from_different_seeds_are_uncorrelated() {
     let variance = filter.stationary_variance();
     for i in 0..records.len() {
         for j in i + 1..records.len() {
-            let c = records[i].iter().zip(&records[j]).map(|(a, b)| a * b).sum::<f64>() / records[i].len() as f64 / variance;
+            let c = records[i].iter().zip(&records[j]).map(|(a, b)| a * b).sum::<f64>()
+                / records[i].len() as f64
+                / variance;
             assert!(c.abs() < 4.0 * sd, "seeds {i}, {j}: correlation {c:.3}, 4 sigma = {:.3}", 4.0 * sd);
         }
     }

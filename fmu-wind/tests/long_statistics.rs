@@ -12,7 +12,10 @@ use fmu_wind::shaping::ShapingFilter;
 const TWO_HOURS: f64 = 7200.0;
 
 #[test]
-#[cfg_attr(debug_assertions, ignore = "long without optimisation: 64 seeds x 2 h (0.3 s in release); run with --release")]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "long without optimisation: 64 seeds x 2 h (0.3 s in release); run with --release"
+)]
 fn two_hour_sample_std_over_many_seeds_stays_in_the_interval_the_record_allows() {
     let d = Davenport::new(3.0, 10.0, 0.4).unwrap();
     let filter = ShapingFilter::davenport(&d);
@@ -39,7 +42,10 @@ fn two_hour_sample_std_over_many_seeds_stays_in_the_interval_the_record_allows()
 }
 
 #[test]
-#[cfg_attr(debug_assertions, ignore = "long without optimisation: 2 h records at 1 ms (5.9 s in release); run with --release")]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "long without optimisation: 2 h records at 1 ms (5.9 s in release); run with --release"
+)]
 fn two_hour_records_at_1_10_and_100_ms_have_the_same_variance_and_spectrum() {
     let d = Davenport::new(3.0, 10.0, 0.4).unwrap();
     let filter = ShapingFilter::davenport(&d);
@@ -85,7 +91,8 @@ fn two_hour_welch_spectra_follow_eq2_within_their_confidence_band() {
             .iter()
             .filter(|e| {
                 let (lo, hi) = psd_interval(e.dof, 0.99);
-                let window_bias = expected_welch_psd(&filter, step, e.frequency, bins) / filter.psd_one_sided_per_hz(e.frequency);
+                let window_bias =
+                    expected_welch_psd(&filter, step, e.frequency, bins) / filter.psd_one_sided_per_hz(e.frequency);
                 let ratio = e.psd / (window_bias * d.psd_one_sided_per_hz(e.frequency));
                 ratio < lo / design_tolerance || ratio > hi * design_tolerance
             })

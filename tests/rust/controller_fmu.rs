@@ -49,8 +49,12 @@ fn stepping_outside_the_stepping_phase_and_terminating_twice_are_errors() {
         let mut instance = initialized(&fmu, "after-terminate", &[]);
         instance.do_step(0.0, TS).unwrap();
         instance.terminate().unwrap();
-        let messages = expect_error(instance.do_step(TS, TS), &instance, &format!("{controller}: DoStep after Terminate"));
-        assert!(messages.iter().any(|m| m.contains("Terminated")), "{controller}: the message does not name the phase: {messages:?}");
+        let messages =
+            expect_error(instance.do_step(TS, TS), &instance, &format!("{controller}: DoStep after Terminate"));
+        assert!(
+            messages.iter().any(|m| m.contains("Terminated")),
+            "{controller}: the message does not name the phase: {messages:?}"
+        );
         // The outputs stay readable for diagnosis.
         real(&fmu, &mut instance, "status.torque_command");
         expect_error(instance.terminate(), &instance, &format!("{controller}: second Terminate"));
@@ -67,7 +71,10 @@ fn a_wrong_guid_gives_null_with_a_logged_message() {
         for guid in ["{00000000-0000-0000-0000-000000000000}", "", "not a guid at all"] {
             match fmu.instantiate_with("wrong-guid", guid, false, false) {
                 Err(ImportError::Instantiate { messages }) => {
-                    assert!(messages.iter().any(|m| m.contains("GUID")), "{controller}: the message does not mention the GUID: {messages:?}");
+                    assert!(
+                        messages.iter().any(|m| m.contains("GUID")),
+                        "{controller}: the message does not mention the GUID: {messages:?}"
+                    );
                 }
                 Err(other) => panic!("{controller}: expected NULL from fmi2Instantiate, got {other}"),
                 Ok(_) => panic!("{controller}: fmi2Instantiate accepted the GUID '{guid}'"),
@@ -90,16 +97,31 @@ fn nan_and_infinite_inputs_are_rejected_and_change_nothing() {
                 let mut instance = initialized(&fmu, "bad-input", &[]);
                 instance.do_step(0.0, TS).unwrap();
                 let before = real(&fmu, &mut instance, &input);
-                let messages = expect_error(instance.set_real(&[vr(&fmu, &input)], &[bad]), &instance, &format!("{controller}: {input} = {bad}"));
-                assert!(messages.iter().any(|m| m.contains(&input)), "{controller}: the message does not name {input}: {messages:?}");
-                assert_eq!(real(&fmu, &mut instance, &input).to_bits(), before.to_bits(), "{controller}: the rejected {input} = {bad} changed it");
+                let messages = expect_error(
+                    instance.set_real(&[vr(&fmu, &input)], &[bad]),
+                    &instance,
+                    &format!("{controller}: {input} = {bad}"),
+                );
+                assert!(
+                    messages.iter().any(|m| m.contains(&input)),
+                    "{controller}: the message does not name {input}: {messages:?}"
+                );
+                assert_eq!(
+                    real(&fmu, &mut instance, &input).to_bits(),
+                    before.to_bits(),
+                    "{controller}: the rejected {input} = {bad} changed it"
+                );
             }
         }
         // A parameter too, during initialisation.
         let mut instance = fmu.instantiate("bad-parameter", false).unwrap();
         instance.setup_experiment(0.0, None).unwrap();
         instance.enter_initialization_mode().unwrap();
-        expect_error(instance.set_real(&[vr(&fmu, "sampling.sample_time")], &[f64::NAN]), &instance, &format!("{controller}: NaN sample time"));
+        expect_error(
+            instance.set_real(&[vr(&fmu, "sampling.sample_time")], &[f64::NAN]),
+            &instance,
+            &format!("{controller}: NaN sample time"),
+        );
     }
 }
 
@@ -110,15 +132,31 @@ fn unknown_value_references_are_rejected() {
         let unknown = fmu.description.variables.iter().map(|v| v.value_reference).max().unwrap() + 1;
         for reference in [unknown, u32::MAX] {
             let mut instance = initialized(&fmu, "unknown-vr", &[]);
-            expect_error(instance.get_real(&[reference], &mut [0.0]), &instance, &format!("{controller}: GetReal of {reference}"));
+            expect_error(
+                instance.get_real(&[reference], &mut [0.0]),
+                &instance,
+                &format!("{controller}: GetReal of {reference}"),
+            );
             let mut instance = initialized(&fmu, "unknown-vr", &[]);
-            expect_error(instance.set_real(&[reference], &[1.0]), &instance, &format!("{controller}: SetReal of {reference}"));
+            expect_error(
+                instance.set_real(&[reference], &[1.0]),
+                &instance,
+                &format!("{controller}: SetReal of {reference}"),
+            );
             let mut instance = initialized(&fmu, "unknown-vr", &[]);
-            expect_error(instance.get_boolean(&[reference], &mut [false]), &instance, &format!("{controller}: GetBoolean of {reference}"));
+            expect_error(
+                instance.get_boolean(&[reference], &mut [false]),
+                &instance,
+                &format!("{controller}: GetBoolean of {reference}"),
+            );
         }
         // The mode is an enumeration (Integer calls); reading it as a Real is as wrong.
         let mut instance = initialized(&fmu, "wrong-type", &[]);
-        expect_error(instance.get_real(&[vr(&fmu, "mode")], &mut [0.0]), &instance, &format!("{controller}: GetReal of the mode"));
+        expect_error(
+            instance.get_real(&[vr(&fmu, "mode")], &mut [0.0]),
+            &instance,
+            &format!("{controller}: GetReal of the mode"),
+        );
     }
 }
 
@@ -131,8 +169,16 @@ fn negative_zero_and_non_finite_step_sizes_are_rejected() {
             set_reals(&fmu, &mut instance, &[("command.position", 1.0)]);
             let before = output_bits(&fmu, &mut instance);
             expect_error(instance.do_step(0.0, h), &instance, &format!("{controller}: step {h}"));
-            assert_eq!(instance.last_successful_time().unwrap(), 0.0, "{controller}: a rejected step {h} moved the time");
-            assert_eq!(output_bits(&fmu, &mut instance), before, "{controller}: a rejected step {h} changed the outputs");
+            assert_eq!(
+                instance.last_successful_time().unwrap(),
+                0.0,
+                "{controller}: a rejected step {h} moved the time"
+            );
+            assert_eq!(
+                output_bits(&fmu, &mut instance),
+                before,
+                "{controller}: a rejected step {h} changed the outputs"
+            );
         }
     }
 }
@@ -146,7 +192,11 @@ fn a_wrong_communication_point_is_rejected() {
             for k in 0..steps_done {
                 instance.do_step(k as f64 * TS, TS).unwrap();
             }
-            let messages = expect_error(instance.do_step(point, TS), &instance, &format!("{controller}: DoStep at {point} after {steps_done} steps"));
+            let messages = expect_error(
+                instance.do_step(point, TS),
+                &instance,
+                &format!("{controller}: DoStep at {point} after {steps_done} steps"),
+            );
             assert!(messages.iter().any(|m| m.contains("currentCommunicationPoint")), "{controller}: {messages:?}");
         }
     }
@@ -160,7 +210,11 @@ fn a_wrong_communication_point_is_rejected() {
 /// every output changes at every sample.
 fn inputs(controller: &str, n: u64, seed: u64) -> Vec<(&'static str, f64)> {
     let speed = |s: u64| 2.0 + 0.5 * test_signal(n, seed + s);
-    let mut values = vec![("command.position", 45.2), ("command.velocity", 0.0), ("measured.position", 45.0 + 1e-3 * test_signal(n, seed + 10))];
+    let mut values = vec![
+        ("command.position", 45.2),
+        ("command.velocity", 0.0),
+        ("measured.position", 45.0 + 1e-3 * test_signal(n, seed + 10)),
+    ];
     if controller == "AzimuthController" {
         values.extend([("measured.motor1_speed", speed(1)), ("measured.motor2_speed", speed(2))]);
     } else {
@@ -173,7 +227,14 @@ const START: [(&str, f64); 2] = [("command.position", 45.0), ("measured.position
 
 /// Steps with `h` from `from` to `to` (step indices), feeding input set `input_of(step)`, and
 /// returns every output's bits after every step.
-fn run(fmu: &Fmu, controller: &str, instance: &mut Instance, h: f64, steps: std::ops::Range<u64>, input_of: impl Fn(u64) -> u64) -> Vec<Vec<u64>> {
+fn run(
+    fmu: &Fmu,
+    controller: &str,
+    instance: &mut Instance,
+    h: f64,
+    steps: std::ops::Range<u64>,
+    input_of: impl Fn(u64) -> u64,
+) -> Vec<Vec<u64>> {
     steps
         .map(|n| {
             set_reals(fmu, instance, &inputs(controller, input_of(n), 7));
@@ -206,7 +267,10 @@ fn a_restored_state_replays_the_run_bitwise_also_with_outputs_in_the_delay_queue
             let restored = other.deserialize_state(&bytes).unwrap();
             other.set_state(&restored).unwrap();
             let third = run(&fmu, controller, &mut other, h, 501..1500, |n| n);
-            assert!(first == third, "{controller}, h = {h}, delay {delay}: the deserialized state does not continue the run");
+            assert!(
+                first == third,
+                "{controller}, h = {h}, delay {delay}: the deserialized state does not continue the run"
+            );
             assert_ne!(first[0], first[first.len() - 1], "{controller}: the outputs did not change");
         }
     }
@@ -259,14 +323,20 @@ fn with_half_sample_steps_outputs_change_only_at_sample_instants_and_inputs_betw
         let idle = output_bits(&fmu, &mut half);
         // Steps [k, k + 0.5) ms hold sample k and get input set k; steps [k + 0.5, k + 1) ms
         // hold no sample and get an input set the 1 ms run never sees (1000 + k).
-        let outputs = run(&fmu, controller, &mut half, 0.5 * TS, 0..600, |n| if n % 2 == 0 { n / 2 } else { 1000 + n / 2 });
+        let outputs =
+            run(&fmu, controller, &mut half, 0.5 * TS, 0..600, |n| if n % 2 == 0 { n / 2 } else { 1000 + n / 2 });
         // outputs[n] is the output at (n + 1) / 2 ms.
         assert_eq!(outputs[0], idle, "{controller}: at 0.5 ms no output is due yet");
         for k in 0..299 {
             let at_whole = &outputs[2 * k + 1]; // (k + 1) ms
             let at_half = &outputs[2 * k + 2]; // (k + 1.5) ms
             assert_eq!(at_whole, &reference[k], "{controller}: at {} ms the output is not sample {k}'s", k + 1);
-            assert_eq!(at_half, at_whole, "{controller}: the output changed between sample instants at {} ms", k as f64 + 1.5);
+            assert_eq!(
+                at_half,
+                at_whole,
+                "{controller}: the output changed between sample instants at {} ms",
+                k as f64 + 1.5
+            );
         }
     }
 }

@@ -17,8 +17,12 @@
 //! measured figure is printed (`--nocapture`); docs/coupled-antenna-tests.md quotes them.
 
 use antenna_tools::antenna::report::{run_scenario, Outcome};
-use antenna_tools::antenna::scenario::{requirement_scenarios, step_table, Analysis, Requirement, JITTER_LIMIT_ARCSEC, SETTLE_HOLD_S, TABLE_INTERVAL_S};
-use antenna_tools::antenna::{AntennaConfig, CommandPoint, CommandTable, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace};
+use antenna_tools::antenna::scenario::{
+    requirement_scenarios, step_table, Analysis, Requirement, JITTER_LIMIT_ARCSEC, SETTLE_HOLD_S, TABLE_INTERVAL_S,
+};
+use antenna_tools::antenna::{
+    AntennaConfig, CommandPoint, CommandTable, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace,
+};
 use fmu_runtime::import::{Fmu, Instance};
 
 const ARCSEC_PER_DEG: f64 = 3600.0;
@@ -26,7 +30,10 @@ const ARCSEC_PER_DEG: f64 = 3600.0;
 fn fmus() -> FmuSet {
     let directory = antenna_tools::package::fmu_directory();
     FmuSet::open(&directory).unwrap_or_else(|e| {
-        panic!("cannot open the FMUs in {}: {e}; package them first (cargo run --release -p antenna-tools --bin package)", directory.display())
+        panic!(
+            "cannot open the FMUs in {}: {e}; package them first (cargo run --release -p antenna-tools --bin package)",
+            directory.display()
+        )
     })
 }
 
@@ -118,7 +125,9 @@ fn band_entry_after_command_s(trace: &Trace, jump_s: f64) -> Option<f64> {
 
 fn figure(outcome: &Outcome) -> String {
     let entry = match outcome.scenario.analysis {
-        Analysis::Settling { jump_s, .. } => band_entry_after_command_s(&outcome.trace, jump_s).map_or("never".into(), |t| format!("{t:.2} s")),
+        Analysis::Settling { jump_s, .. } => {
+            band_entry_after_command_s(&outcome.trace, jump_s).map_or("never".into(), |t| format!("{t:.2} s"))
+        }
         Analysis::Jitter { .. } => String::new(),
     };
     match outcome.settling {
@@ -141,7 +150,8 @@ fn every_optimal_wind_requirement_scenario_meets_its_limit() {
     let mut simulated = 0.0;
     let mut failures = Vec::new();
     for scenario in &scenarios {
-        let outcome = run_scenario(&fmus, &AntennaConfig::default(), scenario, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+        let outcome =
+            run_scenario(&fmus, &AntennaConfig::default(), scenario, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
         simulated += scenario.end_s;
         let requirement = scenario.requirement;
         println!("{} {:<22} {}", requirement.label(), scenario.name, figure(&outcome));
@@ -153,7 +163,10 @@ fn every_optimal_wind_requirement_scenario_meets_its_limit() {
         match requirement {
             Requirement::TrackingJitter => {
                 // Req. 1: under 15 arcsec RMS over every 10 s window of the track.
-                check(outcome.figure < JITTER_LIMIT_ARCSEC, format!("jitter {:.3} arcsec RMS >= {JITTER_LIMIT_ARCSEC}", outcome.figure));
+                check(
+                    outcome.figure < JITTER_LIMIT_ARCSEC,
+                    format!("jitter {:.3} arcsec RMS >= {JITTER_LIMIT_ARCSEC}", outcome.figure),
+                );
             }
             Requirement::SlewSettling | Requirement::LargeStepSettling | Requirement::SmallStepSettling => {
                 let limit = requirement.limit();
@@ -165,13 +178,22 @@ fn every_optimal_wind_requirement_scenario_meets_its_limit() {
                         // (a 90 deg slew at 2 deg/s alone takes 45 s).
                         let (figure, from) = requirement.judged_settling(&s);
                         check(figure < limit, format!("settled {figure:.2} s {from}, limit {limit} s"));
-                        check(figure == outcome.figure, format!("the report judges {} s, the metric gives {figure} s", outcome.figure));
+                        check(
+                            figure == outcome.figure,
+                            format!("the report judges {} s, the metric gives {figure} s", outcome.figure),
+                        );
                         // The issue's own figure, from the profile's arrival, must hold too.
-                        check(s.after_profile_s < limit, format!("settled {:.2} s after the profile, limit {limit} s", s.after_profile_s));
+                        check(
+                            s.after_profile_s < limit,
+                            format!("settled {:.2} s after the profile, limit {limit} s", s.after_profile_s),
+                        );
                         // The end of the slew comes after the command and before the arrival.
                         check(
                             s.braking_start_s > 0.0 && s.braking_start_s <= s.profile_arrival_s,
-                            format!("slew end {:.2} s outside (command, arrival {:.2} s]", s.braking_start_s, s.profile_arrival_s),
+                            format!(
+                                "slew end {:.2} s outside (command, arrival {:.2} s]",
+                                s.braking_start_s, s.profile_arrival_s
+                            ),
                         );
                     }
                 }
@@ -180,7 +202,11 @@ fn every_optimal_wind_requirement_scenario_meets_its_limit() {
         }
     }
     let wall = started.elapsed().as_secs_f64();
-    println!("{} scenarios, {simulated:.0} s simulated in {wall:.2} s wall-clock ({:.0} x real time)", scenarios.len(), simulated / wall);
+    println!(
+        "{} scenarios, {simulated:.0} s simulated in {wall:.2} s wall-clock ({:.0} x real time)",
+        scenarios.len(),
+        simulated / wall
+    );
     assert!(failures.is_empty(), "requirements not met:\n{}", failures.join("\n"));
 }
 
@@ -223,11 +249,16 @@ fn without_the_profiler_a_4_deg_step_overshoots_as_the_position_loop_limits_pred
         ("elevation", &fmus.elevation_controller, from.1, target.1),
     ];
     for (axis, fmu, start, goal) in axes {
-        let positions = |r: &Run| if axis == "azimuth" { r.trace.azimuth_deg.clone() } else { r.trace.elevation_deg.clone() };
+        let positions =
+            |r: &Run| if axis == "azimuth" { r.trace.azimuth_deg.clone() } else { r.trace.elevation_deg.clone() };
         let over_with = overshoot_arcsec(&positions(&with), start, goal);
         let over_without = overshoot_arcsec(&positions(&without), start, goal);
         // The limits the position loop works with, read back from the controller instance.
-        let instance = if axis == "azimuth" { &mut without.antenna.azimuth_controller } else { &mut without.antenna.elevation_controller };
+        let instance = if axis == "azimuth" {
+            &mut without.antenna.azimuth_controller
+        } else {
+            &mut without.antenna.elevation_controller
+        };
         let v_max = real(fmu, instance, "position_loop.max_velocity");
         let a_max = real(fmu, instance, "position_loop.max_acceleration");
         let kp = std::f64::consts::TAU * real(fmu, instance, "position_loop.bandwidth");
@@ -240,7 +271,10 @@ fn without_the_profiler_a_4_deg_step_overshoots_as_the_position_loop_limits_pred
         assert!(over_with < 1.0, "{axis}: {over_with} arcsec overshoot with the profiler");
         // Without it, the overshoot is the one the loop's limits imply, to 10 % (the velocity
         // loop's lag and the sampling add a little).
-        assert!((over_without / predicted - 1.0).abs() < 0.1, "{axis}: {over_without} arcsec overshoot, predicted {predicted}");
+        assert!(
+            (over_without / predicted - 1.0).abs() < 0.1,
+            "{axis}: {over_without} arcsec overshoot, predicted {predicted}"
+        );
         assert!(over_without > 100.0 * over_with.max(0.01), "{axis}: {over_without} vs {over_with} arcsec");
     }
 }
@@ -294,13 +328,22 @@ fn without_the_torque_bias_the_pinion_backlash_shows_at_azimuth_reversals() {
     assert_eq!(with.flank_changes, [0, 0], "a pinion changed flank with the torque bias on");
     // ... without it both cross the gap at every reversal.
     for k in 0..2 {
-        assert!(without.flank_changes[k] >= reversals.len(), "pinion {}: {} flank changes over {} reversals", k + 1, without.flank_changes[k], reversals.len());
+        assert!(
+            without.flank_changes[k] >= reversals.len(),
+            "pinion {}: {} flank changes over {} reversals",
+            k + 1,
+            without.flank_changes[k],
+            reversals.len()
+        );
     }
     // The gap shows in the error: a sizable fraction of it at every reversal without the bias,
     // a small one with it (what is left is the friction reversal the loops absorb).
     for (i, (&a, &b)) in peaks_with.iter().zip(&peaks_without).enumerate() {
         assert!(a < 0.1 * backlash_arcsec, "reversal {i}: {a} arcsec with the bias, backlash {backlash_arcsec} arcsec");
-        assert!(b > 0.25 * backlash_arcsec, "reversal {i}: {b} arcsec without the bias, backlash {backlash_arcsec} arcsec");
+        assert!(
+            b > 0.25 * backlash_arcsec,
+            "reversal {i}: {b} arcsec without the bias, backlash {backlash_arcsec} arcsec"
+        );
         assert!(b > 3.0 * a, "reversal {i}: {b} arcsec without the bias against {a} with it");
     }
 }
@@ -316,11 +359,18 @@ fn without_the_friction_feedforward_the_elevation_error_grows_where_a_sidereal_t
     // this is tracking). The friction the integrator must supply changes at the start (from
     // stiction) and at every reversal (from +sliding to -sliding friction).
     let (rate, leg_s, end_s) = (0.004, 10.0, 60.0);
-    let table = table_of(end_s, |_| 30.0, |t| {
-        let phase = t % (2.0 * leg_s);
-        45.0 + rate * if phase < leg_s { phase } else { 2.0 * leg_s - phase }
-    });
-    let off = AntennaConfig { elevation_controller: switched_off("friction_feedforward.enabled"), ..AntennaConfig::default() };
+    let table = table_of(
+        end_s,
+        |_| 30.0,
+        |t| {
+            let phase = t % (2.0 * leg_s);
+            45.0 + rate * if phase < leg_s { phase } else { 2.0 * leg_s - phase }
+        },
+    );
+    let off = AntennaConfig {
+        elevation_controller: switched_off("friction_feedforward.enabled"),
+        ..AntennaConfig::default()
+    };
     let with = run(&fmus, &AntennaConfig::default(), &table, end_s);
     let without = run(&fmus, &off, &table, end_s);
 
@@ -348,6 +398,16 @@ fn without_the_friction_feedforward_the_elevation_error_grows_where_a_sidereal_t
     // scales with that torque; the quantisation and inertia parts of the error do not, so the
     // ratios measured are lower: assert 2.
     assert!(start.1 > 2.0 * start.0, "start of the track: {} arcsec without against {} with", start.1, start.0);
-    assert!(reversal.1 .0 > 2.0 * reversal.0 .0, "reversals: {} arcsec RMS without against {} with", reversal.1 .0, reversal.0 .0);
-    assert!(reversal.1 .1 > 2.0 * reversal.0 .1, "reversals: peak {} arcsec without against {} with", reversal.1 .1, reversal.0 .1);
+    assert!(
+        reversal.1 .0 > 2.0 * reversal.0 .0,
+        "reversals: {} arcsec RMS without against {} with",
+        reversal.1 .0,
+        reversal.0 .0
+    );
+    assert!(
+        reversal.1 .1 > 2.0 * reversal.0 .1,
+        "reversals: peak {} arcsec without against {} with",
+        reversal.1 .1,
+        reversal.0 .1
+    );
 }

@@ -92,7 +92,13 @@ fn exported_functions(elf: &[u8]) -> Result<BTreeSet<String>, String> {
         // Defined (section index not SHN_UNDEF), GLOBAL or WEAK, of type FUNC.
         if section_index != 0 && (binding == 1 || binding == 2) && kind == 2 {
             let start = strings + name_offset;
-            let end = start + elf.get(start..).ok_or("bad string offset")?.iter().position(|&b| b == 0).ok_or("unterminated name")?;
+            let end = start
+                + elf
+                    .get(start..)
+                    .ok_or("bad string offset")?
+                    .iter()
+                    .position(|&b| b == 0)
+                    .ok_or("unterminated name")?;
             names.insert(String::from_utf8_lossy(&elf[start..end]).to_string());
         }
     }
@@ -126,7 +132,11 @@ fn every_packaged_fmu_exports_exactly_the_44_fmi2_functions() {
         let fmi2: BTreeSet<String> = exported.iter().filter(|n| n.starts_with("fmi2")).cloned().collect();
         let missing: Vec<&String> = standard.difference(&fmi2).collect();
         let extra: Vec<&String> = fmi2.difference(&standard).collect();
-        assert!(missing.is_empty() && extra.is_empty(), "{}: missing {missing:?}, unexpected {extra:?}", path.display());
+        assert!(
+            missing.is_empty() && extra.is_empty(),
+            "{}: missing {missing:?}, unexpected {extra:?}",
+            path.display()
+        );
 
         // And the importer, which resolves all 44 with dlsym, loads it.
         let fmu = Fmu::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -41,7 +41,11 @@ fn packaging_the_same_build_twice_gives_byte_identical_fmus() {
         assert_eq!(x.file_name(), y.file_name());
         let (bytes_x, bytes_y) = (std::fs::read(x).unwrap(), std::fs::read(y).unwrap());
         assert!(!bytes_x.is_empty());
-        assert!(bytes_x == bytes_y, "{} differs between two packagings of the same build", x.file_name().unwrap().to_string_lossy());
+        assert!(
+            bytes_x == bytes_y,
+            "{} differs between two packagings of the same build",
+            x.file_name().unwrap().to_string_lossy()
+        );
     }
     let _ = std::fs::remove_dir_all(&root);
 }

@@ -21,13 +21,19 @@ fn run(axis: Axis) -> Identification {
 /// The paper's experiment on the plant in its linear configuration, where the FMU is exactly
 /// Eq. 1 with the current loop: no offset is needed to stay linear, so the noise alone drives it.
 fn linear(axis: Axis) -> IdentificationConfig {
-    IdentificationConfig { linear_configuration: true, offset_current_a: 0.0, bias_current_a: 0.0, ..IdentificationConfig::paper(axis) }
+    IdentificationConfig {
+        linear_configuration: true,
+        offset_current_a: 0.0,
+        bias_current_a: 0.0,
+        ..IdentificationConfig::paper(axis)
+    }
 }
 
 fn run_config(config: IdentificationConfig) -> Identification {
     let axis = config.axis;
     let started = std::time::Instant::now();
-    let result = identify(&fmu_path(axis.model_identifier()), &config).unwrap_or_else(|e| panic!("{} identification: {e}", axis.name()));
+    let result = identify(&fmu_path(axis.model_identifier()), &config)
+        .unwrap_or_else(|e| panic!("{} identification: {e}", axis.name()));
     let s = result.summary();
     println!(
         "{}.fmu at {} deg: trough {:.3} Hz measured vs {:.3} Hz analytic ({:+.3} %, coherence there {:.3}), sqrt(K_s/J_L) {:.3} Hz; {} of {} bins with coherence > {COHERENCE_THRESHOLD}: max magnitude error {:.3} dB at {:.1} Hz ({:.3} dB from bin 5), max phase error {:.2} deg, 3-sigma random error {:.3} dB; {} segments, dof {:.0}; mean axis speed {:.3} deg/s, smallest motor speed {:.2} rad/s; wall {:.2} s (simulation {:.2} s, analysis {:.2} s)",
@@ -65,7 +71,11 @@ fn assert_same_two_mass(axis: Axis, fmu: &TwoMassParameters, documented: &TwoMas
         ("J_L", fmu.load_inertia, documented.load_inertia),
     ];
     for (name, a, b) in pairs {
-        assert!((a - b).abs() <= 1e-12 * b.abs(), "{}: {name} read back from the FMU is {a}, the documented default gives {b}", axis.name());
+        assert!(
+            (a - b).abs() <= 1e-12 * b.abs(),
+            "{}: {name} read back from the FMU is {a}, the documented default gives {b}",
+            axis.name()
+        );
     }
 }
 
@@ -86,24 +96,49 @@ fn check(axis: Axis, result: &Identification) {
         100.0 * s.trough_error,
         s.analytic_trough.frequency_hz
     );
-    assert!(s.max_db_error < 1.0, "{}: magnitude off by {:.2} dB at {:.1} Hz where the coherence exceeds 0.9", axis.name(), s.max_db_error, s.max_db_error_at_hz);
+    assert!(
+        s.max_db_error < 1.0,
+        "{}: magnitude off by {:.2} dB at {:.1} Hz where the coherence exceeds 0.9",
+        axis.name(),
+        s.max_db_error,
+        s.max_db_error_at_hz
+    );
 
     // The comparison must not pass by having nothing to compare: the estimate has to be
     // coherent over most of the band the paper's figures show, the trough region included.
-    let band: Vec<usize> = (0..result.frequency_hz.len()).filter(|&i| (0.3..=100.0).contains(&result.frequency_hz[i])).collect();
+    let band: Vec<usize> =
+        (0..result.frequency_hz.len()).filter(|&i| (0.3..=100.0).contains(&result.frequency_hz[i])).collect();
     let coherent = band.iter().filter(|&&i| result.coherence[i] > COHERENCE_THRESHOLD).count();
-    assert!(coherent * 10 >= band.len() * 9, "{}: only {coherent} of {} bins between 0.3 and 100 Hz are coherent", axis.name(), band.len());
+    assert!(
+        coherent * 10 >= band.len() * 9,
+        "{}: only {coherent} of {} bins between 0.3 and 100 Hz are coherent",
+        axis.name(),
+        band.len()
+    );
     let f_trough = s.analytic_trough.frequency_hz;
     let near_trough = band.iter().filter(|&&i| (result.frequency_hz[i] - f_trough).abs() < 0.05 * f_trough);
-    assert!(near_trough.clone().all(|&i| result.coherence[i] > COHERENCE_THRESHOLD), "{}: the estimate is not coherent within 5 % of the trough", axis.name());
+    assert!(
+        near_trough.clone().all(|&i| result.coherence[i] > COHERENCE_THRESHOLD),
+        "{}: the estimate is not coherent within 5 % of the trough",
+        axis.name()
+    );
 
     // The record is long enough that chance alone cannot reach the bound.
-    assert!(s.random_error_3_sigma_db < 0.5, "{}: the random error alone reaches {:.2} dB at three sigma", axis.name(), s.random_error_3_sigma_db);
+    assert!(
+        s.random_error_3_sigma_db < 0.5,
+        "{}: the random error alone reaches {:.2} dB at three sigma",
+        axis.name(),
+        s.random_error_3_sigma_db
+    );
 
     // The FMU's anti-resonance output and its parameters describe the drive the reference uses.
     let reported = result.reported_anti_resonance_hz;
     let undamped = s.undamped_anti_resonance_hz;
-    assert!((reported - undamped).abs() <= 1e-9 * undamped, "{}: drive.anti_resonance_frequency {reported} Hz, the parameters give {undamped} Hz", axis.name());
+    assert!(
+        (reported - undamped).abs() <= 1e-9 * undamped,
+        "{}: drive.anti_resonance_frequency {reported} Hz, the parameters give {undamped} Hz",
+        axis.name()
+    );
 }
 
 fn write_figure(axis: Axis, result: &Identification) {
@@ -139,13 +174,21 @@ fn elevation_fmu_frequency_response_at_15_deg_matches_the_corrected_eq_1() {
 #[test]
 fn azimuth_fmu_in_the_linear_configuration_matches_the_corrected_eq_1() {
     let result = run_config(linear(Axis::Azimuth));
-    assert_same_two_mass(Axis::Azimuth, &result.two_mass, &AzimuthParams::default().two_mass_at(result.config.elevation_deg));
+    assert_same_two_mass(
+        Axis::Azimuth,
+        &result.two_mass,
+        &AzimuthParams::default().two_mass_at(result.config.elevation_deg),
+    );
     check(Axis::Azimuth, &result);
 }
 
 #[test]
 fn elevation_fmu_in_the_linear_configuration_matches_the_corrected_eq_1() {
     let result = run_config(linear(Axis::Elevation));
-    assert_same_two_mass(Axis::Elevation, &result.two_mass, &ElevationParams::default().two_mass_at(result.config.elevation_deg));
+    assert_same_two_mass(
+        Axis::Elevation,
+        &result.two_mass,
+        &ElevationParams::default().two_mass_at(result.config.elevation_deg),
+    );
     check(Axis::Elevation, &result);
 }

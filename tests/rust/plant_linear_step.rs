@@ -91,7 +91,8 @@ fn linear_azimuth_fmu_step_response_equals_the_analytic_solution_of_eq_1() {
     set_reals(&fmu, &mut plant, &[("motor1.current_command", current), ("motor2.current_command", current)]);
     let h = 1e-3;
     let names = ["motor1.speed", "motor2.speed", "axis.position", "pinion1.torque", "pinion2.torque"];
-    let (mut times, mut speed1, mut speed2, mut angle, mut torque) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut times, mut speed1, mut speed2, mut angle, mut torque) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for k in 0..600 {
         plant.do_step(k as f64 * h, h).unwrap();
         let v = reals(&fmu, &mut plant, &names).unwrap();
@@ -129,11 +130,17 @@ fn linear_elevation_fmu_step_response_equals_the_analytic_solution_of_eq_1() {
     // the FMU is at those defaults where it can be read.
     let frozen = real(&fmu, &mut plant, "geometry.frozen_elevation");
     let params = ElevationParams::linear();
-    assert_eq!(frozen, params.frozen_geometry_elevation_deg, "the FMU's frozen elevation is not the documented default");
+    assert_eq!(
+        frozen, params.frozen_geometry_elevation_deg,
+        "the FMU's frozen elevation is not the documented default"
+    );
     let two_mass = params.two_mass_at(frozen);
     let n = params.ratio_at(frozen);
     let reported_ratio = real(&fmu, &mut plant, "drive.ratio");
-    assert!((reported_ratio - n).abs() <= 1e-12 * n, "drive.ratio {reported_ratio} is not the ratio {n} at the frozen {frozen} deg");
+    assert!(
+        (reported_ratio - n).abs() <= 1e-12 * n,
+        "drive.ratio {reported_ratio} is not the ratio {n} at the frozen {frozen} deg"
+    );
     for (name, value) in [
         ("motor.inertia", two_mass.motor_inertia),
         ("motor.viscous_friction", two_mass.motor_friction),
@@ -172,15 +179,24 @@ fn linear_elevation_fmu_step_response_equals_the_analytic_solution_of_eq_1() {
 /// Runs a plant with random piecewise-constant inputs that change every millisecond, stepping
 /// with `substeps` communication steps per millisecond, and returns every Real output at
 /// every millisecond.
-fn run_with_random_inputs(fmu: &Fmu, instance: &mut Instance, inputs: &[(&str, f64)], substeps: usize, milliseconds: usize) -> Vec<Vec<f64>> {
+fn run_with_random_inputs(
+    fmu: &Fmu,
+    instance: &mut Instance,
+    inputs: &[(&str, f64)],
+    substeps: usize,
+    milliseconds: usize,
+) -> Vec<Vec<f64>> {
     let output_names = outputs_of_type(fmu, "Real");
     let output_names: Vec<&str> = output_names.iter().map(String::as_str).collect();
     let mut samples = Vec::new();
     let h = 1e-3 / substeps as f64;
     let mut t = 0.0;
     for ms in 0..milliseconds {
-        let values: Vec<(&str, f64)> =
-            inputs.iter().enumerate().map(|(k, (name, amplitude))| (*name, amplitude * test_signal(ms as u64, k as u64 + 1))).collect();
+        let values: Vec<(&str, f64)> = inputs
+            .iter()
+            .enumerate()
+            .map(|(k, (name, amplitude))| (*name, amplitude * test_signal(ms as u64, k as u64 + 1)))
+            .collect();
         set_reals(fmu, instance, &values);
         for _ in 0..substeps {
             instance.do_step(t, h).unwrap();
@@ -199,8 +215,15 @@ fn worst_difference(fmu: &Fmu, coarse: &[Vec<f64>], fine: &[Vec<f64>]) -> (Strin
         let b: Vec<f64> = fine.iter().map(|s| s[k]).collect();
         // Outputs that do not move (the feedthrough inertia at a constant elevation) have no
         // range to compare against; they must then agree exactly.
-        let range = b.iter().copied().fold(f64::NEG_INFINITY, f64::max) - b.iter().copied().fold(f64::INFINITY, f64::min);
-        let e = if range > 0.0 { error_relative_to_range(&a, &b) } else if a == b { 0.0 } else { f64::INFINITY };
+        let range =
+            b.iter().copied().fold(f64::NEG_INFINITY, f64::max) - b.iter().copied().fold(f64::INFINITY, f64::min);
+        let e = if range > 0.0 {
+            error_relative_to_range(&a, &b)
+        } else if a == b {
+            0.0
+        } else {
+            f64::INFINITY
+        };
         if e > worst.1 {
             worst = (name.clone(), e);
         }
@@ -214,7 +237,10 @@ fn linear_fmu_results_do_not_depend_on_the_communication_step() {
     // at the common time points: the linear plant is stepped by an exact zero-order hold.
     let milliseconds = 500;
     for (identifier, inputs) in [
-        ("AzimuthPlant", vec![("motor1.current_command", 2.0), ("motor2.current_command", 2.0), ("load.disturbance_torque", 2e4)]),
+        (
+            "AzimuthPlant",
+            vec![("motor1.current_command", 2.0), ("motor2.current_command", 2.0), ("load.disturbance_torque", 2e4)],
+        ),
         ("ElevationPlant", vec![("motor.current_command", 0.6), ("load.disturbance_torque", 1e4)]),
     ] {
         let fmu = open(identifier);
@@ -228,7 +254,10 @@ fn linear_fmu_results_do_not_depend_on_the_communication_step() {
         };
         let (worst_name, worst) = worst_difference(&fmu, &run(1), &run(10));
         println!("{identifier}.fmu linear, 1 ms vs 0.1 ms steps over {milliseconds} ms: largest difference {worst:e} of the range ({worst_name})");
-        assert!(worst < 1e-10, "{identifier}: {worst_name} differs by {worst:e} of its range between 1 ms and 0.1 ms steps");
+        assert!(
+            worst < 1e-10,
+            "{identifier}: {worst_name} differs by {worst:e} of its range between 1 ms and 0.1 ms steps"
+        );
     }
 }
 
@@ -241,7 +270,11 @@ fn the_linear_parameter_file_and_the_linear_flag_configure_the_same_plant() {
     let a = run_with_random_inputs(&fmu, &mut by_file, &inputs, 1, 200);
     let b = run_with_random_inputs(&fmu, &mut by_flag, &inputs, 1, 200);
     let bits = |s: &[Vec<f64>]| s.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
-    assert_eq!(bits(&a), bits(&b), "parameter_file = linear.params and linear_configuration = true give different plants");
+    assert_eq!(
+        bits(&a),
+        bits(&b),
+        "parameter_file = linear.params and linear_configuration = true give different plants"
+    );
 }
 
 #[test]

@@ -28,8 +28,12 @@ fn do_step_after_terminate_is_an_error_with_a_logged_message() {
         let mut instance = initialized(&fmu, "after-terminate", &[]);
         instance.do_step(0.0, 1e-3).unwrap();
         instance.terminate().unwrap();
-        let messages = expect_error(instance.do_step(1e-3, 1e-3), &instance, &format!("{plant}: DoStep after Terminate"));
-        assert!(messages.iter().any(|m| m.contains("Terminated")), "{plant}: the message does not name the phase: {messages:?}");
+        let messages =
+            expect_error(instance.do_step(1e-3, 1e-3), &instance, &format!("{plant}: DoStep after Terminate"));
+        assert!(
+            messages.iter().any(|m| m.contains("Terminated")),
+            "{plant}: the message does not name the phase: {messages:?}"
+        );
         // The outputs stay readable after the error, for diagnosis.
         real(&fmu, &mut instance, "axis.position");
     }
@@ -52,7 +56,10 @@ fn a_wrong_guid_gives_null_with_a_logged_message() {
         for guid in ["{00000000-0000-0000-0000-000000000000}", "", "not a guid at all"] {
             match fmu.instantiate_with("wrong-guid", guid, false, false) {
                 Err(ImportError::Instantiate { messages }) => {
-                    assert!(messages.iter().any(|m| m.contains("GUID")), "{plant}: the message does not mention the GUID: {messages:?}");
+                    assert!(
+                        messages.iter().any(|m| m.contains("GUID")),
+                        "{plant}: the message does not mention the GUID: {messages:?}"
+                    );
                 }
                 Err(other) => panic!("{plant}: expected NULL from fmi2Instantiate, got {other}"),
                 Ok(_) => panic!("{plant}: fmi2Instantiate accepted the GUID '{guid}'"),
@@ -75,8 +82,15 @@ fn nan_and_infinite_inputs_are_rejected_and_change_nothing() {
                 let before = real(&fmu, &mut instance, &input);
                 let result = instance.set_real(&[vr(&fmu, &input)], &[bad]);
                 let messages = expect_error(result, &instance, &format!("{plant}: {input} = {bad}"));
-                assert!(messages.iter().any(|m| m.contains(&input)), "{plant}: the message does not name {input}: {messages:?}");
-                assert_eq!(real(&fmu, &mut instance, &input).to_bits(), before.to_bits(), "{plant}: the rejected {input} = {bad} changed it");
+                assert!(
+                    messages.iter().any(|m| m.contains(&input)),
+                    "{plant}: the message does not name {input}: {messages:?}"
+                );
+                assert_eq!(
+                    real(&fmu, &mut instance, &input).to_bits(),
+                    before.to_bits(),
+                    "{plant}: the rejected {input} = {bad} changed it"
+                );
             }
         }
         // Parameters too, during initialisation.
@@ -84,7 +98,11 @@ fn nan_and_infinite_inputs_are_rejected_and_change_nothing() {
         instance.setup_experiment(0.0, None).unwrap();
         instance.enter_initialization_mode().unwrap();
         let inertia = if plant == "AzimuthPlant" { "motor1.inertia" } else { "motor.inertia" };
-        expect_error(instance.set_real(&[vr(&fmu, inertia)], &[f64::NAN]), &instance, &format!("{plant}: NaN {inertia}"));
+        expect_error(
+            instance.set_real(&[vr(&fmu, inertia)], &[f64::NAN]),
+            &instance,
+            &format!("{plant}: NaN {inertia}"),
+        );
     }
 }
 
@@ -106,7 +124,11 @@ fn unknown_value_references_are_rejected() {
         // A known reference of another type is as wrong as an unknown one.
         let mut instance = initialized(&fmu, "wrong-type", &[]);
         let mut integer = [0];
-        expect_error(instance.get_integer(&[vr(&fmu, "axis.position")], &mut integer), &instance, &format!("{plant}: GetInteger of a Real"));
+        expect_error(
+            instance.get_integer(&[vr(&fmu, "axis.position")], &mut integer),
+            &instance,
+            &format!("{plant}: GetInteger of a Real"),
+        );
     }
 }
 
@@ -140,7 +162,11 @@ fn a_step_longer_than_a_day_is_rejected_at_once_and_changes_nothing() {
             let messages = expect_error(instance.do_step(0.0, h), &instance, &format!("{plant}: step {h}"));
             // Computing even a thousandth of such a step would take seconds; a rejection
             // takes microseconds. One second leaves room for a loaded machine.
-            assert!(started.elapsed().as_secs_f64() < 1.0, "{plant}: rejecting a step of {h} s took {:?}", started.elapsed());
+            assert!(
+                started.elapsed().as_secs_f64() < 1.0,
+                "{plant}: rejecting a step of {h} s took {:?}",
+                started.elapsed()
+            );
             assert!(messages.iter().any(|m| m.contains("longer than the longest step")), "{plant}: {messages:?}");
             assert_eq!(instance.last_successful_time().unwrap(), 0.0, "{plant}: the rejected step moved the time");
             assert_eq!(output_bits(&fmu, &mut instance), before, "{plant}: the rejected step changed the outputs");
@@ -169,13 +195,18 @@ fn a_step_past_the_stop_time_is_rejected_and_a_run_that_ends_on_it_is_not() {
         }
         assert_ne!(t, 0.1, "the accumulated time is expected to be off by rounding");
         // One more step is past it.
-        let messages = expect_error(instance.do_step(t, 1e-3), &instance, &format!("{plant}: a step after the stop time"));
+        let messages =
+            expect_error(instance.do_step(t, 1e-3), &instance, &format!("{plant}: a step after the stop time"));
         assert!(messages.iter().any(|m| m.contains("stopTime")), "{plant}: {messages:?}");
         // So is a step that jumps over it, short or long.
         for h in [0.2, 1e4] {
             let mut instance = with_stop_time("over-the-stop-time");
             let before = output_bits(&fmu, &mut instance);
-            let messages = expect_error(instance.do_step(0.0, h), &instance, &format!("{plant}: a step of {h} s over the stop time"));
+            let messages = expect_error(
+                instance.do_step(0.0, h),
+                &instance,
+                &format!("{plant}: a step of {h} s over the stop time"),
+            );
             assert!(messages.iter().any(|m| m.contains("after the stopTime 0.1")), "{plant}: {messages:?}");
             assert_eq!(output_bits(&fmu, &mut instance), before, "{plant}: the rejected step changed the outputs");
         }
@@ -195,7 +226,8 @@ fn a_wrong_communication_point_is_rejected() {
                 instance.do_step(t, h).unwrap();
                 t += h;
             }
-            let messages = expect_error(instance.do_step(point, h), &instance, &format!("{plant}: DoStep at {point} when at {t}"));
+            let messages =
+                expect_error(instance.do_step(point, h), &instance, &format!("{plant}: DoStep at {point} when at {t}"));
             assert!(messages.iter().any(|m| m.contains("currentCommunicationPoint")), "{plant}: {messages:?}");
         }
         // A master that accumulates t += h in floating point is a few ulps off: that is the
@@ -218,7 +250,11 @@ fn parameters_that_are_not_tunable_cannot_be_set_while_stepping() {
         instance.do_step(0.0, 1e-3).unwrap();
         let name = if plant == "AzimuthPlant" { "gear.ratio" } else { "load.inertia" };
         let before = real(&fmu, &mut instance, name);
-        expect_error(instance.set_real(&[vr(&fmu, name)], &[2.0 * before]), &instance, &format!("{plant}: {name} while stepping"));
+        expect_error(
+            instance.set_real(&[vr(&fmu, name)], &[2.0 * before]),
+            &instance,
+            &format!("{plant}: {name} while stepping"),
+        );
         assert_eq!(real(&fmu, &mut instance, name), before);
     }
 }
@@ -232,14 +268,22 @@ fn out_of_range_values_and_bad_parameter_files_are_rejected_and_change_nothing()
         instance.enter_initialization_mode().unwrap();
         // initial_position has a declared range in both plants.
         let before = real(&fmu, &mut instance, "initial_position");
-        expect_error(instance.set_real(&[vr(&fmu, "initial_position")], &[1e6]), &instance, &format!("{plant}: initial_position out of range"));
+        expect_error(
+            instance.set_real(&[vr(&fmu, "initial_position")], &[1e6]),
+            &instance,
+            &format!("{plant}: initial_position out of range"),
+        );
         assert_eq!(real(&fmu, &mut instance, "initial_position"), before);
 
         for file in ["no-such-file.params", "/nonexistent/absolute.params"] {
             let mut instance = fmu.instantiate("bad-file", false).unwrap();
             instance.setup_experiment(0.0, None).unwrap();
             instance.enter_initialization_mode().unwrap();
-            let messages = expect_error(instance.set_string(&[vr(&fmu, "parameter_file")], &[file]), &instance, &format!("{plant}: parameter_file {file}"));
+            let messages = expect_error(
+                instance.set_string(&[vr(&fmu, "parameter_file")], &[file]),
+                &instance,
+                &format!("{plant}: parameter_file {file}"),
+            );
             assert!(messages.iter().any(|m| m.contains("cannot read parameter file")), "{plant}: {messages:?}");
         }
     }
@@ -262,7 +306,11 @@ fn the_extreme_parameters_that_gave_nan_are_now_outside_the_declared_ranges() {
         let mut instance = fmu.instantiate("extreme", false).unwrap();
         instance.setup_experiment(0.0, None).unwrap();
         instance.enter_initialization_mode().unwrap();
-        let messages = expect_error(instance.set_real(&[vr(&fmu, name)], &[value]), &instance, &format!("{plant}: {name} = {value}"));
+        let messages = expect_error(
+            instance.set_real(&[vr(&fmu, name)], &[value]),
+            &instance,
+            &format!("{plant}: {name} = {value}"),
+        );
         assert!(messages.iter().any(|m| m.contains("above its maximum")), "{plant}: {messages:?}");
     }
     // A damping this small beside the backlash is within its range (0 is legal without
@@ -273,7 +321,8 @@ fn the_extreme_parameters_that_gave_nan_are_now_outside_the_declared_ranges() {
     instance.setup_experiment(0.0, None).unwrap();
     instance.enter_initialization_mode().unwrap();
     instance.set_real(&[vr(&fmu, "pinion1.damping")], &[1e-100]).unwrap();
-    let messages = expect_error(instance.exit_initialization_mode(), &instance, "AzimuthPlant: pinion1.damping = 1e-100");
+    let messages =
+        expect_error(instance.exit_initialization_mode(), &instance, "AzimuthPlant: pinion1.damping = 1e-100");
     assert!(messages.iter().any(|m| m.contains("relaxation in the backlash gap")), "{messages:?}");
 }
 
@@ -298,7 +347,9 @@ fn a_step_that_overflows_is_an_error_naming_the_cause_and_changes_nothing() {
         let (error, before) = failure;
         let messages = expect_error::<()>(Err(error), &instance, &format!("{plant}: the overflowing step"));
         assert!(
-            messages.iter().any(|m| m.contains("non-finite") && m.contains("Likely cause") && m.contains("load torque 1e308")),
+            messages
+                .iter()
+                .any(|m| m.contains("non-finite") && m.contains("Likely cause") && m.contains("load torque 1e308")),
             "{plant}: {messages:?}"
         );
         assert_eq!(output_bits(&fmu, &mut instance), before, "{plant}: the failed step changed the outputs");

@@ -71,12 +71,20 @@ fn child() -> ExitCode {
             }
         }
     }
-    let _ = std::fs::write(&report, format!("{errors} deliberate errors, {messages} messages, all through the logger callback"));
+    let _ = std::fs::write(
+        &report,
+        format!("{errors} deliberate errors, {messages} messages, all through the logger callback"),
+    );
     ExitCode::SUCCESS
 }
 
 /// Counts an expected fmi2Error and checks the FMU logged why.
-fn expect_error<T>(result: Result<T, ImportError>, instance: &Instance, what: &str, errors: &mut usize) -> Result<(), String> {
+fn expect_error<T>(
+    result: Result<T, ImportError>,
+    instance: &Instance,
+    what: &str,
+    errors: &mut usize,
+) -> Result<(), String> {
     match result {
         Err(ImportError::Call { status: Status::Error, messages, .. }) if !messages.is_empty() => {
             if !instance.log_records().iter().any(|r| r.status == Status::Error) {
@@ -120,17 +128,28 @@ fn misuse(path: &Path) -> Result<(usize, usize), String> {
     messages += instance.take_log().len();
 
     let mut instance = verbose(&fmu, "unknown category")?;
-    expect_error(instance.set_debug_logging(true, &["%s%n no such category"]), &instance, "unknown log category", &mut errors)?;
+    expect_error(
+        instance.set_debug_logging(true, &["%s%n no such category"]),
+        &instance,
+        "unknown log category",
+        &mut errors,
+    )?;
     messages += instance.take_log().len();
 
-    let first_input = md.variables.iter().find(|v| v.causality == "input" && v.type_name == "Real").map(|v| v.value_reference);
+    let first_input =
+        md.variables.iter().find(|v| v.causality == "input" && v.type_name == "Real").map(|v| v.value_reference);
     let parameter_file = md.vr("parameter_file").ok();
 
     if let Some(vr) = parameter_file {
         let mut instance = verbose(&fmu, "bad file")?;
         instance.setup_experiment(0.0, None).map_err(|e| e.to_string())?;
         instance.enter_initialization_mode().map_err(|e| e.to_string())?;
-        expect_error(instance.set_string(&[vr], &["%s%s%n%x.params"]), &instance, "parameter file with printf directives", &mut errors)?;
+        expect_error(
+            instance.set_string(&[vr], &["%s%s%n%x.params"]),
+            &instance,
+            "parameter file with printf directives",
+            &mut errors,
+        )?;
         messages += instance.take_log().len();
     }
 

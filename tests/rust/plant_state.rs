@@ -14,7 +14,11 @@ fn inputs(plant: &str, ms: usize) -> Vec<(&'static str, f64)> {
     let common = 1.5 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.3 * test_signal(ms as u64, 5);
     let disturbance = 2e3 * test_signal((ms / 100) as u64, 6);
     if plant == "AzimuthPlant" {
-        vec![("motor1.current_command", common + 0.5), ("motor2.current_command", common - 0.5), ("load.disturbance_torque", disturbance)]
+        vec![
+            ("motor1.current_command", common + 0.5),
+            ("motor2.current_command", common - 0.5),
+            ("load.disturbance_torque", disturbance),
+        ]
     } else {
         vec![("motor.current_command", common), ("load.disturbance_torque", disturbance)]
     }
@@ -83,11 +87,21 @@ fn a_state_deserialized_into_another_instance_continues_bitwise() {
         for copy in [&mut elsewhere, &mut fresh] {
             let restored = copy.deserialize_state(&bytes).unwrap();
             copy.set_state(&restored).unwrap();
-            assert_eq!(copy.serialize_state(&restored).unwrap(), bytes, "{plant}: deserialize then serialize is not the identity");
+            assert_eq!(
+                copy.serialize_state(&restored).unwrap(),
+                bytes,
+                "{plant}: deserialize then serialize is not the identity"
+            );
         }
         let expected = run(&fmu, plant, &mut original, 1000, 3000);
-        assert!(run(&fmu, plant, &mut elsewhere, 1000, 3000) == expected, "{plant}: the deserialized state (into a used instance) continues differently");
-        assert!(run(&fmu, plant, &mut fresh, 1000, 3000) == expected, "{plant}: the deserialized state (into a new instance) continues differently");
+        assert!(
+            run(&fmu, plant, &mut elsewhere, 1000, 3000) == expected,
+            "{plant}: the deserialized state (into a used instance) continues differently"
+        );
+        assert!(
+            run(&fmu, plant, &mut fresh, 1000, 3000) == expected,
+            "{plant}: the deserialized state (into a new instance) continues differently"
+        );
     }
 }
 
@@ -108,7 +122,10 @@ fn a_state_restores_parameters_and_inputs_as_well() {
         let state = other.deserialize_state(&bytes).unwrap();
         other.set_state(&state).unwrap();
         assert_eq!(antenna_tests::real(&fmu, &mut other, parameter), 3e-3, "{plant}: {parameter} was not restored");
-        assert!(run(&fmu, plant, &mut other, 300, 800) == run(&fmu, plant, &mut original, 300, 800), "{plant}: continuation differs");
+        assert!(
+            run(&fmu, plant, &mut other, 300, 800) == run(&fmu, plant, &mut original, 300, 800),
+            "{plant}: continuation differs"
+        );
     }
 }
 
@@ -128,7 +145,11 @@ fn after_an_error_a_restored_state_continues_bitwise_as_an_uninterrupted_run() {
         let input = real_inputs(&fmu).remove(0);
         let provocations: [(&str, &dyn Fn(&mut Instance)); 2] = [
             ("a NaN input", &|instance| {
-                expect_error(instance.set_real(&[vr(&fmu, &input)], &[f64::NAN]), instance, &format!("{plant}: NaN {input}"));
+                expect_error(
+                    instance.set_real(&[vr(&fmu, &input)], &[f64::NAN]),
+                    instance,
+                    &format!("{plant}: NaN {input}"),
+                );
             }),
             ("a wrong communication point", &|instance| {
                 let at = instance.last_successful_time().unwrap();

@@ -47,7 +47,8 @@ fn azimuth() -> Scenario {
     // Torque-biased drives (motor 1 +1 A, motor 2 -1 A) with a common sine that reverses the
     // axis every second, a little noise, a 3 kN m disturbance that flips every 2.5 s, and an
     // elevation input that sweeps through parameter-grid cells.
-    let common = |ms: usize| 1.5 * (std::f64::consts::TAU * 0.5 * ms as f64 * 1e-3).sin() + 0.2 * test_signal(ms as u64, 11);
+    let common =
+        |ms: usize| 1.5 * (std::f64::consts::TAU * 0.5 * ms as f64 * 1e-3).sin() + 0.2 * test_signal(ms as u64, 11);
     Scenario {
         identifier: "AzimuthPlant",
         inputs: vec![
@@ -72,7 +73,10 @@ fn elevation() -> Scenario {
         inputs: vec![
             (
                 "motor.current_command",
-                Box::new(|ms| 0.15 + 1.5 * (std::f64::consts::TAU * 0.5 * ms as f64 * 1e-3).sin() + 0.1 * test_signal(ms as u64, 12)),
+                Box::new(|ms| {
+                    0.15 + 1.5 * (std::f64::consts::TAU * 0.5 * ms as f64 * 1e-3).sin()
+                        + 0.1 * test_signal(ms as u64, 12)
+                }),
             ),
             ("load.disturbance_torque", Box::new(|ms| 2e3 * square(ms, 2500))),
         ],
@@ -102,7 +106,13 @@ const DEFAULT_EVENT_CHECK_INTERVAL: f64 = 1e-3;
 
 /// A run with `substeps` communication steps per millisecond and the given event resolution
 /// and event check interval.
-fn run_with(fmu: &Fmu, scenario: &Scenario, substeps: usize, event_resolution_s: f64, event_check_interval_s: f64) -> Record {
+fn run_with(
+    fmu: &Fmu,
+    scenario: &Scenario,
+    substeps: usize,
+    event_resolution_s: f64,
+    event_check_interval_s: f64,
+) -> Record {
     let mut instance: Instance = fmu.instantiate("step-size", false).unwrap();
     instance.set_debug_logging(true, &["logEvents"]).unwrap();
     let numerics = fmu.description.vrs(&["numerics.event_time_resolution", "numerics.event_check_interval"]).unwrap();
@@ -159,13 +169,19 @@ fn dependence(fmu: &Fmu, scenario: &Scenario, event_resolution_s: f64) -> Depend
     let fine = run(fmu, scenario, 10, event_resolution_s);
     let column = |r: &Record, k: usize| -> Vec<f64> { r.samples.iter().map(|s| s[k]).collect() };
     let group = |first: usize, count: usize| {
-        (first..first + count).map(|k| error_relative_to_range(&column(&coarse, k), &column(&fine, k))).fold(0.0, f64::max)
+        (first..first + count)
+            .map(|k| error_relative_to_range(&column(&coarse, k), &column(&fine, k)))
+            .fold(0.0, f64::max)
     };
     let (position_coarse, position_fine) = (column(&coarse, 0), column(&fine, 0));
     let n_speeds = scenario.speeds.len();
     let n_currents = scenario.currents.len();
     Dependence {
-        position_arcsec: position_coarse.iter().zip(&position_fine).map(|(a, b)| (a - b).abs() * 3600.0).fold(0.0, f64::max),
+        position_arcsec: position_coarse
+            .iter()
+            .zip(&position_fine)
+            .map(|(a, b)| (a - b).abs() * 3600.0)
+            .fold(0.0, f64::max),
         position_fraction: error_relative_to_range(&position_coarse, &position_fine),
         position_range_deg: position_fine.iter().copied().fold(f64::NEG_INFINITY, f64::max)
             - position_fine.iter().copied().fold(f64::INFINITY, f64::min),
@@ -208,26 +224,40 @@ fn nonlinear_fmu_results_depend_on_the_communication_step_by_less_than_a_quarter
             wall
         );
         // The scenario must exercise the nonlinear effects, or the comparison says nothing.
-        assert!(d.reversals.0 >= 8, "{}: only {} reversals: the scenario does not exercise friction", scenario.identifier, d.reversals.0);
-        assert_eq!(d.reversals.0, d.reversals.1, "{}: the 1 ms and 0.1 ms runs reverse a different number of times", scenario.identifier);
+        assert!(
+            d.reversals.0 >= 8,
+            "{}: only {} reversals: the scenario does not exercise friction",
+            scenario.identifier,
+            d.reversals.0
+        );
+        assert_eq!(
+            d.reversals.0, d.reversals.1,
+            "{}: the 1 ms and 0.1 ms runs reverse a different number of times",
+            scenario.identifier
+        );
         assert!(
             d.position_arcsec < QUARTER_ENCODER_COUNT_ARCSEC,
             "{}: position differs by {:e} arcsec, more than a quarter encoder count ({QUARTER_ENCODER_COUNT_ARCSEC:e} arcsec)",
             scenario.identifier,
             d.position_arcsec
         );
-        assert!(d.current < CURRENT_BOUND, "{}: currents differ by {:e} of their range", scenario.identifier, d.current);
+        assert!(
+            d.current < CURRENT_BOUND,
+            "{}: currents differ by {:e} of their range",
+            scenario.identifier,
+            d.current
+        );
         assert!(d.torque < TORQUE_BOUND, "{}: torques differ by {:e} of their range", scenario.identifier, d.torque);
     }
 }
-
 
 /// The audit's open-loop azimuth scenario: defaults, both motors given the same (unbiased) or
 /// a +/-1 A biased command, a 1 Hz sine of 3 A plus 0.5 A of noise that changes every
 /// millisecond, no disturbance, 2 s. `delta` is added to motor 1's command, to measure how
 /// sensitive the motion is to the input.
 fn chattering(bias_a: f64, delta_a: f64, seed: u64) -> Scenario {
-    let common = move |ms: usize| 3.0 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.5 * test_signal(ms as u64, seed);
+    let common =
+        move |ms: usize| 3.0 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.5 * test_signal(ms as u64, seed);
     Scenario {
         identifier: "AzimuthPlant",
         inputs: vec![
@@ -248,7 +278,8 @@ fn chattering(bias_a: f64, delta_a: f64, seed: u64) -> Scenario {
 /// reference's range) between two records of [`chattering`].
 fn difference(record: &Record, reference: &Record) -> (f64, f64) {
     let column = |r: &Record, k: usize| -> Vec<f64> { r.samples.iter().map(|s| s[k]).collect() };
-    let position = column(record, 0).iter().zip(column(reference, 0)).map(|(a, b)| (a - b).abs() * 3600.0).fold(0.0, f64::max);
+    let position =
+        column(record, 0).iter().zip(column(reference, 0)).map(|(a, b)| (a - b).abs() * 3600.0).fold(0.0, f64::max);
     let torque = [5, 6].map(|k| error_relative_to_range(&column(record, k), &column(reference, k)));
     (position, torque[0].max(torque[1]))
 }
@@ -270,7 +301,10 @@ fn chattering_runs(fmu: &Fmu, bias_a: f64, seed: u64) -> Chattering {
     // The communication step itself does not matter: 1 ms steps cut into the same 0.1 ms
     // pieces as the reference give exactly the reference.
     let same_pieces = run_with(fmu, &chattering(bias_a, 0.0, seed), 1, 1e-8, 1e-4);
-    assert!(same_pieces.samples == reference.samples, "bias {bias_a}, seed {seed}: 1 ms steps in 0.1 ms pieces differ from 0.1 ms steps");
+    assert!(
+        same_pieces.samples == reference.samples,
+        "bias {bias_a}, seed {seed}: 1 ms steps in 0.1 ms pieces differ from 0.1 ms steps"
+    );
     Chattering {
         default_1ms: difference(&default_1ms, &reference),
         finer: difference(&finer, &reference),
@@ -296,7 +330,11 @@ fn unbiased_backlash_chattering_is_so_sensitive_that_its_step_size_dependence_do
         assert!(c.default_1ms.0 < 10.0 && c.default_1ms.1 < 0.8, "seed {seed}: {:?}", c.default_1ms);
         // Ill-conditioned: a 1e-9 A change of one input moves the axis by arcseconds
         // (measured 3-10), and refining the numerics tenfold does not converge (2.0-3.4).
-        assert!(c.perturbed.0 > 0.5, "seed {seed}: 1e-9 A moved the axis by only {:?}: the chattering is no longer ill-conditioned", c.perturbed);
+        assert!(
+            c.perturbed.0 > 0.5,
+            "seed {seed}: 1e-9 A moved the axis by only {:?}: the chattering is no longer ill-conditioned",
+            c.perturbed
+        );
         assert!(c.finer.0 > 0.3, "seed {seed}: the finer numerics agree with the reference to {:?}: the chattering is no longer ill-conditioned", c.finer);
     }
 }

@@ -9,7 +9,11 @@ use fmu_runtime::import::{Fmu, Instance};
 fn inputs(plant: &str, ms: usize, seed: u64) -> Vec<(&'static str, f64)> {
     let common = 1.5 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.5 * test_signal(ms as u64, seed);
     if plant == "AzimuthPlant" {
-        vec![("motor1.current_command", common + 1.0), ("motor2.current_command", common - 1.0), ("load.disturbance_torque", 1e3 * test_signal(ms as u64, seed + 100))]
+        vec![
+            ("motor1.current_command", common + 1.0),
+            ("motor2.current_command", common - 1.0),
+            ("load.disturbance_torque", 1e3 * test_signal(ms as u64, seed + 100)),
+        ]
     } else {
         vec![("motor.current_command", common), ("load.disturbance_torque", 1e3 * test_signal(ms as u64, seed + 100))]
     }

@@ -15,8 +15,9 @@ const PAPER_BANDWIDTH_HZ: (f64, f64) = (10.0, 15.0);
 
 fn identify(axis: Axis) -> VelocityBode {
     let directory = antenna_tools::package::fmu_directory();
-    let result = identify_velocity_loop(&directory, &VelocityBodeConfig::paper(axis))
-        .unwrap_or_else(|e| panic!("{}: {e}; package the FMUs first (cargo run --release -p antenna-tools --bin package)", axis.name()));
+    let result = identify_velocity_loop(&directory, &VelocityBodeConfig::paper(axis)).unwrap_or_else(|e| {
+        panic!("{}: {e}; package the FMUs first (cargo run --release -p antenna-tools --bin package)", axis.name())
+    });
     assert!(
         result.linear_regime_held(),
         "{}: the run left the linear regime (smallest motor speed {} rad/s, largest torque {} N m against the bias fade start {}, {} flank changes)",
@@ -50,9 +51,17 @@ fn the_identified_closed_velocity_loop_matches_the_analytic_one_and_the_papers_b
         );
         // The comparison covers the band: the loop is linear in this experiment, so the
         // coherence must be high nearly everywhere, and in particular around the bandwidth.
-        assert!(coherent.len() * 10 >= all.len() * 9, "{}: only {} of {} bins coherent", axis.name(), coherent.len(), all.len());
         assert!(
-            (0..r.frequency_hz.len()).filter(|&i| (8.0..=16.0).contains(&r.frequency_hz[i])).all(|i| coherent.contains(&i)),
+            coherent.len() * 10 >= all.len() * 9,
+            "{}: only {} of {} bins coherent",
+            axis.name(),
+            coherent.len(),
+            all.len()
+        );
+        assert!(
+            (0..r.frequency_hz.len())
+                .filter(|&i| (8.0..=16.0).contains(&r.frequency_hz[i]))
+                .all(|i| coherent.contains(&i)),
             "{}: the coherence is below 0.9 near the bandwidth",
             axis.name()
         );
@@ -66,6 +75,10 @@ fn the_identified_closed_velocity_loop_matches_the_analytic_one_and_the_papers_b
         );
         // The estimate interpolates between bins 1/segment apart.
         let resolution = 1.0 / r.config.segment_s;
-        assert!((measured - analytic).abs() < resolution, "{}: {measured} Hz measured against {analytic} Hz analytic", axis.name());
+        assert!(
+            (measured - analytic).abs() < resolution,
+            "{}: {measured} Hz measured against {analytic} Hz analytic",
+            axis.name()
+        );
     }
 }

@@ -268,7 +268,11 @@ fn discretised_gust_model_keeps_six_kappa_v_squared_at_every_step() {
             let discrete = generator.discrete_stationary_variance(h);
             println!("v_m = {v} m/s, h = {h} s: discrete Lyapunov variance {discrete:.6} vs 6 kappa v^2 {target:.6} ({:+.2e})", discrete / target - 1.0);
             assert!((discrete / target - 1.0).abs() < 0.01, "v = {v}, h = {h}: {discrete} vs {target}");
-            assert!((sigma * sigma / discrete - 1.0).abs() < 0.01, "v = {v}, h = {h}: FMU sigma^2 {} vs {discrete}", sigma * sigma);
+            assert!(
+                (sigma * sigma / discrete - 1.0).abs() < 0.01,
+                "v = {v}, h = {h}: FMU sigma^2 {} vs {discrete}",
+                sigma * sigma
+            );
         }
     }
 }
@@ -354,7 +358,12 @@ fn two_hour_record_variance_is_inside_the_interval_the_record_length_allows() {
         );
         // PHYSICS-NOTES point 8: the sample standard deviation of a 2 h record scatters by
         // about 4 % at 3 m/s and 2.3 % at 9.5 m/s; the interval here is computed from that.
-        assert!(ratio > interval.low && ratio < interval.high, "v = {v}: {ratio} outside {}-{}", interval.low, interval.high);
+        assert!(
+            ratio > interval.low && ratio < interval.high,
+            "v = {v}: {ratio} outside {}-{}",
+            interval.low,
+            interval.high
+        );
     }
 }
 
@@ -397,7 +406,10 @@ fn check_sample_std_over_seeds(v: f64, seeds: std::ops::Range<i32>, duration: f6
     assert!(outside <= allowed, "{outside} of {m} records outside their 99 % interval (limit {allowed})");
     let z_limit = standard_normal_quantile(1.0 - 0.5 * SIGNIFICANCE);
     assert!(z.abs() < z_limit, "mean variance ratio {mean}: z = {z}, limit {z_limit}");
-    assert!(spread_ratio > spread_low && spread_ratio < spread_high, "spread ratio {spread_ratio} outside {spread_low}-{spread_high}");
+    assert!(
+        spread_ratio > spread_low && spread_ratio < spread_high,
+        "spread ratio {spread_ratio} outside {spread_low}-{spread_high}"
+    );
 }
 
 #[test]
@@ -406,7 +418,10 @@ fn sample_std_over_sixty_four_seeds_stays_in_the_interval_the_record_length_allo
 }
 
 #[test]
-#[cfg_attr(debug_assertions, ignore = "long without optimisation: 256 seeds x 2 h at 3 and 9.5 m/s through the FMU (about 10 s in release); run with --release")]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "long without optimisation: 256 seeds x 2 h at 3 and 9.5 m/s through the FMU (about 10 s in release); run with --release"
+)]
 fn sample_std_over_256_seeds_stays_in_the_interval_the_record_length_allows() {
     check_sample_std_over_seeds(3.0, 1000..1256, TWO_HOURS);
     check_sample_std_over_seeds(9.5, 2000..2256, TWO_HOURS);
@@ -436,7 +451,12 @@ fn check_statistics_at_step(step: f64, duration: f64, segment_s: f64, seed: i32)
         interval.high,
         comparison.summary()
     );
-    assert!(ratio > interval.low && ratio < interval.high, "step {step}: variance ratio {ratio} outside {}-{}", interval.low, interval.high);
+    assert!(
+        ratio > interval.low && ratio < interval.high,
+        "step {step}: variance ratio {ratio} outside {}-{}",
+        interval.low,
+        interval.high
+    );
     assert!(
         comparison.outside <= comparison.allowed,
         "step {step}: {} of {} bands outside (limit {})",
@@ -456,7 +476,10 @@ fn statistics_are_the_same_at_1_10_and_100_ms_steps() {
 }
 
 #[test]
-#[cfg_attr(debug_assertions, ignore = "long without optimisation: 2 h at 1 ms through the FMU (7.2 million steps, about 6 s in release); run with --release")]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "long without optimisation: 2 h at 1 ms through the FMU (7.2 million steps, about 6 s in release); run with --release"
+)]
 fn a_two_hour_record_at_1_ms_has_the_statistics_of_the_process() {
     check_statistics_at_step(0.001, TWO_HOURS, 600.0, 34);
 }
@@ -466,11 +489,22 @@ fn a_two_hour_record_at_1_ms_has_the_statistics_of_the_process() {
 
 /// Steps with pointing inputs that change every step, returning every output's bits.
 fn output_run(fmu: &Fmu, instance: &mut Instance, start: f64, steps: &[f64]) -> Vec<Vec<u64>> {
-    let names = ["wind.speed", "wind.gust", "wind.normalised_gust", "torque.azimuth", "torque.elevation", "torque.azimuth_gust"];
+    let names = [
+        "wind.speed",
+        "wind.gust",
+        "wind.normalised_gust",
+        "torque.azimuth",
+        "torque.elevation",
+        "torque.azimuth_gust",
+    ];
     let mut t = start;
     let mut out = Vec::new();
     for (k, &h) in steps.iter().enumerate() {
-        set_reals(fmu, instance, &[("antenna.azimuth", 3.0 * k as f64 % 360.0), ("antenna.elevation", 15.0 + (k % 70) as f64)]);
+        set_reals(
+            fmu,
+            instance,
+            &[("antenna.azimuth", 3.0 * k as f64 % 360.0), ("antenna.elevation", 15.0 + (k % 70) as f64)],
+        );
         instance.do_step(t, h).unwrap();
         t += h;
         out.push(reals(fmu, instance, &names).unwrap().iter().map(|v| v.to_bits()).collect());
@@ -501,8 +535,10 @@ fn different_seeds_give_uncorrelated_records() {
     let (v, step) = (20.0, 0.1);
     let (_, filter) = davenport_filter(v);
     let seeds = [1, 2, 3, -1, i32::MAX, 0];
-    let records: Vec<Vec<f64>> =
-        seeds.iter().map(|&s| gust_record(&fmu, &mut davenport_wind(&fmu, v, s), 0.0, step, steps(TWO_HOURS, step))).collect();
+    let records: Vec<Vec<f64>> = seeds
+        .iter()
+        .map(|&s| gust_record(&fmu, &mut davenport_wind(&fmu, v, s), 0.0, step, steps(TWO_HOURS, step)))
+        .collect();
     let correlation_std = sample_variance_std(&filter, TWO_HOURS) / 2f64.sqrt() / filter.stationary_variance();
     let effective_samples = (1.0 / (correlation_std * correlation_std)).round() as usize;
     let pairs = seeds.len() * (seeds.len() - 1) / 2;
@@ -570,17 +606,22 @@ fn polynomial_roots(coefficients: &[f64]) -> Vec<Complex<f64>> {
     let degree = monic.len() - 1;
     let eval = |s: Complex<f64>| monic.iter().fold(Complex::new(0.0, 0.0), |acc, &c| acc * s + c);
     let derivative = |s: Complex<f64>| {
-        monic[..degree].iter().enumerate().fold(Complex::new(0.0, 0.0), |acc, (k, &c)| acc * s + c * (degree - k) as f64)
+        monic[..degree]
+            .iter()
+            .enumerate()
+            .fold(Complex::new(0.0, 0.0), |acc, (k, &c)| acc * s + c * (degree - k) as f64)
     };
     // Cauchy's bound puts every root inside this radius.
     let radius = 1.0 + monic[1..].iter().map(|c| c.abs()).fold(0.0, f64::max);
-    let mut roots: Vec<Complex<f64>> =
-        (0..degree).map(|k| Complex::from_polar(radius * (0.5 + 0.1 * k as f64), 0.4 + 2.0 * PI * k as f64 / degree as f64)).collect();
+    let mut roots: Vec<Complex<f64>> = (0..degree)
+        .map(|k| Complex::from_polar(radius * (0.5 + 0.1 * k as f64), 0.4 + 2.0 * PI * k as f64 / degree as f64))
+        .collect();
     for _ in 0..500 {
         let mut largest_change: f64 = 0.0;
         for i in 0..degree {
             let ratio = eval(roots[i]) / derivative(roots[i]);
-            let repulsion: Complex<f64> = (0..degree).filter(|&j| j != i).map(|j| Complex::new(1.0, 0.0) / (roots[i] - roots[j])).sum();
+            let repulsion: Complex<f64> =
+                (0..degree).filter(|&j| j != i).map(|j| Complex::new(1.0, 0.0) / (roots[i] - roots[j])).sum();
             let change = ratio / (Complex::new(1.0, 0.0) - ratio * repulsion);
             roots[i] -= change;
             largest_change = largest_change.max(change.norm() / roots[i].norm().max(1e-300));
@@ -615,7 +656,8 @@ impl PartialFractions {
             .iter()
             .enumerate()
             .map(|(i, &s)| {
-                let product: Complex<f64> = poles.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &p)| s - p).product();
+                let product: Complex<f64> =
+                    poles.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &p)| s - p).product();
                 n(s) / (product * den[0])
             })
             .collect();
@@ -658,7 +700,13 @@ fn printed_variance(num: &[f64], den: &[f64]) -> f64 {
     let mut total = 0.0;
     for k in 0..=intervals {
         let n = (low + k as f64 * du).exp();
-        let weight = if k == 0 || k == intervals { 1.0 } else if k % 2 == 1 { 4.0 } else { 2.0 };
+        let weight = if k == 0 || k == intervals {
+            1.0
+        } else if k % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
         total += weight * printed_magnitude_squared(num, den, 2.0 * PI * n) * n;
     }
     total * du / 3.0 + (num[0] / den[0]).powi(2) / (4.0 * PI * PI * n_max)
@@ -676,7 +724,10 @@ fn paper_filter_impulse_responses_match_partial_fractions_of_the_printed_polynom
             worst = worst.max(difference);
         }
         let poles: Vec<String> = independent.poles.iter().map(|p| format!("{:.5}{:+.1e}i", p.re, p.im)).collect();
-        println!("H{}: poles {poles:?}; largest impulse-response difference {worst:.2e} of h(0)", if v == 3.0 { 3 } else { 10 });
+        println!(
+            "H{}: poles {poles:?}; largest impulse-response difference {worst:.2e} of h(0)",
+            if v == 3.0 { 3 } else { 10 }
+        );
         assert!(worst < 1e-9, "v = {v}: impulse responses differ by {worst} of h(0)");
         // The printed relative degree is one, so h(0+) is the ratio of the leading coefficients.
         assert!((independent.impulse_response(0.0) - num[0] / den[0]).abs() < 1e-9 * scale);
@@ -688,18 +739,23 @@ fn paper_mode_gust_variance_and_spectrum_are_those_of_h3_and_h10() {
     let fmu = open("Wind");
     let step = 0.05;
     for (v, (num, den), seed) in [(3.0, PAPER_H3, 41), (9.5, PAPER_H10, 42)] {
-        let mut instance = wind(&fmu, "paper", &[("wind.mean_speed", v)], &[("seed", seed), ("spectrum", PAPER)]).unwrap();
+        let mut instance =
+            wind(&fmu, "paper", &[("wind.mean_speed", v)], &[("seed", seed), ("spectrum", PAPER)]).unwrap();
         let fractions = PartialFractions::of(&num, &den);
         // The noise convention: q = 1/2 makes R(0) the integral of |H(j 2 pi n)|^2 over n,
         // which is evaluated here a second way, numerically.
         let q = 0.5;
         let variance = fractions.autocovariance(q, 0.0);
         let integral = printed_variance(&num, &den);
-        assert!((integral / variance - 1.0).abs() < 1e-7, "R(0) {variance} and the integral of |H|^2 {integral} disagree");
+        assert!(
+            (integral / variance - 1.0).abs() < 1e-7,
+            "R(0) {variance} and the integral of |H|^2 {integral} disagree"
+        );
         let sigma = real(&fmu, &mut instance, "wind.sigma");
         let d = Davenport::new(v, 10.0, 0.4).unwrap();
         let record = gust_record(&fmu, &mut instance, 0.0, step, steps(TWO_HOURS, step));
-        let comparison = compare_bands(&record, step, 600.0, |m| fractions.autocovariance(q, m as f64 * step), |_| 1.0, 1.0);
+        let comparison =
+            compare_bands(&record, step, 600.0, |m| fractions.autocovariance(q, m as f64 * step), |_| 1.0, 1.0);
         // The record's variance within its interval: Var(s^2) from the same autocovariance.
         let physics = ShapingFilter::paper(v).unwrap();
         let interval = variance_interval(&physics, TWO_HOURS, 0.99);
@@ -712,9 +768,24 @@ fn paper_mode_gust_variance_and_spectrum_are_those_of_h3_and_h10() {
             interval.high,
             comparison.summary()
         );
-        assert!((sigma * sigma / variance - 1.0).abs() < 1e-9, "v = {v}: FMU variance {} vs printed filter {variance}", sigma * sigma);
-        assert!(ratio > interval.low && ratio < interval.high, "v = {v}: variance ratio {ratio} outside {}-{}", interval.low, interval.high);
-        assert!(comparison.outside <= comparison.allowed, "v = {v}: {} of {} bands outside (limit {})", comparison.outside, comparison.estimate.len(), comparison.allowed);
+        assert!(
+            (sigma * sigma / variance - 1.0).abs() < 1e-9,
+            "v = {v}: FMU variance {} vs printed filter {variance}",
+            sigma * sigma
+        );
+        assert!(
+            ratio > interval.low && ratio < interval.high,
+            "v = {v}: variance ratio {ratio} outside {}-{}",
+            interval.low,
+            interval.high
+        );
+        assert!(
+            comparison.outside <= comparison.allowed,
+            "v = {v}: {} of {} bands outside (limit {})",
+            comparison.outside,
+            comparison.estimate.len(),
+            comparison.allowed
+        );
     }
 }
 
@@ -725,7 +796,10 @@ fn paper_mode_at_another_speed_is_refused_at_initialisation_naming_h3_and_h10() 
         Err(ImportError::Call { function, status: Status::Error, messages }) => {
             println!("{function} returned fmi2Error: {messages:?}");
             assert_eq!(function, "fmi2ExitInitializationMode");
-            assert!(messages.iter().any(|m| m.contains("H3") && m.contains("H10") && m.contains('5')), "the message does not name H3/H10: {messages:?}");
+            assert!(
+                messages.iter().any(|m| m.contains("H3") && m.contains("H10") && m.contains('5')),
+                "the message does not name H3/H10: {messages:?}"
+            );
         }
         Err(other) => panic!("expected fmi2Error from initialisation, got {other}"),
         Ok(_) => panic!("paper mode at 5 m/s was accepted"),
@@ -745,7 +819,8 @@ fn paper_mode_at_another_site_is_refused_at_initialisation_naming_z_and_z0() {
                 Err(ImportError::Call { function, status: Status::Error, messages }) => {
                     println!("v_m = {v} m/s, z = {z} m, z0 = {z0} m: {function} returned fmi2Error: {messages:?}");
                     assert_eq!(function, "fmi2ExitInitializationMode");
-                    let expected = [String::from("z = 10 m"), String::from("z0 = 0.4 m"), format!("got z = {z} m, z0 = {z0} m")];
+                    let expected =
+                        [String::from("z = 10 m"), String::from("z0 = 0.4 m"), format!("got z = {z} m, z0 = {z0} m")];
                     assert!(
                         messages.iter().any(|m| expected.iter().all(|e| m.contains(e.as_str()))),
                         "the message does not name the paper's site and the values given: {messages:?}"
@@ -755,7 +830,12 @@ fn paper_mode_at_another_site_is_refused_at_initialisation_naming_z_and_z0() {
                 Ok(_) => panic!("paper mode at z = {z} m, z0 = {z0} m was accepted"),
             }
         }
-        let accepted = wind(&fmu, "paper-site", &[("wind.mean_speed", v), ("wind.reference_height", 10.0), ("wind.roughness_length", 0.4)], &[("spectrum", PAPER)]);
+        let accepted = wind(
+            &fmu,
+            "paper-site",
+            &[("wind.mean_speed", v), ("wind.reference_height", 10.0), ("wind.roughness_length", 0.4)],
+            &[("spectrum", PAPER)],
+        );
         assert!(accepted.is_ok(), "paper mode at the paper's own site was refused at {v} m/s");
     }
 }
@@ -779,7 +859,10 @@ fn shipped_coefficients() -> Vec<(f64, f64, f64, f64)> {
 }
 
 fn table_value(table: &[(f64, f64, f64, f64)], yaw: f64, elevation: f64) -> (f64, f64) {
-    let row = table.iter().find(|r| r.0 == yaw && r.1 == elevation).unwrap_or_else(|| panic!("no node at yaw {yaw}, elevation {elevation}"));
+    let row = table
+        .iter()
+        .find(|r| r.0 == yaw && r.1 == elevation)
+        .unwrap_or_else(|| panic!("no node at yaw {yaw}, elevation {elevation}"));
     (row.2, row.3)
 }
 
@@ -828,7 +911,13 @@ fn steady_wind_torques_match_hand_computed_eq3_values_with_their_signs() {
         let mut instance = wind(
             &fmu,
             "torque",
-            &[("wind.mean_speed", v), ("wind.direction", direction), ("air.density", density), ("antenna.azimuth", azimuth), ("antenna.elevation", elevation)],
+            &[
+                ("wind.mean_speed", v),
+                ("wind.direction", direction),
+                ("air.density", density),
+                ("antenna.azimuth", azimuth),
+                ("antenna.elevation", elevation),
+            ],
             &[("spectrum", OFF)],
         )
         .unwrap();
@@ -843,7 +932,12 @@ fn steady_wind_torques_match_hand_computed_eq3_values_with_their_signs() {
         );
         let tolerance = 1e-9 * k * v * v;
         assert_eq!(got[8], yaw, "yaw");
-        assert!((got[6] - tau_az).abs() < 1e-12 && (got[7] - tau_el).abs() < 1e-12, "coefficients ({}, {}) vs table ({tau_az}, {tau_el})", got[6], got[7]);
+        assert!(
+            (got[6] - tau_az).abs() < 1e-12 && (got[7] - tau_el).abs() < 1e-12,
+            "coefficients ({}, {}) vs table ({tau_az}, {tau_el})",
+            got[6],
+            got[7]
+        );
         assert!((got[0] - t_az).abs() < tolerance, "T_az {} vs {t_az}", got[0]);
         assert!((got[1] - t_el).abs() < tolerance, "T_el {} vs {t_el}", got[1]);
         assert_eq!((got[2], got[3]), (got[0], got[1]), "a steady wind's torque is all mean part");
@@ -893,21 +987,30 @@ fn a_new_pointing_changes_the_torque_without_a_step() {
     let fmu = open("Wind");
     let table = shipped_coefficients();
     let v = 9.5;
-    let mut instance = wind(&fmu, "feedthrough", &[("wind.mean_speed", v), ("wind.direction", 135.0)], &[("seed", 9)]).unwrap();
+    let mut instance =
+        wind(&fmu, "feedthrough", &[("wind.mean_speed", v), ("wind.direction", 135.0)], &[("seed", 9)]).unwrap();
     let k = torque_scale(DEFAULT_DENSITY, DEFAULT_DIAMETER);
     for step in 0..20 {
         instance.do_step(step as f64 * 0.5, 0.5).unwrap();
     }
     let mut gusts = Vec::new();
-    for (azimuth, elevation, yaw) in [(0.0, 0.0, 135.0), (180.0, 30.0, -45.0), (45.0, 60.0, 90.0), (270.0, 15.0, -135.0)] {
+    for (azimuth, elevation, yaw) in
+        [(0.0, 0.0, 135.0), (180.0, 30.0, -45.0), (45.0, 60.0, 90.0), (270.0, 15.0, -135.0)]
+    {
         set_reals(&fmu, &mut instance, &[("antenna.azimuth", azimuth), ("antenna.elevation", elevation)]);
         let got = reals(&fmu, &mut instance, &["wind.gust", "torque.azimuth", "torque.elevation", "wind.yaw"]).unwrap();
         let speed = v + got[0];
         let (tau_az, tau_el) = table_value(&table, yaw, elevation);
         println!("pointing ({azimuth}, {elevation}) without a step: yaw {}, T_az {:+.1} N m (hand {:+.1}), T_el {:+.1} N m (hand {:+.1})", got[3], got[1], tau_az * k * speed * speed.abs(), got[2], tau_el * k * speed * speed.abs());
         assert_eq!(got[3], yaw);
-        assert!((got[1] - tau_az * k * speed * speed.abs()).abs() < 1e-9 * k * v * v, "T_az at ({azimuth}, {elevation})");
-        assert!((got[2] - tau_el * k * speed * speed.abs()).abs() < 1e-9 * k * v * v, "T_el at ({azimuth}, {elevation})");
+        assert!(
+            (got[1] - tau_az * k * speed * speed.abs()).abs() < 1e-9 * k * v * v,
+            "T_az at ({azimuth}, {elevation})"
+        );
+        assert!(
+            (got[2] - tau_el * k * speed * speed.abs()).abs() < 1e-9 * k * v * v,
+            "T_el at ({azimuth}, {elevation})"
+        );
         gusts.push(got[0].to_bits());
     }
     assert!(gusts.windows(2).all(|w| w[0] == w[1]), "setting the pointing moved the gust");

@@ -193,11 +193,8 @@ impl MeasuredLog {
     /// them, otherwise the sum of the per-motor currents times `torque_constant` (N m/A).
     pub fn total_motor_torque(&self, torque_constant: f64) -> Vec<f64> {
         let torques = self.signals(Signal::MotorTorque);
-        let (columns, scale) = if torques.is_empty() {
-            (self.signals(Signal::MotorCurrent), torque_constant)
-        } else {
-            (torques, 1.0)
-        };
+        let (columns, scale) =
+            if torques.is_empty() { (self.signals(Signal::MotorCurrent), torque_constant) } else { (torques, 1.0) };
         let mut total = vec![0.0; self.len()];
         for column in columns {
             for (sum, value) in total.iter_mut().zip(&column.values) {
@@ -247,7 +244,8 @@ impl MeasuredLog {
             let centred = |x: &[f64], m: f64| x.iter().map(|v| v - m).collect::<Vec<f64>>();
             let columns = [vec![1.0; self.len()], centred(&time, time_mean), centred(load, load_mean)];
             let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, z)| x * z).sum::<f64>();
-            let (tt, ll, tl) = (dot(&columns[1], &columns[1]), dot(&columns[2], &columns[2]), dot(&columns[1], &columns[2]));
+            let (tt, ll, tl) =
+                (dot(&columns[1], &columns[1]), dot(&columns[2], &columns[2]), dot(&columns[1], &columns[2]));
             if !(tt * ll - tl * tl > 1e-9 * tt * ll) {
                 return None;
             }
@@ -255,13 +253,23 @@ impl MeasuredLog {
             let (beta, _) = crate::validate::signals::weighted_least_squares(&columns, &target, &vec![1.0; self.len()]);
             let (bias, scale_error) = (beta[1], beta[2]);
             let start = beta[0] - bias * time_mean - scale_error * load_mean;
-            let values: Vec<f64> = integral.iter().enumerate().map(|(k, q)| (q - start - bias * (self.time[k] - t0)) / (1.0 + scale_error)).collect();
+            let values: Vec<f64> = integral
+                .iter()
+                .enumerate()
+                .map(|(k, q)| (q - start - bias * (self.time[k] - t0)) / (1.0 + scale_error))
+                .collect();
             log.notes.push(format!(
                 "no motor encoder: the motor position is integrated from '{}' and put on the load encoder (its mean twist, a bias of {bias:.3e} rad/s and a scale error of {:.3} % of the speed sensor removed)",
                 speed.column,
                 100.0 * scale_error
             ));
-            log.channels.push(Channel { signal: Signal::MotorPos, motor: speed.motor, column: format!("motor_pos (integrated from {})", speed.column), unit: INTEGRATED_UNIT.into(), values });
+            log.channels.push(Channel {
+                signal: Signal::MotorPos,
+                motor: speed.motor,
+                column: format!("motor_pos (integrated from {})", speed.column),
+                unit: INTEGRATED_UNIT.into(),
+                values,
+            });
         }
         Some(log)
     }
@@ -288,7 +296,8 @@ impl MeasuredLog {
     /// signal is not listed). Used by the truth generator; `units` maps a signal to a suffix.
     pub fn to_csv(&self, units: &[(Signal, &str)]) -> String {
         let unit_of = |signal: Signal| -> (&str, f64) {
-            let suffix = units.iter().find(|u| u.0 == signal).map(|u| u.1).unwrap_or_else(|| si_unit(signal.dimension()));
+            let suffix =
+                units.iter().find(|u| u.0 == signal).map(|u| u.1).unwrap_or_else(|| si_unit(signal.dimension()));
             let factor = UNITS.iter().find(|u| u.0 == suffix).map(|u| u.2).unwrap_or(1.0);
             (suffix, factor)
         };
@@ -354,7 +363,11 @@ fn classify_column(name: &str, line: usize) -> Result<ColumnKind, LogError> {
     vocabulary.sort_by_key(|entry| std::cmp::Reverse(entry.1.len()));
     for (signal, stem, dimension, numbered) in vocabulary {
         if name == stem {
-            return Err(LogError::new(Some(line), Some(name), format!("signal '{stem}' has no unit suffix (write e.g. '{stem}_{}')", si_unit(dimension))));
+            return Err(LogError::new(
+                Some(line),
+                Some(name),
+                format!("signal '{stem}' has no unit suffix (write e.g. '{stem}_{}')", si_unit(dimension)),
+            ));
         }
         let Some(rest) = name.strip_prefix(stem).and_then(|r| r.strip_prefix('_')) else { continue };
         let (motor, unit) = match rest.split_once('_') {
@@ -363,15 +376,23 @@ fn classify_column(name: &str, line: usize) -> Result<ColumnKind, LogError> {
             }
             _ => (None, rest),
         };
-        if !numbered && rest.split_once('_').is_some_and(|(d, _)| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit())) {
+        if !numbered
+            && rest.split_once('_').is_some_and(|(d, _)| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+        {
             return Err(LogError::new(Some(line), Some(name), format!("signal '{stem}' does not take a motor number")));
         }
         return match UNITS.iter().find(|u| u.0 == unit) {
             Some(&(_, unit_dimension, factor)) if unit_dimension == dimension => {
                 Ok(ColumnKind::Known { signal, motor, unit: unit.to_string(), factor })
             }
-            Some(_) => Err(LogError::new(Some(line), Some(name), format!("unit '{unit}' is not a unit of {dimension:?} (signal '{stem}')"))),
-            None => Err(LogError::new(Some(line), Some(name), format!("unknown unit suffix '{unit}' for signal '{stem}'"))),
+            Some(_) => Err(LogError::new(
+                Some(line),
+                Some(name),
+                format!("unit '{unit}' is not a unit of {dimension:?} (signal '{stem}')"),
+            )),
+            None => {
+                Err(LogError::new(Some(line), Some(name), format!("unknown unit suffix '{unit}' for signal '{stem}'")))
+            }
         };
     }
     Ok(ColumnKind::Unknown)
@@ -411,7 +432,11 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
                 if let Some((key, value)) = comment.split_once('=') {
                     let key = key.trim();
                     if key.is_empty() {
-                        return Err(LogError::new(Some(line_number), None, "metadata line has an empty key (expected '# key = value')"));
+                        return Err(LogError::new(
+                            Some(line_number),
+                            None,
+                            "metadata line has an empty key (expected '# key = value')",
+                        ));
                     }
                     metadata.insert(key.to_string(), value.trim().to_string());
                 }
@@ -439,9 +464,17 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
                 // Two columns of the same signal and motor number would be ambiguous.
                 for (i, a) in kinds.iter().enumerate() {
                     for b in &kinds[..i] {
-                        if let (ColumnKind::Known { signal: sa, motor: ma, .. }, ColumnKind::Known { signal: sb, motor: mb, .. }) = (a, b) {
+                        if let (
+                            ColumnKind::Known { signal: sa, motor: ma, .. },
+                            ColumnKind::Known { signal: sb, motor: mb, .. },
+                        ) = (a, b)
+                        {
                             if sa == sb && ma == mb {
-                                return Err(LogError::new(Some(line_number), Some(&names[i]), "a second column for the same signal"));
+                                return Err(LogError::new(
+                                    Some(line_number),
+                                    Some(&names[i]),
+                                    "a second column for the same signal",
+                                ));
                             }
                         }
                     }
@@ -459,11 +492,19 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
                 }
                 for (j, cell) in cells.iter().enumerate() {
                     let ColumnKind::Known { factor, .. } = &kinds[j] else { continue };
-                    let value: f64 = cell
-                        .parse()
-                        .map_err(|_| LogError::new(Some(line_number), Some(&names[j]), format!("not a number: '{}'", truncate(cell, 40))))?;
+                    let value: f64 = cell.parse().map_err(|_| {
+                        LogError::new(
+                            Some(line_number),
+                            Some(&names[j]),
+                            format!("not a number: '{}'", truncate(cell, 40)),
+                        )
+                    })?;
                     if !value.is_finite() {
-                        return Err(LogError::new(Some(line_number), Some(&names[j]), format!("value is not finite: '{}'", truncate(cell, 40))));
+                        return Err(LogError::new(
+                            Some(line_number),
+                            Some(&names[j]),
+                            format!("value is not finite: '{}'", truncate(cell, 40)),
+                        ));
                     }
                     columns[j].push(value * factor);
                 }
@@ -482,7 +523,8 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
         return Err(LogError::new(Some(row_lines[0]), None, "a log needs at least two samples"));
     }
 
-    let time_index = kinds.iter().position(|k| matches!(k, ColumnKind::Known { signal: Signal::Time, .. })).unwrap_or(0);
+    let time_index =
+        kinds.iter().position(|k| matches!(k, ColumnKind::Known { signal: Signal::Time, .. })).unwrap_or(0);
     let time = std::mem::take(&mut columns[time_index]);
     for i in 1..time.len() {
         if time[i] <= time[i - 1] {
@@ -500,7 +542,13 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
             if signal == Signal::Time {
                 continue;
             }
-            channels.push(Channel { signal, motor, column: names[j].clone(), unit, values: std::mem::take(&mut columns[j]) });
+            channels.push(Channel {
+                signal,
+                motor,
+                column: names[j].clone(),
+                unit,
+                values: std::mem::take(&mut columns[j]),
+            });
         }
     }
 
@@ -522,21 +570,38 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
     }
     let worst = log.time.windows(2).map(|w| ((w[1] - w[0]) / dt - 1.0).abs()).fold(0.0, f64::max);
     if worst > 0.01 {
-        log.notes.push(format!("sampling is uneven: an interval differs from the median {dt:.6} s by {:.0} %", worst * 100.0));
+        log.notes.push(format!(
+            "sampling is uneven: an interval differs from the median {dt:.6} s by {:.0} %",
+            worst * 100.0
+        ));
     }
     Ok(log)
 }
 
 fn check_required(kinds: &[ColumnKind], names: &[String], line: usize) -> Result<(), LogError> {
-    let has = |wanted: &[Signal]| kinds.iter().any(|k| matches!(k, ColumnKind::Known { signal, .. } if wanted.contains(signal)));
+    let has = |wanted: &[Signal]| {
+        kinds.iter().any(|k| matches!(k, ColumnKind::Known { signal, .. } if wanted.contains(signal)))
+    };
     if !has(&[Signal::Time]) {
-        return Err(LogError::new(Some(line), Some("time"), format!("required column missing: time (e.g. 'time_s'); header is: {}", names.join(","))));
+        return Err(LogError::new(
+            Some(line),
+            Some("time"),
+            format!("required column missing: time (e.g. 'time_s'); header is: {}", names.join(",")),
+        ));
     }
     if !has(&[Signal::MotorCurrent, Signal::MotorTorque]) {
-        return Err(LogError::new(Some(line), Some("motor_current / motor_torque"), "required column missing: at least one motor_current_<unit> or motor_torque_<unit>"));
+        return Err(LogError::new(
+            Some(line),
+            Some("motor_current / motor_torque"),
+            "required column missing: at least one motor_current_<unit> or motor_torque_<unit>",
+        ));
     }
     if !has(&[Signal::LoadPos, Signal::MotorPos]) {
-        return Err(LogError::new(Some(line), Some("load_pos / motor_pos"), "required column missing: at least one position output, load_pos_<unit> or motor_pos_<unit>"));
+        return Err(LogError::new(
+            Some(line),
+            Some("load_pos / motor_pos"),
+            "required column missing: at least one position output, load_pos_<unit> or motor_pos_<unit>",
+        ));
     }
     Ok(())
 }
@@ -584,7 +649,14 @@ mod tests {
         for axis in 1..=3 {
             let log = MeasuredLog::read(&dir.join(format!("axis{axis}.csv"))).unwrap();
             assert_eq!(log.len(), 2501);
-            for signal in [Signal::RefPos, Signal::MotorPos, Signal::LoadPos, Signal::MotorVel, Signal::LoadVel, Signal::MotorTorque] {
+            for signal in [
+                Signal::RefPos,
+                Signal::MotorPos,
+                Signal::LoadPos,
+                Signal::MotorVel,
+                Signal::LoadVel,
+                Signal::MotorTorque,
+            ] {
                 assert!(log.signal(signal).is_some(), "axis {axis} lacks {signal:?}");
             }
             assert!(log.notes.is_empty(), "{:?}", log.notes);
@@ -747,21 +819,28 @@ mod tests {
         assert!(!log.motor_position_is_integrated());
         let integrated = log.with_motor_position_from_speed().expect("a motor position from the speed");
         assert!(integrated.motor_position_is_integrated());
-        assert!(integrated.notes.iter().any(|n| n.contains("integrated from 'motor_vel_rad_s'")), "{:?}", integrated.notes);
+        assert!(
+            integrated.notes.iter().any(|n| n.contains("integrated from 'motor_vel_rad_s'")),
+            "{:?}",
+            integrated.notes
+        );
         // The result is the motor position less its mean twist, the bias's drift and the scale
         // error: what is left is the twist's own variation, to the trapezoid rule's accuracy.
         let load = integrated.signal(Signal::LoadPos).unwrap();
-        let twist: Vec<f64> = integrated.signal(Signal::MotorPos).unwrap().iter().zip(load).map(|(m, l)| m - l).collect();
+        let twist: Vec<f64> =
+            integrated.signal(Signal::MotorPos).unwrap().iter().zip(load).map(|(m, l)| m - l).collect();
         let true_twist: Vec<f64> = integrated.time.iter().zip(load).map(|(t, l)| motor_pos(*t) - l).collect();
         let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
         let (m_twist, m_true) = (mean(&twist), mean(&true_twist));
-        let worst = twist.iter().zip(&true_twist).map(|(a, b)| ((a - m_twist) - (b - m_true)).abs()).fold(0.0, f64::max);
+        let worst =
+            twist.iter().zip(&true_twist).map(|(a, b)| ((a - m_twist) - (b - m_true)).abs()).fold(0.0, f64::max);
         assert!(worst < 0.05 * twist_amplitude, "twist error {worst:e} against an amplitude {twist_amplitude:e}");
         // Without the scale correction the twist would be off by the scale error times the
         // swing (1e-4 rad here), fifty times the twist itself.
         // A log with a motor encoder, or without a load encoder to anchor to, is left alone.
         assert!(parse_str(GOOD).unwrap().with_motor_position_from_speed().is_none());
-        let no_load = parse_str("time_s,motor_current_A,motor_vel_rad_s,motor_pos_rad\n0,1,1,0\n0.1,1,1,0.1\n").unwrap();
+        let no_load =
+            parse_str("time_s,motor_current_A,motor_vel_rad_s,motor_pos_rad\n0,1,1,0\n0.1,1,1,0.1\n").unwrap();
         assert!(no_load.with_motor_position_from_speed().is_none());
     }
 

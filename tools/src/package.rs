@@ -58,7 +58,11 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<(),
     packages.sort();
     packages.dedup();
     let mut command = Command::new(cargo);
-    command.current_dir(source_root).args(["build", "--profile", LIBRARY_PROFILE, "--quiet"]).arg("--target-dir").arg(target_dir);
+    command
+        .current_dir(source_root)
+        .args(["build", "--profile", LIBRARY_PROFILE, "--quiet"])
+        .arg("--target-dir")
+        .arg(target_dir);
     for p in &packages {
         command.args(["-p", p]);
     }

@@ -195,7 +195,8 @@ impl Identification {
     /// grid points on either side.
     pub fn analytic_trough(&self) -> Trough {
         let magnitude = |f: f64| {
-            held_response(&self.two_mass, self.torque_per_amp, self.current_loop_bandwidth_hz, f, self.config.step_s).norm()
+            held_response(&self.two_mass, self.torque_per_amp, self.current_loop_bandwidth_hz, f, self.config.step_s)
+                .norm()
         };
         let (lo, hi) = self.search_band();
         let n = 4000;
@@ -230,7 +231,8 @@ impl Identification {
     pub fn measured_trough(&self) -> Trough {
         let (lo, hi) = self.search_band();
         let db: Vec<f64> = self.measured.iter().map(|h| 20.0 * h.norm().log10()).collect();
-        let candidates = (1..self.frequency_hz.len() - 1).filter(|&i| self.frequency_hz[i] >= lo && self.frequency_hz[i] <= hi);
+        let candidates =
+            (1..self.frequency_hz.len() - 1).filter(|&i| self.frequency_hz[i] >= lo && self.frequency_hz[i] <= hi);
         let i = candidates.min_by(|&a, &b| db[a].total_cmp(&db[b])).expect("the search band contains bins");
         let (y0, y1, y2) = (db[i - 1], db[i], db[i + 1]);
         let curvature = y0 - 2.0 * y1 + y2;
@@ -240,7 +242,11 @@ impl Identification {
     }
 
     fn nearest_bin(&self, frequency_hz: f64) -> usize {
-        (0..self.frequency_hz.len()).min_by(|&a, &b| (self.frequency_hz[a] - frequency_hz).abs().total_cmp(&(self.frequency_hz[b] - frequency_hz).abs())).unwrap_or(0)
+        (0..self.frequency_hz.len())
+            .min_by(|&a, &b| {
+                (self.frequency_hz[a] - frequency_hz).abs().total_cmp(&(self.frequency_hz[b] - frequency_hz).abs())
+            })
+            .unwrap_or(0)
     }
 
     fn search_band(&self) -> (f64, f64) {
@@ -250,7 +256,12 @@ impl Identification {
 
     /// The estimate beside the corrected Eq. 1, bin by bin.
     pub fn comparison(&self) -> ResponseComparison<'_> {
-        ResponseComparison { frequency_hz: &self.frequency_hz, measured: &self.measured, analytic: &self.analytic, coherence: &self.coherence }
+        ResponseComparison {
+            frequency_hz: &self.frequency_hz,
+            measured: &self.measured,
+            analytic: &self.analytic,
+            coherence: &self.coherence,
+        }
     }
 
     /// Bins where the coherence exceeds `threshold`, below `max_frequency_hz`.
@@ -289,11 +300,25 @@ impl Identification {
         );
         let model = "corrected Eq. 1 x current loop x K_phi (held, sampled)";
         let magnitude = Panel::new("Magnitude").x_label("Frequency (Hz)").y_label("|V_M / I_C| (dB re 1 rad/s/A)");
-        measured_against_model(&title, &self.comparison(), max_frequency_hz, magnitude, "measured H1 (FMU, Welch)", model, |magnitude| {
-            magnitude
-                .vertical_line(&format!("measured trough {:.2} Hz", measured_trough.frequency_hz), measured_trough.frequency_hz)
-                .vertical_line(&format!("analytic trough {:.2} Hz", analytic_trough.frequency_hz), analytic_trough.frequency_hz)
-        })
+        measured_against_model(
+            &title,
+            &self.comparison(),
+            max_frequency_hz,
+            magnitude,
+            "measured H1 (FMU, Welch)",
+            model,
+            |magnitude| {
+                magnitude
+                    .vertical_line(
+                        &format!("measured trough {:.2} Hz", measured_trough.frequency_hz),
+                        measured_trough.frequency_hz,
+                    )
+                    .vertical_line(
+                        &format!("analytic trough {:.2} Hz", analytic_trough.frequency_hz),
+                        analytic_trough.frequency_hz,
+                    )
+            },
+        )
     }
 }
 
@@ -303,7 +328,12 @@ fn capitalise(s: &str) -> String {
 }
 
 /// Motor speed per commanded current of the continuous model: `K C(s) V_M/T_E(s)`.
-pub fn continuous_response(two_mass: &TwoMassParameters, torque_per_amp: f64, bandwidth_hz: f64, frequency_hz: f64) -> C64 {
+pub fn continuous_response(
+    two_mass: &TwoMassParameters,
+    torque_per_amp: f64,
+    bandwidth_hz: f64,
+    frequency_hz: f64,
+) -> C64 {
     let s = C64::new(0.0, TAU * frequency_hz);
     two_mass.motor_speed_per_torque(s) * current_loop_response(s, bandwidth_hz) * torque_per_amp
 }
@@ -312,7 +342,13 @@ pub fn continuous_response(two_mass: &TwoMassParameters, torque_per_amp: f64, ba
 /// `sum_m H(j w_m) (1 - exp(-j w_m h)) / (j w_m h)`. Terms fall as 1/m^4 (the plant and the
 /// current loop roll off as 1/s^3 together with the hold), so +/-200 images leave an error far
 /// below 1e-9 relative.
-pub fn held_response(two_mass: &TwoMassParameters, torque_per_amp: f64, bandwidth_hz: f64, frequency_hz: f64, step_s: f64) -> C64 {
+pub fn held_response(
+    two_mass: &TwoMassParameters,
+    torque_per_amp: f64,
+    bandwidth_hz: f64,
+    frequency_hz: f64,
+    step_s: f64,
+) -> C64 {
     let sample_rate = 1.0 / step_s;
     let mut total = C64::new(0.0, 0.0);
     for m in -200i32..=200 {
@@ -355,21 +391,30 @@ fn real(instance: &mut Instance, fmu: &Fmu, name: &str) -> Result<f64, Identific
 
 /// Reads the reflected two-mass parameters, the torque per common ampere and the current-loop
 /// bandwidth back from an initialised plant instance.
-fn reference_parameters(axis: Axis, instance: &mut Instance, fmu: &Fmu) -> Result<(TwoMassParameters, f64, f64, f64), IdentificationError> {
+fn reference_parameters(
+    axis: Axis,
+    instance: &mut Instance,
+    fmu: &Fmu,
+) -> Result<(TwoMassParameters, f64, f64, f64), IdentificationError> {
     let mut r = |name: &str| real(instance, fmu, name);
     match axis {
         Axis::Azimuth => {
             // The reference doubles one motor (the paper's "double each motor parameter"), which
             // is exact only for identical drives: refuse anything else.
-            for name in ["inertia", "viscous_friction", "torque_constant", "torque_constant_scale", "current_loop_bandwidth"] {
+            for name in
+                ["inertia", "viscous_friction", "torque_constant", "torque_constant_scale", "current_loop_bandwidth"]
+            {
                 let (a, b) = (r(&format!("motor1.{name}"))?, r(&format!("motor2.{name}"))?);
                 if a != b {
                     return Err(IdentificationError(format!("motor1.{name} = {a} and motor2.{name} = {b} differ: the doubled two-mass reference needs identical drives")));
                 }
             }
-            let (k1, k2, c1, c2) = (r("pinion1.stiffness")?, r("pinion2.stiffness")?, r("pinion1.damping")?, r("pinion2.damping")?);
+            let (k1, k2, c1, c2) =
+                (r("pinion1.stiffness")?, r("pinion2.stiffness")?, r("pinion1.damping")?, r("pinion2.damping")?);
             if k1 != k2 || c1 != c2 {
-                return Err(IdentificationError("the two pinion paths differ: the doubled two-mass reference needs identical paths".into()));
+                return Err(IdentificationError(
+                    "the two pinion paths differ: the doubled two-mass reference needs identical paths".into(),
+                ));
             }
             let n = r("gear.ratio")?;
             let n2 = n * n;
@@ -416,17 +461,24 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
     }
     match config.axis {
         Axis::Azimuth => {
-            instance.set_real(&md.vrs(&["elevation", "initial_position"])?, &[config.elevation_deg, config.initial_position_deg])?;
+            instance.set_real(
+                &md.vrs(&["elevation", "initial_position"])?,
+                &[config.elevation_deg, config.initial_position_deg],
+            )?;
         }
         Axis::Elevation => {
             // Freeze the jackscrew geometry at the experiment's angle and start there, so the
             // drive is the one "at 15 deg" for the whole record although the dish moves.
             instance.set_boolean(&[md.vr("geometry.frozen")?], &[true])?;
-            instance.set_real(&md.vrs(&["geometry.frozen_elevation", "initial_position"])?, &[config.elevation_deg, config.initial_position_deg])?;
+            instance.set_real(
+                &md.vrs(&["geometry.frozen_elevation", "initial_position"])?,
+                &[config.elevation_deg, config.initial_position_deg],
+            )?;
         }
     }
     instance.exit_initialization_mode()?;
-    let (two_mass, torque_per_amp, bandwidth_hz, reported_anti_resonance_hz) = reference_parameters(config.axis, &mut instance, &fmu)?;
+    let (two_mass, torque_per_amp, bandwidth_hz, reported_anti_resonance_hz) =
+        reference_parameters(config.axis, &mut instance, &fmu)?;
 
     let (input_vrs, speed_vrs, flank_vrs, axis_speed_vr) = match config.axis {
         Axis::Azimuth => (
@@ -435,7 +487,9 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
             md.vrs(&["pinion1.flank", "pinion2.flank"])?,
             md.vr("axis.speed")?,
         ),
-        Axis::Elevation => (md.vrs(&["motor.current_command"])?, md.vrs(&["motor.speed"])?, Vec::new(), md.vr("axis.speed")?),
+        Axis::Elevation => {
+            (md.vrs(&["motor.current_command"])?, md.vrs(&["motor.speed"])?, Vec::new(), md.vr("axis.speed")?)
+        }
     };
     let h = config.step_s;
     let settle_steps = (config.settle_s / h).round() as usize;
@@ -492,7 +546,8 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
     // Linear detrending: the axis is still accelerating slowly towards the speed where viscous
     // friction balances the offset, a ramp that would leak into the lowest bins.
     let welch = WelchConfig::from_duration(config.segment_s, sample_rate).with_detrend(Detrend::Linear);
-    let estimate = transfer_function_h1(&input, &output, sample_rate, &welch).map_err(|e| IdentificationError(format!("Welch estimate: {e}")))?;
+    let estimate = transfer_function_h1(&input, &output, sample_rate, &welch)
+        .map_err(|e| IdentificationError(format!("Welch estimate: {e}")))?;
     let bins: Vec<usize> = (1..estimate.frequency_hz.len()).collect();
     let frequency_hz: Vec<f64> = bins.iter().map(|&i| estimate.frequency_hz[i]).collect();
     let analytic = frequency_hz.iter().map(|&f| held_response(&two_mass, torque_per_amp, bandwidth_hz, f, h)).collect();
@@ -627,7 +682,11 @@ pub fn markdown_summary(results: &[(&Identification, &str)]) -> String {
     }
     out.push('\n');
     for (r, figure) in results {
-        out.push_str(&format!("![{} at {} deg]({figure})\n\n", capitalise(r.config.axis.name()), r.config.elevation_deg));
+        out.push_str(&format!(
+            "![{} at {} deg]({figure})\n\n",
+            capitalise(r.config.axis.name()),
+            r.config.elevation_deg
+        ));
     }
     out
 }

@@ -28,13 +28,10 @@
 use crate::dsp::{unwrap_phase_deg, Complex64, ResponseComparison};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::coord::Shift;
-use plotters::element::{
-    Circle, DashedPathElement, EmptyElement, IntoDynElement, Polygon, Rectangle,
-};
+use plotters::element::{Circle, DashedPathElement, EmptyElement, IntoDynElement, Polygon, Rectangle};
 use plotters::prelude::{
-    BitMapBackend, ChartBuilder, Color, DashedLineSeries, DrawingArea, DrawingBackend,
-    IntoDrawingArea, LineSeries, RGBColor, SeriesLabelPosition, ShapeStyle, BLACK, TRANSPARENT,
-    WHITE,
+    BitMapBackend, ChartBuilder, Color, DashedLineSeries, DrawingArea, DrawingBackend, IntoDrawingArea, LineSeries,
+    RGBColor, SeriesLabelPosition, ShapeStyle, BLACK, TRANSPARENT, WHITE,
 };
 use plotters::style::{FontStyle, IntoFont, TextStyle};
 use std::fmt;
@@ -58,9 +55,7 @@ fn register_embedded_font() -> Result<(), PlotError> {
     if ok {
         Ok(())
     } else {
-        Err(PlotError(
-            "the embedded DejaVu Sans font could not be loaded".into(),
-        ))
+        Err(PlotError("the embedded DejaVu Sans font could not be loaded".into()))
     }
 }
 
@@ -276,10 +271,7 @@ pub struct Panel {
 impl Panel {
     /// An empty panel with a title (may be empty).
     pub fn new(title: &str) -> Self {
-        Self {
-            title: title.to_string(),
-            ..Self::default()
-        }
+        Self { title: title.to_string(), ..Self::default() }
     }
 
     /// X-axis label, with its unit, e.g. "Frequency (Hz)".
@@ -374,8 +366,7 @@ impl Panel {
     ) -> Self {
         let colour = self.take_colour();
         self.push_band(band_name, x, lower, upper, colour);
-        self.series
-            .push(Series::new(name, x, y).with_markers().colour(colour));
+        self.series.push(Series::new(name, x, y).with_markers().colour(colour));
         self
     }
 
@@ -393,24 +384,14 @@ impl Panel {
     /// Adds a dashed vertical line across the panel at `x`.
     pub fn vertical_line(mut self, name: &str, x: f64) -> Self {
         let colour = self.take_colour();
-        self.references.push(ReferenceLine {
-            name: name.to_string(),
-            value: x,
-            vertical: true,
-            colour,
-        });
+        self.references.push(ReferenceLine { name: name.to_string(), value: x, vertical: true, colour });
         self
     }
 
     /// Adds a dashed horizontal line across the panel at `y`.
     pub fn horizontal_line(mut self, name: &str, y: f64) -> Self {
         let colour = self.take_colour();
-        self.references.push(ReferenceLine {
-            name: name.to_string(),
-            value: y,
-            vertical: false,
-            colour,
-        });
+        self.references.push(ReferenceLine { name: name.to_string(), value: y, vertical: false, colour });
         self
     }
 }
@@ -427,12 +408,7 @@ pub struct Figure {
 impl Figure {
     /// An empty figure of `width` x `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            title: None,
-            panels: Vec::new(),
-        }
+        Self { width, height, title: None, panels: Vec::new() }
     }
 
     /// A title above all panels.
@@ -458,8 +434,7 @@ impl Figure {
         let path = path.as_ref();
         let root = BitMapBackend::new(path, (self.width, self.height)).into_drawing_area();
         self.draw(&root)?;
-        root.present()
-            .map_err(|e| PlotError(format!("cannot write {}: {e}", path.display())))
+        root.present().map_err(|e| PlotError(format!("cannot write {}: {e}", path.display())))
     }
 
     /// Renders the figure into an RGB buffer (3 bytes per pixel, row by row), e.g. to inspect
@@ -468,8 +443,7 @@ impl Figure {
         self.check_size()?;
         let mut buffer = vec![0u8; self.width as usize * self.height as usize * 3];
         {
-            let root = BitMapBackend::with_buffer(&mut buffer, (self.width, self.height))
-                .into_drawing_area();
+            let root = BitMapBackend::with_buffer(&mut buffer, (self.width, self.height)).into_drawing_area();
             self.draw(&root)?;
             root.present().map_err(plot_error)?;
         }
@@ -529,9 +503,7 @@ impl Axis {
     /// Builds an axis covering `values` (already in plot coordinates) or the fixed `range`
     /// (data units), padded so no point sits on the frame.
     fn new(scale: Scale, values: &[f64], range: Option<(f64, f64)>, target_ticks: usize) -> Self {
-        let fixed = range
-            .and_then(|(a, b)| Some((scale.transform(a)?, scale.transform(b)?)))
-            .filter(|(a, b)| b > a);
+        let fixed = range.and_then(|(a, b)| Some((scale.transform(a)?, scale.transform(b)?))).filter(|(a, b)| b > a);
         let (low, high) = match fixed {
             Some(bounds) => bounds,
             None => auto_range(scale, values),
@@ -544,25 +516,11 @@ impl Axis {
         match scale {
             Scale::Linear => {
                 let (major, minor, step) = linear_ticks(low, high, target_ticks);
-                Self {
-                    scale,
-                    low,
-                    high,
-                    major,
-                    minor,
-                    step,
-                }
+                Self { scale, low, high, major, minor, step }
             }
             Scale::Log => {
                 let (major, minor) = log_ticks(low, high);
-                Self {
-                    scale,
-                    low,
-                    high,
-                    major,
-                    minor,
-                    step: 1.0,
-                }
+                Self { scale, low, high, major, minor, step: 1.0 }
             }
         }
     }
@@ -582,11 +540,8 @@ impl Axis {
 
 /// Data extent with 4 % padding; a flat or empty extent gets a sensible span.
 fn auto_range(scale: Scale, values: &[f64]) -> (f64, f64) {
-    let (mut low, mut high) = values
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
+    let (mut low, mut high) =
+        values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
     if !low.is_finite() {
         return match scale {
             Scale::Linear => (0.0, 1.0),
@@ -610,16 +565,8 @@ fn auto_range(scale: Scale, values: &[f64]) -> (f64, f64) {
 fn linear_ticks(low: f64, high: f64, target: usize) -> (Vec<f64>, Vec<f64>, f64) {
     let raw_step = (high - low) / target.max(2) as f64;
     let magnitude = 10f64.powf(raw_step.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * magnitude)
-        .find(|s| *s >= raw_step)
-        .unwrap_or(10.0 * magnitude);
-    let minor_step = if (step / magnitude - 2.0).abs() < 1e-9 {
-        step / 4.0
-    } else {
-        step / 5.0
-    };
+    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * magnitude).find(|s| *s >= raw_step).unwrap_or(10.0 * magnitude);
+    let minor_step = if (step / magnitude - 2.0).abs() < 1e-9 { step / 4.0 } else { step / 5.0 };
     let multiples = |spacing: f64| -> Vec<f64> {
         let first = (low / spacing).ceil() as i64;
         let last = (high / spacing).floor() as i64;
@@ -665,11 +612,7 @@ fn log_ticks(low: f64, high: f64) -> (Vec<f64>, Vec<f64>) {
 }
 
 fn format_linear(value: f64, step: f64) -> String {
-    let value = if value.abs() < 1e-9 * step {
-        0.0
-    } else {
-        value
-    };
+    let value = if value.abs() < 1e-9 * step { 0.0 } else { value };
     if value.abs() >= 1e5 || (step < 1e-4 && value != 0.0) {
         return format_scientific(value);
     }
@@ -682,11 +625,7 @@ fn format_linear(value: f64, step: f64) -> String {
 fn format_log(log_value: f64) -> String {
     let exponent = log_value.floor();
     let mantissa = (10f64.powf(log_value - exponent) * 1e6).round() / 1e6;
-    let (mantissa, exponent) = if mantissa >= 10.0 {
-        (mantissa / 10.0, exponent + 1.0)
-    } else {
-        (mantissa, exponent)
-    };
+    let (mantissa, exponent) = if mantissa >= 10.0 { (mantissa / 10.0, exponent + 1.0) } else { (mantissa, exponent) };
     let exponent = exponent as i32;
     if (-3..=4).contains(&exponent) {
         let decimals = (-exponent).max(0) as usize;
@@ -820,12 +759,7 @@ fn clip_segment(a: Point, b: Point, rect: &Rect) -> Option<(Point, Point)> {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let mut t0: f64 = 0.0;
     let mut t1: f64 = 1.0;
-    for (p, q) in [
-        (-dx, a.0 - rect.x_low),
-        (dx, rect.x_high - a.0),
-        (-dy, a.1 - rect.y_low),
-        (dy, rect.y_high - a.1),
-    ] {
+    for (p, q) in [(-dx, a.0 - rect.x_low), (dx, rect.x_high - a.0), (-dy, a.1 - rect.y_low), (dy, rect.y_high - a.1)] {
         if p == 0.0 {
             if q < 0.0 {
                 return None;
@@ -860,15 +794,9 @@ fn clip_polygon(polygon: &[Point], rect: &Rect) -> Vec<Point> {
     type Intersect = fn(Point, Point, &Rect) -> Point;
     let edges: [(Inside, Intersect); 4] = [
         (|p, r| p.0 >= r.x_low, |a, b, r| intersect_x(a, b, r.x_low)),
-        (
-            |p, r| p.0 <= r.x_high,
-            |a, b, r| intersect_x(a, b, r.x_high),
-        ),
+        (|p, r| p.0 <= r.x_high, |a, b, r| intersect_x(a, b, r.x_high)),
         (|p, r| p.1 >= r.y_low, |a, b, r| intersect_y(a, b, r.y_low)),
-        (
-            |p, r| p.1 <= r.y_high,
-            |a, b, r| intersect_y(a, b, r.y_high),
-        ),
+        (|p, r| p.1 <= r.y_high, |a, b, r| intersect_y(a, b, r.y_high)),
     ];
     let mut output = polygon.to_vec();
     for (inside, intersect) in edges {
@@ -961,11 +889,7 @@ fn extent_values(panel: &Panel) -> (Vec<f64>, Vec<f64>) {
         }
     }
     for reference in &panel.references {
-        let (scale, values) = if reference.vertical {
-            (panel.x_scale, &mut xs)
-        } else {
-            (panel.y_scale, &mut ys)
-        };
+        let (scale, values) = if reference.vertical { (panel.x_scale, &mut xs) } else { (panel.y_scale, &mut ys) };
         if let Some(v) = scale.transform(reference.value) {
             values.push(v);
         }
@@ -1000,10 +924,7 @@ const LEGEND_CROWDED: f64 = 0.04;
 /// picture. `legend_fraction` is the legend's width and height as fractions of the plot area.
 /// Ties go to the upper right, then upper left, lower left, lower right. Also returns the
 /// fraction of the chosen box's cells that are occupied.
-fn choose_legend_corner(
-    points: &[Point],
-    legend_fraction: (f64, f64),
-) -> (SeriesLabelPosition, f64) {
+fn choose_legend_corner(points: &[Point], legend_fraction: (f64, f64)) -> (SeriesLabelPosition, f64) {
     const CELLS: usize = 40;
     let cell = |v: f64| ((v * CELLS as f64).floor().max(0.0) as usize).min(CELLS - 1);
     let mut occupied = vec![false; CELLS * CELLS];
@@ -1012,10 +933,7 @@ fn choose_legend_corner(
             occupied[cell(y) * CELLS + cell(x)] = true;
         }
     }
-    let (w, h) = (
-        legend_fraction.0.min(1.0) + 0.02,
-        legend_fraction.1.min(1.0) + 0.02,
-    );
+    let (w, h) = (legend_fraction.0.min(1.0) + 0.02, legend_fraction.1.min(1.0) + 0.02);
     let corners = [
         (SeriesLabelPosition::UpperRight, 1.0 - w, 1.0, 1.0 - h, 1.0),
         (SeriesLabelPosition::UpperLeft, 0.0, w, 1.0 - h, 1.0),
@@ -1049,8 +967,7 @@ fn place_legend(
     fraction: (f64, f64),
     y_ticks: usize,
 ) -> (SeriesLabelPosition, Axis) {
-    let (corner, crowding) =
-        choose_legend_corner(&occupancy_points(panel, x_axis, &y_axis), fraction);
+    let (corner, crowding) = choose_legend_corner(&occupancy_points(panel, x_axis, &y_axis), fraction);
     if crowding <= LEGEND_CROWDED || panel.y_range.is_some() || fraction.1 >= 0.6 {
         return (corner, y_axis);
     }
@@ -1063,21 +980,14 @@ fn place_legend(
 /// Points of everything drawn, as fractions of the plot area, for legend placement. Lines are
 /// sampled along their length so a steep line through a corner counts there.
 fn occupancy_points(panel: &Panel, x_axis: &Axis, y_axis: &Axis) -> Vec<Point> {
-    let rect = Rect {
-        x_low: x_axis.low,
-        x_high: x_axis.high,
-        y_low: y_axis.low,
-        y_high: y_axis.high,
-    };
+    let rect = Rect { x_low: x_axis.low, x_high: x_axis.high, y_low: y_axis.low, y_high: y_axis.high };
     let to_fraction = |(x, y): Point| (x_axis.fraction(x), y_axis.fraction(y));
     let mut points = Vec::new();
     let mut add_polyline = |run: &[Point]| {
         for piece in clip_polyline(run, &rect) {
             for pair in piece.windows(2) {
                 let (a, b) = (to_fraction(pair[0]), to_fraction(pair[1]));
-                let steps = (((b.0 - a.0).hypot(b.1 - a.1)) / 0.01)
-                    .ceil()
-                    .clamp(1.0, 200.0) as usize;
+                let steps = (((b.0 - a.0).hypot(b.1 - a.1)) / 0.01).ceil().clamp(1.0, 200.0) as usize;
                 for s in 0..steps {
                     let t = s as f64 / steps as f64;
                     points.push((a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1)));
@@ -1109,12 +1019,7 @@ fn occupancy_points(panel: &Panel, x_axis: &Axis, y_axis: &Axis) -> Vec<Point> {
     points
 }
 
-fn reference_segment(
-    reference: &ReferenceLine,
-    panel: &Panel,
-    x_axis: &Axis,
-    y_axis: &Axis,
-) -> Option<Vec<Point>> {
+fn reference_segment(reference: &ReferenceLine, panel: &Panel, x_axis: &Axis, y_axis: &Axis) -> Option<Vec<Point>> {
     if reference.vertical {
         let x = panel.x_scale.transform(reference.value)?;
         Some(vec![(x, y_axis.low), (x, y_axis.high)])
@@ -1131,31 +1036,17 @@ const X_LABEL_AREA: u32 = 52;
 const Y_LABEL_AREA: u32 = 84;
 const CAPTION_HEIGHT: u32 = 30;
 
-fn draw_panel<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    panel: &Panel,
-) -> Result<(), PlotError>
+fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<(), PlotError>
 where
     DB::ErrorType: 'static,
 {
     let (width, height) = area.dim_in_pixel();
-    let caption = if panel.title.is_empty() {
-        0
-    } else {
-        CAPTION_HEIGHT
-    };
+    let caption = if panel.title.is_empty() { 0 } else { CAPTION_HEIGHT };
     let plot_width = width.saturating_sub(Y_LABEL_AREA + 2 * MARGIN).max(1) as f64;
-    let plot_height = height
-        .saturating_sub(X_LABEL_AREA + caption + 2 * MARGIN)
-        .max(1) as f64;
+    let plot_height = height.saturating_sub(X_LABEL_AREA + caption + 2 * MARGIN).max(1) as f64;
 
     let (xs, ys) = extent_values(panel);
-    let x_axis = Axis::new(
-        panel.x_scale,
-        &xs,
-        panel.x_range,
-        ((plot_width / 110.0).round() as usize).clamp(3, 10),
-    );
+    let x_axis = Axis::new(panel.x_scale, &xs, panel.x_range, ((plot_width / 110.0).round() as usize).clamp(3, 10));
     let y_ticks = ((plot_height / 60.0).round() as usize).clamp(3, 8);
     let mut y_axis = Axis::new(panel.y_scale, &ys, panel.y_range, y_ticks);
 
@@ -1169,38 +1060,22 @@ where
     };
     if show_legend && panel.legend == LegendPosition::Auto {
         let style = text_style(LEGEND_FONT);
-        let text_width = entries
-            .iter()
-            .map(|e| {
-                area.estimate_text_size(e, &style)
-                    .map(|(w, _)| w)
-                    .unwrap_or(0)
-            })
-            .max()
-            .unwrap_or(0);
+        let text_width =
+            entries.iter().map(|e| area.estimate_text_size(e, &style).map(|(w, _)| w).unwrap_or(0)).max().unwrap_or(0);
         let legend_width = text_width as f64 + LEGEND_GLYPH_WIDTH;
         let legend_height = LEGEND_ROW * entries.len() as f64 + 12.0;
         let fraction = (legend_width / plot_width, legend_height / plot_height);
         (position, y_axis) = place_legend(panel, &x_axis, y_axis, fraction, y_ticks);
     }
-    let rect = Rect {
-        x_low: x_axis.low,
-        x_high: x_axis.high,
-        y_low: y_axis.low,
-        y_high: y_axis.high,
-    };
+    let rect = Rect { x_low: x_axis.low, x_high: x_axis.high, y_low: y_axis.low, y_high: y_axis.high };
 
     let mut builder = ChartBuilder::on(area);
-    builder
-        .margin(MARGIN)
-        .x_label_area_size(X_LABEL_AREA)
-        .y_label_area_size(Y_LABEL_AREA);
+    builder.margin(MARGIN).x_label_area_size(X_LABEL_AREA).y_label_area_size(Y_LABEL_AREA);
     if !panel.title.is_empty() {
         builder.caption(&panel.title, text_style(18));
     }
-    let mut chart = builder
-        .build_cartesian_2d(TickedRange::from(&x_axis), TickedRange::from(&y_axis))
-        .map_err(plot_error)?;
+    let mut chart =
+        builder.build_cartesian_2d(TickedRange::from(&x_axis), TickedRange::from(&y_axis)).map_err(plot_error)?;
     let x_formatter = |v: &f64| x_axis.label(*v);
     let y_formatter = |v: &f64| y_axis.label(*v);
     chart
@@ -1224,21 +1099,14 @@ where
             let clipped = clip_polygon(&polygon, &rect);
             if clipped.len() >= 3 {
                 chart
-                    .draw_series(std::iter::once(Polygon::new(
-                        clipped,
-                        colour.mix(0.22).filled(),
-                    )))
+                    .draw_series(std::iter::once(Polygon::new(clipped, colour.mix(0.22).filled())))
                     .map_err(plot_error)?;
             }
         }
     }
     for series in &panel.series {
         let colour = series.colour.unwrap_or(PALETTE[0]).to_plotters();
-        let style = ShapeStyle {
-            color: colour.to_rgba(),
-            filled: false,
-            stroke_width: series.width,
-        };
+        let style = ShapeStyle { color: colour.to_rgba(), filled: false, stroke_width: series.width };
         for run in drawable_runs(&series.x, &series.y, panel.x_scale, panel.y_scale) {
             for piece in clip_polyline(&run, &rect) {
                 draw_line(&mut chart, piece.clone(), series.line, style)?;
@@ -1246,19 +1114,13 @@ where
             if series.markers {
                 let inside = run.iter().copied().filter(|p| rect.contains(*p));
                 let marker_size = (series.width + 1).max(3) as i32;
-                chart
-                    .draw_series(inside.map(|p| Circle::new(p, marker_size, colour.filled())))
-                    .map_err(plot_error)?;
+                chart.draw_series(inside.map(|p| Circle::new(p, marker_size, colour.filled()))).map_err(plot_error)?;
             }
         }
     }
     for reference in &panel.references {
         if let Some(line) = reference_segment(reference, panel, &x_axis, &y_axis) {
-            let style = ShapeStyle {
-                color: reference.colour.to_plotters().to_rgba(),
-                filled: false,
-                stroke_width: 2,
-            };
+            let style = ShapeStyle { color: reference.colour.to_plotters().to_rgba(), filled: false, stroke_width: 2 };
             for piece in clip_polyline(&line, &rect) {
                 draw_line(&mut chart, piece, LineStyle::Dashed, style)?;
             }
@@ -1276,17 +1138,11 @@ where
             .draw_series(std::iter::empty::<Circle<Point, i32>>())
             .map_err(plot_error)?
             .label(band.name.as_str())
-            .legend(move |(x, y)| {
-                Rectangle::new([(x, y - 6), (x + 22, y + 6)], colour.mix(0.3).filled())
-            });
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 22, y + 6)], colour.mix(0.3).filled()));
     }
     for series in panel.series.iter().filter(|s| !s.name.is_empty()) {
         let colour = series.colour.unwrap_or(PALETTE[0]).to_plotters();
-        let style = ShapeStyle {
-            color: colour.to_rgba(),
-            filled: false,
-            stroke_width: series.width,
-        };
+        let style = ShapeStyle { color: colour.to_rgba(), filled: false, stroke_width: series.width };
         let glyph = LegendGlyph::new(series.line, series.markers, style);
         chart
             .draw_series(std::iter::empty::<Circle<Point, i32>>())
@@ -1295,11 +1151,7 @@ where
             .legend(move |point| glyph.element::<DB>(point));
     }
     for reference in panel.references.iter().filter(|r| !r.name.is_empty()) {
-        let style = ShapeStyle {
-            color: reference.colour.to_plotters().to_rgba(),
-            filled: false,
-            stroke_width: 2,
-        };
+        let style = ShapeStyle { color: reference.colour.to_plotters().to_rgba(), filled: false, stroke_width: 2 };
         let glyph = LegendGlyph::new(LineStyle::Dashed, false, style);
         chart
             .draw_series(std::iter::empty::<Circle<Point, i32>>())
@@ -1331,12 +1183,7 @@ struct TickedRange {
 
 impl From<&Axis> for TickedRange {
     fn from(axis: &Axis) -> Self {
-        Self {
-            low: axis.low,
-            high: axis.high,
-            major: axis.major.clone(),
-            minor: axis.minor.clone(),
-        }
+        Self { low: axis.low, high: axis.high, major: axis.major.clone(), minor: axis.minor.clone() }
     }
 }
 
@@ -1363,11 +1210,8 @@ impl Ranged for TickedRange {
     }
 }
 
-type Chart<'a, DB> = plotters::chart::ChartContext<
-    'a,
-    DB,
-    plotters::coord::cartesian::Cartesian2d<TickedRange, TickedRange>,
->;
+type Chart<'a, DB> =
+    plotters::chart::ChartContext<'a, DB, plotters::coord::cartesian::Cartesian2d<TickedRange, TickedRange>>;
 
 fn draw_line<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
@@ -1379,15 +1223,9 @@ where
     DB::ErrorType: 'static,
 {
     match line {
-        LineStyle::Solid => chart
-            .draw_series(LineSeries::new(points, style))
-            .map(|_| ()),
-        LineStyle::Dashed => chart
-            .draw_series(DashedLineSeries::new(points, 9, 6, style))
-            .map(|_| ()),
-        LineStyle::Dotted => chart
-            .draw_series(DashedLineSeries::new(points, 2, 5, style))
-            .map(|_| ()),
+        LineStyle::Solid => chart.draw_series(LineSeries::new(points, style)).map(|_| ()),
+        LineStyle::Dashed => chart.draw_series(DashedLineSeries::new(points, 9, 6, style)).map(|_| ()),
+        LineStyle::Dotted => chart.draw_series(DashedLineSeries::new(points, 2, 5, style)).map(|_| ()),
         LineStyle::None => Ok(()),
     }
     .map_err(plot_error)
@@ -1408,45 +1246,21 @@ impl LegendGlyph {
     const LENGTH: i32 = 24;
 
     fn new(line: LineStyle, markers: bool, style: ShapeStyle) -> Self {
-        let transparent = ShapeStyle {
-            color: TRANSPARENT.to_rgba(),
-            filled: true,
-            stroke_width: 0,
-        };
+        let transparent = ShapeStyle { color: TRANSPARENT.to_rgba(), filled: true, stroke_width: 0 };
         let (dash, gap, line_style) = match line {
             LineStyle::Solid => (Self::LENGTH, 1, style),
             LineStyle::Dashed => (7, 4, style),
             LineStyle::Dotted => (2, 4, style),
             LineStyle::None => (Self::LENGTH, 1, transparent),
         };
-        let marker = if markers {
-            ShapeStyle {
-                color: style.color,
-                filled: true,
-                stroke_width: 1,
-            }
-        } else {
-            transparent
-        };
-        Self {
-            dash,
-            gap,
-            line: line_style,
-            marker,
-        }
+        let marker =
+            if markers { ShapeStyle { color: style.color, filled: true, stroke_width: 1 } } else { transparent };
+        Self { dash, gap, line: line_style, marker }
     }
 
-    fn element<'a, DB: DrawingBackend + 'a>(
-        &self,
-        (x, y): (i32, i32),
-    ) -> impl IntoDynElement<'a, DB, (i32, i32)> + 'a {
+    fn element<'a, DB: DrawingBackend + 'a>(&self, (x, y): (i32, i32)) -> impl IntoDynElement<'a, DB, (i32, i32)> + 'a {
         EmptyElement::at((x, y))
-            + DashedPathElement::new(
-                vec![(0, 0), (Self::LENGTH, 0)],
-                self.dash,
-                self.gap,
-                self.line,
-            )
+            + DashedPathElement::new(vec![(0, 0), (Self::LENGTH, 0)], self.dash, self.gap, self.line)
             + Circle::new((Self::LENGTH / 2, 0), 4, self.marker)
     }
 }
@@ -1454,24 +1268,15 @@ impl LegendGlyph {
 /// Bode plot of one or more frequency responses: magnitude in dB (top) and unwrapped phase in
 /// degrees (bottom) against log frequency in Hz. Each curve is (name, frequency_hz, response).
 pub fn bode(title: &str, curves: &[(&str, &[f64], &[Complex64])]) -> Figure {
-    let mut magnitude = Panel::new("Magnitude")
-        .x_label("Frequency (Hz)")
-        .y_label("Magnitude (dB)")
-        .log_x();
-    let mut phase = Panel::new("Phase")
-        .x_label("Frequency (Hz)")
-        .y_label("Phase (deg)")
-        .log_x();
+    let mut magnitude = Panel::new("Magnitude").x_label("Frequency (Hz)").y_label("Magnitude (dB)").log_x();
+    let mut phase = Panel::new("Phase").x_label("Frequency (Hz)").y_label("Phase (deg)").log_x();
     for (name, frequency_hz, response) in curves {
         let db: Vec<f64> = response.iter().map(|h| 20.0 * h.norm().log10()).collect();
         let wrapped: Vec<f64> = response.iter().map(|h| h.arg().to_degrees()).collect();
         magnitude = magnitude.line(name, frequency_hz, &db);
         phase = phase.line(name, frequency_hz, &unwrap_phase_deg(&wrapped));
     }
-    Figure::new(1000, 800)
-        .title(title)
-        .panel(magnitude)
-        .panel(phase)
+    Figure::new(1000, 800).title(title).panel(magnitude).panel(phase)
 }
 
 /// A measured frequency response against its model, up to `max_frequency_hz`: magnitude in dB
@@ -1486,7 +1291,8 @@ pub fn measured_against_model(
     model_label: &str,
     decorate: impl FnOnce(Panel) -> Panel,
 ) -> Figure {
-    let keep: Vec<usize> = (0..comparison.frequency_hz.len()).filter(|&i| comparison.frequency_hz[i] <= max_frequency_hz).collect();
+    let keep: Vec<usize> =
+        (0..comparison.frequency_hz.len()).filter(|&i| comparison.frequency_hz[i] <= max_frequency_hz).collect();
     let f: Vec<f64> = keep.iter().map(|&i| comparison.frequency_hz[i]).collect();
     let db = |h: &[Complex64]| -> Vec<f64> { keep.iter().map(|&i| 20.0 * h[i].norm().log10()).collect() };
     let phase = |h: &[Complex64]| -> Vec<f64> {
@@ -1494,7 +1300,11 @@ pub fn measured_against_model(
         unwrap_phase_deg(&wrapped)
     };
     let coherence: Vec<f64> = keep.iter().map(|&i| comparison.coherence[i]).collect();
-    let magnitude = magnitude.log_x().line(measured_label, &f, &db(comparison.measured)).dashed(model_label, &f, &db(comparison.analytic));
+    let magnitude = magnitude.log_x().line(measured_label, &f, &db(comparison.measured)).dashed(
+        model_label,
+        &f,
+        &db(comparison.analytic),
+    );
     Figure::new(1100, 1000)
         .title(title)
         .panel(decorate(magnitude))
@@ -1523,8 +1333,7 @@ mod tests {
     use std::path::PathBuf;
 
     fn temp_dir(test: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("antenna-tools-plot-{}-{test}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("antenna-tools-plot-{}-{test}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         dir
     }
@@ -1563,12 +1372,7 @@ mod tests {
                     .dashed("model", &f, &upper)
                     .vertical_line("peak", 1.0),
             )
-            .panel(
-                Panel::new("Time series")
-                    .x_label("Time (s)")
-                    .y_label("Speed (m/s)")
-                    .line("sine", &t, &y),
-            );
+            .panel(Panel::new("Time series").x_label("Time (s)").y_label("Speed (m/s)").line("sine", &t, &y));
         let dir = temp_dir("stacked");
         let path = dir.join("stacked.png");
         figure.save_png(&path).unwrap();
@@ -1584,15 +1388,11 @@ mod tests {
     #[test]
     fn bode_is_a_one_liner_that_writes_a_png() {
         let f: Vec<f64> = (1..200).map(|i| 0.01 * 1.05f64.powi(i)).collect();
-        let h: Vec<Complex64> = f
-            .iter()
-            .map(|v| Complex64::new(1.0, 0.0) / Complex64::new(1.0 - v * v, 0.2 * v))
-            .collect();
+        let h: Vec<Complex64> =
+            f.iter().map(|v| Complex64::new(1.0, 0.0) / Complex64::new(1.0 - v * v, 0.2 * v)).collect();
         let dir = temp_dir("bode");
         let path = dir.join("bode.png");
-        bode("Second-order system", &[("H", &f, &h)])
-            .save_png(&path)
-            .unwrap();
+        bode("Second-order system", &[("H", &f, &h)]).save_png(&path).unwrap();
         let (width, height, pixels, _) = decode_png(&path);
         assert_eq!((width, height), (1000, 800));
         assert!(contains_colour(&pixels, PALETTE[0]));
@@ -1618,24 +1418,14 @@ mod tests {
     fn auto_range_ignores_nan_infinity_and_non_positive_values_on_log_axes() {
         let panel = Panel::new("")
             .log_y()
-            .line(
-                "a",
-                &[1.0, 2.0, 3.0, 4.0, 5.0],
-                &[1.0, 100.0, -1.0, 0.0, f64::NAN],
-            )
+            .line("a", &[1.0, 2.0, 3.0, 4.0, 5.0], &[1.0, 100.0, -1.0, 0.0, f64::NAN])
             .line("b", &[f64::INFINITY, 6.0], &[1e6, 10.0]);
         let (xs, ys) = extent_values(&panel);
         let x_axis = Axis::new(panel.x_scale, &xs, None, 5);
         let y_axis = Axis::new(panel.y_scale, &ys, None, 5);
-        assert!(
-            x_axis.low < 1.0 && x_axis.low > 0.7 && x_axis.high > 6.0 && x_axis.high < 6.3,
-            "{x_axis:?}"
-        );
+        assert!(x_axis.low < 1.0 && x_axis.low > 0.7 && x_axis.high > 6.0 && x_axis.high < 6.3, "{x_axis:?}");
         // y covers log10 1 = 0 to log10 100 = 2, padded by 4 %.
-        assert!(
-            (y_axis.low + 0.08).abs() < 1e-12 && (y_axis.high - 2.08).abs() < 1e-12,
-            "{y_axis:?}"
-        );
+        assert!((y_axis.low + 0.08).abs() < 1e-12 && (y_axis.high - 2.08).abs() < 1e-12, "{y_axis:?}");
         assert_eq!(y_axis.major, vec![0.0, 1.0, 2.0]);
     }
 
@@ -1680,12 +1470,7 @@ mod tests {
 
     #[test]
     fn lines_are_clipped_to_the_plot_area() {
-        let rect = Rect {
-            x_low: 0.0,
-            x_high: 1.0,
-            y_low: 0.0,
-            y_high: 1.0,
-        };
+        let rect = Rect { x_low: 0.0, x_high: 1.0, y_low: 0.0, y_high: 1.0 };
         let pieces = clip_polyline(&[(-1.0, 0.5), (0.5, 0.5), (0.5, 2.0), (0.8, 0.2)], &rect);
         assert_eq!(pieces.len(), 2, "{pieces:?}");
         assert_eq!(pieces[0], vec![(0.0, 0.5), (0.5, 0.5), (0.5, 1.0)]);
@@ -1695,12 +1480,7 @@ mod tests {
 
     #[test]
     fn polygons_are_clipped_to_the_plot_area() {
-        let rect = Rect {
-            x_low: 0.0,
-            x_high: 1.0,
-            y_low: 0.0,
-            y_high: 1.0,
-        };
+        let rect = Rect { x_low: 0.0, x_high: 1.0, y_low: 0.0, y_high: 1.0 };
         let clipped = clip_polygon(&[(0.5, -1.0), (2.0, 0.5), (0.5, 2.0), (-1.0, 0.5)], &rect);
         assert!(clipped.iter().all(|p| rect.contains(*p)));
         // The diamond covers the whole unit square except its four corner triangles.
@@ -1725,10 +1505,7 @@ mod tests {
             colour: PALETTE[0],
         };
         let polygons = band_polygons(&band, Scale::Log, Scale::Log, -5.0);
-        assert_eq!(
-            polygons,
-            vec![vec![(0.0, 1.0), (1.0, 1.0), (1.0, 0.0), (0.0, -5.0)]]
-        );
+        assert_eq!(polygons, vec![vec![(0.0, 1.0), (1.0, 1.0), (1.0, 0.0), (0.0, -5.0)]]);
     }
 
     #[test]
@@ -1740,73 +1517,40 @@ mod tests {
         let x_axis = Axis::new(Scale::Linear, &xs, None, 5);
         let y_axis = Axis::new(Scale::Linear, &ys, None, 5);
         let points = occupancy_points(&panel, &x_axis, &y_axis);
-        assert_eq!(
-            choose_legend_corner(&points, (0.3, 0.2)).0,
-            SeriesLabelPosition::UpperRight
-        );
-        let rising = Panel::new("")
-            .line("rising", &[0.0, 1.0], &[0.0, 1.0])
-            .line("flat top", &[0.0, 1.0], &[1.0, 1.0]);
+        assert_eq!(choose_legend_corner(&points, (0.3, 0.2)).0, SeriesLabelPosition::UpperRight);
+        let rising = Panel::new("").line("rising", &[0.0, 1.0], &[0.0, 1.0]).line("flat top", &[0.0, 1.0], &[1.0, 1.0]);
         let (xs, ys) = extent_values(&rising);
-        let points = occupancy_points(
-            &rising,
-            &Axis::new(Scale::Linear, &xs, None, 5),
-            &Axis::new(Scale::Linear, &ys, None, 5),
-        );
-        assert_eq!(
-            choose_legend_corner(&points, (0.3, 0.2)).0,
-            SeriesLabelPosition::LowerRight
-        );
+        let points =
+            occupancy_points(&rising, &Axis::new(Scale::Linear, &xs, None, 5), &Axis::new(Scale::Linear, &ys, None, 5));
+        assert_eq!(choose_legend_corner(&points, (0.3, 0.2)).0, SeriesLabelPosition::LowerRight);
     }
 
     #[test]
     fn a_crowded_panel_makes_room_for_its_legend_above_the_data() {
         let x: Vec<f64> = (0..400).map(f64::from).collect();
-        let y: Vec<f64> = x
-            .iter()
-            .map(|v| (v * 0.7).sin() + 0.3 * (v * 2.3).cos())
-            .collect();
+        let y: Vec<f64> = x.iter().map(|v| (v * 0.7).sin() + 0.3 * (v * 2.3).cos()).collect();
         let panel = Panel::new("").line("noise", &x, &y);
         let (xs, ys) = extent_values(&panel);
         let x_axis = Axis::new(Scale::Linear, &xs, None, 5);
         let y_axis = Axis::new(Scale::Linear, &ys, None, 5);
         let fraction = (0.25, 0.2);
-        assert!(
-            choose_legend_corner(&occupancy_points(&panel, &x_axis, &y_axis), fraction).1
-                > LEGEND_CROWDED
-        );
+        assert!(choose_legend_corner(&occupancy_points(&panel, &x_axis, &y_axis), fraction).1 > LEGEND_CROWDED);
         let (corner, raised) = place_legend(&panel, &x_axis, y_axis.clone(), fraction, 5);
         assert!(raised.high > y_axis.high && raised.low == y_axis.low);
-        let (_, crowding) =
-            choose_legend_corner(&occupancy_points(&panel, &x_axis, &raised), fraction);
+        let (_, crowding) = choose_legend_corner(&occupancy_points(&panel, &x_axis, &raised), fraction);
         assert_eq!(crowding, 0.0);
-        assert!(matches!(
-            corner,
-            SeriesLabelPosition::UpperRight | SeriesLabelPosition::UpperLeft
-        ));
+        assert!(matches!(corner, SeriesLabelPosition::UpperRight | SeriesLabelPosition::UpperLeft));
         // A fixed range is respected even when crowded.
         let fixed = panel.clone().y_range(-2.0, 2.0);
         let fixed_axis = Axis::new(Scale::Linear, &ys, fixed.y_range, 5);
-        assert_eq!(
-            place_legend(&fixed, &x_axis, fixed_axis.clone(), fraction, 5).1,
-            fixed_axis
-        );
+        assert_eq!(place_legend(&fixed, &x_axis, fixed_axis.clone(), fraction, 5).1, fixed_axis);
     }
 
     #[test]
     fn unusable_figures_are_errors_not_panics() {
         assert!(Figure::new(800, 600).render_rgb().is_err(), "no panels");
-        assert!(
-            Figure::new(50, 50)
-                .panel(Panel::new(""))
-                .render_rgb()
-                .is_err(),
-            "too small"
-        );
-        let missing_dir = std::env::temp_dir()
-            .join("antenna-tools-no-such-dir")
-            .join("x")
-            .join("plot.png");
+        assert!(Figure::new(50, 50).panel(Panel::new("")).render_rgb().is_err(), "too small");
+        let missing_dir = std::env::temp_dir().join("antenna-tools-no-such-dir").join("x").join("plot.png");
         assert!(Figure::new(400, 300)
             .panel(Panel::new("").line("a", &[0.0, 1.0], &[0.0, 1.0]))
             .save_png(missing_dir)

@@ -15,9 +15,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::dsp::{
-    expected_welch_psd, log_band_average, welch_psd, BandSpectrum, DspError, Detrend, WelchConfig,
-};
+use crate::dsp::{expected_welch_psd, log_band_average, welch_psd, BandSpectrum, Detrend, DspError, WelchConfig};
 use crate::plot::{Colour, Figure, LegendPosition, Panel, Series, PALETTE};
 use fmu_runtime::import::{Fmu, ImportError};
 use fmu_wind::analysis::autocovariance_weights;
@@ -110,12 +108,13 @@ pub fn paper_shape(v_mean: f64) -> Result<PaperShape, String> {
 /// our errors alone on a scale where they can be read.
 pub fn filter_figure() -> Result<Figure, String> {
     let grid = log_grid(OMEGA_RANGE_RAD_S.0, OMEGA_RANGE_RAD_S.1, 601);
-    let mut spectra = Panel::new("Gust spectra on Eq. 2's axes (z = 10 m, z0 = 0.4 m): Eq. 2, the paper's filters and ours")
-        .x_label("ω (rad/s)")
-        .y_label("one-sided PSD per Hz ((m/s)²/Hz)")
-        .log_x()
-        .log_y()
-        .legend(LegendPosition::LowerLeft);
+    let mut spectra =
+        Panel::new("Gust spectra on Eq. 2's axes (z = 10 m, z0 = 0.4 m): Eq. 2, the paper's filters and ours")
+            .x_label("ω (rad/s)")
+            .y_label("one-sided PSD per Hz ((m/s)²/Hz)")
+            .log_x()
+            .log_y()
+            .legend(LegendPosition::LowerLeft);
     let mut errors = Panel::new("Error against Eq. 2: ours, and the paper's shapes with their level offset removed")
         .x_label("ω (rad/s)")
         .y_label("dB")
@@ -142,18 +141,35 @@ pub fn filter_figure() -> Result<Figure, String> {
         let paper_err: Vec<f64> = paper_psd.iter().zip(&eq2).map(|(a, b)| db(a / b) - shape.mean_db).collect();
         let worst = ours_err.iter().fold(0.0f64, |m, e| m.max(e.abs()));
         spectra = spectra
-            .series(Series::new(&format!("Eq. 2, v_m = {v} m/s"), &grid, &eq2).colour(Colour::rgb(0, 0, 0)).width(if i == 0 { 3 } else { 2 }))
+            .series(
+                Series::new(&format!("Eq. 2, v_m = {v} m/s"), &grid, &eq2)
+                    .colour(Colour::rgb(0, 0, 0))
+                    .width(if i == 0 { 3 } else { 2 }),
+            )
             .series(Series::new(&format!("ours, {v} m/s (exact |H|²)"), &grid, &ours_psd).colour(colour).dashed())
             .series(Series::new(&format!("paper's {}", shape.name), &grid, &paper_psd).colour(paper_colour));
-        errors = errors
-            .series(Series::new(&format!("ours, {v} m/s"), &grid, &ours_err).colour(colour))
-            .series(Series::new(&format!("{} − {:.2} dB (shape)", shape.name, shape.mean_db), &grid, &paper_err).colour(paper_colour));
-        ours_only = ours_only.series(Series::new(&format!("ours, {v} m/s (max |error| {worst:.3} dB)"), &grid, &ours_err).colour(colour));
+        errors = errors.series(Series::new(&format!("ours, {v} m/s"), &grid, &ours_err).colour(colour)).series(
+            Series::new(&format!("{} − {:.2} dB (shape)", shape.name, shape.mean_db), &grid, &paper_err)
+                .colour(paper_colour),
+        );
+        ours_only = ours_only.series(
+            Series::new(&format!("ours, {v} m/s (max |error| {worst:.3} dB)"), &grid, &ours_err).colour(colour),
+        );
     }
     for panel in [&mut errors, &mut ours_only] {
         *panel = std::mem::take(panel)
-            .series(Series::new("±0.5 dB goal", &[grid[0], grid[grid.len() - 1]], &[GOAL_DB, GOAL_DB]).colour(Colour::rgb(0, 0, 0)).dashed().width(1))
-            .series(Series::new("", &[grid[0], grid[grid.len() - 1]], &[-GOAL_DB, -GOAL_DB]).colour(Colour::rgb(0, 0, 0)).dashed().width(1));
+            .series(
+                Series::new("±0.5 dB goal", &[grid[0], grid[grid.len() - 1]], &[GOAL_DB, GOAL_DB])
+                    .colour(Colour::rgb(0, 0, 0))
+                    .dashed()
+                    .width(1),
+            )
+            .series(
+                Series::new("", &[grid[0], grid[grid.len() - 1]], &[-GOAL_DB, -GOAL_DB])
+                    .colour(Colour::rgb(0, 0, 0))
+                    .dashed()
+                    .width(1),
+            );
     }
     Ok(Figure::new(1100, 1500).panel(spectra).panel(errors).panel(ours_only))
 }
@@ -175,7 +191,13 @@ pub struct GeneratedRecord {
 
 /// Steps `Wind.fmu` in Davenport mode at `v_mean` (paper's site) with `seed` for `duration`
 /// seconds in steps of `step` and records `wind.gust`.
-pub fn generate_through_fmu(fmu: &Fmu, v_mean: f64, seed: i32, step: f64, duration: f64) -> Result<GeneratedRecord, ImportError> {
+pub fn generate_through_fmu(
+    fmu: &Fmu,
+    v_mean: f64,
+    seed: i32,
+    step: f64,
+    duration: f64,
+) -> Result<GeneratedRecord, ImportError> {
     let mut instance = fmu.instantiate("wind-spectra", false)?;
     instance.setup_experiment(0.0, None)?;
     instance.set_integer(&fmu.description.vrs(&["seed", "spectrum"])?, &[seed, 1])?;

@@ -21,9 +21,9 @@
 //! [`ComparisonCurve`] and [`predict_gust`] take any other generated record or model PSD.
 
 use crate::dsp::{
-    self, autocorrelation, digamma, kurtosis_excess, log_band_average, max_moving_average,
-    moving_average, skewness, standard_normal_quantile, trigamma, weighted_linear_regression,
-    welch_psd, window_samples, BandSpectrum, DspError, Spectrum, WelchConfig,
+    self, autocorrelation, digamma, kurtosis_excess, log_band_average, max_moving_average, moving_average, skewness,
+    standard_normal_quantile, trigamma, weighted_linear_regression, welch_psd, window_samples, BandSpectrum, DspError,
+    Spectrum, WelchConfig,
 };
 use crate::plot::{Colour, Figure, LegendPosition, Panel, PlotError, Series};
 use std::fmt::{self, Write as _};
@@ -185,16 +185,8 @@ pub struct WindRecord {
 impl WindRecord {
     /// A record from samples at a known rate (e.g. a generated one), times from 0.
     pub fn from_samples(source: &str, speed_m_s: Vec<f64>, sample_rate_hz: f64) -> Self {
-        let time_s = (0..speed_m_s.len())
-            .map(|i| i as f64 / sample_rate_hz)
-            .collect();
-        Self {
-            source: source.to_string(),
-            column: "speed".to_string(),
-            time_s,
-            speed_m_s,
-            sample_rate_hz,
-        }
+        let time_s = (0..speed_m_s.len()).map(|i| i as f64 / sample_rate_hz).collect();
+        Self { source: source.to_string(), column: "speed".to_string(), time_s, speed_m_s, sample_rate_hz }
     }
 
     /// Record length: samples times the sampling interval, s.
@@ -206,9 +198,7 @@ impl WindRecord {
 /// Splits a CSV line into trimmed cells with surrounding double quotes removed. Wind records
 /// are plain numeric tables, so quoted commas are not supported.
 fn split_cells(line: &str) -> Vec<String> {
-    line.split(',')
-        .map(|cell| cell.trim().trim_matches('"').trim().to_string())
-        .collect()
+    line.split(',').map(|cell| cell.trim().trim_matches('"').trim().to_string()).collect()
 }
 
 fn parse_cell(text: &str, line: usize, column: &str) -> Result<f64, WindFitError> {
@@ -220,11 +210,7 @@ fn parse_cell(text: &str, line: usize, column: &str) -> Result<f64, WindFitError
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(WindFitError::NonFinite {
-            line,
-            column: column.to_string(),
-            text: text.to_string(),
-        })
+        Err(WindFitError::NonFinite { line, column: column.to_string(), text: text.to_string() })
     }
 }
 
@@ -241,24 +227,17 @@ pub fn parse_wind_csv(
     speed_column: &str,
 ) -> Result<WindRecord, WindFitError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l))
-        .filter(|(_, l)| {
-            let trimmed = l.trim();
-            !trimmed.is_empty() && !trimmed.starts_with('#')
-        });
+    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l)).filter(|(_, l)| {
+        let trimmed = l.trim();
+        !trimmed.is_empty() && !trimmed.starts_with('#')
+    });
     let (_, header_line) = lines.next().ok_or(WindFitError::NoHeader)?;
     let header = split_cells(header_line);
     let find = |name: &str| {
         header
             .iter()
             .position(|h| h == name)
-            .ok_or_else(|| WindFitError::MissingColumn {
-                column: name.to_string(),
-                available: header.clone(),
-            })
+            .ok_or_else(|| WindFitError::MissingColumn { column: name.to_string(), available: header.clone() })
     };
     let time_index = find(time_column)?;
     let speed_index = find(speed_column)?;
@@ -269,21 +248,13 @@ pub fn parse_wind_csv(
     for (line, content) in lines {
         let cells = split_cells(content);
         if cells.len() != header.len() {
-            return Err(WindFitError::RowLength {
-                line,
-                expected: header.len(),
-                found: cells.len(),
-            });
+            return Err(WindFitError::RowLength { line, expected: header.len(), found: cells.len() });
         }
         let t = parse_cell(&cells[time_index], line, time_column)?;
         let v = parse_cell(&cells[speed_index], line, speed_column)?;
         if let Some(&previous) = time_s.last() {
             if t <= previous {
-                return Err(WindFitError::NonIncreasingTime {
-                    line,
-                    previous_s: previous,
-                    current_s: t,
-                });
+                return Err(WindFitError::NonIncreasingTime { line, previous_s: previous, current_s: t });
             }
         }
         time_s.push(t);
@@ -292,20 +263,14 @@ pub fn parse_wind_csv(
     }
     if time_s.len() < 3 {
         return Err(WindFitError::TooShort {
-            reason: format!(
-                "{} data lines, at least 3 needed to establish the sampling",
-                time_s.len()
-            ),
+            reason: format!("{} data lines, at least 3 needed to establish the sampling", time_s.len()),
         });
     }
     let steps: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
     let mut sorted = steps.clone();
     sorted.sort_by(f64::total_cmp);
     let median_step = sorted[sorted.len() / 2];
-    if let Some(i) = steps
-        .iter()
-        .position(|s| (s - median_step).abs() > 0.01 * median_step)
-    {
+    if let Some(i) = steps.iter().position(|s| (s - median_step).abs() > 0.01 * median_step) {
         return Err(WindFitError::IrregularSampling {
             line: line_numbers[i + 1],
             step_s: steps[i],
@@ -322,21 +287,10 @@ pub fn parse_wind_csv(
 }
 
 /// Reads a wind record from a CSV file (see [`parse_wind_csv`]).
-pub fn read_wind_csv(
-    path: &Path,
-    time_column: &str,
-    speed_column: &str,
-) -> Result<WindRecord, WindFitError> {
-    let text = std::fs::read_to_string(path).map_err(|e| WindFitError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
-    parse_wind_csv(
-        &text,
-        &path.display().to_string(),
-        time_column,
-        speed_column,
-    )
+pub fn read_wind_csv(path: &Path, time_column: &str, speed_column: &str) -> Result<WindRecord, WindFitError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| WindFitError::Io { path: path.display().to_string(), message: e.to_string() })?;
+    parse_wind_csv(&text, &path.display().to_string(), time_column, speed_column)
 }
 
 /// The Davenport spectrum of the paper's Eq. 2, one-sided per Hz:
@@ -367,10 +321,7 @@ impl DavenportSpectrum {
 
     /// The spectrum for mean speed `v_mean_m_s` at height `z_m` over roughness `z0_m`.
     pub fn from_roughness(v_mean_m_s: f64, z_m: f64, z0_m: f64) -> Self {
-        Self {
-            v_mean_m_s,
-            kappa: Self::kappa_for_roughness(z_m, z0_m),
-        }
+        Self { v_mean_m_s, kappa: Self::kappa_for_roughness(z_m, z0_m) }
     }
 
     /// The spectrum whose inertial-subrange asymptote is `level * n^(-5/3)` (see
@@ -478,8 +429,7 @@ impl WindFitConfig {
     /// Kaimal et al. 1972) up to an eighth of the sample rate (aliasing of a -5/3 tail adds
     /// less than 4 % there, 7^(-5/3); sonic path averaging also starts to act near the top).
     pub fn fit_band(&self, v_mean_m_s: f64, sample_rate_hz: f64) -> (f64, f64) {
-        self.fit_band_hz
-            .unwrap_or((v_mean_m_s / self.effective_height_m(), sample_rate_hz / 8.0))
+        self.fit_band_hz.unwrap_or((v_mean_m_s / self.effective_height_m(), sample_rate_hz / 8.0))
     }
 
     fn validate(&self) -> Result<(), WindFitError> {
@@ -487,16 +437,11 @@ impl WindFitConfig {
             if value > 0.0 && value.is_finite() {
                 Ok(())
             } else {
-                Err(WindFitError::InvalidConfig(format!(
-                    "{name} must be positive, got {value}"
-                )))
+                Err(WindFitError::InvalidConfig(format!("{name} must be positive, got {value}")))
             }
         };
         positive("height", self.height_m)?;
-        positive(
-            "effective height (height - displacement)",
-            self.effective_height_m(),
-        )?;
+        positive("effective height (height - displacement)", self.effective_height_m())?;
         positive("reference z0", self.reference_z0_m)?;
         positive("segment length", self.segment_s)?;
         positive("bands per decade", self.bands_per_decade)?;
@@ -710,18 +655,8 @@ pub fn predict_gust(
 /// The expected record variance of Eq. 2 per unit kappa, used to find the kappa that matches
 /// the measured variance (the prediction is linear in kappa).
 fn davenport_record_variance_per_kappa(v_mean_m_s: f64, period_s: f64, gust_window_s: f64) -> f64 {
-    let unit = DavenportSpectrum {
-        v_mean_m_s,
-        kappa: 1.0,
-    };
-    let prediction = predict_gust(
-        "",
-        &|n| unit.psd(n),
-        v_mean_m_s,
-        period_s,
-        gust_window_s,
-        1e3 / gust_window_s,
-    );
+    let unit = DavenportSpectrum { v_mean_m_s, kappa: 1.0 };
+    let prediction = predict_gust("", &|n| unit.psd(n), v_mean_m_s, period_s, gust_window_s, 1e3 / gust_window_s);
     prediction.sigma_m_s.powi(2)
 }
 
@@ -792,32 +727,17 @@ pub struct PeriodSummary {
 impl PeriodSummary {
     /// Mean of the blocks' turbulence intensities.
     pub fn mean_turbulence_intensity(&self) -> f64 {
-        dsp::mean(
-            &self
-                .blocks
-                .iter()
-                .map(BlockStatistics::turbulence_intensity)
-                .collect::<Vec<_>>(),
-        )
+        dsp::mean(&self.blocks.iter().map(BlockStatistics::turbulence_intensity).collect::<Vec<_>>())
     }
 
     /// Mean of the blocks' gust factors.
     pub fn mean_gust_factor(&self) -> f64 {
-        dsp::mean(
-            &self
-                .blocks
-                .iter()
-                .map(BlockStatistics::gust_factor)
-                .collect::<Vec<_>>(),
-        )
+        dsp::mean(&self.blocks.iter().map(BlockStatistics::gust_factor).collect::<Vec<_>>())
     }
 
     /// Largest block gust factor.
     pub fn max_gust_factor(&self) -> f64 {
-        self.blocks
-            .iter()
-            .map(BlockStatistics::gust_factor)
-            .fold(f64::NAN, f64::max)
+        self.blocks.iter().map(BlockStatistics::gust_factor).fold(f64::NAN, f64::max)
     }
 }
 
@@ -887,16 +807,10 @@ fn log_band_values(bands: &BandSpectrum, selected: &[usize]) -> (Vec<f64>, Vec<f
 }
 
 fn bands_in(bands: &BandSpectrum, (low, high): (f64, f64)) -> Vec<usize> {
-    (0..bands.len())
-        .filter(|&i| bands.frequency_hz[i] >= low && bands.frequency_hz[i] <= high)
-        .collect()
+    (0..bands.len()).filter(|&i| bands.frequency_hz[i] >= low && bands.frequency_hz[i] <= high).collect()
 }
 
-fn fit_slope(
-    bands: &BandSpectrum,
-    band_hz: (f64, f64),
-    confidence: f64,
-) -> Result<SlopeFit, WindFitError> {
+fn fit_slope(bands: &BandSpectrum, band_hz: (f64, f64), confidence: f64) -> Result<SlopeFit, WindFitError> {
     let selected = bands_in(bands, band_hz);
     if selected.len() < 4 {
         return Err(WindFitError::TooShort {
@@ -911,8 +825,7 @@ fn fit_slope(
     let (x, y, sigma) = log_band_values(bands, &selected);
     let fit = weighted_linear_regression(&x, &y, &sigma)?;
     let weights: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
-    let pivot_log =
-        x.iter().zip(&weights).map(|(a, w)| a * w).sum::<f64>() / weights.iter().sum::<f64>();
+    let pivot_log = x.iter().zip(&weights).map(|(a, w)| a * w).sum::<f64>() / weights.iter().sum::<f64>();
     let deviation = (fit.slope - KOLMOGOROV_SLOPE) / fit.slope_std_error;
     let z = standard_normal_quantile(0.5 + 0.5 * confidence);
     Ok(SlopeFit {
@@ -933,24 +846,11 @@ fn fit_level(bands: &BandSpectrum, band_hz: (f64, f64)) -> LevelFit {
     let selected = bands_in(bands, band_hz);
     let (x, y, sigma) = log_band_values(bands, &selected);
     // log10 A = log10 S + (5/3) log10 n for every band; the weighted mean is the estimate.
-    let compensated: Vec<f64> = x
-        .iter()
-        .zip(&y)
-        .map(|(a, b)| b - KOLMOGOROV_SLOPE * a)
-        .collect();
+    let compensated: Vec<f64> = x.iter().zip(&y).map(|(a, b)| b - KOLMOGOROV_SLOPE * a).collect();
     let weights: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
     let total: f64 = weights.iter().sum();
-    let mean_log = compensated
-        .iter()
-        .zip(&weights)
-        .map(|(c, w)| c * w)
-        .sum::<f64>()
-        / total;
-    let chi2: f64 = compensated
-        .iter()
-        .zip(&weights)
-        .map(|(c, w)| w * (c - mean_log).powi(2))
-        .sum();
+    let mean_log = compensated.iter().zip(&weights).map(|(c, w)| c * w).sum::<f64>() / total;
+    let chi2: f64 = compensated.iter().zip(&weights).map(|(c, w)| w * (c - mean_log).powi(2)).sum();
     let reduced = chi2 / (selected.len() as f64 - 1.0).max(1.0);
     let log_error = (reduced.max(1.0) / total).sqrt();
     LevelFit {
@@ -961,8 +861,7 @@ fn fit_level(bands: &BandSpectrum, band_hz: (f64, f64)) -> LevelFit {
 }
 
 fn local_slopes(bands: &BandSpectrum) -> Vec<LocalSlope> {
-    let (Some(&first), Some(&last)) = (bands.frequency_hz.first(), bands.frequency_hz.last())
-    else {
+    let (Some(&first), Some(&last)) = (bands.frequency_hz.first(), bands.frequency_hz.last()) else {
         return Vec::new();
     };
     let mut slopes = Vec::new();
@@ -973,11 +872,7 @@ fn local_slopes(bands: &BandSpectrum) -> Vec<LocalSlope> {
         if selected.len() >= 3 {
             let (x, y, sigma) = log_band_values(bands, &selected);
             if let Ok(fit) = weighted_linear_regression(&x, &y, &sigma) {
-                slopes.push(LocalSlope {
-                    band_hz: range,
-                    slope: fit.slope,
-                    std_error: fit.slope_std_error,
-                });
+                slopes.push(LocalSlope { band_hz: range, slope: fit.slope, std_error: fit.slope_std_error });
             }
         }
         exponent += 0.5;
@@ -985,24 +880,19 @@ fn local_slopes(bands: &BandSpectrum) -> Vec<LocalSlope> {
     slopes
 }
 
-fn record_statistics(
-    record: &WindRecord,
-    config: &WindFitConfig,
-) -> Result<RecordStatistics, WindFitError> {
+fn record_statistics(record: &WindRecord, config: &WindFitConfig) -> Result<RecordStatistics, WindFitError> {
     let speed = &record.speed_m_s;
     let fs = record.sample_rate_hz;
     let mean = dsp::mean(speed);
     if mean.is_nan() || mean <= 0.0 {
-        return Err(WindFitError::Analysis(format!("mean speed {mean} m/s is not positive, so turbulence intensity and gust factor are undefined")));
+        return Err(WindFitError::Analysis(format!(
+            "mean speed {mean} m/s is not positive, so turbulence intensity and gust factor are undefined"
+        )));
     }
     let std = dsp::std_dev(speed);
     let window = window_samples(config.gust_window_s, fs).max(1);
     let gust = max_moving_average(speed, window).ok_or_else(|| WindFitError::TooShort {
-        reason: format!(
-            "{} samples do not hold one {} s gust window",
-            speed.len(),
-            config.gust_window_s
-        ),
+        reason: format!("{} samples do not hold one {} s gust window", speed.len(), config.gust_window_s),
     })?;
     let averaged = moving_average(speed, window);
     let gust_window_std = dsp::std_dev(&averaged);
@@ -1010,10 +900,7 @@ fn record_statistics(
     // usual estimator; beyond it the estimate is noise). The mean of a record of length T
     // then has variance sigma^2 2 T_int / T (Lenschow et al. 1994).
     let correlation = autocorrelation(speed, speed.len() / 2)?;
-    let first_zero = correlation
-        .iter()
-        .position(|r| *r <= 0.0)
-        .unwrap_or(correlation.len());
+    let first_zero = correlation.iter().position(|r| *r <= 0.0).unwrap_or(correlation.len());
     let integral_time_scale_s = (correlation[..first_zero].iter().sum::<f64>() - 0.5) / fs;
     let duration = record.duration_s();
     Ok(RecordStatistics {
@@ -1057,10 +944,7 @@ fn interpolate_log_log<'a>(frequency_hz: &'a [f64], psd: &'a [f64]) -> impl Fn(f
 
 fn identifiability(statistics: &RecordStatistics, spectrum: &Spectrum) -> Identifiability {
     let v = statistics.mean_m_s;
-    let model = DavenportSpectrum {
-        v_mean_m_s: v,
-        kappa: 1.0,
-    };
+    let model = DavenportSpectrum { v_mean_m_s: v, kappa: 1.0 };
     let peak_hz = model.peak_frequency_hz();
     let lowest_welch_hz = spectrum.resolution_hz();
     // To resolve a peak, the estimate needs a few bins below it (segments of at least 3 peak
@@ -1075,8 +959,7 @@ fn identifiability(statistics: &RecordStatistics, spectrum: &Spectrum) -> Identi
         lowest_welch_hz,
         lowest_welch_dof: spectrum.dof,
         peak_periods_in_record: statistics.duration_s * peak_hz,
-        variance_fraction_below_lowest_welch: model.variance_below(lowest_welch_hz)
-            / model.variance(),
+        variance_fraction_below_lowest_welch: model.variance_below(lowest_welch_hz) / model.variance(),
         record_needed_s: 5.5 * segment_needed,
         peak_identifiable: 3.0 * lowest_welch_hz <= peak_hz,
     }
@@ -1123,15 +1006,8 @@ fn period_summaries(
                 upper,
             )
             .gust_factor,
-            predicted_gust_factor_measured: predict_gust(
-                "",
-                measured,
-                v_mean,
-                period,
-                config.gust_window_s,
-                0.5 * fs,
-            )
-            .gust_factor,
+            predicted_gust_factor_measured: predict_gust("", measured, v_mean, period, config.gust_window_s, 0.5 * fs)
+                .gust_factor,
         });
     }
     summaries
@@ -1147,10 +1023,7 @@ pub fn analyse(record: &WindRecord, config: &WindFitConfig) -> Result<WindAnalys
     let segment = config.segment_samples(record.speed_m_s.len(), fs);
     if segment < 64 {
         return Err(WindFitError::TooShort {
-            reason: format!(
-                "{} samples give Welch segments of only {segment} samples",
-                record.speed_m_s.len()
-            ),
+            reason: format!("{} samples give Welch segments of only {segment} samples", record.speed_m_s.len()),
         });
     }
     let spectrum = welch_psd(&record.speed_m_s, fs, &WelchConfig::new(segment))?;
@@ -1164,10 +1037,8 @@ pub fn analyse(record: &WindRecord, config: &WindFitConfig) -> Result<WindAnalys
     let from_mean = 8.0 / 3.0 * statistics.mean_std_error_m_s / v_mean;
     let kappa_relative_error = level.level_relative_error.hypot(from_mean);
     let z = standard_normal_quantile(0.5 + 0.5 * config.confidence);
-    let kappa_interval = (
-        fitted.kappa * (-z * kappa_relative_error).exp(),
-        fitted.kappa * (z * kappa_relative_error).exp(),
-    );
+    let kappa_interval =
+        (fitted.kappa * (-z * kappa_relative_error).exp(), fitted.kappa * (z * kappa_relative_error).exp());
     let height = config.effective_height_m();
     let implied = ImpliedDavenport {
         kappa: fitted.kappa,
@@ -1183,8 +1054,8 @@ pub fn analyse(record: &WindRecord, config: &WindFitConfig) -> Result<WindAnalys
     };
 
     let duration = statistics.duration_s;
-    let kappa_from_variance = statistics.std_m_s.powi(2)
-        / davenport_record_variance_per_kappa(v_mean, duration, config.gust_window_s);
+    let kappa_from_variance =
+        statistics.std_m_s.powi(2) / davenport_record_variance_per_kappa(v_mean, duration, config.gust_window_s);
     let reference = DavenportSpectrum::from_roughness(v_mean, height, config.reference_z0_m);
     let upper = 1e3 / config.gust_window_s;
     let mut predictions = Vec::new();
@@ -1192,21 +1063,11 @@ pub fn analyse(record: &WindRecord, config: &WindFitConfig) -> Result<WindAnalys
         ("Eq. 2, kappa from the -5/3 level", fitted),
         (
             "Eq. 2, kappa matching the record variance",
-            DavenportSpectrum {
-                v_mean_m_s: v_mean,
-                kappa: kappa_from_variance,
-            },
+            DavenportSpectrum { v_mean_m_s: v_mean, kappa: kappa_from_variance },
         ),
         ("Eq. 2, reference z0", reference),
     ] {
-        let mut prediction = predict_gust(
-            label,
-            &|n| model.psd(n),
-            v_mean,
-            duration,
-            config.gust_window_s,
-            upper,
-        );
+        let mut prediction = predict_gust(label, &|n| model.psd(n), v_mean, duration, config.gust_window_s, upper);
         prediction.kappa = model.kappa;
         predictions.push(prediction);
     }
@@ -1220,10 +1081,7 @@ pub fn analyse(record: &WindRecord, config: &WindFitConfig) -> Result<WindAnalys
             config.gust_window_s,
             0.5 * fs,
         ));
-        (
-            predictions,
-            period_summaries(record, config, &fitted, &measured, v_mean),
-        )
+        (predictions, period_summaries(record, config, &fitted, &measured, v_mean))
     };
 
     Ok(WindAnalysis {
@@ -1269,11 +1127,7 @@ impl ComparisonCurve {
         let segment = config.segment_samples(speed_m_s.len(), sample_rate_hz);
         let spectrum = welch_psd(speed_m_s, sample_rate_hz, &WelchConfig::new(segment))?;
         let bands = log_band_average(&spectrum, config.bands_per_decade)?;
-        Ok(Self {
-            name: name.to_string(),
-            frequency_hz: bands.frequency_hz,
-            psd: bands.psd,
-        })
+        Ok(Self { name: name.to_string(), frequency_hz: bands.frequency_hz, psd: bands.psd })
     }
 
     /// A model PSD (e.g. `|n| generator.psd_one_sided_per_hz(n)`) evaluated at `frequency_hz`.
@@ -1334,21 +1188,14 @@ pub fn compare_generator(
     let filter = ShapingFilter::davenport(&davenport);
     let fs = record.sample_rate_hz;
     let mut generator = GustGenerator::new(filter.clone(), seed);
-    let speeds: Vec<f64> = (0..record.speed_m_s.len())
-        .map(|_| v_mean + generator.step(1.0 / fs))
-        .collect();
-    let generated_record =
-        WindRecord::from_samples(&format!("generator (fmu-wind, seed {seed})"), speeds, fs);
+    let speeds: Vec<f64> = (0..record.speed_m_s.len()).map(|_| v_mean + generator.step(1.0 / fs)).collect();
+    let generated_record = WindRecord::from_samples(&format!("generator (fmu-wind, seed {seed})"), speeds, fs);
     let generated = analyse(&generated_record, config)?;
-    let std_scatter = 0.5
-        * fmu_wind::analysis::sample_variance_std(&filter, analysis.statistics.duration_s)
+    let std_scatter = 0.5 * fmu_wind::analysis::sample_variance_std(&filter, analysis.statistics.duration_s)
         / filter.stationary_variance();
     // Against this module's own Eq. 2 with the fitted kappa, so the number also checks that
     // the two implementations of Eq. 2 agree.
-    let fitted = DavenportSpectrum {
-        v_mean_m_s: v_mean,
-        kappa: analysis.implied.kappa,
-    };
+    let fitted = DavenportSpectrum { v_mean_m_s: v_mean, kappa: analysis.implied.kappa };
     let design_error_db = analysis
         .spectrum
         .frequency_hz
@@ -1366,17 +1213,13 @@ pub fn compare_generator(
     );
     prediction.kappa = davenport.kappa();
     let grid = log_grid(
-        (0.3 * analysis.identifiability.peak_hz)
-            .min(0.5 * analysis.identifiability.record_fundamental_hz),
+        (0.3 * analysis.identifiability.peak_hz).min(0.5 * analysis.identifiability.record_fundamental_hz),
         0.5 * fs,
         40,
     );
     let curves = vec![
         ComparisonCurve::from_psd(
-            &format!(
-                "our Davenport filter (fmu-wind), κ = {:.3}, exact",
-                davenport.kappa()
-            ),
+            &format!("our Davenport filter (fmu-wind), κ = {:.3}, exact", davenport.kappa()),
             &grid,
             |n| filter.psd_one_sided_per_hz(n),
         ),
@@ -1437,10 +1280,7 @@ pub fn generator_markdown(analysis: &WindAnalysis, comparison: &GeneratorCompari
     let _ = writeln!(
         r,
         "| turbulence intensity | {:.3} | {:.3} | {:.3} | {:.3} |",
-        s.turbulence_intensity,
-        eq2.turbulence_intensity,
-        p.turbulence_intensity,
-        g.turbulence_intensity
+        s.turbulence_intensity, eq2.turbulence_intensity, p.turbulence_intensity, g.turbulence_intensity
     );
     let _ = writeln!(
         r,
@@ -1466,11 +1306,7 @@ pub fn generator_markdown(analysis: &WindAnalysis, comparison: &GeneratorCompari
         comparison.generated.implied.kappa_interval.0,
         comparison.generated.implied.kappa_interval.1
     );
-    let _ = writeln!(
-        r,
-        "| skewness | {:.2} | 0 | 0 | {:.2} |\n",
-        s.skewness, g.skewness
-    );
+    let _ = writeln!(r, "| skewness | {:.2} | 0 | 0 | {:.2} |\n", s.skewness, g.skewness);
     let _ = writeln!(
         r,
         "One record of {:.0} s from this filter has a sample standard deviation that scatters by {:.0} % (1 sigma) about the filter's {:.3} m/s: \
@@ -1489,19 +1325,14 @@ pub fn generator_markdown(analysis: &WindAnalysis, comparison: &GeneratorCompari
 fn log_grid(low: f64, high: f64, per_decade: usize) -> Vec<f64> {
     let decades = (high / low).log10();
     let count = (decades * per_decade as f64).ceil().max(1.0) as usize;
-    (0..=count)
-        .map(|i| low * 10f64.powf(decades * i as f64 / count as f64))
-        .collect()
+    (0..=count).map(|i| low * 10f64.powf(decades * i as f64 / count as f64)).collect()
 }
 
 /// Draws the measured PSD (raw Welch bins, band averages with their confidence band), Eq. 2
 /// for the fitted kappa and for the reference z0, the fitted slope and the -5/3 line, with
 /// `overlays` on top; below it the premultiplied spectrum n S(n), which shows where the
 /// variance lies relative to the Davenport peak.
-pub fn spectrum_figure(
-    analysis: &WindAnalysis,
-    overlays: &[ComparisonCurve],
-) -> Result<Figure, WindFitError> {
+pub fn spectrum_figure(analysis: &WindAnalysis, overlays: &[ComparisonCurve]) -> Result<Figure, WindFitError> {
     let statistics = &analysis.statistics;
     let v = statistics.mean_m_s;
     let (lower, upper) = analysis.bands.confidence_band(analysis.config.confidence)?;
@@ -1512,44 +1343,24 @@ pub fn spectrum_figure(
         nyquist,
         40,
     );
-    let fitted = DavenportSpectrum {
-        v_mean_m_s: v,
-        kappa: analysis.implied.kappa,
-    };
-    let reference = DavenportSpectrum {
-        v_mean_m_s: v,
-        kappa: analysis.kappa_reference,
-    };
-    let variance_matched = DavenportSpectrum {
-        v_mean_m_s: v,
-        kappa: analysis.kappa_from_variance,
-    };
-    let evaluate =
-        |model: &DavenportSpectrum| grid.iter().map(|&n| model.psd(n)).collect::<Vec<f64>>();
+    let fitted = DavenportSpectrum { v_mean_m_s: v, kappa: analysis.implied.kappa };
+    let reference = DavenportSpectrum { v_mean_m_s: v, kappa: analysis.kappa_reference };
+    let variance_matched = DavenportSpectrum { v_mean_m_s: v, kappa: analysis.kappa_from_variance };
+    let evaluate = |model: &DavenportSpectrum| grid.iter().map(|&n| model.psd(n)).collect::<Vec<f64>>();
     let (fit_low, fit_high) = analysis.slope.band_hz;
     let fit_x = log_grid(fit_low, fit_high, 20);
     let fit_line: Vec<f64> = fit_x
         .iter()
-        .map(|&n| {
-            analysis.slope.psd_at_pivot * (n / analysis.slope.pivot_hz).powf(analysis.slope.slope)
-        })
+        .map(|&n| analysis.slope.psd_at_pivot * (n / analysis.slope.pivot_hz).powf(analysis.slope.slope))
         .collect();
     let kolmogorov_x = log_grid(fit_low / 3.0, (fit_high * 3.0).min(nyquist), 20);
-    let kolmogorov_line: Vec<f64> = kolmogorov_x
-        .iter()
-        .map(|&n| analysis.level.level * n.powf(KOLMOGOROV_SLOPE))
-        .collect();
+    let kolmogorov_line: Vec<f64> =
+        kolmogorov_x.iter().map(|&n| analysis.level.level * n.powf(KOLMOGOROV_SLOPE)).collect();
     let height = analysis.config.effective_height_m();
     let percent = (100.0 * analysis.config.confidence).round();
 
-    let raw: Vec<(f64, f64)> = analysis
-        .spectrum
-        .frequency_hz
-        .iter()
-        .copied()
-        .zip(analysis.spectrum.psd.iter().copied())
-        .skip(1)
-        .collect();
+    let raw: Vec<(f64, f64)> =
+        analysis.spectrum.frequency_hz.iter().copied().zip(analysis.spectrum.psd.iter().copied()).skip(1).collect();
     let (raw_f, raw_p): (Vec<f64>, Vec<f64>) = raw.into_iter().unzip();
     let mut psd_panel = Panel::new(&format!(
         "{} PSD, {} (mean {:.2} m/s, {:.0} s)",
@@ -1562,11 +1373,7 @@ pub fn spectrum_figure(
     .y_label("PSD ((m/s)²/Hz)")
     .log_x()
     .log_y()
-    .series(
-        Series::new("Welch bins", &raw_f, &raw_p)
-            .colour(Colour::rgb(200, 200, 200))
-            .width(1),
-    )
+    .series(Series::new("Welch bins", &raw_f, &raw_p).colour(Colour::rgb(200, 200, 200)).width(1))
     .line_with_band(
         "measured (band average)",
         &analysis.bands.frequency_hz,
@@ -1576,19 +1383,11 @@ pub fn spectrum_figure(
         &format!("{percent:.0} % confidence"),
     )
     .series(
-        Series::new(
-            &format!("Eq. 2, κ = {:.3} (from -5/3 level)", fitted.kappa),
-            &grid,
-            &evaluate(&fitted),
-        )
-        .dashed(),
+        Series::new(&format!("Eq. 2, κ = {:.3} (from -5/3 level)", fitted.kappa), &grid, &evaluate(&fitted)).dashed(),
     )
     .series(
         Series::new(
-            &format!(
-                "Eq. 2, κ = {:.3} (matches variance)",
-                variance_matched.kappa
-            ),
+            &format!("Eq. 2, κ = {:.3} (matches variance)", variance_matched.kappa),
             &grid,
             &evaluate(&variance_matched),
         )
@@ -1613,27 +1412,20 @@ pub fn spectrum_figure(
     )
     .series(
         Series::new(
-            &format!(
-                "fit: slope {:.2} ± {:.2}",
-                analysis.slope.slope, analysis.slope.slope_std_error
-            ),
+            &format!("fit: slope {:.2} ± {:.2}", analysis.slope.slope, analysis.slope.slope_std_error),
             &fit_x,
             &fit_line,
         )
         .colour(Colour::rgb(0, 0, 0))
         .width(3),
     )
-    .vertical_line(
-        &format!("Davenport peak {:.2} mHz", 1e3 * identifiability.peak_hz),
-        identifiability.peak_hz,
-    )
+    .vertical_line(&format!("Davenport peak {:.2} mHz", 1e3 * identifiability.peak_hz), identifiability.peak_hz)
     .vertical_line("1 / record length", identifiability.record_fundamental_hz);
-    let mut premultiplied =
-        Panel::new("Premultiplied spectrum: variance per log-frequency interval")
-            .x_label("Frequency (Hz)")
-            .y_label("n·S(n) ((m/s)²)")
-            .log_x()
-            .legend(LegendPosition::UpperRight);
+    let mut premultiplied = Panel::new("Premultiplied spectrum: variance per log-frequency interval")
+        .x_label("Frequency (Hz)")
+        .y_label("n·S(n) ((m/s)²)")
+        .log_x()
+        .legend(LegendPosition::UpperRight);
     let times_n = |f: &[f64], p: &[f64]| f.iter().zip(p).map(|(a, b)| a * b).collect::<Vec<f64>>();
     premultiplied = premultiplied
         .series(
@@ -1644,47 +1436,20 @@ pub fn spectrum_figure(
             )
             .with_markers(),
         )
+        .series(Series::new("Eq. 2, κ from -5/3 level", &grid, &times_n(&grid, &evaluate(&fitted))).dashed())
         .series(
-            Series::new(
-                "Eq. 2, κ from -5/3 level",
-                &grid,
-                &times_n(&grid, &evaluate(&fitted)),
-            )
-            .dashed(),
+            Series::new("Eq. 2, κ matching variance", &grid, &times_n(&grid, &evaluate(&variance_matched))).dashed(),
         )
-        .series(
-            Series::new(
-                "Eq. 2, κ matching variance",
-                &grid,
-                &times_n(&grid, &evaluate(&variance_matched)),
-            )
-            .dashed(),
-        )
-        .series(
-            Series::new(
-                "Eq. 2, reference z0",
-                &grid,
-                &times_n(&grid, &evaluate(&reference)),
-            )
-            .dotted(),
-        );
+        .series(Series::new("Eq. 2, reference z0", &grid, &times_n(&grid, &evaluate(&reference))).dotted());
     for overlay in overlays {
         psd_panel = psd_panel.line(&overlay.name, &overlay.frequency_hz, &overlay.psd);
-        premultiplied = premultiplied.line(
-            &overlay.name,
-            &overlay.frequency_hz,
-            &times_n(&overlay.frequency_hz, &overlay.psd),
-        );
+        premultiplied =
+            premultiplied.line(&overlay.name, &overlay.frequency_hz, &times_n(&overlay.frequency_hz, &overlay.psd));
     }
     premultiplied = premultiplied
-        .vertical_line(
-            "Davenport n·S(n) peak",
-            identifiability.premultiplied_peak_hz,
-        )
+        .vertical_line("Davenport n·S(n) peak", identifiability.premultiplied_peak_hz)
         .vertical_line("1 / record length", identifiability.record_fundamental_hz);
-    Ok(Figure::new(1100, 1200)
-        .panel(psd_panel)
-        .panel(premultiplied))
+    Ok(Figure::new(1100, 1200).panel(psd_panel).panel(premultiplied))
 }
 
 /// The record over time with its gust-window moving average and block means.
@@ -1695,69 +1460,32 @@ pub fn time_series_figure(record: &WindRecord, analysis: &WindAnalysis) -> Figur
     let window = window_samples(analysis.config.gust_window_s, fs).max(1);
     let averaged = moving_average(&record.speed_m_s, window);
     // The average over samples i..i+w is plotted at the window's centre.
-    let centre: Vec<f64> = (0..averaged.len())
-        .map(|i| time[i] + 0.5 * (window - 1) as f64 / fs)
-        .collect();
-    let mut panel = Panel::new(&format!(
-        "{} from {}",
-        record.column,
-        file_name(&record.source)
-    ))
-    .x_label("Time from start (s)")
-    .y_label("Speed (m/s)")
-    .series(
-        Series::new("measured", &time, &record.speed_m_s)
-            .colour(Colour::rgb(170, 190, 215))
-            .width(1),
-    )
-    .series(
-        Series::new(
-            &format!("{} s moving average", analysis.config.gust_window_s),
-            &centre,
-            &averaged,
-        )
-        .width(2),
-    );
-    if let Some(minute) = analysis
-        .periods
-        .iter()
-        .find(|p| (p.period_s - 60.0).abs() < 1e-9)
-    {
-        let (x, y): (Vec<f64>, Vec<f64>) = minute
-            .blocks
-            .iter()
-            .map(|b| (b.start_s + 30.0, b.mean_m_s))
-            .unzip();
+    let centre: Vec<f64> = (0..averaged.len()).map(|i| time[i] + 0.5 * (window - 1) as f64 / fs).collect();
+    let mut panel = Panel::new(&format!("{} from {}", record.column, file_name(&record.source)))
+        .x_label("Time from start (s)")
+        .y_label("Speed (m/s)")
+        .series(Series::new("measured", &time, &record.speed_m_s).colour(Colour::rgb(170, 190, 215)).width(1))
+        .series(
+            Series::new(&format!("{} s moving average", analysis.config.gust_window_s), &centre, &averaged).width(2),
+        );
+    if let Some(minute) = analysis.periods.iter().find(|p| (p.period_s - 60.0).abs() < 1e-9) {
+        let (x, y): (Vec<f64>, Vec<f64>) = minute.blocks.iter().map(|b| (b.start_s + 30.0, b.mean_m_s)).unzip();
         panel = panel.series(Series::new("1-min means", &x, &y).markers_only());
     }
-    let gust_label = format!(
-        "{} s gust {:.2} m/s",
-        analysis.config.gust_window_s, analysis.statistics.gust_m_s
-    );
+    let gust_label = format!("{} s gust {:.2} m/s", analysis.config.gust_window_s, analysis.statistics.gust_m_s);
     panel = panel
-        .horizontal_line(
-            &format!("mean {:.2} m/s", analysis.statistics.mean_m_s),
-            analysis.statistics.mean_m_s,
-        )
-        .vertical_line(
-            &gust_label,
-            analysis.statistics.gust_time_s + 0.5 * analysis.config.gust_window_s,
-        );
+        .horizontal_line(&format!("mean {:.2} m/s", analysis.statistics.mean_m_s), analysis.statistics.mean_m_s)
+        .vertical_line(&gust_label, analysis.statistics.gust_time_s + 0.5 * analysis.config.gust_window_s);
     Figure::new(1400, 500).panel(panel)
 }
 
 fn file_name(source: &str) -> String {
-    Path::new(source)
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| source.to_string())
+    Path::new(source).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| source.to_string())
 }
 
 /// The turbulence-intensity and gust-factor summary as CSV: one line per block.
 pub fn gust_summary_csv(analysis: &WindAnalysis) -> String {
-    let mut csv = String::from(
-        "period_s,block,start_s,mean_m_s,std_m_s,turbulence_intensity,gust_m_s,gust_factor\n",
-    );
+    let mut csv = String::from("period_s,block,start_s,mean_m_s,std_m_s,turbulence_intensity,gust_m_s,gust_factor\n");
     for period in &analysis.periods {
         for (i, block) in period.blocks.iter().enumerate() {
             let _ = writeln!(
@@ -1778,11 +1506,7 @@ pub fn gust_summary_csv(analysis: &WindAnalysis) -> String {
 }
 
 /// The report as Markdown. `files` lists the files written beside it (may be empty).
-pub fn report_markdown(
-    analysis: &WindAnalysis,
-    overlays: &[ComparisonCurve],
-    files: &[PathBuf],
-) -> String {
+pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], files: &[PathBuf]) -> String {
     let s = &analysis.statistics;
     let c = &analysis.config;
     let slope = &analysis.slope;
@@ -1792,22 +1516,14 @@ pub fn report_markdown(
     let percent = 100.0 * c.confidence;
     let height = c.effective_height_m();
     let mut r = String::new();
-    let _ = writeln!(
-        r,
-        "# Measured wind: {} ({})\n",
-        file_name(&analysis.source),
-        analysis.column
-    );
+    let _ = writeln!(r, "# Measured wind: {} ({})\n", file_name(&analysis.source), analysis.column);
     let _ = writeln!(
         r,
         "Source: `{}`. Instrument height {} m{}; reference roughness z0 = {} m.\n",
         analysis.source,
         c.height_m,
         if c.displacement_m != 0.0 {
-            format!(
-                ", displacement {} m (effective height {height:.2} m)",
-                c.displacement_m
-            )
+            format!(", displacement {} m (effective height {height:.2} m)", c.displacement_m)
         } else {
             String::new()
         },
@@ -1816,38 +1532,27 @@ pub fn report_markdown(
 
     let _ = writeln!(r, "## Record statistics\n");
     let _ = writeln!(r, "| quantity | value |\n| --- | --- |");
+    let _ =
+        writeln!(r, "| samples, rate, length | {} at {:.3} Hz, {:.1} s |", s.samples, s.sample_rate_hz, s.duration_s);
     let _ = writeln!(
         r,
-        "| samples, rate, length | {} at {:.3} Hz, {:.1} s |",
-        s.samples, s.sample_rate_hz, s.duration_s
+        "| mean speed | {:.3} m/s (standard error {:.3} m/s from an integral time scale of {:.1} s) |",
+        s.mean_m_s, s.mean_std_error_m_s, s.integral_time_scale_s
     );
-    let _ = writeln!(r, "| mean speed | {:.3} m/s (standard error {:.3} m/s from an integral time scale of {:.1} s) |", s.mean_m_s, s.mean_std_error_m_s, s.integral_time_scale_s);
     let _ = writeln!(r, "| standard deviation | {:.3} m/s |", s.std_m_s);
-    let _ = writeln!(
-        r,
-        "| turbulence intensity | {:.3} |",
-        s.turbulence_intensity
-    );
+    let _ = writeln!(r, "| turbulence intensity | {:.3} |", s.turbulence_intensity);
     let _ = writeln!(
         r,
         "| {} s gust (largest {} s moving average) | {:.3} m/s at t = {:.1} s |",
         c.gust_window_s, c.gust_window_s, s.gust_m_s, s.gust_time_s
     );
-    let _ = writeln!(
-        r,
-        "| gust factor (gust / record mean) | {:.3} |",
-        s.gust_factor
-    );
+    let _ = writeln!(r, "| gust factor (gust / record mean) | {:.3} |", s.gust_factor);
     let _ = writeln!(
         r,
         "| std of the {} s average; observed peak factor (gust - mean) / std | {:.3} m/s; {:.2} |",
         c.gust_window_s, s.gust_window_std_m_s, s.observed_peak_factor
     );
-    let _ = writeln!(
-        r,
-        "| skewness, excess kurtosis | {:.2}, {:.2} |\n",
-        s.skewness, s.kurtosis_excess
-    );
+    let _ = writeln!(r, "| skewness, excess kurtosis | {:.2}, {:.2} |\n", s.skewness, s.kurtosis_excess);
 
     let spectrum = &analysis.spectrum;
     let _ = writeln!(r, "## Spectrum\n");
@@ -1875,18 +1580,18 @@ pub fn report_markdown(
     } else {
         " (as configured)"
     };
-    let _ = writeln!(r, "Fit range {:.3} to {:.3} Hz{automatic}: {} bands, {} Welch bins, weighted by their chi-squared statistics.\n", slope.band_hz.0, slope.band_hz.1, slope.bands, slope.raw_bins);
+    let _ = writeln!(
+        r,
+        "Fit range {:.3} to {:.3} Hz{automatic}: {} bands, {} Welch bins, weighted by their chi-squared statistics.\n",
+        slope.band_hz.0, slope.band_hz.1, slope.bands, slope.raw_bins
+    );
     let _ = writeln!(
         r,
         "- Slope: **{:.3} ± {:.3}** (1 sigma; reduced chi-squared {:.2}{}).",
         slope.slope,
         slope.slope_std_error,
         slope.reduced_chi_squared,
-        if slope.reduced_chi_squared > 1.0 {
-            ", uncertainty scaled up by its square root"
-        } else {
-            ""
-        }
+        if slope.reduced_chi_squared > 1.0 { ", uncertainty scaled up by its square root" } else { "" }
     );
     let verdict = if slope.consistent_with_kolmogorov {
         format!(
@@ -1894,12 +1599,12 @@ pub fn report_markdown(
             slope.deviation_from_kolmogorov_sigmas
         )
     } else {
-        let direction = if slope.slope > KOLMOGOROV_SLOPE {
-            "shallower"
-        } else {
-            "steeper"
-        };
-        format!("**not consistent with -5/3** at {percent:.0} % confidence: {direction} by {:.3} ({:+.1} sigma)", (slope.slope - KOLMOGOROV_SLOPE).abs(), slope.deviation_from_kolmogorov_sigmas)
+        let direction = if slope.slope > KOLMOGOROV_SLOPE { "shallower" } else { "steeper" };
+        format!(
+            "**not consistent with -5/3** at {percent:.0} % confidence: {direction} by {:.3} ({:+.1} sigma)",
+            (slope.slope - KOLMOGOROV_SLOPE).abs(),
+            slope.deviation_from_kolmogorov_sigmas
+        )
     };
     let _ = writeln!(r, "- Compared with Kolmogorov's -5/3 = -1.667: {verdict}.");
     let _ = writeln!(r, "- Level with the slope fixed at -5/3: S(n) = A n^(-5/3), A = **{:.4e} (m/s)² Hz^(2/3)** ± {:.1} % (reduced chi-squared {:.2}); S(1 Hz) = {:.4e} (m/s)²/Hz.\n",
@@ -1909,10 +1614,7 @@ pub fn report_markdown(
             two components, not the longitudinal component; light convective wind just above a canopy (roughness sublayer) departs from surface-layer similarity; \
             aliasing and sonic path averaging act near the top of the range. The level and kappa below assume -5/3 regardless.\n");
     }
-    let _ = writeln!(
-        r,
-        "Local slopes per half decade (weighted fits over the bands in each):\n"
-    );
+    let _ = writeln!(r, "Local slopes per half decade (weighted fits over the bands in each):\n");
     let _ = writeln!(r, "| range (Hz) | slope | ± |\n| --- | --- | --- |");
     for local in &analysis.local_slopes {
         let _ = writeln!(
@@ -1949,7 +1651,11 @@ pub fn report_markdown(
     let _ = writeln!(r, "## What the record cannot identify\n");
     let _ = writeln!(r, "- Davenport peak of S(n): x² = 3/5, n = sqrt(3/5) v_m / L = **{:.3} mHz** (period {:.0} s). Peak of n S(n) (per log frequency): x² = 3, n = sqrt(3) v_m / L = {:.3} mHz (period {:.0} s).",
         1e3 * id.peak_hz, 1.0 / id.peak_hz, 1e3 * id.premultiplied_peak_hz, 1.0 / id.premultiplied_peak_hz);
-    let _ = writeln!(r, "- The formula v_m / (1200 sqrt 2) = {:.3} mHz (x² = 1/2) is the maximum of neither S(n) nor n S(n).", 1e3 * id.quoted_formula_hz);
+    let _ = writeln!(
+        r,
+        "- The formula v_m / (1200 sqrt 2) = {:.3} mHz (x² = 1/2) is the maximum of neither S(n) nor n S(n).",
+        1e3 * id.quoted_formula_hz
+    );
     let _ = writeln!(r, "- The record lasts {:.0} s = {:.1} periods of the S(n) peak; 1 / length = {:.3} mHz. The lowest Welch bin is {:.3} mHz with {:.1} dof; \
         {:.0} % of Eq. 2's variance lies below it (for any kappa).",
         s.duration_s, id.peak_periods_in_record, 1e3 * id.record_fundamental_hz, 1e3 * id.lowest_welch_hz, id.lowest_welch_dof, 100.0 * id.variance_fraction_below_lowest_welch);
@@ -1957,7 +1663,8 @@ pub fn report_markdown(
         r,
         "- {}",
         if id.peak_identifiable {
-            "The Welch estimate reaches below the peak with at least three bins, so the peak region is resolved.".to_string()
+            "The Welch estimate reaches below the peak with at least three bins, so the peak region is resolved."
+                .to_string()
         } else {
             format!("**The spectral peak is not identifiable from this record**, so neither is a full Davenport fit (kappa together with the length scale that places the peak): \
             resolving the peak with three Welch bins below it and ten averaged segments would take about {:.1} h of stationary wind at this mean speed. \
@@ -1973,19 +1680,10 @@ pub fn report_markdown(
     let _ = writeln!(
         r,
         "| **measured record** | | {:.3} | {:.3} | {:.3} | | {:.2} | {:.3} | {:.3} |",
-        s.std_m_s,
-        s.turbulence_intensity,
-        s.gust_window_std_m_s,
-        s.observed_peak_factor,
-        s.gust_m_s,
-        s.gust_factor
+        s.std_m_s, s.turbulence_intensity, s.gust_window_std_m_s, s.observed_peak_factor, s.gust_m_s, s.gust_factor
     );
     for p in &analysis.predictions {
-        let kappa = if p.kappa.is_nan() {
-            String::new()
-        } else {
-            format!("{:.4}", p.kappa)
-        };
+        let kappa = if p.kappa.is_nan() { String::new() } else { format!("{:.4}", p.kappa) };
         let _ = writeln!(
             r,
             "| {} | {kappa} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} | {:.3} |",
@@ -2003,21 +1701,14 @@ pub fn report_markdown(
         and a skewed record (skewness {:.2}) has larger upward gusts than the Gaussian theory allows.\n",
         analysis.predictions.last().map(|p| std::f64::consts::PI / 6f64.sqrt() / (2.0 * (p.crossing_rate_hz * s.duration_s).max(std::f64::consts::E).ln()).sqrt()).unwrap_or(f64::NAN), s.skewness);
 
-    let _ = writeln!(
-        r,
-        "## Turbulence intensity and gust factor by averaging period\n"
-    );
+    let _ = writeln!(r, "## Turbulence intensity and gust factor by averaging period\n");
     let _ = writeln!(r, "Non-overlapping blocks; the gust is the largest {} s average within a block, the gust factor is gust / block mean. \
         Expected gust factors use the record's overall mean speed.\n", c.gust_window_s);
     let _ = writeln!(r, "| period (s) | blocks | block means (m/s) | mean TI | mean gust factor | max gust factor | expected, Eq. 2 (kappa from level) | expected, measured spectrum |");
     let _ = writeln!(r, "| --- | --- | --- | --- | --- | --- | --- | --- |");
     for p in &analysis.periods {
         let means: Vec<f64> = p.blocks.iter().map(|b| b.mean_m_s).collect();
-        let (low, high) = means
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &m| {
-                (a.min(m), b.max(m))
-            });
+        let (low, high) = means.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &m| (a.min(m), b.max(m)));
         let _ = writeln!(
             r,
             "| {:.0} | {} | {:.2} - {:.2} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
@@ -2035,12 +1726,7 @@ pub fn report_markdown(
     if !overlays.is_empty() {
         let _ = writeln!(r, "\n## Overlays\n");
         for overlay in overlays {
-            let _ = writeln!(
-                r,
-                "- {} ({} points)",
-                overlay.name,
-                overlay.frequency_hz.len()
-            );
+            let _ = writeln!(r, "- {} ({} points)", overlay.name, overlay.frequency_hz.len());
         }
     }
     if !files.is_empty() {
@@ -2121,15 +1807,11 @@ pub fn parse_cli_args(args: &[String]) -> Result<Option<CliOptions>, WindFitErro
     let mut config = WindFitConfig::new(f64::NAN);
     let mut iter = args.iter();
     let number = |flag: &str, value: Option<&String>| -> Result<f64, WindFitError> {
-        let text =
-            value.ok_or_else(|| WindFitError::InvalidConfig(format!("{flag} needs a value")))?;
-        text.parse::<f64>()
-            .map_err(|_| WindFitError::InvalidConfig(format!("{flag}: '{text}' is not a number")))
+        let text = value.ok_or_else(|| WindFitError::InvalidConfig(format!("{flag} needs a value")))?;
+        text.parse::<f64>().map_err(|_| WindFitError::InvalidConfig(format!("{flag}: '{text}' is not a number")))
     };
     let text = |flag: &str, value: Option<&String>| -> Result<String, WindFitError> {
-        value
-            .cloned()
-            .ok_or_else(|| WindFitError::InvalidConfig(format!("{flag} needs a value")))
+        value.cloned().ok_or_else(|| WindFitError::InvalidConfig(format!("{flag} needs a value")))
     };
     while let Some(arg) = iter.next() {
         match arg.as_str() {
@@ -2148,9 +1830,7 @@ pub fn parse_cli_args(args: &[String]) -> Result<Option<CliOptions>, WindFitErro
                     .split_once(':')
                     .and_then(|(a, b)| Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?)))
                     .ok_or_else(|| {
-                        WindFitError::InvalidConfig(format!(
-                            "--fit-band: '{value}' is not LOW:HIGH in Hz"
-                        ))
+                        WindFitError::InvalidConfig(format!("--fit-band: '{value}' is not LOW:HIGH in Hz"))
                     })?;
                 config.fit_band_hz = Some((low, high));
             }
@@ -2159,23 +1839,15 @@ pub fn parse_cli_args(args: &[String]) -> Result<Option<CliOptions>, WindFitErro
             "--generator-seed" => {
                 let value = text(arg, iter.next())?;
                 generator_seed = Some(value.parse::<u64>().map_err(|_| {
-                    WindFitError::InvalidConfig(format!(
-                        "--generator-seed: '{value}' is not a non-negative integer"
-                    ))
+                    WindFitError::InvalidConfig(format!("--generator-seed: '{value}' is not a non-negative integer"))
                 })?);
             }
             "--no-generator" => generator_seed = None,
             "--out-dir" => out_dir = PathBuf::from(text(arg, iter.next())?),
-            flag if flag.starts_with('-') => {
-                return Err(WindFitError::InvalidConfig(format!(
-                    "unknown option {flag}"
-                )))
-            }
+            flag if flag.starts_with('-') => return Err(WindFitError::InvalidConfig(format!("unknown option {flag}"))),
             path => {
                 if input.replace(PathBuf::from(path)).is_some() {
-                    return Err(WindFitError::InvalidConfig(
-                        "more than one input record given".into(),
-                    ));
+                    return Err(WindFitError::InvalidConfig("more than one input record given".into()));
                 }
             }
         }
@@ -2219,10 +1891,8 @@ pub fn run_cli(options: &CliOptions) -> Result<String, WindFitError> {
     if let Some(comparison) = &generator {
         overlays.extend(comparison.curves.iter().cloned());
     }
-    std::fs::create_dir_all(&options.out_dir).map_err(|e| WindFitError::Io {
-        path: options.out_dir.display().to_string(),
-        message: e.to_string(),
-    })?;
+    std::fs::create_dir_all(&options.out_dir)
+        .map_err(|e| WindFitError::Io { path: options.out_dir.display().to_string(), message: e.to_string() })?;
     let psd_path = options.out_dir.join("psd.png");
     let series_path = options.out_dir.join("timeseries.png");
     let summary_path = options.out_dir.join("gust-summary.csv");
@@ -2230,10 +1900,8 @@ pub fn run_cli(options: &CliOptions) -> Result<String, WindFitError> {
     spectrum_figure(&analysis, &overlays)?.save_png(&psd_path)?;
     time_series_figure(&record, &analysis).save_png(&series_path)?;
     let write = |path: &Path, text: &str| {
-        std::fs::write(path, text).map_err(|e| WindFitError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })
+        std::fs::write(path, text)
+            .map_err(|e| WindFitError::Io { path: path.display().to_string(), message: e.to_string() })
     };
     write(&summary_path, &gust_summary_csv(&analysis))?;
     // The generator's section goes before the list of files, which ends the report.
@@ -2267,20 +1935,19 @@ mod tests {
     ) -> WindRecord {
         let len = (seconds * sample_rate_hz).round() as usize;
         let long = process_with_psd(4 * len, sample_rate_hz, seed, psd);
-        let speed = long[len + len / 2..2 * len + len / 2]
-            .iter()
-            .map(|v| v + v_mean)
-            .collect();
+        let speed = long[len + len / 2..2 * len + len / 2].iter().map(|v| v + v_mean).collect();
         WindRecord::from_samples(&format!("synthetic seed {seed}"), speed, sample_rate_hz)
     }
 
     fn shared_wind_record() -> Option<PathBuf> {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/data/sonic-anemometer-20hz/wind_20hz.csv");
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/sonic-anemometer-20hz/wind_20hz.csv");
         if path.exists() {
             Some(path)
         } else {
-            eprintln!("SKIPPED: measured wind record not found at {} (the shared/ data directory sits beside the repository)", path.display());
+            eprintln!(
+                "SKIPPED: measured wind record not found at {} (the shared/ data directory sits beside the repository)",
+                path.display()
+            );
             None
         }
     }
@@ -2300,10 +1967,7 @@ mod tests {
         assert_eq!(format!("{:.2}", s.std_m_s), "0.93");
 
         let slope = &analysis.slope;
-        assert!(
-            slope.slope_std_error > 0.0 && slope.slope_std_error < 0.2,
-            "{slope:?}"
-        );
+        assert!(slope.slope_std_error > 0.0 && slope.slope_std_error < 0.2, "{slope:?}");
         let z = standard_normal_quantile(0.975);
         assert_eq!(
             slope.consistent_with_kolmogorov,
@@ -2313,10 +1977,7 @@ mod tests {
         if slope.consistent_with_kolmogorov {
             assert!(report.contains("consistent with -5/3") && !report.contains("not consistent"));
         } else {
-            assert!(
-                report.contains("**not consistent with -5/3**"),
-                "an inconsistent slope must be reported as such"
-            );
+            assert!(report.contains("**not consistent with -5/3**"), "an inconsistent slope must be reported as such");
         }
         // Davenport's peak (1.16 mHz at 1.8 m/s) lies below three Welch bins of 600 s: the
         // report must say the peak, and so a full Davenport fit, is not identifiable.
@@ -2348,19 +2009,10 @@ mod tests {
             level_inside += usize::from(level_z.abs() <= 1.96);
             assert_eq!(analysis.slope.consistent_with_kolmogorov, z.abs() <= 1.96);
         }
-        assert!(
-            slope_inside >= 34,
-            "slope within 1.96 sigma in {slope_inside} of {seeds} records"
-        );
-        assert!(
-            level_inside >= 34,
-            "level within 1.96 sigma in {level_inside} of {seeds} records"
-        );
+        assert!(slope_inside >= 34, "slope within 1.96 sigma in {slope_inside} of {seeds} records");
+        assert!(level_inside >= 34, "level within 1.96 sigma in {level_inside} of {seeds} records");
         let rms_z = (slope_z_squares / seeds as f64).sqrt();
-        assert!(
-            rms_z > 0.5,
-            "slope errors are {rms_z} standard errors on average: the uncertainty is overstated"
-        );
+        assert!(rms_z > 0.5, "slope errors are {rms_z} standard errors on average: the uncertainty is overstated");
     }
 
     #[test]
@@ -2369,11 +2021,7 @@ mod tests {
         config.fit_band_hz = Some((0.25, 2.5));
         let record = synthetic_record(|f| 0.02 * f.powf(-2.2), 4.0, 1800.0, 20.0, 7);
         let analysis = analyse(&record, &config).unwrap();
-        assert!(
-            (analysis.slope.slope + 2.2).abs() < 3.0 * analysis.slope.slope_std_error,
-            "{:?}",
-            analysis.slope
-        );
+        assert!((analysis.slope.slope + 2.2).abs() < 3.0 * analysis.slope.slope_std_error, "{:?}", analysis.slope);
         assert!(!analysis.slope.consistent_with_kolmogorov);
         assert!(report_markdown(&analysis, &[], &[]).contains("steeper by"));
     }
@@ -2391,11 +2039,7 @@ mod tests {
         let analysis = analyse(&record, &config).unwrap();
         let comparison = compare_generator(&record, &analysis, 3).unwrap();
         assert!((comparison.davenport.kappa() / analysis.implied.kappa - 1.0).abs() < 1e-9);
-        assert!(
-            comparison.design_error_db < 0.1,
-            "design error {} dB",
-            comparison.design_error_db
-        );
+        assert!(comparison.design_error_db < 0.1, "design error {} dB", comparison.design_error_db);
         let generated = &comparison.generated;
         assert_eq!(generated.statistics.samples, record.speed_m_s.len());
         assert_eq!(generated.statistics.sample_rate_hz, record.sample_rate_hz);
@@ -2410,14 +2054,9 @@ mod tests {
         );
         // The overlay curves: the exact spectrum, and the generated record on the measured bands.
         assert_eq!(comparison.curves.len(), 2);
-        assert_eq!(
-            comparison.curves[1].frequency_hz,
-            generated.bands.frequency_hz
-        );
+        assert_eq!(comparison.curves[1].frequency_hz, generated.bands.frequency_hz);
         let section = generator_markdown(&analysis, &comparison);
-        assert!(
-            section.contains("## Generator (fmu-wind)") && section.contains("generated record")
-        );
+        assert!(section.contains("## Generator (fmu-wind)") && section.contains("generated record"));
     }
 
     #[test]
@@ -2428,16 +2067,9 @@ mod tests {
         let record = synthetic_record(|n| truth.psd(n), truth.v_mean_m_s, 1800.0, 20.0, 11);
         let analysis = analyse(&record, &config).unwrap();
         let (low, high) = analysis.implied.kappa_interval;
-        assert!(
-            low < truth.kappa && truth.kappa < high,
-            "kappa {} not in {low}..{high}",
-            truth.kappa
-        );
+        assert!(low < truth.kappa && truth.kappa < high, "kappa {} not in {low}..{high}", truth.kappa);
         let (z0_low, z0_high) = analysis.implied.z0_interval_m;
-        assert!(
-            z0_low < 0.05 && 0.05 < z0_high,
-            "z0 interval {z0_low}..{z0_high}"
-        );
+        assert!(z0_low < 0.05 && 0.05 < z0_high, "z0 interval {z0_low}..{z0_high}");
         // At 10 m/s the record spans 15 peak periods and resolves the peak.
         assert!(analysis.identifiability.peak_identifiable);
     }
@@ -2446,32 +2078,21 @@ mod tests {
     fn davenport_closed_forms_match_numerical_integration_and_maxima() {
         let model = DavenportSpectrum::from_roughness(3.0, 10.0, 0.4);
         // PHYSICS-NOTES item 4: kappa = 0.01544 and sigma = 0.304 v_m for z = 10 m, z0 = 0.4 m.
-        assert!(
-            (model.kappa - 0.01544).abs() < 5e-6,
-            "kappa {}",
-            model.kappa
-        );
+        assert!((model.kappa - 0.01544).abs() < 5e-6, "kappa {}", model.kappa);
         assert!(((model.variance().sqrt() / 3.0) - 0.304).abs() < 5e-4);
         // Integral of the PSD over a log grid (trapezoid in ln n).
         let grid = log_grid(1e-7, 1e5, 2000);
         let integral = |upper: f64| -> f64 {
             grid.windows(2)
                 .filter(|w| w[1] <= upper)
-                .map(|w| {
-                    0.5 * (model.psd(w[0]) * w[0] + model.psd(w[1]) * w[1]) * (w[1] / w[0]).ln()
-                })
+                .map(|w| 0.5 * (model.psd(w[0]) * w[0] + model.psd(w[1]) * w[1]) * (w[1] / w[0]).ln())
                 .sum()
         };
         assert!((integral(1e5) / model.variance() - 1.0).abs() < 1e-3);
         let n = grid.iter().copied().find(|n| *n >= 0.01).unwrap();
         assert!((integral(n) / model.variance_below(n) - 1.0).abs() < 2e-3);
         // The stated peaks are the maxima of S(n) and n S(n) on a dense grid.
-        let argmax = |f: &dyn Fn(f64) -> f64| {
-            grid.iter()
-                .copied()
-                .max_by(|a, b| f(*a).total_cmp(&f(*b)))
-                .unwrap()
-        };
+        let argmax = |f: &dyn Fn(f64) -> f64| grid.iter().copied().max_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap();
         let peak = argmax(&|n| model.psd(n));
         let premultiplied = argmax(&|n| n * model.psd(n));
         assert!((peak / model.peak_frequency_hz() - 1.0).abs() < 0.01);
@@ -2502,10 +2123,7 @@ mod tests {
             let mean = dsp::mean(&record.speed_m_s);
             variance.push(dsp::variance(&record.speed_m_s));
             gust_variance.push(dsp::variance(&averaged));
-            peak.push(
-                (averaged.iter().copied().fold(f64::MIN, f64::max) - mean)
-                    / prediction.gust_window_sigma_m_s,
-            );
+            peak.push((averaged.iter().copied().fold(f64::MIN, f64::max) - mean) / prediction.gust_window_sigma_m_s);
         }
         let check = |values: &[f64], expected: f64, model_tolerance: f64, what: &str| {
             let mean = dsp::mean(values);
@@ -2515,18 +2133,8 @@ mod tests {
                 "{what}: simulated {mean} +- {standard_error}, predicted {expected}"
             );
         };
-        check(
-            &variance,
-            prediction.sigma_m_s.powi(2),
-            0.0,
-            "record variance",
-        );
-        check(
-            &gust_variance,
-            prediction.gust_window_sigma_m_s.powi(2),
-            0.0,
-            "3-s average variance",
-        );
+        check(&variance, prediction.sigma_m_s.powi(2), 0.0, "record variance");
+        check(&gust_variance, prediction.gust_window_sigma_m_s.powi(2), 0.0, "3-s average variance");
         check(&peak, prediction.peak_factor, 0.05, "peak factor");
     }
 
@@ -2534,28 +2142,21 @@ mod tests {
     fn averaging_period_summary_covers_whole_blocks() {
         let record = synthetic_record(|f| 0.02 * f.powf(KOLMOGOROV_SLOPE), 5.0, 1800.0, 20.0, 3);
         let analysis = analyse(&record, &WindFitConfig::new(10.0)).unwrap();
-        let counts: Vec<(f64, usize)> = analysis
-            .periods
-            .iter()
-            .map(|p| (p.period_s, p.blocks.len()))
-            .collect();
-        assert_eq!(
-            counts,
-            vec![(60.0, 30), (300.0, 6), (600.0, 3), (1800.0, 1)]
-        );
+        let counts: Vec<(f64, usize)> = analysis.periods.iter().map(|p| (p.period_s, p.blocks.len())).collect();
+        assert_eq!(counts, vec![(60.0, 30), (300.0, 6), (600.0, 3), (1800.0, 1)]);
         let whole = &analysis.periods[3].blocks[0];
         assert!((whole.gust_m_s - analysis.statistics.gust_m_s).abs() < 1e-12);
         let csv = gust_summary_csv(&analysis);
         assert_eq!(csv.lines().count(), 1 + 30 + 6 + 3 + 1);
     }
 
-    const GOOD_CSV: &str = "time_s,u_x_m_s,horizontal_speed_m_s\n0.00,1.0,2.0\n0.05,1.1,2.1\n0.10,1.2,2.2\n0.15,1.3,2.3\n";
+    const GOOD_CSV: &str =
+        "time_s,u_x_m_s,horizontal_speed_m_s\n0.00,1.0,2.0\n0.05,1.1,2.1\n0.10,1.2,2.2\n0.15,1.3,2.3\n";
 
     #[test]
     fn well_formed_csv_with_comments_bom_quotes_and_crlf_is_read() {
         let text = "\u{feff}# a comment\r\n\"time_s\", \"u_x_m_s\" ,horizontal_speed_m_s\r\n\r\n0.00,1.0,2.0\r\n0.05,1.1,2.1\r\n0.10,1.2,2.2\r\n";
-        let record =
-            parse_wind_csv(text, "test", DEFAULT_TIME_COLUMN, DEFAULT_SPEED_COLUMN).unwrap();
+        let record = parse_wind_csv(text, "test", DEFAULT_TIME_COLUMN, DEFAULT_SPEED_COLUMN).unwrap();
         assert_eq!(record.speed_m_s, vec![2.0, 2.1, 2.2]);
         assert!((record.sample_rate_hz - 20.0).abs() < 1e-9);
         let other = parse_wind_csv(GOOD_CSV, "test", DEFAULT_TIME_COLUMN, "u_x_m_s").unwrap();
@@ -2577,10 +2178,7 @@ mod tests {
                 available: vec!["time_s".into(), "speed".into()]
             }
         );
-        assert!(
-            error.to_string().contains("horizontal_speed_m_s")
-                && error.to_string().contains("time_s, speed")
-        );
+        assert!(error.to_string().contains("horizontal_speed_m_s") && error.to_string().contains("time_s, speed"));
     }
 
     #[test]
@@ -2588,89 +2186,49 @@ mod tests {
         let error = parse(&GOOD_CSV.replace("0.10,1.2,2.2", "0.10,1.2,fast"));
         assert_eq!(
             error,
-            WindFitError::NonNumeric {
-                line: 4,
-                column: DEFAULT_SPEED_COLUMN.into(),
-                text: "fast".into()
-            }
+            WindFitError::NonNumeric { line: 4, column: DEFAULT_SPEED_COLUMN.into(), text: "fast".into() }
         );
-        assert_eq!(
-            error.to_string(),
-            "line 4, column 'horizontal_speed_m_s': 'fast' is not a number"
-        );
+        assert_eq!(error.to_string(), "line 4, column 'horizontal_speed_m_s': 'fast' is not a number");
         let empty = parse(&GOOD_CSV.replace("0.05,1.1,2.1", "0.05,1.1,"));
-        assert_eq!(
-            empty.to_string(),
-            "line 3, column 'horizontal_speed_m_s': empty cell"
-        );
+        assert_eq!(empty.to_string(), "line 3, column 'horizontal_speed_m_s': empty cell");
     }
 
     #[test]
     fn nan_and_infinite_cells_are_rejected_with_their_line() {
         let error = parse(&GOOD_CSV.replace("0.10,1.2,2.2", "0.10,1.2,NaN"));
-        assert_eq!(
-            error,
-            WindFitError::NonFinite {
-                line: 4,
-                column: DEFAULT_SPEED_COLUMN.into(),
-                text: "NaN".into()
-            }
-        );
+        assert_eq!(error, WindFitError::NonFinite { line: 4, column: DEFAULT_SPEED_COLUMN.into(), text: "NaN".into() });
         let time = parse(&GOOD_CSV.replace("0.15,1.3,2.3", "inf,1.3,2.3"));
-        assert!(
-            matches!(time, WindFitError::NonFinite { line: 5, ref column, .. } if column == "time_s")
-        );
+        assert!(matches!(time, WindFitError::NonFinite { line: 5, ref column, .. } if column == "time_s"));
     }
 
     #[test]
     fn non_increasing_time_names_the_line() {
         let error = parse(&GOOD_CSV.replace("0.10,1.2,2.2", "0.05,1.2,2.2"));
-        assert_eq!(
-            error,
-            WindFitError::NonIncreasingTime {
-                line: 4,
-                previous_s: 0.05,
-                current_s: 0.05
-            }
-        );
+        assert_eq!(error, WindFitError::NonIncreasingTime { line: 4, previous_s: 0.05, current_s: 0.05 });
         assert!(error.to_string().starts_with("line 4, time column"));
     }
 
     #[test]
     fn a_gap_in_time_is_irregular_sampling_at_its_line() {
         let error = parse(&GOOD_CSV.replace("0.15,1.3,2.3", "0.25,1.3,2.3"));
-        assert!(
-            matches!(error, WindFitError::IrregularSampling { line: 5, .. }),
-            "{error:?}"
-        );
+        assert!(matches!(error, WindFitError::IrregularSampling { line: 5, .. }), "{error:?}");
     }
 
     #[test]
     fn short_rows_empty_files_and_headers_alone_are_errors() {
         assert_eq!(
             parse(&GOOD_CSV.replace("0.05,1.1,2.1", "0.05,1.1")),
-            WindFitError::RowLength {
-                line: 3,
-                expected: 3,
-                found: 2
-            }
+            WindFitError::RowLength { line: 3, expected: 3, found: 2 }
         );
         assert_eq!(parse(""), WindFitError::NoHeader);
         assert_eq!(parse("\n# only a comment\n"), WindFitError::NoHeader);
-        assert!(matches!(
-            parse("time_s,horizontal_speed_m_s\n"),
-            WindFitError::TooShort { .. }
-        ));
+        assert!(matches!(parse("time_s,horizontal_speed_m_s\n"), WindFitError::TooShort { .. }));
     }
 
     #[test]
     fn missing_file_is_an_io_error_naming_the_path() {
-        let error = read_wind_csv(
-            Path::new("/nonexistent/wind.csv"),
-            DEFAULT_TIME_COLUMN,
-            DEFAULT_SPEED_COLUMN,
-        )
-        .unwrap_err();
+        let error =
+            read_wind_csv(Path::new("/nonexistent/wind.csv"), DEFAULT_TIME_COLUMN, DEFAULT_SPEED_COLUMN).unwrap_err();
         assert!(matches!(&error, WindFitError::Io { path, .. } if path == "/nonexistent/wind.csv"));
     }
 
@@ -2678,27 +2236,15 @@ mod tests {
     fn records_that_cannot_be_analysed_are_errors_not_panics() {
         let config = WindFitConfig::new(10.0);
         let constant = WindRecord::from_samples("constant", vec![3.0; 20_000], 20.0);
-        assert!(matches!(
-            analyse(&constant, &config),
-            Err(WindFitError::Analysis(_))
-        ));
+        assert!(matches!(analyse(&constant, &config), Err(WindFitError::Analysis(_))));
         let calm = WindRecord::from_samples("calm", vec![0.0; 20_000], 20.0);
-        assert!(matches!(
-            analyse(&calm, &config),
-            Err(WindFitError::Analysis(_))
-        ));
+        assert!(matches!(analyse(&calm, &config), Err(WindFitError::Analysis(_))));
         let short = synthetic_record(|f| 0.02 * f.powf(KOLMOGOROV_SLOPE), 4.0, 2.0, 20.0, 1);
-        assert!(matches!(
-            analyse(&short, &config),
-            Err(WindFitError::TooShort { .. })
-        ));
+        assert!(matches!(analyse(&short, &config), Err(WindFitError::TooShort { .. })));
         let mut bad = config.clone();
         bad.reference_z0_m = 20.0;
         let record = synthetic_record(|f| 0.02 * f.powf(KOLMOGOROV_SLOPE), 4.0, 600.0, 20.0, 2);
-        assert!(matches!(
-            analyse(&record, &bad),
-            Err(WindFitError::InvalidConfig(_))
-        ));
+        assert!(matches!(analyse(&record, &bad), Err(WindFitError::InvalidConfig(_))));
     }
 
     fn args(list: &[&str]) -> Vec<String> {
@@ -2709,31 +2255,17 @@ mod tests {
     fn command_line_requires_a_record_and_a_height_and_rejects_unknown_options() {
         assert_eq!(parse_cli_args(&args(&["--help"])).unwrap(), None);
         let missing_height = parse_cli_args(&args(&["wind.csv"])).unwrap_err();
-        assert!(missing_height
-            .to_string()
-            .contains("--height-m is required"));
-        assert!(parse_cli_args(&args(&["--height-m", "7"]))
+        assert!(missing_height.to_string().contains("--height-m is required"));
+        assert!(parse_cli_args(&args(&["--height-m", "7"])).unwrap_err().to_string().contains("no input record"));
+        assert!(parse_cli_args(&args(&["wind.csv", "--height-m", "7", "--frobnicate"]))
             .unwrap_err()
             .to_string()
-            .contains("no input record"));
-        assert!(
-            parse_cli_args(&args(&["wind.csv", "--height-m", "7", "--frobnicate"]))
-                .unwrap_err()
-                .to_string()
-                .contains("unknown option --frobnicate")
-        );
+            .contains("unknown option --frobnicate"));
         assert!(parse_cli_args(&args(&["wind.csv", "--height-m", "seven"]))
             .unwrap_err()
             .to_string()
             .contains("'seven' is not a number"));
-        assert!(parse_cli_args(&args(&[
-            "wind.csv",
-            "--height-m",
-            "7",
-            "--fit-band",
-            "0.3-3"
-        ]))
-        .is_err());
+        assert!(parse_cli_args(&args(&["wind.csv", "--height-m", "7", "--fit-band", "0.3-3"])).is_err());
         let options = parse_cli_args(&args(&[
             "wind.csv",
             "--height-m",
@@ -2757,17 +2289,8 @@ mod tests {
             all.extend_from_slice(extra);
             parse_cli_args(&args(&all))
         };
-        assert_eq!(
-            seeded(&["--generator-seed", "42"])
-                .unwrap()
-                .unwrap()
-                .generator_seed,
-            Some(42)
-        );
-        assert_eq!(
-            seeded(&["--no-generator"]).unwrap().unwrap().generator_seed,
-            None
-        );
+        assert_eq!(seeded(&["--generator-seed", "42"]).unwrap().unwrap().generator_seed, Some(42));
+        assert_eq!(seeded(&["--no-generator"]).unwrap().unwrap().generator_seed, None);
         assert!(seeded(&["--generator-seed", "-3"])
             .unwrap_err()
             .to_string()
@@ -2776,8 +2299,7 @@ mod tests {
 
     #[test]
     fn command_line_run_writes_report_plots_and_summary() {
-        let dir =
-            std::env::temp_dir().join(format!("antenna-tools-windfit-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("antenna-tools-windfit-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let record = synthetic_record(|f| 0.02 * f.powf(KOLMOGOROV_SLOPE), 5.0, 900.0, 20.0, 4);
         let mut csv = String::from("time_s,horizontal_speed_m_s\n");
@@ -2799,13 +2321,9 @@ mod tests {
         .unwrap()
         .unwrap();
         let report = run_cli(&options).unwrap();
-        assert!(
-            report.contains("## Inertial subrange") && report.contains("generated (record.csv)")
-        );
+        assert!(report.contains("## Inertial subrange") && report.contains("generated (record.csv)"));
         // The fmu-wind generator is overlaid by default, before the list of files.
-        let generator = report
-            .find("## Generator (fmu-wind)")
-            .expect("no generator section");
+        let generator = report.find("## Generator (fmu-wind)").expect("no generator section");
         assert!(generator < report.find("## Files").unwrap());
         for name in ["report.md", "psd.png", "timeseries.png", "gust-summary.csv"] {
             assert!(out.join(name).exists(), "{name} not written");

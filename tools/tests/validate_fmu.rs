@@ -9,7 +9,9 @@
 use antenna_tools::measured_log::{Channel, MeasuredLog, Signal};
 use antenna_tools::truth::TruthPlant;
 use antenna_tools::validate::equation_error::{model_channels, prepare, EquationOptions};
-use antenna_tools::validate::output_error::{output_error, ChannelKind, OutputData, PlantSimulator, WindowPlan, WindowStart};
+use antenna_tools::validate::output_error::{
+    output_error, ChannelKind, OutputData, PlantSimulator, WindowPlan, WindowStart,
+};
 use antenna_tools::validate::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use antenna_tools::validate::plant_fmu::{FmuSimulator, PlantFmu};
 
@@ -20,7 +22,11 @@ fn simulator() -> FmuSimulator {
 
 /// A deterministic, smooth pseudo-random signal in about [-1, 1] (sum of incommensurate sines).
 fn wobble(t: f64) -> f64 {
-    [(0.37, 0.3), (1.9, 1.1), (4.3, 2.0), (7.7, 0.5)].iter().map(|(f, p)| (2.0 * std::f64::consts::PI * f * t + p).sin()).sum::<f64>() / 4.0
+    [(0.37, 0.3), (1.9, 1.1), (4.3, 2.0), (7.7, 0.5)]
+        .iter()
+        .map(|(f, p)| (2.0 * std::f64::consts::PI * f * t + p).sin())
+        .sum::<f64>()
+        / 4.0
 }
 
 /// A log the plant FMU produces with `params`: 40 s at 500 Hz, a current that reverses the
@@ -29,17 +35,31 @@ fn fmu_log(sim: &mut FmuSimulator, params: &ParameterSet) -> MeasuredLog {
     let dt = 0.002;
     let n = 20_001;
     let time: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
-    let current: Vec<f64> = time.iter().map(|&t| 2.6 * (2.0 * std::f64::consts::PI * 0.15 * t).sin() + 0.6 * wobble(t)).collect();
+    let current: Vec<f64> =
+        time.iter().map(|&t| 2.6 * (2.0 * std::f64::consts::PI * 0.15 * t).sin() + 0.6 * wobble(t)).collect();
     let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: dt };
     sim.configure(params, &config).unwrap();
     let held: Vec<[f64; 2]> = current.windows(2).map(|w| [0.5 * (w[0] + w[1]); 2]).collect();
-    let start = WindowStart { load_angle: 0.8, load_speed: 0.0, motor_angle: 0.8, motor_speed: 0.0, twist: 0.0, currents: [current[0]; 2], history: Vec::new() };
+    let start = WindowStart {
+        load_angle: 0.8,
+        load_speed: 0.0,
+        motor_angle: 0.8,
+        motor_speed: 0.0,
+        twist: 0.0,
+        currents: [current[0]; 2],
+        history: Vec::new(),
+    };
     let out = sim.simulate(&start, &held, &vec![0.0; n - 1], dt).unwrap();
-    let channel = |signal, values: Vec<f64>| Channel { signal, motor: None, column: String::new(), unit: String::new(), values };
+    let channel =
+        |signal, values: Vec<f64>| Channel { signal, motor: None, column: String::new(), unit: String::new(), values };
     MeasuredLog {
         metadata: Default::default(),
         time,
-        channels: vec![channel(Signal::MotorCurrent, current), channel(Signal::MotorPos, out.motor_pos), channel(Signal::LoadPos, out.load_pos)],
+        channels: vec![
+            channel(Signal::MotorCurrent, current),
+            channel(Signal::MotorPos, out.motor_pos),
+            channel(Signal::LoadPos, out.load_pos),
+        ],
         notes: Vec::new(),
     }
 }
@@ -78,7 +98,10 @@ fn the_equation_error_model_and_the_plant_fmu_agree_on_every_effect_form() {
     // neighbourhood slides.
     let reach = 2 * data.half_width;
     let sliding: Vec<bool> = (0..data.len())
-        .map(|i| (i.saturating_sub(reach)..(i + reach + 1).min(data.len())).all(|j| data.motor_vel[j].abs() > 10.0 * data.stick_speed))
+        .map(|i| {
+            (i.saturating_sub(reach)..(i + reach + 1).min(data.len()))
+                .all(|j| data.motor_vel[j].abs() > 10.0 * data.stick_speed)
+        })
         .collect();
     assert!(sliding.iter().filter(|s| **s).count() > data.len() / 3, "too few sliding samples for the comparison");
     let residual_rms = |p: &ParameterSet| -> Vec<f64> {
@@ -131,9 +154,19 @@ fn windows_restarted_from_an_fmu_generated_log_reproduce_it() {
     stiffer.set(names::STIFFNESS, 1.1 * params.value(names::STIFFNESS));
     let off_path = output_error(&mut sim, &stiffer, &data, &out, &plan).unwrap();
     for ((r, w), p) in right.channels.iter().zip(&off.channels).zip(&off_path.channels) {
-        let (w, change) = if r.kind == ChannelKind::LoadSide { (p, "a 10 % stiffer path") } else { (w, "10 % more Coulomb friction") };
+        let (w, change) = if r.kind == ChannelKind::LoadSide {
+            (p, "a 10 % stiffer path")
+        } else {
+            (w, "10 % more Coulomb friction")
+        };
         println!("{}: {:.3e} vs {:.3e}", r.kind.name(), r.rms, w.rms);
-        assert!(r.rms < 0.05 * w.rms, "{}: {:.3e} with the FMU's own parameters, {:.3e} with {change}", r.kind.name(), r.rms, w.rms);
+        assert!(
+            r.rms < 0.05 * w.rms,
+            "{}: {:.3e} with the FMU's own parameters, {:.3e} with {change}",
+            r.kind.name(),
+            r.rms,
+            w.rms
+        );
     }
     assert!(right.channel(ChannelKind::LoadSide).is_some(), "a two-encoder two-mass log has the load-side channel");
 }
@@ -147,7 +180,13 @@ impl PlantSimulator for FromFile {
         Ok(())
     }
 
-    fn simulate(&mut self, start: &WindowStart, commands: &[[f64; 2]], disturbance: &[f64], dt: f64) -> Result<antenna_tools::validate::output_error::SimulatedOutputs, String> {
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<antenna_tools::validate::output_error::SimulatedOutputs, String> {
         self.0.simulate(start, commands, disturbance, dt)
     }
 }
@@ -157,7 +196,8 @@ fn the_written_parameter_file_reproduces_the_corrected_models_output_error_in_th
     use antenna_tools::truth::{simulate, Effect, TruthConfig};
     use antenna_tools::validate::parameters::fmu_parameter_text;
     use antenna_tools::validate::{validate_with, ValidateOptions};
-    let config = TruthConfig { duration: 30.0, seed: 21, effects: vec![Effect::Coulomb(600.0)], ..TruthConfig::default() };
+    let config =
+        TruthConfig { duration: 30.0, seed: 21, effects: vec![Effect::Coulomb(600.0)], ..TruthConfig::default() };
     let start = config.plant.starting_parameters();
     let log = simulate(&config).log;
     let mut sim = simulator();
@@ -174,10 +214,17 @@ fn the_written_parameter_file_reproduces_the_corrected_models_output_error_in_th
     let _ = std::fs::remove_file(&path);
     let data = prepare(&log, &start, &EquationOptions::default()).unwrap();
     let out = OutputData::new(&log, &data, &start).unwrap();
-    let reproduced = output_error(&mut FromFile(fresh), &validation.selection.corrected, &data, &out, &report.plan).unwrap();
+    let reproduced =
+        output_error(&mut FromFile(fresh), &validation.selection.corrected, &data, &out, &report.plan).unwrap();
     for (a, b) in report.after.channels.iter().zip(&reproduced.channels) {
         println!("{}: reported {:.6e}, from the file {:.6e}", a.kind.name(), a.rms, b.rms);
-        assert!((a.rms - b.rms).abs() <= 1e-9 * a.rms, "{}: the report says {:e}, the FMU loaded from the file gives {:e}", a.kind.name(), a.rms, b.rms);
+        assert!(
+            (a.rms - b.rms).abs() <= 1e-9 * a.rms,
+            "{}: the report says {:e}, the FMU loaded from the file gives {:e}",
+            a.kind.name(),
+            a.rms,
+            b.rms
+        );
         assert!((a.fit_percent - b.fit_percent).abs() < 1e-6);
     }
     // And the file really is the corrected model: the starting model's error is larger.
@@ -203,7 +250,8 @@ fn the_output_error_refit_recovers_parameters_of_an_fmu_made_log_from_a_biased_s
     let out = OutputData::new(&log, &data, &start).unwrap();
     let plan = WindowPlan::new(500, out.len(), out.dt, "1 s".into());
     let error = output_error(&mut sim, &biased, &data, &out, &plan).unwrap();
-    let result = refit(&mut sim, &data, &out, &plan, &start, &[Kind::Delay, Kind::Offset], &biased, &error).expect("the refit lowers the score");
+    let result = refit(&mut sim, &data, &out, &plan, &start, &[Kind::Delay, Kind::Offset], &biased, &error)
+        .expect("the refit lowers the score");
     let delay = result.params.value(names::DELAY);
     let offset = result.params.value(names::TORQUE_OFFSET);
     println!("delay {delay:.6e}, offset {offset:.4}, score {:.4}", result.score_after);

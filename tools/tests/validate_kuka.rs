@@ -17,14 +17,19 @@ fn kuka_dir() -> Option<PathBuf> {
     if dir.exists() {
         Some(dir)
     } else {
-        eprintln!("SKIPPED: KUKA data not found at {} (the shared/ data directory sits beside the repository)", dir.display());
+        eprintln!(
+            "SKIPPED: KUKA data not found at {} (the shared/ data directory sits beside the repository)",
+            dir.display()
+        );
         None
     }
 }
 
 fn validate_axis(dir: &Path, axis: usize) -> antenna_tools::validate::Validation {
     let log = MeasuredLog::read(&dir.join(format!("axis{axis}.csv"))).unwrap();
-    let params = ParameterSet::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("data/kuka/axis{axis}.params"))).unwrap();
+    let params =
+        ParameterSet::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("data/kuka/axis{axis}.params")))
+            .unwrap();
     validate(&log, &params, &ValidateOptions::default()).unwrap()
 }
 
@@ -36,7 +41,12 @@ fn the_load_encoders_three_millisecond_lag_is_found_and_corrected_on_every_axis(
         let skew = v.encoder_skew.unwrap_or_else(|| panic!("axis {axis}: no encoder skew found"));
         assert!((2.7e-3..3.4e-3).contains(&skew), "axis {axis}: skew {skew}");
         let twist = v.twist.as_ref().unwrap();
-        assert!(twist.rms_after < 0.2 * twist.rms_before, "axis {axis}: twist {} -> {}", twist.rms_before, twist.rms_after);
+        assert!(
+            twist.rms_after < 0.2 * twist.rms_before,
+            "axis {axis}: twist {} -> {}",
+            twist.rms_before,
+            twist.rms_after
+        );
         assert!(v.notes.iter().any(|n| n.contains("load encoder lags")), "axis {axis}: {:?}", v.notes);
     }
 }
@@ -47,6 +57,9 @@ fn friction_is_found_on_every_axis() {
     for axis in 1..=3 {
         let v = validate_axis(&dir, axis);
         let names: Vec<&str> = v.selection.found.iter().map(|f| f.kind.name()).collect();
-        assert!(names.iter().any(|n| ["coulomb", "viscous", "stribeck", "asymmetry"].contains(n)), "axis {axis}: found {names:?}");
+        assert!(
+            names.iter().any(|n| ["coulomb", "viscous", "stribeck", "asymmetry"].contains(n)),
+            "axis {axis}: found {names:?}"
+        );
     }
 }

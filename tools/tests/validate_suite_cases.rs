@@ -57,8 +57,12 @@ fn assert_named_alone_and_fitted(result: &CaseResult) {
 
 #[test]
 fn suite_cases_meet_the_issue_criteria_at_twenty_times_the_noise() {
-    let cases: Vec<(u64, Vec<(&str, f64)>)> =
-        vec![(101, vec![]), (11, vec![("coulomb", 20.0)]), (11, vec![("delay", 20.0)]), (11, vec![("stiffness", 20.0)])];
+    let cases: Vec<(u64, Vec<(&str, f64)>)> = vec![
+        (101, vec![]),
+        (11, vec![("coulomb", 20.0)]),
+        (11, vec![("delay", 20.0)]),
+        (11, vec![("stiffness", 20.0)]),
+    ];
     let results: Vec<CaseResult> = std::thread::scope(|scope| {
         let handles: Vec<_> = cases.iter().map(|(seed, kinds)| scope.spawn(move || run(*seed, kinds))).collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()
@@ -82,8 +86,16 @@ fn suite_cases_meet_the_issue_criteria_at_twenty_times_the_noise() {
     // motor encoder) and the load equation meet the 20 % criterion.
     let stiffness = &results[3];
     assert_named_alone_and_fitted(stiffness);
-    assert!(stiffness.error_criterion(), "output error after/before {:?}", stiffness.output.as_ref().map(|o| o.ratio()));
-    assert!(stiffness.equation_criterion(), "equation error after/before {:?}", stiffness.equation.as_ref().map(|o| o.ratio()));
+    assert!(
+        stiffness.error_criterion(),
+        "output error after/before {:?}",
+        stiffness.output.as_ref().map(|o| o.ratio())
+    );
+    assert!(
+        stiffness.equation_criterion(),
+        "equation error after/before {:?}",
+        stiffness.equation.as_ref().map(|o| o.ratio())
+    );
     // In the frequency domain, where the paper saw its stiffness error, the anti-resonance
     // error meets the 20 % criterion.
     let trough = stiffness.anti_resonance.as_ref().expect("the log resolves the anti-resonance");
@@ -110,12 +122,17 @@ fn logs_with_other_sensors_get_no_false_claim_and_their_effect_named() {
         (&load_encoder, 31, vec![("coulomb", 20.0)]),
     ];
     let results: Vec<CaseResult> = std::thread::scope(|scope| {
-        let handles: Vec<_> = cases.iter().map(|(base, seed, kinds)| scope.spawn(move || run_with(base, *seed, kinds))).collect();
+        let handles: Vec<_> =
+            cases.iter().map(|(base, seed, kinds)| scope.spawn(move || run_with(base, *seed, kinds))).collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()
     });
     assert!(results[0].found.is_empty(), "an effect was claimed on a clean speed-sensor log: {:?}", results[0].found);
     assert_named_alone_and_fitted(&results[1]);
     assert!(results[2].found.is_empty(), "an effect was claimed on a clean load-encoder log: {:?}", results[2].found);
     assert_named_alone_and_fitted(&results[3]);
-    assert!(results[3].error_criterion(), "output error after/before {:?}", results[3].output.as_ref().map(|o| o.ratio()));
+    assert!(
+        results[3].error_criterion(),
+        "output error after/before {:?}",
+        results[3].output.as_ref().map(|o| o.ratio())
+    );
 }

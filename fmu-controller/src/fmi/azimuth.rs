@@ -114,7 +114,12 @@ impl Model for AzimuthControllerModel {
         Ok(AzimuthControllerModel { controller: None, scheduler: None })
     }
 
-    fn initialize(&mut self, values: &mut Values<AzCtrlVar>, _context: &Context, _notes: &mut Notes) -> Result<(), String> {
+    fn initialize(
+        &mut self,
+        values: &mut Values<AzCtrlVar>,
+        _context: &Context,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
         let controller = AzimuthController::new(azimuth_controller_params(values))?;
         Self::write_outputs(&controller.idle_outputs(), values);
         self.controller = Some(controller);
@@ -122,12 +127,18 @@ impl Model for AzimuthControllerModel {
         Ok(())
     }
 
-    fn do_step(&mut self, values: &mut Values<AzCtrlVar>, time: f64, step: f64, _notes: &mut Notes) -> Result<(), String> {
+    fn do_step(
+        &mut self,
+        values: &mut Values<AzCtrlVar>,
+        time: f64,
+        step: f64,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
         let controller = self.controller.as_mut().ok_or("the controller is not initialised")?;
         // The sample grid starts at the first communication point.
-        let scheduler = self
-            .scheduler
-            .get_or_insert_with(|| SampleScheduler::new(time, &controller.params().cascade.sampling, controller.idle_outputs()));
+        let scheduler = self.scheduler.get_or_insert_with(|| {
+            SampleScheduler::new(time, &controller.params().cascade.sampling, controller.idle_outputs())
+        });
         let inputs = Self::inputs(values);
         // Written from the scheduler's own copy: the outputs are a few dozen numbers.
         Self::write_outputs(scheduler.do_step(controller, time, step, &inputs), values);

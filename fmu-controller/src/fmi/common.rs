@@ -67,7 +67,8 @@ impl<V: VariableSet> CascadeVars<V> {
         c.position_loop.max_acceleration_deg_per_s2 = v.real(self.position_max_acceleration);
         c.velocity_loop.crossover_hz = v.real(self.velocity_crossover);
         c.velocity_loop.integral_corner_ratio = v.real(self.velocity_integral_ratio);
-        c.velocity_loop.proportional_gain_override_nm_s_per_rad = override_or_design(v.real(self.velocity_gain_override));
+        c.velocity_loop.proportional_gain_override_nm_s_per_rad =
+            override_or_design(v.real(self.velocity_gain_override));
         c.velocity_loop.integral_corner_override_hz = override_or_design(v.real(self.velocity_integral_override));
         c.velocity_loop.integrator_enabled = v.boolean(self.velocity_integrator);
         c.velocity_loop.anti_windup_enabled = v.boolean(self.anti_windup);

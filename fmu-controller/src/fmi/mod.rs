@@ -20,7 +20,10 @@ pub static CONTROL_MODE: EnumerationType = EnumerationType {
     items: &[
         ("position", "Position control of Fig. 3: profiler, position loop, velocity loop."),
         ("velocity", "Velocity mode for identification: command.velocity_mode drives the velocity loop directly."),
-        ("open_loop_current", "Velocity controller off: command.open_loop_current goes to the motors (with bias on azimuth)."),
+        (
+            "open_loop_current",
+            "Velocity controller off: command.open_loop_current goes to the motors (with bias on azimuth).",
+        ),
     ],
 };
 

@@ -4,8 +4,8 @@
 use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, StateReader, StateWriter, Values};
 
 use super::common::{
-    load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_CURRENT_LOOP_BANDWIDTH, MAX_PATH_DAMPING,
-    MAX_PATH_STIFFNESS, MIN_MOTOR_INERTIA, TINY,
+    load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_CURRENT_LOOP_BANDWIDTH,
+    MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MIN_MOTOR_INERTIA, TINY,
 };
 use crate::params::PeriodicTorqueParams;
 use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant};

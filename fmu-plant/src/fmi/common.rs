@@ -149,7 +149,8 @@ pub fn load_parameter_file<M: fmu_runtime::Model>(
             None => path,
         }
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read parameter file {}: {e}", path.display()))?;
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| format!("cannot read parameter file {}: {e}", path.display()))?;
     fmu_runtime::params::apply::<M>(&text, &path.display().to_string(), values)?;
     Ok(())
 }

@@ -59,7 +59,9 @@ mod tests {
             .zip(default.lines())
             .enumerate()
             .filter(|(_, (b, d))| b != d)
-            .map(|(line, (b, d))| format!("line {}: FMU start values give `{}`, the default is `{}`", line + 1, b.trim(), d.trim()))
+            .map(|(line, (b, d))| {
+                format!("line {}: FMU start values give `{}`, the default is `{}`", line + 1, b.trim(), d.trim())
+            })
             .collect()
     }
 
@@ -113,10 +115,16 @@ mod tests {
             assert!(description.contains("at least the sliding friction"), "{name}: the joint rule is not described");
             Some(format!("{body}.coulomb_friction"))
         } else if let Some(path) = name.strip_suffix(".damping").filter(|p| p.starts_with("pinion")) {
-            assert!(description.contains("With backlash it must be positive"), "{name}: the joint rule is not described");
+            assert!(
+                description.contains("With backlash it must be positive"),
+                "{name}: the joint rule is not described"
+            );
             Some(format!("{path}.backlash"))
         } else if name == "numerics.event_check_interval" {
-            assert!(description.contains("at least numerics.event_time_resolution"), "{name}: the joint rule is not described");
+            assert!(
+                description.contains("at least numerics.event_time_resolution"),
+                "{name}: the joint rule is not described"
+            );
             let resolution = V::by_name("numerics.event_time_resolution").expect("the partner exists");
             values.set_real(resolution, values.real(resolution).min(bound));
             None
@@ -136,7 +144,8 @@ mod tests {
         for (var, bound) in bounds {
             let name = var.var().name;
             let values = at_bound(var, bound);
-            let mut plant = AzimuthPlant::new(azimuth_params(&values)).unwrap_or_else(|e| panic!("{name} = {bound}: {e}"));
+            let mut plant =
+                AzimuthPlant::new(azimuth_params(&values)).unwrap_or_else(|e| panic!("{name} = {bound}: {e}"));
             plant.set_initial_state(values.real(AzVar::InitialPosition).to_radians()).unwrap();
             // Torque-biased drive that reverses, so friction, backlash and saturation all act.
             for k in 0..300 {
@@ -149,7 +158,10 @@ mod tests {
                 plant.step(&inputs, 1e-3).unwrap_or_else(|e| panic!("{name} = {bound}, step {k}: {e}"));
             }
             let o = plant.outputs();
-            assert!(o.axis_position_deg.is_finite() && o.pinion_torque_nm.iter().all(|t| t.is_finite()), "{name} = {bound}: {o:?}");
+            assert!(
+                o.axis_position_deg.is_finite() && o.pinion_torque_nm.iter().all(|t| t.is_finite()),
+                "{name} = {bound}: {o:?}"
+            );
         }
     }
 
@@ -160,14 +172,21 @@ mod tests {
         for (var, bound) in bounds {
             let name = var.var().name;
             if JOINTLY_BOUNDED.contains(&name) {
-                assert!(var.var().description.contains("over the whole travel"), "{name} must describe its joint bound");
+                assert!(
+                    var.var().description.contains("over the whole travel"),
+                    "{name} must describe its joint bound"
+                );
                 continue;
             }
             let values = at_bound(var, bound);
-            let mut plant = ElevationPlant::new(elevation_params(&values)).unwrap_or_else(|e| panic!("{name} = {bound}: {e}"));
+            let mut plant =
+                ElevationPlant::new(elevation_params(&values)).unwrap_or_else(|e| panic!("{name} = {bound}: {e}"));
             plant.set_initial_state(values.real(ElVar::InitialPosition).to_radians()).unwrap();
             for k in 0..300 {
-                let inputs = ElevationInputs { current_command_a: if (k / 100) % 2 == 0 { 3.0 } else { -3.0 }, disturbance_torque_nm: 1e3 };
+                let inputs = ElevationInputs {
+                    current_command_a: if (k / 100) % 2 == 0 { 3.0 } else { -3.0 },
+                    disturbance_torque_nm: 1e3,
+                };
                 plant.step(&inputs, 1e-3).unwrap_or_else(|e| panic!("{name} = {bound}, step {k}: {e}"));
             }
             let o = plant.outputs();

@@ -28,7 +28,11 @@ pub fn packaged_fmus() -> Vec<Fmu> {
         .collect();
     paths.sort();
     for plant in ["AzimuthPlant.fmu", "ElevationPlant.fmu"] {
-        assert!(paths.iter().any(|p| p.file_name().is_some_and(|n| n == plant)), "{plant} is missing in {}: {hint}", directory.display());
+        assert!(
+            paths.iter().any(|p| p.file_name().is_some_and(|n| n == plant)),
+            "{plant} is missing in {}: {hint}",
+            directory.display()
+        );
     }
     paths.iter().map(|p| Fmu::open(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))).collect()
 }
@@ -40,15 +44,19 @@ pub fn ready(fmu: &Fmu) -> Instance {
     instance
 }
 
-pub type FnDirectionalDerivative = unsafe extern "C" fn(fmi2Component, *const u32, usize, *const u32, usize, *const f64, *mut f64) -> fmi2Status;
+pub type FnDirectionalDerivative =
+    unsafe extern "C" fn(fmi2Component, *const u32, usize, *const u32, usize, *const f64, *mut f64) -> fmi2Status;
 pub type FnNewDiscreteStates = unsafe extern "C" fn(fmi2Component, *mut c_void) -> fmi2Status;
 pub type FnComponent = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
-pub type FnCompletedIntegratorStep = unsafe extern "C" fn(fmi2Component, fmi2Boolean, *mut fmi2Boolean, *mut fmi2Boolean) -> fmi2Status;
+pub type FnCompletedIntegratorStep =
+    unsafe extern "C" fn(fmi2Component, fmi2Boolean, *mut fmi2Boolean, *mut fmi2Boolean) -> fmi2Status;
 pub type FnSetTime = unsafe extern "C" fn(fmi2Component, f64) -> fmi2Status;
 pub type FnSetArray = unsafe extern "C" fn(fmi2Component, *const f64, usize) -> fmi2Status;
 pub type FnGetArray = unsafe extern "C" fn(fmi2Component, *mut f64, usize) -> fmi2Status;
-pub type FnSetInputDerivatives = unsafe extern "C" fn(fmi2Component, *const u32, usize, *const fmi2Integer, *const f64) -> fmi2Status;
-pub type FnGetOutputDerivatives = unsafe extern "C" fn(fmi2Component, *const u32, usize, *const fmi2Integer, *mut f64) -> fmi2Status;
+pub type FnSetInputDerivatives =
+    unsafe extern "C" fn(fmi2Component, *const u32, usize, *const fmi2Integer, *const f64) -> fmi2Status;
+pub type FnGetOutputDerivatives =
+    unsafe extern "C" fn(fmi2Component, *const u32, usize, *const fmi2Integer, *mut f64) -> fmi2Status;
 
 /// The functions the importer does not keep a pointer to (model exchange, derivatives),
 /// looked up in the FMU's already loaded library.

@@ -24,7 +24,8 @@ pub fn fmu_path(model_identifier: &str) -> PathBuf {
 /// tests that apply to all of them. Fails if there is none.
 pub fn packaged_fmus() -> Vec<PathBuf> {
     let directory = antenna_tools::package::fmu_directory();
-    let entries = std::fs::read_dir(&directory).unwrap_or_else(|e| panic!("cannot read {}: {e}; {PACKAGE_HINT}", directory.display()));
+    let entries = std::fs::read_dir(&directory)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}; {PACKAGE_HINT}", directory.display()));
     let mut paths: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "fmu"))
@@ -118,13 +119,19 @@ pub fn test_signal(index: u64, seed: u64) -> f64 {
 
 /// Asserts that a call failed with exactly fmi2Error and that the FMU explained why through the
 /// logger, under logStatusError; returns the messages.
-pub fn expect_error<T: std::fmt::Debug>(result: Result<T, ImportError>, instance: &Instance, what: &str) -> Vec<String> {
+pub fn expect_error<T: std::fmt::Debug>(
+    result: Result<T, ImportError>,
+    instance: &Instance,
+    what: &str,
+) -> Vec<String> {
     match result {
         Err(ImportError::Call { status: Status::Error, messages, .. }) => {
             assert!(!messages.is_empty(), "{what}: fmi2Error without a logged message");
             let logged = instance.log_records();
             assert!(
-                logged.iter().any(|r| r.status == Status::Error && r.category == "logStatusError" && !r.message.is_empty()),
+                logged
+                    .iter()
+                    .any(|r| r.status == Status::Error && r.category == "logStatusError" && !r.message.is_empty()),
                 "{what}: no message under logStatusError ({logged:?})"
             );
             messages
@@ -140,5 +147,10 @@ pub fn vr(fmu: &Fmu, name: &str) -> u32 {
 
 /// The Real inputs of a model, from its model description.
 pub fn real_inputs(fmu: &Fmu) -> Vec<String> {
-    fmu.description.variables.iter().filter(|v| v.causality == "input" && v.type_name == "Real").map(|v| v.name.clone()).collect()
+    fmu.description
+        .variables
+        .iter()
+        .filter(|v| v.causality == "input" && v.type_name == "Real")
+        .map(|v| v.name.clone())
+        .collect()
 }

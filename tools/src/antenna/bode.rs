@@ -28,7 +28,9 @@ use std::f64::consts::TAU;
 use std::path::Path;
 
 use fmu_controller::linear::{bandwidth_hz, VelocityLoopModel, C64};
-use fmu_controller::{AzimuthController, AzimuthControllerParams, ControlMode, ElevationController, ElevationControllerParams};
+use fmu_controller::{
+    AzimuthController, AzimuthControllerParams, ControlMode, ElevationController, ElevationControllerParams,
+};
 use fmu_plant::analytic::current_loop_response;
 use fmu_plant::{AzimuthParams, ElevationParams};
 use fmu_runtime::import::{Fmu, ImportError, Instance};
@@ -179,15 +181,34 @@ fn get(fmu: &Fmu, instance: &mut Instance, name: &str) -> Result<f64, BodeError>
 /// The analytic velocity-loop model of the library controller with the parameters the FMU
 /// reports, refusing to go on if the FMU's loop parameters differ from the library defaults the
 /// model is built from (the model would describe another controller).
-fn analytic_model(axis: Axis, fmu: &Fmu, instance: &mut Instance, step_s: f64, elevation_deg: f64) -> Result<VelocityLoopModel, BodeError> {
+fn analytic_model(
+    axis: Axis,
+    fmu: &Fmu,
+    instance: &mut Instance,
+    step_s: f64,
+    elevation_deg: f64,
+) -> Result<VelocityLoopModel, BodeError> {
     let (cascade, own): (_, Vec<(&str, f64)>) = match axis {
         Axis::Azimuth => {
             let p = AzimuthControllerParams::default();
-            (p.cascade, vec![("drive.motor_inertia", p.drive.motor_inertia_kg_m2), ("drive.axis_inertia", p.drive.axis_inertia_kg_m2), ("drive.gear_ratio", p.drive.gear_ratio)])
+            (
+                p.cascade,
+                vec![
+                    ("drive.motor_inertia", p.drive.motor_inertia_kg_m2),
+                    ("drive.axis_inertia", p.drive.axis_inertia_kg_m2),
+                    ("drive.gear_ratio", p.drive.gear_ratio),
+                ],
+            )
         }
         Axis::Elevation => {
             let p = ElevationControllerParams::default();
-            (p.cascade, vec![("drive.motor_inertia", p.drive.motor_inertia_kg_m2), ("drive.dish_inertia", p.drive.dish_inertia_kg_m2)])
+            (
+                p.cascade,
+                vec![
+                    ("drive.motor_inertia", p.drive.motor_inertia_kg_m2),
+                    ("drive.dish_inertia", p.drive.dish_inertia_kg_m2),
+                ],
+            )
         }
     };
     let v = &cascade.velocity_loop;
@@ -203,13 +224,17 @@ fn analytic_model(axis: Axis, fmu: &Fmu, instance: &mut Instance, step_s: f64, e
     for (name, value) in expected {
         let reported = get(fmu, instance, name)?;
         if reported != value {
-            return Err(BodeError(format!("the controller FMU's {name} is {reported}, the library default the analytic model uses is {value}")));
+            return Err(BodeError(format!(
+                "the controller FMU's {name} is {reported}, the library default the analytic model uses is {value}"
+            )));
         }
     }
     let mut integrator = [false];
     instance.get_boolean(&[fmu.description.vr("velocity_loop.integrator")?], &mut integrator)?;
     if integrator[0] != v.integrator_enabled {
-        return Err(BodeError("the controller FMU's velocity integrator setting differs from the library default".into()));
+        return Err(BodeError(
+            "the controller FMU's velocity integrator setting differs from the library default".into(),
+        ));
     }
     let delay = {
         let mut value = [0];
@@ -217,7 +242,10 @@ fn analytic_model(axis: Axis, fmu: &Fmu, instance: &mut Instance, step_s: f64, e
         value[0]
     };
     if i64::from(delay) != i64::from(cascade.sampling.delay_samples) {
-        return Err(BodeError(format!("the controller FMU's delay is {delay} samples, the library's {}", cascade.sampling.delay_samples)));
+        return Err(BodeError(format!(
+            "the controller FMU's delay is {delay} samples, the library's {}",
+            cascade.sampling.delay_samples
+        )));
     }
     match axis {
         Axis::Azimuth => {
@@ -240,11 +268,13 @@ pub fn plant_motor_speed_per_torque(axis: Axis, elevation_deg: f64, omega: f64) 
     match axis {
         Axis::Azimuth => {
             let p = AzimuthParams::default();
-            current_loop_response(s, p.motors[0].current_loop_bandwidth_hz) * p.two_mass_at(elevation_deg).motor_speed_per_torque(s)
+            current_loop_response(s, p.motors[0].current_loop_bandwidth_hz)
+                * p.two_mass_at(elevation_deg).motor_speed_per_torque(s)
         }
         Axis::Elevation => {
             let p = ElevationParams::default();
-            current_loop_response(s, p.motor.current_loop_bandwidth_hz) * p.two_mass_at(elevation_deg).motor_speed_per_torque(s)
+            current_loop_response(s, p.motor.current_loop_bandwidth_hz)
+                * p.two_mass_at(elevation_deg).motor_speed_per_torque(s)
         }
     }
 }
@@ -286,7 +316,10 @@ pub fn identify_velocity_loop(fmu_directory: &Path, config: &VelocityBodeConfig)
     let mut controller = controller_fmu.instantiate(&format!("{}-controller", axis.name()), false)?;
     controller.setup_experiment(0.0, None)?;
     controller.enter_initialization_mode()?;
-    controller.set_real(&cd.vrs(&["sampling.sample_time", "position_loop.max_acceleration", "command.position", "measured.position"])?, &[h, 1e6, start_position, start_position])?;
+    controller.set_real(
+        &cd.vrs(&["sampling.sample_time", "position_loop.max_acceleration", "command.position", "measured.position"])?,
+        &[h, 1e6, start_position, start_position],
+    )?;
     controller.set_boolean(&[cd.vr("feedforward.acceleration")?], &[false])?;
     if axis == Axis::Elevation {
         controller.set_boolean(&[cd.vr("friction_feedforward.enabled")?], &[false])?;
@@ -392,14 +425,16 @@ pub fn identify_velocity_loop(fmu_directory: &Path, config: &VelocityBodeConfig)
     // Linear detrending: the elevation ratio, and with it the motor speed's offset, drifts
     // slowly as the dish rises.
     let welch = WelchConfig::from_duration(config.segment_s, sample_rate).with_detrend(Detrend::Linear);
-    let estimate = transfer_function_h1(&input, &output, sample_rate, &welch).map_err(|e| BodeError(format!("Welch estimate: {e}")))?;
+    let estimate = transfer_function_h1(&input, &output, sample_rate, &welch)
+        .map_err(|e| BodeError(format!("Welch estimate: {e}")))?;
     let bins: Vec<usize> = (1..estimate.frequency_hz.len()).collect();
     let frequency_hz: Vec<f64> = bins.iter().map(|&i| estimate.frequency_hz[i]).collect();
     let measured: Vec<Complex64> = bins.iter().map(|&i| estimate.h1[i]).collect();
     let coherence: Vec<f64> = bins.iter().map(|&i| estimate.coherence[i]).collect();
     let closed = |omega: f64| model.closed_loop(omega, plant_motor_speed_per_torque(axis, model_elevation_deg, omega));
     let analytic: Vec<Complex64> = frequency_hz.iter().map(|&f| closed(TAU * f)).collect();
-    let measured_bandwidth_hz = sampled_bandwidth_hz(&frequency_hz, &measured.iter().map(|h| h.norm()).collect::<Vec<_>>());
+    let measured_bandwidth_hz =
+        sampled_bandwidth_hz(&frequency_hz, &measured.iter().map(|h| h.norm()).collect::<Vec<_>>());
     let analytic_bandwidth_hz = bandwidth_hz(closed, frequency_hz[0], 0.4 * sample_rate, 4000);
     Ok(VelocityBode {
         config: *config,
@@ -429,7 +464,12 @@ impl VelocityBode {
 
     /// The estimate beside the analytic loop, bin by bin.
     pub fn comparison(&self) -> ResponseComparison<'_> {
-        ResponseComparison { frequency_hz: &self.frequency_hz, measured: &self.measured, analytic: &self.analytic, coherence: &self.coherence }
+        ResponseComparison {
+            frequency_hz: &self.frequency_hz,
+            measured: &self.measured,
+            analytic: &self.analytic,
+            coherence: &self.coherence,
+        }
     }
 
     /// Bins with coherence above `threshold` up to `max_frequency_hz`.
@@ -455,18 +495,29 @@ impl VelocityBode {
             self.config.axis.name(),
             self.config.elevation_deg
         );
-        let model = format!("analytic: fmu_controller::linear closed loop on the two-mass model at {:.1} deg", self.model_elevation_deg);
+        let model = format!(
+            "analytic: fmu_controller::linear closed loop on the two-mass model at {:.1} deg",
+            self.model_elevation_deg
+        );
         let magnitude = Panel::new("Magnitude").x_label("Frequency (Hz)").y_label("|v / v_cmd| (dB)");
-        measured_against_model(&title, &self.comparison(), max_frequency_hz, magnitude, "measured H1 (Welch)", &model, |mut magnitude| {
-            magnitude = magnitude.horizontal_line("-3 dB", -3.0);
-            if let Some(b) = self.measured_bandwidth_hz {
-                magnitude = magnitude.vertical_line(&format!("measured -3 dB {b:.2} Hz"), b);
-            }
-            if let Some(b) = self.analytic_bandwidth_hz {
-                magnitude = magnitude.vertical_line(&format!("analytic -3 dB {b:.2} Hz"), b);
-            }
-            magnitude
-        })
+        measured_against_model(
+            &title,
+            &self.comparison(),
+            max_frequency_hz,
+            magnitude,
+            "measured H1 (Welch)",
+            &model,
+            |mut magnitude| {
+                magnitude = magnitude.horizontal_line("-3 dB", -3.0);
+                if let Some(b) = self.measured_bandwidth_hz {
+                    magnitude = magnitude.vertical_line(&format!("measured -3 dB {b:.2} Hz"), b);
+                }
+                if let Some(b) = self.analytic_bandwidth_hz {
+                    magnitude = magnitude.vertical_line(&format!("analytic -3 dB {b:.2} Hz"), b);
+                }
+                magnitude
+            },
+        )
     }
 }
 

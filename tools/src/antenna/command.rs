@@ -132,12 +132,23 @@ impl CommandTable {
             }
             let cells: Vec<&str> = line.split(',').map(str::trim).collect();
             if cells.len() != 3 {
-                return Err(CommandError(format!("{}:{}: expected 3 cells, found {}", path.display(), i + 1, cells.len())));
+                return Err(CommandError(format!(
+                    "{}:{}: expected 3 cells, found {}",
+                    path.display(),
+                    i + 1,
+                    cells.len()
+                )));
             }
             let parse = |k: usize, name: &str| {
-                cells[k].parse::<f64>().map_err(|_| CommandError(format!("{}:{}: {name} `{}` is not a number", path.display(), i + 1, cells[k])))
+                cells[k].parse::<f64>().map_err(|_| {
+                    CommandError(format!("{}:{}: {name} `{}` is not a number", path.display(), i + 1, cells[k]))
+                })
             };
-            points.push(CommandPoint { time_s: parse(0, "time_s")?, azimuth_deg: parse(1, "azimuth_deg")?, elevation_deg: parse(2, "elevation_deg")? });
+            points.push(CommandPoint {
+                time_s: parse(0, "time_s")?,
+                azimuth_deg: parse(1, "azimuth_deg")?,
+                elevation_deg: parse(2, "elevation_deg")?,
+            });
         }
         Self::new(points)
     }
@@ -191,7 +202,10 @@ impl CommandTable {
                     let elevation = hermite_knots(segment, interval, |p| p.elevation_deg);
                     self.piece.set(Some(Piece { segment: index, t0, t1, azimuth, elevation }));
                 }
-                (interpolate(segment, interval, t, |p| p.azimuth_deg), interpolate(segment, interval, t, |p| p.elevation_deg))
+                (
+                    interpolate(segment, interval, t, |p| p.azimuth_deg),
+                    interpolate(segment, interval, t, |p| p.elevation_deg),
+                )
             }
         };
         Command { azimuth_deg: az.0, azimuth_rate_deg_per_s: az.1, elevation_deg: el.0, elevation_rate_deg_per_s: el.1 }
@@ -250,8 +264,13 @@ fn hermite(&[y0, y1, m0, m1]: &[f64; 4], t0: f64, t1: f64, t: f64) -> (f64, f64)
     let s = (t - t0) / h;
     let s2 = s * s;
     let s3 = s2 * s;
-    let position = (2.0 * s3 - 3.0 * s2 + 1.0) * y0 + (s3 - 2.0 * s2 + s) * m0 + (-2.0 * s3 + 3.0 * s2) * y1 + (s3 - s2) * m1;
-    let rate = ((6.0 * s2 - 6.0 * s) * y0 + (3.0 * s2 - 4.0 * s + 1.0) * m0 + (-6.0 * s2 + 6.0 * s) * y1 + (3.0 * s2 - 2.0 * s) * m1) / h;
+    let position =
+        (2.0 * s3 - 3.0 * s2 + 1.0) * y0 + (s3 - 2.0 * s2 + s) * m0 + (-2.0 * s3 + 3.0 * s2) * y1 + (s3 - s2) * m1;
+    let rate = ((6.0 * s2 - 6.0 * s) * y0
+        + (3.0 * s2 - 4.0 * s + 1.0) * m0
+        + (-6.0 * s2 + 6.0 * s) * y1
+        + (3.0 * s2 - 2.0 * s) * m1)
+        / h;
     (position, rate)
 }
 
@@ -265,7 +284,12 @@ mod tests {
 
     #[test]
     fn a_linear_track_is_interpolated_exactly_with_its_rate() {
-        let table = CommandTable::new((0..=100).map(|k| point(0.1 * k as f64, 10.0 + 0.004 * 0.1 * k as f64, 45.0 - 0.002 * 0.1 * k as f64)).collect()).unwrap();
+        let table = CommandTable::new(
+            (0..=100)
+                .map(|k| point(0.1 * k as f64, 10.0 + 0.004 * 0.1 * k as f64, 45.0 - 0.002 * 0.1 * k as f64))
+                .collect(),
+        )
+        .unwrap();
         for t in [0.05, 1.234, 5.0, 9.95] {
             let c = table.at(t);
             assert!((c.azimuth_deg - (10.0 + 0.004 * t)).abs() < 1e-12, "t = {t}");
@@ -276,7 +300,13 @@ mod tests {
 
     #[test]
     fn a_repeated_time_stamp_is_a_jump_without_smearing() {
-        let table = CommandTable::new(vec![point(0.0, 10.0, 45.0), point(5.0, 10.0, 45.0), point(5.0, 14.0, 45.0), point(20.0, 14.0, 45.0)]).unwrap();
+        let table = CommandTable::new(vec![
+            point(0.0, 10.0, 45.0),
+            point(5.0, 10.0, 45.0),
+            point(5.0, 14.0, 45.0),
+            point(20.0, 14.0, 45.0),
+        ])
+        .unwrap();
         assert_eq!(table.at(4.999).azimuth_deg, 10.0);
         assert_eq!(table.at(5.0).azimuth_deg, 14.0);
         assert_eq!(table.at(5.0).azimuth_rate_deg_per_s, 0.0);

@@ -43,7 +43,8 @@ pub struct WindCondition {
 }
 
 impl WindCondition {
-    pub const CALM: WindCondition = WindCondition { mean_speed_m_s: 0.0, roughness_length_m: 0.026, direction_deg: 0.0, seed: 1 };
+    pub const CALM: WindCondition =
+        WindCondition { mean_speed_m_s: 0.0, roughness_length_m: 0.026, direction_deg: 0.0, seed: 1 };
 }
 
 /// Everything a coupled run needs besides the command table.
@@ -181,7 +182,11 @@ impl Trace {
     }
 }
 
-fn apply_overrides(instance: &mut Instance, description: &ModelDescription, overrides: &Overrides) -> Result<(), ImportError> {
+fn apply_overrides(
+    instance: &mut Instance,
+    description: &ModelDescription,
+    overrides: &Overrides,
+) -> Result<(), ImportError> {
     for (name, value) in overrides {
         let vr = description.vr(name)?;
         match value {
@@ -223,11 +228,33 @@ impl Ports {
         let ec = &fmus.elevation_controller.description;
         let w = &fmus.wind.description;
         Ok(Ports {
-            az_plant_out: vrs(ap, ["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current"])?,
-            az_plant_in: vrs(ap, ["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"])?,
+            az_plant_out: vrs(
+                ap,
+                [
+                    "axis.encoder_position",
+                    "axis.position",
+                    "motor1.speed",
+                    "motor2.speed",
+                    "motor1.current",
+                    "motor2.current",
+                ],
+            )?,
+            az_plant_in: vrs(
+                ap,
+                ["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"],
+            )?,
             el_plant_out: vrs(ep, ["axis.encoder_position", "axis.position", "motor.speed", "motor.current"])?,
             el_plant_in: vrs(ep, ["motor.current_command", "load.disturbance_torque"])?,
-            az_ctrl_in: vrs(ac, ["command.position", "command.velocity", "measured.position", "measured.motor1_speed", "measured.motor2_speed"])?,
+            az_ctrl_in: vrs(
+                ac,
+                [
+                    "command.position",
+                    "command.velocity",
+                    "measured.position",
+                    "measured.motor1_speed",
+                    "measured.motor2_speed",
+                ],
+            )?,
             az_ctrl_out: vrs(ac, ["motor1.current_command", "motor2.current_command", "status.reference_position"])?,
             el_ctrl_in: vrs(ec, ["command.position", "command.velocity", "measured.position", "measured.motor_speed"])?,
             el_ctrl_out: vrs(ec, ["motor.current_command", "status.reference_position"])?,
@@ -261,10 +288,12 @@ impl CoupledAntenna {
             d.vr(name)?;
             Ok((name.to_string(), ParameterValue::Real(value)))
         };
-        let mut az_plant_overrides = vec![real(&fmus.azimuth_plant.description, "initial_position", start.azimuth_deg)?];
+        let mut az_plant_overrides =
+            vec![real(&fmus.azimuth_plant.description, "initial_position", start.azimuth_deg)?];
         az_plant_overrides.push(real(&fmus.azimuth_plant.description, "elevation", start.elevation_deg)?);
         az_plant_overrides.extend(config.azimuth_plant.iter().cloned());
-        let mut el_plant_overrides = vec![real(&fmus.elevation_plant.description, "initial_position", start.elevation_deg)?];
+        let mut el_plant_overrides =
+            vec![real(&fmus.elevation_plant.description, "initial_position", start.elevation_deg)?];
         el_plant_overrides.extend(config.elevation_plant.iter().cloned());
         let mut az_ctrl_overrides = vec![
             real(&fmus.azimuth_controller.description, "command.position", start.azimuth_deg)?,
@@ -340,13 +369,12 @@ impl CoupledAntenna {
         let torque_az = self.wind_scale * wind[0];
         let torque_el = self.wind_scale * wind[1];
 
-        self.azimuth_controller.set_real(
-            &p.az_ctrl_in,
-            &[command.azimuth_deg, command.azimuth_rate_deg_per_s, az[0], az[2], az[3]],
-        )?;
+        self.azimuth_controller
+            .set_real(&p.az_ctrl_in, &[command.azimuth_deg, command.azimuth_rate_deg_per_s, az[0], az[2], az[3]])?;
         let mut az_ctrl = [0.0; 3];
         self.azimuth_controller.get_real(&p.az_ctrl_out, &mut az_ctrl)?;
-        self.elevation_controller.set_real(&p.el_ctrl_in, &[command.elevation_deg, command.elevation_rate_deg_per_s, el[0], el[2]])?;
+        self.elevation_controller
+            .set_real(&p.el_ctrl_in, &[command.elevation_deg, command.elevation_rate_deg_per_s, el[0], el[2]])?;
         let mut el_ctrl = [0.0; 2];
         self.elevation_controller.get_real(&p.el_ctrl_out, &mut el_ctrl)?;
 
@@ -381,7 +409,12 @@ impl CoupledAntenna {
 
     /// Runs until `end_time_s`, recording every communication point; `progress` is called
     /// with the fraction done every 1000 steps.
-    pub fn run(&mut self, table: &CommandTable, end_time_s: f64, progress: &mut dyn FnMut(f64)) -> Result<Trace, ImportError> {
+    pub fn run(
+        &mut self,
+        table: &CommandTable,
+        end_time_s: f64,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Trace, ImportError> {
         let start = self.time_s();
         let steps = ((end_time_s - start) / self.step_s).round().max(0.0) as u64;
         let mut trace = Trace::default();

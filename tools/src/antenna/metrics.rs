@@ -52,7 +52,8 @@ pub fn settling(trace: &Trace, jump_s: f64, target: (f64, f64)) -> Option<Settli
     }
     let first = trace.time_s.partition_point(|&t| t < jump_s);
     let arrival = (first..n).find(|&k| {
-        (trace.reference_azimuth_deg[k] - target.0).abs() < 1e-5 && (trace.reference_elevation_deg[k] - target.1).abs() < 1e-5
+        (trace.reference_azimuth_deg[k] - target.0).abs() < 1e-5
+            && (trace.reference_elevation_deg[k] - target.1).abs() < 1e-5
     })?;
     let dt = trace.time_s[1] - trace.time_s[0];
     let hold = (SETTLE_HOLD_S / dt).round() as usize;
@@ -75,7 +76,8 @@ pub fn settling(trace: &Trace, jump_s: f64, target: (f64, f64)) -> Option<Settli
     // (nearly) the top speed before the arrival.
     let speed: Vec<f64> = (first.max(1)..=arrival)
         .map(|k| {
-            let d_az = (trace.reference_azimuth_deg[k] - trace.reference_azimuth_deg[k - 1]) * trace.elevation_deg[k].to_radians().cos();
+            let d_az = (trace.reference_azimuth_deg[k] - trace.reference_azimuth_deg[k - 1])
+                * trace.elevation_deg[k].to_radians().cos();
             let d_el = trace.reference_elevation_deg[k] - trace.reference_elevation_deg[k - 1];
             d_az.hypot(d_el) / dt
         })
@@ -93,7 +95,8 @@ pub fn settling(trace: &Trace, jump_s: f64, target: (f64, f64)) -> Option<Settli
         peak_error_after_arrival_arcsec: error[arrival..].iter().cloned().fold(0.0, f64::max),
         peak_following_error_arcsec: (first..arrival)
             .map(|k| {
-                let d_az = (trace.reference_azimuth_deg[k] - trace.azimuth_deg[k]) * trace.elevation_deg[k].to_radians().cos();
+                let d_az =
+                    (trace.reference_azimuth_deg[k] - trace.azimuth_deg[k]) * trace.elevation_deg[k].to_radians().cos();
                 let d_el = trace.reference_elevation_deg[k] - trace.elevation_deg[k];
                 d_az.hypot(d_el) * 3600.0
             })

@@ -7,7 +7,7 @@ pub mod coupled;
 
 pub use command::{Command, CommandPoint, CommandTable};
 pub use coupled::{AntennaConfig, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace, WindCondition};
-pub mod metrics;
-pub mod scenario;
-pub mod report;
 pub mod bode;
+pub mod metrics;
+pub mod report;
+pub mod scenario;

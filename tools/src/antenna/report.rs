@@ -32,15 +32,23 @@ pub struct Outcome {
 }
 
 /// Runs one scenario on the coupled antenna.
-pub fn run_scenario(fmus: &FmuSet, base: &AntennaConfig, scenario: &Scenario, progress: &mut dyn FnMut(f64)) -> Result<Outcome, String> {
+pub fn run_scenario(
+    fmus: &FmuSet,
+    base: &AntennaConfig,
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Outcome, String> {
     let config = AntennaConfig { wind: scenario.wind.clone(), ..base.clone() };
     let started = std::time::Instant::now();
-    let mut antenna = CoupledAntenna::new(fmus, &config, &scenario.table).map_err(|e| format!("{}: {e}", scenario.name))?;
-    let trace = antenna.run(&scenario.table, scenario.end_s, progress).map_err(|e| format!("{}: {e}", scenario.name))?;
+    let mut antenna =
+        CoupledAntenna::new(fmus, &config, &scenario.table).map_err(|e| format!("{}: {e}", scenario.name))?;
+    let trace =
+        antenna.run(&scenario.table, scenario.end_s, progress).map_err(|e| format!("{}: {e}", scenario.name))?;
     let wall_s = started.elapsed().as_secs_f64();
     let (figure, settling_result, window) = match scenario.analysis {
         Analysis::Jitter { from_s } => {
-            let (value, start) = worst_window_jitter_arcsec(&trace, from_s).ok_or("run too short for a jitter window")?;
+            let (value, start) =
+                worst_window_jitter_arcsec(&trace, from_s).ok_or("run too short for a jitter window")?;
             (value, None, Some(start))
         }
         Analysis::Settling { jump_s, target } => {
@@ -49,7 +57,15 @@ pub fn run_scenario(fmus: &FmuSet, base: &AntennaConfig, scenario: &Scenario, pr
         }
     };
     let passed = figure.is_finite() && figure < scenario.requirement.limit();
-    Ok(Outcome { scenario: scenario.clone(), figure, passed, settling: settling_result, worst_window_start_s: window, trace, wall_s })
+    Ok(Outcome {
+        scenario: scenario.clone(),
+        figure,
+        passed,
+        settling: settling_result,
+        worst_window_start_s: window,
+        trace,
+        wall_s,
+    })
 }
 
 fn figure_text(o: &Outcome) -> String {
@@ -70,7 +86,8 @@ pub fn markdown(outcomes: &[Outcome]) -> String {
     out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
     for o in outcomes {
         let r = o.scenario.requirement;
-        let margin = if o.figure.is_finite() { format!("{:.0} %", 100.0 * (1.0 - o.figure / r.limit())) } else { "-".into() };
+        let margin =
+            if o.figure.is_finite() { format!("{:.0} %", 100.0 * (1.0 - o.figure / r.limit())) } else { "-".into() };
         let measured = match o.settling {
             Some(s) => format!("{} s {}", figure_text(o), r.judged_settling(&s).1),
             None => format!("{} {}", figure_text(o), r.unit()),
@@ -149,7 +166,8 @@ pub fn plot(outcomes: &[Outcome], directory: &Path) -> Result<Vec<std::path::Pat
             // Decimate to 100 Hz for the plot; the figures use every sample.
             let t: Vec<f64> = o.trace.time_s.iter().step_by(10).cloned().collect();
             let e: Vec<f64> = o.trace.pointing_error_arcsec().into_iter().step_by(10).map(|x| x.max(1e-3)).collect();
-            panel = panel.line(&format!("el {:.0} deg ({} wind)", o.scenario.elevation_deg, o.scenario.wind_label), &t, &e);
+            panel =
+                panel.line(&format!("el {:.0} deg ({} wind)", o.scenario.elevation_deg, o.scenario.wind_label), &t, &e);
         }
         panel = panel.horizontal_line("15 arcsec", JITTER_LIMIT_ARCSEC);
         let name = requirement.label().replace(". ", "").to_lowercase();

@@ -103,11 +103,21 @@ pub struct Scenario {
 }
 
 pub fn optimal_wind(azimuth_deg: f64, seed: i32) -> WindCondition {
-    WindCondition { mean_speed_m_s: 2.9, roughness_length_m: SCENARIO_ROUGHNESS_OPTIMAL, direction_deg: azimuth_deg + WIND_YAW_DEG, seed }
+    WindCondition {
+        mean_speed_m_s: 2.9,
+        roughness_length_m: SCENARIO_ROUGHNESS_OPTIMAL,
+        direction_deg: azimuth_deg + WIND_YAW_DEG,
+        seed,
+    }
 }
 
 pub fn normal_wind(azimuth_deg: f64, seed: i32) -> WindCondition {
-    WindCondition { mean_speed_m_s: 9.8, roughness_length_m: SCENARIO_ROUGHNESS_NORMAL, direction_deg: azimuth_deg + WIND_YAW_DEG, seed }
+    WindCondition {
+        mean_speed_m_s: 9.8,
+        roughness_length_m: SCENARIO_ROUGHNESS_NORMAL,
+        direction_deg: azimuth_deg + WIND_YAW_DEG,
+        seed,
+    }
 }
 
 /// A table tracking at constant rates from a start point, one row per table interval.
@@ -116,7 +126,11 @@ pub fn tracking_table(start: (f64, f64), rates_deg_per_s: (f64, f64), duration_s
     let points = (0..=rows)
         .map(|k| {
             let t = k as f64 * TABLE_INTERVAL_S;
-            CommandPoint { time_s: t, azimuth_deg: start.0 + rates_deg_per_s.0 * t, elevation_deg: start.1 + rates_deg_per_s.1 * t }
+            CommandPoint {
+                time_s: t,
+                azimuth_deg: start.0 + rates_deg_per_s.0 * t,
+                elevation_deg: start.1 + rates_deg_per_s.1 * t,
+            }
         })
         .collect();
     CommandTable::new(points).expect("scenario tables stay inside the travel")
@@ -125,7 +139,8 @@ pub fn tracking_table(start: (f64, f64), rates_deg_per_s: (f64, f64), duration_s
 /// A table that holds `from`, jumps to `to` at `jump_s` and holds it until `end_s`.
 pub fn step_table(from: (f64, f64), to: (f64, f64), jump_s: f64, end_s: f64) -> CommandTable {
     let p = |t: f64, (az, el): (f64, f64)| CommandPoint { time_s: t, azimuth_deg: az, elevation_deg: el };
-    CommandTable::new(vec![p(0.0, from), p(jump_s, from), p(jump_s, to), p(end_s, to)]).expect("scenario tables stay inside the travel")
+    CommandTable::new(vec![p(0.0, from), p(jump_s, from), p(jump_s, to), p(end_s, to)])
+        .expect("scenario tables stay inside the travel")
 }
 
 /// The elevations the requirements are checked at.
@@ -162,7 +177,9 @@ pub fn requirement_scenarios() -> Vec<Scenario> {
             end_s: 80.0,
             analysis: Analysis::Settling { jump_s: 2.0, target: slew_to },
         });
-        for (requirement, offset, end) in [(Requirement::LargeStepSettling, 4.0, 35.0), (Requirement::SmallStepSettling, 0.5, 25.0)] {
+        for (requirement, offset, end) in
+            [(Requirement::LargeStepSettling, 4.0, 35.0), (Requirement::SmallStepSettling, 0.5, 25.0)]
+        {
             let target = (az0, el);
             let from = (az0 + offset, el + up * offset);
             out.push(Scenario {

@@ -16,10 +16,12 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use antenna_tools::antenna::report::{csv, markdown, plot, run_scenario};
 use antenna_tools::antenna::command::CommandTable;
 use antenna_tools::antenna::coupled::WindCondition;
-use antenna_tools::antenna::scenario::{normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S};
+use antenna_tools::antenna::report::{csv, markdown, plot, run_scenario};
+use antenna_tools::antenna::scenario::{
+    normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
+};
 use antenna_tools::antenna::{AntennaConfig, FmuSet};
 use antenna_tools::package;
 
@@ -34,9 +36,14 @@ fn main() -> ExitCode {
         println!("{USAGE}");
         return ExitCode::SUCCESS;
     }
-    let out_dir = value("--out").map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("out").join("antenna"));
+    let out_dir =
+        value("--out").map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("out").join("antenna"));
     let scenarios = match value("--commands") {
-        Some(path) => match user_scenario(&PathBuf::from(path), value("--wind").as_deref().unwrap_or("optimal"), value("--seed").as_deref().unwrap_or("1")) {
+        Some(path) => match user_scenario(
+            &PathBuf::from(path),
+            value("--wind").as_deref().unwrap_or("optimal"),
+            value("--seed").as_deref().unwrap_or("1"),
+        ) {
             Ok(s) => vec![s],
             Err(e) => {
                 eprintln!("{e}\n{USAGE}");
@@ -45,7 +52,10 @@ fn main() -> ExitCode {
         },
         None => {
             let filter = value("--only");
-            requirement_scenarios().into_iter().filter(|s| filter.as_ref().is_none_or(|f| s.name.contains(f.as_str()))).collect()
+            requirement_scenarios()
+                .into_iter()
+                .filter(|s| filter.as_ref().is_none_or(|f| s.name.contains(f.as_str())))
+                .collect()
         }
     };
 
@@ -78,7 +88,13 @@ fn main() -> ExitCode {
             last_percent = percent;
             let width = 30;
             let filled = (overall * width as f64) as usize;
-            eprint!("\r[{}{}] {:5.1} %  {:<32}", "#".repeat(filled), " ".repeat(width - filled), 100.0 * overall, scenario.name);
+            eprint!(
+                "\r[{}{}] {:5.1} %  {:<32}",
+                "#".repeat(filled),
+                " ".repeat(width - filled),
+                100.0 * overall,
+                scenario.name
+            );
             let _ = std::io::stderr().flush();
         };
         match run_scenario(&fmus, &AntennaConfig::default(), scenario, &mut progress) {
@@ -101,14 +117,21 @@ fn main() -> ExitCode {
     let wall = started.elapsed().as_secs_f64();
     eprintln!();
     let table = markdown(&outcomes);
-    println!("\nRequirement report: {} scenarios, {:.0} s simulated in {:.1} s wall-clock ({:.0} x real time)\n", outcomes.len(), total_sim, wall, total_sim / wall);
+    println!(
+        "\nRequirement report: {} scenarios, {:.0} s simulated in {:.1} s wall-clock ({:.0} x real time)\n",
+        outcomes.len(),
+        total_sim,
+        wall,
+        total_sim / wall
+    );
     println!("{table}");
     println!("{}", antenna_tools::antenna::report::DEFINITIONS);
     if let Err(e) = std::fs::create_dir_all(&out_dir) {
         eprintln!("cannot create {}: {e}", out_dir.display());
         return ExitCode::FAILURE;
     }
-    let header = format!("# Requirement report\n\n{}\n\n", antenna_tools::antenna::report::DEFINITIONS.replace('\n', "\n\n"));
+    let header =
+        format!("# Requirement report\n\n{}\n\n", antenna_tools::antenna::report::DEFINITIONS.replace('\n', "\n\n"));
     let _ = std::fs::write(out_dir.join("report.md"), format!("{header}{table}"));
     let _ = std::fs::write(out_dir.join("report.csv"), csv(&outcomes));
     match plot(&outcomes, &out_dir) {
@@ -136,7 +159,13 @@ fn user_scenario(path: &std::path::Path, wind: &str, seed: &str) -> Result<Scena
     let seed: i32 = seed.parse().map_err(|_| format!("--seed {seed} is not a whole number"))?;
     let (start, end) = table.time_span();
     if end - start < 2.0 * JITTER_WINDOW_S {
-        return Err(format!("{}: the table spans {:.1} s; at least {:.0} s are needed for a jitter window after the first {:.0} s", path.display(), end - start, 2.0 * JITTER_WINDOW_S, JITTER_WINDOW_S));
+        return Err(format!(
+            "{}: the table spans {:.1} s; at least {:.0} s are needed for a jitter window after the first {:.0} s",
+            path.display(),
+            end - start,
+            2.0 * JITTER_WINDOW_S,
+            JITTER_WINDOW_S
+        ));
     }
     let azimuth = table.at(start).azimuth_deg;
     let (wind, label, requirement) = match wind {

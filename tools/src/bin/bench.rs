@@ -14,7 +14,12 @@ use fmu_runtime::import::Fmu;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let seconds: f64 = args.iter().position(|a| a == "--seconds").and_then(|i| args.get(i + 1)).and_then(|s| s.parse().ok()).unwrap_or(300.0);
+    let seconds: f64 = args
+        .iter()
+        .position(|a| a == "--seconds")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(300.0);
     let fmus = match FmuSet::open(&package::fmu_directory()) {
         Ok(f) => f,
         Err(e) => {
@@ -53,7 +58,11 @@ fn run(fmus: &FmuSet, seconds: f64, fmpy: bool) -> Result<(), String> {
 
     println!("\n## One fmi2DoStep of 1 ms, each FMU alone (ns per call, best of 3 runs of 200000)");
     for (name, fmu, inputs) in [
-        ("AzimuthPlant", &fmus.azimuth_plant, vec![("motor1.current_command", 2.0), ("motor2.current_command", -1.0), ("elevation", 45.0)]),
+        (
+            "AzimuthPlant",
+            &fmus.azimuth_plant,
+            vec![("motor1.current_command", 2.0), ("motor2.current_command", -1.0), ("elevation", 45.0)],
+        ),
         ("ElevationPlant", &fmus.elevation_plant, vec![("motor.current_command", 1.0)]),
         ("AzimuthController", &fmus.azimuth_controller, vec![("command.velocity", 0.004)]),
         ("ElevationController", &fmus.elevation_controller, vec![("command.velocity", 0.004)]),
@@ -111,7 +120,14 @@ fn get_real_cost(fmu: &Fmu) -> Result<f64, String> {
     instance.initialize(0.0, &[]).map_err(|e| e.to_string())?;
     let vrs = fmu
         .description
-        .vrs(&["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current"])
+        .vrs(&[
+            "axis.encoder_position",
+            "axis.position",
+            "motor1.speed",
+            "motor2.speed",
+            "motor1.current",
+            "motor2.current",
+        ])
         .map_err(|e| e.to_string())?;
     let mut out = [0.0; 6];
     let n = 1_000_000;

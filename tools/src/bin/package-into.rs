@@ -9,8 +9,11 @@ fn main() -> ExitCode {
         eprintln!("usage: package-into <output folder>");
         return ExitCode::FAILURE;
     };
-    let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| antenna_tools::package::workspace_root().join("target"));
-    let result = antenna_tools::package::build_libraries(&target).and_then(|()| antenna_tools::package::package_all(&target, &output));
+    let target = std::env::var("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| antenna_tools::package::workspace_root().join("target"));
+    let result = antenna_tools::package::build_libraries(&target)
+        .and_then(|()| antenna_tools::package::package_all(&target, &output));
     match result {
         Ok(paths) => {
             for p in paths {

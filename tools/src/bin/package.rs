@@ -57,7 +57,8 @@ fn reproducibility_check(reference: &[std::path::PathBuf]) -> Result<(), String>
     // leak into); they are packaged by this binary's own code, as the first build was.
     let target = copy.join("target");
     let out = copy.join("fmu");
-    package::build_libraries_from(&copy.join("checkout"), &target).map_err(|e| format!("the second build failed: {e}"))?;
+    package::build_libraries_from(&copy.join("checkout"), &target)
+        .map_err(|e| format!("the second build failed: {e}"))?;
     package::package_all(&target, &out)?;
     for path in reference {
         let name = path.file_name().unwrap();

@@ -11,10 +11,15 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use antenna_tools::package;
-use antenna_tools::plant_identification::{identify, markdown_summary, Axis, IdentificationConfig, FIGURE_MAX_FREQUENCY_HZ};
+use antenna_tools::plant_identification::{
+    identify, markdown_summary, Axis, IdentificationConfig, FIGURE_MAX_FREQUENCY_HZ,
+};
 
 fn main() -> ExitCode {
-    let output = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("docs").join("figures"));
+    let output = std::env::args()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| package::workspace_root().join("docs").join("figures"));
     if let Err(e) = std::fs::create_dir_all(&output) {
         eprintln!("cannot create {}: {e}", output.display());
         return ExitCode::FAILURE;
@@ -23,7 +28,10 @@ fn main() -> ExitCode {
     for axis in [Axis::Azimuth, Axis::Elevation] {
         let fmu = package::fmu_path(axis.model_identifier());
         if !fmu.is_file() {
-            eprintln!("{} is missing: package the FMUs first (cargo run --release -p antenna-tools --bin package)", fmu.display());
+            eprintln!(
+                "{} is missing: package the FMUs first (cargo run --release -p antenna-tools --bin package)",
+                fmu.display()
+            );
             return ExitCode::FAILURE;
         }
         let config = IdentificationConfig::paper(axis);

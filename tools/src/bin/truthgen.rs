@@ -50,7 +50,10 @@ fn positive(text: &str, flag: &str) -> Result<f64, String> {
 }
 
 fn list<T: std::str::FromStr>(text: &str, flag: &str) -> Result<Vec<T>, String> {
-    text.split(',').filter(|s| !s.trim().is_empty()).map(|s| s.trim().parse::<T>().map_err(|_| format!("{flag}: bad value '{s}'"))).collect()
+    text.split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| s.trim().parse::<T>().map_err(|_| format!("{flag}: bad value '{s}'")))
+        .collect()
 }
 
 fn run(args: Vec<String>) -> Result<(), String> {
@@ -76,13 +79,15 @@ fn run(args: Vec<String>) -> Result<(), String> {
             }
             "--no-pairs" => suite_config.pairs.clear(),
             "--presliding" => {
-                base.plant.presliding_displacement = value(&args, &mut i, flag)?.parse().map_err(|_| "--presliding needs a displacement in rad")?;
+                base.plant.presliding_displacement =
+                    value(&args, &mut i, flag)?.parse().map_err(|_| "--presliding needs a displacement in rad")?;
                 if !(base.plant.presliding_displacement > 0.0) {
                     return Err("--presliding needs a positive displacement in rad".into());
                 }
             }
             "--internal-rate" => {
-                base.internal_rate = value(&args, &mut i, flag)?.parse().map_err(|_| "--internal-rate needs a rate in Hz")?;
+                base.internal_rate =
+                    value(&args, &mut i, flag)?.parse().map_err(|_| "--internal-rate needs a rate in Hz")?;
                 if !(base.internal_rate >= base.controller_rate) {
                     return Err("--internal-rate must be at least the controller rate".into());
                 }
@@ -116,8 +121,13 @@ fn run(args: Vec<String>) -> Result<(), String> {
                     return Err("--motors needs 1 or 2".into());
                 }
             }
-            "--current-bias" => base.noise.current_bias = value(&args, &mut i, flag)?.parse().map_err(|_| "--current-bias needs amperes")?,
-            "--duration" => base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?,
+            "--current-bias" => {
+                base.noise.current_bias =
+                    value(&args, &mut i, flag)?.parse().map_err(|_| "--current-bias needs amperes")?
+            }
+            "--duration" => {
+                base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?
+            }
             "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,
             "--effect" => {
                 let kind = value(&args, &mut i, flag)?.to_string();
@@ -146,7 +156,9 @@ fn run(args: Vec<String>) -> Result<(), String> {
             println!("{}: {}", out.display(), suite::describe(&truth));
         }
         "start" => {
-            base.plant.starting_parameters().write(&out, "Starting parameter set: the truth generator's nominal plant.")?;
+            base.plant
+                .starting_parameters()
+                .write(&out, "Starting parameter set: the truth generator's nominal plant.")?;
         }
         other => return Err(format!("unknown command '{other}'")),
     }

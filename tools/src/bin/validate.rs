@@ -93,11 +93,19 @@ fn parse(args: Vec<String>) -> Result<Arguments, String> {
             "--verbose" => a.verbose = true,
             "--threads" => a.threads = value()?.parse().map_err(|_| "--threads needs a count")?,
             "--alpha" => a.options.selection.alpha = value()?.parse().map_err(|_| "--alpha needs a number")?,
-            "--min-effect-to-noise" => a.options.selection.min_effect_to_noise = value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?,
-            "--window" => a.options.output.window_seconds = Some(value()?.parse().map_err(|_| "--window needs seconds")?),
+            "--min-effect-to-noise" => {
+                a.options.selection.min_effect_to_noise =
+                    value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?
+            }
+            "--window" => {
+                a.options.output.window_seconds = Some(value()?.parse().map_err(|_| "--window needs seconds")?)
+            }
             "--no-refit" => a.options.output.refit = false,
             "--no-presliding" => a.options.output.presliding = false,
-            "--drive-window" => a.options.output.drive_window_seconds = Some(value()?.parse().map_err(|_| "--drive-window needs seconds")?),
+            "--drive-window" => {
+                a.options.output.drive_window_seconds =
+                    Some(value()?.parse().map_err(|_| "--drive-window needs seconds")?)
+            }
             other if !other.starts_with("--") && a.target.is_none() => a.target = Some(other.to_string()),
             other => return Err(format!("unknown option '{other}'")),
         }
@@ -132,7 +140,9 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 let clock = Instant::now();
                 let results = score_suite(&dir, &a)?;
                 let scoring_time = clock.elapsed().as_secs_f64();
-                let kuka_dir = a.kuka.clone().unwrap_or_else(|| root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive"));
+                let kuka_dir = a.kuka.clone().unwrap_or_else(|| {
+                    root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive")
+                });
                 let docs = root.join("docs");
                 let figures = docs.join("figures");
                 std::fs::create_dir_all(&figures).map_err(|e| format!("cannot create {}: {e}", figures.display()))?;
@@ -147,7 +157,8 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 let text = results_document(&results, kuka.as_deref(), &timing);
                 std::fs::write(docs.join("validation-results.md"), text).map_err(|e| e.to_string())?;
                 replace_readme_block(&root.join("README.md"), &scoring::summary_markdown(&results))?;
-                std::fs::write(docs.join("validation-detection.csv"), scoring::detection_csv(&results)).map_err(|e| e.to_string())?;
+                std::fs::write(docs.join("validation-detection.csv"), scoring::detection_csv(&results))
+                    .map_err(|e| e.to_string())?;
                 scoring::detection_figure(&results, &figures.join("validation-detection.png"))?;
                 println!("{}", scoring::summary_markdown(&results));
                 println!("{timing}");
@@ -162,7 +173,8 @@ fn run(args: Vec<String>) -> Result<(), String> {
                 text.push_str("\n### All cases\n\n");
                 text.push_str(&scoring::table_markdown(&results));
                 std::fs::write(out.join("results.md"), &text).map_err(|e| e.to_string())?;
-                std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results)).map_err(|e| e.to_string())?;
+                std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results))
+                    .map_err(|e| e.to_string())?;
                 scoring::detection_figure(&results, &out.join("detection.png"))?;
                 println!("{}", scoring::summary_markdown(&results));
                 println!("wrote {}", out.join("results.md").display());
@@ -197,14 +209,22 @@ fn run(args: Vec<String>) -> Result<(), String> {
         }
         "kuka" => {
             let root = antenna_tools::package::workspace_root();
-            let kuka_dir = a.kuka.clone().unwrap_or_else(|| root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive"));
+            let kuka_dir = a
+                .kuka
+                .clone()
+                .unwrap_or_else(|| root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive"));
             let out = a.out.clone().unwrap_or_else(|| PathBuf::from("."));
             std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
             let section = run_kuka(&kuka_dir, &out, &a)?;
             println!("{section}");
         }
         "floor" => {
-            let seed = a.target.as_deref().map(|s| s.parse::<u64>().map_err(|_| "floor takes a seed")).transpose()?.unwrap_or(1);
+            let seed = a
+                .target
+                .as_deref()
+                .map(|s| s.parse::<u64>().map_err(|_| "floor takes a seed"))
+                .transpose()?
+                .unwrap_or(1);
             floor(seed, &a)?;
         }
         other => return Err(format!("unknown command '{other}'")),
@@ -218,8 +238,19 @@ fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
     let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
     println!("| truth variant (seed {seed}) | torque equation RMS (axis N m) | load equation RMS (N m) | output error: axis position (arcsec) | twist (arcsec) | load side driven by the motor encoder (arcsec) |");
     println!("|---|---|---|---|---|---|");
-    let quiet = NoiseConfig { current_sigma: 0.0, current_step: 1e-9, load_encoder_counts: 2f64.powi(40), load_encoder_sigma: 0.0, motor_encoder_counts: 2f64.powi(36), ..NoiseConfig::default() };
-    let current_only = NoiseConfig { current_sigma: NoiseConfig::default().current_sigma, current_step: NoiseConfig::default().current_step, ..quiet.clone() };
+    let quiet = NoiseConfig {
+        current_sigma: 0.0,
+        current_step: 1e-9,
+        load_encoder_counts: 2f64.powi(40),
+        load_encoder_sigma: 0.0,
+        motor_encoder_counts: 2f64.powi(36),
+        ..NoiseConfig::default()
+    };
+    let current_only = NoiseConfig {
+        current_sigma: NoiseConfig::default().current_sigma,
+        current_step: NoiseConfig::default().current_step,
+        ..quiet.clone()
+    };
     let encoders_only = NoiseConfig { current_sigma: 0.0, current_step: 1e-9, ..NoiseConfig::default() };
     for (label, noise, presliding) in [
         ("as in the suite: sensor noise, LuGre with 1e-7 rad presliding", NoiseConfig::default(), 1e-7),
@@ -237,12 +268,20 @@ fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
         let log = simulate(&config).log;
         let mut options = a.options.clone();
         options.selection.max_effects = 0;
-        let v = validate::validate_with(&log, &start, &options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+        let v =
+            validate::validate_with(&log, &start, &options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
         let arcsec = 180.0 * 3600.0 / std::f64::consts::PI;
         use validate::output_error::ChannelKind;
-        let rms_of = |kind: ChannelKind| v.output.as_ref().and_then(|o| o.before.channel(kind)).map_or(f64::NAN, |c| c.rms * arcsec);
-        let (position, twist, load_side) = (rms_of(ChannelKind::AxisPosition), rms_of(ChannelKind::Twist), rms_of(ChannelKind::LoadSide));
-        println!("| {label} | {:.1} | {:.2} | {position:.2} | {twist:.3} | {load_side:.3} |", v.before[0].rms, v.before.get(1).map_or(f64::NAN, |c| c.rms));
+        let rms_of = |kind: ChannelKind| {
+            v.output.as_ref().and_then(|o| o.before.channel(kind)).map_or(f64::NAN, |c| c.rms * arcsec)
+        };
+        let (position, twist, load_side) =
+            (rms_of(ChannelKind::AxisPosition), rms_of(ChannelKind::Twist), rms_of(ChannelKind::LoadSide));
+        println!(
+            "| {label} | {:.1} | {:.2} | {position:.2} | {twist:.3} | {load_side:.3} |",
+            v.before[0].rms,
+            v.before.get(1).map_or(f64::NAN, |c| c.rms)
+        );
     }
     Ok(())
 }
@@ -264,17 +303,27 @@ fn run_one(log_path: &Path, params_path: &Path, a: &Arguments) -> Result<(Valida
     let log = MeasuredLog::read(log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
     let start = ParameterSet::read(params_path)?;
     let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
-    let validation = validate::validate_with(&log, &start, &a.options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+    let validation =
+        validate::validate_with(&log, &start, &a.options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
     Ok((validation, log))
 }
 
 /// Writes the report, the corrected parameter sets and the figures of one validation.
-fn write_outputs(validation: &Validation, log_path: &Path, params_path: &Path, dir: &Path, stem: &str) -> Result<Vec<String>, String> {
+fn write_outputs(
+    validation: &Validation,
+    log_path: &Path,
+    params_path: &Path,
+    dir: &Path,
+    stem: &str,
+) -> Result<Vec<String>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let text = report::markdown(validation, &log_path.display().to_string());
     std::fs::write(dir.join(format!("{stem}_report.md")), &text).map_err(|e| e.to_string())?;
     let header = format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display());
-    validation.selection.corrected.write(&dir.join(format!("{stem}_corrected_axis.params")), &format!("{header}\nSingle-axis parameter set (validate's own form; usable as a starting set)."))?;
+    validation.selection.corrected.write(
+        &dir.join(format!("{stem}_corrected_axis.params")),
+        &format!("{header}\nSingle-axis parameter set (validate's own form; usable as a starting set)."),
+    )?;
     if let Some(o) = &validation.output {
         let fmu_text = fmu_parameter_text(
             &validation.selection.corrected,
@@ -289,7 +338,8 @@ fn write_outputs(validation: &Validation, log_path: &Path, params_path: &Path, d
 fn score_suite(dir: &Path, a: &Arguments) -> Result<Vec<scoring::CaseResult>, String> {
     scoring::run_suite(dir, &a.options, a.fmu.as_deref(), a.threads, &|r| {
         let truth = suite::describe(&r.truth);
-        let found = r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
+        let found =
+            r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
         let ratio = r.output.as_ref().map(|o| format!("{:.2}", o.ratio())).unwrap_or_else(|| "-".into());
         let summed = r.score_ratio.map(|x| format!("{x:.2}")).unwrap_or_else(|| "-".into());
         let response = r.response.as_ref().map(|o| format!("{:.2}", o.ratio())).unwrap_or_else(|| "-".into());
@@ -361,19 +411,44 @@ fn print_summary(v: &Validation) {
         }
         let alike = v.selection.equally_consistent(found.kind);
         if !alike.is_empty() {
-            println!("    the data cannot tell it from: {}", alike.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
+            println!(
+                "    the data cannot tell it from: {}",
+                alike.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
+            );
         }
     }
     for (b, a) in v.before.iter().zip(&v.after) {
-        println!("{}: RMS {:.4} -> {:.4} N m (axis side), fit {:.1} -> {:.1} %, whiteness p {:.1e} -> {:.1e}", b.name, b.rms, a.rms, b.fit_percent, a.fit_percent, b.whiteness_p, a.whiteness_p);
+        println!(
+            "{}: RMS {:.4} -> {:.4} N m (axis side), fit {:.1} -> {:.1} %, whiteness p {:.1e} -> {:.1e}",
+            b.name, b.rms, a.rms, b.fit_percent, a.fit_percent, b.whiteness_p, a.whiteness_p
+        );
     }
     if let Some(o) = &v.output {
-        println!("output error over {} windows of {:.3} s ({}); twist on pieces of {} samples:", o.plan.starts.len(), o.plan.seconds, o.plan.reason, o.plan.drive_length);
+        println!(
+            "output error over {} windows of {:.3} s ({}); twist on pieces of {} samples:",
+            o.plan.starts.len(),
+            o.plan.seconds,
+            o.plan.reason,
+            o.plan.drive_length
+        );
         for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
-            println!("    {}: RMS {:.4e} -> {:.4e} {}, fit {:.1} -> {:.1} %", b.kind.name(), b.rms, a.rms, b.kind.unit(), b.fit_percent, a.fit_percent);
+            println!(
+                "    {}: RMS {:.4e} -> {:.4e} {}, fit {:.1} -> {:.1} %",
+                b.kind.name(),
+                b.rms,
+                a.rms,
+                b.kind.unit(),
+                b.fit_percent,
+                a.fit_percent
+            );
         }
         for (kind, c) in &o.confirmations {
-            println!("    confirmation of {}: {} -> {}", kind.name(), c.reason, if c.confirmed { "confirmed" } else { "rejected" });
+            println!(
+                "    confirmation of {}: {} -> {}",
+                kind.name(),
+                c.reason,
+                if c.confirmed { "confirmed" } else { "rejected" }
+            );
         }
     }
     if let Some(f) = &v.frequency {

@@ -20,7 +20,10 @@ use antenna_tools::package;
 const FIGURE_MAX_FREQUENCY_HZ: f64 = 100.0;
 
 fn main() -> ExitCode {
-    let output = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("docs").join("figures"));
+    let output = std::env::args()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| package::workspace_root().join("docs").join("figures"));
     if let Err(e) = std::fs::create_dir_all(&output) {
         eprintln!("cannot create {}: {e}", output.display());
         return ExitCode::FAILURE;
@@ -30,7 +33,10 @@ fn main() -> ExitCode {
         let result = match identify_velocity_loop(&package::fmu_directory(), &config) {
             Ok(r) => r,
             Err(e) => {
-                eprintln!("{}: {e} (package the FMUs first: cargo run --release -p antenna-tools --bin package)", axis.name());
+                eprintln!(
+                    "{}: {e} (package the FMUs first: cargo run --release -p antenna-tools --bin package)",
+                    axis.name()
+                );
                 return ExitCode::FAILURE;
             }
         };

@@ -17,8 +17,8 @@ use std::time::Instant;
 
 use antenna_tools::package;
 use antenna_tools::wind_spectra::{
-    filter_error, filter_figure, generate_through_fmu, paper_shape, psd_comparison, psd_figure, save, ERROR_SPEEDS_M_S, GOAL_DB,
-    OMEGA_RANGE_RAD_S,
+    filter_error, filter_figure, generate_through_fmu, paper_shape, psd_comparison, psd_figure, save, ERROR_SPEEDS_M_S,
+    GOAL_DB, OMEGA_RANGE_RAD_S,
 };
 use fmu_runtime::import::Fmu;
 
@@ -33,7 +33,10 @@ const SEGMENT_S: f64 = 600.0;
 const RECORDS: [(f64, i32); 2] = [(3.0, 1), (9.5, 2)];
 
 fn run(output: &std::path::Path) -> Result<(), String> {
-    println!("Our Davenport filter against Eq. 2 over {}-{} rad/s (z = 10 m, z0 = 0.4 m; 4001 log-spaced points):", OMEGA_RANGE_RAD_S.0, OMEGA_RANGE_RAD_S.1);
+    println!(
+        "Our Davenport filter against Eq. 2 over {}-{} rad/s (z = 10 m, z0 = 0.4 m; 4001 log-spaced points):",
+        OMEGA_RANGE_RAD_S.0, OMEGA_RANGE_RAD_S.1
+    );
     println!("| v_m (m/s) | max |error| (dB) | at omega (rad/s) |");
     println!("| --- | --- | --- |");
     let mut worst: f64 = 0.0;
@@ -56,10 +59,16 @@ fn run(output: &std::path::Path) -> Result<(), String> {
     println!("wrote {}\n", filters.display());
 
     let path = package::fmu_path("Wind");
-    let fmu = Fmu::open(&path).map_err(|e| format!("cannot open {}: {e} (package the FMUs first: cargo run --release -p antenna-tools --bin package)", path.display()))?;
+    let fmu = Fmu::open(&path).map_err(|e| {
+        format!(
+            "cannot open {}: {e} (package the FMUs first: cargo run --release -p antenna-tools --bin package)",
+            path.display()
+        )
+    })?;
     let mut comparisons = Vec::new();
     for (v, seed) in RECORDS {
-        let record = generate_through_fmu(&fmu, v, seed, STEP_S, DURATION_S).map_err(|e| format!("Wind.fmu at {v} m/s: {e}"))?;
+        let record =
+            generate_through_fmu(&fmu, v, seed, STEP_S, DURATION_S).map_err(|e| format!("Wind.fmu at {v} m/s: {e}"))?;
         let started = Instant::now();
         let c = psd_comparison(&record, SEGMENT_S, 0.95).map_err(|e| e.to_string())?;
         println!(
@@ -84,7 +93,10 @@ fn run(output: &std::path::Path) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    let output = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(|| package::workspace_root().join("docs").join("figures"));
+    let output = std::env::args()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| package::workspace_root().join("docs").join("figures"));
     match run(&output) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -63,20 +63,11 @@ impl BandSpectrum {
 /// of a band of M bins are `nu M / (1 + 2 sum_{k=1}^{M-1} (1 - k/M) rho_k)`, with nu the
 /// degrees of freedom of one bin and rho_k the correlation of bins k apart
 /// ([`Spectrum::bin_correlation`]); for a Hann window that is about half of nu M.
-pub fn log_band_average(
-    spectrum: &Spectrum,
-    bands_per_decade: f64,
-) -> Result<BandSpectrum, DspError> {
+pub fn log_band_average(spectrum: &Spectrum, bands_per_decade: f64) -> Result<BandSpectrum, DspError> {
     if !(bands_per_decade > 0.0 && bands_per_decade.is_finite()) {
-        return Err(DspError::invalid(
-            "bands_per_decade",
-            format!("must be positive, got {bands_per_decade}"),
-        ));
+        return Err(DspError::invalid("bands_per_decade", format!("must be positive, got {bands_per_decade}")));
     }
-    let last_interior = spectrum
-        .psd
-        .len()
-        .saturating_sub(if spectrum.segment_len % 2 == 0 { 1 } else { 0 });
+    let last_interior = spectrum.psd.len().saturating_sub(if spectrum.segment_len % 2 == 0 { 1 } else { 0 });
     let mut result = BandSpectrum {
         frequency_hz: Vec::new(),
         lower_edge_hz: Vec::new(),
@@ -95,23 +86,13 @@ pub fn log_band_average(
         }
         let count = end - start;
         let psd = spectrum.psd[start..end].iter().sum::<f64>() / count as f64;
-        let log_mean = spectrum.frequency_hz[start..end]
-            .iter()
-            .map(|f| f.ln())
-            .sum::<f64>()
-            / count as f64;
+        let log_mean = spectrum.frequency_hz[start..end].iter().map(|f| f.ln()).sum::<f64>() / count as f64;
         result.frequency_hz.push(log_mean.exp());
-        result
-            .lower_edge_hz
-            .push(10f64.powf(band as f64 / bands_per_decade));
-        result
-            .upper_edge_hz
-            .push(10f64.powf((band + 1) as f64 / bands_per_decade));
+        result.lower_edge_hz.push(10f64.powf(band as f64 / bands_per_decade));
+        result.upper_edge_hz.push(10f64.powf((band + 1) as f64 / bands_per_decade));
         result.psd.push(psd);
         result.bins.push(count);
-        result
-            .dof
-            .push(band_dof(spectrum.dof, &spectrum.bin_correlation, count));
+        result.dof.push(band_dof(spectrum.dof, &spectrum.bin_correlation, count));
         start = end;
     }
     Ok(result)
@@ -146,17 +127,10 @@ mod tests {
             assert!(bands.frequency_hz[i] >= bands.lower_edge_hz[i] * (1.0 - 1e-12));
             assert!(bands.frequency_hz[i] < bands.upper_edge_hz[i]);
             let decades = bands.lower_edge_hz[i].log10() * 10.0;
-            assert!(
-                (decades - decades.round()).abs() < 1e-9,
-                "edge not on the 10-per-decade grid"
-            );
+            assert!((decades - decades.round()).abs() < 1e-9, "edge not on the 10-per-decade grid");
         }
         // The band [1, 1.2589) Hz holds the bins 1.00, 1.01, ..., 1.25 Hz (26 bins at 0.01 Hz).
-        let one_hz = bands
-            .lower_edge_hz
-            .iter()
-            .position(|e| (e - 1.0).abs() < 1e-9)
-            .unwrap();
+        let one_hz = bands.lower_edge_hz.iter().position(|e| (e - 1.0).abs() < 1e-9).unwrap();
         assert_eq!(bands.bins[one_hz], 26);
         // A band of one bin keeps that bin's value and degrees of freedom.
         assert_eq!(bands.bins[0], 1);
@@ -183,17 +157,12 @@ mod tests {
             }
         }
         let ratio = normalised_squares / count;
-        assert!(
-            (ratio - 1.0).abs() < 0.15,
-            "mean normalised square {ratio} over {count} bands"
-        );
+        assert!((ratio - 1.0).abs() < 0.15, "mean normalised square {ratio} over {count} bands");
     }
 
     #[test]
     fn rectangular_non_overlapped_bins_add_their_dof() {
-        let config = WelchConfig::new(100)
-            .with_window(Window::Rectangular)
-            .with_overlap(0.0);
+        let config = WelchConfig::new(100).with_window(Window::Rectangular).with_overlap(0.0);
         let x = white_noise(1000, 1.0, 12);
         let spectrum = welch_psd(&x, 1.0, &config).unwrap();
         let bands = log_band_average(&spectrum, 2.0).unwrap();

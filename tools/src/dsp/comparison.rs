@@ -25,7 +25,9 @@ impl ResponseComparison<'_> {
     /// `bins` is empty).
     pub fn max_magnitude_error_db(&self, bins: &[usize]) -> (f64, f64) {
         bins.iter()
-            .map(|&i| ((20.0 * (self.measured[i].norm() / self.analytic[i].norm()).log10()).abs(), self.frequency_hz[i]))
+            .map(|&i| {
+                ((20.0 * (self.measured[i].norm() / self.analytic[i].norm()).log10()).abs(), self.frequency_hz[i])
+            })
             .fold((0.0, f64::NAN), |best, e| if e.0 > best.0 { e } else { best })
     }
 
@@ -46,9 +48,15 @@ mod tests {
         let analytic = [Complex64::new(1.0, 0.0); 3];
         // 6 dB off at the incoherent bin, 1 dB and 10 deg off at a coherent one.
         let one_db = 10f64.powf(1.0 / 20.0);
-        let measured = [Complex64::new(2.0, 0.0), Complex64::from_polar(one_db, 10f64.to_radians()), Complex64::new(1.0, 0.0)];
+        let measured =
+            [Complex64::new(2.0, 0.0), Complex64::from_polar(one_db, 10f64.to_radians()), Complex64::new(1.0, 0.0)];
         let coherence = [0.5, 0.95, 0.99];
-        let c = ResponseComparison { frequency_hz: &frequency_hz, measured: &measured, analytic: &analytic, coherence: &coherence };
+        let c = ResponseComparison {
+            frequency_hz: &frequency_hz,
+            measured: &measured,
+            analytic: &analytic,
+            coherence: &coherence,
+        };
         let bins = c.coherent_bins(0.9, 10.0);
         assert_eq!(bins, vec![1, 2]);
         let (db, at) = c.max_magnitude_error_db(&bins);

@@ -32,9 +32,8 @@ impl CrossCorrelation {
     /// The lag and value of the largest |r_xy|: the delay of y relative to x when y is a
     /// delayed, filtered copy of x.
     pub fn peak(&self) -> (isize, f64) {
-        let index = (0..self.values.len())
-            .max_by(|&a, &b| self.values[a].abs().total_cmp(&self.values[b].abs()))
-            .unwrap_or(0);
+        let index =
+            (0..self.values.len()).max_by(|&a, &b| self.values[a].abs().total_cmp(&self.values[b].abs())).unwrap_or(0);
         (self.lags[index], self.values[index])
     }
 }
@@ -61,18 +60,12 @@ fn raw_cross_products(x: &[f64], y: &[f64]) -> (Vec<f64>, usize) {
     // the circular correlation from wrapping around.
     let mut product: Vec<Complex64> = fx.iter().zip(&fy).map(|(a, b)| a.conj() * b).collect();
     planner.plan_fft_inverse(padded).process(&mut product);
-    (
-        product.iter().map(|c| c.re / padded as f64).collect(),
-        padded,
-    )
+    (product.iter().map(|c| c.re / padded as f64).collect(), padded)
 }
 
 fn check_correlation_input(x: &[f64], max_lag: usize) -> Result<(), DspError> {
     if x.len() < 2 {
-        return Err(DspError::TooShort {
-            needed: 2,
-            got: x.len(),
-        });
+        return Err(DspError::TooShort { needed: 2, got: x.len() });
     }
     if max_lag >= x.len() {
         return Err(DspError::invalid(
@@ -96,16 +89,9 @@ pub fn autocorrelation(x: &[f64], max_lag: usize) -> Result<Vec<f64>, DspError> 
 
 /// Normalised cross-correlation of sample-aligned `x` and `y` at lags `-max_lag..=max_lag`
 /// (means removed, biased estimator). See [`CrossCorrelation`] for the sign of the lag.
-pub fn cross_correlation(
-    x: &[f64],
-    y: &[f64],
-    max_lag: usize,
-) -> Result<CrossCorrelation, DspError> {
+pub fn cross_correlation(x: &[f64], y: &[f64], max_lag: usize) -> Result<CrossCorrelation, DspError> {
     if x.len() != y.len() {
-        return Err(DspError::LengthMismatch {
-            first: x.len(),
-            second: y.len(),
-        });
+        return Err(DspError::LengthMismatch { first: x.len(), second: y.len() });
     }
     check_correlation_input(x, max_lag)?;
     check_finite(y)?;
@@ -123,11 +109,7 @@ pub fn cross_correlation(
     let values = lags
         .iter()
         .map(|&k| {
-            let index = if k >= 0 {
-                k as usize
-            } else {
-                padded - (-k) as usize
-            };
+            let index = if k >= 0 { k as usize } else { padded - (-k) as usize };
             raw[index] / scale
         })
         .collect();
@@ -172,11 +154,7 @@ impl WhitenessTest {
 /// 95 % bounds and computes the Ljung-Box statistic and its p-value (chi-squared with
 /// max_lag - fitted_parameters degrees of freedom; pass the number of model parameters
 /// estimated from the same data, or 0 for a raw sequence).
-pub fn whiteness_test(
-    residuals: &[f64],
-    max_lag: usize,
-    fitted_parameters: usize,
-) -> Result<WhitenessTest, DspError> {
+pub fn whiteness_test(residuals: &[f64], max_lag: usize, fitted_parameters: usize) -> Result<WhitenessTest, DspError> {
     if max_lag == 0 {
         return Err(DspError::invalid("max_lag", "must be at least 1"));
     }
@@ -190,11 +168,7 @@ pub fn whiteness_test(
     let n = residuals.len() as f64;
     let bound_95 = whiteness_bound(residuals.len(), 0.95);
     let lags_outside = r[1..].iter().filter(|v| v.abs() > bound_95).count();
-    let ljung_box_q = n
-        * (n + 2.0)
-        * (1..=max_lag)
-            .map(|k| r[k] * r[k] / (n - k as f64))
-            .sum::<f64>();
+    let ljung_box_q = n * (n + 2.0) * (1..=max_lag).map(|k| r[k] * r[k] / (n - k as f64)).sum::<f64>();
     let dof = max_lag - fitted_parameters;
     Ok(WhitenessTest {
         samples: residuals.len(),
@@ -220,10 +194,7 @@ mod tests {
         let mean = x.iter().sum::<f64>() / 300.0;
         let c0: f64 = x.iter().map(|v| (v - mean).powi(2)).sum();
         for (k, rk) in r.iter().enumerate() {
-            let direct: f64 = (0..300 - k)
-                .map(|t| (x[t] - mean) * (x[t + k] - mean))
-                .sum::<f64>()
-                / c0;
+            let direct: f64 = (0..300 - k).map(|t| (x[t] - mean) * (x[t + k] - mean)).sum::<f64>() / c0;
             assert!((rk - direct).abs() < 1e-12, "lag {k}");
         }
         assert_eq!(r[0], 1.0);
@@ -256,26 +227,16 @@ mod tests {
     fn ljung_box_p_values_are_uniform_for_white_noise() {
         // Under the null hypothesis about 10 % of p-values fall below 0.1.
         let below = (0..200)
-            .filter(|seed| {
-                whiteness_test(&white_noise(2_000, 1.0, 300 + seed), 10, 0)
-                    .unwrap()
-                    .p_value
-                    < 0.1
-            })
+            .filter(|seed| whiteness_test(&white_noise(2_000, 1.0, 300 + seed), 10, 0).unwrap().p_value < 0.1)
             .count();
-        assert!(
-            (8..=35).contains(&below),
-            "{below} of 200 p-values below 0.1"
-        );
+        assert!((8..=35).contains(&below), "{below} of 200 p-values below 0.1");
     }
 
     #[test]
     fn cross_correlation_finds_a_delay_and_its_sign() {
         let x = white_noise(4_000, 1.0, 24);
         let delay = 7;
-        let y: Vec<f64> = (0..x.len())
-            .map(|t| if t >= delay { 2.0 * x[t - delay] } else { 0.0 })
-            .collect();
+        let y: Vec<f64> = (0..x.len()).map(|t| if t >= delay { 2.0 * x[t - delay] } else { 0.0 }).collect();
         let c = cross_correlation(&x, &y, 20).unwrap();
         let (lag, value) = c.peak();
         assert_eq!(lag, 7);
@@ -286,10 +247,7 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_are_errors() {
-        assert_eq!(
-            autocorrelation(&[1.0, 1.0, 1.0], 1),
-            Err(DspError::ZeroVariance)
-        );
+        assert_eq!(autocorrelation(&[1.0, 1.0, 1.0], 1), Err(DspError::ZeroVariance));
         assert!(autocorrelation(&[1.0, 2.0], 2).is_err());
         assert!(whiteness_test(&white_noise(100, 1.0, 1), 5, 5).is_err());
     }

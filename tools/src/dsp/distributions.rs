@@ -54,9 +54,7 @@ pub fn digamma(x: f64) -> f64 {
     let inv2 = inv * inv;
     result + x.ln()
         - 0.5 * inv
-        - inv2
-            * (1.0 / 12.0
-                - inv2 * (1.0 / 120.0 - inv2 * (1.0 / 252.0 - inv2 * (1.0 / 240.0 - inv2 / 132.0))))
+        - inv2 * (1.0 / 12.0 - inv2 * (1.0 / 120.0 - inv2 * (1.0 / 252.0 - inv2 * (1.0 / 240.0 - inv2 / 132.0))))
 }
 
 /// Trigamma function psi'(x) for `x > 0`.
@@ -72,10 +70,7 @@ pub fn trigamma(x: f64) -> f64 {
     }
     let inv = 1.0 / x;
     let inv2 = inv * inv;
-    result
-        + inv
-        + 0.5 * inv2
-        + inv * inv2 * (1.0 / 6.0 - inv2 * (1.0 / 30.0 - inv2 * (1.0 / 42.0 - inv2 / 30.0)))
+    result + inv + 0.5 * inv2 + inv * inv2 * (1.0 / 6.0 - inv2 * (1.0 / 30.0 - inv2 * (1.0 / 42.0 - inv2 / 30.0)))
 }
 
 /// Regularised lower incomplete gamma function P(a, x) = gamma(a, x) / Gamma(a), for `a > 0`,
@@ -180,11 +175,7 @@ pub fn inverse_regularized_gamma_p(a: f64, p: f64) -> f64 {
     let gln = ln_gamma(a);
     let a1 = a - 1.0;
     let lna1 = if a > 1.0 { a1.ln() } else { 0.0 };
-    let afac = if a > 1.0 {
-        (a1 * (lna1 - 1.0) - gln).exp()
-    } else {
-        0.0
-    };
+    let afac = if a > 1.0 { (a1 * (lna1 - 1.0) - gln).exp() } else { 0.0 };
 
     // Starting guess: Wilson-Hilferty for a >= 1, a power-law tail expansion below.
     let mut x = if a > 1.0 {
@@ -210,11 +201,8 @@ pub fn inverse_regularized_gamma_p(a: f64, p: f64) -> f64 {
             return 0.0;
         }
         let error = regularized_gamma_p(a, x) - p;
-        let density = if a > 1.0 {
-            afac * (-(x - a1) + a1 * (x.ln() - lna1)).exp()
-        } else {
-            (-x + a1 * x.ln() - gln).exp()
-        };
+        let density =
+            if a > 1.0 { afac * (-(x - a1) + a1 * (x.ln() - lna1)).exp() } else { (-x + a1 * x.ln() - gln).exp() };
         if density == 0.0 {
             break;
         }
@@ -293,10 +281,7 @@ impl ChiSquaredInterval {
     /// e.g. 0.95).
     pub fn new(dof: f64, confidence: f64) -> Result<Self, DspError> {
         if !(dof > 0.0 && dof.is_finite()) {
-            return Err(DspError::invalid(
-                "dof",
-                format!("must be positive and finite, got {dof}"),
-            ));
+            return Err(DspError::invalid("dof", format!("must be positive and finite, got {dof}")));
         }
         if !(confidence > 0.0 && confidence < 1.0) {
             return Err(DspError::invalid(
@@ -332,19 +317,9 @@ mod tests {
     fn ln_gamma_matches_factorials_and_half_integers() {
         for n in 1..20u32 {
             let factorial: f64 = (1..n).map(f64::from).product();
-            assert_close(
-                ln_gamma(f64::from(n)),
-                factorial.ln(),
-                1e-12 * factorial.ln().max(1.0),
-                "ln Gamma(n)",
-            );
+            assert_close(ln_gamma(f64::from(n)), factorial.ln(), 1e-12 * factorial.ln().max(1.0), "ln Gamma(n)");
         }
-        assert_close(
-            ln_gamma(0.5),
-            std::f64::consts::PI.sqrt().ln(),
-            1e-13,
-            "ln Gamma(1/2)",
-        );
+        assert_close(ln_gamma(0.5), std::f64::consts::PI.sqrt().ln(), 1e-13, "ln Gamma(1/2)");
         assert_close(ln_gamma(0.1), 2.252_712_651_734_206, 1e-12, "ln Gamma(0.1)");
     }
 
@@ -352,12 +327,7 @@ mod tests {
     fn digamma_and_trigamma_match_closed_forms() {
         let euler_gamma = 0.577_215_664_901_532_9;
         assert_close(digamma(1.0), -euler_gamma, 1e-12, "psi(1)");
-        assert_close(
-            digamma(0.5),
-            -euler_gamma - 2.0 * 2f64.ln(),
-            1e-12,
-            "psi(1/2)",
-        );
+        assert_close(digamma(0.5), -euler_gamma - 2.0 * 2f64.ln(), 1e-12, "psi(1/2)");
         let pi2 = std::f64::consts::PI.powi(2);
         assert_close(trigamma(1.0), pi2 / 6.0, 1e-12, "psi'(1)");
         assert_close(trigamma(0.5), pi2 / 2.0, 1e-11, "psi'(1/2)");
@@ -394,10 +364,7 @@ mod tests {
             for &p in &[1e-8, 1e-3, 0.025, 0.3, 0.5, 0.9, 0.975, 1.0 - 1e-6] {
                 let x = chi_squared_quantile(p, dof);
                 let back = chi_squared_cdf(x, dof);
-                assert!(
-                    (back - p).abs() < 1e-10 * p.max(1e-2),
-                    "dof={dof} p={p}: cdf(quantile)={back}"
-                );
+                assert!((back - p).abs() < 1e-10 * p.max(1e-2), "dof={dof} p={p}: cdf(quantile)={back}");
             }
         }
     }
@@ -406,40 +373,17 @@ mod tests {
     fn chi_squared_with_two_dof_is_exponential() {
         // For 2 dof the CDF is 1 - exp(-x/2) exactly, which checks both tails.
         for &x in &[0.01, 0.5, 2.0, 10.0, 60.0] {
-            assert_close(
-                chi_squared_cdf(x, 2.0),
-                1.0 - (-x / 2.0f64).exp(),
-                1e-14,
-                "cdf",
-            );
+            assert_close(chi_squared_cdf(x, 2.0), 1.0 - (-x / 2.0f64).exp(), 1e-14, "cdf");
             let sf = chi_squared_sf(x, 2.0);
-            assert!(
-                ((sf - (-x / 2.0f64).exp()) / sf).abs() < 1e-12,
-                "sf at {x}: {sf}"
-            );
+            assert!(((sf - (-x / 2.0f64).exp()) / sf).abs() < 1e-12, "sf at {x}: {sf}");
         }
     }
 
     #[test]
     fn normal_quantiles_match_table_values() {
-        assert_close(
-            standard_normal_quantile(0.975),
-            1.959_963_985,
-            1e-8,
-            "z 0.975",
-        );
-        assert_close(
-            standard_normal_quantile(0.95),
-            1.644_853_627,
-            1e-8,
-            "z 0.95",
-        );
-        assert_close(
-            standard_normal_quantile(0.005),
-            -2.575_829_304,
-            1e-8,
-            "z 0.005",
-        );
+        assert_close(standard_normal_quantile(0.975), 1.959_963_985, 1e-8, "z 0.975");
+        assert_close(standard_normal_quantile(0.95), 1.644_853_627, 1e-8, "z 0.95");
+        assert_close(standard_normal_quantile(0.005), -2.575_829_304, 1e-8, "z 0.005");
         assert_close(standard_normal_quantile(0.5), 0.0, 1e-12, "z 0.5");
         assert_close(standard_normal_quantile(0.6), 0.253_347_103, 1e-8, "z 0.6");
     }

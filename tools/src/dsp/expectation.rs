@@ -43,42 +43,26 @@ pub fn expected_welch_psd(
     }
     let len = config.segment_len;
     if len < 2 {
-        return Err(DspError::invalid(
-            "segment_len",
-            format!("must be at least 2, got {len}"),
-        ));
+        return Err(DspError::invalid("segment_len", format!("must be at least 2, got {len}")));
     }
     if record_len < len {
-        return Err(DspError::TooShort {
-            needed: len,
-            got: record_len,
-        });
+        return Err(DspError::TooShort { needed: len, got: record_len });
     }
     let window = config.window.coefficients(len);
     let window_power: f64 = window.iter().map(|w| w * w).sum();
     let lag_products = window_lag_products(&window);
-    let mut a: Vec<Complex64> = (0..len)
-        .map(|m| Complex64::new(autocovariance(m) * lag_products[m], 0.0))
-        .collect();
+    let mut a: Vec<Complex64> = (0..len).map(|m| Complex64::new(autocovariance(m) * lag_products[m], 0.0)).collect();
     let a0 = a[0].re;
-    FftPlanner::<f64>::new()
-        .plan_fft_forward(len)
-        .process(&mut a);
+    FftPlanner::<f64>::new().plan_fft_forward(len).process(&mut a);
     let psd = (0..=len / 2)
         .map(|k| {
-            let one_sided = if k == 0 || (len.is_multiple_of(2) && k == len / 2) {
-                1.0
-            } else {
-                2.0
-            };
+            let one_sided = if k == 0 || (len.is_multiple_of(2) && k == len / 2) { 1.0 } else { 2.0 };
             one_sided * (2.0 * a[k].re - a0) / (sample_rate_hz * window_power)
         })
         .collect();
     let segments = config.segment_count(record_len);
     Ok(Spectrum {
-        frequency_hz: (0..=len / 2)
-            .map(|k| k as f64 * sample_rate_hz / len as f64)
-            .collect(),
+        frequency_hz: (0..=len / 2).map(|k| k as f64 * sample_rate_hz / len as f64).collect(),
         psd,
         dof: config.equivalent_dof(segments),
         segments,
@@ -120,8 +104,7 @@ mod tests {
     #[test]
     fn white_noise_expectation_is_flat_at_twice_the_variance_over_the_sample_rate() {
         let config = WelchConfig::new(256).with_detrend(Detrend::None);
-        let expected =
-            expected_welch_psd(|m| if m == 0 { 4.0 } else { 0.0 }, 4096, 50.0, &config).unwrap();
+        let expected = expected_welch_psd(|m| if m == 0 { 4.0 } else { 0.0 }, 4096, 50.0, &config).unwrap();
         for (k, p) in expected.psd.iter().enumerate() {
             let edge = k == 0 || k == 128;
             let level = if edge { 4.0 / 50.0 } else { 2.0 * 4.0 / 50.0 };
@@ -138,9 +121,7 @@ mod tests {
         let r = |m: usize| phi.powi(m as i32) / (1.0 - phi * phi);
         let (len, fs) = (64usize, 10.0);
         for window in [Window::Hann, Window::Rectangular, Window::Blackman] {
-            let config = WelchConfig::new(len)
-                .with_window(window)
-                .with_detrend(Detrend::None);
+            let config = WelchConfig::new(len).with_window(window).with_detrend(Detrend::None);
             let fast = expected_welch_psd(r, 640, fs, &config).unwrap();
             let w = window.coefficients(len);
             let power: f64 = w.iter().map(|v| v * v).sum();
@@ -149,17 +130,12 @@ mod tests {
                 let mut total = 0.0;
                 for s in 0..len {
                     for t in 0..len {
-                        total +=
-                            w[s] * w[t] * r(s.abs_diff(t)) * (theta * (s as f64 - t as f64)).cos();
+                        total += w[s] * w[t] * r(s.abs_diff(t)) * (theta * (s as f64 - t as f64)).cos();
                     }
                 }
                 let one_sided = if k == 0 || k == len / 2 { 1.0 } else { 2.0 };
                 let direct = one_sided * total / (fs * power);
-                assert!(
-                    (fast.psd[k] / direct - 1.0).abs() < 1e-10,
-                    "{window:?} bin {k}: {} vs {direct}",
-                    fast.psd[k]
-                );
+                assert!((fast.psd[k] / direct - 1.0).abs() < 1e-10, "{window:?} bin {k}: {} vs {direct}", fast.psd[k]);
             }
         }
     }
@@ -181,9 +157,7 @@ mod tests {
         }
         let config = WelchConfig::new(512).with_detrend(Detrend::None);
         let estimate = welch_psd(&x, 1.0, &config).unwrap();
-        let expected =
-            expected_welch_psd(|m| phi.powi(m as i32) / (1.0 - phi * phi), n, 1.0, &config)
-                .unwrap();
+        let expected = expected_welch_psd(|m| phi.powi(m as i32) / (1.0 - phi * phi), n, 1.0, &config).unwrap();
         // 4095 segments: each bin's relative standard error is about sqrt(2 / dof) = 2.6 %, so
         // the bins 1-8 (where leakage matters most) pooled are within a few per cent.
         let pooled_estimate: f64 = estimate.psd[1..9].iter().sum();

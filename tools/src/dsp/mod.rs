@@ -32,23 +32,22 @@ pub(crate) mod test_signals;
 pub use bands::{log_band_average, BandSpectrum};
 pub use comparison::ResponseComparison;
 pub use correlation::{
-    autocorrelation, cross_correlation, whiteness_bound, whiteness_test, CrossCorrelation,
-    WhitenessTest,
+    autocorrelation, cross_correlation, whiteness_bound, whiteness_test, CrossCorrelation, WhitenessTest,
 };
 pub use distributions::{
-    chi_squared_cdf, chi_squared_quantile, chi_squared_sf, digamma, standard_normal_quantile,
-    trigamma, ChiSquaredInterval,
+    chi_squared_cdf, chi_squared_quantile, chi_squared_sf, digamma, standard_normal_quantile, trigamma,
+    ChiSquaredInterval,
 };
 pub use expectation::expected_welch_psd;
 pub use rustfft::num_complex::Complex64;
 pub use spectral::{
-    coherence, transfer_function_h1, unwrap_phase_deg, welch_csd, welch_psd, CrossSpectrum,
-    Detrend, Spectrum, TransferEstimate, WelchConfig,
+    coherence, transfer_function_h1, unwrap_phase_deg, welch_csd, welch_psd, CrossSpectrum, Detrend, Spectrum,
+    TransferEstimate, WelchConfig,
 };
 pub use stats::{
-    kurtosis_excess, least_squares, linear_regression, max_moving_average, max_moving_rms, mean,
-    moving_average, moving_rms, nrmse_fit_percent, rms, sample_variance, skewness, std_dev,
-    variance, weighted_linear_regression, window_samples, LeastSquaresFit, LineFit, WindowExtreme,
+    kurtosis_excess, least_squares, linear_regression, max_moving_average, max_moving_rms, mean, moving_average,
+    moving_rms, nrmse_fit_percent, rms, sample_variance, skewness, std_dev, variance, weighted_linear_regression,
+    window_samples, LeastSquaresFit, LineFit, WindowExtreme,
 };
 pub use window::Window;
 
@@ -89,10 +88,7 @@ pub enum DspError {
 
 impl DspError {
     pub(crate) fn invalid(name: &'static str, reason: impl Into<String>) -> Self {
-        DspError::InvalidParameter {
-            name,
-            reason: reason.into(),
-        }
+        DspError::InvalidParameter { name, reason: reason.into() }
     }
 }
 
@@ -100,10 +96,7 @@ impl fmt::Display for DspError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             DspError::TooShort { needed, got } => {
-                write!(
-                    f,
-                    "input too short: {got} samples, at least {needed} needed"
-                )
+                write!(f, "input too short: {got} samples, at least {needed} needed")
             }
             DspError::LengthMismatch { first, second } => {
                 write!(f, "inputs differ in length: {first} and {second} samples")
@@ -131,9 +124,6 @@ pub(crate) fn check_sample_rate(sample_rate_hz: f64) -> Result<(), DspError> {
     if sample_rate_hz > 0.0 && sample_rate_hz.is_finite() {
         Ok(())
     } else {
-        Err(DspError::invalid(
-            "sample_rate_hz",
-            format!("must be positive and finite, got {sample_rate_hz}"),
-        ))
+        Err(DspError::invalid("sample_rate_hz", format!("must be positive and finite, got {sample_rate_hz}")))
     }
 }

@@ -42,12 +42,7 @@ pub struct WelchConfig {
 impl WelchConfig {
     /// Segments of `segment_len` samples, Hann window, 50 % overlap, mean removed.
     pub fn new(segment_len: usize) -> Self {
-        Self {
-            segment_len,
-            overlap: 0.5,
-            window: Window::Hann,
-            detrend: Detrend::Mean,
-        }
+        Self { segment_len, overlap: 0.5, window: Window::Hann, detrend: Detrend::Mean }
     }
 
     /// Segments lasting `segment_s` seconds at `sample_rate_hz` (rounded to whole samples),
@@ -109,9 +104,7 @@ impl WelchConfig {
             if shift >= self.segment_len {
                 break;
             }
-            let lagged: f64 = (0..self.segment_len - shift)
-                .map(|t| window[t] * window[t + shift])
-                .sum();
+            let lagged: f64 = (0..self.segment_len - shift).map(|t| window[t] * window[t + shift]).sum();
             denominator += 2.0 * (1.0 - m as f64 / k) * (lagged / norm).powi(2);
         }
         2.0 * k / denominator
@@ -134,11 +127,7 @@ impl WelchConfig {
         // Products w_t w_{t+mD} for every segment shift m that still overlaps.
         let shifted_products: Vec<Vec<f64>> = (0..segments)
             .take_while(|&m| m * step < len)
-            .map(|m| {
-                (0..len - m * step)
-                    .map(|t| window[t] * window[t + m * step])
-                    .collect()
-            })
+            .map(|m| (0..len - m * step).map(|t| window[t] * window[t + m * step]).collect())
             .collect();
         let covariance = |offset: usize| -> f64 {
             let mut total = 0.0;
@@ -149,39 +138,24 @@ impl WelchConfig {
                     sum += Complex64::from_polar(p, phase);
                 }
                 let c = sum.norm_sqr() / (norm * norm);
-                let weight = if m == 0 {
-                    k_segments
-                } else {
-                    2.0 * (k_segments - m as f64)
-                };
+                let weight = if m == 0 { k_segments } else { 2.0 * (k_segments - m as f64) };
                 total += weight * c;
             }
             total
         };
         let zero = covariance(0);
-        (0..=max_offset.min(len / 2))
-            .map(|k| if k == 0 { 1.0 } else { covariance(k) / zero })
-            .collect()
+        (0..=max_offset.min(len / 2)).map(|k| if k == 0 { 1.0 } else { covariance(k) / zero }).collect()
     }
 
     fn validate(&self, len: usize) -> Result<(), DspError> {
         if self.segment_len < 2 {
-            return Err(DspError::invalid(
-                "segment_len",
-                format!("must be at least 2, got {}", self.segment_len),
-            ));
+            return Err(DspError::invalid("segment_len", format!("must be at least 2, got {}", self.segment_len)));
         }
         if !(0.0..1.0).contains(&self.overlap) {
-            return Err(DspError::invalid(
-                "overlap",
-                format!("must lie in [0, 1), got {}", self.overlap),
-            ));
+            return Err(DspError::invalid("overlap", format!("must lie in [0, 1), got {}", self.overlap)));
         }
         if len < self.segment_len {
-            return Err(DspError::TooShort {
-                needed: self.segment_len,
-                got: len,
-            });
+            return Err(DspError::TooShort { needed: self.segment_len, got: len });
         }
         Ok(())
     }
@@ -220,9 +194,7 @@ impl Spectrum {
 
     /// Equivalent noise bandwidth of a bin in Hz (1.5 bins for Hann).
     pub fn equivalent_noise_bandwidth_hz(&self) -> f64 {
-        self.window
-            .equivalent_noise_bandwidth_bins(self.segment_len)
-            * self.resolution_hz()
+        self.window.equivalent_noise_bandwidth_bins(self.segment_len) * self.resolution_hz()
     }
 
     /// Degrees of freedom of bin `index`: DC and Nyquist bins are real-valued and have half.
@@ -247,11 +219,7 @@ impl Spectrum {
         let mut lower = Vec::with_capacity(self.psd.len());
         let mut upper = Vec::with_capacity(self.psd.len());
         for (i, &p) in self.psd.iter().enumerate() {
-            let factors = if self.dof_at(i) < self.dof {
-                edge
-            } else {
-                interior
-            };
+            let factors = if self.dof_at(i) < self.dof { edge } else { interior };
             lower.push(p * factors.lower);
             upper.push(p * factors.upper);
         }
@@ -328,10 +296,7 @@ impl TransferEstimate {
     /// (Bendat & Piersol, Random Data, eq. 9.90). The phase error in radians is about the same.
     pub fn magnitude_relative_error(&self) -> Vec<f64> {
         let averages = 0.5 * self.dof;
-        self.coherence
-            .iter()
-            .map(|&g2| (1.0 - g2).max(0.0).sqrt() / (g2.sqrt() * (2.0 * averages).sqrt()))
-            .collect()
+        self.coherence.iter().map(|&g2| (1.0 - g2).max(0.0).sqrt() / (g2.sqrt() * (2.0 * averages).sqrt())).collect()
     }
 
     /// Coherence below which an estimate is indistinguishable from that of two independent
@@ -379,27 +344,17 @@ impl SegmentTransformer {
     /// The FFT of the detrended, windowed segment (all bins; callers use 0..=len/2).
     fn transform(&mut self, segment: &[f64]) -> &[Complex64] {
         detrend_into(segment, self.config.detrend, &mut self.detrended);
-        for ((out, &v), &w) in self
-            .buffer
-            .iter_mut()
-            .zip(&self.detrended)
-            .zip(&self.window)
-        {
+        for ((out, &v), &w) in self.buffer.iter_mut().zip(&self.detrended).zip(&self.window) {
             *out = Complex64::new(v * w, 0.0);
         }
-        self.fft
-            .process_with_scratch(&mut self.buffer, &mut self.scratch);
+        self.fft.process_with_scratch(&mut self.buffer, &mut self.scratch);
         &self.buffer
     }
 
     /// Factor turning |X_k|^2 summed over `segments` into a one-sided density per Hz.
     fn density_scale(&self, bin: usize, segments: usize, sample_rate_hz: f64) -> f64 {
         let len = self.config.segment_len;
-        let one_sided = if bin == 0 || (len % 2 == 0 && bin == len / 2) {
-            1.0
-        } else {
-            2.0
-        };
+        let one_sided = if bin == 0 || (len % 2 == 0 && bin == len / 2) { 1.0 } else { 2.0 };
         one_sided / (sample_rate_hz * self.window_power * segments as f64)
     }
 }
@@ -434,20 +389,14 @@ fn detrend_into(segment: &[f64], detrend: Detrend, out: &mut [f64]) {
 }
 
 fn bin_frequencies(segment_len: usize, sample_rate_hz: f64) -> Vec<f64> {
-    (0..=segment_len / 2)
-        .map(|k| k as f64 * sample_rate_hz / segment_len as f64)
-        .collect()
+    (0..=segment_len / 2).map(|k| k as f64 * sample_rate_hz / segment_len as f64).collect()
 }
 
 /// Welch estimate of the one-sided PSD per Hz of `x` sampled at `sample_rate_hz`.
 ///
 /// Returns [`DspError`] if the configuration is invalid, the record is shorter than one
 /// segment, or a sample is not finite.
-pub fn welch_psd(
-    x: &[f64],
-    sample_rate_hz: f64,
-    config: &WelchConfig,
-) -> Result<Spectrum, DspError> {
+pub fn welch_psd(x: &[f64], sample_rate_hz: f64, config: &WelchConfig) -> Result<Spectrum, DspError> {
     check_sample_rate(sample_rate_hz)?;
     config.validate(x.len())?;
     check_finite(x)?;
@@ -462,11 +411,7 @@ pub fn welch_psd(
             *acc += value.norm_sqr();
         }
     }
-    let psd = sum
-        .iter()
-        .enumerate()
-        .map(|(k, s)| s * transformer.density_scale(k, segments, sample_rate_hz))
-        .collect();
+    let psd = sum.iter().enumerate().map(|(k, s)| s * transformer.density_scale(k, segments, sample_rate_hz)).collect();
     Ok(Spectrum {
         frequency_hz: bin_frequencies(config.segment_len, sample_rate_hz),
         psd,
@@ -487,18 +432,10 @@ struct PairSpectra {
     segments: usize,
 }
 
-fn pair_spectra(
-    x: &[f64],
-    y: &[f64],
-    sample_rate_hz: f64,
-    config: &WelchConfig,
-) -> Result<PairSpectra, DspError> {
+fn pair_spectra(x: &[f64], y: &[f64], sample_rate_hz: f64, config: &WelchConfig) -> Result<PairSpectra, DspError> {
     check_sample_rate(sample_rate_hz)?;
     if x.len() != y.len() {
-        return Err(DspError::LengthMismatch {
-            first: x.len(),
-            second: y.len(),
-        });
+        return Err(DspError::LengthMismatch { first: x.len(), second: y.len() });
     }
     config.validate(x.len())?;
     check_finite(x)?;
@@ -526,22 +463,12 @@ fn pair_spectra(
         syy[k] *= scale;
         sxy[k] *= scale;
     }
-    Ok(PairSpectra {
-        sxx,
-        syy,
-        sxy,
-        segments,
-    })
+    Ok(PairSpectra { sxx, syy, sxy, segments })
 }
 
 /// Welch estimate of the one-sided cross spectral density S_xy = E[conj(X) Y] per Hz of two
 /// sample-aligned records.
-pub fn welch_csd(
-    x: &[f64],
-    y: &[f64],
-    sample_rate_hz: f64,
-    config: &WelchConfig,
-) -> Result<CrossSpectrum, DspError> {
+pub fn welch_csd(x: &[f64], y: &[f64], sample_rate_hz: f64, config: &WelchConfig) -> Result<CrossSpectrum, DspError> {
     let pair = pair_spectra(x, y, sample_rate_hz, config)?;
     Ok(CrossSpectrum {
         frequency_hz: bin_frequencies(config.segment_len, sample_rate_hz),
@@ -559,12 +486,7 @@ pub fn transfer_function_h1(
     config: &WelchConfig,
 ) -> Result<TransferEstimate, DspError> {
     let pair = pair_spectra(x, y, sample_rate_hz, config)?;
-    let h1 = pair
-        .sxy
-        .iter()
-        .zip(&pair.sxx)
-        .map(|(sxy, sxx)| sxy / *sxx)
-        .collect();
+    let h1 = pair.sxy.iter().zip(&pair.sxx).map(|(sxy, sxx)| sxy / *sxx).collect();
     let coherence = pair
         .sxy
         .iter()
@@ -635,21 +557,12 @@ mod tests {
         let sigma = 2.0;
         let sample_rate = 100.0;
         let x = white_noise(1 << 18, sigma, 1);
-        for window in [
-            Window::Rectangular,
-            Window::Hann,
-            Window::Hamming,
-            Window::Blackman,
-        ] {
-            let spectrum =
-                welch_psd(&x, sample_rate, &WelchConfig::new(1024).with_window(window)).unwrap();
+        for window in [Window::Rectangular, Window::Hann, Window::Hamming, Window::Blackman] {
+            let spectrum = welch_psd(&x, sample_rate, &WelchConfig::new(1024).with_window(window)).unwrap();
             let expected = 2.0 * sigma * sigma / sample_rate;
             let level = interior_mean(&spectrum);
             // About 500 segments x 512 bins average to a standard error well below 1 %.
-            assert!(
-                (level / expected - 1.0).abs() < 0.01,
-                "{window:?}: level {level}, expected {expected}"
-            );
+            assert!((level / expected - 1.0).abs() < 0.01, "{window:?}: level {level}, expected {expected}");
         }
     }
 
@@ -670,45 +583,28 @@ mod tests {
         let x: Vec<f64> = noise
             .iter()
             .enumerate()
-            .map(|(t, n)| {
-                amplitude * (2.0 * PI * frequency * t as f64 / sample_rate + 0.4).sin() + n
-            })
+            .map(|(t, n)| amplitude * (2.0 * PI * frequency * t as f64 / sample_rate + 0.4).sin() + n)
             .collect();
         let spectrum = welch_psd(&x, sample_rate, &WelchConfig::new(4096)).unwrap();
-        let peak = spectrum
-            .psd
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1))
-            .unwrap()
-            .0;
+        let peak = spectrum.psd.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
         assert!((spectrum.frequency_hz[peak] - frequency).abs() <= spectrum.resolution_hz());
         let half_width = 5.0 * spectrum.resolution_hz();
         let sine_power = spectrum.integrate(frequency - half_width, frequency + half_width);
         let expected = amplitude * amplitude / 2.0;
         // The noise in those 10 bins adds about 0.0002; leakage beyond 5 bins is below 1e-4.
-        assert!(
-            (sine_power / expected - 1.0).abs() < 0.005,
-            "sine power {sine_power}, expected {expected}"
-        );
+        assert!((sine_power / expected - 1.0).abs() < 0.005, "sine power {sine_power}, expected {expected}");
     }
 
     #[test]
     fn equivalent_dof_is_exact_without_overlap_and_reduced_by_overlap() {
-        let rectangular = WelchConfig::new(256)
-            .with_window(Window::Rectangular)
-            .with_overlap(0.0);
+        let rectangular = WelchConfig::new(256).with_window(Window::Rectangular).with_overlap(0.0);
         assert!((rectangular.equivalent_dof(10) - 20.0).abs() < 1e-12);
         // Hann at 50 % overlap: neighbouring segments correlate by rho = 1/36 (Harris's 16.7 %
         // amplitude correlation, squared), so nu = 2K / (1 + 2 (1 - 1/K) / 36).
         let hann = WelchConfig::new(256);
         let k = 100.0;
         let expected = 2.0 * k / (1.0 + 2.0 * (1.0 - 1.0 / k) / 36.0);
-        assert!(
-            (hann.equivalent_dof(100) - expected).abs() < 1e-9,
-            "{}",
-            hann.equivalent_dof(100)
-        );
+        assert!((hann.equivalent_dof(100) - expected).abs() < 1e-9, "{}", hann.equivalent_dof(100));
         assert_eq!(hann.equivalent_dof(1), 2.0);
     }
 
@@ -719,9 +615,7 @@ mod tests {
         for config in [
             WelchConfig::new(128),
             WelchConfig::new(128).with_overlap(0.75),
-            WelchConfig::new(128)
-                .with_window(Window::Rectangular)
-                .with_overlap(0.5),
+            WelchConfig::new(128).with_window(Window::Rectangular).with_overlap(0.5),
         ] {
             let mut squared_errors = 0.0;
             let mut count = 0.0;
@@ -751,38 +645,19 @@ mod tests {
         assert!((rho[1] - 4.0 / 9.0).abs() < 1e-12, "{rho:?}");
         assert!((rho[2] - 1.0 / 36.0).abs() < 1e-12);
         assert!(rho[3].abs() < 1e-12);
-        let rectangular = WelchConfig::new(256)
-            .with_window(Window::Rectangular)
-            .with_overlap(0.0);
+        let rectangular = WelchConfig::new(256).with_window(Window::Rectangular).with_overlap(0.0);
         assert!(rectangular.bin_correlation(5, 3)[1].abs() < 1e-12);
     }
 
     #[test]
     fn linear_detrend_removes_a_ramp_that_mean_removal_leaves_in_the_low_bins() {
         let noise = white_noise(8192, 1.0, 4);
-        let x: Vec<f64> = noise
-            .iter()
-            .enumerate()
-            .map(|(t, n)| n + 0.01 * t as f64)
-            .collect();
+        let x: Vec<f64> = noise.iter().enumerate().map(|(t, n)| n + 0.01 * t as f64).collect();
         let mean_only = welch_psd(&x, 1.0, &WelchConfig::new(1024)).unwrap();
-        let linear = welch_psd(
-            &x,
-            1.0,
-            &WelchConfig::new(1024).with_detrend(Detrend::Linear),
-        )
-        .unwrap();
+        let linear = welch_psd(&x, 1.0, &WelchConfig::new(1024).with_detrend(Detrend::Linear)).unwrap();
         let white_level = 2.0;
-        assert!(
-            mean_only.psd[1] > 20.0 * white_level,
-            "ramp leaks into bin 1: {}",
-            mean_only.psd[1]
-        );
-        assert!(
-            linear.psd[1] < 3.0 * white_level,
-            "ramp removed: {}",
-            linear.psd[1]
-        );
+        assert!(mean_only.psd[1] > 20.0 * white_level, "ramp leaks into bin 1: {}", mean_only.psd[1]);
+        assert!(linear.psd[1] < 3.0 * white_level, "ramp removed: {}", linear.psd[1]);
     }
 
     #[test]
@@ -794,11 +669,7 @@ mod tests {
         let output_noise = white_noise(x.len(), noise_sigma, 6);
         let y: Vec<f64> = (0..x.len())
             .map(|t| {
-                taps.iter()
-                    .enumerate()
-                    .filter(|(d, _)| t >= *d)
-                    .map(|(d, b)| b * x[t - d])
-                    .sum::<f64>()
+                taps.iter().enumerate().filter(|(d, _)| t >= *d).map(|(d, b)| b * x[t - d]).sum::<f64>()
                     + output_noise[t]
             })
             .collect();
@@ -806,18 +677,12 @@ mod tests {
         let errors = estimate.magnitude_relative_error();
         for (k, &f) in estimate.frequency_hz.iter().enumerate().skip(1) {
             let omega = 2.0 * PI * f / sample_rate;
-            let exact: Complex64 = taps
-                .iter()
-                .enumerate()
-                .map(|(d, b)| Complex64::from_polar(*b, -omega * d as f64))
-                .sum();
+            let exact: Complex64 =
+                taps.iter().enumerate().map(|(d, b)| Complex64::from_polar(*b, -omega * d as f64)).sum();
             let h = estimate.h1[k];
             // Magnitude and phase within 4 standard errors of the estimate's own error bound.
             let tolerance = 4.0 * errors[k];
-            assert!(
-                (h - exact).norm() / exact.norm() < tolerance,
-                "f={f}: H1={h}, exact={exact}, tol {tolerance}"
-            );
+            assert!((h - exact).norm() / exact.norm() < tolerance, "f={f}: H1={h}, exact={exact}, tol {tolerance}");
             // Coherence of a noisy linear system: |H|^2 Sxx / (|H|^2 Sxx + Snn).
             let expected = exact.norm_sqr() / (exact.norm_sqr() + noise_sigma * noise_sigma);
             assert!(
@@ -836,32 +701,20 @@ mod tests {
         let threshold = estimate.coherence_threshold(0.95);
         let interior = &estimate.coherence[1..estimate.coherence.len() - 1];
         let above = interior.iter().filter(|&&c| c > threshold).count();
-        assert!(
-            above <= 5,
-            "{above} of {} bins above {threshold}",
-            interior.len()
-        );
-        assert!(
-            interior.iter().sum::<f64>() / (interior.len() as f64) < 3.0 / (0.5 * estimate.dof)
-        );
+        assert!(above <= 5, "{above} of {} bins above {threshold}", interior.len());
+        assert!(interior.iter().sum::<f64>() / (interior.len() as f64) < 3.0 / (0.5 * estimate.dof));
     }
 
     #[test]
     fn cross_spectrum_of_a_delayed_copy_has_linear_phase() {
         let x = white_noise(40_000, 1.0, 9);
         let delay = 3;
-        let y: Vec<f64> = (0..x.len())
-            .map(|t| if t >= delay { x[t - delay] } else { 0.0 })
-            .collect();
+        let y: Vec<f64> = (0..x.len()).map(|t| if t >= delay { x[t - delay] } else { 0.0 }).collect();
         let csd = welch_csd(&x, &y, 1.0, &WelchConfig::new(256)).unwrap();
         for k in [5, 20, 40] {
             let expected = -2.0 * PI * csd.frequency_hz[k] * delay as f64;
             let diff = (csd.csd[k].arg() - expected + PI).rem_euclid(2.0 * PI) - PI;
-            assert!(
-                diff.abs() < 0.05,
-                "bin {k}: phase {} vs {expected}",
-                csd.csd[k].arg()
-            );
+            assert!(diff.abs() < 0.05, "bin {k}: phase {} vs {expected}", csd.csd[k].arg());
         }
     }
 
@@ -875,49 +728,28 @@ mod tests {
             let f = spectrum.frequency_hz[k];
             let ratio = spectrum.psd[k] / (0.02 * f.powf(-5.0 / 3.0));
             let interval = spectrum.confidence_interval(0.999).unwrap();
-            assert!(
-                ratio > interval.lower && ratio < interval.upper,
-                "bin {k}: ratio {ratio}"
-            );
+            assert!(ratio > interval.lower && ratio < interval.upper, "bin {k}: ratio {ratio}");
         }
     }
 
     #[test]
     fn invalid_configurations_and_inputs_are_errors_not_panics() {
         let x = vec![1.0; 100];
-        assert_eq!(
-            welch_psd(&x, 1.0, &WelchConfig::new(200)),
-            Err(DspError::TooShort {
-                needed: 200,
-                got: 100
-            })
-        );
+        assert_eq!(welch_psd(&x, 1.0, &WelchConfig::new(200)), Err(DspError::TooShort { needed: 200, got: 100 }));
         assert!(matches!(
             welch_psd(&x, 1.0, &WelchConfig::new(10).with_overlap(1.0)),
-            Err(DspError::InvalidParameter {
-                name: "overlap",
-                ..
-            })
+            Err(DspError::InvalidParameter { name: "overlap", .. })
         ));
         assert!(matches!(
             welch_psd(&x, 0.0, &WelchConfig::new(10)),
-            Err(DspError::InvalidParameter {
-                name: "sample_rate_hz",
-                ..
-            })
+            Err(DspError::InvalidParameter { name: "sample_rate_hz", .. })
         ));
         let mut with_nan = x.clone();
         with_nan[42] = f64::NAN;
-        assert_eq!(
-            welch_psd(&with_nan, 1.0, &WelchConfig::new(10)),
-            Err(DspError::NonFinite { index: 42 })
-        );
+        assert_eq!(welch_psd(&with_nan, 1.0, &WelchConfig::new(10)), Err(DspError::NonFinite { index: 42 }));
         assert_eq!(
             welch_csd(&x, &x[..50], 1.0, &WelchConfig::new(10)),
-            Err(DspError::LengthMismatch {
-                first: 100,
-                second: 50
-            })
+            Err(DspError::LengthMismatch { first: 100, second: 50 })
         );
     }
 

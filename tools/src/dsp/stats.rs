@@ -83,19 +83,13 @@ fn moving_sums(x: &[f64], window: usize) -> Vec<f64> {
 /// `len - window + 1` entries (only whole windows). A 3-s gust is the maximum of the moving
 /// average over 3 s of samples.
 pub fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
-    moving_sums(x, window)
-        .into_iter()
-        .map(|s| s / window as f64)
-        .collect()
+    moving_sums(x, window).into_iter().map(|s| s / window as f64).collect()
 }
 
 /// Moving RMS over whole windows of `window` samples (entry i covers `x[i..i + window]`).
 pub fn moving_rms(x: &[f64], window: usize) -> Vec<f64> {
     let squares: Vec<f64> = x.iter().map(|v| v * v).collect();
-    moving_sums(&squares, window)
-        .into_iter()
-        .map(|s| (s.max(0.0) / window as f64).sqrt())
-        .collect()
+    moving_sums(&squares, window).into_iter().map(|s| (s.max(0.0) / window as f64).sqrt()).collect()
 }
 
 /// The largest value of a windowed statistic and where its window starts.
@@ -108,11 +102,7 @@ pub struct WindowExtreme {
 }
 
 fn max_of(values: &[f64]) -> Option<WindowExtreme> {
-    values
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .map(|(start, &value)| WindowExtreme { start, value })
+    values.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(start, &value)| WindowExtreme { start, value })
 }
 
 /// Maximum of the moving average (e.g. the 3-s gust), or `None` if no whole window fits.
@@ -134,11 +124,7 @@ pub fn nrmse_fit_percent(measured: &[f64], model: &[f64]) -> f64 {
         return f64::NAN;
     }
     let m = mean(measured);
-    let error: f64 = measured
-        .iter()
-        .zip(model)
-        .map(|(y, yhat)| (y - yhat).powi(2))
-        .sum();
+    let error: f64 = measured.iter().zip(model).map(|(y, yhat)| (y - yhat).powi(2)).sum();
     let spread: f64 = measured.iter().map(|y| (y - m).powi(2)).sum();
     if spread == 0.0 {
         return f64::NAN;
@@ -176,9 +162,7 @@ impl LineFit {
 
     /// Standard error of the fitted value at `x` (uses the slope-intercept covariance).
     pub fn prediction_std_error(&self, x: f64) -> f64 {
-        (self.intercept_std_error.powi(2)
-            + x * x * self.slope_std_error.powi(2)
-            + 2.0 * x * self.covariance)
+        (self.intercept_std_error.powi(2) + x * x * self.slope_std_error.powi(2) + 2.0 * x * self.covariance)
             .max(0.0)
             .sqrt()
     }
@@ -186,16 +170,10 @@ impl LineFit {
 
 fn check_line_input(x: &[f64], y: &[f64]) -> Result<(), DspError> {
     if x.len() != y.len() {
-        return Err(DspError::LengthMismatch {
-            first: x.len(),
-            second: y.len(),
-        });
+        return Err(DspError::LengthMismatch { first: x.len(), second: y.len() });
     }
     if x.len() < 3 {
-        return Err(DspError::TooShort {
-            needed: 3,
-            got: x.len(),
-        });
+        return Err(DspError::TooShort { needed: 3, got: x.len() });
     }
     super::check_finite(x)?;
     super::check_finite(y)
@@ -210,23 +188,12 @@ pub fn linear_regression(x: &[f64], y: &[f64]) -> Result<LineFit, DspError> {
     let y_mean = mean(y);
     let sxx: f64 = x.iter().map(|v| (v - x_mean).powi(2)).sum();
     if sxx == 0.0 {
-        return Err(DspError::invalid(
-            "x",
-            "all x values are equal, so the slope is undefined",
-        ));
+        return Err(DspError::invalid("x", "all x values are equal, so the slope is undefined"));
     }
-    let sxy: f64 = x
-        .iter()
-        .zip(y)
-        .map(|(a, b)| (a - x_mean) * (b - y_mean))
-        .sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - x_mean) * (b - y_mean)).sum();
     let slope = sxy / sxx;
     let intercept = y_mean - slope * x_mean;
-    let rss: f64 = x
-        .iter()
-        .zip(y)
-        .map(|(a, b)| (b - intercept - slope * a).powi(2))
-        .sum();
+    let rss: f64 = x.iter().zip(y).map(|(a, b)| (b - intercept - slope * a).powi(2)).sum();
     let s2 = rss / (n - 2.0);
     let slope_var = s2 / sxx;
     Ok(LineFit {
@@ -247,52 +214,26 @@ pub fn linear_regression(x: &[f64], y: &[f64]) -> Result<LineFit, DspError> {
 /// sqrt(reduced chi-squared) when the scatter about the line exceeds what those uncertainties
 /// allow (the Birge ratio), so a curved spectrum or an underestimated sigma widens the
 /// uncertainty instead of hiding behind it. They are never scaled down.
-pub fn weighted_linear_regression(
-    x: &[f64],
-    y: &[f64],
-    sigma_y: &[f64],
-) -> Result<LineFit, DspError> {
+pub fn weighted_linear_regression(x: &[f64], y: &[f64], sigma_y: &[f64]) -> Result<LineFit, DspError> {
     check_line_input(x, y)?;
     if sigma_y.len() != x.len() {
-        return Err(DspError::LengthMismatch {
-            first: x.len(),
-            second: sigma_y.len(),
-        });
+        return Err(DspError::LengthMismatch { first: x.len(), second: sigma_y.len() });
     }
     if let Some(index) = sigma_y.iter().position(|s| !(*s > 0.0 && s.is_finite())) {
-        return Err(DspError::invalid(
-            "sigma_y",
-            format!("entry {index} must be positive and finite"),
-        ));
+        return Err(DspError::invalid("sigma_y", format!("entry {index} must be positive and finite")));
     }
     let weights: Vec<f64> = sigma_y.iter().map(|s| 1.0 / (s * s)).collect();
     let sw: f64 = weights.iter().sum();
     let x_mean = x.iter().zip(&weights).map(|(a, w)| a * w).sum::<f64>() / sw;
     let y_mean = y.iter().zip(&weights).map(|(b, w)| b * w).sum::<f64>() / sw;
-    let sxx: f64 = x
-        .iter()
-        .zip(&weights)
-        .map(|(a, w)| w * (a - x_mean).powi(2))
-        .sum();
+    let sxx: f64 = x.iter().zip(&weights).map(|(a, w)| w * (a - x_mean).powi(2)).sum();
     if sxx == 0.0 {
-        return Err(DspError::invalid(
-            "x",
-            "all x values are equal, so the slope is undefined",
-        ));
+        return Err(DspError::invalid("x", "all x values are equal, so the slope is undefined"));
     }
-    let sxy: f64 = x
-        .iter()
-        .zip(y)
-        .zip(&weights)
-        .map(|((a, b), w)| w * (a - x_mean) * (b - y_mean))
-        .sum();
+    let sxy: f64 = x.iter().zip(y).zip(&weights).map(|((a, b), w)| w * (a - x_mean) * (b - y_mean)).sum();
     let slope = sxy / sxx;
     let intercept = y_mean - slope * x_mean;
-    let residuals: Vec<f64> = x
-        .iter()
-        .zip(y)
-        .map(|(a, b)| b - intercept - slope * a)
-        .collect();
+    let residuals: Vec<f64> = x.iter().zip(y).map(|(a, b)| b - intercept - slope * a).collect();
     let chi2: f64 = residuals.iter().zip(&weights).map(|(r, w)| w * r * r).sum();
     let reduced = chi2 / (x.len() as f64 - 2.0);
     let inflation = reduced.max(1.0);
@@ -323,9 +264,7 @@ pub struct LeastSquaresFit {
 impl LeastSquaresFit {
     /// Standard errors of the parameters (square roots of the covariance diagonal).
     pub fn std_errors(&self) -> Vec<f64> {
-        (0..self.parameters.len())
-            .map(|i| self.covariance[(i, i)].max(0.0).sqrt())
-            .collect()
+        (0..self.parameters.len()).map(|i| self.covariance[(i, i)].max(0.0).sqrt()).collect()
     }
 }
 
@@ -335,16 +274,10 @@ impl LeastSquaresFit {
 pub fn least_squares(design: &DMatrix<f64>, y: &[f64]) -> Result<LeastSquaresFit, DspError> {
     let (rows, columns) = design.shape();
     if rows != y.len() {
-        return Err(DspError::LengthMismatch {
-            first: rows,
-            second: y.len(),
-        });
+        return Err(DspError::LengthMismatch { first: rows, second: y.len() });
     }
     if rows <= columns {
-        return Err(DspError::TooShort {
-            needed: columns + 1,
-            got: rows,
-        });
+        return Err(DspError::TooShort { needed: columns + 1, got: rows });
     }
     super::check_finite(design.as_slice())?;
     super::check_finite(y)?;
@@ -358,9 +291,7 @@ pub fn least_squares(design: &DMatrix<f64>, y: &[f64]) -> Result<LeastSquaresFit
         ));
     }
     let observations = DVector::from_column_slice(y);
-    let parameters = svd
-        .solve(&observations, tolerance)
-        .map_err(|e| DspError::invalid("design", e.to_string()))?;
+    let parameters = svd.solve(&observations, tolerance).map_err(|e| DspError::invalid("design", e.to_string()))?;
     let residuals = &observations - design * &parameters;
     let rss = residuals.norm_squared();
     let s2 = rss / (rows - columns) as f64;
@@ -405,13 +336,7 @@ mod tests {
         assert_eq!(ma.len(), 5);
         assert_eq!(ma[0], 1.0);
         assert_eq!(ma[3], 4.0);
-        assert_eq!(
-            max_moving_average(&x, 3),
-            Some(WindowExtreme {
-                start: 3,
-                value: 4.0
-            })
-        );
+        assert_eq!(max_moving_average(&x, 3), Some(WindowExtreme { start: 3, value: 4.0 }));
         assert!(moving_average(&x, 8).is_empty());
         assert_eq!(max_moving_average(&x, 0), None);
     }
@@ -450,11 +375,7 @@ mod tests {
     fn line_fit_recovers_slope_within_its_standard_error() {
         let noise = white_noise(200, 0.5, 32);
         let x: Vec<f64> = (0..200).map(|i| i as f64 * 0.1).collect();
-        let y: Vec<f64> = x
-            .iter()
-            .zip(&noise)
-            .map(|(a, e)| 1.5 - 0.7 * a + e)
-            .collect();
+        let y: Vec<f64> = x.iter().zip(&noise).map(|(a, e)| 1.5 - 0.7 * a + e).collect();
         let fit = linear_regression(&x, &y).unwrap();
         // sigma / sqrt(sum (x - mean)^2) = 0.5 / sqrt(200 * 33.33) = 0.0061.
         assert!((fit.slope_std_error - 0.5 / (6666.5f64).sqrt()).abs() < 0.001);
@@ -481,22 +402,12 @@ mod tests {
     fn least_squares_fits_a_quadratic_and_rejects_dependent_columns() {
         let x: Vec<f64> = (0..50).map(|i| i as f64 / 10.0).collect();
         let noise = white_noise(50, 0.01, 34);
-        let y: Vec<f64> = x
-            .iter()
-            .zip(&noise)
-            .map(|(a, e)| 1.0 - 2.0 * a + 0.5 * a * a + e)
-            .collect();
+        let y: Vec<f64> = x.iter().zip(&noise).map(|(a, e)| 1.0 - 2.0 * a + 0.5 * a * a + e).collect();
         let design = DMatrix::from_fn(50, 3, |r, c| x[r].powi(c as i32));
         let fit = least_squares(&design, &y).unwrap();
         let errors = fit.std_errors();
-        for (p, (estimate, error)) in [1.0, -2.0, 0.5]
-            .iter()
-            .zip(fit.parameters.iter().zip(&errors))
-        {
-            assert!(
-                (estimate - p).abs() < 4.0 * error,
-                "{estimate} vs {p} +- {error}"
-            );
+        for (p, (estimate, error)) in [1.0, -2.0, 0.5].iter().zip(fit.parameters.iter().zip(&errors)) {
+            assert!((estimate - p).abs() < 4.0 * error, "{estimate} vs {p} +- {error}");
         }
         let dependent = DMatrix::from_fn(50, 2, |r, _| x[r]);
         assert!(least_squares(&dependent, &y).is_err());

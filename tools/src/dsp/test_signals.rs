@@ -21,12 +21,7 @@ pub fn white_noise(len: usize, sigma: f64, seed: u64) -> Vec<f64> {
 /// A stationary Gaussian process whose one-sided PSD per Hz is exactly `psd(f)` at every
 /// Fourier frequency of the record (circular spectral synthesis: white noise is shaped in the
 /// frequency domain, so the record is one period of a periodic process with that spectrum).
-pub fn process_with_psd(
-    len: usize,
-    sample_rate_hz: f64,
-    seed: u64,
-    psd: impl Fn(f64) -> f64,
-) -> Vec<f64> {
+pub fn process_with_psd(len: usize, sample_rate_hz: f64, seed: u64, psd: impl Fn(f64) -> f64) -> Vec<f64> {
     // Unit-variance white noise has a one-sided PSD of 2/fs; scaling bin k by
     // sqrt(psd(f_k) fs / 2) gives the target density.
     let noise = white_noise(len, 1.0, seed);
@@ -36,11 +31,7 @@ pub fn process_with_psd(
     for (k, value) in spectrum.iter_mut().enumerate() {
         let bin = k.min(len - k);
         let f = bin as f64 * sample_rate_hz / len as f64;
-        let gain = if bin == 0 {
-            0.0
-        } else {
-            (psd(f) * sample_rate_hz / 2.0).sqrt()
-        };
+        let gain = if bin == 0 { 0.0 } else { (psd(f) * sample_rate_hz / 2.0).sqrt() };
         *value *= gain;
     }
     planner.plan_fft_inverse(len).process(&mut spectrum);

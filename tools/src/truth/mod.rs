@@ -394,7 +394,8 @@ impl Actual {
     fn fastest_rate(&self, v: f64) -> f64 {
         let p = &self.p;
         let sigma0 = p.static_friction.max(1.0) / p.presliding_displacement;
-        let lowest_level = (p.coulomb.min(p.static_friction) - self.asymmetry.abs()).max(1e-6 * p.static_friction.max(1.0));
+        let lowest_level =
+            (p.coulomb.min(p.static_friction) - self.asymmetry.abs()).max(1e-6 * p.static_friction.max(1.0));
         let motor = p.reflected_motor_inertia();
         let sigma1 = 2.0 * p.bristle_damping_ratio * (sigma0 * motor).sqrt();
         sigma0 * v.abs() / lowest_level + sigma1 / motor + (sigma0 / motor).sqrt()
@@ -405,7 +406,9 @@ impl Actual {
     fn lugre(&self, v: f64, z: f64) -> (f64, f64) {
         let p = &self.p;
         let stribeck = (-(v / p.stribeck_velocity).powi(2)).exp();
-        let g = p.coulomb + (p.static_friction - p.coulomb) * stribeck + self.asymmetry * (v / (0.1 * p.stribeck_velocity)).tanh();
+        let g = p.coulomb
+            + (p.static_friction - p.coulomb) * stribeck
+            + self.asymmetry * (v / (0.1 * p.stribeck_velocity)).tanh();
         let g = g.max(1e-6 * p.static_friction.max(1.0));
         let sigma0 = p.static_friction.max(1.0) / p.presliding_displacement;
         let sigma1 = 2.0 * p.bristle_damping_ratio * (sigma0 * p.reflected_motor_inertia()).sqrt() * stribeck;
@@ -450,7 +453,8 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     // (1-a)^2 (k+1) a^k, whose energy is (1-a)^4 (1+a^2)/(1-a^2)^3: this gain makes the
     // injected torque's standard deviation injection_sigma.
     let ia = injection_alpha;
-    let injection_gain = config.injection_sigma / ((1.0 - ia).powi(4) * (1.0 + ia * ia) / (1.0 - ia * ia).powi(3)).sqrt();
+    let injection_gain =
+        config.injection_sigma / ((1.0 - ia).powi(4) * (1.0 + ia * ia) / (1.0 - ia * ia).powi(3)).sqrt();
 
     // State: motor angle, motor speed, load angle, load speed (axis side), LuGre bristle z,
     // actual current.
@@ -519,15 +523,25 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
         if step % log_every == 0 {
             let share = x[5] / motors as f64;
             let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
-            let measured_current = quantise(share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng), config.noise.current_step);
+            let measured_current = quantise(
+                share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng),
+                config.noise.current_step,
+            );
             time.push(t);
             log_current.push(measured_current);
             if motors == 2 {
-                log_current_2.push(quantise(share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng), config.noise.current_step));
+                log_current_2.push(quantise(
+                    share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng),
+                    config.noise.current_step,
+                ));
             }
             if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
                 for speeds in log_speed.iter_mut() {
-                    speeds.push((1.0 + sensor.scale_error) * x[1] + sensor.bias + sensor.sigma * unit_normal.sample(&mut sensor_rng));
+                    speeds.push(
+                        (1.0 + sensor.scale_error) * x[1]
+                            + sensor.bias
+                            + sensor.sigma * unit_normal.sample(&mut sensor_rng),
+                    );
                 }
             }
             log_ref.push(trajectory.position(t));
@@ -577,9 +591,16 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
 
     let mut metadata = BTreeMap::new();
     metadata.insert("generated_by".to_string(), "truthgen (antenna-tools)".to_string());
-    let channel = |signal: Signal, motor: Option<u32>, values: Vec<f64>| Channel { signal, motor, column: String::new(), unit: String::new(), values };
+    let channel = |signal: Signal, motor: Option<u32>, values: Vec<f64>| Channel {
+        signal,
+        motor,
+        column: String::new(),
+        unit: String::new(),
+        values,
+    };
     let numbered = |k: u32| (motors == 2).then_some(k);
-    let mut channels = vec![channel(Signal::RefPos, None, log_ref), channel(Signal::MotorCurrent, numbered(1), log_current)];
+    let mut channels =
+        vec![channel(Signal::RefPos, None, log_ref), channel(Signal::MotorCurrent, numbered(1), log_current)];
     if motors == 2 {
         channels.push(channel(Signal::MotorCurrent, numbered(2), log_current_2));
     }
@@ -616,8 +637,14 @@ fn add(x: &[f64; 6], k: &[f64; 6], h: f64) -> [f64; 6] {
 }
 
 /// The units the generated logs use, like a drive's own logging.
-pub const LOG_UNITS: [(Signal, &str); 6] =
-    [(Signal::Time, "s"), (Signal::RefPos, "deg"), (Signal::MotorCurrent, "A"), (Signal::MotorPos, "deg"), (Signal::LoadPos, "deg"), (Signal::MotorVel, "deg_s")];
+pub const LOG_UNITS: [(Signal, &str); 6] = [
+    (Signal::Time, "s"),
+    (Signal::RefPos, "deg"),
+    (Signal::MotorCurrent, "A"),
+    (Signal::MotorPos, "deg"),
+    (Signal::LoadPos, "deg"),
+    (Signal::MotorVel, "deg_s"),
+];
 
 #[cfg(test)]
 mod tests {
@@ -641,14 +668,22 @@ mod tests {
         // Two half currents with their own noise sum to the one current within that noise.
         let single = a.log.signal(Signal::MotorCurrent).unwrap();
         let sigma = plain.noise.current_sigma;
-        let worst = (0..single.len()).map(|k| (currents[0].values[k] + currents[1].values[k] - single[k]).abs()).fold(0.0, f64::max);
+        let worst = (0..single.len())
+            .map(|k| (currents[0].values[k] + currents[1].values[k] - single[k]).abs())
+            .fold(0.0, f64::max);
         assert!(worst < 12.0 * sigma, "{worst}");
         // The bias is in each current and cancels in their sum.
-        let mean_difference = (0..single.len()).map(|k| currents[0].values[k] - currents[1].values[k]).sum::<f64>() / single.len() as f64;
+        let mean_difference =
+            (0..single.len()).map(|k| currents[0].values[k] - currents[1].values[k]).sum::<f64>() / single.len() as f64;
         assert!((mean_difference - 3.0).abs() < 0.01, "{mean_difference}");
         // The speed signal is the true motor speed with its scale error, bias and noise.
         let sensor = SpeedSensor::default();
-        let errors: Vec<f64> = speeds[0].values.iter().zip(&b.clean.motor_vel).map(|(m, v)| m - (1.0 + sensor.scale_error) * v - sensor.bias).collect();
+        let errors: Vec<f64> = speeds[0]
+            .values
+            .iter()
+            .zip(&b.clean.motor_vel)
+            .map(|(m, v)| m - (1.0 + sensor.scale_error) * v - sensor.bias)
+            .collect();
         let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
         assert!((rms / sensor.sigma - 1.0).abs() < 0.1, "speed noise {rms:e}");
         // With no motor sensor the load encoder is the only position.
@@ -674,7 +709,10 @@ mod tests {
         plant.set_anti_resonance(6.5);
         assert!((plant.anti_resonance() - 6.5).abs() < 1e-12);
         assert!((ratio(&plant) - before).abs() < 1e-15);
-        assert!((plant.stiffness - plant.load_inertia * (2.0 * std::f64::consts::PI * 6.5).powi(2)).abs() < 1e-6 * plant.stiffness);
+        assert!(
+            (plant.stiffness - plant.load_inertia * (2.0 * std::f64::consts::PI * 6.5).powi(2)).abs()
+                < 1e-6 * plant.stiffness
+        );
     }
 
     #[test]
@@ -706,7 +744,9 @@ mod tests {
             }
             let a_m = (c.motor_vel[i + 1] - c.motor_vel[i - 1]) / (2.0 * dt);
             let friction = p.viscous * v + p.coulomb * v.signum();
-            residual.push(c.applied_torque[i] - p.reflected_motor_inertia() * a_m - p.load_inertia * c.load_acc[i] - friction);
+            residual.push(
+                c.applied_torque[i] - p.reflected_motor_inertia() * a_m - p.load_inertia * c.load_acc[i] - friction,
+            );
             torque.push(c.applied_torque[i]);
         }
         assert!(residual.len() > 1000);
@@ -724,12 +764,17 @@ mod tests {
             config.plant.presliding_displacement = presliding;
             let coarse = simulate(&config).clean;
             let fine = simulate(&TruthConfig { internal_rate: 200_000.0, ..config }).clean;
-            let worst = |a: &dyn Fn(&CleanSignals, usize) -> f64| (0..coarse.motor_pos.len()).map(|i| (a(&coarse, i) - a(&fine, i)).abs()).fold(0.0, f64::max);
+            let worst = |a: &dyn Fn(&CleanSignals, usize) -> f64| {
+                (0..coarse.motor_pos.len()).map(|i| (a(&coarse, i) - a(&fine, i)).abs()).fold(0.0, f64::max)
+            };
             (worst(&|c, i| c.motor_pos[i]), worst(&|c, i| c.motor_pos[i] - c.load_pos[i]))
         };
         let (stiff_motor, stiff_twist) = change_with_finer_rate(1e-7);
         let (soft_motor, soft_twist) = change_with_finer_rate(1e-5);
-        assert!(stiff_motor < 1.5 * soft_motor && stiff_twist < 1.5 * soft_twist, "stiff: {stiff_motor:e}, {stiff_twist:e} rad; soft: {soft_motor:e}, {soft_twist:e} rad");
+        assert!(
+            stiff_motor < 1.5 * soft_motor && stiff_twist < 1.5 * soft_twist,
+            "stiff: {stiff_motor:e}, {stiff_twist:e} rad; soft: {soft_motor:e}, {soft_twist:e} rad"
+        );
         // Both below the load encoder's 1e-7 rad noise.
         assert!(stiff_motor < 1e-7 && stiff_twist < 1e-7);
         let quiet = Actual::new(&short(vec![]));
@@ -740,7 +785,8 @@ mod tests {
     fn an_unbalance_raises_the_torque_by_its_size() {
         let clean = simulate(&short(vec![]));
         let with = simulate(&short(vec![Effect::Unbalance { amplitude: 5000.0, phase: 0.0 }]));
-        let difference: Vec<f64> = with.clean.applied_torque.iter().zip(&clean.clean.applied_torque).map(|(a, b)| a - b).collect();
+        let difference: Vec<f64> =
+            with.clean.applied_torque.iter().zip(&clean.clean.applied_torque).map(|(a, b)| a - b).collect();
         let expected: Vec<f64> = with.clean.load_pos.iter().map(|q| 5000.0 * q.cos()).collect();
         let miss: Vec<f64> = difference.iter().zip(&expected).map(|(d, e)| d - e).collect();
         // Closed-loop tracking makes the drive supply the unbalance torque, apart from the

@@ -14,8 +14,19 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Every effect kind the generator knows, in table order.
-pub const EFFECT_KINDS: [&str; 11] =
-    ["coulomb", "stribeck", "asymmetry", "torque_offset", "backlash", "stiffness", "inertia", "unbalance", "delay", "torque_constant", "cogging"];
+pub const EFFECT_KINDS: [&str; 11] = [
+    "coulomb",
+    "stribeck",
+    "asymmetry",
+    "torque_offset",
+    "backlash",
+    "stiffness",
+    "inertia",
+    "unbalance",
+    "delay",
+    "torque_constant",
+    "cogging",
+];
 
 /// What a suite contains.
 #[derive(Debug, Clone)]
@@ -54,7 +65,12 @@ impl Default for SuiteConfig {
 /// noise levels, drive resonances and inertias, new seeds, every effect kind at 10 and 20
 /// times the noise and four clean logs each. (name, what differs, suite)
 pub fn holdout_suites() -> Vec<(&'static str, &'static str, SuiteConfig)> {
-    let holdout = |seeds: Vec<u64>, clean_seeds: Vec<u64>, log_rate: f64, noise_scale: f64, anti_resonance: f64, load_inertia: f64| {
+    let holdout = |seeds: Vec<u64>,
+                   clean_seeds: Vec<u64>,
+                   log_rate: f64,
+                   noise_scale: f64,
+                   anti_resonance: f64,
+                   load_inertia: f64| {
         let mut base = TruthConfig { log_rate, ..TruthConfig::default() };
         base.noise.current_sigma *= noise_scale;
         base.noise.load_encoder_sigma *= noise_scale;
@@ -106,7 +122,13 @@ pub struct CaseTruth {
 }
 
 /// Sizes an effect of `kind` so that it adds `ratio` times the channel noise, from a clean run.
-pub fn sized_effect(kind: &str, ratio: f64, clean: &CleanSignals, config: &TruthConfig, rng: &mut impl rand::Rng) -> Result<Effect, String> {
+pub fn sized_effect(
+    kind: &str,
+    ratio: f64,
+    clean: &CleanSignals,
+    config: &TruthConfig,
+    rng: &mut impl rand::Rng,
+) -> Result<Effect, String> {
     let plant = &config.plant;
     let sigma_torque = config.noise.torque_sigma(plant);
     let sigma_twist = config.noise.twist_sigma(plant);
@@ -196,7 +218,13 @@ pub fn sized_effect(kind: &str, ratio: f64, clean: &CleanSignals, config: &Truth
 }
 
 /// Generates one log with the given kinds and sizes, returning its text and truth.
-pub fn generate_case(base: &TruthConfig, seed: u64, kinds: &[(String, f64)], log_file: &str, clean_cache: &mut BTreeMap<u64, CleanSignals>) -> Result<(String, CaseTruth), String> {
+pub fn generate_case(
+    base: &TruthConfig,
+    seed: u64,
+    kinds: &[(String, f64)],
+    log_file: &str,
+    clean_cache: &mut BTreeMap<u64, CleanSignals>,
+) -> Result<(String, CaseTruth), String> {
     let mut config = base.clone();
     config.seed = seed;
     config.effects.clear();
@@ -208,7 +236,8 @@ pub fn generate_case(base: &TruthConfig, seed: u64, kinds: &[(String, f64)], log
             run.clean
         }
     };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9e37_79b9).wrapping_add(kinds.len() as u64));
+    let mut rng =
+        rand_chacha::ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9e37_79b9).wrapping_add(kinds.len() as u64));
     let mut effects = Vec::new();
     for (kind, ratio) in kinds {
         let effect = sized_effect(kind, *ratio, &clean, &config, &mut rng)?;
@@ -276,22 +305,27 @@ pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&st
             }
         };
         std::fs::write(dir.join(format!("{name}.csv")), text).map_err(|e| format!("cannot write log: {e}"))?;
-        std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth)).map_err(|e| format!("cannot write truth: {e}"))?;
+        std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth))
+            .map_err(|e| format!("cannot write truth: {e}"))?;
         progress(&format!("{name}: {}", describe(&truth)));
         truths.push(truth);
     }
-    suite
-        .base
-        .plant
-        .starting_parameters()
-        .write(&dir.join("start.params"), "Starting parameter set of the generated suite: the truth's nominal plant, no effects.")?;
+    suite.base.plant.starting_parameters().write(
+        &dir.join("start.params"),
+        "Starting parameter set of the generated suite: the truth's nominal plant, no effects.",
+    )?;
     Ok(truths)
 }
 
 /// Writes the suite like [`write_suite`], generating the logs on `threads` threads (each with
 /// its own cache of clean runs), after removing the logs and truths of an earlier suite in
 /// `dir`. The files are the same as [`write_suite`]'s: every case depends only on its seed.
-pub fn write_suite_parallel(dir: &Path, suite: &SuiteConfig, threads: usize, progress: &(dyn Fn(&str) + Sync)) -> Result<Vec<CaseTruth>, String> {
+pub fn write_suite_parallel(
+    dir: &Path,
+    suite: &SuiteConfig,
+    threads: usize,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Vec<CaseTruth>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     for entry in std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?.flatten() {
         let name = entry.file_name().to_string_lossy().to_string();
@@ -331,11 +365,10 @@ pub fn write_suite_parallel(dir: &Path, suite: &SuiteConfig, threads: usize, pro
     if let Some(e) = failure.into_inner().unwrap() {
         return Err(e);
     }
-    suite
-        .base
-        .plant
-        .starting_parameters()
-        .write(&dir.join("start.params"), "Starting parameter set of the generated suite: the truth's nominal plant, no effects.")?;
+    suite.base.plant.starting_parameters().write(
+        &dir.join("start.params"),
+        "Starting parameter set of the generated suite: the truth's nominal plant, no effects.",
+    )?;
     let mut truths = truths.into_inner().unwrap();
     truths.sort_by_key(|(i, _)| *i);
     Ok(truths.into_iter().map(|(_, t)| t).collect())
@@ -363,12 +396,23 @@ pub fn truth_text(truth: &CaseTruth) -> String {
         let _ = writeln!(out, "effect{i}.kind = {kind}");
         let _ = writeln!(out, "effect{i}.size = {ratio}");
         let values: Vec<f64> = match *effect {
-            Effect::Coulomb(x) | Effect::Stribeck(x) | Effect::Asymmetry(x) | Effect::TorqueOffset(x) | Effect::Backlash(x) => vec![x],
-            Effect::StiffnessFactor(x) | Effect::InertiaFactor(x) | Effect::Delay(x) | Effect::TorqueConstantScale(x) => vec![x],
+            Effect::Coulomb(x)
+            | Effect::Stribeck(x)
+            | Effect::Asymmetry(x)
+            | Effect::TorqueOffset(x)
+            | Effect::Backlash(x) => vec![x],
+            Effect::StiffnessFactor(x)
+            | Effect::InertiaFactor(x)
+            | Effect::Delay(x)
+            | Effect::TorqueConstantScale(x) => vec![x],
             Effect::Unbalance { amplitude, phase } => vec![amplitude, phase],
             Effect::Cogging { amplitude, period, phase } => vec![amplitude, period, phase],
         };
-        let _ = writeln!(out, "effect{i}.values = {}", values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(" "));
+        let _ = writeln!(
+            out,
+            "effect{i}.values = {}",
+            values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(" ")
+        );
     }
     out
 }
@@ -385,13 +429,15 @@ pub fn parse_truth(text: &str) -> Result<CaseTruth, String> {
         map.insert(k.trim().to_string(), v.trim().to_string());
     }
     let get = |k: &str| map.get(k).cloned().ok_or_else(|| format!("truth file lacks '{k}'"));
-    let num = |k: &str| -> Result<f64, String> { get(k)?.parse::<f64>().map_err(|_| format!("truth '{k}' is not a number")) };
+    let num =
+        |k: &str| -> Result<f64, String> { get(k)?.parse::<f64>().map_err(|_| format!("truth '{k}' is not a number")) };
     let count = num("effects")? as usize;
     let mut effects = Vec::new();
     for i in 0..count {
         let kind = get(&format!("effect{i}.kind"))?;
         let size = num(&format!("effect{i}.size"))?;
-        let values: Vec<f64> = get(&format!("effect{i}.values"))?.split_whitespace().filter_map(|v| v.parse().ok()).collect();
+        let values: Vec<f64> =
+            get(&format!("effect{i}.values"))?.split_whitespace().filter_map(|v| v.parse().ok()).collect();
         let v = |j: usize| values.get(j).copied().ok_or_else(|| format!("effect{i} has too few values"));
         let effect = match kind.as_str() {
             "coulomb" => Effect::Coulomb(v(0)?),
@@ -445,9 +491,14 @@ mod tests {
         let clean = simulate(&config).clean;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         let sigma = config.noise.torque_sigma(&config.plant);
-        let Effect::TorqueOffset(offset) = sized_effect("torque_offset", 7.0, &clean, &config, &mut rng).unwrap() else { panic!() };
+        let Effect::TorqueOffset(offset) = sized_effect("torque_offset", 7.0, &clean, &config, &mut rng).unwrap()
+        else {
+            panic!()
+        };
         assert!((offset.abs() - 7.0 * sigma).abs() < 1e-9);
-        let Effect::Cogging { amplitude, .. } = sized_effect("cogging", 7.0, &clean, &config, &mut rng).unwrap() else { panic!() };
+        let Effect::Cogging { amplitude, .. } = sized_effect("cogging", 7.0, &clean, &config, &mut rng).unwrap() else {
+            panic!()
+        };
         assert!((amplitude / std::f64::consts::SQRT_2 - 7.0 * sigma).abs() < 1e-9);
         assert!(sized_effect("warp_drive", 1.0, &clean, &config, &mut rng).is_err());
     }
@@ -456,12 +507,23 @@ mod tests {
     fn holdout_suites_share_no_seed_and_differ_from_the_main_suite() {
         let main = SuiteConfig::default();
         for (name, _, holdout) in holdout_suites() {
-            assert!(holdout.seeds.iter().chain(&holdout.clean_seeds).all(|s| !main.seeds.contains(s) && !main.clean_seeds.contains(s)), "{name}");
+            assert!(
+                holdout
+                    .seeds
+                    .iter()
+                    .chain(&holdout.clean_seeds)
+                    .all(|s| !main.seeds.contains(s) && !main.clean_seeds.contains(s)),
+                "{name}"
+            );
             let (h, m) = (&holdout.base, &main.base);
             let other_log = h.log_rate != m.log_rate && h.noise.current_sigma != m.noise.current_sigma;
-            let other_drive = h.plant.anti_resonance() != m.plant.anti_resonance() && h.plant.load_inertia != m.plant.load_inertia;
+            let other_drive =
+                h.plant.anti_resonance() != m.plant.anti_resonance() && h.plant.load_inertia != m.plant.load_inertia;
             let other_sensors = h.noise.motor_sensor != m.noise.motor_sensor;
-            assert!(other_log && other_drive || other_sensors, "{name}: the same log rate, noise, drive and sensors as the main suite");
+            assert!(
+                other_log && other_drive || other_sensors,
+                "{name}: the same log rate, noise, drive and sensors as the main suite"
+            );
             assert_eq!(holdout.kinds.len(), EFFECT_KINDS.len(), "{name}: every effect kind");
         }
     }

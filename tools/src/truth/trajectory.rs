@@ -76,7 +76,8 @@ impl Trajectory {
         let mut pieces = vec![Piece { start: 0.0, duration: 1.0, p0: position, v0: 0.0, v1: 0.0 }];
         t += 1.0;
         // Room needed to stop from full speed, kept free at each end.
-        let margin = std::f64::consts::PI * config.max_speed * config.max_speed / (2.0 * config.max_acceleration) + config.max_speed;
+        let margin = std::f64::consts::PI * config.max_speed * config.max_speed / (2.0 * config.max_acceleration)
+            + config.max_speed;
         while t < duration {
             let dwell = rng.random_bool(config.dwell_probability);
             let speed = if dwell {
@@ -100,7 +101,11 @@ impl Trajectory {
             t += ramp;
             let mut cruise: f64 = if dwell { rng.random_range(0.5..1.5) } else { rng.random_range(1.0..5.0) };
             if target != 0.0 {
-                let room = if target > 0.0 { config.max_position - margin * 0.5 - position } else { position - config.min_position - margin * 0.5 };
+                let room = if target > 0.0 {
+                    config.max_position - margin * 0.5 - position
+                } else {
+                    position - config.min_position - margin * 0.5
+                };
                 cruise = cruise.min((room / target.abs()).max(0.2));
             }
             let piece = Piece { start: t, duration: cruise, p0: position, v0: target, v1: target };
@@ -147,7 +152,11 @@ mod tests {
             let p = trajectory.position(t);
             let v = trajectory.velocity(t);
             assert!((p - previous - v * dt).abs() < 1e-6, "jump at {t}");
-            assert!(p > config.min_position - 1e-9 && p < config.max_position + 1e-9, "out of range at {t}: {}", p.to_degrees());
+            assert!(
+                p > config.min_position - 1e-9 && p < config.max_position + 1e-9,
+                "out of range at {t}: {}",
+                p.to_degrees()
+            );
             assert!(trajectory.acceleration(t).abs() <= config.max_acceleration * 1.0001);
             if v.abs() > 1e-9 {
                 if last_sign != 0.0 && v.signum() != last_sign {

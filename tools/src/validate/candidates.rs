@@ -219,7 +219,11 @@ fn profile_sigma(grid: &[f64], chi2: &[f64], best: usize) -> f64 {
             i = j;
         }
     };
-    let half_step = if grid.len() > 1 { 0.5 * (grid[1] - grid[0]).abs().min((grid[grid.len() - 1] - grid[grid.len() - 2]).abs()) } else { 0.0 };
+    let half_step = if grid.len() > 1 {
+        0.5 * (grid[1] - grid[0]).abs().min((grid[grid.len() - 1] - grid[grid.len() - 2]).abs())
+    } else {
+        0.0
+    };
     (0.5 * (cross(-1) + cross(1))).max(half_step)
 }
 
@@ -243,8 +247,17 @@ pub fn instantiate(
         v[data.torque_channel()] = values;
         v
     };
-    let column = |label: &str, unit: &str, channels: Vec<Vec<f64>>| Column { label: label.into(), unit: unit.into(), channels };
-    let simple = |columns: Vec<Column>| Instance { kind, mode, columns, adjust: Vec::new(), searched: Vec::new(), trials: 1.0, extra_parameters: 0 };
+    let column =
+        |label: &str, unit: &str, channels: Vec<Vec<f64>>| Column { label: label.into(), unit: unit.into(), channels };
+    let simple = |columns: Vec<Column>| Instance {
+        kind,
+        mode,
+        columns,
+        adjust: Vec::new(),
+        searched: Vec::new(),
+        trials: 1.0,
+        extra_parameters: 0,
+    };
     let weights = stacked_weights(channels, channel_weights);
     let target = stack(channels, residual);
     let two_mass = data.structure == Structure::TwoMass;
@@ -257,37 +270,58 @@ pub fn instantiate(
             let sgn = data.smooth(&data.motor_vel_inner.iter().map(|&v| sign(v)).collect::<Vec<_>>());
             Ok(simple(vec![column("friction.coulomb change", "N m", torque_only(sgn))]))
         }
-        Kind::Viscous => Ok(simple(vec![column("friction.viscous change", "N m s/rad", torque_only(data.motor_vel.clone()))])),
+        Kind::Viscous => {
+            Ok(simple(vec![column("friction.viscous change", "N m s/rad", torque_only(data.motor_vel.clone()))]))
+        }
         // The offset acts on the load (the plant FMU's load.torque_offset): in the load equation
         // with two equations, in the total equation otherwise.
         Kind::Offset => match data.structure {
-            Structure::TwoMass => Ok(simple(vec![column("effect.torque_offset change", "N m", vec![Vec::new(), vec![ratio; n]])])),
+            Structure::TwoMass => {
+                Ok(simple(vec![column("effect.torque_offset change", "N m", vec![Vec::new(), vec![ratio; n]])]))
+            }
             _ => Ok(simple(vec![column("effect.torque_offset change", "N m", torque_only(vec![1.0; n]))])),
         },
         Kind::TorqueConstant => {
             // The model side is divided by the scale s: a relative change d of s changes it by
             // -d times itself.
             let predicted = &channels[data.torque_channel()].predicted;
-            Ok(simple(vec![column("relative torque-constant change", "-", torque_only(predicted.iter().map(|p| -p).collect()))]))
+            Ok(simple(vec![column(
+                "relative torque-constant change",
+                "-",
+                torque_only(predicted.iter().map(|p| -p).collect()),
+            )]))
         }
         Kind::Inertia => match data.structure {
             Structure::TwoMass => Ok(simple(vec![
                 column("motor inertia change (axis side)", "kg m^2", vec![data.motor_acc.clone(), Vec::new()]),
-                column("load.inertia change", "kg m^2", vec![Vec::new(), data.load_acc.iter().map(|a| ratio * a).collect()]),
+                column(
+                    "load.inertia change",
+                    "kg m^2",
+                    vec![Vec::new(), data.load_acc.iter().map(|a| ratio * a).collect()],
+                ),
             ])),
             // In one total equation the motor and load accelerations differ only by the twist
             // acceleration, so the two inertias are not separable: the load inertia is fitted
             // and the data-sheet motor inertia kept.
-            Structure::TotalTwoEncoders => Ok(simple(vec![column("load.inertia change", "kg m^2", vec![data.load_acc.clone()])])),
+            Structure::TotalTwoEncoders => {
+                Ok(simple(vec![column("load.inertia change", "kg m^2", vec![data.load_acc.clone()])]))
+            }
             Structure::Rigid => Ok(simple(vec![column("load.inertia change", "kg m^2", vec![data.load_acc.clone()])])),
         },
         Kind::Unbalance => {
             let cos: Vec<f64> = data.angle.iter().map(|a| ratio * a.cos()).collect();
             let minus_sin: Vec<f64> = data.angle.iter().map(|a| -ratio * a.sin()).collect();
-            let (c, s) = if two_mass { (vec![Vec::new(), cos], vec![Vec::new(), minus_sin]) } else { (vec![cos], vec![minus_sin]) };
+            let (c, s) = if two_mass {
+                (vec![Vec::new(), cos], vec![Vec::new(), minus_sin])
+            } else {
+                (vec![cos], vec![minus_sin])
+            };
             // Over a small range of angle the two columns are nearly collinear with a
             // constant; the fit reports that through a large uncertainty.
-            Ok(simple(vec![column("unbalance cos part (A cos phase)", "N m", c), column("unbalance sin part (A sin phase)", "N m", s)]))
+            Ok(simple(vec![
+                column("unbalance cos part (A cos phase)", "N m", c),
+                column("unbalance sin part (A sin phase)", "N m", s),
+            ]))
         }
         Kind::Stiffness => {
             if !two_mass {
@@ -304,7 +338,9 @@ pub fn instantiate(
             let motor_k: Vec<f64> = (0..n).map(|i| data.twist[i] - 0.5 * backlash * signs[i]).collect();
             let load_k: Vec<f64> = (0..n)
                 .map(|i| {
-                    let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance[i];
+                    let load_side =
+                        load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset
+                            - disturbance[i];
                     -data.twist_scale / (stiffness * stiffness) * (load_side - damping * data.twist_rate[i])
                 })
                 .collect();
@@ -327,21 +363,38 @@ pub fn instantiate(
             let fc = params.value(names::COULOMB);
             let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
             let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
-            let hump = |vs: f64| data.smooth(&data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>());
+            let hump = |vs: f64| {
+                data.smooth(
+                    &data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>(),
+                )
+            };
             if mode == Mode::Refine {
                 let slope = data.smooth(
-                    &data.motor_vel_inner.iter().map(|&v| amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>(),
+                    &data
+                        .motor_vel_inner
+                        .iter()
+                        .map(|&v| {
+                            amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v)
+                        })
+                        .collect::<Vec<_>>(),
                 );
                 let mut instance = simple(vec![
                     column("Stribeck hump change", "N m", torque_only(hump(current_vs))),
                     column("friction.stribeck_velocity change", "rad/s", torque_only(slope)),
                 ]);
-                instance.searched = vec![Searched { name: names::STRIBECK_VELOCITY.into(), unit: "rad/s".into(), value: current_vs, sigma: f64::NAN, range: (current_vs, current_vs) }];
+                instance.searched = vec![Searched {
+                    name: names::STRIBECK_VELOCITY.into(),
+                    unit: "rad/s".into(),
+                    value: current_vs,
+                    sigma: f64::NAN,
+                    range: (current_vs, current_vs),
+                }];
                 return Ok(instance);
             }
             // The new hump replaces the model's: its old contribution goes back into the target.
             let adjust_torque: Vec<f64> = hump(current_vs).iter().map(|h| amplitude * h).collect();
-            let mut speeds: Vec<f64> = data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
+            let mut speeds: Vec<f64> =
+                data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
             if speeds.len() < 10 {
                 return Err("too few moving samples".into());
             }
@@ -349,18 +402,32 @@ pub fn instantiate(
             let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
             let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
             let grid_count = 25;
-            let grid: Vec<f64> = (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
+            let grid: Vec<f64> =
+                (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
             let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
             let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
-            let chi2: Vec<f64> = grid.iter().map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, &weights)).collect();
+            let chi2: Vec<f64> = grid
+                .iter()
+                .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, &weights))
+                .collect();
             let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
             let sigma = profile_sigma(&grid, &chi2, best);
             Ok(Instance {
                 kind,
                 mode,
-                columns: vec![column("Stribeck hump (friction.static - friction.coulomb)", "N m", torque_only(hump(grid[best])))],
+                columns: vec![column(
+                    "Stribeck hump (friction.static - friction.coulomb)",
+                    "N m",
+                    torque_only(hump(grid[best])),
+                )],
                 adjust: torque_only(adjust_torque),
-                searched: vec![Searched { name: names::STRIBECK_VELOCITY.into(), unit: "rad/s".into(), value: grid[best], sigma, range: (low, high) }],
+                searched: vec![Searched {
+                    name: names::STRIBECK_VELOCITY.into(),
+                    unit: "rad/s".into(),
+                    value: grid[best],
+                    sigma,
+                    range: (low, high),
+                }],
                 // Neighbouring Stribeck velocities a factor 1.3 apart give nearly the same
                 // column; about a third of the grid is independent.
                 trials: (grid_count as f64 / 3.0).max(1.0),
@@ -374,7 +441,13 @@ pub fn instantiate(
             let rate_column = |d: f64| torque_only(data.torque_rate_delayed(d));
             if mode == Mode::Refine {
                 let mut instance = simple(vec![column("effect.delay change", "s", rate_column(delay))]);
-                instance.searched = vec![Searched { name: names::DELAY.into(), unit: "s".into(), value: delay, sigma: f64::NAN, range: (delay, delay) }];
+                instance.searched = vec![Searched {
+                    name: names::DELAY.into(),
+                    unit: "s".into(),
+                    value: delay,
+                    sigma: f64::NAN,
+                    range: (delay, delay),
+                }];
                 return Ok(instance);
             }
             // The search covers DELAY_SEARCH_SECONDS whatever the log rate, in tenths of a
@@ -382,7 +455,8 @@ pub fn instantiate(
             let max_steps = ((DELAY_SEARCH_SECONDS / data.dt).round() as usize).max(2);
             let grid: Vec<f64> = (0..=max_steps * 10).map(|k| k as f64 * 0.1 * data.dt).collect();
             let base = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
-            let adjust_for = |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };
+            let adjust_for =
+                |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };
             let chi2: Vec<f64> = grid
                 .iter()
                 .map(|&d| {
@@ -398,7 +472,13 @@ pub fn instantiate(
                 // A derivative column refines the grid value between grid points.
                 columns: vec![column("effect.delay refinement", "s", rate_column(delay + grid[best]))],
                 adjust: torque_only(adjust_for(grid[best])),
-                searched: vec![Searched { name: names::DELAY.into(), unit: "s".into(), value: grid[best], sigma, range: (0.0, grid[grid.len() - 1]) }],
+                searched: vec![Searched {
+                    name: names::DELAY.into(),
+                    unit: "s".into(),
+                    value: grid[best],
+                    sigma,
+                    range: (0.0, grid[grid.len() - 1]),
+                }],
                 // One independent trial per whole sample of delay searched.
                 trials: max_steps as f64,
                 extra_parameters: 0,
@@ -414,8 +494,10 @@ pub fn instantiate(
                     return Err("no cogging period to refine".into());
                 }
                 let (a0, b0) = (amplitude * phase.cos(), amplitude * phase.sin());
-                let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
-                let cos = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
+                let sin =
+                    data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
+                let cos =
+                    data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
                 let slope = data.smooth(
                     &data
                         .motor_pos_inner
@@ -431,13 +513,25 @@ pub fn instantiate(
                     column("cogging cos part change", "N m", torque_only(cos)),
                     column("effect.cogging_period change", "rad", torque_only(slope)),
                 ]);
-                instance.searched = vec![Searched { name: names::COGGING_PERIOD.into(), unit: "rad".into(), value: period, sigma: f64::NAN, range: (period, period) }];
+                instance.searched = vec![Searched {
+                    name: names::COGGING_PERIOD.into(),
+                    unit: "rad".into(),
+                    value: period,
+                    sigma: f64::NAN,
+                    range: (period, period),
+                }];
                 return Ok(instance);
             }
             // Any cogging already in the model goes back into the target: the search fits the
             // whole position-periodic torque afresh.
             let existing: Vec<f64> = if amplitude != 0.0 && period > 0.0 {
-                data.smooth(&data.motor_pos_inner.iter().map(|q| amplitude * (two_pi * q / period + phase).sin()).collect::<Vec<_>>())
+                data.smooth(
+                    &data
+                        .motor_pos_inner
+                        .iter()
+                        .map(|q| amplitude * (two_pi * q / period + phase).sin())
+                        .collect::<Vec<_>>(),
+                )
             } else {
                 vec![0.0; n]
             };
@@ -457,7 +551,14 @@ pub fn instantiate(
 /// range, so a true period is never more than 1/16 cycle of phase drift from a grid point.
 /// Periods run from a third of the angle range down to the shortest the filter passes at the
 /// median speed, and never more than 5000 grid points (a documented search limit).
-fn cogging(data: &EquationData, channels: &[ChannelData], target: &[f64], weights: &[f64], torque_only: &dyn Fn(Vec<f64>) -> Vec<Vec<f64>>, kind: Kind) -> Result<Instance, String> {
+fn cogging(
+    data: &EquationData,
+    channels: &[ChannelData],
+    target: &[f64],
+    weights: &[f64],
+    torque_only: &dyn Fn(Vec<f64>) -> Vec<Vec<f64>>,
+    kind: Kind,
+) -> Result<Instance, String> {
     let mask = &channels[data.torque_channel()].mask;
     let angles: Vec<f64> = data.motor_pos.iter().zip(mask).filter(|(_, m)| **m).map(|(q, _)| *q).collect();
     let torque_rows = angles.len();
@@ -481,8 +582,10 @@ fn cogging(data: &EquationData, channels: &[ChannelData], target: &[f64], weight
     let r = &target[..torque_rows];
     let w = &weights[..torque_rows];
     let two_pi = 2.0 * std::f64::consts::PI;
-    let mut phase: Vec<(f64, f64)> = angles.iter().map(|q| ((two_pi * q * f_low).cos(), (two_pi * q * f_low).sin())).collect();
-    let rotation: Vec<(f64, f64)> = angles.iter().map(|q| ((two_pi * q * step).cos(), (two_pi * q * step).sin())).collect();
+    let mut phase: Vec<(f64, f64)> =
+        angles.iter().map(|q| ((two_pi * q * f_low).cos(), (two_pi * q * f_low).sin())).collect();
+    let rotation: Vec<(f64, f64)> =
+        angles.iter().map(|q| ((two_pi * q * step).cos(), (two_pi * q * step).sin())).collect();
     let total: f64 = r.iter().zip(w).map(|(r, w)| w * r * r).sum();
     let mut chi2 = Vec::with_capacity(count);
     for _ in 0..count {
@@ -525,7 +628,13 @@ fn cogging(data: &EquationData, channels: &[ChannelData], target: &[f64], weight
             Column { label: "cogging cos part (A sin phase)".into(), unit: "N m".into(), channels: torque_only(cos) },
         ],
         adjust: Vec::new(),
-        searched: vec![Searched { name: names::COGGING_PERIOD.into(), unit: "rad".into(), value: period, sigma: period_sigma, range: (1.0 / f_high, 1.0 / f_low) }],
+        searched: vec![Searched {
+            name: names::COGGING_PERIOD.into(),
+            unit: "rad".into(),
+            value: period,
+            sigma: period_sigma,
+            range: (1.0 / f_high, 1.0 / f_low),
+        }],
         // The grid oversamples the spatial-frequency resolution 1/range by 8.
         trials: (count as f64 / 8.0).max(1.0),
         extra_parameters: 1,
@@ -597,7 +706,11 @@ pub fn apply(instance: &Instance, beta: &[f64], data: &EquationData, params: &mu
                 let amplitude = params.value(names::COGGING_AMPLITUDE);
                 let phase = params.value(names::COGGING_PHASE);
                 let p = params.value(names::COGGING_PERIOD);
-                (amplitude * phase.cos() + beta[0], amplitude * phase.sin() + beta[1], (p + beta[2]).clamp(0.9 * p, 1.1 * p))
+                (
+                    amplitude * phase.cos() + beta[0],
+                    amplitude * phase.sin() + beta[1],
+                    (p + beta[2]).clamp(0.9 * p, 1.1 * p),
+                )
             } else {
                 (beta[0], beta[1], instance.searched[0].value)
             };
@@ -615,7 +728,15 @@ pub fn apply(instance: &Instance, beta: &[f64], data: &EquationData, params: &mu
 /// friction), a delay not negative, breakaway friction not below sliding friction (the plant FMU accepts nothing else). A fit that leaves this region has found
 /// a collinear direction of the data, not an effect.
 pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), String> {
-    let nonnegative = [names::MOTOR_INERTIA, names::LOAD_INERTIA, names::VISCOUS, names::COULOMB, names::STATIC, names::DAMPING, names::BACKLASH_WIDTH];
+    let nonnegative = [
+        names::MOTOR_INERTIA,
+        names::LOAD_INERTIA,
+        names::VISCOUS,
+        names::COULOMB,
+        names::STATIC,
+        names::DAMPING,
+        names::BACKLASH_WIDTH,
+    ];
     for name in nonnegative {
         if params.get(name).is_some_and(|v| v < 0.0) {
             return Err(format!("{name} would be negative ({:.4e})", params.value(name)));
@@ -631,7 +752,10 @@ pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), Stri
     let fastest = data.motor_vel.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let vs = params.value(names::STRIBECK_VELOCITY);
     if params.value(names::STATIC) != params.value(names::COULOMB) && !(vs > 0.0 && vs <= fastest) {
-        return Err(format!("{} would be {vs:.3e} rad/s, outside the measured speeds (0 to {fastest:.3e})", names::STRIBECK_VELOCITY));
+        return Err(format!(
+            "{} would be {vs:.3e} rad/s, outside the measured speeds (0 to {fastest:.3e})",
+            names::STRIBECK_VELOCITY
+        ));
     }
     if params.value(names::DELAY) < 0.0 {
         return Err(format!("{} would be negative ({:.3e} s)", names::DELAY, params.value(names::DELAY)));
@@ -648,7 +772,8 @@ pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), Stri
 pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[f64], data: &EquationData) -> Reported {
     let gear2 = data.gear_ratio * data.gear_ratio;
     let mut out: Reported = Vec::new();
-    let mut add = |name: &str, value: f64, sd: f64, unit: &str| out.push((name.to_string(), value, sd, unit.to_string()));
+    let mut add =
+        |name: &str, value: f64, sd: f64, unit: &str| out.push((name.to_string(), value, sd, unit.to_string()));
     let change = |name: &str| params.value(name) - start.value(name);
     let sd = |i: usize| sigma.get(i).copied().unwrap_or(f64::NAN);
     match kind {
@@ -681,8 +806,16 @@ pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[
             let amplitude = params.value(names::UNBALANCE_TORQUE);
             let phase = params.value(names::UNBALANCE_PHASE);
             let (c, s) = (amplitude * phase.cos(), amplitude * phase.sin());
-            let amp_sd = if amplitude > 0.0 { ((c * sd(0)).powi(2) + (s * sd(1)).powi(2)).sqrt() / amplitude } else { sd(0).hypot(sd(1)) };
-            let phase_sd = if amplitude > 0.0 { ((s * sd(0)).powi(2) + (c * sd(1)).powi(2)).sqrt() / (amplitude * amplitude) } else { f64::INFINITY };
+            let amp_sd = if amplitude > 0.0 {
+                ((c * sd(0)).powi(2) + (s * sd(1)).powi(2)).sqrt() / amplitude
+            } else {
+                sd(0).hypot(sd(1))
+            };
+            let phase_sd = if amplitude > 0.0 {
+                ((s * sd(0)).powi(2) + (c * sd(1)).powi(2)).sqrt() / (amplitude * amplitude)
+            } else {
+                f64::INFINITY
+            };
             add(names::UNBALANCE_TORQUE, amplitude, amp_sd, "N m");
             add(names::UNBALANCE_PHASE, phase, phase_sd, "rad");
         }
@@ -701,7 +834,12 @@ pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[
             let amp_sd = sd(0).hypot(sd(1)) / std::f64::consts::SQRT_2;
             add(names::COGGING_AMPLITUDE, amplitude, amp_sd, "N m");
             add(names::COGGING_PERIOD, params.value(names::COGGING_PERIOD), sd(2), "rad");
-            add(names::COGGING_PHASE, params.value(names::COGGING_PHASE), if amplitude > 0.0 { amp_sd / amplitude } else { f64::INFINITY }, "rad");
+            add(
+                names::COGGING_PHASE,
+                params.value(names::COGGING_PHASE),
+                if amplitude > 0.0 { amp_sd / amplitude } else { f64::INFINITY },
+                "rad",
+            );
         }
     }
     out

@@ -38,7 +38,13 @@ pub struct EquationOptions {
 
 impl Default for EquationOptions {
     fn default() -> Self {
-        EquationOptions { filter_order: 4, min_half_width: 3, max_half_width_seconds: 0.05, stick_noise_multiple: 3.0, stick_stribeck_fraction: 0.1 }
+        EquationOptions {
+            filter_order: 4,
+            min_half_width: 3,
+            max_half_width_seconds: 0.05,
+            stick_noise_multiple: 3.0,
+            stick_stribeck_fraction: 0.1,
+        }
     }
 }
 
@@ -200,7 +206,13 @@ pub fn hat_functions(knots: &[f64], time: &[f64]) -> Vec<Vec<f64>> {
                     let left = if j > 0 { knots[j - 1] } else { f64::NEG_INFINITY };
                     let right = knots.get(j + 1).copied().unwrap_or(f64::INFINITY);
                     if t <= knots[j] {
-                        if j == 0 { 1.0 } else if t <= left { 0.0 } else { (t - left) / (knots[j] - left) }
+                        if j == 0 {
+                            1.0
+                        } else if t <= left {
+                            0.0
+                        } else {
+                            (t - left) / (knots[j] - left)
+                        }
                     } else if j + 1 == knots.len() {
                         1.0
                     } else if t >= right {
@@ -220,7 +232,8 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     let log = uniform(log, &mut notes);
     let n = log.len();
     let dt = log.sample_interval();
-    let gear = params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
+    let gear =
+        params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
     let torque_constant = params.value(names::TORQUE_CONSTANT);
     if log.torque_from_current() && params.get(names::TORQUE_CONSTANT).is_none() {
         return Err(format!("the log has currents, not torques: the parameter set needs {}", names::TORQUE_CONSTANT));
@@ -229,17 +242,23 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
 
     let motor_pos_raw = log.signal(Signal::MotorPos).map(<[f64]>::to_vec);
     let load_pos_raw = log.signal(Signal::LoadPos).map(<[f64]>::to_vec);
-    if (log.signal(Signal::MotorVel).is_some() && !log.motor_position_is_integrated()) || log.signal(Signal::LoadVel).is_some() {
+    if (log.signal(Signal::MotorVel).is_some() && !log.motor_position_is_integrated())
+        || log.signal(Signal::LoadVel).is_some()
+    {
         notes.push("logged speeds are not used: speeds come from the positions through a zero-phase filter, since a drive's own speed filter may lag".into());
     }
     let (motor_pos_raw, load_pos_raw, two_encoders) = match (motor_pos_raw, load_pos_raw) {
         (Some(m), Some(l)) => (m, l, true),
         (Some(m), None) => {
-            notes.push("no load encoder: the drive is treated as rigid (stiffness and backlash cannot be checked)".into());
+            notes.push(
+                "no load encoder: the drive is treated as rigid (stiffness and backlash cannot be checked)".into(),
+            );
             (m.clone(), m, false)
         }
         (None, Some(l)) => {
-            notes.push("no motor encoder: the drive is treated as rigid (stiffness and backlash cannot be checked)".into());
+            notes.push(
+                "no motor encoder: the drive is treated as rigid (stiffness and backlash cannot be checked)".into(),
+            );
             (l.clone(), l, false)
         }
         (None, None) => return Err("the log has no position output".into()),
@@ -357,10 +376,14 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     // noise; its twist is trusted over the time T in which that walk stays within the load
     // encoder's noise, sigma_v sqrt(dt T) = sigma_l, and the twist offset becomes a piecewise
     // linear function with knots T apart (0.5 to 10 s).
-    let slow_twist_hats = match log.signal(Signal::MotorVel).filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass) {
+    let slow_twist_hats = match log
+        .signal(Signal::MotorVel)
+        .filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass)
+    {
         Some(speed) => {
             let speed_sigma = noise_sigma(speed).max(f64::MIN_POSITIVE);
-            let spacing = ((load_pos_sigma / speed_sigma).powi(2) / dt).clamp(SLOW_TWIST_KNOT_SPACING.0, SLOW_TWIST_KNOT_SPACING.1);
+            let spacing = ((load_pos_sigma / speed_sigma).powi(2) / dt)
+                .clamp(SLOW_TWIST_KNOT_SPACING.0, SLOW_TWIST_KNOT_SPACING.1);
             let (t0, t1) = (time[0], time[time.len() - 1]);
             let count = ((t1 - t0) / spacing).ceil().max(1.0) as usize;
             notes.push(format!(
@@ -426,7 +449,8 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
     let scale = params.value(names::TORQUE_CONSTANT_SCALE);
     let delay = params.value(names::DELAY);
 
-    let friction_static = data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
+    let friction_static =
+        data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
     let cogging = cogging_torque(data, params);
     let unbalance_amplitude = params.value(names::UNBALANCE_TORQUE);
     let unbalance_phase = params.value(names::UNBALANCE_PHASE);
@@ -455,8 +479,14 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
             let ratio = k0 / stiffness;
             let motor_model: Vec<f64> = (0..n)
                 .map(|i| {
-                    let shaft = stiffness * data.twist[i] + damping * data.twist_rate[i] - 0.5 * stiffness * backlash * backlash_sign[i];
-                    inverse_scale * (motor_inertia * data.motor_acc[i] + shaft + viscous * data.motor_vel[i] + friction_static[i] + cogging[i])
+                    let shaft = stiffness * data.twist[i] + damping * data.twist_rate[i]
+                        - 0.5 * stiffness * backlash * backlash_sign[i];
+                    inverse_scale
+                        * (motor_inertia * data.motor_acc[i]
+                            + shaft
+                            + viscous * data.motor_vel[i]
+                            + friction_static[i]
+                            + cogging[i])
                 })
                 .collect();
             // The torque offset acts on the load, as the plant FMU's load.torque_offset does.
@@ -470,8 +500,18 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
                 .collect();
             let measured_twist: Vec<f64> = data.twist.iter().map(|t| k0 * t).collect();
             vec![
-                ChannelData { name: "motor torque balance", measured: measured_torque, predicted: motor_model, mask: moving },
-                ChannelData { name: "load torque balance", measured: measured_twist, predicted: load_model, mask: vec![true; n] },
+                ChannelData {
+                    name: "motor torque balance",
+                    measured: measured_torque,
+                    predicted: motor_model,
+                    mask: moving,
+                },
+                ChannelData {
+                    name: "load torque balance",
+                    measured: measured_twist,
+                    predicted: load_model,
+                    mask: vec![true; n],
+                },
             ]
         }
         Structure::TotalTwoEncoders | Structure::Rigid => {
@@ -479,11 +519,22 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
             let model: Vec<f64> = (0..n)
                 .map(|i| {
                     inverse_scale
-                        * (motor_inertia * motor_acc[i] + load_inertia * load_acc[i] + viscous * data.motor_vel[i] + friction_static[i] + offset + cogging[i] + unbalance[i]
+                        * (motor_inertia * motor_acc[i]
+                            + load_inertia * load_acc[i]
+                            + viscous * data.motor_vel[i]
+                            + friction_static[i]
+                            + offset
+                            + cogging[i]
+                            + unbalance[i]
                             - disturbance[i])
                 })
                 .collect();
-            vec![ChannelData { name: "total torque balance", measured: measured_torque, predicted: model, mask: moving }]
+            vec![ChannelData {
+                name: "total torque balance",
+                measured: measured_torque,
+                predicted: model,
+                mask: moving,
+            }]
         }
     }
 }
@@ -497,7 +548,13 @@ pub fn cogging_torque(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
         return vec![0.0; data.len()];
     }
     let phase = params.value(names::COGGING_PHASE);
-    data.smooth(&data.motor_pos_inner.iter().map(|q| amplitude * (2.0 * std::f64::consts::PI * q / period + phase).sin()).collect::<Vec<_>>())
+    data.smooth(
+        &data
+            .motor_pos_inner
+            .iter()
+            .map(|q| amplitude * (2.0 * std::f64::consts::PI * q / period + phase).sin())
+            .collect::<Vec<_>>(),
+    )
 }
 
 /// The sign of the twist relative to the centre of the dead zone, smoothed like the torque:
@@ -508,7 +565,14 @@ pub fn backlash_sign(data: &EquationData, params: &ParameterSet) -> Vec<f64> {
     let h = data.half_width;
     let last = centres.len() - 1;
     // The inner region reaches h samples beyond the analysed one each side.
-    data.smooth(&data.twist_inner.iter().enumerate().map(|(j, t)| (t - centres[j.saturating_sub(h).min(last)]).signum()).collect::<Vec<_>>())
+    data.smooth(
+        &data
+            .twist_inner
+            .iter()
+            .enumerate()
+            .map(|(j, t)| (t - centres[j.saturating_sub(h).min(last)]).signum())
+            .collect::<Vec<_>>(),
+    )
 }
 
 /// The twist at zero shaft torque on every analysed sample: the constant [`twist_centre`], or,
@@ -537,7 +601,8 @@ fn implied_twist_centres(data: &EquationData, params: &ParameterSet) -> Vec<f64>
     (0..data.len())
         .map(|i| {
             let disturbance = data.disturbance.as_ref().map_or(0.0, |d| d[i]);
-            let load_side = load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance;
+            let load_side =
+                load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance;
             data.twist[i] - (load_side - damping * data.twist_rate[i]) / stiffness
         })
         .collect()

@@ -61,7 +61,14 @@ pub const MIN_RESPONSE_BINS: usize = 20;
 /// (g^2 the coherence), the inverse of the relative variance of an H1 estimate. Relative, so
 /// the error in the troughs counts as much as at the peaks; complex, so a phase error (a
 /// delay) counts like a gain error. Returns the error and the number of bins.
-pub fn response_error(frequency: &[f64], measured: &[Complex64], coherence: &[f64], threshold: f64, model: &[Complex64], band: (f64, f64)) -> (f64, usize) {
+pub fn response_error(
+    frequency: &[f64],
+    measured: &[Complex64],
+    coherence: &[f64],
+    threshold: f64,
+    model: &[Complex64],
+    band: (f64, f64),
+) -> (f64, usize) {
     let (mut sum, mut weights, mut bins) = (0.0, 0.0, 0usize);
     for k in 0..frequency.len() {
         if frequency[k] < band.0 || frequency[k] > band.1 || coherence[k] <= threshold || !(coherence[k] < 1.0) {
@@ -97,19 +104,30 @@ pub fn model_response(params: &ParameterSet, f: f64) -> Complex64 {
 /// The frequency of the smallest |H| among `values` at `frequency` within `band`, refined
 /// between bins by a parabola through the log-magnitudes of the smallest and its neighbours.
 fn trough(frequency: &[f64], values: &[f64], band: (f64, f64)) -> Option<f64> {
-    let k = (0..frequency.len()).filter(|&k| frequency[k] >= band.0 && frequency[k] <= band.1).min_by(|&a, &b| values[a].total_cmp(&values[b]))?;
+    let k = (0..frequency.len())
+        .filter(|&k| frequency[k] >= band.0 && frequency[k] <= band.1)
+        .min_by(|&a, &b| values[a].total_cmp(&values[b]))?;
     if k == 0 || k + 1 >= frequency.len() {
         return Some(frequency[k]);
     }
     let (a, b, c) = (values[k - 1].ln(), values[k].ln(), values[k + 1].ln());
     let curvature = a - 2.0 * b + c;
-    let shift = if curvature > 0.0 && a.is_finite() && c.is_finite() { (0.5 * (a - c) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+    let shift = if curvature > 0.0 && a.is_finite() && c.is_finite() {
+        (0.5 * (a - c) / curvature).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
     Some(frequency[k] + shift * (frequency[k + 1] - frequency[k]))
 }
 
 /// Compares the measured response with the models', when the models have a compliant drive
 /// (a stiffness and a load inertia) whose anti-resonance lies below the Nyquist frequency.
-pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, after: &ParameterSet) -> Option<FrequencyResponse> {
+pub fn compare(
+    data: &EquationData,
+    out: &OutputData,
+    before: &ParameterSet,
+    after: &ParameterSet,
+) -> Option<FrequencyResponse> {
     let stiffness = before.value(names::STIFFNESS);
     let load = before.value(names::LOAD_INERTIA);
     // The trough is in the response of the motor: a log with the load encoder alone does not
@@ -146,15 +164,24 @@ pub fn compare(data: &EquationData, out: &OutputData, before: &ParameterSet, aft
     let speed = &speed;
     let estimate = transfer_function_h1(torque, speed, sample_rate, &config).ok()?;
     let threshold = estimate.coherence_threshold(0.95);
-    let in_band: Vec<usize> = (0..estimate.frequency_hz.len()).filter(|&k| estimate.frequency_hz[k] >= band.0 && estimate.frequency_hz[k] <= band.1).collect();
+    let in_band: Vec<usize> = (0..estimate.frequency_hz.len())
+        .filter(|&k| estimate.frequency_hz[k] >= band.0 && estimate.frequency_hz[k] <= band.1)
+        .collect();
     let excited = in_band.iter().filter(|&&k| estimate.coherence[k] > threshold).count();
     let broadband = !in_band.is_empty() && excited as f64 >= 0.8 * in_band.len() as f64;
     // The trough is searched among the coherent bins only: an incoherent bin's |H1| is noise
     // and can dip below the true trough.
-    let magnitude: Vec<f64> = estimate.h1.iter().zip(&estimate.coherence).map(|(h, &c)| if c > threshold { h.norm() } else { f64::INFINITY }).collect();
+    let magnitude: Vec<f64> = estimate
+        .h1
+        .iter()
+        .zip(&estimate.coherence)
+        .map(|(h, &c)| if c > threshold { h.norm() } else { f64::INFINITY })
+        .collect();
     let model = |p: &ParameterSet| estimate.frequency_hz.iter().map(|&f| model_response(p, f)).collect::<Vec<_>>();
     let (model_before, model_after) = (model(before), model(after));
-    let band_error = |m: &[Complex64]| response_error(&estimate.frequency_hz, &estimate.h1, &estimate.coherence, threshold, m, RESPONSE_BAND);
+    let band_error = |m: &[Complex64]| {
+        response_error(&estimate.frequency_hz, &estimate.h1, &estimate.coherence, threshold, m, RESPONSE_BAND)
+    };
     let ((error_before, bins), (error_after, _)) = (band_error(&model_before), band_error(&model_after));
     let enough = bins >= MIN_RESPONSE_BINS;
     // The model troughs on a fine grid, so they do not carry the Welch resolution.
@@ -191,12 +218,18 @@ mod tests {
         // every bin; with equal coherence the weighted mean is the plain mean.
         let frequency: Vec<f64> = (0..200).map(|k| 0.5 * k as f64).collect();
         let d = 2e-3;
-        let measured: Vec<Complex64> = frequency.iter().map(|&f| Complex64::new(0.0, -2.0 * std::f64::consts::PI * f * d).exp() * (1.0 + f)).collect();
+        let measured: Vec<Complex64> = frequency
+            .iter()
+            .map(|&f| Complex64::new(0.0, -2.0 * std::f64::consts::PI * f * d).exp() * (1.0 + f))
+            .collect();
         let model: Vec<Complex64> = frequency.iter().map(|&f| Complex64::new(1.0 + f, 0.0)).collect();
         let coherence = vec![0.9; frequency.len()];
         let (error, bins) = response_error(&frequency, &measured, &coherence, 0.5, &model, RESPONSE_BAND);
-        let inside: Vec<f64> = frequency.iter().copied().filter(|f| *f >= RESPONSE_BAND.0 && *f <= RESPONSE_BAND.1).collect();
-        let expected = (inside.iter().map(|f| (2.0 * (std::f64::consts::PI * f * d).sin()).powi(2)).sum::<f64>() / inside.len() as f64).sqrt();
+        let inside: Vec<f64> =
+            frequency.iter().copied().filter(|f| *f >= RESPONSE_BAND.0 && *f <= RESPONSE_BAND.1).collect();
+        let expected = (inside.iter().map(|f| (2.0 * (std::f64::consts::PI * f * d).sin()).powi(2)).sum::<f64>()
+            / inside.len() as f64)
+            .sqrt();
         assert_eq!(bins, inside.len());
         assert!((error - expected).abs() < 1e-12 * expected, "{error} against {expected}");
         // The measured response itself has no error, and incoherent bins are left out.

@@ -55,7 +55,15 @@ pub struct OutputOptions {
 
 impl Default for OutputOptions {
     fn default() -> Self {
-        OutputOptions { window_correlation: 0.9, minimum_windows: 20, window_seconds: None, drive_window_seconds: None, alpha: 0.01, refit: true, presliding: true }
+        OutputOptions {
+            window_correlation: 0.9,
+            minimum_windows: 20,
+            window_seconds: None,
+            drive_window_seconds: None,
+            alpha: 0.01,
+            refit: true,
+            presliding: true,
+        }
     }
 }
 
@@ -180,7 +188,9 @@ impl Validation {
     /// the equation the found effect shows in.
     pub fn most_improved_channel(&self) -> usize {
         (0..self.before.len())
-            .min_by(|&a, &b| (self.after[a].rms / self.before[a].rms).total_cmp(&(self.after[b].rms / self.before[b].rms)))
+            .min_by(|&a, &b| {
+                (self.after[a].rms / self.before[a].rms).total_cmp(&(self.after[b].rms / self.before[b].rms))
+            })
             .unwrap_or(0)
     }
 }
@@ -224,7 +234,8 @@ impl selection::Judge for OutputJudge<'_> {
     fn confirm(&mut self, kind: Kind, without: &ParameterSet, with: &ParameterSet) -> Result<String, String> {
         let baseline = self.error_of(without).map_err(|e| format!("the model without it does not simulate: {e}"))?;
         let candidate = self.error_of(with).map_err(|e| format!("the model with it does not simulate: {e}"))?;
-        let comparison = output_error::compare(&baseline, &candidate, parameter_count(kind, self.data.structure), self.alpha);
+        let comparison =
+            output_error::compare(&baseline, &candidate, parameter_count(kind, self.data.structure), self.alpha);
         let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
         self.confirmations.push((kind, comparison));
         result
@@ -256,7 +267,12 @@ pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptio
 /// With two encoders, the twist is checked after the search ([`twist`]): a significant timing
 /// skew between the encoders is corrected in the data (the load encoder shifted back) and the
 /// log validated once more, so the effects are found on consistent data.
-pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, mut simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
+pub fn validate_with(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    mut simulator: Option<&mut dyn PlantSimulator>,
+) -> Result<Validation, String> {
     // A motor speed sensor without a motor encoder: the motor position is its integral, whose
     // slow drift is a nuisance of every fit (equation_error's slow-twist knots) and which every
     // parameter set's own twist centre follows in the output error.
@@ -271,7 +287,9 @@ pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &Validate
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
     // position's drift breaks: no skew is acted on then (its report still shows the terms).
-    let Some(skew) = first.twist.as_ref().and_then(|t| t.claimed_skew()).filter(|_| integrated.is_none()) else { return Ok(first) };
+    let Some(skew) = first.twist.as_ref().and_then(|t| t.claimed_skew()).filter(|_| integrated.is_none()) else {
+        return Ok(first);
+    };
     let corrected_log = twist::shift_load_encoder(log, skew);
     let mut second = validate_once(&corrected_log, start, options, simulator)?;
     second.notes.push(format!(
@@ -285,7 +303,12 @@ pub fn validate_with(log: &MeasuredLog, start: &ParameterSet, options: &Validate
 }
 
 /// One pass of [`validate_with`] on a log as it is.
-fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions, simulator: Option<&mut dyn PlantSimulator>) -> Result<Validation, String> {
+fn validate_once(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    simulator: Option<&mut dyn PlantSimulator>,
+) -> Result<Validation, String> {
     let data = equation_error::prepare(log, start, &options.equation)?;
     let mut notes = log.notes.clone();
     notes.extend(data.notes.iter().cloned());
@@ -297,8 +320,17 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
         Some(simulator) => {
             let prepared = OutputData::new(log, &data, start).and_then(|out| {
                 let mut plan = match options.output.window_seconds {
-                    Some(seconds) => WindowPlan::new((seconds / out.dt).round() as usize + 1, out.len(), out.dt, format!("fixed at {seconds} s")),
-                    None => output_error::choose_window(&out, options.output.window_correlation, options.output.minimum_windows),
+                    Some(seconds) => WindowPlan::new(
+                        (seconds / out.dt).round() as usize + 1,
+                        out.len(),
+                        out.dt,
+                        format!("fixed at {seconds} s"),
+                    ),
+                    None => output_error::choose_window(
+                        &out,
+                        options.output.window_correlation,
+                        options.output.minimum_windows,
+                    ),
                 };
                 let drive = match options.output.drive_window_seconds {
                     Some(seconds) => Some(((seconds / out.dt).round() as usize + 1, format!("fixed at {seconds} s"))),
@@ -312,7 +344,9 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
             });
             match prepared {
                 Err(message) => {
-                    notes.push(format!("output error not available ({message}): effects are claimed on the equation error alone"));
+                    notes.push(format!(
+                        "output error not available ({message}): effects are claimed on the equation error alone"
+                    ));
                     selection::select(&data, start, &options.selection)
                 }
                 Ok((out, plan, before)) => {
@@ -320,9 +354,15 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                     // fitted once on the output error and used in the "before" and "after"
                     // models alike (presliding.rs). The starting model's own error is kept
                     // for the report.
-                    let calibration = if options.output.presliding { presliding::calibrate(simulator, &data, &out, &plan, start, &before, options.output.alpha) } else { None };
+                    let calibration = if options.output.presliding {
+                        presliding::calibrate(simulator, &data, &out, &plan, start, &before, options.output.alpha)
+                    } else {
+                        None
+                    };
                     let (calibrated, before, starting) = match &calibration {
-                        Some(c) if c.kept => (presliding::with_displacement(start, c.displacement), c.error.clone(), Some(before)),
+                        Some(c) if c.kept => {
+                            (presliding::with_displacement(start, c.displacement), c.error.clone(), Some(before))
+                        }
                         _ => (start.clone(), before, None),
                     };
                     let start = &calibrated;
@@ -346,7 +386,11 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                     // used as a simulation, so its parameters end where it predicts best. The
                     // equation error is then reported at those parameters as they are.
                     let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
-                    let refitted = if options.output.refit { refit::refit(simulator, &data, &out, &plan, start, &kinds, &selection.corrected, &after) } else { None };
+                    let refitted = if options.output.refit {
+                        refit::refit(simulator, &data, &out, &plan, start, &kinds, &selection.corrected, &after)
+                    } else {
+                        None
+                    };
                     if let Some(r) = &refitted {
                         let weights = selection.after.channel_weights();
                         let (_, found) = selection::final_fit(&data, start, &r.params, &kinds, &weights);
@@ -355,7 +399,12 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                         selection.corrected = r.params.clone();
                         after = r.error.clone();
                     }
-                    let overall = output_error::compare(&before, &after, selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(), options.output.alpha);
+                    let overall = output_error::compare(
+                        &before,
+                        &after,
+                        selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(),
+                        options.output.alpha,
+                    );
                     // Hints: effects the equation-error test did not find significant (but at
                     // least the noise in size) that the output error alone would confirm on top
                     // of the corrected model. Not claimed: the equation error's test failed,
@@ -363,19 +412,55 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
                     if let Some(last) = selection.steps.last() {
                         let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
                         for score in &last.scores {
-                            if score.not_applicable.is_some() || score.significant || accepted.contains(&score.kind) || score.effect_to_noise < options.selection.min_effect_to_noise {
+                            if score.not_applicable.is_some()
+                                || score.significant
+                                || accepted.contains(&score.kind)
+                                || score.effect_to_noise < options.selection.min_effect_to_noise
+                            {
                                 continue;
                             }
-                            let Ok(with) = selection::fit_candidate(&data, &selection.corrected, &accepted, score.kind, &options.selection) else { continue };
-                            let Ok(candidate) = output_error::output_error(simulator, &with, &data, &out, &plan) else { continue };
-                            let comparison = output_error::compare(&after, &candidate, parameter_count(score.kind, structure), options.output.alpha);
+                            let Ok(with) = selection::fit_candidate(
+                                &data,
+                                &selection.corrected,
+                                &accepted,
+                                score.kind,
+                                &options.selection,
+                            ) else {
+                                continue;
+                            };
+                            let Ok(candidate) = output_error::output_error(simulator, &with, &data, &out, &plan) else {
+                                continue;
+                            };
+                            let comparison = output_error::compare(
+                                &after,
+                                &candidate,
+                                parameter_count(score.kind, structure),
+                                options.output.alpha,
+                            );
                             if comparison.confirmed {
-                                hints.push(Hint { kind: score.kind, equation_p: score.p_value, threshold: last.threshold, comparison, parameters: with });
+                                hints.push(Hint {
+                                    kind: score.kind,
+                                    equation_p: score.p_value,
+                                    threshold: last.threshold,
+                                    comparison,
+                                    parameters: with,
+                                });
                             }
                         }
                     }
                     frequency = frequency::compare(&data, &out, start, &selection.corrected);
-                    output = Some(OutputReport { config: out.config, plan, state_half_width: out.state_half_width, before, after, confirmations, overall, refit: refitted, calibration, starting });
+                    output = Some(OutputReport {
+                        config: out.config,
+                        plan,
+                        state_half_width: out.state_half_width,
+                        before,
+                        after,
+                        confirmations,
+                        overall,
+                        refit: refitted,
+                        calibration,
+                        starting,
+                    });
                     selection
                 }
             }
@@ -383,7 +468,19 @@ fn validate_once(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOpti
     };
     let before = channel_stats(&data, &selection.before, log);
     let after = channel_stats(&data, &selection.after, log);
-    Ok(Validation { data, selection, before, after, start: start.clone(), output, frequency, twist: None, encoder_skew: None, hints, notes })
+    Ok(Validation {
+        data,
+        selection,
+        before,
+        after,
+        start: start.clone(),
+        output,
+        frequency,
+        twist: None,
+        encoder_skew: None,
+        hints,
+        notes,
+    })
 }
 
 /// Residual statistics of a fit, per channel.
@@ -394,8 +491,10 @@ pub fn channel_stats(data: &EquationData, fit: &Fit, log: &MeasuredLog) -> Vec<C
         .iter()
         .enumerate()
         .map(|(c, channel)| {
-            let used: Vec<f64> = fit.residual[c].iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(r, _)| *r).collect();
-            let measured: Vec<f64> = channel.measured.iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect();
+            let used: Vec<f64> =
+                fit.residual[c].iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(r, _)| *r).collect();
+            let measured: Vec<f64> =
+                channel.measured.iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect();
             // Decimate to about one sample per filter length: the smoothing correlates
             // neighbouring residual samples even when the model is right.
             let decimated: Vec<f64> = fit.residual[c].iter().step_by(decimation).copied().collect();
@@ -404,12 +503,18 @@ pub fn channel_stats(data: &EquationData, fit: &Fit, log: &MeasuredLog) -> Vec<C
                 Ok(test) => (test.p_value, test.fraction_outside),
                 Err(_) => (f64::NAN, f64::NAN),
             };
-            let max_lag = ((1.0 / (data.dt * decimation as f64)).round() as usize).clamp(1, decimated.len().saturating_sub(1).max(1));
+            let max_lag = ((1.0 / (data.dt * decimation as f64)).round() as usize)
+                .clamp(1, decimated.len().saturating_sub(1).max(1));
             let cross_correlation = inputs
                 .iter()
                 .filter_map(|(name, x)| {
                     let xd: Vec<f64> = x.iter().step_by(decimation).copied().collect();
-                    let cc = crate::dsp::cross_correlation(&xd[..xd.len().min(decimated.len())], &decimated[..xd.len().min(decimated.len())], max_lag).ok()?;
+                    let cc = crate::dsp::cross_correlation(
+                        &xd[..xd.len().min(decimated.len())],
+                        &decimated[..xd.len().min(decimated.len())],
+                        max_lag,
+                    )
+                    .ok()?;
                     let (lag, value) = cc.peak();
                     Some((name.clone(), value, lag as f64 * data.dt * decimation as f64))
                 })
@@ -437,7 +542,9 @@ fn input_signals(data: &EquationData, log: &MeasuredLog) -> Vec<(String, Vec<f64
     ];
     let n = data.len();
     let start = data.first_sample;
-    for (signal, name) in [(Signal::RefPos, "position command"), (Signal::WindSpeed, "wind speed"), (Signal::Elevation, "elevation")] {
+    for (signal, name) in
+        [(Signal::RefPos, "position command"), (Signal::WindSpeed, "wind speed"), (Signal::Elevation, "elevation")]
+    {
         if let Some(values) = log.signal(signal) {
             if values.len() >= start + n {
                 inputs.push((name.to_string(), values[start..start + n].to_vec()));

@@ -48,7 +48,12 @@ pub struct SimulatedOutputs {
 
 impl SimulatedOutputs {
     pub fn with_capacity(n: usize) -> Self {
-        SimulatedOutputs { load_pos: Vec::with_capacity(n), load_vel: Vec::with_capacity(n), motor_pos: Vec::with_capacity(n), motor_vel: Vec::with_capacity(n) }
+        SimulatedOutputs {
+            load_pos: Vec::with_capacity(n),
+            load_vel: Vec::with_capacity(n),
+            motor_pos: Vec::with_capacity(n),
+            motor_vel: Vec::with_capacity(n),
+        }
     }
 
     pub fn push(&mut self, load_pos: f64, load_vel: f64, motor_pos: f64, motor_vel: f64) {
@@ -73,7 +78,13 @@ pub trait PlantSimulator {
     fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String>;
     /// Simulates one window from `start`, one step of `dt` per command (per FMU motor, held
     /// over the step), with the load disturbance held likewise.
-    fn simulate(&mut self, start: &WindowStart, commands: &[[f64; 2]], disturbance: &[f64], dt: f64) -> Result<SimulatedOutputs, String>;
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String>;
 }
 
 /// The log's inputs and measured outputs, aligned with the equation-error data's analysed
@@ -122,7 +133,11 @@ impl OutputData {
         let log = super::equation_error::uniform(log, &mut notes);
         let n = log.len();
         let torques = log.signals(Signal::MotorTorque);
-        let (columns, input) = if torques.is_empty() { (log.signals(Signal::MotorCurrent), FmuInput::Current) } else { (torques, FmuInput::Torque) };
+        let (columns, input) = if torques.is_empty() {
+            (log.signals(Signal::MotorCurrent), FmuInput::Current)
+        } else {
+            (torques, FmuInput::Torque)
+        };
         if columns.is_empty() {
             return Err("the log has no current or torque".into());
         }
@@ -158,7 +173,9 @@ impl OutputData {
         let sg = SavitzkyGolay::new(4, half_width, data.dt);
         let estimate = |x: &[f64], coefficients: &[f64]| -> Vec<f64> {
             let inner = SavitzkyGolay::apply(coefficients, x);
-            (0..data.len()).map(|i| inner[(data.first_sample + i).clamp(half_width, n - 1 - half_width) - half_width]).collect()
+            (0..data.len())
+                .map(|i| inner[(data.first_sample + i).clamp(half_width, n - 1 - half_width) - half_width])
+                .collect()
         };
         let gear = start.value(names::GEAR_RATIO);
         let total = log.total_motor_torque(start.value(names::TORQUE_CONSTANT));
@@ -206,7 +223,13 @@ impl OutputData {
     pub fn channels(&self) -> Vec<(ChannelKind, bool)> {
         use ChannelKind::*;
         match (self.structure, self.two_encoders) {
-            (Structure::TwoMass, _) => vec![(AxisPosition, true), (Twist, true), (MotorPosition, false), (AxisSpeed, false), (MotorSpeed, false)],
+            (Structure::TwoMass, _) => vec![
+                (AxisPosition, true),
+                (Twist, true),
+                (MotorPosition, false),
+                (AxisSpeed, false),
+                (MotorSpeed, false),
+            ],
             (_, true) => vec![(AxisPosition, true), (MotorPosition, true), (AxisSpeed, false), (MotorSpeed, false)],
             (_, false) => vec![(AxisPosition, true), (AxisSpeed, false)],
         }
@@ -286,7 +309,14 @@ impl WindowPlan {
     pub fn new(length: usize, samples: usize, dt: f64, reason: String) -> WindowPlan {
         let length = length.clamp(2, samples.max(2));
         let starts = (0..samples / length).map(|w| w * length).collect();
-        WindowPlan { length, starts, seconds: (length - 1) as f64 * dt, reason, drive_length: length, drive_reason: String::new() }
+        WindowPlan {
+            length,
+            starts,
+            seconds: (length - 1) as f64 * dt,
+            reason,
+            drive_length: length,
+            drive_reason: String::new(),
+        }
     }
 
     /// The same windows with the drive-path channel scored on pieces of `drive_length`
@@ -413,7 +443,11 @@ impl OutputError {
     /// Mean squared error per sample of each scored channel.
     fn scored_mse(&self) -> Vec<f64> {
         let samples = (self.plan.starts.len() * self.plan.length).max(1) as f64;
-        self.channels.iter().filter(|c| c.scored).map(|c| (c.window_sse.iter().sum::<f64>() / samples).max(f64::MIN_POSITIVE)).collect()
+        self.channels
+            .iter()
+            .filter(|c| c.scored)
+            .map(|c| (c.window_sse.iter().sum::<f64>() / samples).max(f64::MIN_POSITIVE))
+            .collect()
     }
 }
 
@@ -467,13 +501,21 @@ fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> 
     let angle = out.state_load_pos[i];
     let (amplitude, phase) = (params.value(names::UNBALANCE_TORQUE), params.value(names::UNBALANCE_PHASE));
     let k = out.first_sample + i;
-    let shaft = params.value(names::LOAD_INERTIA) * out.state_load_acc[i] + amplitude * (angle + phase).cos() + params.value(names::TORQUE_OFFSET)
+    let shaft = params.value(names::LOAD_INERTIA) * out.state_load_acc[i]
+        + amplitude * (angle + phase).cos()
+        + params.value(names::TORQUE_OFFSET)
         - out.disturbance_held.get(k).copied().unwrap_or(0.0);
     shaft / stiffness + 0.5 * params.value(names::BACKLASH_WIDTH).max(0.0) * shaft.signum()
 }
 
 /// Simulates every window with a parameter set and collects the output errors.
-pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, data: &EquationData, out: &OutputData, plan: &WindowPlan) -> Result<OutputError, String> {
+pub fn output_error(
+    simulator: &mut dyn PlantSimulator,
+    params: &ParameterSet,
+    data: &EquationData,
+    out: &OutputData,
+    plan: &WindowPlan,
+) -> Result<OutputError, String> {
     simulator.configure(params, &out.config)?;
     let centres = if out.structure == Structure::TwoMass { twist_centres(data, params) } else { vec![0.0; data.len()] };
     let mut kinds = out.channels();
@@ -491,27 +533,36 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
         let k0 = out.first_sample + i0;
         let start = window_start(out, i0, params, centres[i0]);
         let steps = length - 1;
-        let sim = simulator.simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)?;
+        let sim =
+            simulator.simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)?;
         if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
             return Err(format!("the simulation of the window at {:.3} s failed", out.time[i0]));
         }
         // The drive-path channel on its shorter pieces, each restarted from the measured state
         // (the window's own simulation when the pieces are the window).
-        let drive_twist: Option<Vec<f64>> = if plan.drive_length < length && kinds.iter().any(|(k, _)| *k == ChannelKind::Twist) {
-            let mut twist = Vec::with_capacity(length);
-            for (offset, piece) in plan.drive_pieces() {
-                let (i, k) = (i0 + offset, k0 + offset);
-                let piece_start = window_start(out, i, params, centres[i]);
-                let piece_sim = simulator.simulate(&piece_start, &out.held[k..k + piece - 1], &out.disturbance_held[k..k + piece - 1], out.dt)?;
-                if piece_sim.len() != piece || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite()) {
-                    return Err(format!("the simulation of the drive-path piece at {:.3} s failed", out.time[i]));
+        let drive_twist: Option<Vec<f64>> =
+            if plan.drive_length < length && kinds.iter().any(|(k, _)| *k == ChannelKind::Twist) {
+                let mut twist = Vec::with_capacity(length);
+                for (offset, piece) in plan.drive_pieces() {
+                    let (i, k) = (i0 + offset, k0 + offset);
+                    let piece_start = window_start(out, i, params, centres[i]);
+                    let piece_sim = simulator.simulate(
+                        &piece_start,
+                        &out.held[k..k + piece - 1],
+                        &out.disturbance_held[k..k + piece - 1],
+                        out.dt,
+                    )?;
+                    if piece_sim.len() != piece
+                        || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite())
+                    {
+                        return Err(format!("the simulation of the drive-path piece at {:.3} s failed", out.time[i]));
+                    }
+                    twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
                 }
-                twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
-            }
-            Some(twist)
-        } else {
-            None
-        };
+                Some(twist)
+            } else {
+                None
+            };
         let load_side_sim = if load_side { simulate_load_side(out, params, &centres, i0, length) } else { Vec::new() };
         // Positions are compared as the logged values against the simulation started at the
         // smoothed measured state; speeds against the zero-phase derivative of the positions.
@@ -523,7 +574,10 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
                     match kind {
                         ChannelKind::AxisPosition => (out.load_pos[k], sim.load_pos[j]),
                         ChannelKind::MotorPosition => (out.motor_pos[k], sim.motor_pos[j]),
-                        ChannelKind::Twist => (out.motor_pos[k] - out.load_pos[k], drive_twist.as_ref().map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j])),
+                        ChannelKind::Twist => (
+                            out.motor_pos[k] - out.load_pos[k],
+                            drive_twist.as_ref().map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j]),
+                        ),
                         ChannelKind::LoadSide => (out.load_pos[k], load_side_sim[j]),
                         ChannelKind::AxisSpeed => (out.state_load_vel[i], sim.load_vel[j]),
                         ChannelKind::MotorSpeed => (out.state_motor_vel[i], sim.motor_vel[j]),
@@ -578,7 +632,13 @@ pub fn output_error(simulator: &mut dyn PlantSimulator, params: &ParameterSet, d
 /// `de/dt = -(K/D) e`; a pinion leaves a flank when it would pull. The motor motion between
 /// log samples is the cubic Hermite interpolant of the smoothed motor position and speed; the
 /// equations are integrated with RK4, 20 steps per log interval.
-pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centres: &[f64], i0: usize, length: usize) -> Vec<f64> {
+pub fn simulate_load_side(
+    out: &OutputData,
+    params: &ParameterSet,
+    centres: &[f64],
+    i0: usize,
+    length: usize,
+) -> Vec<f64> {
     let inertia = params.value(names::LOAD_INERTIA).max(f64::MIN_POSITIVE);
     let stiffness = params.value(names::STIFFNESS);
     let damping = params.value(names::DAMPING).max(0.0);
@@ -598,8 +658,13 @@ pub fn simulate_load_side(out: &OutputData, params: &ParameterSet, centres: &[f6
         let (p0, p1) = (out.state_motor_pos[i0 + j], out.state_motor_pos[i0 + j + 1]);
         let (v0, v1) = (out.state_motor_vel[i0 + j] * dt, out.state_motor_vel[i0 + j + 1] * dt);
         let (s2, s3) = (s * s, s * s * s);
-        let position = (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * v1;
-        let speed = ((6.0 * s2 - 6.0 * s) * p0 + (3.0 * s2 - 4.0 * s + 1.0) * v0 + (-6.0 * s2 + 6.0 * s) * p1 + (3.0 * s2 - 2.0 * s) * v1) / dt;
+        let position =
+            (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * v1;
+        let speed = ((6.0 * s2 - 6.0 * s) * p0
+            + (3.0 * s2 - 4.0 * s + 1.0) * v0
+            + (-6.0 * s2 + 6.0 * s) * p1
+            + (3.0 * s2 - 2.0 * s) * v1)
+            / dt;
         let centre = centres[i0 + j] + s * (centres[(i0 + j + 1).min(centres.len() - 1)] - centres[i0 + j]);
         (position - centre, speed)
     };
@@ -713,13 +778,20 @@ pub fn compare(before: &OutputError, after: &OutputError, parameters: usize, alp
     let scale = before.scored_mse();
     let channels = scale.len().max(1) as f64;
     let per_window = before.plan.length as f64 * channels;
-    let gains: Vec<f64> = (0..windows).map(|w| (before.window_score(w, &scale) - after.window_score(w, &scale)) / per_window).collect();
+    let gains: Vec<f64> =
+        (0..windows).map(|w| (before.window_score(w, &scale) - after.window_score(w, &scale)) / per_window).collect();
     let better = gains.iter().filter(|g| **g > 0.0).count();
     let (rank_sum, p_value) = signed_rank_test(&gains);
-    let score_before: f64 = (0..windows).map(|w| before.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
-    let score_after: f64 = (0..windows).map(|w| after.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
+    let score_before: f64 =
+        (0..windows).map(|w| before.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
+    let score_after: f64 =
+        (0..windows).map(|w| after.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
     let n = windows as f64;
-    let bic_gain = if score_after > 0.0 { n * (score_before / score_after).ln() - parameters as f64 * n.max(1.0).ln() } else { f64::INFINITY };
+    let bic_gain = if score_after > 0.0 {
+        n * (score_before / score_after).ln() - parameters as f64 * n.max(1.0).ln()
+    } else {
+        f64::INFINITY
+    };
     let confirmed = p_value < alpha && bic_gain > 0.0;
     let reason = format!(
         "output error {:.3} -> {:.3} of the baseline, better in {better} of {windows} windows, signed-rank p = {:.2e} (level {alpha:.0e}), BIC gain {:.1}",
@@ -831,7 +903,13 @@ impl PlantSimulator for RigidReferenceSimulator {
         Ok(())
     }
 
-    fn simulate(&mut self, start: &WindowStart, commands: &[[f64; 2]], disturbance: &[f64], dt: f64) -> Result<SimulatedOutputs, String> {
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
         use super::equation_error::static_friction_curve;
         let params = &self.params;
         let gear = params.value(names::GEAR_RATIO);
@@ -848,8 +926,10 @@ impl PlantSimulator for RigidReferenceSimulator {
         out.push(q, v, qm, v);
         for (j, command) in commands.iter().enumerate() {
             for _ in 0..substeps {
-                let friction = params.value(names::VISCOUS) * v + static_friction_curve(params, v) * (v / (0.01 * vs)).tanh().abs();
-                let unbalance = params.value(names::UNBALANCE_TORQUE) * (q + params.value(names::UNBALANCE_PHASE)).cos();
+                let friction = params.value(names::VISCOUS) * v
+                    + static_friction_curve(params, v) * (v / (0.01 * vs)).tanh().abs();
+                let unbalance =
+                    params.value(names::UNBALANCE_TORQUE) * (q + params.value(names::UNBALANCE_PHASE)).cos();
                 let applied = scale * (command[0] + command[1]) + disturbance.get(j).copied().unwrap_or(0.0);
                 let acc = (applied - friction - params.value(names::TORQUE_OFFSET) - unbalance) / inertia;
                 v += h * acc;
@@ -922,9 +1002,13 @@ mod tests {
         let motor = params.value(names::MOTOR_INERTIA) * gear * gear;
         let decay = 2.0 / (params.value(names::DAMPING) * (1.0 / motor + 1.0 / params.value(names::LOAD_INERTIA)));
         // The steepest point of the Gaussian Stribeck excess, by finite differences.
-        let excess = |v: f64| (params.value(names::STATIC) - params.value(names::COULOMB)) * (-(v / params.value(names::STRIBECK_VELOCITY)).powi(2)).exp();
+        let excess = |v: f64| {
+            (params.value(names::STATIC) - params.value(names::COULOMB))
+                * (-(v / params.value(names::STRIBECK_VELOCITY)).powi(2)).exp()
+        };
         let vs = params.value(names::STRIBECK_VELOCITY);
-        let steepest = (1..2000).map(|k| k as f64 * 1e-3 * vs).map(|v| (excess(v) - excess(v + 1e-9)) / 1e-9).fold(0.0, f64::max);
+        let steepest =
+            (1..2000).map(|k| k as f64 * 1e-3 * vs).map(|v| (excess(v) - excess(v + 1e-9)) / 1e-9).fold(0.0, f64::max);
         let growth = motor / steepest;
         assert!(growth < decay, "the suite's plant has a Stribeck range faster than its drive decay");
         let (length, reason) = drive_window(&params, dt).unwrap();
@@ -942,7 +1026,8 @@ mod tests {
     #[test]
     fn drive_pieces_tile_each_window_without_gaps_or_tiny_remainders() {
         for (length, piece) in [(400, 150), (400, 100), (400, 400), (37, 10), (400, 1000)] {
-            let plan = WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
+            let plan =
+                WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
             let pieces = plan.drive_pieces();
             let mut next = 0;
             for &(offset, len) in &pieces {

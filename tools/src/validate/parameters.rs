@@ -212,22 +212,35 @@ pub const FMU_MAPPING: [FmuMapping; 19] = [
 /// switched off, and the current loop made transparent.
 pub const FMU_FIXED: [(&str, &str); 9] = [
     ("motor1.current_limit, motor2.current_limit", "1e9 A: no saturation (the log holds what the drive did)"),
-    ("motor1.current_loop_bandwidth, motor2.current_loop_bandwidth", "1000 x the sample rate: the log holds the measured current"),
+    (
+        "motor1.current_loop_bandwidth, motor2.current_loop_bandwidth",
+        "1000 x the sample rate: the log holds the measured current",
+    ),
     ("bearing.coulomb_friction, bearing.static_friction", "0: all friction is at the motor"),
     ("bearing.stribeck_velocity, bearing.friction_asymmetry", "0"),
     ("bearing.viscous_friction", "0"),
     ("encoder.bits", "0: the simulated angle is compared with the logged one, whose quantisation is in the data"),
     ("linear_configuration", "false"),
-    ("pinion stiffness and damping without path.stiffness", "a critically damped mode at 5 x the sample rate emulates a rigid drive"),
-    ("load.turning_head_inertia without load.inertia", "1e-3 of the reflected motor inertia, taken from the motors (the total is kept)"),
+    (
+        "pinion stiffness and damping without path.stiffness",
+        "a critically damped mode at 5 x the sample rate emulates a rigid drive",
+    ),
+    (
+        "load.turning_head_inertia without load.inertia",
+        "1e-3 of the reflected motor inertia, taken from the motors (the total is kept)",
+    ),
 ];
 
 /// The FMU parameter-file entries (name, value, comment) for a parameter set, following
 /// [`FMU_MAPPING`] and [`FMU_FIXED`]. Fails when the set has no gear ratio or describes a plant
 /// the FMU rejects (for example static friction below Coulomb friction).
-pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Result<Vec<(String, fmu_runtime::params::ParameterValue, String)>, String> {
+pub fn fmu_parameter_entries(
+    params: &ParameterSet,
+    config: &FmuConfig,
+) -> Result<Vec<(String, fmu_runtime::params::ParameterValue, String)>, String> {
     use fmu_runtime::params::ParameterValue::{Boolean, Number};
-    let gear = params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
+    let gear =
+        params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
     if gear.is_nan() || gear <= 0.0 {
         return Err(format!("{} must be positive", names::GEAR_RATIO));
     }
@@ -255,8 +268,15 @@ pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Resul
         }
     };
     let torque_constant = match (config.input, config.drive) {
-        (FmuInput::Current, FmuDrive::Mirrored) => params.get(names::TORQUE_CONSTANT).ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))? / 2.0,
-        (FmuInput::Current, FmuDrive::TwoMotors) => params.get(names::TORQUE_CONSTANT).ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?,
+        (FmuInput::Current, FmuDrive::Mirrored) => {
+            params
+                .get(names::TORQUE_CONSTANT)
+                .ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?
+                / 2.0
+        }
+        (FmuInput::Current, FmuDrive::TwoMotors) => params
+            .get(names::TORQUE_CONSTANT)
+            .ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?,
         (FmuInput::Torque, FmuDrive::Mirrored) => 0.5,
         (FmuInput::Torque, FmuDrive::TwoMotors) => 1.0,
     };
@@ -264,8 +284,11 @@ pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Resul
     let static_friction = params.get(names::STATIC).unwrap_or(coulomb);
     let cogging_amplitude = params.value(names::COGGING_AMPLITUDE);
     let cogging_period = params.value(names::COGGING_PERIOD);
-    let (cogging_amplitude, cogging_period_rev) =
-        if cogging_amplitude != 0.0 && cogging_period > 0.0 { (cogging_amplitude / (2.0 * gear), gear * cogging_period / (2.0 * std::f64::consts::PI)) } else { (0.0, 1.0) };
+    let (cogging_amplitude, cogging_period_rev) = if cogging_amplitude != 0.0 && cogging_period > 0.0 {
+        (cogging_amplitude / (2.0 * gear), gear * cogging_period / (2.0 * std::f64::consts::PI))
+    } else {
+        (0.0, 1.0)
+    };
     let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
     let mut out = Vec::new();
     let both = |stem: &str, value: f64, comment: &str, out: &mut Vec<_>| {
@@ -276,32 +299,108 @@ pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Resul
     out.push(("gear.ratio".to_string(), Number(gear), "gear.ratio".to_string()));
     both("motor#.inertia", motor_inertia / 2.0, "motor.inertia / 2, kg m^2", &mut out);
     both("motor#.torque_constant", torque_constant, "motor.torque_constant per half-motor (see FMU_MAPPING)", &mut out);
-    both("motor#.torque_constant_scale", params.value(names::TORQUE_CONSTANT_SCALE), "effect.torque_constant_scale", &mut out);
-    both("motor#.viscous_friction", params.value(names::VISCOUS) / (2.0 * n2), "friction.viscous / (2 N^2), N m s/rad at the motor", &mut out);
-    both("motor#.presliding_stiffness", params.value(names::PRESLIDING_STIFFNESS) / (2.0 * n2), "friction.presliding_stiffness / (2 N^2), N m/rad at the motor", &mut out);
-    both("motor#.presliding_damping", params.value(names::PRESLIDING_DAMPING) / (2.0 * n2), "friction.presliding_damping / (2 N^2), N m s/rad at the motor", &mut out);
+    both(
+        "motor#.torque_constant_scale",
+        params.value(names::TORQUE_CONSTANT_SCALE),
+        "effect.torque_constant_scale",
+        &mut out,
+    );
+    both(
+        "motor#.viscous_friction",
+        params.value(names::VISCOUS) / (2.0 * n2),
+        "friction.viscous / (2 N^2), N m s/rad at the motor",
+        &mut out,
+    );
+    both(
+        "motor#.presliding_stiffness",
+        params.value(names::PRESLIDING_STIFFNESS) / (2.0 * n2),
+        "friction.presliding_stiffness / (2 N^2), N m/rad at the motor",
+        &mut out,
+    );
+    both(
+        "motor#.presliding_damping",
+        params.value(names::PRESLIDING_DAMPING) / (2.0 * n2),
+        "friction.presliding_damping / (2 N^2), N m s/rad at the motor",
+        &mut out,
+    );
     both("motor#.coulomb_friction", coulomb / (2.0 * gear), "friction.coulomb / (2 N), N m at the motor", &mut out);
-    both("motor#.static_friction", static_friction / (2.0 * gear), "friction.static / (2 N), N m at the motor", &mut out);
-    both("motor#.stribeck_velocity", params.value(names::STRIBECK_VELOCITY) * gear, "friction.stribeck_velocity N, motor rad/s", &mut out);
+    both(
+        "motor#.static_friction",
+        static_friction / (2.0 * gear),
+        "friction.static / (2 N), N m at the motor",
+        &mut out,
+    );
+    both(
+        "motor#.stribeck_velocity",
+        params.value(names::STRIBECK_VELOCITY) * gear,
+        "friction.stribeck_velocity N, motor rad/s",
+        &mut out,
+    );
     both("motor#.friction_asymmetry", params.value(names::ASYMMETRY), "friction.asymmetry", &mut out);
     both("motor#.command_delay", params.value(names::DELAY), "effect.delay, s", &mut out);
     both("motor#.cogging_amplitude", cogging_amplitude, "effect.cogging_amplitude / (2 N), N m at the motor", &mut out);
     both("motor#.cogging_period", cogging_period_rev, "N effect.cogging_period / (2 pi), motor revolutions", &mut out);
-    both("motor#.cogging_phase", (params.value(names::COGGING_PHASE) + std::f64::consts::PI).to_degrees(), "effect.cogging_phase + 180 deg", &mut out);
+    both(
+        "motor#.cogging_phase",
+        (params.value(names::COGGING_PHASE) + std::f64::consts::PI).to_degrees(),
+        "effect.cogging_phase + 180 deg",
+        &mut out,
+    );
     both("motor#.current_limit", 1e9, "no saturation: the log holds what the drive did", &mut out);
-    both("motor#.current_loop_bandwidth", config.current_loop_hz(), "transparent: the log holds the measured current", &mut out);
-    let stiffness_comment = if rigid { "rigid drive emulated: a critically damped mode at 5 x the sample rate" } else { "path.stiffness / 2, N m/rad" };
+    both(
+        "motor#.current_loop_bandwidth",
+        config.current_loop_hz(),
+        "transparent: the log holds the measured current",
+        &mut out,
+    );
+    let stiffness_comment = if rigid {
+        "rigid drive emulated: a critically damped mode at 5 x the sample rate"
+    } else {
+        "path.stiffness / 2, N m/rad"
+    };
     both("pinion#.stiffness", stiffness / 2.0, stiffness_comment, &mut out);
-    both("pinion#.damping", damping / 2.0, if rigid { stiffness_comment } else { "path.damping / 2, N m s/rad" }, &mut out);
-    both("pinion#.backlash", params.value(names::BACKLASH_WIDTH) / arcsec, "backlash.width in arcsec, each path", &mut out);
+    both(
+        "pinion#.damping",
+        damping / 2.0,
+        if rigid { stiffness_comment } else { "path.damping / 2, N m s/rad" },
+        &mut out,
+    );
+    both(
+        "pinion#.backlash",
+        params.value(names::BACKLASH_WIDTH) / arcsec,
+        "backlash.width in arcsec, each path",
+        &mut out,
+    );
     out.push(("load.turning_head_inertia".into(), Number(load_inertia), "load.inertia, kg m^2".into()));
-    out.push(("load.elevation_structure_cross_inertia".into(), Number(0.0), "the axis inertia does not depend on the elevation input".into()));
+    out.push((
+        "load.elevation_structure_cross_inertia".into(),
+        Number(0.0),
+        "the axis inertia does not depend on the elevation input".into(),
+    ));
     out.push(("load.elevation_structure_boresight_inertia".into(), Number(0.0), String::new()));
-    out.push(("load.torque_offset".into(), Number(-params.value(names::TORQUE_OFFSET)), "-effect.torque_offset, N m".into()));
-    out.push(("load.periodic_torque_amplitude".into(), Number(params.value(names::UNBALANCE_TORQUE)), "effect.unbalance_torque, N m".into()));
+    out.push((
+        "load.torque_offset".into(),
+        Number(-params.value(names::TORQUE_OFFSET)),
+        "-effect.torque_offset, N m".into(),
+    ));
+    out.push((
+        "load.periodic_torque_amplitude".into(),
+        Number(params.value(names::UNBALANCE_TORQUE)),
+        "effect.unbalance_torque, N m".into(),
+    ));
     out.push(("load.periodic_torque_period".into(), Number(360.0), "deg: an unbalance".into()));
-    out.push(("load.periodic_torque_phase".into(), Number(params.value(names::UNBALANCE_PHASE).to_degrees() - 90.0), "effect.unbalance_phase - 90 deg".into()));
-    for name in ["bearing.coulomb_friction", "bearing.static_friction", "bearing.stribeck_velocity", "bearing.friction_asymmetry", "bearing.viscous_friction"] {
+    out.push((
+        "load.periodic_torque_phase".into(),
+        Number(params.value(names::UNBALANCE_PHASE).to_degrees() - 90.0),
+        "effect.unbalance_phase - 90 deg".into(),
+    ));
+    for name in [
+        "bearing.coulomb_friction",
+        "bearing.static_friction",
+        "bearing.stribeck_velocity",
+        "bearing.friction_asymmetry",
+        "bearing.viscous_friction",
+    ] {
         out.push((name.into(), Number(0.0), "all friction is at the motor".into()));
     }
     out.push(("encoder.bits".into(), Number(0.0), "unquantised: the log's quantisation is in the data".into()));
@@ -406,10 +505,10 @@ impl ParameterSet {
             if name.is_empty() || name.contains(char::is_whitespace) {
                 return Err(ParameterError { line, message: format!("bad parameter name '{name}'") });
             }
-            let value: f64 = value
-                .trim()
-                .parse()
-                .map_err(|_| ParameterError { line, message: format!("'{}' is not a number (parameter {name})", value.trim()) })?;
+            let value: f64 = value.trim().parse().map_err(|_| ParameterError {
+                line,
+                message: format!("'{}' is not a number (parameter {name})", value.trim()),
+            })?;
             if !value.is_finite() {
                 return Err(ParameterError { line, message: format!("parameter {name} is not finite") });
             }
@@ -463,7 +562,8 @@ mod tests {
 
     #[test]
     fn text_round_trip_keeps_order_values_and_comments() {
-        let text = "# start\ngear.ratio = 256.9  # -, KUKA axis 1\nmotor.inertia=0.00923\n\nfriction.coulomb = 1.5e2 # N m\n";
+        let text =
+            "# start\ngear.ratio = 256.9  # -, KUKA axis 1\nmotor.inertia=0.00923\n\nfriction.coulomb = 1.5e2 # N m\n";
         let set = ParameterSet::parse(text).unwrap();
         assert_eq!(set.names().collect::<Vec<_>>(), vec!["gear.ratio", "motor.inertia", "friction.coulomb"]);
         let back = ParameterSet::parse(&set.to_text()).unwrap();
@@ -532,7 +632,12 @@ mod tests {
         let axis = axis_set();
         let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: 0.002 };
         let mut values = fmu_runtime::Values::<AzVar>::at_start();
-        fmu_runtime::params::apply::<AzimuthPlantModel>(&fmu_parameter_text(&axis, &config, "").unwrap(), "test", &mut values).unwrap();
+        fmu_runtime::params::apply::<AzimuthPlantModel>(
+            &fmu_parameter_text(&axis, &config, "").unwrap(),
+            "test",
+            &mut values,
+        )
+        .unwrap();
         let p = fmu_plant::fmi::azimuth::azimuth_params(&values);
         let n = axis.value(names::GEAR_RATIO);
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
@@ -540,8 +645,14 @@ mod tests {
         assert!(close(n, p.gear_ratio));
         assert!(close(m[0].inertia_kg_m2 + m[1].inertia_kg_m2, axis.value(names::MOTOR_INERTIA)));
         // Each half-motor carries the whole logged current: total torque per ampere is K.
-        assert!(close(m[0].effective_torque_constant() + m[1].effective_torque_constant(), axis.value(names::TORQUE_CONSTANT)));
-        assert!(close((m[0].viscous_friction_nm_s_per_rad + m[1].viscous_friction_nm_s_per_rad) * n * n, axis.value(names::VISCOUS)));
+        assert!(close(
+            m[0].effective_torque_constant() + m[1].effective_torque_constant(),
+            axis.value(names::TORQUE_CONSTANT)
+        ));
+        assert!(close(
+            (m[0].viscous_friction_nm_s_per_rad + m[1].viscous_friction_nm_s_per_rad) * n * n,
+            axis.value(names::VISCOUS)
+        ));
         assert!(close((m[0].friction.coulomb_nm + m[1].friction.coulomb_nm) * n, axis.value(names::COULOMB)));
         assert!(close((m[0].friction.static_nm + m[1].friction.static_nm) * n, axis.value(names::STATIC)));
         assert!(close(m[0].friction.stribeck_velocity_rad_per_s / n, axis.value(names::STRIBECK_VELOCITY)));
@@ -549,17 +660,29 @@ mod tests {
         assert!(close(p.path_stiffness_nm_per_rad[0] + p.path_stiffness_nm_per_rad[1], axis.value(names::STIFFNESS)));
         assert!(close(p.path_damping_nm_s_per_rad[0] + p.path_damping_nm_s_per_rad[1], axis.value(names::DAMPING)));
         assert!(close(p.pinion_backlash_rad[0], axis.value(names::BACKLASH_WIDTH)));
-        assert!(close(p.axis_inertia_kg_m2(10.0), axis.value(names::LOAD_INERTIA)) && close(p.axis_inertia_kg_m2(80.0), axis.value(names::LOAD_INERTIA)));
+        assert!(
+            close(p.axis_inertia_kg_m2(10.0), axis.value(names::LOAD_INERTIA))
+                && close(p.axis_inertia_kg_m2(80.0), axis.value(names::LOAD_INERTIA))
+        );
         assert!(close(m[0].current_command_delay_s, axis.value(names::DELAY)));
         // Torques at sample angles: the FMU's drive the load/motor, the axis set's must be
         // supplied, so they are opposite.
         for q in [0.1, 0.7, 1.3, -2.0] {
             let unbalance = axis.value(names::UNBALANCE_TORQUE) * (q + axis.value(names::UNBALANCE_PHASE)).cos();
-            assert!((p.periodic_torque.torque_nm(q) + unbalance).abs() < 1e-9 * axis.value(names::UNBALANCE_TORQUE), "unbalance at {q}");
+            assert!(
+                (p.periodic_torque.torque_nm(q) + unbalance).abs() < 1e-9 * axis.value(names::UNBALANCE_TORQUE),
+                "unbalance at {q}"
+            );
             let qm = q + 1e-4;
-            let cogging = axis.value(names::COGGING_AMPLITUDE) * (2.0 * std::f64::consts::PI * qm / axis.value(names::COGGING_PERIOD) + axis.value(names::COGGING_PHASE)).sin();
+            let cogging = axis.value(names::COGGING_AMPLITUDE)
+                * (2.0 * std::f64::consts::PI * qm / axis.value(names::COGGING_PERIOD)
+                    + axis.value(names::COGGING_PHASE))
+                .sin();
             let fmu_axis_side = n * (m[0].cogging.torque_nm(n * qm) + m[1].cogging.torque_nm(n * qm));
-            assert!((fmu_axis_side + cogging).abs() < 1e-6 * axis.value(names::COGGING_AMPLITUDE), "cogging at {qm}: {fmu_axis_side} vs {cogging}");
+            assert!(
+                (fmu_axis_side + cogging).abs() < 1e-6 * axis.value(names::COGGING_AMPLITUDE),
+                "cogging at {qm}: {fmu_axis_side} vs {cogging}"
+            );
         }
         assert!(close(p.torque_offset_nm, -axis.value(names::TORQUE_OFFSET)));
     }

@@ -53,11 +53,18 @@ impl PlantFmu {
 
     pub fn open(path: &Path) -> Result<PlantFmu, String> {
         if !path.is_file() {
-            return Err(format!("{} is missing: package the FMUs first (cargo run --release -p antenna-tools --bin package)", path.display()));
+            return Err(format!(
+                "{} is missing: package the FMUs first (cargo run --release -p antenna-tools --bin package)",
+                path.display()
+            ));
         }
         let fmu = Fmu::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
         if fmu.description.model_identifier != "AzimuthPlant" {
-            return Err(format!("{} is {}, not the AzimuthPlant FMU", path.display(), fmu.description.model_identifier));
+            return Err(format!(
+                "{} is {}, not the AzimuthPlant FMU",
+                path.display(),
+                fmu.description.model_identifier
+            ));
         }
         Ok(PlantFmu { fmu })
     }
@@ -65,7 +72,11 @@ impl PlantFmu {
     /// An instance configured by a parameter-file text (written to a temporary file, loaded
     /// through `parameter_file`, removed).
     pub fn session(&self, parameter_text: &str) -> Result<Session, String> {
-        let path = std::env::temp_dir().join(format!("validate-{}-{}.params", std::process::id(), FILE_COUNTER.fetch_add(1, Ordering::Relaxed)));
+        let path = std::env::temp_dir().join(format!(
+            "validate-{}-{}.params",
+            std::process::id(),
+            FILE_COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
         std::fs::write(&path, parameter_text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         let session = self.session_from_file(&path);
         let _ = std::fs::remove_file(&path);
@@ -79,7 +90,9 @@ impl PlantFmu {
         let mut instance = self.fmu.instantiate("validate", false).map_err(|e| e.to_string())?;
         let absolute = std::fs::canonicalize(path).map_err(|e| format!("cannot find {}: {e}", path.display()))?;
         let file = absolute.to_str().ok_or("the parameter file path is not UTF-8")?;
-        instance.set_string(&[vr("parameter_file")?], &[file]).map_err(|e| format!("the plant FMU rejects the parameter set: {e}"))?;
+        instance
+            .set_string(&[vr("parameter_file")?], &[file])
+            .map_err(|e| format!("the plant FMU rejects the parameter set: {e}"))?;
         instance.initialize(0.0, &[]).map_err(|e| format!("the plant FMU does not initialise: {e}"))?;
         let parameters = [
             vr("gear.ratio")?,
@@ -132,7 +145,9 @@ impl StateTemplate {
         let _magic = r.u64().map_err(error)?;
         let version = r.u64().map_err(error)?;
         if version != RUNTIME_STATE_VERSION {
-            return Err(format!("the plant FMU writes state format {version}; this tool knows {RUNTIME_STATE_VERSION}"));
+            return Err(format!(
+                "the plant FMU writes state format {version}; this tool knows {RUNTIME_STATE_VERSION}"
+            ));
         }
         let identifier = r.str().map_err(error)?;
         let guid = r.str().map_err(error)?;
@@ -151,7 +166,9 @@ impl StateTemplate {
         }
         let format = r.u8().map_err(error)?;
         if format != PLANT_STATE_FORMAT {
-            return Err(format!("the azimuth plant writes state format {format}; this tool knows {PLANT_STATE_FORMAT}"));
+            return Err(format!(
+                "the azimuth plant writes state format {format}; this tool knows {PLANT_STATE_FORMAT}"
+            ));
         }
         r.f64().map_err(error)?;
         let cell = r.i64().map_err(error)?;
@@ -167,7 +184,8 @@ impl StateTemplate {
             }
         }
         let has_friction = |coulomb: AzVar, stat: AzVar| values.real(coulomb) > 0.0 || values.real(stat) > 0.0;
-        let motor_has_friction = [has_friction(AzVar::M1Coulomb, AzVar::M1Static), has_friction(AzVar::M2Coulomb, AzVar::M2Static)];
+        let motor_has_friction =
+            [has_friction(AzVar::M1Coulomb, AzVar::M1Static), has_friction(AzVar::M2Coulomb, AzVar::M2Static)];
         let motor_presliding = [
             motor_has_friction[0] && values.real(AzVar::M1PreslidingStiffness) > 0.0,
             motor_has_friction[1] && values.real(AzVar::M2PreslidingStiffness) > 0.0,
@@ -313,9 +331,18 @@ impl Session {
     /// Simulates one window: restores the start state, then one communication step per log
     /// interval with the commands (per motor) and the disturbance held over each step.
     /// Returns the outputs at the start and after every step.
-    pub fn run(&mut self, start: &WindowStart, commands: &[[f64; 2]], disturbance: &[f64], dt: f64) -> Result<SimulatedOutputs, String> {
+    pub fn run(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
         let bytes = self.state_bytes(start);
-        let state = self.instance.deserialize_state(&bytes).map_err(|e| format!("the plant FMU rejects the window's start state: {e}"))?;
+        let state = self
+            .instance
+            .deserialize_state(&bytes)
+            .map_err(|e| format!("the plant FMU rejects the window's start state: {e}"))?;
         let set = self.instance.set_state(&state).map_err(|e| e.to_string());
         self.instance.free_state(state).map_err(|e| e.to_string())?;
         set?;
@@ -378,7 +405,13 @@ impl PlantSimulator for FmuSimulator {
         Ok(())
     }
 
-    fn simulate(&mut self, start: &WindowStart, commands: &[[f64; 2]], disturbance: &[f64], dt: f64) -> Result<SimulatedOutputs, String> {
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
         let (_, session) = self.session.as_mut().ok_or("the simulator is not configured")?;
         session.run(start, commands, disturbance, dt)
     }

@@ -60,13 +60,25 @@ pub fn with_displacement(params: &ParameterSet, delta: f64) -> ParameterSet {
 
 /// Calibrates the presliding displacement on the output error; None when the model has no
 /// friction level to hold with, or the simulation fails.
-pub fn calibrate(simulator: &mut dyn PlantSimulator, data: &EquationData, out: &OutputData, plan: &WindowPlan, start: &ParameterSet, before: &OutputError, alpha: f64) -> Option<Calibration> {
+pub fn calibrate(
+    simulator: &mut dyn PlantSimulator,
+    data: &EquationData,
+    out: &OutputData,
+    plan: &WindowPlan,
+    start: &ParameterSet,
+    before: &OutputError,
+    alpha: f64,
+) -> Option<Calibration> {
     if !(params_breakaway(start) > 0.0) {
         return None;
     }
     let mut evaluations = Vec::new();
     let mut best: Option<(f64, OutputError, f64)> = None;
-    let score = |x: f64, simulator: &mut dyn PlantSimulator, evaluations: &mut Vec<(f64, f64)>, best: &mut Option<(f64, OutputError, f64)>| -> f64 {
+    let score = |x: f64,
+                 simulator: &mut dyn PlantSimulator,
+                 evaluations: &mut Vec<(f64, f64)>,
+                 best: &mut Option<(f64, OutputError, f64)>|
+     -> f64 {
         let params = with_displacement(start, 10f64.powf(x));
         let value = match output_error::output_error(simulator, &params, data, out, plan) {
             Ok(e) => {

@@ -96,7 +96,12 @@ pub struct Refit {
 
 /// The residual vector of the scored channels, each over the root of its scale.
 fn residual(e: &OutputError, scale: &[f64]) -> Vec<f64> {
-    e.channels.iter().filter(|c| c.scored).zip(scale).flat_map(|(c, s)| c.measured.iter().zip(&c.simulated).map(move |(m, x)| (m - x) / s.sqrt())).collect()
+    e.channels
+        .iter()
+        .filter(|c| c.scored)
+        .zip(scale)
+        .flat_map(|(c, s)| c.measured.iter().zip(&c.simulated).map(move |(m, x)| (m - x) / s.sqrt()))
+        .collect()
 }
 
 fn cost(r: &[f64]) -> f64 {
@@ -121,7 +126,12 @@ pub fn refit(
     if free.is_empty() || free.len() > MAX_PARAMETERS {
         return None;
     }
-    let scale: Vec<f64> = error.channels.iter().filter(|c| c.scored).map(|c| (c.window_sse.iter().sum::<f64>() / c.measured.len().max(1) as f64).max(f64::MIN_POSITIVE)).collect();
+    let scale: Vec<f64> = error
+        .channels
+        .iter()
+        .filter(|c| c.scored)
+        .map(|c| (c.window_sse.iter().sum::<f64>() / c.measured.len().max(1) as f64).max(f64::MIN_POSITIVE))
+        .collect();
     let mut current = params.clone();
     let mut r = residual(error, &scale);
     let initial = cost(&r);
@@ -204,5 +214,12 @@ pub fn refit(
         return None;
     }
     let changes = free.iter().map(|f| (f.name().to_string(), f.value(params), f.value(&current))).collect();
-    Some(Refit { params: current, changes, score_before: 1.0, score_after: c0 / initial, iterations, error: best_error })
+    Some(Refit {
+        params: current,
+        changes,
+        score_before: 1.0,
+        score_after: c0 / initial,
+        iterations,
+        error: best_error,
+    })
 }

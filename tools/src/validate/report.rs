@@ -16,11 +16,26 @@ use std::path::Path;
 
 fn stats_rows(out: &mut String, label: &str, stats: &[ChannelStats]) {
     for s in stats {
-        let worst = s.cross_correlation.iter().fold(("", 0.0f64, 0.0f64), |w, (n, v, l)| if v.abs() > w.1.abs() { (n.as_str(), *v, *l) } else { w });
+        let worst = s.cross_correlation.iter().fold(("", 0.0f64, 0.0f64), |w, (n, v, l)| {
+            if v.abs() > w.1.abs() {
+                (n.as_str(), *v, *l)
+            } else {
+                w
+            }
+        });
         let _ = writeln!(
             out,
             "| {label} | {} | {:.4} | {:.1} | {:.1} | {:.2e} | {:.2} | {} {:+.2} at {:+.3} s (bound {:.3}) |",
-            s.name, s.rms, s.fit_percent, s.correlation_time, s.whiteness_p, s.lags_outside, worst.0, worst.1, worst.2, s.cross_bound
+            s.name,
+            s.rms,
+            s.fit_percent,
+            s.correlation_time,
+            s.whiteness_p,
+            s.lags_outside,
+            worst.0,
+            worst.1,
+            worst.2,
+            s.cross_bound
         );
     }
 }
@@ -101,7 +116,11 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
         let _ = writeln!(out);
     }
     let _ = writeln!(out, "## Equation error before and after\n");
-    let _ = writeln!(out, "Residuals in axis-side N m (divide the torque equation by the gear ratio {} for motor-side N m).\n", d.gear_ratio);
+    let _ = writeln!(
+        out,
+        "Residuals in axis-side N m (divide the torque equation by the gear ratio {} for motor-side N m).\n",
+        d.gear_ratio
+    );
     let _ = writeln!(out, "| model | channel | RMS | NRMSE fit % | corr. time (samples) | whiteness p | lags outside | largest cross-correlation |");
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
     stats_rows(&mut out, "before", &v.before);
@@ -109,12 +128,17 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     let _ = writeln!(out, "\n## Search steps\n");
     for (i, step) in v.selection.steps.iter().enumerate() {
         let chosen = match (step.chosen, step.paired) {
-            (Some(a), Some(b)) => format!("{} and {} (jointly: no single effect passed, the pair did)", a.name(), b.name()),
+            (Some(a), Some(b)) => {
+                format!("{} and {} (jointly: no single effect passed, the pair did)", a.name(), b.name())
+            }
             (Some(a), None) => a.name().to_string(),
             _ => "none".to_string(),
         };
         let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
-        let _ = writeln!(out, "| candidate | chi2 | parameters | p | trials | BIC gain | effect/noise | significant | searched |");
+        let _ = writeln!(
+            out,
+            "| candidate | chi2 | parameters | p | trials | BIC gain | effect/noise | significant | searched |"
+        );
         let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
         for s in &step.scores {
             if let Some(reason) = &s.not_applicable {
@@ -233,9 +257,18 @@ fn output_section(out: &mut String, o: &OutputReport) {
         );
     }
     if !o.confirmations.is_empty() {
-        let _ = writeln!(out, "Output-error confirmations asked during the search (each effect against the model without it):\n");
+        let _ = writeln!(
+            out,
+            "Output-error confirmations asked during the search (each effect against the model without it):\n"
+        );
         for (kind, c) in &o.confirmations {
-            let _ = writeln!(out, "- {}: {} -> **{}**", kind.name(), c.reason, if c.confirmed { "confirmed" } else { "rejected" });
+            let _ = writeln!(
+                out,
+                "- {}: {} -> **{}**",
+                kind.name(),
+                c.reason,
+                if c.confirmed { "confirmed" } else { "rejected" }
+            );
         }
         let _ = writeln!(out);
     }
@@ -246,13 +279,24 @@ pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
     let mut parts = Vec::new();
     let skew = t.skew();
     parts.push(match corrected {
-        Some(tau) => format!("load encoder **{:.2} ms behind** the motor encoder (+- {:.2} ms; data corrected)", tau * 1e3, skew.sd * 1e3),
+        Some(tau) => format!(
+            "load encoder **{:.2} ms behind** the motor encoder (+- {:.2} ms; data corrected)",
+            tau * 1e3,
+            skew.sd * 1e3
+        ),
         None => format!("no encoder timing skew ({:.3} +- {:.3} ms, not significant)", skew.value * 1e3, skew.sd * 1e3),
     });
     if let Some((k, sd)) = t.rigid_stiffness() {
-        parts.push(format!("path compliance: K = {k:.3e} +- {sd:.1e} N m/rad (twist {:.1} arcsec RMS)", t.compliance().rms * ARCSEC));
+        parts.push(format!(
+            "path compliance: K = {k:.3e} +- {sd:.1e} N m/rad (twist {:.1} arcsec RMS)",
+            t.compliance().rms * ARCSEC
+        ));
     } else if t.structure != Structure::TwoMass {
-        parts.push(format!("no significant path compliance (1/K = {:.2e} +- {:.1e} rad/(N m))", t.compliance().value, t.compliance().sd));
+        parts.push(format!(
+            "no significant path compliance (1/K = {:.2e} +- {:.1e} rad/(N m))",
+            t.compliance().value,
+            t.compliance().sd
+        ));
     }
     let b = t.lost_motion();
     if b.significant && t.structure != Structure::TwoMass {
@@ -262,7 +306,12 @@ pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
     if position.significant {
         parts.push(format!("position-dependent twist (transmission error) {:.1} arcsec RMS", position.rms * ARCSEC));
     }
-    parts.push(format!("twist residual {:.1} -> {:.1} arcsec RMS (sensor noise {:.2} arcsec)", t.rms_before * ARCSEC, t.rms_after * ARCSEC, t.noise * ARCSEC));
+    parts.push(format!(
+        "twist residual {:.1} -> {:.1} arcsec RMS (sensor noise {:.2} arcsec)",
+        t.rms_before * ARCSEC,
+        t.rms_after * ARCSEC,
+        t.noise * ARCSEC
+    ));
     parts.join("; ")
 }
 
@@ -279,7 +328,16 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
     );
     let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist (arcsec) | significant |\n|---|---|---|---|---|---|");
     for term in &t.terms {
-        let _ = writeln!(out, "| {} | {:.4e} | {:.2e} | {} | {:.3} | {} |", term.name, term.value, term.sd, term.unit, term.rms * ARCSEC, if term.significant { "yes" } else { "no" });
+        let _ = writeln!(
+            out,
+            "| {} | {:.4e} | {:.2e} | {} | {:.3} | {} |",
+            term.name,
+            term.value,
+            term.sd,
+            term.unit,
+            term.rms * ARCSEC,
+            if term.significant { "yes" } else { "no" }
+        );
     }
     if t.structure == Structure::TwoMass {
         let _ = writeln!(out, "\nWith a two-mass starting set, compliance and lost motion are judged by the candidate library (stiffness, backlash); only the skew is acted on here.");
@@ -320,7 +378,8 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
     let t = &d.time;
     let before_fitted = v.selection.before.fitted();
     let after_fitted = v.selection.after.fitted();
-    let mut figure = Figure::new(1400, 450 * v.before.len() as u32 * 2).title(&format!("{stem}: equation-error residuals and fit"));
+    let mut figure =
+        Figure::new(1400, 450 * v.before.len() as u32 * 2).title(&format!("{stem}: equation-error residuals and fit"));
     for (c, channel) in v.selection.before.channels.iter().enumerate() {
         let measured = &channel.measured;
         figure = figure.panel(
@@ -332,11 +391,14 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
                 .line("model after", t, &after_fitted[c]),
         );
         figure = figure.panel(
-            Panel::new(&format!("{}: residual before (RMS {:.3}) and after (RMS {:.3})", channel.name, v.before[c].rms, v.after[c].rms))
-                .x_label("time (s)")
-                .y_label("residual (N m)")
-                .line("before", t, &v.selection.before.residual[c])
-                .line("after", t, &v.selection.after.residual[c]),
+            Panel::new(&format!(
+                "{}: residual before (RMS {:.3}) and after (RMS {:.3})",
+                channel.name, v.before[c].rms, v.after[c].rms
+            ))
+            .x_label("time (s)")
+            .y_label("residual (N m)")
+            .line("before", t, &v.selection.before.residual[c])
+            .line("after", t, &v.selection.after.residual[c]),
         );
     }
     let path = dir.join(format!("{stem}_residuals.png"));
@@ -405,10 +467,14 @@ pub fn twist_figure(t: &TwistAnalysis, corrected: Option<f64>, stem: &str) -> Fi
                 .line("fitted terms", &t.time, &scale(&t.fitted)),
         )
         .panel(
-            Panel::new(&format!("left after the terms (RMS {:.2} arcsec; sensor noise {:.2} arcsec)", t.rms_after * ARCSEC, t.noise * ARCSEC))
-                .x_label("time (s)")
-                .y_label("arcsec")
-                .line("residual", &t.time, &residual),
+            Panel::new(&format!(
+                "left after the terms (RMS {:.2} arcsec; sensor noise {:.2} arcsec)",
+                t.rms_after * ARCSEC,
+                t.noise * ARCSEC
+            ))
+            .x_label("time (s)")
+            .y_label("arcsec")
+            .line("residual", &t.time, &residual),
         )
 }
 
@@ -429,7 +495,11 @@ pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
     let length = o.plan.length;
     let time = with_gaps(&o.before.time, length, 1.0);
     let scored: Vec<usize> = (0..o.before.channels.len()).filter(|&c| o.before.channels[c].criterion).collect();
-    let mut figure = Figure::new(1400, 420 * 2 * scored.len() as u32).title(&format!("{stem}: output error (plant FMU over {} windows of {:.2} s)", o.plan.starts.len(), o.plan.seconds));
+    let mut figure = Figure::new(1400, 420 * 2 * scored.len() as u32).title(&format!(
+        "{stem}: output error (plant FMU over {} windows of {:.2} s)",
+        o.plan.starts.len(),
+        o.plan.seconds
+    ));
     for c in scored {
         let (b, a) = (&o.before.channels[c], &o.after.channels[c]);
         let (scale, unit) = if b.kind.unit() == "rad" { (ARCSEC, "arcsec") } else { (ARCSEC, "arcsec/s") };
@@ -442,11 +512,16 @@ pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
                 .line("model after", &time, &with_gaps(&a.simulated, length, scale)),
         );
         figure = figure.panel(
-            Panel::new(&format!("{}: residual, RMS {:.4} -> {:.4} {unit}", b.kind.name(), b.rms * scale, a.rms * scale))
-                .x_label("time (s)")
-                .y_label(unit)
-                .line("before", &time, &with_gaps(&b.residual(), length, scale))
-                .line("after", &time, &with_gaps(&a.residual(), length, scale)),
+            Panel::new(&format!(
+                "{}: residual, RMS {:.4} -> {:.4} {unit}",
+                b.kind.name(),
+                b.rms * scale,
+                a.rms * scale
+            ))
+            .x_label("time (s)")
+            .y_label(unit)
+            .line("before", &time, &with_gaps(&b.residual(), length, scale))
+            .line("after", &time, &with_gaps(&a.residual(), length, scale)),
         );
     }
     figure
@@ -501,28 +576,47 @@ pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
             .found
             .iter()
             .map(|f| {
-                let params: Vec<String> = f.parameters.iter().filter(|p| !p.0.ends_with("change")).map(|(n, value, sd, unit)| format!("{n} = {value:.4e} +- {sd:.2e} {unit}")).collect();
+                let params: Vec<String> = f
+                    .parameters
+                    .iter()
+                    .filter(|p| !p.0.ends_with("change"))
+                    .map(|(n, value, sd, unit)| format!("{n} = {value:.4e} +- {sd:.2e} {unit}"))
+                    .collect();
                 format!("**{}**: {}", f.kind.name(), params.join(", "))
             })
             .collect();
         let mut found = found;
         if let Some(skew) = v.encoder_skew {
-            found.insert(0, format!("**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)", skew * 1e3));
+            found.insert(
+                0,
+                format!(
+                    "**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)",
+                    skew * 1e3
+                ),
+            );
         }
         let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };
         let (windows, axis_pos, motor_pos, fit) = match &v.output {
             Some(o) => {
                 let pick = |kind: ChannelKind| -> String {
                     match (o.before.channel(kind), o.after.channel(kind)) {
-                        (Some(b), Some(a)) => format!("{:.1} -> {:.1} ({:.2})", b.rms * ARCSEC, a.rms * ARCSEC, a.rms / b.rms),
+                        (Some(b), Some(a)) => {
+                            format!("{:.1} -> {:.1} ({:.2})", b.rms * ARCSEC, a.rms * ARCSEC, a.rms / b.rms)
+                        }
                         _ => "-".into(),
                     }
                 };
-                let fit = match (o.before.channel(ChannelKind::AxisPosition), o.after.channel(ChannelKind::AxisPosition)) {
-                    (Some(b), Some(a)) => format!("{:.1} -> {:.1} %", b.fit_percent, a.fit_percent),
-                    _ => "-".into(),
-                };
-                (format!("{} x {:.2} s", o.plan.starts.len(), o.plan.seconds), pick(ChannelKind::AxisPosition), pick(ChannelKind::MotorPosition), fit)
+                let fit =
+                    match (o.before.channel(ChannelKind::AxisPosition), o.after.channel(ChannelKind::AxisPosition)) {
+                        (Some(b), Some(a)) => format!("{:.1} -> {:.1} %", b.fit_percent, a.fit_percent),
+                        _ => "-".into(),
+                    };
+                (
+                    format!("{} x {:.2} s", o.plan.starts.len(), o.plan.seconds),
+                    pick(ChannelKind::AxisPosition),
+                    pick(ChannelKind::MotorPosition),
+                    fit,
+                )
             }
             None => ("-".into(), "-".into(), "-".into(), "-".into()),
         };
@@ -543,12 +637,21 @@ pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
     for (axis, v, _, figures) in rows {
         let _ = writeln!(out, "**Axis {axis}.**");
         if let Some(o) = &v.output {
-            let rejected: Vec<String> =
-                o.confirmations.iter().filter(|(_, c)| !c.confirmed).map(|(k, c)| format!("{} ({})", k.name(), c.reason)).collect();
+            let rejected: Vec<String> = o
+                .confirmations
+                .iter()
+                .filter(|(_, c)| !c.confirmed)
+                .map(|(k, c)| format!("{} ({})", k.name(), c.reason))
+                .collect();
             if !rejected.is_empty() {
-                let _ = writeln!(out, "Significant in the equation error but not confirmed by the output error: {}.", rejected.join("; "));
+                let _ = writeln!(
+                    out,
+                    "Significant in the equation error but not confirmed by the output error: {}.",
+                    rejected.join("; ")
+                );
             }
-            let _ = writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
+            let _ =
+                writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
         }
         if let Some(t) = &v.twist {
             let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
@@ -567,7 +670,12 @@ pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
         for note in &v.notes {
             let _ = writeln!(out, "Note: {note}.");
         }
-        let names: Vec<String> = figures.iter().filter_map(|f| Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))).collect();
+        let names: Vec<String> = figures
+            .iter()
+            .filter_map(|f| {
+                Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))
+            })
+            .collect();
         let _ = writeln!(out, "Figures: {}.\n", names.join(", "));
     }
     out

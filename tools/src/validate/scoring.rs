@@ -4,8 +4,8 @@
 //!
 //! Only this module reads the `.truth` sidecars; the validation itself never sees them.
 
-use super::parameters::{names, ParameterSet};
 use super::output_error::PlantSimulator;
+use super::parameters::{names, ParameterSet};
 use super::plant_fmu::FmuSimulator;
 use super::{validate_with, ValidateOptions, Validation};
 use crate::measured_log::MeasuredLog;
@@ -105,7 +105,9 @@ fn compare(effect: &Effect, start: &ParameterSet, corrected: &ParameterSet) -> (
     match *effect {
         Effect::Coulomb(d) => (d, change(names::COULOMB)),
         Effect::Stribeck(d) => (d, change(names::STATIC) - change(names::COULOMB)),
-        Effect::Asymmetry(a) | Effect::TorqueOffset(a) => (a, change(names::TORQUE_OFFSET) + change(names::ASYMMETRY) * start.value(names::COULOMB)),
+        Effect::Asymmetry(a) | Effect::TorqueOffset(a) => {
+            (a, change(names::TORQUE_OFFSET) + change(names::ASYMMETRY) * start.value(names::COULOMB))
+        }
         Effect::Backlash(b) => (b, change(names::BACKLASH_WIDTH)),
         Effect::StiffnessFactor(f) => (start.value(names::STIFFNESS) * (f - 1.0), change(names::STIFFNESS)),
         Effect::InertiaFactor(f) => (start.value(names::LOAD_INERTIA) * (f - 1.0), change(names::LOAD_INERTIA)),
@@ -123,7 +125,17 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
         .selection
         .found
         .iter()
-        .map(|f| (f.kind.name().to_string(), validation.selection.equally_consistent(f.kind).iter().map(|k| k.name().to_string()).collect::<Vec<_>>()))
+        .map(|f| {
+            (
+                f.kind.name().to_string(),
+                validation
+                    .selection
+                    .equally_consistent(f.kind)
+                    .iter()
+                    .map(|k| k.name().to_string())
+                    .collect::<Vec<_>>(),
+            )
+        })
         .filter(|(_, alike)| !alike.is_empty())
         .collect();
     // A timing skew between the encoders is a claim too: the suite's logs have none.
@@ -191,16 +203,39 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
         })
     });
     let score_ratio = validation.output.as_ref().map(|o| (o.overall.score_after / o.overall.score_before).sqrt());
-    CaseResult { truth: truth.clone(), found, parameters, named, extras, equally_consistent, output, equation, anti_resonance, measured_trough, response, score_ratio, error: None, seconds }
+    CaseResult {
+        truth: truth.clone(),
+        found,
+        parameters,
+        named,
+        extras,
+        equally_consistent,
+        output,
+        equation,
+        anti_resonance,
+        measured_trough,
+        response,
+        score_ratio,
+        error: None,
+        seconds,
+    }
 }
 
 /// Validates one log of a suite folder against its truth.
-pub fn run_case(path: &Path, start: &ParameterSet, options: &ValidateOptions, simulator: Option<&mut dyn PlantSimulator>) -> Result<CaseResult, String> {
+pub fn run_case(
+    path: &Path,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    simulator: Option<&mut dyn PlantSimulator>,
+) -> Result<CaseResult, String> {
     let truth_path = path.with_extension("truth");
-    let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("cannot read {}: {e}", truth_path.display()))?;
+    let text =
+        std::fs::read_to_string(&truth_path).map_err(|e| format!("cannot read {}: {e}", truth_path.display()))?;
     let truth = parse_truth(&text)?;
     let clock = std::time::Instant::now();
-    let result = MeasuredLog::read(path).map_err(|e| e.to_string()).and_then(|log| validate_with(&log, start, options, simulator));
+    let result = MeasuredLog::read(path)
+        .map_err(|e| e.to_string())
+        .and_then(|log| validate_with(&log, start, options, simulator));
     let seconds = clock.elapsed().as_secs_f64();
     Ok(match result {
         Ok(validation) => score(&truth, &validation, start, seconds),
@@ -225,14 +260,23 @@ pub fn run_case(path: &Path, start: &ParameterSet, options: &ValidateOptions, si
 
 /// Validates every `log_*.csv` in a suite folder against `start.params` and scores it, on
 /// `threads` threads, each with its own plant FMU instance (none: equation error only).
-pub fn run_suite(dir: &Path, options: &ValidateOptions, fmu: Option<&Path>, threads: usize, progress: &(dyn Fn(&CaseResult) + Sync)) -> Result<Vec<CaseResult>, String> {
+pub fn run_suite(
+    dir: &Path,
+    options: &ValidateOptions,
+    fmu: Option<&Path>,
+    threads: usize,
+    progress: &(dyn Fn(&CaseResult) + Sync),
+) -> Result<Vec<CaseResult>, String> {
     let start = ParameterSet::read(&dir.join("start.params"))?;
     let mut logs: Vec<_> = std::fs::read_dir(dir)
         .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         // The suite's own logs only: the results a previous run wrote into the same folder
         // (detection.csv) are not logs.
-        .filter(|p| p.extension().is_some_and(|x| x == "csv") && p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("log_")))
+        .filter(|p| {
+            p.extension().is_some_and(|x| x == "csv")
+                && p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("log_"))
+        })
         .collect();
     logs.sort();
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -278,7 +322,13 @@ fn figures_text(f: &Option<ErrorFigures>) -> (String, String, String, String) {
     match f {
         None => ("-".into(), "-".into(), "-".into(), "-".into()),
         Some(f) => {
-            let (scale, unit) = if f.unit == "rad" { (ARCSEC_PER_RAD, "arcsec") } else if f.unit == "rad/s" { (ARCSEC_PER_RAD, "arcsec/s") } else { (1.0, f.unit.as_str()) };
+            let (scale, unit) = if f.unit == "rad" {
+                (ARCSEC_PER_RAD, "arcsec")
+            } else if f.unit == "rad/s" {
+                (ARCSEC_PER_RAD, "arcsec/s")
+            } else {
+                (1.0, f.unit.as_str())
+            };
             (
                 f.channel.clone(),
                 format!("{:.3} -> {:.3} {unit}", f.before * scale, f.after * scale),
@@ -303,7 +353,11 @@ pub fn table_markdown(results: &[CaseResult]) -> String {
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
-        let effect = if r.truth.effects.is_empty() { "clean".to_string() } else { r.truth.effects.iter().map(|e| e.0.clone()).collect::<Vec<_>>().join(" + ") };
+        let effect = if r.truth.effects.is_empty() {
+            "clean".to_string()
+        } else {
+            r.truth.effects.iter().map(|e| e.0.clone()).collect::<Vec<_>>().join(" + ")
+        };
         let size = if r.truth.effects.is_empty() { "-".to_string() } else { format!("{}", r.size()) };
         let found = if let Some(e) = &r.error {
             format!("error: {e}")
@@ -330,7 +384,12 @@ pub fn table_markdown(results: &[CaseResult]) -> String {
             .collect();
         let (oc, orms, oratio, ofit) = figures_text(&r.output);
         let (ec, erms, eratio, _) = figures_text(&r.equation);
-        let _ = writeln!(out, "| {} | {effect} | {size} | {found} | {} | {oc} | {orms} | {oratio} | {ofit} | {ec} | {erms} | {eratio} |", r.truth.log_file, params.join("; "));
+        let _ = writeln!(
+            out,
+            "| {} | {effect} | {size} | {found} | {} | {oc} | {orms} | {oratio} | {ofit} | {ec} | {erms} | {eratio} |",
+            r.truth.log_file,
+            params.join("; ")
+        );
     }
     out
 }
@@ -357,13 +416,17 @@ pub fn detection_curve(results: &[CaseResult]) -> Vec<CurvePoint> {
     sizes
         .into_iter()
         .map(|size| {
-            let cases: Vec<&CaseResult> = results.iter().filter(|r| r.truth.effects.len() == 1 && r.size() == size).collect();
+            let cases: Vec<&CaseResult> =
+                results.iter().filter(|r| r.truth.effects.len() == 1 && r.size() == size).collect();
             CurvePoint {
                 size,
                 cases: cases.len(),
                 named: cases.iter().filter(|r| r.named).count(),
                 named_without_extra: cases.iter().filter(|r| r.named && r.extras.is_empty()).count(),
-                parameters_within_tolerance: cases.iter().filter(|r| r.named && r.parameters.iter().all(|p| p.4)).count(),
+                parameters_within_tolerance: cases
+                    .iter()
+                    .filter(|r| r.named && r.parameters.iter().all(|p| p.4))
+                    .count(),
                 error_criterion: cases.iter().filter(|r| r.error_criterion()).count(),
                 equation_criterion: cases.iter().filter(|r| r.equation_criterion()).count(),
             }
@@ -402,16 +465,24 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
         "| effect | cases | right effect named | nothing extra | parameters within tolerance | output error after <= 20 % (most-improved channel) | median after/before (most-improved channel) | output error after <= 20 % (all scored channels) | median after/before (all scored channels) | equation error after <= 20 % | median equation error after/before |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut kinds: Vec<String> = results.iter().filter(|r| r.truth.effects.len() == 1).map(|r| r.truth.effects[0].0.clone()).collect();
+    let mut kinds: Vec<String> =
+        results.iter().filter(|r| r.truth.effects.len() == 1).map(|r| r.truth.effects[0].0.clone()).collect();
     kinds.sort();
     kinds.dedup();
     let median = |mut v: Vec<f64>| -> f64 {
         v.retain(|x| x.is_finite());
         v.sort_by(|a, b| a.total_cmp(b));
-        if v.is_empty() { f64::NAN } else { v[v.len() / 2] }
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v[v.len() / 2]
+        }
     };
     for kind in kinds {
-        let cases: Vec<&CaseResult> = results.iter().filter(|r| r.truth.effects.len() == 1 && r.truth.effects[0].0 == kind && r.size() >= 10.0).collect();
+        let cases: Vec<&CaseResult> = results
+            .iter()
+            .filter(|r| r.truth.effects.len() == 1 && r.truth.effects[0].0 == kind && r.size() >= 10.0)
+            .collect();
         if cases.is_empty() {
             continue;
         }
@@ -493,8 +564,18 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             if delay_after.is_empty() { "-".to_string() } else { format!("{dl:.3}-{dh:.3}") }
         );
     }
-    let claims: Vec<String> = clean.iter().filter(|r| !r.found.is_empty()).map(|r| format!("{} ({})", r.truth.log_file, r.found.join(", "))).collect();
-    let _ = writeln!(out, "\nClean logs: {} of {} with an effect claimed{}.", claims.len(), clean.len(), if claims.is_empty() { String::new() } else { format!(": {}", claims.join("; ")) });
+    let claims: Vec<String> = clean
+        .iter()
+        .filter(|r| !r.found.is_empty())
+        .map(|r| format!("{} ({})", r.truth.log_file, r.found.join(", ")))
+        .collect();
+    let _ = writeln!(
+        out,
+        "\nClean logs: {} of {} with an effect claimed{}.",
+        claims.len(),
+        clean.len(),
+        if claims.is_empty() { String::new() } else { format!(": {}", claims.join("; ")) }
+    );
     let pairs: Vec<&CaseResult> = results.iter().filter(|r| r.truth.effects.len() == 2).collect();
     if !pairs.is_empty() {
         let both = pairs.iter().filter(|r| r.named).count();
@@ -511,7 +592,17 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
 pub fn detection_csv(results: &[CaseResult]) -> String {
     let mut out = String::from("size_over_noise,cases,named,named_without_extra,parameters_within_tolerance,output_error_after_le_20pct,equation_error_after_le_20pct\n");
     for p in detection_curve(results) {
-        let _ = writeln!(out, "{},{},{},{},{},{},{}", p.size, p.cases, p.named, p.named_without_extra, p.parameters_within_tolerance, p.error_criterion, p.equation_criterion);
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{}",
+            p.size,
+            p.cases,
+            p.named,
+            p.named_without_extra,
+            p.parameters_within_tolerance,
+            p.error_criterion,
+            p.equation_criterion
+        );
     }
     out
 }
@@ -521,7 +612,9 @@ pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), Strin
     use crate::plot::{Figure, Panel};
     let curve = detection_curve(results);
     let x: Vec<f64> = curve.iter().map(|c| c.size).collect();
-    let rate = |k: fn(&CurvePoint) -> usize| -> Vec<f64> { curve.iter().map(|c| 100.0 * k(c) as f64 / c.cases.max(1) as f64).collect() };
+    let rate = |k: fn(&CurvePoint) -> usize| -> Vec<f64> {
+        curve.iter().map(|c| 100.0 * k(c) as f64 / c.cases.max(1) as f64).collect()
+    };
     Figure::new(1000, 600)
         .panel(
             Panel::new("Detection rate against effect size (generated suite, single-effect logs)")

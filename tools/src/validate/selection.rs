@@ -45,7 +45,13 @@ pub struct SelectionOptions {
 
 impl Default for SelectionOptions {
     fn default() -> Self {
-        SelectionOptions { alpha: 1e-3, max_effects: 4, candidates: Kind::ALL.to_vec(), max_iterations: 15, min_effect_to_noise: 1.0 }
+        SelectionOptions {
+            alpha: 1e-3,
+            max_effects: 4,
+            candidates: Kind::ALL.to_vec(),
+            max_iterations: 15,
+            min_effect_to_noise: 1.0,
+        }
     }
 }
 
@@ -80,7 +86,11 @@ impl Fit {
 
     /// The model side of each channel after the fit (measured minus residual).
     pub fn fitted(&self) -> Vec<Vec<f64>> {
-        self.channels.iter().zip(&self.residual).map(|(c, r)| c.measured.iter().zip(r).map(|(m, r)| m - r).collect()).collect()
+        self.channels
+            .iter()
+            .zip(&self.residual)
+            .map(|(c, r)| c.measured.iter().zip(r).map(|(m, r)| m - r).collect())
+            .collect()
     }
 }
 
@@ -157,7 +167,15 @@ fn effect_vector(instance: &Instance, beta: &[f64], channels: &[ChannelData]) ->
 /// at the first step (a known limitation; the unrestricted model of every candidate at once
 /// was tried as the noise and made every candidate significant on such logs, leaving the
 /// choice to the ranking, which then picked a compromise effect).
-fn robust_chi2(channels: &[ChannelData], others: &[Column], effect: &[Vec<f64>], residual: &[Vec<f64>], noise: &[Vec<f64>], weights: &[f64], tau: &[f64]) -> f64 {
+fn robust_chi2(
+    channels: &[ChannelData],
+    others: &[Column],
+    effect: &[Vec<f64>],
+    residual: &[Vec<f64>],
+    noise: &[Vec<f64>],
+    weights: &[f64],
+    tau: &[f64],
+) -> f64 {
     let u = stack(channels, effect);
     let row_weights = stacked_weights(channels, weights);
     let stacked_others: Vec<Vec<f64>> = others.iter().map(|c| stack(channels, &c.channels)).collect();
@@ -176,7 +194,9 @@ fn robust_chi2(channels: &[ChannelData], others: &[Column], effect: &[Vec<f64>],
     }
     // The fitted effect's coefficient along its own direction (1 when the residual is
     // orthogonal to the adjustment too).
-    let gamma = u_tilde.iter().zip(e.iter().zip(&u)).zip(&row_weights).map(|((x, (r, v)), w)| w * x * (r + v)).sum::<f64>() / denominator;
+    let gamma =
+        u_tilde.iter().zip(e.iter().zip(&u)).zip(&row_weights).map(|((x, (r, v)), w)| w * x * (r + v)).sum::<f64>()
+            / denominator;
     let mut variance = 0.0;
     let mut start = 0;
     for (c, channel) in channels.iter().enumerate() {
@@ -203,7 +223,13 @@ fn robust_chi2(channels: &[ChannelData], others: &[Column], effect: &[Vec<f64>],
 /// The size of an accepted effect at the refined parameters: the RMS change of each channel's
 /// residual when the effect's parameters go back to their values before it was added, over
 /// the channel's noise, largest over channels.
-fn refined_effect_to_noise(data: &EquationData, kind: Kind, refined: &ParameterSet, before: &ParameterSet, noise: &[f64]) -> f64 {
+fn refined_effect_to_noise(
+    data: &EquationData,
+    kind: Kind,
+    refined: &ParameterSet,
+    before: &ParameterSet,
+    noise: &[f64],
+) -> f64 {
     let reset = without_effect(kind, refined, before);
     let with = model_channels(data, refined);
     let without = model_channels(data, &reset);
@@ -342,7 +368,11 @@ impl Selection {
     /// The candidates the data cannot tell from a found effect (confirmed in the step that
     /// chose it, and not predicted significantly worse).
     pub fn equally_consistent(&self, kind: Kind) -> Vec<Kind> {
-        self.steps.iter().filter(|s| s.chosen == Some(kind) && s.paired.is_none()).flat_map(|s| s.equally_consistent.iter().copied()).collect()
+        self.steps
+            .iter()
+            .filter(|s| s.chosen == Some(kind) && s.paired.is_none())
+            .flat_map(|s| s.equally_consistent.iter().copied())
+            .collect()
     }
 }
 
@@ -356,7 +386,11 @@ fn baseline_columns(data: &EquationData, params: &ParameterSet) -> Vec<Column> {
     let n = data.len();
     let k = params.value(super::parameters::names::STIFFNESS);
     if data.slow_twist_hats.is_empty() {
-        return vec![Column { label: "twist offset (nuisance)".into(), unit: "rad".into(), channels: vec![vec![-k; n], vec![data.twist_scale; n]] }];
+        return vec![Column {
+            label: "twist offset (nuisance)".into(),
+            unit: "rad".into(),
+            channels: vec![vec![-k; n], vec![data.twist_scale; n]],
+        }];
     }
     // An integrated motor position: the twist offset varies slowly, one hat function a knot.
     data.slow_twist_hats
@@ -421,7 +455,13 @@ fn add_adjust(a: &[Vec<f64>], b: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> 
 }
 
 /// The accepted effects linearised at `params`, with the baseline first.
-fn refine_columns(data: &EquationData, params: &ParameterSet, channels: &[ChannelData], accepted: &[Kind], weights: &[f64]) -> (Vec<Column>, Vec<Instance>) {
+fn refine_columns(
+    data: &EquationData,
+    params: &ParameterSet,
+    channels: &[ChannelData],
+    accepted: &[Kind],
+    weights: &[f64],
+) -> (Vec<Column>, Vec<Instance>) {
     let mut columns = baseline_columns(data, params);
     let mut instances = Vec::new();
     let zero: Vec<Vec<f64>> = channels.iter().map(|_| Vec::new()).collect();
@@ -438,7 +478,13 @@ fn refine_columns(data: &EquationData, params: &ParameterSet, channels: &[Channe
 /// the increments, apply them, until the increments are small compared with their standard
 /// deviations. Returns the parameters and the fit at them (coefficients near zero, covariance
 /// of the increments = covariance of the parameters).
-fn refine(data: &EquationData, mut params: ParameterSet, accepted: &[Kind], weights: &[f64], max_iterations: usize) -> (ParameterSet, Fit, usize) {
+fn refine(
+    data: &EquationData,
+    mut params: ParameterSet,
+    accepted: &[Kind],
+    weights: &[f64],
+    max_iterations: usize,
+) -> (ParameterSet, Fit, usize) {
     let baseline = baseline_columns(data, &params).len();
     let mut iterations = 0;
     loop {
@@ -503,7 +549,13 @@ impl Judge for EquationOnly {
 /// Fits one more effect on top of a model with `accepted` effects, as the search would (grid
 /// search of its nonlinear parameters, joint Gauss-Newton refit), without testing it. For
 /// diagnostics: what the effect would be if it were added.
-pub fn fit_candidate(data: &EquationData, params: &ParameterSet, accepted: &[Kind], kind: Kind, options: &SelectionOptions) -> Result<ParameterSet, String> {
+pub fn fit_candidate(
+    data: &EquationData,
+    params: &ParameterSet,
+    accepted: &[Kind],
+    kind: Kind,
+    options: &SelectionOptions,
+) -> Result<ParameterSet, String> {
     let channels = model_channels(data, params);
     let unit = vec![1.0; channels.len()];
     let first = fit(&channels, &baseline_columns(data, params), &[], &unit);
@@ -536,7 +588,12 @@ pub fn select(data: &EquationData, start: &ParameterSet, options: &SelectionOpti
 
 /// Runs the search, asking the judge about every effect that passes the equation-error tests
 /// and is admissible; a rejected effect is not claimed and the next candidate is tried.
-pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &SelectionOptions, judge: &mut dyn Judge) -> Selection {
+pub fn select_judged(
+    data: &EquationData,
+    start: &ParameterSet,
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Selection {
     let channel_count = data.channels.len();
     let unit = vec![1.0; channel_count];
     let first = fit(&data.channels, &baseline_columns(data, start), &[], &unit);
@@ -558,7 +615,15 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
             if accepted.contains(&kind) {
                 continue;
             }
-            let instance = match candidates::instantiate(kind, data, &params, &current.channels, &current.residual, &weights, Mode::Search) {
+            let instance = match candidates::instantiate(
+                kind,
+                data,
+                &params,
+                &current.channels,
+                &current.residual,
+                &weights,
+                Mode::Search,
+            ) {
                 Ok(instance) => instance,
                 Err(reason) => {
                     scores.push(Score {
@@ -590,11 +655,20 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
             let alternative = fit(&current.channels, &columns, &adjust, &weights);
             let own_beta = &alternative.beta[accepted_columns.len()..];
             let effect = effect_vector(instance, own_beta, &current.channels);
-            let lr = robust_chi2(&current.channels, &accepted_columns, &effect, &alternative.residual, &alternative.residual, &weights, &alternative.tau);
+            let lr = robust_chi2(
+                &current.channels,
+                &accepted_columns,
+                &effect,
+                &alternative.residual,
+                &alternative.residual,
+                &weights,
+                &alternative.tau,
+            );
             let k = instance.parameter_count();
             let n_eff = alternative.effective_samples().max(2.0);
             let weighted = |f: &Fit| f.rss.iter().zip(&weights).map(|(r, w)| r * w).sum::<f64>();
-            let explained = if weighted(&current) > 0.0 { 1.0 - weighted(&alternative) / weighted(&current) } else { 0.0 };
+            let explained =
+                if weighted(&current) > 0.0 { 1.0 - weighted(&alternative) / weighted(&current) } else { 0.0 };
             let effect_to_noise = contribution(instance, own_beta, &current.channels)
                 .iter()
                 .zip(&noise)
@@ -670,7 +744,8 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
                         let replace = match &chosen {
                             None => true,
                             Some((_, _, incumbent, _, _)) => {
-                                let extra = scores[index].parameters as isize - chosen.as_ref().map_or(0, |c| scores[c.0].parameters as isize);
+                                let extra = scores[index].parameters as isize
+                                    - chosen.as_ref().map_or(0, |c| scores[c.0].parameters as isize);
                                 judge.prefers(incumbent, &refined, extra)
                             }
                         };
@@ -716,13 +791,27 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
                 None
             };
             let Some((a, b, refined, refined_fit, iterations)) = pair else {
-                steps.push(Step { scores, chosen: None, paired: None, threshold, iterations: 0, equally_consistent: Vec::new() });
+                steps.push(Step {
+                    scores,
+                    chosen: None,
+                    paired: None,
+                    threshold,
+                    iterations: 0,
+                    equally_consistent: Vec::new(),
+                });
                 break;
             };
             accepted.push(a);
             accepted.push(b);
             pairs.push((a, b));
-            steps.push(Step { scores, chosen: Some(a), paired: Some(b), threshold, iterations, equally_consistent: Vec::new() });
+            steps.push(Step {
+                scores,
+                chosen: Some(a),
+                paired: Some(b),
+                threshold,
+                iterations,
+                equally_consistent: Vec::new(),
+            });
             params = refined;
             current = refined_fit;
             continue;
@@ -745,7 +834,8 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
             let kind = accepted[index];
             let others: Vec<Kind> = accepted.iter().copied().filter(|k| *k != kind).collect();
             let weights = current.channel_weights();
-            let (without, without_fit, _) = refine(data, without_effect(kind, &params, start), &others, &weights, options.max_iterations);
+            let (without, without_fit, _) =
+                refine(data, without_effect(kind, &params, start), &others, &weights, options.max_iterations);
             if candidates::admissible(&without, data).is_err() {
                 continue;
             }
@@ -770,9 +860,13 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
             }
             let others: Vec<Kind> = accepted.iter().copied().filter(|k| *k != partner).collect();
             let weights = current.channel_weights();
-            let (without, without_fit, _) = refine(data, without_effect(partner, &params, start), &others, &weights, options.max_iterations);
+            let (without, without_fit, _) =
+                refine(data, without_effect(partner, &params, start), &others, &weights, options.max_iterations);
             accepted.retain(|k| *k != partner);
-            removed.push((partner, format!("claimed only jointly with {}, which the backward check removed", gone.name())));
+            removed.push((
+                partner,
+                format!("claimed only jointly with {}, which the backward check removed", gone.name()),
+            ));
             params = without;
             current = without_fit;
         }
@@ -795,7 +889,20 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
     let mut swapped = Vec::new();
     if judge.compares() && !accepted.is_empty() {
         let alternatives: Vec<Kind> = {
-            let mut kinds: Vec<Kind> = steps.iter().flat_map(|s| s.scores.iter().filter(|x| x.confirmation.is_some() || x.not_applicable.as_deref().is_some_and(|r| r.starts_with("significant but not confirmed"))).map(|x| x.kind)).collect();
+            let mut kinds: Vec<Kind> = steps
+                .iter()
+                .flat_map(|s| {
+                    s.scores
+                        .iter()
+                        .filter(|x| {
+                            x.confirmation.is_some()
+                                || x.not_applicable
+                                    .as_deref()
+                                    .is_some_and(|r| r.starts_with("significant but not confirmed"))
+                        })
+                        .map(|x| x.kind)
+                })
+                .collect();
             kinds.sort_by_key(|k| Kind::ALL.iter().position(|x| x == k));
             kinds.dedup();
             kinds
@@ -810,7 +917,15 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
                 let mut trial: Vec<Kind> = accepted.clone();
                 trial[index] = alternative;
                 let weights = current.channel_weights();
-                let Ok(seeded) = fit_candidate(data, &without_effect(kind, &params, start), &trial[..index].iter().chain(&trial[index + 1..]).copied().collect::<Vec<_>>(), alternative, options) else { continue };
+                let Ok(seeded) = fit_candidate(
+                    data,
+                    &without_effect(kind, &params, start),
+                    &trial[..index].iter().chain(&trial[index + 1..]).copied().collect::<Vec<_>>(),
+                    alternative,
+                    options,
+                ) else {
+                    continue;
+                };
                 let (refined, refined_fit, _) = refine(data, seeded, &trial, &weights, options.max_iterations);
                 if candidates::admissible(&refined, data).is_err() {
                     continue;
@@ -830,7 +945,10 @@ pub fn select_judged(data: &EquationData, start: &ParameterSet, options: &Select
         }
     }
     for (from, to) in &swapped {
-        removed.push((*from, format!("replaced by {} in the final model, which then predicts significantly better", to.name())));
+        removed.push((
+            *from,
+            format!("replaced by {} in the final model, which then predicts significantly better", to.name()),
+        ));
     }
 
     // A last fit with weights from the final residual, so the covariance reflects the final
@@ -898,8 +1016,20 @@ fn search_pair(
                 let mut others = accepted_columns.clone();
                 others.extend(other.columns.iter().cloned());
                 let effect = effect_vector(instance, beta, &current.channels);
-                let chi2 = robust_chi2(&current.channels, &others, &effect, &joint.residual, &joint.residual, weights, &joint.tau);
-                let size = contribution(instance, beta, &current.channels).iter().zip(noise).map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 }).fold(0.0, f64::max);
+                let chi2 = robust_chi2(
+                    &current.channels,
+                    &others,
+                    &effect,
+                    &joint.residual,
+                    &joint.residual,
+                    weights,
+                    &joint.tau,
+                );
+                let size = contribution(instance, beta, &current.channels)
+                    .iter()
+                    .zip(noise)
+                    .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
+                    .fold(0.0, f64::max);
                 let p = chi_squared_sf(chi2, instance.parameter_count() as f64);
                 if !(p < level) || size < options.min_effect_to_noise {
                     ok = false;
@@ -938,7 +1068,13 @@ fn search_pair(
 /// The equation-error fit of the model with the accepted effects at `params` (their
 /// increments fitted but not applied) and the effects' reported parameters, with standard
 /// deviations from the covariance of the increments.
-pub fn final_fit(data: &EquationData, start: &ParameterSet, params: &ParameterSet, accepted: &[Kind], weights: &[f64]) -> (Fit, Vec<Found>) {
+pub fn final_fit(
+    data: &EquationData,
+    start: &ParameterSet,
+    params: &ParameterSet,
+    accepted: &[Kind],
+    weights: &[f64],
+) -> (Fit, Vec<Found>) {
     let channels = model_channels(data, params);
     let (columns, instances) = refine_columns(data, params, &channels, accepted, weights);
     let result = fit(&channels, &columns, &[], weights);
@@ -947,7 +1083,10 @@ pub fn final_fit(data: &EquationData, start: &ParameterSet, params: &ParameterSe
     for instance in &instances {
         let k = instance.columns.len();
         let sigma: Vec<f64> = (offset..offset + k).map(|i| result.covariance[(i, i)].max(0.0).sqrt()).collect();
-        found.push(Found { kind: instance.kind, parameters: candidates::report(instance.kind, start, params, &sigma, data) });
+        found.push(Found {
+            kind: instance.kind,
+            parameters: candidates::report(instance.kind, start, params, &sigma, data),
+        });
         offset += k;
     }
     (result, found)
@@ -1007,13 +1146,23 @@ mod tests {
 
     #[test]
     fn confirmed_candidates_the_chosen_effect_does_not_beat_are_reported_as_equally_consistent() {
-        let config = TruthConfig { duration: 30.0, effects: vec![Effect::Unbalance { amplitude: 3000.0, phase: 0.4 }], seed: 6, ..TruthConfig::default() };
+        let config = TruthConfig {
+            duration: 30.0,
+            effects: vec![Effect::Unbalance { amplitude: 3000.0, phase: 0.4 }],
+            seed: 6,
+            ..TruthConfig::default()
+        };
         let start = config.plant.starting_parameters();
         let data = prepare(&simulate(&config).log, &start, &EquationOptions::default()).unwrap();
         let options = SelectionOptions { max_effects: 1, ..SelectionOptions::default() };
         let undecided = select_judged(&data, &start, &options, &mut Undecided);
         let chosen = undecided.steps[0].chosen.expect("an effect is chosen");
-        let significant: Vec<Kind> = undecided.steps[0].scores.iter().filter(|s| s.confirmation.is_some() && s.kind != chosen).map(|s| s.kind).collect();
+        let significant: Vec<Kind> = undecided.steps[0]
+            .scores
+            .iter()
+            .filter(|s| s.confirmation.is_some() && s.kind != chosen)
+            .map(|s| s.kind)
+            .collect();
         assert!(!significant.is_empty(), "the test needs a second confirmed candidate");
         let mut alike = undecided.equally_consistent(chosen);
         alike.sort_by_key(|k| k.name());

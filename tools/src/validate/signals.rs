@@ -122,7 +122,8 @@ pub fn torque_noise_sigma(torque: &[f64], positions: &[&[f64]]) -> f64 {
     }
     let target: Vec<f64> = torque[rows.clone()].to_vec();
     let (beta, _) = weighted_least_squares(&columns, &target, &vec![1.0; target.len()]);
-    let remainder: Vec<f64> = (0..target.len()).map(|i| target[i] - columns.iter().zip(&beta).map(|(c, b)| b * c[i]).sum::<f64>()).collect();
+    let remainder: Vec<f64> =
+        (0..target.len()).map(|i| target[i] - columns.iter().zip(&beta).map(|(c, b)| b * c[i]).sum::<f64>()).collect();
     if remainder.iter().all(|r| r.is_finite()) {
         own.min(noise_sigma(&remainder))
     } else {
@@ -207,7 +208,12 @@ pub fn weighted_least_squares(columns: &[Vec<f64>], y: &[f64], weights: &[f64]) 
             while i < runs[a].len() && j < runs[b].len() {
                 let (start, end) = (runs[a][i].0.max(runs[b][j].0), runs[a][i].1.min(runs[b][j].1));
                 if start < end {
-                    s += columns[a][start..end].iter().zip(&columns[b][start..end]).zip(&weights[start..end]).map(|((x, z), w)| w * x * z).sum::<f64>();
+                    s += columns[a][start..end]
+                        .iter()
+                        .zip(&columns[b][start..end])
+                        .zip(&weights[start..end])
+                        .map(|((x, z), w)| w * x * z)
+                        .sum::<f64>();
                 }
                 if runs[a][i].1 <= runs[b][j].1 {
                     i += 1;
@@ -218,7 +224,17 @@ pub fn weighted_least_squares(columns: &[Vec<f64>], y: &[f64], weights: &[f64]) 
             gram[(a, b)] = s;
             gram[(b, a)] = s;
         }
-        rhs[a] = runs[a].iter().map(|&(start, end)| columns[a][start..end].iter().zip(&y[start..end]).zip(&weights[start..end]).map(|((x, v), w)| w * x * v).sum::<f64>()).sum();
+        rhs[a] = runs[a]
+            .iter()
+            .map(|&(start, end)| {
+                columns[a][start..end]
+                    .iter()
+                    .zip(&y[start..end])
+                    .zip(&weights[start..end])
+                    .map(|((x, v), w)| w * x * v)
+                    .sum::<f64>()
+            })
+            .sum();
     }
     let scale: Vec<f64> = (0..k).map(|a| if gram[(a, a)] > 0.0 { 1.0 / gram[(a, a)].sqrt() } else { 0.0 }).collect();
     let scaled = DMatrix::from_fn(k, k, |a, b| gram[(a, b)] * scale[a] * scale[b]);

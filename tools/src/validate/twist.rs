@@ -108,7 +108,8 @@ impl TwistAnalysis {
     /// with its standard deviation).
     pub fn rigid_stiffness(&self) -> Option<(f64, f64)> {
         let c = self.compliance();
-        (self.structure != Structure::TwoMass && c.significant && c.value > 0.0).then(|| (1.0 / c.value, c.sd / (c.value * c.value)))
+        (self.structure != Structure::TwoMass && c.significant && c.value > 0.0)
+            .then(|| (1.0 / c.value, c.sd / (c.value * c.value)))
     }
 }
 
@@ -122,9 +123,18 @@ pub fn motor_side_shaft_torque(data: &EquationData, params: &ParameterSet) -> Ve
     let scale = params.value(names::TORQUE_CONSTANT_SCALE);
     let delay = params.value(names::DELAY);
     let torque = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
-    let friction = data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
+    let friction =
+        data.smooth(&data.motor_vel_inner.iter().map(|&v| static_friction_curve(params, v)).collect::<Vec<_>>());
     let cogging = cogging_torque(data, params);
-    (0..data.len()).map(|i| scale * torque[i] - motor_inertia * data.motor_acc[i] - viscous * data.motor_vel[i] - friction[i] - cogging[i]).collect()
+    (0..data.len())
+        .map(|i| {
+            scale * torque[i]
+                - motor_inertia * data.motor_acc[i]
+                - viscous * data.motor_vel[i]
+                - friction[i]
+                - cogging[i]
+        })
+        .collect()
 }
 
 /// Analyses the twist of a two-encoder log with a parameter set (normally the corrected one,
@@ -163,7 +173,11 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
     // (name, unit, columns) per term; the constant (encoder offsets) is a nuisance.
     let groups: [(&'static str, &'static str, std::ops::Range<usize>); 4] = [
         ("encoder timing skew (load encoder behind motor encoder)", "s", 1..2),
-        (if two_mass { "path compliance change (1/K less the model's 1/K)" } else { "path compliance 1/K" }, "rad/(N m)", 2..3),
+        (
+            if two_mass { "path compliance change (1/K less the model's 1/K)" } else { "path compliance 1/K" },
+            "rad/(N m)",
+            2..3,
+        ),
         (if two_mass { "lost motion change" } else { "lost motion (backlash width)" }, "rad", 3..4),
         ("position-dependent twist (transmission error, encoder eccentricity): RMS", "rad", 4..7),
     ];
@@ -187,16 +201,27 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
         .iter()
         .map(|(name, unit, range)| {
             let k = range.len();
-            let block = nalgebra::DMatrix::from_fn(k, k, |a, b| inverse[(range.start + a, range.start + b)] * variance * correlation_time);
+            let block = nalgebra::DMatrix::from_fn(k, k, |a, b| {
+                inverse[(range.start + a, range.start + b)] * variance * correlation_time
+            });
             let coefficients = nalgebra::DVector::from_fn(k, |a, _| beta[range.start + a]);
             // Scaled to unit variances first, so the pseudo-inverse's tolerance is relative.
-            let scale: Vec<f64> = (0..k).map(|a| if block[(a, a)] > 0.0 { 1.0 / block[(a, a)].sqrt() } else { 0.0 }).collect();
+            let scale: Vec<f64> =
+                (0..k).map(|a| if block[(a, a)] > 0.0 { 1.0 / block[(a, a)].sqrt() } else { 0.0 }).collect();
             let correlation = nalgebra::DMatrix::from_fn(k, k, |a, b| block[(a, b)] * scale[a] * scale[b]);
             let standardised = nalgebra::DVector::from_fn(k, |a, _| coefficients[a] * scale[a]);
-            let wald = correlation.pseudo_inverse(1e-10).map(|inv| (standardised.transpose() * inv * &standardised)[(0, 0)]).unwrap_or(0.0);
+            let wald = correlation
+                .pseudo_inverse(1e-10)
+                .map(|inv| (standardised.transpose() * inv * &standardised)[(0, 0)])
+                .unwrap_or(0.0);
             let rms = centred_rms(&part(&beta, range.clone(), 0));
-            let significant = crate::dsp::distributions::chi_squared_sf(wald, k as f64) < level && rms >= options.min_effect_to_noise * noise;
-            let (value, sd) = if k == 1 { (beta[range.start], block[(0, 0)].sqrt()) } else { (rms, rms / wald.max(f64::MIN_POSITIVE).sqrt()) };
+            let significant = crate::dsp::distributions::chi_squared_sf(wald, k as f64) < level
+                && rms >= options.min_effect_to_noise * noise;
+            let (value, sd) = if k == 1 {
+                (beta[range.start], block[(0, 0)].sqrt())
+            } else {
+                (rms, rms / wald.max(f64::MIN_POSITIVE).sqrt())
+            };
             TwistTerm { name, unit, value, sd, rms, significant }
         })
         .collect();
