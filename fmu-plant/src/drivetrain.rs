@@ -34,7 +34,7 @@
 
 use std::sync::Arc;
 
-use fmu_runtime::linear::zoh;
+use lti::zoh;
 use fmu_runtime::state::{StateError, StateReader, StateWriter};
 use nalgebra::{DMatrix, SMatrix, SVector};
 

@@ -5,7 +5,7 @@ use std::ffi::{CStr, CString};
 use std::ptr::{null, null_mut};
 
 use super::*;
-use crate::import::LoggerCallbacks;
+use fmu_import::LoggerCallbacks;
 use crate::state::{StateError, StateReader, StateWriter};
 use crate::variables::{EnumerationType, Values};
 use crate::{declare_variables, DefaultExperiment};
@@ -621,7 +621,7 @@ fn instances_run_independently_on_several_threads() {
 fn the_model_description_is_valid_and_declares_feedthrough() {
     crate::xml::validate::<TestModel>().unwrap();
     let xml = crate::xml::model_description::<TestModel>();
-    let md = crate::import::ModelDescription::parse(&xml).unwrap();
+    let md = fmu_import::ModelDescription::parse(&xml).unwrap();
     assert_eq!(md.guid, crate::xml::guid::<TestModel>());
     let echo = md.variables.iter().position(|v| v.name == "u_echo").unwrap() + 1;
     let input = md.variables.iter().position(|v| v.name == "u").unwrap() + 1;

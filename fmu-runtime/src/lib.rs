@@ -1,15 +1,13 @@
-//! The shared FMU runtime: the FMI 2.0 co-simulation C API implemented once for every model
-//! of this project, the importer a master uses to load `.fmu` files through that same C API,
-//! and the linear-system numerics the models share.
+//! The exporter's side of the FMI 2.0 co-simulation C API, written once for every model of this
+//! project: the legal-state table, the variable tables that drive get/set, start values and the
+//! generated `modelDescription.xml`, FMU states and parameter files.
 //!
-//! This crate is the only place with `unsafe` code: it is where C meets Rust. Model crates
-//! implement [`model::Model`] in safe Rust and call [`export_fmi2!`].
+//! With the importer (`fmu-import`) this is where C meets Rust, the only crates with `unsafe`.
+//! Model crates implement [`model::Model`] in safe Rust and call [`export_fmi2!`].
 
 pub mod exports;
-pub mod ffi;
-pub mod import;
+pub use fmi2_ffi as ffi;
 pub mod instance;
-pub mod linear;
 pub mod model;
 pub mod package;
 pub mod params;

@@ -1,15 +1,5 @@
-//! Describes each FMU a model crate ships and writes `.fmu` archives deterministically.
-//!
-//! A model crate lists its FMUs as [`FmuSpec`]s; the packaging tool builds the shared library
-//! and calls [`write_fmu`]. The archive is byte-for-byte reproducible: entries are sorted, every
-//! timestamp is 1980-01-01 00:00 (the zip epoch), permissions are fixed, and nothing about the
-//! build machine (paths, user, clock) goes in.
-
-use std::io::Write;
-use std::path::Path;
-
-use zip::write::SimpleFileOptions;
-use zip::{CompressionMethod, DateTime, ZipWriter};
+//! Describes each FMU a model crate ships: its identifier, the library that holds it, its model
+//! description and its resources. The build task (`xtask`) turns these into `.fmu` archives.
 
 use crate::model::Model;
 use crate::variables::{Causality, Kind, VariableSet};
@@ -66,34 +56,4 @@ pub fn default_parameter_file<M: Model>() -> String {
         out.push_str(&format!("{} = {}  # {}{}\n", var.name, value, unit, var.description));
     }
     out
-}
-
-/// Writes one `.fmu`: `modelDescription.xml`, `binaries/linux64/<id>.so` and the resources.
-pub fn write_fmu(spec: &FmuSpec, shared_library: &Path, output: &Path) -> Result<(), String> {
-    (spec.validate)().map_err(|e| format!("{}: invalid variable table: {e}", spec.model_identifier))?;
-    let binary = std::fs::read(shared_library).map_err(|e| format!("cannot read {}: {e}", shared_library.display()))?;
-    let mut entries: Vec<(String, Vec<u8>, u32)> = vec![
-        ("modelDescription.xml".to_string(), (spec.model_description)().into_bytes(), 0o644),
-        (format!("binaries/linux64/{}.so", spec.model_identifier), binary, 0o755),
-    ];
-    for (path, bytes) in (spec.resources)() {
-        if path.contains("..") || path.starts_with('/') {
-            return Err(format!("resource path '{path}' must be relative and stay inside resources/"));
-        }
-        entries.push((format!("resources/{path}"), bytes, 0o644));
-    }
-    entries.sort_by(|a, b| a.0.cmp(&b.0));
-    let file = std::fs::File::create(output).map_err(|e| format!("cannot create {}: {e}", output.display()))?;
-    let mut zip = ZipWriter::new(file);
-    for (path, bytes, mode) in entries {
-        let options = SimpleFileOptions::default()
-            .compression_method(CompressionMethod::Deflated)
-            .compression_level(Some(6))
-            .last_modified_time(DateTime::default())
-            .unix_permissions(mode);
-        zip.start_file(path.as_str(), options).map_err(|e| format!("zip: {e}"))?;
-        zip.write_all(&bytes).map_err(|e| format!("zip: {e}"))?;
-    }
-    zip.finish().map_err(|e| format!("zip: {e}"))?;
-    Ok(())
 }

@@ -9,7 +9,7 @@
 //! `w = L xi` with `L L' = Qd` and `xi` standard normal reproduces the continuous process at the
 //! sample instants whatever `h` is, so the statistics do not depend on the step size. This is
 //! the closed form of Van Loan's integral for a diagonal `A`; the generic
-//! `fmu_runtime::linear::van_loan` gives the same matrices for moderate `p h` (a test checks
+//! `lti::van_loan` gives the same matrices for moderate `p h` (a test checks
 //! it), but it exponentiates `+p h` internally: for the fastest Davenport mode at 25 m/s and a
 //! 100 ms step `p h` is about 275, so its block exponential holds `e^275` and the cross terms
 //! lose every digit (and overflow beyond 0.25 s steps), where the closed form stays exact.
@@ -211,7 +211,7 @@ impl GustGenerator {
         let (factor, rank) = pivoted_cholesky(&qd);
         let l = DMatrix::from_row_slice(n, rank, &factor);
         let ad = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(decay));
-        let p = fmu_runtime::linear::lyapunov_discrete(&ad, &(&l * l.transpose()))
+        let p = lti::lyapunov_discrete(&ad, &(&l * l.transpose()))
             .expect("a stable discrete A has a unique Lyapunov solution");
         let c = self.filter.c();
         (&c * p * c.transpose())[(0, 0)]
@@ -383,7 +383,7 @@ mod tests {
         let q = DMatrix::from_element(1, 1, NOISE_INTENSITY);
         for h in [1e-3, 1e-2] {
             let (ad, qd) = g.discretise(h);
-            let (ad_vl, qd_vl) = fmu_runtime::linear::van_loan(&f.a(), &f.b(), &q, h);
+            let (ad_vl, qd_vl) = lti::van_loan(&f.a(), &f.b(), &q, h);
             assert!((&ad - &ad_vl).abs().max() < 1e-10, "Ad at h = {h}");
             let scale = qd.abs().max();
             assert!((&qd - &qd_vl).abs().max() < 1e-8 * scale, "Qd at h = {h}");

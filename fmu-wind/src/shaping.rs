@@ -221,11 +221,11 @@ impl ShapingFilter {
         self.magnitude_squared(omega)
     }
 
-    /// The stationary state covariance: `fmu_runtime::linear::lyapunov_continuous` of
+    /// The stationary state covariance: `lti::lyapunov_continuous` of
     /// `(A, B B' / 2)`.
     pub fn stationary_covariance(&self) -> DMatrix<f64> {
         let w = self.b() * self.b().transpose() * NOISE_INTENSITY;
-        fmu_runtime::linear::lyapunov_continuous(&self.a(), &w)
+        lti::lyapunov_continuous(&self.a(), &w)
             .expect("a stable modal A has a unique Lyapunov solution")
     }
 

@@ -4,7 +4,7 @@ The Rust main job writes each scenario's command table, configuration and trace
 (`antenna --trace DIR`); the fmpy master (coupled_master.py) runs the same scenario from those
 files through fmpy and the same packaged FMUs. Both use the same fixed-step Jacobi scheme, so
 the traces must agree to 1e-9 of each signal's scale. (Speed is measured by the benchmark,
-`cargo run --release -p antenna-tools --bin bench -- --fmpy`, not by a timed test.)"""
+`cargo run --release -p antenna-cli --bin bench -- --fmpy`, not by a timed test.)"""
 
 import os
 import subprocess
@@ -22,7 +22,7 @@ ROOT = coupled_master.ROOT
 def rust_scenario(tmp_path, name):
     """Runs one scenario with the Rust master and returns the folder with its files."""
     subprocess.run(
-        ["cargo", "run", "--release", "--quiet", "-p", "antenna-tools", "--bin", "antenna", "--",
+        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
          "--no-build", "--only", name, "--trace", str(tmp_path), "--out", str(tmp_path / "report")],
         cwd=ROOT, check=True, capture_output=True,
     )

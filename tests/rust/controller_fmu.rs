@@ -15,7 +15,7 @@
 //!   checked bitwise against a 1 ms run fed the inputs the samples see.
 
 use antenna_tests::{expect_error, initialized, open, output_bits, real, real_inputs, set_reals, test_signal, vr};
-use fmu_runtime::import::{Fmu, ImportError, Instance};
+use fmu_import::{Fmu, ImportError, Instance};
 
 const CONTROLLERS: [&str; 2] = ["AzimuthController", "ElevationController"];
 

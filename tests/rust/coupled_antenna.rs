@@ -1,5 +1,5 @@
 //! The coupled antenna (two plants, two controllers and the wind unit, loaded from their packaged
-//! `.fmu` files through the C ABI by `antenna_tools::antenna`) against the seed paper's
+//! `.fmu` files through the C ABI by `antenna_sim`) against the seed paper's
 //! requirements, and the controller features of Fig. 3 switched off one at a time on the plant
 //! with its default friction and backlash:
 //!
@@ -16,22 +16,22 @@
 //! The feature comparisons run in calm air, so that the difference is the feature's alone. Every
 //! measured figure is printed (`--nocapture`); docs/coupled-antenna-tests.md quotes them.
 
-use antenna_tools::antenna::report::{run_scenario, Outcome};
-use antenna_tools::antenna::scenario::{
+use antenna_sim::report::{run_scenario, Outcome};
+use antenna_sim::scenario::{
     requirement_scenarios, step_table, Analysis, Requirement, JITTER_LIMIT_ARCSEC, SETTLE_HOLD_S, TABLE_INTERVAL_S,
 };
-use antenna_tools::antenna::{
+use antenna_sim::{
     AntennaConfig, CommandPoint, CommandTable, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace,
 };
-use fmu_runtime::import::{Fmu, Instance};
+use fmu_import::{Fmu, Instance};
 
 const ARCSEC_PER_DEG: f64 = 3600.0;
 
 fn fmus() -> FmuSet {
-    let directory = antenna_tools::package::fmu_directory();
+    let directory = antenna_fmus::fmu_directory();
     FmuSet::open(&directory).unwrap_or_else(|e| {
         panic!(
-            "cannot open the FMUs in {}: {e}; package them first (cargo run --release -p antenna-tools --bin package)",
+            "cannot open the FMUs in {}: {e}; package them first (cargo run --release -p xtask --bin package)",
             directory.display()
         )
     })

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use std::io::Read;
 
 use antenna_tests::packaged_fmus;
-use fmu_runtime::import::{Fmu, ModelDescription, ALL_FUNCTIONS};
+use fmu_import::{Fmu, ModelDescription, ALL_FUNCTIONS};
 
 /// The 44 functions of `fmi2Functions.h` (FMI 2.0.x), typed out here from the standard rather
 /// than taken from the importer, so that a gap in either list fails this test.
@@ -110,7 +110,7 @@ fn the_importer_checks_the_full_list_of_fmi2_functions() {
     let standard: BTreeSet<&str> = FMI2_FUNCTIONS.into_iter().collect();
     let importer: BTreeSet<&str> = ALL_FUNCTIONS.into_iter().collect();
     assert_eq!(standard.len(), 44, "the list above has duplicates");
-    assert_eq!(importer, standard, "fmu_runtime::import::ALL_FUNCTIONS is not the FMI 2.0 function list");
+    assert_eq!(importer, standard, "fmu_import::ALL_FUNCTIONS is not the FMI 2.0 function list");
 }
 
 #[test]

@@ -5,7 +5,7 @@
 //! (they need `unsafe`, which only that crate may contain).
 
 use antenna_tests::{expect_error, initialized, open, output_bits, real, real_inputs, set_reals, vr, PLANTS};
-use fmu_runtime::import::{ImportError, Instance};
+use fmu_import::{ImportError, Instance};
 
 #[test]
 fn do_step_before_initialisation_is_an_error_with_a_logged_message() {

@@ -10,8 +10,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-use fmu_runtime::ffi::Status;
-use fmu_runtime::import::{Fmu, ImportError, Instance};
+use fmi2_ffi::Status;
+use fmu_import::{Fmu, ImportError, Instance};
 
 const CHILD: &str = "ANTENNA_TESTS_SILENCE_CHILD";
 const REPORT: &str = "ANTENNA_TESTS_SILENCE_REPORT";

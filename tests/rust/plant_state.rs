@@ -7,7 +7,7 @@
 //! fmi2Error recovers the run bitwise.
 
 use antenna_tests::{expect_error, initialized, open, output_bits, real_inputs, set_reals, test_signal, vr, PLANTS};
-use fmu_runtime::import::{Fmu, Instance};
+use fmu_import::{Fmu, Instance};
 
 /// Inputs at a millisecond index that reverse the drive every second with some noise.
 fn inputs(plant: &str, ms: usize) -> Vec<(&'static str, f64)> {

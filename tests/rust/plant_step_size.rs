@@ -15,7 +15,7 @@
 //! Run with `cargo test --release -p antenna-tests --test plant_step_size -- --nocapture`.
 
 use antenna_tests::{error_relative_to_range, open, reals, set_reals, test_signal};
-use fmu_runtime::import::{Fmu, Instance};
+use fmu_import::{Fmu, Instance};
 
 /// Bounds of docs/plant-model.md, section 8.4, for currents and torques as a fraction of their
 /// range.

@@ -4,7 +4,7 @@
 //! concurrently and must give bitwise the results they give one after another.
 
 use antenna_tests::{initialized, open, output_bits, set_reals, test_signal, PLANTS};
-use fmu_runtime::import::{Fmu, Instance};
+use fmu_import::{Fmu, Instance};
 
 fn inputs(plant: &str, ms: usize, seed: u64) -> Vec<(&'static str, f64)> {
     let common = 1.5 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.5 * test_signal(ms as u64, seed);

@@ -1,9 +1,9 @@
 //! The closed velocity loop identified on the packaged controller and plant FMUs (velocity
-//! mode, white-noise command on a constant speed, H1; `antenna_tools::antenna::bode`, the
+//! mode, white-noise command on a constant speed, H1; `antenna_sim::bode`, the
 //! experiment behind docs/figures/velocity-loop-bode-*.png) against the analytic closed loop of
 //! `fmu_controller::linear` and the seed paper's 10-15 Hz.
 
-use antenna_tools::antenna::bode::{identify_velocity_loop, Axis, VelocityBode, VelocityBodeConfig};
+use antenna_sim::bode::{identify_velocity_loop, Axis, VelocityBode, VelocityBodeConfig};
 
 /// Compared up to here, Hz: past the anti-resonance (19-22 Hz) and the resonance (about
 /// 35 Hz), and far enough below the 500 Hz Nyquist frequency that the aliases the analytic
@@ -14,9 +14,9 @@ const MAX_FREQUENCY_HZ: f64 = 100.0;
 const PAPER_BANDWIDTH_HZ: (f64, f64) = (10.0, 15.0);
 
 fn identify(axis: Axis) -> VelocityBode {
-    let directory = antenna_tools::package::fmu_directory();
+    let directory = antenna_fmus::fmu_directory();
     let result = identify_velocity_loop(&directory, &VelocityBodeConfig::paper(axis)).unwrap_or_else(|e| {
-        panic!("{}: {e}; package the FMUs first (cargo run --release -p antenna-tools --bin package)", axis.name())
+        panic!("{}: {e}; package the FMUs first (cargo run --release -p xtask --bin package)", axis.name())
     });
     assert!(
         result.linear_regime_held(),

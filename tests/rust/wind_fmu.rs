@@ -8,7 +8,7 @@
 //!
 //! The references are computed here or come from the physics crate's analytic functions
 //! (Lyapunov variances of the continuous and the discretised model, modal autocovariances);
-//! every record under test is the FMU's, none comes from the crate's generator. The spectra use the project's Welch estimator (`antenna_tools::dsp`, Hann, 50 %
+//! every record under test is the FMU's, none comes from the crate's generator. The spectra use the project's Welch estimator (`antenna_dsp`, Hann, 50 %
 //! overlap, no detrending because the gust's mean is known to be zero) and compare each
 //! log-frequency band with the estimator's exact expectation, window leakage and aliasing
 //! included. The number of bands outside their confidence interval is then binomial, and its
@@ -23,12 +23,12 @@ use std::io::Read;
 use std::time::Instant;
 
 use antenna_tests::{fmu_path, open, real, reals, set_reals};
-use antenna_tools::dsp::{
+use antenna_dsp::{
     chi_squared_quantile, expected_welch_psd, log_band_average, standard_normal_quantile, welch_psd, whiteness_bound,
     BandSpectrum, ChiSquaredInterval, Detrend, WelchConfig,
 };
-use fmu_runtime::ffi::Status;
-use fmu_runtime::import::{Fmu, ImportError, Instance};
+use fmi2_ffi::Status;
+use fmu_import::{Fmu, ImportError, Instance};
 use fmu_wind::analysis::{autocovariance_weights, sample_variance_std};
 use fmu_wind::davenport::Davenport;
 use fmu_wind::gust::GustGenerator;

@@ -4,18 +4,18 @@
 
 use std::path::PathBuf;
 
-use fmu_runtime::ffi::Status;
-use fmu_runtime::import::{Fmu, ImportError, Instance};
+use fmi2_ffi::Status;
+use fmu_import::{Fmu, ImportError, Instance};
 
 /// The two plant FMUs the plant tests run on.
 pub const PLANTS: [&str; 2] = ["AzimuthPlant", "ElevationPlant"];
 
-const PACKAGE_HINT: &str = "package the FMUs first (cargo run --release -p antenna-tools --bin package)";
+const PACKAGE_HINT: &str = "package the FMUs first (cargo run --release -p xtask --bin package)";
 
 /// The packaged FMU with this model identifier. The test command packages before testing; a
 /// missing file is a failure with instructions, never a silent skip.
 pub fn fmu_path(model_identifier: &str) -> PathBuf {
-    let path = antenna_tools::package::fmu_path(model_identifier);
+    let path = antenna_fmus::fmu_path(model_identifier);
     assert!(path.is_file(), "{} is missing: {PACKAGE_HINT}", path.display());
     path
 }
@@ -23,7 +23,7 @@ pub fn fmu_path(model_identifier: &str) -> PathBuf {
 /// Every `.fmu` in the packaging folder, sorted, so that FMUs added later are covered by the
 /// tests that apply to all of them. Fails if there is none.
 pub fn packaged_fmus() -> Vec<PathBuf> {
-    let directory = antenna_tools::package::fmu_directory();
+    let directory = antenna_fmus::fmu_directory();
     let entries = std::fs::read_dir(&directory)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}; {PACKAGE_HINT}", directory.display()));
     let mut paths: Vec<PathBuf> = entries

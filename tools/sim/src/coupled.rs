@@ -1,0 +1,431 @@
+//! The coupled antenna: two plants, two controllers and the wind unit, loaded from their
+//! packaged `.fmu` files through the C ABI and stepped together by a fixed-step master.
+//!
+//! Connections, all exchanged at every communication point `t_k` (Jacobi: every unit steps from
+//! the values at `t_k`; there is no algebraic loop, because only the wind unit has direct
+//! feedthrough and its inputs come from the plants' states):
+//!
+//! ```text
+//! command table ──► controllers ──current commands──► plants ──encoders, motor speeds──► controllers
+//!                                     wind ◄── true pointing (az, el) ── plants
+//!                                     wind ──torques about the axes──► plants (load.disturbance_torque)
+//!                         elevation plant ──true elevation──► azimuth plant (load inertia)
+//! ```
+
+use std::path::Path;
+
+use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
+
+use super::command::CommandTable;
+
+/// A value for a parameter set by name.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParameterValue {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+    Text(String),
+}
+
+/// Parameter overrides for one unit, applied by variable name before initialisation.
+pub type Overrides = Vec<(String, ParameterValue)>;
+
+/// The wind the antenna stands in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindCondition {
+    /// Mean speed at 10 m, m/s; 0 means no wind at all.
+    pub mean_speed_m_s: f64,
+    /// Roughness length, m (sets the turbulence intensity).
+    pub roughness_length_m: f64,
+    /// Where the wind comes from, deg from north.
+    pub direction_deg: f64,
+    pub seed: i32,
+}
+
+impl WindCondition {
+    pub const CALM: WindCondition =
+        WindCondition { mean_speed_m_s: 0.0, roughness_length_m: 0.026, direction_deg: 0.0, seed: 1 };
+}
+
+/// Everything a coupled run needs besides the command table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AntennaConfig {
+    /// Communication step, s. The controllers keep their own sample time (1 ms by default, a
+    /// parameter): a step that is a multiple of it runs several samples per step on held
+    /// measurements, as docs/controller.md describes; the master never retunes them.
+    pub step_s: f64,
+    pub wind: WindCondition,
+    pub azimuth_plant: Overrides,
+    pub elevation_plant: Overrides,
+    pub azimuth_controller: Overrides,
+    pub elevation_controller: Overrides,
+}
+
+impl Default for AntennaConfig {
+    fn default() -> Self {
+        AntennaConfig {
+            step_s: 1e-3,
+            wind: WindCondition::CALM,
+            azimuth_plant: Vec::new(),
+            elevation_plant: Vec::new(),
+            azimuth_controller: Vec::new(),
+            elevation_controller: Vec::new(),
+        }
+    }
+}
+
+/// The five packaged FMUs.
+pub struct FmuSet {
+    pub azimuth_plant: Fmu,
+    pub elevation_plant: Fmu,
+    pub azimuth_controller: Fmu,
+    pub elevation_controller: Fmu,
+    pub wind: Fmu,
+}
+
+impl FmuSet {
+    /// Opens the FMUs in a folder (the packaging tool writes them to `target/fmu/`).
+    pub fn open(directory: &Path) -> Result<FmuSet, ImportError> {
+        let open = |name: &str| Fmu::open(directory.join(format!("{name}.fmu")));
+        Ok(FmuSet {
+            azimuth_plant: open("AzimuthPlant")?,
+            elevation_plant: open("ElevationPlant")?,
+            azimuth_controller: open("AzimuthController")?,
+            elevation_controller: open("ElevationController")?,
+            wind: open("Wind")?,
+        })
+    }
+}
+
+/// Time series of one coupled run, one entry per communication point.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trace {
+    pub time_s: Vec<f64>,
+    pub command_azimuth_deg: Vec<f64>,
+    pub command_elevation_deg: Vec<f64>,
+    pub azimuth_deg: Vec<f64>,
+    pub elevation_deg: Vec<f64>,
+    pub encoder_azimuth_deg: Vec<f64>,
+    pub encoder_elevation_deg: Vec<f64>,
+    pub reference_azimuth_deg: Vec<f64>,
+    pub reference_elevation_deg: Vec<f64>,
+    pub wind_speed_m_s: Vec<f64>,
+    pub wind_torque_azimuth_nm: Vec<f64>,
+    pub wind_torque_elevation_nm: Vec<f64>,
+    pub current_azimuth_a: Vec<[f64; 2]>,
+    pub current_elevation_a: Vec<f64>,
+}
+
+impl Trace {
+    /// Pointing error on the sky, arcsec: `sqrt((d_az cos el)^2 + d_el^2)` of command minus
+    /// true position.
+    pub fn pointing_error_arcsec(&self) -> Vec<f64> {
+        (0..self.time_s.len())
+            .map(|k| {
+                let d_az = self.command_azimuth_deg[k] - self.azimuth_deg[k];
+                let d_el = self.command_elevation_deg[k] - self.elevation_deg[k];
+                let cross = d_az * self.elevation_deg[k].to_radians().cos();
+                (cross * cross + d_el * d_el).sqrt() * 3600.0
+            })
+            .collect()
+    }
+
+    /// The trace as CSV, every value with all its digits (for comparisons with other masters).
+    pub fn to_csv(&self) -> String {
+        let mut out = String::from(
+            "time_s,command_azimuth_deg,command_elevation_deg,azimuth_deg,elevation_deg,encoder_azimuth_deg,encoder_elevation_deg,reference_azimuth_deg,reference_elevation_deg,wind_speed_m_s,wind_torque_azimuth_nm,wind_torque_elevation_nm,current_azimuth_1_a,current_azimuth_2_a,current_elevation_a\n",
+        );
+        for k in 0..self.time_s.len() {
+            let row = [
+                self.time_s[k],
+                self.command_azimuth_deg[k],
+                self.command_elevation_deg[k],
+                self.azimuth_deg[k],
+                self.elevation_deg[k],
+                self.encoder_azimuth_deg[k],
+                self.encoder_elevation_deg[k],
+                self.reference_azimuth_deg[k],
+                self.reference_elevation_deg[k],
+                self.wind_speed_m_s[k],
+                self.wind_torque_azimuth_nm[k],
+                self.wind_torque_elevation_nm[k],
+                self.current_azimuth_a[k][0],
+                self.current_azimuth_a[k][1],
+                self.current_elevation_a[k],
+            ];
+            let cells: Vec<String> = row.iter().map(|x| format!("{x:e}")).collect();
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        out
+    }
+
+    fn reserve(&mut self, n: usize) {
+        for v in [
+            &mut self.time_s,
+            &mut self.command_azimuth_deg,
+            &mut self.command_elevation_deg,
+            &mut self.azimuth_deg,
+            &mut self.elevation_deg,
+            &mut self.encoder_azimuth_deg,
+            &mut self.encoder_elevation_deg,
+            &mut self.reference_azimuth_deg,
+            &mut self.reference_elevation_deg,
+            &mut self.wind_speed_m_s,
+            &mut self.wind_torque_azimuth_nm,
+            &mut self.wind_torque_elevation_nm,
+            &mut self.current_elevation_a,
+        ] {
+            v.reserve(n);
+        }
+        self.current_azimuth_a.reserve(n);
+    }
+}
+
+fn apply_overrides(
+    instance: &mut Instance,
+    description: &ModelDescription,
+    overrides: &Overrides,
+) -> Result<(), ImportError> {
+    for (name, value) in overrides {
+        let vr = description.vr(name)?;
+        match value {
+            ParameterValue::Real(x) => instance.set_real(&[vr], &[*x])?,
+            ParameterValue::Integer(i) => instance.set_integer(&[vr], &[*i])?,
+            ParameterValue::Boolean(b) => instance.set_boolean(&[vr], &[*b])?,
+            ParameterValue::Text(s) => instance.set_string(&[vr], &[s.as_str()])?,
+        };
+    }
+    Ok(())
+}
+
+/// Value references used at every step, looked up once by name.
+struct Ports {
+    az_plant_out: [u32; 6],
+    az_plant_in: [u32; 4],
+    el_plant_out: [u32; 4],
+    el_plant_in: [u32; 2],
+    az_ctrl_in: [u32; 5],
+    az_ctrl_out: [u32; 3],
+    el_ctrl_in: [u32; 4],
+    el_ctrl_out: [u32; 2],
+    wind_in: [u32; 2],
+    wind_out: [u32; 3],
+}
+
+impl Ports {
+    fn look_up(fmus: &FmuSet) -> Result<Ports, ImportError> {
+        fn vrs<const N: usize>(d: &ModelDescription, names: [&str; N]) -> Result<[u32; N], ImportError> {
+            let mut out = [0; N];
+            for (o, n) in out.iter_mut().zip(names) {
+                *o = d.vr(n)?;
+            }
+            Ok(out)
+        }
+        let ap = &fmus.azimuth_plant.description;
+        let ep = &fmus.elevation_plant.description;
+        let ac = &fmus.azimuth_controller.description;
+        let ec = &fmus.elevation_controller.description;
+        let w = &fmus.wind.description;
+        Ok(Ports {
+            az_plant_out: vrs(
+                ap,
+                [
+                    "axis.encoder_position",
+                    "axis.position",
+                    "motor1.speed",
+                    "motor2.speed",
+                    "motor1.current",
+                    "motor2.current",
+                ],
+            )?,
+            az_plant_in: vrs(
+                ap,
+                ["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"],
+            )?,
+            el_plant_out: vrs(ep, ["axis.encoder_position", "axis.position", "motor.speed", "motor.current"])?,
+            el_plant_in: vrs(ep, ["motor.current_command", "load.disturbance_torque"])?,
+            az_ctrl_in: vrs(
+                ac,
+                [
+                    "command.position",
+                    "command.velocity",
+                    "measured.position",
+                    "measured.motor1_speed",
+                    "measured.motor2_speed",
+                ],
+            )?,
+            az_ctrl_out: vrs(ac, ["motor1.current_command", "motor2.current_command", "status.reference_position"])?,
+            el_ctrl_in: vrs(ec, ["command.position", "command.velocity", "measured.position", "measured.motor_speed"])?,
+            el_ctrl_out: vrs(ec, ["motor.current_command", "status.reference_position"])?,
+            wind_in: vrs(w, ["antenna.azimuth", "antenna.elevation"])?,
+            wind_out: vrs(w, ["torque.azimuth", "torque.elevation", "wind.speed"])?,
+        })
+    }
+}
+
+/// The five instances of one antenna, initialised and ready to step.
+pub struct CoupledAntenna {
+    pub azimuth_plant: Instance,
+    pub elevation_plant: Instance,
+    pub azimuth_controller: Instance,
+    pub elevation_controller: Instance,
+    pub wind: Instance,
+    ports: Ports,
+    step_s: f64,
+    start_time_s: f64,
+    steps_done: u64,
+    /// 1, or 0 for a calm day (the wind unit cannot be set to zero speed).
+    wind_scale: f64,
+}
+
+impl CoupledAntenna {
+    /// Instantiates and initialises every unit, the antenna at rest at the table's first point.
+    pub fn new(fmus: &FmuSet, config: &AntennaConfig, table: &CommandTable) -> Result<CoupledAntenna, ImportError> {
+        let start = table.at(table.time_span().0);
+        let ports = Ports::look_up(fmus)?;
+        let real = |d: &ModelDescription, name: &str, value: f64| -> Result<(String, ParameterValue), ImportError> {
+            d.vr(name)?;
+            Ok((name.to_string(), ParameterValue::Real(value)))
+        };
+        let mut az_plant_overrides =
+            vec![real(&fmus.azimuth_plant.description, "initial_position", start.azimuth_deg)?];
+        az_plant_overrides.push(real(&fmus.azimuth_plant.description, "elevation", start.elevation_deg)?);
+        az_plant_overrides.extend(config.azimuth_plant.iter().cloned());
+        let mut el_plant_overrides =
+            vec![real(&fmus.elevation_plant.description, "initial_position", start.elevation_deg)?];
+        el_plant_overrides.extend(config.elevation_plant.iter().cloned());
+        let mut az_ctrl_overrides = vec![
+            real(&fmus.azimuth_controller.description, "command.position", start.azimuth_deg)?,
+            real(&fmus.azimuth_controller.description, "measured.position", start.azimuth_deg)?,
+        ];
+        az_ctrl_overrides.extend(config.azimuth_controller.iter().cloned());
+        let mut el_ctrl_overrides = vec![
+            real(&fmus.elevation_controller.description, "command.position", start.elevation_deg)?,
+            real(&fmus.elevation_controller.description, "measured.position", start.elevation_deg)?,
+        ];
+        el_ctrl_overrides.extend(config.elevation_controller.iter().cloned());
+        let w = &config.wind;
+        let wind_spectrum = if w.mean_speed_m_s > 0.0 { 1 } else { 3 };
+        let wind_overrides: Overrides = vec![
+            ("wind.mean_speed".into(), ParameterValue::Real(w.mean_speed_m_s.max(0.5))),
+            ("wind.roughness_length".into(), ParameterValue::Real(w.roughness_length_m)),
+            ("wind.direction".into(), ParameterValue::Real(w.direction_deg)),
+            ("seed".into(), ParameterValue::Integer(w.seed)),
+            ("spectrum".into(), ParameterValue::Integer(wind_spectrum)),
+            ("antenna.azimuth".into(), ParameterValue::Real(start.azimuth_deg)),
+            ("antenna.elevation".into(), ParameterValue::Real(start.elevation_deg)),
+        ];
+        let start_time = table.time_span().0;
+        let make = |fmu: &Fmu, name: &str, overrides: &Overrides| -> Result<Instance, ImportError> {
+            let mut instance = fmu.instantiate(name, false)?;
+            instance.setup_experiment(start_time, None)?;
+            apply_overrides(&mut instance, &fmu.description, overrides)?;
+            instance.enter_initialization_mode()?;
+            instance.exit_initialization_mode()?;
+            Ok(instance)
+        };
+        let mut antenna = CoupledAntenna {
+            azimuth_plant: make(&fmus.azimuth_plant, "azimuth_plant", &az_plant_overrides)?,
+            elevation_plant: make(&fmus.elevation_plant, "elevation_plant", &el_plant_overrides)?,
+            azimuth_controller: make(&fmus.azimuth_controller, "azimuth_controller", &az_ctrl_overrides)?,
+            elevation_controller: make(&fmus.elevation_controller, "elevation_controller", &el_ctrl_overrides)?,
+            wind: make(&fmus.wind, "wind", &wind_overrides)?,
+            ports,
+            step_s: config.step_s,
+            start_time_s: start_time,
+            steps_done: 0,
+            wind_scale: 1.0,
+        };
+        // The wind unit's gust is meaningless without wind: zero torques in that case.
+        if w.mean_speed_m_s <= 0.0 {
+            antenna.wind_scale = 0.0;
+        }
+        Ok(antenna)
+    }
+
+    /// The time of the next communication point, s.
+    pub fn time_s(&self) -> f64 {
+        // Counted in steps, not accumulated, so long runs do not drift.
+        self.start_time_s + self.steps_done as f64 * self.step_s
+    }
+
+    /// Exchanges values at the current communication point, records them, and steps every
+    /// unit to the next point.
+    pub fn step(&mut self, table: &CommandTable, trace: Option<&mut Trace>) -> Result<(), ImportError> {
+        let t = self.time_s();
+        let h = self.step_s;
+        let p = &self.ports;
+        let command = table.at(t);
+
+        let mut az = [0.0; 6];
+        self.azimuth_plant.get_real(&p.az_plant_out, &mut az)?;
+        let mut el = [0.0; 4];
+        self.elevation_plant.get_real(&p.el_plant_out, &mut el)?;
+
+        self.wind.set_real(&p.wind_in, &[az[1], el[1]])?;
+        let mut wind = [0.0; 3];
+        self.wind.get_real(&p.wind_out, &mut wind)?;
+        let torque_az = self.wind_scale * wind[0];
+        let torque_el = self.wind_scale * wind[1];
+
+        self.azimuth_controller
+            .set_real(&p.az_ctrl_in, &[command.azimuth_deg, command.azimuth_rate_deg_per_s, az[0], az[2], az[3]])?;
+        let mut az_ctrl = [0.0; 3];
+        self.azimuth_controller.get_real(&p.az_ctrl_out, &mut az_ctrl)?;
+        self.elevation_controller
+            .set_real(&p.el_ctrl_in, &[command.elevation_deg, command.elevation_rate_deg_per_s, el[0], el[2]])?;
+        let mut el_ctrl = [0.0; 2];
+        self.elevation_controller.get_real(&p.el_ctrl_out, &mut el_ctrl)?;
+
+        self.azimuth_plant.set_real(&p.az_plant_in, &[az_ctrl[0], az_ctrl[1], torque_az, el[1]])?;
+        self.elevation_plant.set_real(&p.el_plant_in, &[el_ctrl[0], torque_el])?;
+
+        if let Some(trace) = trace {
+            trace.time_s.push(t);
+            trace.command_azimuth_deg.push(command.azimuth_deg);
+            trace.command_elevation_deg.push(command.elevation_deg);
+            trace.azimuth_deg.push(az[1]);
+            trace.elevation_deg.push(el[1]);
+            trace.encoder_azimuth_deg.push(az[0]);
+            trace.encoder_elevation_deg.push(el[0]);
+            trace.reference_azimuth_deg.push(az_ctrl[2]);
+            trace.reference_elevation_deg.push(el_ctrl[1]);
+            trace.wind_speed_m_s.push(if self.wind_scale > 0.0 { wind[2] } else { 0.0 });
+            trace.wind_torque_azimuth_nm.push(torque_az);
+            trace.wind_torque_elevation_nm.push(torque_el);
+            trace.current_azimuth_a.push([az[4], az[5]]);
+            trace.current_elevation_a.push(el[3]);
+        }
+
+        self.azimuth_plant.do_step(t, h)?;
+        self.elevation_plant.do_step(t, h)?;
+        self.azimuth_controller.do_step(t, h)?;
+        self.elevation_controller.do_step(t, h)?;
+        self.wind.do_step(t, h)?;
+        self.steps_done += 1;
+        Ok(())
+    }
+
+    /// Runs until `end_time_s`, recording every communication point; `progress` is called
+    /// with the fraction done every 1000 steps.
+    pub fn run(
+        &mut self,
+        table: &CommandTable,
+        end_time_s: f64,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<Trace, ImportError> {
+        let start = self.time_s();
+        let steps = ((end_time_s - start) / self.step_s).round().max(0.0) as u64;
+        let mut trace = Trace::default();
+        trace.reserve(steps as usize);
+        for k in 0..steps {
+            self.step(table, Some(&mut trace))?;
+            if k % 1000 == 0 {
+                progress(k as f64 / steps as f64);
+            }
+        }
+        progress(1.0);
+        Ok(trace)
+    }
+}

@@ -1,0 +1,171 @@
+//! The figures the requirements are judged by, computed from a coupled run's trace.
+
+use super::coupled::Trace;
+use super::scenario::{JITTER_LIMIT_ARCSEC, JITTER_WINDOW_S, SETTLE_HOLD_S};
+use antenna_dsp as dsp;
+
+/// Worst RMS pointing error over sliding windows of `JITTER_WINDOW_S`, from `from_s` on.
+pub fn worst_window_jitter_arcsec(trace: &Trace, from_s: f64) -> Option<(f64, f64)> {
+    let error = trace.pointing_error_arcsec();
+    let start = trace.time_s.partition_point(|&t| t < from_s);
+    let dt = trace.time_s.get(1).zip(trace.time_s.first()).map(|(b, a)| b - a)?;
+    let window = (JITTER_WINDOW_S / dt).round() as usize;
+    let worst = dsp::max_moving_rms(&error[start..], window)?;
+    Some((worst.value, trace.time_s[start + worst.start]))
+}
+
+/// Settling after a command jump.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settling {
+    /// When the controller's profiled reference reached the target (both axes), s.
+    pub profile_arrival_s: f64,
+    /// When the profiled reference last moved at (nearly) its top speed before arriving: the
+    /// end of the slew, where braking starts, s.
+    pub braking_start_s: f64,
+    /// From then on, the error stays within the band for the hold time, s. Searched from the
+    /// command on, so an error that is inside the band before the profile's final creep ends
+    /// counts from when it entered.
+    pub settled_at_s: f64,
+    /// `settled_at_s - profile_arrival_s`, at least 0: the settling time.
+    pub after_profile_s: f64,
+    /// `settled_at_s - jump_s`: the time from the command.
+    pub after_command_s: f64,
+    /// `settled_at_s - braking_start_s`: the time from the end of the slew.
+    pub after_braking_s: f64,
+    /// Largest error after the profile arrived, arcsec (overshoot and ringing).
+    pub peak_error_after_arrival_arcsec: f64,
+    /// Largest distance between the profiled reference and the true position while the
+    /// profile moved, on the sky, arcsec (the following error).
+    pub peak_following_error_arcsec: f64,
+}
+
+/// Fraction of the top reference speed above which the reference counts as slewing.
+const SLEWING_FRACTION: f64 = 0.99;
+
+/// The settling figures, or `None` if the run never settles (the error does not stay in the
+/// band for the hold time before the run ends, or the profile never arrives).
+pub fn settling(trace: &Trace, jump_s: f64, target: (f64, f64)) -> Option<Settling> {
+    let error = trace.pointing_error_arcsec();
+    let n = trace.time_s.len();
+    if n < 2 {
+        return None;
+    }
+    let first = trace.time_s.partition_point(|&t| t < jump_s);
+    let arrival = (first..n).find(|&k| {
+        (trace.reference_azimuth_deg[k] - target.0).abs() < 1e-5
+            && (trace.reference_elevation_deg[k] - target.1).abs() < 1e-5
+    })?;
+    let dt = trace.time_s[1] - trace.time_s[0];
+    let hold = (SETTLE_HOLD_S / dt).round() as usize;
+    // The settling instant: the start of the first stretch after the command in which the
+    // error stays in the band for the whole hold time, and which lasts past the arrival.
+    let mut candidate = first;
+    let mut k = first;
+    while k < n {
+        if error[k] > JITTER_LIMIT_ARCSEC {
+            candidate = k + 1;
+        } else if k + 1 - candidate >= hold && k >= arrival {
+            break;
+        }
+        k += 1;
+    }
+    if k >= n {
+        return None;
+    }
+    // The reference's speed on the sky, from its samples; the slew ends at the last sample at
+    // (nearly) the top speed before the arrival.
+    let speed: Vec<f64> = (first.max(1)..=arrival)
+        .map(|k| {
+            let d_az = (trace.reference_azimuth_deg[k] - trace.reference_azimuth_deg[k - 1])
+                * trace.elevation_deg[k].to_radians().cos();
+            let d_el = trace.reference_elevation_deg[k] - trace.reference_elevation_deg[k - 1];
+            d_az.hypot(d_el) / dt
+        })
+        .collect();
+    let top = speed.iter().cloned().fold(0.0, f64::max);
+    let braking = speed.iter().rposition(|&v| v >= SLEWING_FRACTION * top).map_or(first, |i| first.max(1) + i);
+    let settled = trace.time_s[candidate];
+    Some(Settling {
+        profile_arrival_s: trace.time_s[arrival],
+        braking_start_s: trace.time_s[braking],
+        settled_at_s: settled,
+        after_profile_s: (settled - trace.time_s[arrival]).max(0.0),
+        after_command_s: settled - jump_s,
+        after_braking_s: settled - trace.time_s[braking],
+        peak_error_after_arrival_arcsec: error[arrival..].iter().cloned().fold(0.0, f64::max),
+        peak_following_error_arcsec: (first..arrival)
+            .map(|k| {
+                let d_az =
+                    (trace.reference_azimuth_deg[k] - trace.azimuth_deg[k]) * trace.elevation_deg[k].to_radians().cos();
+                let d_el = trace.reference_elevation_deg[k] - trace.elevation_deg[k];
+                d_az.hypot(d_el) * 3600.0
+            })
+            .fold(0.0, f64::max),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 1 kHz trace of an azimuth move at elevation 0: the reference slews at 1 deg/s from 0 to
+    /// 9 deg, brakes uniformly to 10 deg over 2 s, and the axis lags the reference by `lag_s`.
+    fn slew_trace(lag_s: f64, jump_s: f64, end_s: f64) -> Trace {
+        let reference = |t: f64| -> f64 {
+            let t = t - jump_s;
+            if t <= 0.0 {
+                0.0
+            } else if t <= 9.0 {
+                t
+            } else if t <= 11.0 {
+                let u = t - 9.0;
+                9.0 + u - 0.25 * u * u
+            } else {
+                10.0
+            }
+        };
+        let mut trace = Trace::default();
+        let n = (end_s * 1000.0) as usize;
+        for k in 0..n {
+            let t = k as f64 * 1e-3;
+            trace.time_s.push(t);
+            trace.command_azimuth_deg.push(if t >= jump_s { 10.0 } else { 0.0 });
+            trace.command_elevation_deg.push(0.0);
+            trace.reference_azimuth_deg.push(reference(t));
+            trace.reference_elevation_deg.push(0.0);
+            trace.azimuth_deg.push(reference(t - lag_s));
+            trace.elevation_deg.push(0.0);
+        }
+        trace
+    }
+
+    #[test]
+    fn settling_counts_from_the_command_from_the_end_of_the_slew_and_from_the_arrival() {
+        let lag = 0.5;
+        let s = settling(&slew_trace(lag, 1.0, 30.0), 1.0, (10.0, 0.0)).expect("settles");
+        // The reference comes within 1e-5 deg of 10 deg 6.3 ms before 12 s, where
+        // (2 - u)^2 / 4 = 1e-5; it last moved at full speed at 10 s.
+        let arrival = 12.0 - (4.0 * 1e-5_f64).sqrt();
+        assert!((s.profile_arrival_s - arrival).abs() < 2e-3, "arrival {}", s.profile_arrival_s);
+        assert!((s.braking_start_s - 10.0).abs() < 0.03, "braking {}", s.braking_start_s);
+        // The lagging axis is within 15 arcsec of 10 deg once its own braking parabola is
+        // within 15/3600 deg of the end: (2 - u)^2 / 4 = 15/3600.
+        let u = 2.0 - (4.0 * 15.0 / 3600.0_f64).sqrt();
+        let expected = 1.0 + 9.0 + u + lag;
+        assert!((s.settled_at_s - expected).abs() < 2e-3, "settled at {} s, expected {expected} s", s.settled_at_s);
+        assert!((s.after_command_s - (expected - 1.0)).abs() < 2e-3);
+        assert!((s.after_braking_s - (s.settled_at_s - s.braking_start_s)).abs() < 1e-12);
+        // The half-second lag puts the axis into the band 0.38 s after the reference arrives.
+        assert!((s.after_profile_s - (s.settled_at_s - s.profile_arrival_s)).abs() < 1e-12 && s.after_profile_s > 0.3);
+        // Without the lag the axis is in the band as the reference arrives: 0, not negative.
+        let exact = settling(&slew_trace(0.0, 1.0, 30.0), 1.0, (10.0, 0.0)).expect("settles");
+        assert_eq!(exact.after_profile_s, 0.0);
+        // Following error: at full speed the lag is 0.5 s at 1 deg/s = 1800 arcsec.
+        assert!((s.peak_following_error_arcsec - 1800.0).abs() < 5.0, "following {}", s.peak_following_error_arcsec);
+    }
+
+    #[test]
+    fn a_run_that_ends_before_the_error_has_held_for_ten_seconds_has_not_settled() {
+        assert!(settling(&slew_trace(0.5, 1.0, 20.0), 1.0, (10.0, 0.0)).is_none());
+    }
+}

@@ -1,0 +1,797 @@
+//! An independent truth generator: a reference simulation of one drive axis that writes
+//! measured logs with effects the model does not declare.
+//!
+//! It exists to test the validate tool on data whose truth is known but hidden. It is written
+//! separately from the plant FMU and deliberately uses different model forms where reality
+//! differs from models: LuGre friction (bristle dynamics, Stribeck curve) where the model has
+//! static Coulomb/Stribeck friction, a smooth contact law where the model has a dead zone, a
+//! current loop, a sampled cascade controller, band-limited excitation, sensor noise and
+//! quantisation. It integrates with RK4 at a high internal rate (20 kHz by default, cut into
+//! substeps while the stiff friction bristles relax fast) and logs at
+//! a realistic rate (500 Hz by default). The nominal parameters are the model's starting
+//! parameter set; each effect is added only in the truth.
+
+pub mod scoring;
+pub mod suite;
+mod trajectory;
+
+use antenna_validate::measured_log::{Channel, MeasuredLog, Signal};
+use antenna_validate::parameters::{names, ParameterSet};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::collections::BTreeMap;
+
+pub use trajectory::{Trajectory, TrajectoryConfig};
+
+/// Nominal plant of the truth, all axis-side except the motor inertia and torque constant.
+/// These values are also the model's starting parameter set.
+#[derive(Debug, Clone)]
+pub struct TruthPlant {
+    pub gear_ratio: f64,
+    /// Motor side, kg m^2.
+    pub motor_inertia: f64,
+    /// Motor side, N m/A.
+    pub torque_constant: f64,
+    pub load_inertia: f64,
+    pub stiffness: f64,
+    pub damping: f64,
+    /// Steady-state friction at the motor referred to the axis: viscous, Coulomb, static level
+    /// and Stribeck velocity, the curve the LuGre model slides on.
+    pub viscous: f64,
+    pub coulomb: f64,
+    pub static_friction: f64,
+    pub stribeck_velocity: f64,
+    /// LuGre bristle deflection at breakaway (axis rad): sets the bristle stiffness
+    /// sigma0 = Fs/z0. Truth only. The friction sits at the motor and gearbox, whose contacts
+    /// slide after a few micrometres (Armstrong-Helouvry et al. 1994): 1e-7 rad at the axis is
+    /// 1.2e-4 rad at the motor shaft, 6 um at a 5 cm pinion radius.
+    pub presliding_displacement: f64,
+    /// LuGre micro-damping ratio of the bristle-inertia mode. Truth only.
+    pub bristle_damping_ratio: f64,
+}
+
+impl Default for TruthPlant {
+    /// An antenna-like azimuth drive: anti-resonance near 4 Hz, reflected motor inertia about
+    /// half the load inertia, friction a noticeable part of the torque at tracking speeds.
+    fn default() -> Self {
+        let load_inertia = 6.0e4;
+        let anti_resonance = 2.0 * std::f64::consts::PI * 4.0;
+        let stiffness = load_inertia * anti_resonance * anti_resonance;
+        TruthPlant {
+            gear_ratio: 1200.0,
+            motor_inertia: 0.02,
+            torque_constant: 2.0,
+            load_inertia,
+            stiffness,
+            damping: 2.0 * 0.04 * (stiffness * load_inertia).sqrt(),
+            viscous: 2.0e4,
+            coulomb: 3000.0,
+            static_friction: 4000.0,
+            stribeck_velocity: 0.002,
+            presliding_displacement: 1.0e-7,
+            bristle_damping_ratio: 1.0,
+        }
+    }
+}
+
+impl TruthPlant {
+    /// Motor inertia referred to the axis side.
+    pub fn reflected_motor_inertia(&self) -> f64 {
+        self.motor_inertia * self.gear_ratio * self.gear_ratio
+    }
+
+    /// The anti-resonance (Hz) with the motor locked: sqrt(K / J_L) / 2 pi.
+    pub fn anti_resonance(&self) -> f64 {
+        (self.stiffness / self.load_inertia).sqrt() / (2.0 * std::f64::consts::PI)
+    }
+
+    /// Sets the path stiffness for a locked-motor anti-resonance of `hz`, keeping the path's
+    /// damping ratio.
+    pub fn set_anti_resonance(&mut self, hz: f64) {
+        let ratio = self.damping / (2.0 * (self.stiffness * self.load_inertia).sqrt());
+        self.stiffness = self.load_inertia * (2.0 * std::f64::consts::PI * hz).powi(2);
+        self.damping = 2.0 * ratio * (self.stiffness * self.load_inertia).sqrt();
+    }
+
+    /// The model's starting parameter set: the nominal values, with every effect absent.
+    pub fn starting_parameters(&self) -> ParameterSet {
+        let mut set = ParameterSet::new();
+        set.set(names::GEAR_RATIO, self.gear_ratio);
+        set.set(names::MOTOR_INERTIA, self.motor_inertia);
+        set.set(names::TORQUE_CONSTANT, self.torque_constant);
+        set.set(names::LOAD_INERTIA, self.load_inertia);
+        set.set(names::STIFFNESS, self.stiffness);
+        set.set(names::DAMPING, self.damping);
+        set.set(names::VISCOUS, self.viscous);
+        set.set(names::COULOMB, self.coulomb);
+        set.set(names::STATIC, self.static_friction);
+        set.set(names::STRIBECK_VELOCITY, self.stribeck_velocity);
+        set.set(names::ASYMMETRY, 0.0);
+        set.set(names::TORQUE_OFFSET, 0.0);
+        set.set(names::UNBALANCE_TORQUE, 0.0);
+        set.set(names::UNBALANCE_PHASE, 0.0);
+        set.set(names::DELAY, 0.0);
+        set.set(names::TORQUE_CONSTANT_SCALE, 1.0);
+        set.set(names::COGGING_AMPLITUDE, 0.0);
+        set.set(names::COGGING_PERIOD, 0.0);
+        set.set(names::COGGING_PHASE, 0.0);
+        set.set(names::BACKLASH_WIDTH, 0.0);
+        set
+    }
+}
+
+/// An effect present in the truth and absent from the model's starting set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Effect {
+    /// Coulomb level raised by this much (N m, axis side); the whole friction curve moves up.
+    Coulomb(f64),
+    /// Breakaway level raised by this much (N m) at the nominal Stribeck velocity.
+    Stribeck(f64),
+    /// Friction larger by `a` moving forward and smaller by `a` moving backward (N m).
+    Asymmetry(f64),
+    /// Constant torque at the motor (N m, axis side).
+    TorqueOffset(f64),
+    /// Lost motion of this total width (rad), through a smooth contact law.
+    Backlash(f64),
+    /// True stiffness = nominal * factor.
+    StiffnessFactor(f64),
+    /// True load inertia = nominal * factor.
+    InertiaFactor(f64),
+    /// Unbalance torque amplitude (N m) and phase (rad) on the axis angle.
+    Unbalance { amplitude: f64, phase: f64 },
+    /// The applied torque lags the logged current by this much (s).
+    Delay(f64),
+    /// True torque constant = nominal * scale.
+    TorqueConstantScale(f64),
+    /// Position-periodic torque at the motor: amplitude (N m), period and phase in axis-referred
+    /// motor angle (rad).
+    Cogging { amplitude: f64, period: f64, phase: f64 },
+}
+
+impl Effect {
+    /// The effect's family name, as the validate tool's candidates are named.
+    pub fn family(&self) -> &'static str {
+        match self {
+            Effect::Coulomb(_) => "coulomb",
+            Effect::Stribeck(_) => "stribeck",
+            Effect::Asymmetry(_) | Effect::TorqueOffset(_) => "offset",
+            Effect::Backlash(_) => "backlash",
+            Effect::StiffnessFactor(_) => "stiffness",
+            Effect::InertiaFactor(_) => "inertia",
+            Effect::Unbalance { .. } => "unbalance",
+            Effect::Delay(_) => "delay",
+            Effect::TorqueConstantScale(_) => "torque_constant",
+            Effect::Cogging { .. } => "cogging",
+        }
+    }
+
+    /// The truth generator's own name of the effect (asymmetry and offset differ here).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Effect::Asymmetry(_) => "asymmetry",
+            Effect::TorqueOffset(_) => "torque_offset",
+            other => other.family(),
+        }
+    }
+}
+
+/// Sensor noise and quantisation of the logged signals.
+#[derive(Debug, Clone)]
+pub struct NoiseConfig {
+    /// White noise on the measured current (A) and its quantisation step (A).
+    pub current_sigma: f64,
+    pub current_step: f64,
+    /// Counts per revolution of the load (axis) encoder and its white noise (rad).
+    pub load_encoder_counts: f64,
+    pub load_encoder_sigma: f64,
+    /// Counts per motor revolution of the motor encoder (referred to the axis via the gear).
+    pub motor_encoder_counts: f64,
+    /// What the log holds of the motor side.
+    pub motor_sensor: MotorSensor,
+    /// Motors whose currents the log holds in columns of their own (1 or 2). The truth's drive
+    /// is one lumped motor; with 2 each logged current is half of its current with its own
+    /// sensor noise and quantisation, as two identical motors without a bias would carry.
+    pub motors: usize,
+    /// With two motors, a torque bias (A): added to motor 1's current and taken from motor
+    /// 2's. The truth's two motors share one lumped path, so the bias cancels in the drive as
+    /// it does on a real one without backlash (with backlash a real bias also keeps the
+    /// pinions on opposite flanks, which the lumped truth does not).
+    pub current_bias: f64,
+}
+
+/// The motor-side sensor a log holds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MotorSensor {
+    /// The motor encoder (`motor_pos`), as the suite's logs.
+    Encoder,
+    /// A speed signal instead (`motor_vel`, one per motor).
+    Speed(SpeedSensor),
+    /// Nothing: the load encoder is the only position (as the paper's closed-loop logs).
+    None,
+}
+
+/// A motor speed signal instead of a motor encoder, as a servo amplifier's analogue speed
+/// output (the paper's identification logged these): the true motor speed referred to the axis
+/// times (1 + scale_error), plus a bias and white noise, all axis side.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedSensor {
+    /// White noise at the log instants (rad/s).
+    pub sigma: f64,
+    pub bias: f64,
+    pub scale_error: f64,
+}
+
+impl Default for SpeedSensor {
+    /// A digital drive's speed estimate through an analogue output: 2e-6 rad/s at the axis
+    /// (0.023 rpm at a 1200:1 motor), a bias of a tenth of that and a 0.5 % scale tolerance.
+    fn default() -> Self {
+        SpeedSensor { sigma: 2.0e-6, bias: 2.0e-7, scale_error: 5.0e-3 }
+    }
+}
+
+impl Default for NoiseConfig {
+    fn default() -> Self {
+        NoiseConfig {
+            current_sigma: 0.0125,
+            current_step: 1e-3,
+            load_encoder_counts: 2f64.powi(25),
+            load_encoder_sigma: 1.0e-7,
+            motor_encoder_counts: 2f64.powi(20),
+            motor_sensor: MotorSensor::Encoder,
+            motors: 1,
+            current_bias: 0.0,
+        }
+    }
+}
+
+impl NoiseConfig {
+    /// Standard deviation of the logged torque noise, axis side (N m).
+    pub fn torque_sigma(&self, plant: &TruthPlant) -> f64 {
+        let per_motor = self.current_sigma.powi(2) + self.current_step.powi(2) / 12.0;
+        plant.gear_ratio * plant.torque_constant * (per_motor * self.motors.max(1) as f64).sqrt()
+    }
+
+    /// Standard deviation of the measured twist (motor minus load encoder), rad.
+    pub fn twist_sigma(&self, plant: &TruthPlant) -> f64 {
+        let load_step = 2.0 * std::f64::consts::PI / self.load_encoder_counts;
+        let motor_step = 2.0 * std::f64::consts::PI / (self.motor_encoder_counts * plant.gear_ratio);
+        (self.load_encoder_sigma.powi(2) + load_step.powi(2) / 12.0 + motor_step.powi(2) / 12.0).sqrt()
+    }
+}
+
+/// Everything one truth run needs.
+#[derive(Debug, Clone)]
+pub struct TruthConfig {
+    pub plant: TruthPlant,
+    pub effects: Vec<Effect>,
+    pub noise: NoiseConfig,
+    pub trajectory: TrajectoryConfig,
+    pub duration: f64,
+    pub internal_rate: f64,
+    pub controller_rate: f64,
+    pub log_rate: f64,
+    /// Current-loop bandwidth (Hz).
+    pub current_bandwidth: f64,
+    /// Position and velocity loop bandwidths (Hz).
+    pub position_bandwidth: f64,
+    pub velocity_bandwidth: f64,
+    /// Standard deviation (N m, axis side) of the band-limited noise torque injected on top of
+    /// the tracking command, as in the paper's identification, and its bandwidth (Hz).
+    pub injection_sigma: f64,
+    pub injection_bandwidth: f64,
+    pub seed: u64,
+}
+
+impl Default for TruthConfig {
+    fn default() -> Self {
+        TruthConfig {
+            plant: TruthPlant::default(),
+            effects: Vec::new(),
+            noise: NoiseConfig::default(),
+            trajectory: TrajectoryConfig::default(),
+            duration: 60.0,
+            internal_rate: 20_000.0,
+            controller_rate: 2_000.0,
+            log_rate: 500.0,
+            current_bandwidth: 100.0,
+            position_bandwidth: 1.0,
+            velocity_bandwidth: 4.0,
+            injection_sigma: 800.0,
+            injection_bandwidth: 20.0,
+            seed: 1,
+        }
+    }
+}
+
+/// The result of a truth run: the log and the noise-free signals at the log instants, which
+/// the suite uses to size effects (never given to the validate tool).
+#[derive(Debug, Clone)]
+pub struct TruthRun {
+    pub log: MeasuredLog,
+    pub clean: CleanSignals,
+}
+
+/// Noise-free truth signals at the log instants.
+#[derive(Debug, Clone, Default)]
+pub struct CleanSignals {
+    pub motor_pos: Vec<f64>,
+    pub motor_vel: Vec<f64>,
+    pub load_pos: Vec<f64>,
+    pub load_vel: Vec<f64>,
+    pub load_acc: Vec<f64>,
+    /// Applied torque on the motor, axis side (N m), and the shaft torque.
+    pub applied_torque: Vec<f64>,
+    pub shaft_torque: Vec<f64>,
+    /// Applied torque at the internal rate, for sizing a delay.
+    pub applied_torque_fine: Vec<f64>,
+    pub fine_dt: f64,
+}
+
+/// Parameters of the truth with its effects applied.
+struct Actual {
+    p: TruthPlant,
+    k_scale: f64,
+    offset: f64,
+    asymmetry: f64,
+    backlash: f64,
+    unbalance: (f64, f64),
+    delay: f64,
+    cogging: (f64, f64, f64),
+}
+
+impl Actual {
+    fn new(config: &TruthConfig) -> Actual {
+        let mut a = Actual {
+            p: config.plant.clone(),
+            k_scale: 1.0,
+            offset: 0.0,
+            asymmetry: 0.0,
+            backlash: 0.0,
+            unbalance: (0.0, 0.0),
+            delay: 0.0,
+            cogging: (0.0, 1.0, 0.0),
+        };
+        for effect in &config.effects {
+            match *effect {
+                Effect::Coulomb(d) => {
+                    a.p.coulomb += d;
+                    a.p.static_friction += d;
+                }
+                Effect::Stribeck(d) => a.p.static_friction += d,
+                Effect::Asymmetry(x) => a.asymmetry += x,
+                Effect::TorqueOffset(x) => a.offset += x,
+                Effect::Backlash(b) => a.backlash += b,
+                Effect::StiffnessFactor(f) => a.p.stiffness *= f,
+                Effect::InertiaFactor(f) => a.p.load_inertia *= f,
+                Effect::Unbalance { amplitude, phase } => a.unbalance = (amplitude, phase),
+                Effect::Delay(d) => a.delay += d,
+                Effect::TorqueConstantScale(s) => a.k_scale *= s,
+                Effect::Cogging { amplitude, period, phase } => a.cogging = (amplitude, period, phase),
+            }
+        }
+        a
+    }
+
+    /// Shaft torque through a smooth contact law: a dead zone of width `backlash` whose corners
+    /// are rounded over a tenth of the width (a Hertz-like soft contact rather than the model's
+    /// sharp dead zone). With no backlash it is the linear spring and damper.
+    fn shaft_torque(&self, twist: f64, twist_rate: f64) -> f64 {
+        let h = 0.5 * self.backlash;
+        if h <= 0.0 {
+            return self.p.stiffness * twist + self.p.damping * twist_rate;
+        }
+        let eps = 0.1 * self.backlash;
+        let r1 = ((twist - h).powi(2) + eps * eps).sqrt();
+        let r2 = ((twist + h).powi(2) + eps * eps).sqrt();
+        let deflection = 0.5 * (twist - h + r1) + 0.5 * (twist + h - r2);
+        let contact = 0.5 * (1.0 + (twist - h) / r1) + 0.5 * (1.0 - (twist + h) / r2);
+        self.p.stiffness * deflection + self.p.damping * twist_rate * contact
+    }
+
+    /// The fastest rate (1/s) of the friction dynamics at motor speed `v`: the bristle
+    /// relaxation sigma0 |v| / g (with the lowest sliding level g the curve can take), the
+    /// micro-damping sigma1 / J_M and the bristle-inertia mode sqrt(sigma0 / J_M), summed as a
+    /// bound.
+    fn fastest_rate(&self, v: f64) -> f64 {
+        let p = &self.p;
+        let sigma0 = p.static_friction.max(1.0) / p.presliding_displacement;
+        let lowest_level =
+            (p.coulomb.min(p.static_friction) - self.asymmetry.abs()).max(1e-6 * p.static_friction.max(1.0));
+        let motor = p.reflected_motor_inertia();
+        let sigma1 = 2.0 * p.bristle_damping_ratio * (sigma0 * motor).sqrt();
+        sigma0 * v.abs() / lowest_level + sigma1 / motor + (sigma0 / motor).sqrt()
+    }
+
+    /// LuGre friction (Canudas de Wit et al. 1995) with a Stribeck curve, velocity-dependent
+    /// micro-damping and the asymmetry added to the sliding level. Returns (torque, dz/dt).
+    fn lugre(&self, v: f64, z: f64) -> (f64, f64) {
+        let p = &self.p;
+        let stribeck = (-(v / p.stribeck_velocity).powi(2)).exp();
+        let g = p.coulomb
+            + (p.static_friction - p.coulomb) * stribeck
+            + self.asymmetry * (v / (0.1 * p.stribeck_velocity)).tanh();
+        let g = g.max(1e-6 * p.static_friction.max(1.0));
+        let sigma0 = p.static_friction.max(1.0) / p.presliding_displacement;
+        let sigma1 = 2.0 * p.bristle_damping_ratio * (sigma0 * p.reflected_motor_inertia()).sqrt() * stribeck;
+        let dz = v - sigma0 * v.abs() * z / g;
+        (sigma0 * z + sigma1 * dz + p.viscous * v, dz)
+    }
+}
+
+/// Runs the truth simulation and writes the log.
+pub fn simulate(config: &TruthConfig) -> TruthRun {
+    let actual = Actual::new(config);
+    let nominal = &config.plant;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed);
+    // The sensors a log variant adds (a second current, a speed signal) draw from a stream of
+    // their own, so the default logs stay bit for bit what they were.
+    let mut sensor_rng = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0x5e50_5e50_5e50_5e50);
+    let motors = config.noise.motors.clamp(1, 2);
+    let unit_normal = Normal::new(0.0, 1.0).expect("unit normal");
+    let trajectory = Trajectory::generate(&config.trajectory, config.duration, config.seed);
+
+    let h = 1.0 / config.internal_rate;
+    let steps = (config.duration * config.internal_rate).round() as usize;
+    let control_every = (config.internal_rate / config.controller_rate).round().max(1.0) as usize;
+    let log_every = (config.internal_rate / config.log_rate).round().max(1.0) as usize;
+    let tc = control_every as f64 * h;
+    let n_ratio = nominal.gear_ratio;
+    let kt = nominal.torque_constant;
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let load_step = two_pi / config.noise.load_encoder_counts;
+    let motor_step = two_pi / (config.noise.motor_encoder_counts * n_ratio);
+    let quantise = |x: f64, step: f64| (x / step).round() * step;
+
+    // Cascade controller tuned on the nominal plant, as a commissioning engineer would.
+    let total_inertia = nominal.reflected_motor_inertia() + nominal.load_inertia;
+    let kp = two_pi * config.position_bandwidth;
+    let kv = total_inertia * two_pi * config.velocity_bandwidth;
+    let ki = kv * two_pi * config.velocity_bandwidth / 5.0;
+    let current_limit = 50.0;
+    let tau_current = 1.0 / (two_pi * config.current_bandwidth);
+    let injection_alpha = (-two_pi * config.injection_bandwidth * tc).exp();
+    // Two cascaded first-order stages driven by unit white noise have the impulse response
+    // (1-a)^2 (k+1) a^k, whose energy is (1-a)^4 (1+a^2)/(1-a^2)^3: this gain makes the
+    // injected torque's standard deviation injection_sigma.
+    let ia = injection_alpha;
+    let injection_gain =
+        config.injection_sigma / ((1.0 - ia).powi(4) * (1.0 + ia * ia) / (1.0 - ia * ia).powi(3)).sqrt();
+
+    // State: motor angle, motor speed, load angle, load speed (axis side), LuGre bristle z,
+    // actual current.
+    let start = trajectory.position(0.0);
+    let mut x = [start, 0.0, start, 0.0, 0.0, 0.0];
+    // Start at rest in equilibrium with gravity through the shaft.
+    let unbalance0 = actual.unbalance.0 * (start + actual.unbalance.1).cos();
+    x[0] += unbalance0 / actual.p.stiffness.max(1.0);
+
+    let delay_steps = actual.delay / h;
+    let history_len = delay_steps.ceil() as usize + 2;
+    let mut current_history = vec![0.0; history_len];
+    let mut history_head = 0usize;
+
+    let mut integrator = unbalance0;
+    let mut i_cmd = unbalance0 / (n_ratio * kt);
+    x[5] = i_cmd;
+    current_history.iter_mut().for_each(|c| *c = i_cmd);
+    let mut motor_prev = quantise(x[0], motor_step);
+    let mut speed_estimate = 0.0;
+    let speed_alpha = (-two_pi * 300.0 * tc).exp();
+    let (mut inj1, mut inj2) = (0.0, 0.0);
+
+    let n_log = steps / log_every + 1;
+    let mut time = Vec::with_capacity(n_log);
+    let mut log_current = Vec::with_capacity(n_log);
+    let mut log_current_2 = Vec::new();
+    let mut log_speed: Vec<Vec<f64>> = vec![Vec::new(); motors];
+    let mut log_ref = Vec::with_capacity(n_log);
+    let mut log_motor = Vec::with_capacity(n_log);
+    let mut log_load = Vec::with_capacity(n_log);
+    let mut clean = CleanSignals { fine_dt: h, ..Default::default() };
+
+    let derivative = |x: &[f64; 6], applied: f64, actual: &Actual| -> ([f64; 6], f64, f64) {
+        let twist = x[0] - x[2];
+        let shaft = actual.shaft_torque(twist, x[1] - x[3]);
+        let (friction, dz) = actual.lugre(x[1], x[4]);
+        let (amp, period, phase) = actual.cogging;
+        let cogging = if amp != 0.0 { amp * (two_pi * x[0] / period + phase).sin() } else { 0.0 };
+        let unbalance = actual.unbalance.0 * (x[2] + actual.unbalance.1).cos();
+        let motor_acc = (applied - shaft - friction - actual.offset - cogging) / actual.p.reflected_motor_inertia();
+        let load_acc = (shaft - unbalance) / actual.p.load_inertia;
+        ([x[1], motor_acc, x[3], load_acc, dz, 0.0], shaft, load_acc)
+    };
+
+    for step in 0..=steps {
+        let t = step as f64 * h;
+        if step % control_every == 0 {
+            let load_meas = quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step);
+            let motor_meas = quantise(x[0], motor_step);
+            let raw_speed = (motor_meas - motor_prev) / tc;
+            motor_prev = motor_meas;
+            speed_estimate = speed_alpha * speed_estimate + (1.0 - speed_alpha) * raw_speed;
+            let (r, v, a) = (trajectory.position(t), trajectory.velocity(t), trajectory.acceleration(t));
+            let speed_command = v + kp * (r - load_meas);
+            let speed_error = speed_command - speed_estimate;
+            inj1 = injection_alpha * inj1 + (1.0 - injection_alpha) * unit_normal.sample(&mut rng);
+            inj2 = injection_alpha * inj2 + (1.0 - injection_alpha) * inj1;
+            let torque_command = kv * speed_error + integrator + total_inertia * a + injection_gain * inj2;
+            let unclamped = torque_command / (n_ratio * kt);
+            i_cmd = unclamped.clamp(-current_limit, current_limit);
+            if unclamped == i_cmd {
+                integrator += ki * speed_error * tc;
+            }
+        }
+        if step % log_every == 0 {
+            let share = x[5] / motors as f64;
+            let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
+            let measured_current = quantise(
+                share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng),
+                config.noise.current_step,
+            );
+            time.push(t);
+            log_current.push(measured_current);
+            if motors == 2 {
+                log_current_2.push(quantise(
+                    share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng),
+                    config.noise.current_step,
+                ));
+            }
+            if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
+                for speeds in log_speed.iter_mut() {
+                    speeds.push(
+                        (1.0 + sensor.scale_error) * x[1]
+                            + sensor.bias
+                            + sensor.sigma * unit_normal.sample(&mut sensor_rng),
+                    );
+                }
+            }
+            log_ref.push(trajectory.position(t));
+            log_motor.push(quantise(x[0], motor_step));
+            log_load.push(quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step));
+            let applied = applied_torque(&current_history, history_head, delay_steps, actual.k_scale * n_ratio * kt);
+            let (d, shaft, load_acc) = derivative(&x, applied, &actual);
+            let _ = d;
+            clean.motor_pos.push(x[0]);
+            clean.motor_vel.push(x[1]);
+            clean.load_pos.push(x[2]);
+            clean.load_vel.push(x[3]);
+            clean.load_acc.push(load_acc);
+            clean.applied_torque.push(applied);
+            clean.shaft_torque.push(shaft);
+        }
+        if step == steps {
+            break;
+        }
+        // The applied torque is held over the internal step: the current loop is much slower
+        // than the internal rate, so this costs nothing in accuracy and keeps RK4 simple.
+        let applied = applied_torque(&current_history, history_head, delay_steps, actual.k_scale * n_ratio * kt);
+        clean.applied_torque_fine.push(applied);
+        let f = |s: &[f64; 6]| {
+            let (mut d, _, _) = derivative(s, applied, &actual);
+            d[5] = (i_cmd - s[5]) / tau_current;
+            d
+        };
+        // The bristle state relaxes at sigma0 |v| / g, which at full speed is far faster than
+        // the internal rate: the step is cut into as many RK4 substeps as keep the fastest
+        // rate times the substep at or below one (accurate, and well inside RK4's stability
+        // limit of 2.8), so stiff bristles cost time only while the motor slides fast.
+        let substeps = ((h * actual.fastest_rate(x[1])).ceil() as usize).clamp(1, 10_000);
+        let hs = h / substeps as f64;
+        for _ in 0..substeps {
+            let k1 = f(&x);
+            let k2 = f(&add(&x, &k1, 0.5 * hs));
+            let k3 = f(&add(&x, &k2, 0.5 * hs));
+            let k4 = f(&add(&x, &k3, hs));
+            for i in 0..6 {
+                x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+        }
+        history_head = (history_head + 1) % history_len;
+        current_history[history_head] = x[5];
+    }
+
+    let mut metadata = BTreeMap::new();
+    metadata.insert("generated_by".to_string(), "truthgen (antenna-tools)".to_string());
+    let channel = |signal: Signal, motor: Option<u32>, values: Vec<f64>| Channel {
+        signal,
+        motor,
+        column: String::new(),
+        unit: String::new(),
+        values,
+    };
+    let numbered = |k: u32| (motors == 2).then_some(k);
+    let mut channels =
+        vec![channel(Signal::RefPos, None, log_ref), channel(Signal::MotorCurrent, numbered(1), log_current)];
+    if motors == 2 {
+        channels.push(channel(Signal::MotorCurrent, numbered(2), log_current_2));
+    }
+    match config.noise.motor_sensor {
+        MotorSensor::Encoder => channels.push(channel(Signal::MotorPos, None, log_motor)),
+        MotorSensor::Speed(_) => {
+            for (k, speeds) in log_speed.into_iter().enumerate() {
+                channels.push(channel(Signal::MotorVel, numbered(k as u32 + 1), speeds));
+            }
+        }
+        MotorSensor::None => {}
+    }
+    channels.push(channel(Signal::LoadPos, None, log_load));
+    let log = MeasuredLog { metadata, time, channels, notes: Vec::new() };
+    TruthRun { log, clean }
+}
+
+/// The applied torque now: the actual current `delay_steps` internal steps ago (interpolated),
+/// times the true torque constant and gear ratio.
+fn applied_torque(history: &[f64], head: usize, delay_steps: f64, gain: f64) -> f64 {
+    let len = history.len();
+    let whole = delay_steps.floor() as usize;
+    let frac = delay_steps - whole as f64;
+    let at = |back: usize| history[(head + len - (back % len)) % len];
+    gain * ((1.0 - frac) * at(whole) + frac * at(whole + 1))
+}
+
+fn add(x: &[f64; 6], k: &[f64; 6], h: f64) -> [f64; 6] {
+    let mut out = *x;
+    for i in 0..6 {
+        out[i] += h * k[i];
+    }
+    out
+}
+
+/// The units the generated logs use, like a drive's own logging.
+pub const LOG_UNITS: [(Signal, &str); 6] = [
+    (Signal::Time, "s"),
+    (Signal::RefPos, "deg"),
+    (Signal::MotorCurrent, "A"),
+    (Signal::MotorPos, "deg"),
+    (Signal::LoadPos, "deg"),
+    (Signal::MotorVel, "deg_s"),
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_variants_log_their_own_columns_and_leave_the_physics_alone() {
+        let plain = TruthConfig { duration: 4.0, ..TruthConfig::default() };
+        let mut variant = plain.clone();
+        variant.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
+        variant.noise.motors = 2;
+        variant.noise.current_bias = 1.5;
+        let (a, b) = (simulate(&plain), simulate(&variant));
+        // The same motion, measured by the same load encoder with the same noise.
+        assert_eq!(a.log.signal(Signal::LoadPos), b.log.signal(Signal::LoadPos));
+        assert!(b.log.signal(Signal::MotorPos).is_none());
+        let speeds = b.log.signals(Signal::MotorVel);
+        let currents = b.log.signals(Signal::MotorCurrent);
+        assert_eq!((speeds.len(), currents.len()), (2, 2));
+        assert_eq!((currents[0].motor, currents[1].motor), (Some(1), Some(2)));
+        // Two half currents with their own noise sum to the one current within that noise.
+        let single = a.log.signal(Signal::MotorCurrent).unwrap();
+        let sigma = plain.noise.current_sigma;
+        let worst = (0..single.len())
+            .map(|k| (currents[0].values[k] + currents[1].values[k] - single[k]).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 12.0 * sigma, "{worst}");
+        // The bias is in each current and cancels in their sum.
+        let mean_difference =
+            (0..single.len()).map(|k| currents[0].values[k] - currents[1].values[k]).sum::<f64>() / single.len() as f64;
+        assert!((mean_difference - 3.0).abs() < 0.01, "{mean_difference}");
+        // The speed signal is the true motor speed with its scale error, bias and noise.
+        let sensor = SpeedSensor::default();
+        let errors: Vec<f64> = speeds[0]
+            .values
+            .iter()
+            .zip(&b.clean.motor_vel)
+            .map(|(m, v)| m - (1.0 + sensor.scale_error) * v - sensor.bias)
+            .collect();
+        let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+        assert!((rms / sensor.sigma - 1.0).abs() < 0.1, "speed noise {rms:e}");
+        // With no motor sensor the load encoder is the only position.
+        variant.noise.motor_sensor = MotorSensor::None;
+        let c = simulate(&variant);
+        assert!(c.log.signal(Signal::MotorPos).is_none() && c.log.signal(Signal::MotorVel).is_none());
+    }
+
+    fn short(effects: Vec<Effect>) -> TruthConfig {
+        TruthConfig { duration: 8.0, effects, ..TruthConfig::default() }
+    }
+
+    fn rms(x: &[f64]) -> f64 {
+        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn setting_the_anti_resonance_keeps_the_path_damping_ratio() {
+        let mut plant = TruthPlant::default();
+        let ratio = |p: &TruthPlant| p.damping / (2.0 * (p.stiffness * p.load_inertia).sqrt());
+        let before = ratio(&plant);
+        assert!((plant.anti_resonance() - 4.0).abs() < 1e-12);
+        plant.set_anti_resonance(6.5);
+        assert!((plant.anti_resonance() - 6.5).abs() < 1e-12);
+        assert!((ratio(&plant) - before).abs() < 1e-15);
+        assert!(
+            (plant.stiffness - plant.load_inertia * (2.0 * std::f64::consts::PI * 6.5).powi(2)).abs()
+                < 1e-6 * plant.stiffness
+        );
+    }
+
+    #[test]
+    fn clean_run_tracks_the_reference() {
+        let run = simulate(&short(vec![]));
+        let reference = run.log.signal(Signal::RefPos).unwrap();
+        let error: Vec<f64> = reference.iter().zip(&run.clean.load_pos).map(|(r, y)| r - y).collect();
+        // A 1 Hz position loop with velocity and acceleration feed-forward keeps the tracking
+        // error a small fraction of a degree on a trajectory of tens of degrees.
+        assert!(rms(&error) < 0.2_f64.to_radians(), "rms tracking error {} deg", rms(&error).to_degrees());
+        assert!(run.clean.motor_vel.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn total_torque_balances_the_motion_in_steady_sliding() {
+        // The sum of both equations of motion: applied = J_m' a_m + J_L a_L + friction. With no
+        // effects, the residual against the nominal steady-state friction curve is only the
+        // LuGre transient, so it must be small in RMS compared with the torque.
+        let run = simulate(&TruthConfig { duration: 20.0, ..TruthConfig::default() });
+        let p = TruthPlant::default();
+        let c = &run.clean;
+        let dt = 1.0 / 500.0;
+        let mut residual = Vec::new();
+        let mut torque = Vec::new();
+        for i in 1..c.motor_vel.len() - 1 {
+            let v = c.motor_vel[i];
+            if v.abs() < 2.0 * p.stribeck_velocity {
+                continue;
+            }
+            let a_m = (c.motor_vel[i + 1] - c.motor_vel[i - 1]) / (2.0 * dt);
+            let friction = p.viscous * v + p.coulomb * v.signum();
+            residual.push(
+                c.applied_torque[i] - p.reflected_motor_inertia() * a_m - p.load_inertia * c.load_acc[i] - friction,
+            );
+            torque.push(c.applied_torque[i]);
+        }
+        assert!(residual.len() > 1000);
+        assert!(rms(&residual) < 0.1 * rms(&torque), "residual {} of torque {}", rms(&residual), rms(&torque));
+    }
+
+    #[test]
+    fn stiff_bristles_cost_no_accuracy_beyond_that_of_the_base_rate() {
+        // The physical bristles relax in microseconds at full speed. With the substeps, going
+        // from the 20 kHz base rate to 200 kHz must change the motion no more with them than
+        // with bristles 100 times softer (which need no substeps): what is left is the hold
+        // of the applied torque over a base step, the same in both.
+        let change_with_finer_rate = |presliding: f64| -> (f64, f64) {
+            let mut config = short(vec![]);
+            config.plant.presliding_displacement = presliding;
+            let coarse = simulate(&config).clean;
+            let fine = simulate(&TruthConfig { internal_rate: 200_000.0, ..config }).clean;
+            let worst = |a: &dyn Fn(&CleanSignals, usize) -> f64| {
+                (0..coarse.motor_pos.len()).map(|i| (a(&coarse, i) - a(&fine, i)).abs()).fold(0.0, f64::max)
+            };
+            (worst(&|c, i| c.motor_pos[i]), worst(&|c, i| c.motor_pos[i] - c.load_pos[i]))
+        };
+        let (stiff_motor, stiff_twist) = change_with_finer_rate(1e-7);
+        let (soft_motor, soft_twist) = change_with_finer_rate(1e-5);
+        assert!(
+            stiff_motor < 1.5 * soft_motor && stiff_twist < 1.5 * soft_twist,
+            "stiff: {stiff_motor:e}, {stiff_twist:e} rad; soft: {soft_motor:e}, {soft_twist:e} rad"
+        );
+        // Both below the load encoder's 1e-7 rad noise.
+        assert!(stiff_motor < 1e-7 && stiff_twist < 1e-7);
+        let quiet = Actual::new(&short(vec![]));
+        assert!(quiet.fastest_rate(0.03) * 5e-5 > 10.0, "the default bristles must need substeps at full speed");
+    }
+
+    #[test]
+    fn an_unbalance_raises_the_torque_by_its_size() {
+        let clean = simulate(&short(vec![]));
+        let with = simulate(&short(vec![Effect::Unbalance { amplitude: 5000.0, phase: 0.0 }]));
+        let difference: Vec<f64> =
+            with.clean.applied_torque.iter().zip(&clean.clean.applied_torque).map(|(a, b)| a - b).collect();
+        let expected: Vec<f64> = with.clean.load_pos.iter().map(|q| 5000.0 * q.cos()).collect();
+        let miss: Vec<f64> = difference.iter().zip(&expected).map(|(d, e)| d - e).collect();
+        // Closed-loop tracking makes the drive supply the unbalance torque, apart from the
+        // noise injection (same seed, so largely the same) and small trajectory differences.
+        assert!(rms(&miss) < 0.1 * rms(&expected), "miss {} of {}", rms(&miss), rms(&expected));
+    }
+}

@@ -1,0 +1,78 @@
+//! Tests of `antenna_validate::selection` against logs of the truth simulation (which depends on
+//! the validation crate, so they live here).
+
+use antenna_validate::selection::*;
+use antenna_validate::candidates::Kind;
+use antenna_validate::parameters::ParameterSet;
+use antenna_truth::{simulate, Effect, TruthConfig};
+use antenna_validate::equation_error::{prepare, EquationOptions};
+
+fn run(effects: Vec<Effect>, seed: u64) -> (Selection, ParameterSet) {
+    let config = TruthConfig { duration: 30.0, effects, seed, ..TruthConfig::default() };
+    let start = config.plant.starting_parameters();
+    let log = simulate(&config).log;
+    let data = prepare(&log, &start, &EquationOptions::default()).unwrap();
+    (select(&data, &start, &SelectionOptions::default()), start)
+}
+
+#[test]
+fn clean_data_gives_no_significant_missing_effect() {
+    let (selection, start) = run(vec![], 5);
+    assert!(selection.found.is_empty(), "claimed {:?}", selection.found.iter().map(|f| f.kind).collect::<Vec<_>>());
+    assert_eq!(selection.corrected, start);
+}
+
+#[test]
+fn a_large_unbalance_is_named_and_fitted() {
+    let (selection, _) = run(vec![Effect::Unbalance { amplitude: 3000.0, phase: 0.4 }], 6);
+    assert_eq!(selection.found.first().map(|f| f.kind), Some(Kind::Unbalance));
+    let amplitude = selection.corrected.value(antenna_validate::parameters::names::UNBALANCE_TORQUE);
+    assert!((amplitude / 3000.0 - 1.0).abs() < 0.1, "{amplitude}");
+    let (before, after) = (selection.before.sigma[1], selection.after.sigma[1]);
+    assert!(after < 0.2 * before, "load-equation RMS {before} -> {after}");
+}
+
+/// A judge that confirms every effect and never finds one model better than another: the
+/// data cannot separate any two confirmed candidates.
+struct Undecided;
+
+impl Judge for Undecided {
+    fn confirm(&mut self, _: Kind, _: &ParameterSet, _: &ParameterSet) -> Result<String, String> {
+        Ok(String::new())
+    }
+    fn compares(&self) -> bool {
+        true
+    }
+}
+
+#[test]
+fn confirmed_candidates_the_chosen_effect_does_not_beat_are_reported_as_equally_consistent() {
+    let config = TruthConfig {
+        duration: 30.0,
+        effects: vec![Effect::Unbalance { amplitude: 3000.0, phase: 0.4 }],
+        seed: 6,
+        ..TruthConfig::default()
+    };
+    let start = config.plant.starting_parameters();
+    let data = prepare(&simulate(&config).log, &start, &EquationOptions::default()).unwrap();
+    let options = SelectionOptions { max_effects: 1, ..SelectionOptions::default() };
+    let undecided = select_judged(&data, &start, &options, &mut Undecided);
+    let chosen = undecided.steps[0].chosen.expect("an effect is chosen");
+    let significant: Vec<Kind> = undecided.steps[0]
+        .scores
+        .iter()
+        .filter(|s| s.confirmation.is_some() && s.kind != chosen)
+        .map(|s| s.kind)
+        .collect();
+    assert!(!significant.is_empty(), "the test needs a second confirmed candidate");
+    let mut alike = undecided.equally_consistent(chosen);
+    alike.sort_by_key(|k| k.name());
+    let mut significant = significant;
+    significant.sort_by_key(|k| k.name());
+    assert_eq!(alike, significant);
+    // A judge that stops at the first confirmed candidate compares nothing and claims no
+    // ambiguity.
+    let first_only = select_judged(&data, &start, &options, &mut EquationOnly);
+    assert!(first_only.steps.iter().all(|s| s.equally_consistent.is_empty()));
+}
+

@@ -1,0 +1,239 @@
+//! Measured against model frequency response, torque to motor speed, where the data has
+//! broadband excitation.
+//!
+//! The measured response is the H1 estimate (Welch cross spectrum over input spectrum,
+//! `antenna_dsp`) from the logged axis torque to the motor speed, with its coherence;
+//! the model's is the corrected Eq. 1 two-mass response (`fmu_plant::analytic`) with the
+//! model's viscous friction, the delay and the torque-constant scale, in axis-side units.
+//! The anti-resonance is the trough of the torque-to-motor-speed response: its frequency is
+//! sqrt(K/J_L) (damped), so a stiffness error shows as a shift of the measured trough against
+//! the model's. Coulomb friction is not in a linear response; it shows as lower coherence at
+//! low frequency.
+
+use super::equation_error::EquationData;
+use super::output_error::OutputData;
+use super::parameters::{names, ParameterSet};
+use antenna_dsp::{transfer_function_h1, Complex64, WelchConfig};
+use fmu_plant::analytic::TwoMassParameters;
+
+/// The comparison of measured and model responses.
+#[derive(Debug, Clone)]
+pub struct FrequencyResponse {
+    pub frequency_hz: Vec<f64>,
+    /// Measured H1 (rad/s per N m) and its coherence.
+    pub measured: Vec<Complex64>,
+    pub coherence: Vec<f64>,
+    /// The coherence two unrelated records would exceed with 5 % probability.
+    pub coherence_threshold: f64,
+    /// Model responses before and after.
+    pub before: Vec<Complex64>,
+    pub after: Vec<Complex64>,
+    /// The band searched for the anti-resonance (Hz) and whether the data excites it: the
+    /// coherence exceeds its threshold over at least 80 % of the band's bins.
+    pub band: (f64, f64),
+    pub broadband: bool,
+    /// Anti-resonance frequencies (Hz): the trough of the measured response within the band
+    /// (None when the band is not excited), and of the two models' responses.
+    pub measured_anti_resonance: Option<f64>,
+    pub before_anti_resonance: f64,
+    pub after_anti_resonance: f64,
+    /// The complex response error of each model (see [`response_error`]) over the coherent
+    /// bins of [`RESPONSE_BAND`], and how many bins entered it; None when fewer than
+    /// [`MIN_RESPONSE_BINS`] are coherent.
+    pub response_error_before: Option<f64>,
+    pub response_error_after: Option<f64>,
+    pub response_bins: usize,
+}
+
+/// The band of the complex response error (Hz): above the closed loop and the Coulomb
+/// friction, which make H1 depart from the linear plant below about 2 Hz, and below the
+/// frequencies where the current loop and the encoder noise dominate. It holds the drive's
+/// anti-resonance and resonance (about 4 and 7 Hz on an antenna-like drive) and the phase
+/// that a delay adds (2 pi f d grows with frequency), so it sees a stiffness and a delay alike.
+pub const RESPONSE_BAND: (f64, f64) = (2.0, 60.0);
+
+/// At least this many coherent bins for a response error.
+pub const MIN_RESPONSE_BINS: usize = 20;
+
+/// The complex error of a model's torque-to-motor-speed response against the measured H1:
+/// the root of the weighted mean of |H_measured - H_model|^2 / |H_measured|^2 over the bins
+/// of `band` whose coherence exceeds its 95 % threshold, each weighted by g^2 / (1 - g^2)
+/// (g^2 the coherence), the inverse of the relative variance of an H1 estimate. Relative, so
+/// the error in the troughs counts as much as at the peaks; complex, so a phase error (a
+/// delay) counts like a gain error. Returns the error and the number of bins.
+pub fn response_error(
+    frequency: &[f64],
+    measured: &[Complex64],
+    coherence: &[f64],
+    threshold: f64,
+    model: &[Complex64],
+    band: (f64, f64),
+) -> (f64, usize) {
+    let (mut sum, mut weights, mut bins) = (0.0, 0.0, 0usize);
+    for k in 0..frequency.len() {
+        if frequency[k] < band.0 || frequency[k] > band.1 || coherence[k] <= threshold || !(coherence[k] < 1.0) {
+            continue;
+        }
+        let magnitude = measured[k].norm_sqr();
+        if !(magnitude > 0.0) {
+            continue;
+        }
+        let weight = coherence[k] / (1.0 - coherence[k]);
+        sum += weight * (measured[k] - model[k]).norm_sqr() / magnitude;
+        weights += weight;
+        bins += 1;
+    }
+    (if weights > 0.0 { (sum / weights).sqrt() } else { f64::NAN }, bins)
+}
+
+/// The model's torque-to-motor-speed response at `f` Hz, axis-side units.
+pub fn model_response(params: &ParameterSet, f: f64) -> Complex64 {
+    let gear = params.value(names::GEAR_RATIO);
+    let two_mass = TwoMassParameters {
+        motor_inertia: params.value(names::MOTOR_INERTIA) * gear * gear,
+        motor_friction: params.value(names::VISCOUS),
+        shaft_stiffness: params.value(names::STIFFNESS),
+        cross_coupled_damping: params.value(names::DAMPING),
+        load_inertia: params.value(names::LOAD_INERTIA),
+    };
+    let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+    let delay = (-s * params.value(names::DELAY)).exp();
+    two_mass.motor_speed_per_torque(s) * delay * params.value(names::TORQUE_CONSTANT_SCALE)
+}
+
+/// The frequency of the smallest |H| among `values` at `frequency` within `band`, refined
+/// between bins by a parabola through the log-magnitudes of the smallest and its neighbours.
+fn trough(frequency: &[f64], values: &[f64], band: (f64, f64)) -> Option<f64> {
+    let k = (0..frequency.len())
+        .filter(|&k| frequency[k] >= band.0 && frequency[k] <= band.1)
+        .min_by(|&a, &b| values[a].total_cmp(&values[b]))?;
+    if k == 0 || k + 1 >= frequency.len() {
+        return Some(frequency[k]);
+    }
+    let (a, b, c) = (values[k - 1].ln(), values[k].ln(), values[k + 1].ln());
+    let curvature = a - 2.0 * b + c;
+    let shift = if curvature > 0.0 && a.is_finite() && c.is_finite() {
+        (0.5 * (a - c) / curvature).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
+    Some(frequency[k] + shift * (frequency[k + 1] - frequency[k]))
+}
+
+/// Compares the measured response with the models', when the models have a compliant drive
+/// (a stiffness and a load inertia) whose anti-resonance lies below the Nyquist frequency.
+pub fn compare(
+    data: &EquationData,
+    out: &OutputData,
+    before: &ParameterSet,
+    after: &ParameterSet,
+) -> Option<FrequencyResponse> {
+    let stiffness = before.value(names::STIFFNESS);
+    let load = before.value(names::LOAD_INERTIA);
+    // The trough is in the response of the motor: a log with the load encoder alone does not
+    // measure it (its "motor" angle is the load's, which has a resonance there, not a trough).
+    if stiffness <= 0.0 || load <= 0.0 || !out.motor_measured {
+        return None;
+    }
+    let sample_rate = 1.0 / data.dt;
+    let anti_resonance = (stiffness / load).sqrt() / (2.0 * std::f64::consts::PI);
+    let band = (0.5 * anti_resonance, 2.0 * anti_resonance);
+    if band.1 >= 0.5 * sample_rate {
+        return None;
+    }
+    // Segments of an eighth of the record (15 averages with 50 % overlap): fine resolution
+    // with a coherence that separates excited from unexcited bins. At least 16 bins must fall
+    // in the band.
+    let segment = data.len() / 8;
+    if segment < 16 || (band.1 - band.0) * segment as f64 / sample_rate < 16.0 {
+        return None;
+    }
+    let config = WelchConfig::new(segment);
+    let torque = &out.axis_torque;
+    // The motor speed by five-point central differences of the logged motor angle: a flat
+    // response to far above the drive modes. Its encoder noise is uncorrelated with the
+    // torque, which H1 tolerates (it biases only with noise on the input).
+    let k0 = out.first_sample;
+    let x = &out.motor_pos;
+    let speed: Vec<f64> = (0..data.len())
+        .map(|i| {
+            let k = (k0 + i).clamp(2, x.len() - 3);
+            (x[k - 2] - 8.0 * x[k - 1] + 8.0 * x[k + 1] - x[k + 2]) / (12.0 * data.dt)
+        })
+        .collect();
+    let speed = &speed;
+    let estimate = transfer_function_h1(torque, speed, sample_rate, &config).ok()?;
+    let threshold = estimate.coherence_threshold(0.95);
+    let in_band: Vec<usize> = (0..estimate.frequency_hz.len())
+        .filter(|&k| estimate.frequency_hz[k] >= band.0 && estimate.frequency_hz[k] <= band.1)
+        .collect();
+    let excited = in_band.iter().filter(|&&k| estimate.coherence[k] > threshold).count();
+    let broadband = !in_band.is_empty() && excited as f64 >= 0.8 * in_band.len() as f64;
+    // The trough is searched among the coherent bins only: an incoherent bin's |H1| is noise
+    // and can dip below the true trough.
+    let magnitude: Vec<f64> = estimate
+        .h1
+        .iter()
+        .zip(&estimate.coherence)
+        .map(|(h, &c)| if c > threshold { h.norm() } else { f64::INFINITY })
+        .collect();
+    let model = |p: &ParameterSet| estimate.frequency_hz.iter().map(|&f| model_response(p, f)).collect::<Vec<_>>();
+    let (model_before, model_after) = (model(before), model(after));
+    let band_error = |m: &[Complex64]| {
+        response_error(&estimate.frequency_hz, &estimate.h1, &estimate.coherence, threshold, m, RESPONSE_BAND)
+    };
+    let ((error_before, bins), (error_after, _)) = (band_error(&model_before), band_error(&model_after));
+    let enough = bins >= MIN_RESPONSE_BINS;
+    // The model troughs on a fine grid, so they do not carry the Welch resolution.
+    let fine: Vec<f64> = (0..=2000).map(|k| band.0 + (band.1 - band.0) * k as f64 / 2000.0).collect();
+    let fine_trough = |p: &ParameterSet| {
+        let values: Vec<f64> = fine.iter().map(|&f| model_response(p, f).norm()).collect();
+        trough(&fine, &values, band).unwrap_or(f64::NAN)
+    };
+    Some(FrequencyResponse {
+        measured_anti_resonance: if broadband { trough(&estimate.frequency_hz, &magnitude, band) } else { None },
+        before_anti_resonance: fine_trough(before),
+        after_anti_resonance: fine_trough(after),
+        response_error_before: enough.then_some(error_before),
+        response_error_after: enough.then_some(error_after),
+        response_bins: bins,
+        frequency_hz: estimate.frequency_hz,
+        measured: estimate.h1,
+        coherence: estimate.coherence,
+        coherence_threshold: threshold,
+        before: model_before,
+        after: model_after,
+        band,
+        broadband,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn response_error_of_a_delayed_model_is_the_phase_chord() {
+        // A model that only lacks a delay d errs by |1 - exp(-j w d)| = 2 |sin(pi f d)| in
+        // every bin; with equal coherence the weighted mean is the plain mean.
+        let frequency: Vec<f64> = (0..200).map(|k| 0.5 * k as f64).collect();
+        let d = 2e-3;
+        let measured: Vec<Complex64> = frequency
+            .iter()
+            .map(|&f| Complex64::new(0.0, -2.0 * std::f64::consts::PI * f * d).exp() * (1.0 + f))
+            .collect();
+        let model: Vec<Complex64> = frequency.iter().map(|&f| Complex64::new(1.0 + f, 0.0)).collect();
+        let coherence = vec![0.9; frequency.len()];
+        let (error, bins) = response_error(&frequency, &measured, &coherence, 0.5, &model, RESPONSE_BAND);
+        let inside: Vec<f64> =
+            frequency.iter().copied().filter(|f| *f >= RESPONSE_BAND.0 && *f <= RESPONSE_BAND.1).collect();
+        let expected = (inside.iter().map(|f| (2.0 * (std::f64::consts::PI * f * d).sin()).powi(2)).sum::<f64>()
+            / inside.len() as f64)
+            .sqrt();
+        assert_eq!(bins, inside.len());
+        assert!((error - expected).abs() < 1e-12 * expected, "{error} against {expected}");
+        // The measured response itself has no error, and incoherent bins are left out.
+        assert_eq!(response_error(&frequency, &measured, &coherence, 0.5, &measured, RESPONSE_BAND).0, 0.0);
+        assert_eq!(response_error(&frequency, &measured, &coherence, 0.95, &model, RESPONSE_BAND).1, 0);
+    }
+}

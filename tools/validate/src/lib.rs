@@ -1,0 +1,555 @@
+//! Model validation against measured logs: compute the residual, analyse it as a control
+//! engineer would, trace it to a named effect the model lacks, add the effect, refit, and
+//! report the error before and after. Documented in docs/validation.md.
+//!
+//! Two residuals work together. The equation error (inverse dynamics, [`equation_error`])
+//! needs no simulation: it finds candidate effects and fits their parameters. The output
+//! error ([`output_error`]) simulates the plant FMU through its C ABI ([`plant_fmu`]) over
+//! windows re-initialised from the measured state: an effect is claimed only if it also makes
+//! the simulation predict the measured motion significantly better, and the error before and
+//! after is reported on it, in physical units, as a control engineer compares models.
+
+pub mod candidates;
+pub mod equation_error;
+pub mod frequency;
+pub mod output_error;
+pub mod parameters;
+pub mod plant_fmu;
+pub mod presliding;
+pub mod refit;
+pub mod report;
+pub mod measured_log;
+pub mod selection;
+pub mod signals;
+pub mod stats;
+pub mod twist;
+
+use crate::measured_log::{MeasuredLog, Signal};
+use candidates::Kind;
+use equation_error::{EquationData, EquationOptions, Structure};
+use output_error::{Comparison, OutputData, OutputError, PlantSimulator, WindowPlan};
+use parameters::{FmuConfig, ParameterSet};
+use selection::{Fit, Selection, SelectionOptions};
+
+/// Settings of the output-error route.
+#[derive(Debug, Clone)]
+pub struct OutputOptions {
+    /// The window is the lag at which the measured motor speed's autocorrelation falls to
+    /// this (see [`output_error::choose_window`]).
+    pub window_correlation: f64,
+    /// At least this many windows (the window is at most 1/this of the record).
+    pub minimum_windows: usize,
+    /// Fixed window length (s) instead of the rule above.
+    pub window_seconds: Option<f64>,
+    /// Fixed length (s) of the drive-path channel's pieces instead of the drive mode's decay
+    /// time (see [`output_error::drive_window`]); a length of at least the window scores the
+    /// twist on the windows themselves.
+    pub drive_window_seconds: Option<f64>,
+    /// One-sided level of the signed-rank test that confirms an effect.
+    pub alpha: f64,
+    /// Refit the found effects' parameters on the output error ([`refit`]).
+    pub refit: bool,
+    /// Calibrate the friction's presliding compliance before the search ([`presliding`]).
+    pub presliding: bool,
+}
+
+impl Default for OutputOptions {
+    fn default() -> Self {
+        OutputOptions {
+            window_correlation: 0.9,
+            minimum_windows: 20,
+            window_seconds: None,
+            drive_window_seconds: None,
+            alpha: 0.01,
+            refit: true,
+            presliding: true,
+        }
+    }
+}
+
+/// All settings of a validation run.
+#[derive(Debug, Clone, Default)]
+pub struct ValidateOptions {
+    pub equation: EquationOptions,
+    pub selection: SelectionOptions,
+    pub output: OutputOptions,
+    pub twist: twist::TwistOptions,
+}
+
+/// Statistics of one residual channel, as a control engineer reads them.
+#[derive(Debug, Clone)]
+pub struct ChannelStats {
+    pub name: String,
+    /// RMS of the residual over the fitted samples, axis-side N m.
+    pub rms: f64,
+    /// NRMSE fit of the measured side, percent.
+    pub fit_percent: f64,
+    /// Integrated autocorrelation time (samples): 1 for white.
+    pub correlation_time: f64,
+    /// Ljung-Box p-value on 20 lags of the residual decimated to independent samples
+    /// (one per filter length): small means not white.
+    pub whiteness_p: f64,
+    /// Fraction of those lags outside the 95 % band.
+    pub lags_outside: f64,
+    /// Largest |cross-correlation| with each input over +-1 s, with its lag (s), and the 95 %
+    /// bound for a white residual on the decimated record.
+    pub cross_correlation: Vec<(String, f64, f64)>,
+    pub cross_bound: f64,
+}
+
+/// The output-error side of a validation.
+#[derive(Debug, Clone)]
+pub struct OutputReport {
+    pub config: FmuConfig,
+    pub plan: WindowPlan,
+    /// Half-width (samples) of the state estimator that starts the windows.
+    pub state_half_width: usize,
+    pub before: OutputError,
+    pub after: OutputError,
+    /// Every confirmation asked during the search: the effect and the comparison of the model
+    /// with it against the model without it.
+    pub confirmations: Vec<(Kind, Comparison)>,
+    /// The corrected model against the starting one.
+    pub overall: Comparison,
+    /// The found effects' parameters refitted on the output error ([`refit`]), when that
+    /// lowered its score; the corrected model and "after" are then the refitted ones.
+    pub refit: Option<refit::Refit>,
+    /// The friction-form calibration ([`presliding`]), when it was tried; when kept, `before`
+    /// is the calibrated starting model's error and `starting` the uncalibrated one's.
+    pub calibration: Option<presliding::Calibration>,
+    pub starting: Option<OutputError>,
+}
+
+impl OutputReport {
+    /// The scored channel whose error dropped most (relative): where the found effects show.
+    /// Returns (index, before RMS, after RMS).
+    pub fn most_improved(&self) -> Option<(usize, f64, f64)> {
+        self.before
+            .channels
+            .iter()
+            .zip(&self.after.channels)
+            .enumerate()
+            .filter(|(_, (b, _))| b.criterion)
+            .map(|(i, (b, a))| (i, b.rms, a.rms))
+            .min_by(|x, y| (x.2 / x.1).total_cmp(&(y.2 / y.1)))
+    }
+}
+
+/// The result of validating one log.
+#[derive(Debug, Clone)]
+pub struct Validation {
+    pub data: EquationData,
+    pub selection: Selection,
+    pub before: Vec<ChannelStats>,
+    pub after: Vec<ChannelStats>,
+    pub start: ParameterSet,
+    pub output: Option<OutputReport>,
+    pub frequency: Option<frequency::FrequencyResponse>,
+    /// The two-encoder check of the twist ([`twist`]); for a log whose load encoder was found
+    /// to lag, the analysis that found it (the data above are then the corrected ones).
+    pub twist: Option<twist::TwistAnalysis>,
+    /// The timing skew the load encoder was corrected by (s), when one was found.
+    pub encoder_skew: Option<f64>,
+    /// Effects not claimed that the output error alone would confirm.
+    pub hints: Vec<Hint>,
+    pub notes: Vec<String>,
+}
+
+/// An effect the equation-error test did not find significant but the output error would
+/// confirm on top of the corrected model: reported as what a longer or richer log could
+/// establish, never claimed or written into the corrected parameters.
+#[derive(Debug, Clone)]
+pub struct Hint {
+    pub kind: Kind,
+    /// The equation-error p-value at the last step and the threshold it missed.
+    pub equation_p: f64,
+    pub threshold: f64,
+    pub comparison: Comparison,
+    /// The corrected model with the effect added.
+    pub parameters: ParameterSet,
+}
+
+impl Hint {
+    /// The effect's own parameters with their values (the refit of the others moves them
+    /// only slightly and is left out).
+    pub fn changes(&self, corrected: &ParameterSet) -> String {
+        let reset = selection::without_effect(self.kind, &self.parameters, corrected);
+        self.parameters
+            .names()
+            .filter(|name| reset.get(name) != self.parameters.get(name))
+            .map(|name| format!("{name} = {:.4e}", self.parameters.value(name)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl Validation {
+    /// Index of the equation-error channel where the fit reduced the error most (relative):
+    /// the equation the found effect shows in.
+    pub fn most_improved_channel(&self) -> usize {
+        (0..self.before.len())
+            .min_by(|&a, &b| {
+                (self.after[a].rms / self.before[a].rms).total_cmp(&(self.after[b].rms / self.before[b].rms))
+            })
+            .unwrap_or(0)
+    }
+}
+
+/// Number of parameters an effect adds, for the output error's information criterion.
+fn parameter_count(kind: Kind, structure: Structure) -> usize {
+    match kind {
+        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
+        Kind::Cogging => 3,
+        Kind::Inertia if structure == Structure::TwoMass => 2,
+        _ => 1,
+    }
+}
+
+/// The output error as the judge of the search: an effect is claimed only if the plant FMU
+/// with it predicts the measured motion significantly better over the windows than without it
+/// ([`output_error::compare`]), and a lower-ranked candidate replaces the equation error's
+/// choice only if it predicts significantly better than that choice.
+struct OutputJudge<'a> {
+    simulator: &'a mut dyn PlantSimulator,
+    data: &'a EquationData,
+    out: &'a OutputData,
+    plan: &'a WindowPlan,
+    cache: Vec<(ParameterSet, OutputError)>,
+    confirmations: Vec<(Kind, Comparison)>,
+    alpha: f64,
+}
+
+impl OutputJudge<'_> {
+    fn error_of(&mut self, params: &ParameterSet) -> Result<OutputError, String> {
+        if let Some((_, e)) = self.cache.iter().find(|(p, _)| p == params) {
+            return Ok(e.clone());
+        }
+        let e = output_error::output_error(self.simulator, params, self.data, self.out, self.plan)?;
+        self.cache.push((params.clone(), e.clone()));
+        Ok(e)
+    }
+}
+
+impl selection::Judge for OutputJudge<'_> {
+    fn confirm(&mut self, kind: Kind, without: &ParameterSet, with: &ParameterSet) -> Result<String, String> {
+        let baseline = self.error_of(without).map_err(|e| format!("the model without it does not simulate: {e}"))?;
+        let candidate = self.error_of(with).map_err(|e| format!("the model with it does not simulate: {e}"))?;
+        let comparison =
+            output_error::compare(&baseline, &candidate, parameter_count(kind, self.data.structure), self.alpha);
+        let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
+        self.confirmations.push((kind, comparison));
+        result
+    }
+
+    fn prefers(&mut self, incumbent: &ParameterSet, challenger: &ParameterSet, extra: isize) -> bool {
+        match (self.error_of(incumbent), self.error_of(challenger)) {
+            (Ok(a), Ok(b)) => output_error::compare(&a, &b, extra.max(0) as usize, self.alpha).confirmed,
+            _ => false,
+        }
+    }
+
+    fn compares(&self) -> bool {
+        true
+    }
+}
+
+/// Validates a measured log against a starting parameter set with the equation-error route
+/// only (no simulator).
+pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions) -> Result<Validation, String> {
+    validate_with(log, start, options, None)
+}
+
+/// Validates a measured log against a starting parameter set. With a simulator (the plant
+/// FMU), every effect must also be confirmed by the windowed output error, and the output
+/// error before and after is reported; if the simulator cannot run the starting model, the
+/// validation falls back to the equation error with a note.
+///
+/// With two encoders, the twist is checked after the search ([`twist`]): a significant timing
+/// skew between the encoders is corrected in the data (the load encoder shifted back) and the
+/// log validated once more, so the effects are found on consistent data.
+pub fn validate_with(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    mut simulator: Option<&mut dyn PlantSimulator>,
+) -> Result<Validation, String> {
+    // A motor speed sensor without a motor encoder: the motor position is its integral, whose
+    // slow drift is a nuisance of every fit (equation_error's slow-twist knots) and which every
+    // parameter set's own twist centre follows in the output error.
+    let integrated = log.with_motor_position_from_speed();
+    let log = integrated.as_ref().unwrap_or(log);
+    // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
+    let reborrowed = match simulator.as_mut() {
+        Some(s) => Some(&mut **s as &mut dyn PlantSimulator),
+        None => None,
+    };
+    let mut first = validate_once(log, start, options, reborrowed)?;
+    first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
+    // The skew check regresses the twist on a constant offset, which an integrated motor
+    // position's drift breaks: no skew is acted on then (its report still shows the terms).
+    let Some(skew) = first.twist.as_ref().and_then(|t| t.claimed_skew()).filter(|_| integrated.is_none()) else {
+        return Ok(first);
+    };
+    let corrected_log = twist::shift_load_encoder(log, skew);
+    let mut second = validate_once(&corrected_log, start, options, simulator)?;
+    second.notes.push(format!(
+        "the load encoder lags the motor encoder by {:.3} ms ({:.2} samples): it was shifted back by that much and the log validated again; the results above are on the corrected data",
+        skew * 1e3,
+        skew / second.data.dt
+    ));
+    second.twist = first.twist;
+    second.encoder_skew = Some(skew);
+    Ok(second)
+}
+
+/// One pass of [`validate_with`] on a log as it is.
+fn validate_once(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    simulator: Option<&mut dyn PlantSimulator>,
+) -> Result<Validation, String> {
+    let data = equation_error::prepare(log, start, &options.equation)?;
+    let mut notes = log.notes.clone();
+    notes.extend(data.notes.iter().cloned());
+    let mut output = None;
+    let mut frequency = None;
+    let mut hints = Vec::new();
+    let selection = match simulator {
+        None => selection::select(&data, start, &options.selection),
+        Some(simulator) => {
+            let prepared = OutputData::new(log, &data, start).and_then(|out| {
+                let mut plan = match options.output.window_seconds {
+                    Some(seconds) => WindowPlan::new(
+                        (seconds / out.dt).round() as usize + 1,
+                        out.len(),
+                        out.dt,
+                        format!("fixed at {seconds} s"),
+                    ),
+                    None => output_error::choose_window(
+                        &out,
+                        options.output.window_correlation,
+                        options.output.minimum_windows,
+                    ),
+                };
+                let drive = match options.output.drive_window_seconds {
+                    Some(seconds) => Some(((seconds / out.dt).round() as usize + 1, format!("fixed at {seconds} s"))),
+                    None => output_error::drive_window(start, out.dt),
+                };
+                if let (Some((length, reason)), Structure::TwoMass) = (drive, data.structure) {
+                    plan = plan.with_drive_length(length, reason);
+                }
+                let before = output_error::output_error(simulator, start, &data, &out, &plan)?;
+                Ok((out, plan, before))
+            });
+            match prepared {
+                Err(message) => {
+                    notes.push(format!(
+                        "output error not available ({message}): effects are claimed on the equation error alone"
+                    ));
+                    selection::select(&data, start, &options.selection)
+                }
+                Ok((out, plan, before)) => {
+                    // The friction-form calibration: the presliding compliance of the friction,
+                    // fitted once on the output error and used in the "before" and "after"
+                    // models alike (presliding.rs). The starting model's own error is kept
+                    // for the report.
+                    let calibration = if options.output.presliding {
+                        presliding::calibrate(simulator, &data, &out, &plan, start, &before, options.output.alpha)
+                    } else {
+                        None
+                    };
+                    let (calibrated, before, starting) = match &calibration {
+                        Some(c) if c.kept => {
+                            (presliding::with_displacement(start, c.displacement), c.error.clone(), Some(before))
+                        }
+                        _ => (start.clone(), before, None),
+                    };
+                    let start = &calibrated;
+                    let mut judge = OutputJudge {
+                        simulator: &mut *simulator,
+                        data: &data,
+                        out: &out,
+                        plan: &plan,
+                        cache: vec![(start.clone(), before.clone())],
+                        confirmations: Vec::new(),
+                        alpha: options.output.alpha,
+                    };
+                    let mut selection = selection::select_judged(&data, start, &options.selection, &mut judge);
+                    let OutputJudge { cache, confirmations, .. } = judge;
+                    let structure = data.structure;
+                    let mut after = match cache.iter().find(|(p, _)| *p == selection.corrected) {
+                        Some((_, e)) => e.clone(),
+                        None => output_error::output_error(simulator, &selection.corrected, &data, &out, &plan)?,
+                    };
+                    // The found effects' parameters refitted on the output error: the model is
+                    // used as a simulation, so its parameters end where it predicts best. The
+                    // equation error is then reported at those parameters as they are.
+                    let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+                    let refitted = if options.output.refit {
+                        refit::refit(simulator, &data, &out, &plan, start, &kinds, &selection.corrected, &after)
+                    } else {
+                        None
+                    };
+                    if let Some(r) = &refitted {
+                        let weights = selection.after.channel_weights();
+                        let (_, found) = selection::final_fit(&data, start, &r.params, &kinds, &weights);
+                        selection.after = selection::fit_fixed(&data, &r.params, &weights);
+                        selection.found = found;
+                        selection.corrected = r.params.clone();
+                        after = r.error.clone();
+                    }
+                    let overall = output_error::compare(
+                        &before,
+                        &after,
+                        selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(),
+                        options.output.alpha,
+                    );
+                    // Hints: effects the equation-error test did not find significant (but at
+                    // least the noise in size) that the output error alone would confirm on top
+                    // of the corrected model. Not claimed: the equation error's test failed,
+                    // typically for want of independent samples in a short or slow log.
+                    if let Some(last) = selection.steps.last() {
+                        let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+                        for score in &last.scores {
+                            if score.not_applicable.is_some()
+                                || score.significant
+                                || accepted.contains(&score.kind)
+                                || score.effect_to_noise < options.selection.min_effect_to_noise
+                            {
+                                continue;
+                            }
+                            let Ok(with) = selection::fit_candidate(
+                                &data,
+                                &selection.corrected,
+                                &accepted,
+                                score.kind,
+                                &options.selection,
+                            ) else {
+                                continue;
+                            };
+                            let Ok(candidate) = output_error::output_error(simulator, &with, &data, &out, &plan) else {
+                                continue;
+                            };
+                            let comparison = output_error::compare(
+                                &after,
+                                &candidate,
+                                parameter_count(score.kind, structure),
+                                options.output.alpha,
+                            );
+                            if comparison.confirmed {
+                                hints.push(Hint {
+                                    kind: score.kind,
+                                    equation_p: score.p_value,
+                                    threshold: last.threshold,
+                                    comparison,
+                                    parameters: with,
+                                });
+                            }
+                        }
+                    }
+                    frequency = frequency::compare(&data, &out, start, &selection.corrected);
+                    output = Some(OutputReport {
+                        config: out.config,
+                        plan,
+                        state_half_width: out.state_half_width,
+                        before,
+                        after,
+                        confirmations,
+                        overall,
+                        refit: refitted,
+                        calibration,
+                        starting,
+                    });
+                    selection
+                }
+            }
+        }
+    };
+    let before = channel_stats(&data, &selection.before, log);
+    let after = channel_stats(&data, &selection.after, log);
+    Ok(Validation {
+        data,
+        selection,
+        before,
+        after,
+        start: start.clone(),
+        output,
+        frequency,
+        twist: None,
+        encoder_skew: None,
+        hints,
+        notes,
+    })
+}
+
+/// Residual statistics of a fit, per channel.
+pub fn channel_stats(data: &EquationData, fit: &Fit, log: &MeasuredLog) -> Vec<ChannelStats> {
+    let decimation = 2 * data.half_width + 1;
+    let inputs = input_signals(data, log);
+    fit.channels
+        .iter()
+        .enumerate()
+        .map(|(c, channel)| {
+            let used: Vec<f64> =
+                fit.residual[c].iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(r, _)| *r).collect();
+            let measured: Vec<f64> =
+                channel.measured.iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect();
+            // Decimate to about one sample per filter length: the smoothing correlates
+            // neighbouring residual samples even when the model is right.
+            let decimated: Vec<f64> = fit.residual[c].iter().step_by(decimation).copied().collect();
+            let lags = 20.min(decimated.len() / 4).max(1);
+            let (whiteness_p, lags_outside) = match antenna_dsp::whiteness_test(&decimated, lags, 0) {
+                Ok(test) => (test.p_value, test.fraction_outside),
+                Err(_) => (f64::NAN, f64::NAN),
+            };
+            let max_lag = ((1.0 / (data.dt * decimation as f64)).round() as usize)
+                .clamp(1, decimated.len().saturating_sub(1).max(1));
+            let cross_correlation = inputs
+                .iter()
+                .filter_map(|(name, x)| {
+                    let xd: Vec<f64> = x.iter().step_by(decimation).copied().collect();
+                    let cc = antenna_dsp::cross_correlation(
+                        &xd[..xd.len().min(decimated.len())],
+                        &decimated[..xd.len().min(decimated.len())],
+                        max_lag,
+                    )
+                    .ok()?;
+                    let (lag, value) = cc.peak();
+                    Some((name.clone(), value, lag as f64 * data.dt * decimation as f64))
+                })
+                .collect();
+            ChannelStats {
+                name: channel.name.to_string(),
+                rms: antenna_dsp::rms(&used),
+                fit_percent: stats::nrmse_fit_percent(&measured, &used),
+                correlation_time: fit.tau[c],
+                whiteness_p,
+                lags_outside,
+                cross_correlation,
+                cross_bound: antenna_dsp::whiteness_bound(decimated.len(), 0.95),
+            }
+        })
+        .collect()
+}
+
+/// The inputs the residual is cross-correlated with, on the analysed region.
+fn input_signals(data: &EquationData, log: &MeasuredLog) -> Vec<(String, Vec<f64>)> {
+    let mut inputs = vec![
+        ("measured torque".to_string(), data.torque.clone()),
+        ("motor speed".to_string(), data.motor_vel.clone()),
+        ("axis angle".to_string(), data.load_pos.clone()),
+    ];
+    let n = data.len();
+    let start = data.first_sample;
+    for (signal, name) in
+        [(Signal::RefPos, "position command"), (Signal::WindSpeed, "wind speed"), (Signal::Elevation, "elevation")]
+    {
+        if let Some(values) = log.signal(signal) {
+            if values.len() >= start + n {
+                inputs.push((name.to_string(), values[start..start + n].to_vec()));
+            }
+        }
+    }
+    inputs
+}

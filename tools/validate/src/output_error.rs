@@ -1,0 +1,943 @@
+//! The output-error route: simulate the plant over windows re-initialised from the measured
+//! state, driven by the logged current or torque, and compare its outputs with the measured
+//! ones.
+//!
+//! One long open-loop run of a drive driven by measured torque is a double integrator fed with
+//! noise and misfit: it drifts, and the drift would inflate the "before" error. Windows
+//! restarted from the measured state (positions, speeds, twist, current, command history) keep
+//! the comparison about the dynamics. The windows do not overlap, so they are (nearly)
+//! independent samples of how well the model predicts: the test that confirms or rejects a
+//! candidate effect is a paired comparison over windows (Wilcoxon signed-rank), the way
+//! forecasts are compared.
+//!
+//! The simulator is a trait; [`super::plant_fmu::FmuSimulator`] is the plant FMU through the C
+//! ABI, [`RigidReferenceSimulator`] a small native stand-in for tests of the windowing.
+
+use super::equation_error::{twist_centres, EquationData, Structure};
+use super::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
+use super::signals::SavitzkyGolay;
+use crate::measured_log::{MeasuredLog, Signal};
+
+/// The measured state a window starts from (axis side, SI) and the command history the
+/// plant's delay line needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindowStart {
+    pub load_angle: f64,
+    pub load_speed: f64,
+    /// Motor angle and speed referred to the axis (motor / N).
+    pub motor_angle: f64,
+    pub motor_speed: f64,
+    /// Path deflection for the plant: motor minus load angle, less the twist at zero shaft
+    /// torque (encoder offsets); 0 for a rigid model.
+    pub twist: f64,
+    /// Current (or torque) of each FMU motor at the start.
+    pub currents: [f64; 2],
+    /// Commands issued before the start, (time relative to the start, per motor), oldest first.
+    pub history: Vec<(f64, [f64; 2])>,
+}
+
+/// Simulated outputs over a window, one value per log sample of the window (the first is the
+/// initial state).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SimulatedOutputs {
+    pub load_pos: Vec<f64>,
+    pub load_vel: Vec<f64>,
+    pub motor_pos: Vec<f64>,
+    pub motor_vel: Vec<f64>,
+}
+
+impl SimulatedOutputs {
+    pub fn with_capacity(n: usize) -> Self {
+        SimulatedOutputs {
+            load_pos: Vec::with_capacity(n),
+            load_vel: Vec::with_capacity(n),
+            motor_pos: Vec::with_capacity(n),
+            motor_vel: Vec::with_capacity(n),
+        }
+    }
+
+    pub fn push(&mut self, load_pos: f64, load_vel: f64, motor_pos: f64, motor_vel: f64) {
+        self.load_pos.push(load_pos);
+        self.load_vel.push(load_vel);
+        self.motor_pos.push(motor_pos);
+        self.motor_vel.push(motor_vel);
+    }
+
+    pub fn len(&self) -> usize {
+        self.load_pos.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.load_pos.is_empty()
+    }
+}
+
+/// A plant that can be simulated over a window with a log's inputs.
+pub trait PlantSimulator {
+    /// Sets the model to a parameter set (once per set; the windows reuse it).
+    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String>;
+    /// Simulates one window from `start`, one step of `dt` per command (per FMU motor, held
+    /// over the step), with the load disturbance held likewise.
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String>;
+}
+
+/// The log's inputs and measured outputs, aligned with the equation-error data's analysed
+/// region.
+#[derive(Debug, Clone)]
+pub struct OutputData {
+    pub config: FmuConfig,
+    pub structure: Structure,
+    pub dt: f64,
+    /// Index of the analysed region's first sample in the (uniformly resampled) log.
+    pub first_sample: usize,
+    /// Command per FMU motor at each log sample (A, or N m for a torque log).
+    pub commands: Vec<[f64; 2]>,
+    /// Held command over each log interval: the mean of its two end samples, so the held
+    /// value has the integral of the linearly interpolated measurement (a plain hold of the
+    /// first sample would lag by half a sample).
+    pub held: Vec<[f64; 2]>,
+    pub disturbance_held: Vec<f64>,
+    /// Logged positions over the whole log (rad); the load position is the motor's when
+    /// there is no load encoder, and vice versa.
+    pub load_pos: Vec<f64>,
+    pub motor_pos: Vec<f64>,
+    pub two_encoders: bool,
+    /// The log measures the motor side (a motor encoder, or a speed integrated to one).
+    pub motor_measured: bool,
+    /// Smoothed state on the analysed region (from the equation-error conditioning).
+    pub state_load_pos: Vec<f64>,
+    pub state_load_vel: Vec<f64>,
+    pub state_motor_pos: Vec<f64>,
+    pub state_motor_vel: Vec<f64>,
+    /// Axis acceleration at each analysed sample (same filter), for the path deflection a
+    /// compliant model starts from when the log has one encoder.
+    pub state_load_acc: Vec<f64>,
+    /// Half-width (samples) of the state estimator.
+    pub state_half_width: usize,
+    /// Logged torque on the analysed region, axis side (N m), unsmoothed.
+    pub axis_torque: Vec<f64>,
+    pub time: Vec<f64>,
+}
+
+impl OutputData {
+    /// Builds the output-error data from the (uniform) log, the conditioned data and the
+    /// starting parameters (whose fastest mechanical mode sets the state estimator).
+    pub fn new(log: &MeasuredLog, data: &EquationData, start: &ParameterSet) -> Result<OutputData, String> {
+        let mut notes = Vec::new();
+        let log = super::equation_error::uniform(log, &mut notes);
+        let n = log.len();
+        let torques = log.signals(Signal::MotorTorque);
+        let (columns, input) = if torques.is_empty() {
+            (log.signals(Signal::MotorCurrent), FmuInput::Current)
+        } else {
+            (torques, FmuInput::Torque)
+        };
+        if columns.is_empty() {
+            return Err("the log has no current or torque".into());
+        }
+        let drive = if columns.len() == 2 { FmuDrive::TwoMotors } else { FmuDrive::Mirrored };
+        let commands: Vec<[f64; 2]> = (0..n)
+            .map(|i| match drive {
+                FmuDrive::TwoMotors => [columns[0].values[i], columns[1].values[i]],
+                FmuDrive::Mirrored => {
+                    let total: f64 = columns.iter().map(|c| c.values[i]).sum();
+                    [total, total]
+                }
+            })
+            .collect();
+        let held = commands.windows(2).map(|w| [0.5 * (w[0][0] + w[1][0]), 0.5 * (w[0][1] + w[1][1])]).collect();
+        let disturbance_held = match log.signal(Signal::DisturbanceTorque) {
+            Some(d) => d.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect(),
+            None => vec![0.0; n.saturating_sub(1)],
+        };
+        let motor = log.signal(Signal::MotorPos);
+        let load = log.signal(Signal::LoadPos);
+        let (motor_pos, load_pos) = match (motor, load) {
+            (Some(m), Some(l)) => (m.to_vec(), l.to_vec()),
+            (Some(m), None) => (m.to_vec(), m.to_vec()),
+            (None, Some(l)) => (l.to_vec(), l.to_vec()),
+            (None, None) => return Err("the log has no position output".into()),
+        };
+        // The window's initial state: Savitzky-Golay (order 4) positions and speeds over the
+        // longest window that spans at most a quarter period of the model's fastest mechanical
+        // mode, so the mode's motion passes undistorted (a quartic over a quarter period is
+        // exact to about 1e-3) while the encoder noise is averaged. The equation-error
+        // smoothing is tuned for accelerations and would attenuate the mode.
+        let half_width = state_half_width(start, data.dt, n);
+        let sg = SavitzkyGolay::new(4, half_width, data.dt);
+        let estimate = |x: &[f64], coefficients: &[f64]| -> Vec<f64> {
+            let inner = SavitzkyGolay::apply(coefficients, x);
+            (0..data.len())
+                .map(|i| inner[(data.first_sample + i).clamp(half_width, n - 1 - half_width) - half_width])
+                .collect()
+        };
+        let gear = start.value(names::GEAR_RATIO);
+        let total = log.total_motor_torque(start.value(names::TORQUE_CONSTANT));
+        let axis_torque = (0..data.len()).map(|i| gear * total[data.first_sample + i]).collect();
+        let state_load_pos = estimate(&load_pos, &sg.smooth);
+        let state_load_vel = estimate(&load_pos, &sg.first);
+        let state_motor_pos = estimate(&motor_pos, &sg.smooth);
+        let state_motor_vel = estimate(&motor_pos, &sg.first);
+        let state_load_acc = estimate(&load_pos, &sg.second);
+        Ok(OutputData {
+            config: FmuConfig { drive, input, sample_interval: data.dt },
+            structure: data.structure,
+            dt: data.dt,
+            first_sample: data.first_sample,
+            commands,
+            held,
+            disturbance_held,
+            load_pos,
+            motor_pos,
+            two_encoders: motor.is_some() && load.is_some(),
+            motor_measured: motor.is_some(),
+            state_load_pos,
+            state_load_vel,
+            state_motor_pos,
+            state_motor_vel,
+            state_load_acc,
+            state_half_width: half_width,
+            axis_torque,
+            time: data.time.clone(),
+        })
+    }
+
+    /// Samples in the analysed region.
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+
+    /// The output channels compared, and which of them enter the confirmation test and the
+    /// before/after criterion (positions: the axis position, and the twist when the model has
+    /// a compliant path, else the motor position).
+    pub fn channels(&self) -> Vec<(ChannelKind, bool)> {
+        use ChannelKind::*;
+        match (self.structure, self.two_encoders) {
+            (Structure::TwoMass, _) => vec![
+                (AxisPosition, true),
+                (Twist, true),
+                (MotorPosition, false),
+                (AxisSpeed, false),
+                (MotorSpeed, false),
+            ],
+            (_, true) => vec![(AxisPosition, true), (MotorPosition, true), (AxisSpeed, false), (MotorSpeed, false)],
+            (_, false) => vec![(AxisPosition, true), (AxisSpeed, false)],
+        }
+    }
+}
+
+/// Half-width of the state estimator: 2h samples span at most a quarter period of the
+/// model's fastest mechanical mode (the two-mass resonance); a rigid model gets 25 ms.
+fn state_half_width(params: &ParameterSet, dt: f64, samples: usize) -> usize {
+    let gear = params.value(names::GEAR_RATIO);
+    let motor = params.value(names::MOTOR_INERTIA) * gear * gear;
+    let load = params.value(names::LOAD_INERTIA);
+    let stiffness = params.value(names::STIFFNESS);
+    let span = if stiffness > 0.0 && motor > 0.0 && load > 0.0 {
+        let omega = (stiffness * (1.0 / motor + 1.0 / load)).sqrt();
+        0.25 * 2.0 * std::f64::consts::PI / omega
+    } else {
+        0.05
+    };
+    ((0.5 * span / dt).floor() as usize).clamp(2, (samples.saturating_sub(1) / 4).max(2))
+}
+
+/// One compared output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChannelKind {
+    AxisPosition,
+    MotorPosition,
+    Twist,
+    /// The axis position simulated by the model's load side alone, driven by the measured
+    /// motor motion ([`simulate_load_side`]).
+    LoadSide,
+    AxisSpeed,
+    MotorSpeed,
+}
+
+impl ChannelKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            ChannelKind::AxisPosition => "axis position",
+            ChannelKind::MotorPosition => "motor position",
+            ChannelKind::Twist => "twist (motor - axis)",
+            ChannelKind::LoadSide => "axis position, load side driven by the motor encoder",
+            ChannelKind::AxisSpeed => "axis speed",
+            ChannelKind::MotorSpeed => "motor speed",
+        }
+    }
+
+    pub fn unit(self) -> &'static str {
+        match self {
+            ChannelKind::AxisSpeed | ChannelKind::MotorSpeed => "rad/s",
+            _ => "rad",
+        }
+    }
+
+    pub fn is_position(self) -> bool {
+        !matches!(self, ChannelKind::AxisSpeed | ChannelKind::MotorSpeed)
+    }
+}
+
+/// The windows: non-overlapping, `length` samples each (length - 1 steps), covering the
+/// analysed region from its start.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindowPlan {
+    pub length: usize,
+    pub starts: Vec<usize>,
+    pub seconds: f64,
+    /// How the length was chosen, for the report.
+    pub reason: String,
+    /// Length (samples) of the shorter windows the drive-path channel (the twist) is scored
+    /// on, each window split into pieces restarted from the measured state; equal to `length`
+    /// when the twist is scored on the windows themselves. See [`drive_window`].
+    pub drive_length: usize,
+    pub drive_reason: String,
+}
+
+impl WindowPlan {
+    pub fn new(length: usize, samples: usize, dt: f64, reason: String) -> WindowPlan {
+        let length = length.clamp(2, samples.max(2));
+        let starts = (0..samples / length).map(|w| w * length).collect();
+        WindowPlan {
+            length,
+            starts,
+            seconds: (length - 1) as f64 * dt,
+            reason,
+            drive_length: length,
+            drive_reason: String::new(),
+        }
+    }
+
+    /// The same windows with the drive-path channel scored on pieces of `drive_length`
+    /// samples (at least 10 and at most the window).
+    pub fn with_drive_length(mut self, drive_length: usize, reason: String) -> WindowPlan {
+        self.drive_length = drive_length.clamp(10.min(self.length), self.length);
+        self.drive_reason = reason;
+        self
+    }
+
+    /// The pieces (offset within the window, length) the drive-path channel is simulated on:
+    /// the window divided into the whole number of equal pieces (lengths differing by at most
+    /// one sample) nearest to `drive_length` samples each.
+    pub fn drive_pieces(&self) -> Vec<(usize, usize)> {
+        let count = ((self.length as f64 / self.drive_length.max(2) as f64).round() as usize).clamp(1, self.length / 2);
+        (0..count)
+            .map(|m| {
+                let (a, b) = (m * self.length / count, (m + 1) * self.length / count);
+                (a, b - a)
+            })
+            .collect()
+    }
+}
+
+/// The drive-path window: the decay time of the drive's mechanical mode, 2 / (D (1/J_M +
+/// 1/J_L)) (the time constant of the envelope of the two-mass resonance, with J_M the
+/// reflected motor inertia and D the path damping), for a model with a compliant path; shorter
+/// where the model's friction makes its open-loop simulation unstable faster than that.
+///
+/// The twist is what a drive-path effect (a stiffness, a lost motion, a delay) changes in the
+/// simulated motion, and it is set by the drive mode: a twist error started from the measured
+/// state has either decayed or become a drift of the slow motion after one decay time. Scored
+/// over the rigid-body window (the motor speed's correlation lag, typically longer), the twist
+/// error of a drive-path effect is mixed with the slow drift that friction and the open-loop
+/// integration of the torque add, which is not the drive path's.
+///
+/// A Stribeck curve falls with speed: below the Stribeck velocity the friction is a negative
+/// damping, steepest at v_s / sqrt(2) with slope (F_s - F_c) sqrt(2/e) / v_s. Acting on the
+/// motor it makes the open-loop simulation grow any difference (sensor noise on the current,
+/// the friction's form) at up to that slope over J_M per second. The pieces are then cut at
+/// one e-folding time, 1 / rate, so that no difference grows by more than e before the next
+/// restart from the measured state. None for a rigid model or a mode without damping.
+pub fn drive_window(params: &ParameterSet, dt: f64) -> Option<(usize, String)> {
+    let gear = params.value(names::GEAR_RATIO);
+    let motor = params.value(names::MOTOR_INERTIA) * gear * gear;
+    let load = params.value(names::LOAD_INERTIA);
+    let stiffness = params.value(names::STIFFNESS);
+    let damping = params.value(names::DAMPING);
+    if !(stiffness > 0.0 && motor > 0.0 && load > 0.0 && damping > 0.0) {
+        return None;
+    }
+    let decay = 2.0 / (damping * (1.0 / motor + 1.0 / load));
+    let (seconds, reason) = match stribeck_growth_time(params, motor) {
+        Some(growth) if growth < decay => (
+            growth,
+            format!("the e-folding time J_M v_s / ((F_s - F_c) sqrt(2/e)) = {growth:.3} s of the Stribeck range's negative damping, shorter than the drive mode's decay time {decay:.3} s"),
+        ),
+        _ => (decay, format!("the drive mode's decay time 2 / (D (1/J_M + 1/J_L)) = {decay:.3} s")),
+    };
+    let length = (seconds / dt).round() as usize + 1;
+    Some((length, reason))
+}
+
+/// The e-folding time (s) of the fastest growth the Stribeck curve's negative damping gives
+/// the motor of inertia `motor` (axis side), or None without a Stribeck excess.
+fn stribeck_growth_time(params: &ParameterSet, motor: f64) -> Option<f64> {
+    let excess = params.value(names::STATIC) - params.value(names::COULOMB);
+    let velocity = params.value(names::STRIBECK_VELOCITY);
+    if !(excess > 0.0 && velocity > 0.0 && motor > 0.0) {
+        return None;
+    }
+    let steepest_slope = excess * (2.0 / std::f64::consts::E).sqrt() / velocity;
+    Some(motor / steepest_slope)
+}
+
+/// Output-error results of one channel.
+#[derive(Debug, Clone)]
+pub struct OutputChannel {
+    pub kind: ChannelKind,
+    /// Enters the confirmation test and the before/after criterion.
+    pub scored: bool,
+    /// Enters the before/after criterion (every scored channel, and the load side).
+    pub criterion: bool,
+    /// Measured and simulated values, window after window (window starts in `plan`).
+    pub measured: Vec<f64>,
+    pub simulated: Vec<f64>,
+    /// Sum of squared errors per window.
+    pub window_sse: Vec<f64>,
+    pub rms: f64,
+    /// NRMSE fit (%) against the measured signal's variation within each window (its mean
+    /// over the window removed): what the model must predict once it starts from the
+    /// measured state.
+    pub fit_percent: f64,
+}
+
+impl OutputChannel {
+    pub fn residual(&self) -> Vec<f64> {
+        self.measured.iter().zip(&self.simulated).map(|(m, s)| m - s).collect()
+    }
+}
+
+/// Output error of one parameter set over all windows.
+#[derive(Debug, Clone)]
+pub struct OutputError {
+    pub plan: WindowPlan,
+    pub channels: Vec<OutputChannel>,
+    /// The twist at zero shaft torque subtracted from the measured twist to start the plant.
+    pub twist_centre: f64,
+    /// Time of every compared sample (s), window after window.
+    pub time: Vec<f64>,
+}
+
+impl OutputError {
+    pub fn channel(&self, kind: ChannelKind) -> Option<&OutputChannel> {
+        self.channels.iter().find(|c| c.kind == kind)
+    }
+
+    /// The normalised score of window w: the sum over scored channels of their squared error
+    /// divided by `scale` (one value per scored channel, in order).
+    fn window_score(&self, w: usize, scale: &[f64]) -> f64 {
+        self.channels.iter().filter(|c| c.scored).zip(scale).map(|(c, s)| c.window_sse[w] / s).sum()
+    }
+
+    /// Mean squared error per sample of each scored channel.
+    fn scored_mse(&self) -> Vec<f64> {
+        let samples = (self.plan.starts.len() * self.plan.length).max(1) as f64;
+        self.channels
+            .iter()
+            .filter(|c| c.scored)
+            .map(|c| (c.window_sse.iter().sum::<f64>() / samples).max(f64::MIN_POSITIVE))
+            .collect()
+    }
+}
+
+/// The window start for analysed sample `i` with a parameter set.
+fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) -> WindowStart {
+    let k = out.first_sample + i;
+    let dt = out.dt;
+    let delay = params.value(names::DELAY).max(0.0);
+    // The plant's current at the start is the command issued one delay earlier.
+    let back = ((delay / dt).round() as usize).min(k);
+    let currents = out.commands[k - back];
+    let mut history = Vec::new();
+    if delay > 0.0 {
+        let steps = (delay / dt).ceil() as usize + 1;
+        if steps > k {
+            history.push((-(delay + 2.0 * dt), out.held.first().copied().unwrap_or(currents)));
+        }
+        for j in k.saturating_sub(steps)..k {
+            history.push(((j as f64 - k as f64) * dt, out.held[j]));
+        }
+    }
+    let rigid = out.structure != Structure::TwoMass;
+    let (twist, motor_speed) = if rigid {
+        (equilibrium_deflection(out, i, params), out.state_motor_vel[i])
+    } else {
+        (out.state_motor_pos[i] - out.state_load_pos[i] - centre, out.state_motor_vel[i])
+    };
+    WindowStart {
+        load_angle: out.state_load_pos[i],
+        load_speed: if rigid { out.state_motor_vel[i] } else { out.state_load_vel[i] },
+        motor_angle: out.state_motor_pos[i],
+        motor_speed,
+        twist,
+        currents,
+        history,
+    }
+}
+
+/// The path deflection a compliant model starts a window from when the log does not measure
+/// the twist (one encoder): the one whose shaft torque carries the load side at that instant,
+/// (J_L a_L + unbalance + offset - disturbance) / K, plus half the backlash on the side the
+/// torque pushes. Starting unloaded instead would ring the drive mode with the whole load
+/// torque at every window start. (Its rate, J_L times the load's jerk over K, was tried: the
+/// jerk from the load encoder is too noisy and tripled the error.) A rigid model (no
+/// stiffness) needs none.
+fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> f64 {
+    let stiffness = params.value(names::STIFFNESS);
+    if !(stiffness > 0.0) {
+        return 0.0;
+    }
+    let angle = out.state_load_pos[i];
+    let (amplitude, phase) = (params.value(names::UNBALANCE_TORQUE), params.value(names::UNBALANCE_PHASE));
+    let k = out.first_sample + i;
+    let shaft = params.value(names::LOAD_INERTIA) * out.state_load_acc[i]
+        + amplitude * (angle + phase).cos()
+        + params.value(names::TORQUE_OFFSET)
+        - out.disturbance_held.get(k).copied().unwrap_or(0.0);
+    shaft / stiffness + 0.5 * params.value(names::BACKLASH_WIDTH).max(0.0) * shaft.signum()
+}
+
+/// Simulates every window with a parameter set and collects the output errors.
+pub fn output_error(
+    simulator: &mut dyn PlantSimulator,
+    params: &ParameterSet,
+    data: &EquationData,
+    out: &OutputData,
+    plan: &WindowPlan,
+) -> Result<OutputError, String> {
+    simulator.configure(params, &out.config)?;
+    let centres = if out.structure == Structure::TwoMass { twist_centres(data, params) } else { vec![0.0; data.len()] };
+    let mut kinds = out.channels();
+    let load_side = out.structure == Structure::TwoMass && out.two_encoders;
+    if load_side {
+        kinds.push((ChannelKind::LoadSide, false));
+    }
+    let mut measured: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
+    let mut simulated: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
+    let mut window_sse: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
+    let mut spread: Vec<f64> = vec![0.0; kinds.len()];
+    let mut time = Vec::new();
+    let length = plan.length;
+    for &i0 in &plan.starts {
+        let k0 = out.first_sample + i0;
+        let start = window_start(out, i0, params, centres[i0]);
+        let steps = length - 1;
+        let sim =
+            simulator.simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)?;
+        if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
+            return Err(format!("the simulation of the window at {:.3} s failed", out.time[i0]));
+        }
+        // The drive-path channel on its shorter pieces, each restarted from the measured state
+        // (the window's own simulation when the pieces are the window).
+        let drive_twist: Option<Vec<f64>> =
+            if plan.drive_length < length && kinds.iter().any(|(k, _)| *k == ChannelKind::Twist) {
+                let mut twist = Vec::with_capacity(length);
+                for (offset, piece) in plan.drive_pieces() {
+                    let (i, k) = (i0 + offset, k0 + offset);
+                    let piece_start = window_start(out, i, params, centres[i]);
+                    let piece_sim = simulator.simulate(
+                        &piece_start,
+                        &out.held[k..k + piece - 1],
+                        &out.disturbance_held[k..k + piece - 1],
+                        out.dt,
+                    )?;
+                    if piece_sim.len() != piece
+                        || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite())
+                    {
+                        return Err(format!("the simulation of the drive-path piece at {:.3} s failed", out.time[i]));
+                    }
+                    twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
+                }
+                Some(twist)
+            } else {
+                None
+            };
+        let load_side_sim = if load_side { simulate_load_side(out, params, &centres, i0, length) } else { Vec::new() };
+        // Positions are compared as the logged values against the simulation started at the
+        // smoothed measured state; speeds against the zero-phase derivative of the positions.
+        for (c, (kind, _)) in kinds.iter().enumerate() {
+            let (m, s): (Vec<f64>, Vec<f64>) = (0..length)
+                .map(|j| {
+                    let k = k0 + j;
+                    let i = i0 + j;
+                    match kind {
+                        ChannelKind::AxisPosition => (out.load_pos[k], sim.load_pos[j]),
+                        ChannelKind::MotorPosition => (out.motor_pos[k], sim.motor_pos[j]),
+                        ChannelKind::Twist => (
+                            out.motor_pos[k] - out.load_pos[k],
+                            drive_twist.as_ref().map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j]),
+                        ),
+                        ChannelKind::LoadSide => (out.load_pos[k], load_side_sim[j]),
+                        ChannelKind::AxisSpeed => (out.state_load_vel[i], sim.load_vel[j]),
+                        ChannelKind::MotorSpeed => (out.state_motor_vel[i], sim.motor_vel[j]),
+                    }
+                })
+                .unzip();
+            let mean = m.iter().sum::<f64>() / length as f64;
+            spread[c] += m.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+            window_sse[c].push(m.iter().zip(&s).map(|(a, b)| (a - b).powi(2)).sum());
+            measured[c].extend(m);
+            simulated[c].extend(s);
+        }
+        time.extend_from_slice(&out.time[i0..i0 + length]);
+    }
+    let channels = kinds
+        .iter()
+        .enumerate()
+        .map(|(c, (kind, scored))| {
+            let sse: f64 = window_sse[c].iter().sum();
+            let count = measured[c].len().max(1) as f64;
+            OutputChannel {
+                kind: *kind,
+                scored: *scored,
+                criterion: *scored || *kind == ChannelKind::LoadSide,
+                measured: std::mem::take(&mut measured[c]),
+                simulated: std::mem::take(&mut simulated[c]),
+                window_sse: std::mem::take(&mut window_sse[c]),
+                rms: (sse / count).sqrt(),
+                fit_percent: if spread[c] > 0.0 { 100.0 * (1.0 - (sse / spread[c]).sqrt()) } else { f64::NAN },
+            }
+        })
+        .collect();
+    Ok(OutputError { plan: plan.clone(), channels, twist_centre: centres.first().copied().unwrap_or(0.0), time })
+}
+
+/// The load side of a two-mass model alone, driven by the measured motor motion: the axis
+/// position over one window of `length` samples from analysed sample `i0`.
+///
+/// With two encoders the drive path can be checked without the motor side: the load inertia
+/// hangs on the path's spring, damper and backlash, whose other end moves as the motor encoder
+/// says (referred to the axis, less the twist centre `centre`). What this simulation does not
+/// contain is what makes a whole-plant simulation of the twist noisy: the current's sensor
+/// noise, which drives the simulated drive mode near its resonance, and the motor's friction
+/// law. Only the load-side physics is in it (load inertia, stiffness, damping, backlash,
+/// unbalance, load torque offset, logged disturbance), so a drive-path effect shows here on a
+/// floor set by the encoders alone; motor-side effects do not show at all, which is why the
+/// channel is not scored in the confirmation test, only compared before and after.
+///
+/// The path law is the plant FMU's (docs/plant-model.md): in contact `T = K e + D (v_M - v_L)`
+/// with the spring deflection `e = d - b/2` on the positive flank (`d + b/2` on the other),
+/// `d` the total angle difference; in the gap `T = 0` and the massless spring relaxes,
+/// `de/dt = -(K/D) e`; a pinion leaves a flank when it would pull. The motor motion between
+/// log samples is the cubic Hermite interpolant of the smoothed motor position and speed; the
+/// equations are integrated with RK4, 20 steps per log interval.
+pub fn simulate_load_side(
+    out: &OutputData,
+    params: &ParameterSet,
+    centres: &[f64],
+    i0: usize,
+    length: usize,
+) -> Vec<f64> {
+    let inertia = params.value(names::LOAD_INERTIA).max(f64::MIN_POSITIVE);
+    let stiffness = params.value(names::STIFFNESS);
+    let damping = params.value(names::DAMPING).max(0.0);
+    let half_gap = 0.5 * params.value(names::BACKLASH_WIDTH).max(0.0);
+    let (amplitude, phase) = (params.value(names::UNBALANCE_TORQUE), params.value(names::UNBALANCE_PHASE));
+    let offset = params.value(names::TORQUE_OFFSET);
+    let dt = out.dt;
+    let k0 = out.first_sample + i0;
+    #[derive(Clone, Copy, PartialEq)]
+    enum Flank {
+        Positive,
+        Negative,
+        Gap,
+    }
+    // The motor side (axis rad, rad/s) at fraction s of log interval j of the window.
+    let motor = |j: usize, s: f64| -> (f64, f64) {
+        let (p0, p1) = (out.state_motor_pos[i0 + j], out.state_motor_pos[i0 + j + 1]);
+        let (v0, v1) = (out.state_motor_vel[i0 + j] * dt, out.state_motor_vel[i0 + j + 1] * dt);
+        let (s2, s3) = (s * s, s * s * s);
+        let position =
+            (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * v1;
+        let speed = ((6.0 * s2 - 6.0 * s) * p0
+            + (3.0 * s2 - 4.0 * s + 1.0) * v0
+            + (-6.0 * s2 + 6.0 * s) * p1
+            + (3.0 * s2 - 2.0 * s) * v1)
+            / dt;
+        let centre = centres[i0 + j] + s * (centres[(i0 + j + 1).min(centres.len() - 1)] - centres[i0 + j]);
+        (position - centre, speed)
+    };
+    // State: load angle, load speed, spring deflection (only moving in the gap).
+    let (mut angle, mut speed) = (out.state_load_pos[i0], out.state_load_vel[i0]);
+    let d0 = out.state_motor_pos[i0] - centres[i0] - angle;
+    let (mut flank, mut deflection) = if half_gap == 0.0 || d0 > half_gap {
+        (Flank::Positive, d0 - half_gap)
+    } else if d0 < -half_gap {
+        (Flank::Negative, d0 + half_gap)
+    } else {
+        (Flank::Gap, 0.0)
+    };
+    let relaxation = if damping > 0.0 { stiffness / damping } else { f64::INFINITY };
+    // The backlash position of a flank in contact (none in the gap), and the path torque there.
+    let contact_position = |flank: Flank| match flank {
+        Flank::Positive => Some(half_gap),
+        Flank::Negative => Some(-half_gap),
+        Flank::Gap => None,
+    };
+    let contact_torque = |d: f64, relative_speed: f64, beta: f64| stiffness * (d - beta) + damping * relative_speed;
+    let mut positions = Vec::with_capacity(length);
+    positions.push(angle);
+    let substeps = 20;
+    let h = dt / substeps as f64;
+    for j in 0..length - 1 {
+        let disturbance = out.disturbance_held[k0 + j];
+        for m in 0..substeps {
+            // Derivatives of (angle, speed, deflection) at motor sample fraction s.
+            let derivative = |s: f64, x: [f64; 3]| -> [f64; 3] {
+                let (motor_angle, motor_speed) = motor(j, s);
+                let d = motor_angle - x[0];
+                let (torque, deflection_rate) = match contact_position(flank) {
+                    Some(beta) => (contact_torque(d, motor_speed - x[1], beta), 0.0),
+                    None => (0.0, if relaxation.is_finite() { -relaxation * x[2] } else { 0.0 }),
+                };
+                let load_torque = torque - amplitude * (x[0] + phase).cos() - offset + disturbance;
+                [x[1], load_torque / inertia, deflection_rate]
+            };
+            let s = m as f64 / substeps as f64;
+            let ds = 1.0 / substeps as f64;
+            let x = [angle, speed, deflection];
+            let k1 = derivative(s, x);
+            let k2 = derivative(s + 0.5 * ds, [x[0] + 0.5 * h * k1[0], x[1] + 0.5 * h * k1[1], x[2] + 0.5 * h * k1[2]]);
+            let k3 = derivative(s + 0.5 * ds, [x[0] + 0.5 * h * k2[0], x[1] + 0.5 * h * k2[1], x[2] + 0.5 * h * k2[2]]);
+            let k4 = derivative(s + ds, [x[0] + h * k3[0], x[1] + h * k3[1], x[2] + h * k3[2]]);
+            angle += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
+            speed += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
+            deflection += h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
+            if half_gap > 0.0 {
+                // Mode changes at the substep: leave a flank that would pull, meet a flank
+                // that the gap has closed on.
+                let (motor_angle, motor_speed) = motor(j, s + ds);
+                let d = motor_angle - angle;
+                match contact_position(flank) {
+                    Some(beta) => {
+                        deflection = d - beta;
+                        // A pinion leaves its flank when the torque would pull on it.
+                        if contact_torque(d, motor_speed - speed, beta) * beta < 0.0 {
+                            flank = Flank::Gap;
+                        }
+                    }
+                    None => {
+                        let beta = d - deflection;
+                        if beta >= half_gap {
+                            flank = Flank::Positive;
+                        } else if beta <= -half_gap {
+                            flank = Flank::Negative;
+                        }
+                    }
+                }
+            }
+        }
+        positions.push(angle);
+    }
+    positions
+}
+
+/// The paired comparison of two models' output errors over the same windows.
+#[derive(Debug, Clone)]
+pub struct Comparison {
+    pub windows: usize,
+    /// Windows where the candidate model predicts better.
+    pub better: usize,
+    /// Wilcoxon signed-rank statistic (sum of the ranks of the improvements) and its exact
+    /// one-sided p-value.
+    pub rank_sum: f64,
+    pub p_value: f64,
+    /// Normalised output-error score (mean over scored channels of MSE / baseline MSE) of the
+    /// baseline (1 by construction) and the candidate.
+    pub score_before: f64,
+    pub score_after: f64,
+    /// BIC gain with the windows as independent samples: n_w ln(before/after) - k ln(n_w).
+    pub bic_gain: f64,
+    pub confirmed: bool,
+    pub reason: String,
+}
+
+/// Compares a candidate model's output error with the baseline's over the same windows.
+///
+/// Each window's score is the sum over the scored channels (positions) of its squared error
+/// divided by the baseline's mean squared error of that channel, so channels of different
+/// size count alike. The candidate is confirmed when it predicts better in a significant
+/// majority of windows, weighted by how much (Wilcoxon signed-rank test, exact, one-sided,
+/// level `alpha`), and when the improvement pays for its parameters by the Bayesian
+/// information criterion with the windows as the independent samples (a reduction of the
+/// score by at least a factor exp(k ln(n_w)/n_w)). Both are statements about independent
+/// windows, which the non-overlapping, re-initialised windows are.
+pub fn compare(before: &OutputError, after: &OutputError, parameters: usize, alpha: f64) -> Comparison {
+    let windows = before.plan.starts.len().min(after.plan.starts.len());
+    let scale = before.scored_mse();
+    let channels = scale.len().max(1) as f64;
+    let per_window = before.plan.length as f64 * channels;
+    let gains: Vec<f64> =
+        (0..windows).map(|w| (before.window_score(w, &scale) - after.window_score(w, &scale)) / per_window).collect();
+    let better = gains.iter().filter(|g| **g > 0.0).count();
+    let (rank_sum, p_value) = signed_rank_test(&gains);
+    let score_before: f64 =
+        (0..windows).map(|w| before.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
+    let score_after: f64 =
+        (0..windows).map(|w| after.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
+    let n = windows as f64;
+    let bic_gain = if score_after > 0.0 {
+        n * (score_before / score_after).ln() - parameters as f64 * n.max(1.0).ln()
+    } else {
+        f64::INFINITY
+    };
+    let confirmed = p_value < alpha && bic_gain > 0.0;
+    let reason = format!(
+        "output error {:.3} -> {:.3} of the baseline, better in {better} of {windows} windows, signed-rank p = {:.2e} (level {alpha:.0e}), BIC gain {:.1}",
+        score_before, score_after, p_value, bic_gain
+    );
+    Comparison { windows, better, rank_sum, p_value, score_before, score_after, bic_gain, confirmed, reason }
+}
+
+/// One-sided Wilcoxon signed-rank test that the differences are positive: returns the sum of
+/// the ranks of the positive differences (ties get mean ranks, zeros are dropped) and its
+/// exact p-value P(W+ >= observed) under the null of a symmetric distribution about zero,
+/// computed by counting the 2^n sign patterns with a dynamic programme over rank sums (in
+/// half-ranks, so tied mean ranks stay integers).
+pub fn signed_rank_test(differences: &[f64]) -> (f64, f64) {
+    let mut d: Vec<f64> = differences.iter().copied().filter(|x| *x != 0.0 && x.is_finite()).collect();
+    let n = d.len();
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    d.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
+    // Ranks doubled, so mean ranks of ties are integers.
+    let mut ranks2 = vec![0usize; n];
+    let mut i = 0;
+    while i < n {
+        let mut j = i;
+        while j + 1 < n && d[j + 1].abs() == d[i].abs() {
+            j += 1;
+        }
+        for r in ranks2.iter_mut().take(j + 1).skip(i) {
+            *r = i + j + 2;
+        }
+        i = j + 1;
+    }
+    let observed: usize = d.iter().zip(&ranks2).filter(|(x, _)| **x > 0.0).map(|(_, r)| *r).sum();
+    let total: usize = ranks2.iter().sum();
+    // counts[s] = number of sign patterns with doubled positive rank sum s, as probabilities.
+    let mut counts = vec![0.0f64; total + 1];
+    counts[0] = 1.0;
+    let mut reach = 0;
+    for &r in &ranks2 {
+        for s in (0..=reach).rev() {
+            let c = counts[s];
+            if c != 0.0 {
+                counts[s + r] += c;
+            }
+        }
+        reach += r;
+        for c in counts.iter_mut().take(reach + 1) {
+            *c *= 0.5;
+        }
+    }
+    let p: f64 = counts[observed..].iter().sum();
+    (observed as f64 / 2.0, p.clamp(0.0, 1.0))
+}
+
+/// Chooses the window length from the data.
+///
+/// An open-loop simulation driven by the measured torque drifts: the torque noise and every
+/// misfit are integrated twice, and once the simulated motion has left the measured one, a
+/// small timing error of the model (a reversal a little early) counts as a gross position
+/// error and speed-dependent effects are evaluated where the axis was not. The window is
+/// therefore short compared with the motion's own time scale: the lag at which the
+/// autocorrelation of the measured motor speed has fallen to `correlation` (0.9: the speed
+/// keeps 90 % of its correlation, so each window holds one regime of the motion, a cruise, a
+/// ramp, a reversal). It is at least 10 samples and at most 1/`minimum_windows` of the record,
+/// so the paired test over windows has enough windows. The same length serves every model of
+/// a log, so their errors compare window by window.
+pub fn choose_window(out: &OutputData, correlation: f64, minimum_windows: usize) -> WindowPlan {
+    let speed = &out.state_motor_vel;
+    let n = speed.len();
+    let most = (n / minimum_windows.max(1)).max(2);
+    let least = 10usize.min(most);
+    let acf = antenna_dsp::autocorrelation(speed, most.min(n.saturating_sub(1)).max(1)).unwrap_or_default();
+    let lag = acf.iter().position(|r| *r < correlation);
+    let length = lag.map_or(most, |k| k + 1).clamp(least, most);
+    let reason = match lag {
+        Some(k) if k + 1 >= least && k < most => format!("the measured motor speed's autocorrelation falls to {correlation} at {:.3} s", k as f64 * out.dt),
+        Some(k) => format!(
+            "the measured motor speed's autocorrelation falls to {correlation} at {:.3} s; clamped to 10 samples .. 1/{minimum_windows} of the record",
+            k as f64 * out.dt
+        ),
+        None => format!("the measured motor speed's autocorrelation stays above {correlation}: 1/{minimum_windows} of the record"),
+    };
+    WindowPlan::new(length, n, out.dt, reason)
+}
+
+/// A native rigid-body stand-in for the plant FMU: total inertia, the model's friction law
+/// (with the sign smoothed over a hundredth of the Stribeck velocity, so the integration stays
+/// stable), offset, unbalance and the torque-constant scale; no compliance, no delay. For
+/// tests of the output-error machinery only.
+#[derive(Debug, Clone, Default)]
+pub struct RigidReferenceSimulator {
+    params: ParameterSet,
+    torque_per_command: f64,
+}
+
+impl PlantSimulator for RigidReferenceSimulator {
+    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String> {
+        self.params = params.clone();
+        let per_motor = match config.input {
+            FmuInput::Current => params.value(names::TORQUE_CONSTANT),
+            FmuInput::Torque => 1.0,
+        };
+        // Mirrored commands carry the total on each half; two motors add.
+        self.torque_per_command = match config.drive {
+            FmuDrive::Mirrored => 0.5 * per_motor,
+            FmuDrive::TwoMotors => per_motor,
+        };
+        Ok(())
+    }
+
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
+        use super::equation_error::static_friction_curve;
+        let params = &self.params;
+        let gear = params.value(names::GEAR_RATIO);
+        let inertia = params.value(names::MOTOR_INERTIA) * gear * gear + params.value(names::LOAD_INERTIA);
+        if inertia <= 0.0 {
+            return Err("the parameter set has no inertia".into());
+        }
+        let scale = params.value(names::TORQUE_CONSTANT_SCALE) * gear * self.torque_per_command;
+        let vs = params.value(names::STRIBECK_VELOCITY).max(1e-9);
+        let substeps = 20;
+        let h = dt / substeps as f64;
+        let (mut q, mut v, mut qm) = (start.load_angle, start.motor_speed, start.motor_angle);
+        let mut out = SimulatedOutputs::with_capacity(commands.len() + 1);
+        out.push(q, v, qm, v);
+        for (j, command) in commands.iter().enumerate() {
+            for _ in 0..substeps {
+                let friction = params.value(names::VISCOUS) * v
+                    + static_friction_curve(params, v) * (v / (0.01 * vs)).tanh().abs();
+                let unbalance =
+                    params.value(names::UNBALANCE_TORQUE) * (q + params.value(names::UNBALANCE_PHASE)).cos();
+                let applied = scale * (command[0] + command[1]) + disturbance.get(j).copied().unwrap_or(0.0);
+                let acc = (applied - friction - params.value(names::TORQUE_OFFSET) - unbalance) / inertia;
+                v += h * acc;
+                q += h * v;
+                qm += h * v;
+            }
+            out.push(q, v, qm, v);
+        }
+        Ok(out)
+    }
+}

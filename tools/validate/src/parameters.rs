@@ -1,0 +1,716 @@
+//! The plant's parameter set: the names, units and meaning of every parameter in one table, and
+//! the `name = value  # unit, comment` text format that the validate tool reads and writes and
+//! the plant FMU loads through a string parameter.
+//!
+//! The parameter set describes one drive axis (single-axis, axis-side values, the form the
+//! equation-error regressors are written in). [`FMU_MAPPING`] is the one table that maps each
+//! of its parameters onto the variables of the plant FMU (`AzimuthPlant`), and
+//! [`fmu_parameter_entries`] implements it: the corrected model is written as an FMU parameter
+//! file (`fmu_runtime::params` format) that the FMU loads through its `parameter_file`
+//! variable, so "the model with the added effect" is a usable FMU. Every name is a constant in
+//! [`names`] and every piece of code refers to the constant, so renaming a parameter is one
+//! edit here.
+
+use std::fmt;
+use std::path::Path;
+
+/// Names of the single-axis parameters. Rename here only; [`FMU_MAPPING`] says which plant-FMU
+/// variables each one sets.
+pub mod names {
+    pub const GEAR_RATIO: &str = "gear.ratio";
+    pub const MOTOR_INERTIA: &str = "motor.inertia";
+    pub const TORQUE_CONSTANT: &str = "motor.torque_constant";
+    pub const LOAD_INERTIA: &str = "load.inertia";
+    pub const STIFFNESS: &str = "path.stiffness";
+    pub const DAMPING: &str = "path.damping";
+    pub const VISCOUS: &str = "friction.viscous";
+    pub const COULOMB: &str = "friction.coulomb";
+    pub const STATIC: &str = "friction.static";
+    pub const STRIBECK_VELOCITY: &str = "friction.stribeck_velocity";
+    pub const ASYMMETRY: &str = "friction.asymmetry";
+    pub const TORQUE_OFFSET: &str = "effect.torque_offset";
+    pub const UNBALANCE_TORQUE: &str = "effect.unbalance_torque";
+    pub const UNBALANCE_PHASE: &str = "effect.unbalance_phase";
+    pub const DELAY: &str = "effect.delay";
+    pub const TORQUE_CONSTANT_SCALE: &str = "effect.torque_constant_scale";
+    pub const COGGING_AMPLITUDE: &str = "effect.cogging_amplitude";
+    pub const COGGING_PERIOD: &str = "effect.cogging_period";
+    pub const COGGING_PHASE: &str = "effect.cogging_phase";
+    pub const BACKLASH_WIDTH: &str = "backlash.width";
+    pub const PRESLIDING_STIFFNESS: &str = "friction.presliding_stiffness";
+    pub const PRESLIDING_DAMPING: &str = "friction.presliding_damping";
+}
+
+/// What one parameter means. Torques, stiffness, damping and load inertia are on the axis
+/// (load) side of the gearbox; the motor inertia and torque constant are on the motor side, as
+/// data sheets give them. Angles and speeds are axis-side.
+#[derive(Debug, Clone, Copy)]
+pub struct ParameterInfo {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub description: &'static str,
+    /// The value that means "effect absent".
+    pub neutral: f64,
+}
+
+/// Every parameter the model knows, in the order the files list them.
+pub const PARAMETERS: [ParameterInfo; 22] = [
+    ParameterInfo { name: names::GEAR_RATIO, unit: "-", description: "gear ratio, motor turns per axis turn", neutral: 1.0 },
+    ParameterInfo { name: names::MOTOR_INERTIA, unit: "kg m^2", description: "motor rotor inertia (motor side, all motors together)", neutral: 0.0 },
+    ParameterInfo { name: names::TORQUE_CONSTANT, unit: "N m/A", description: "motor torque constant (per motor)", neutral: 1.0 },
+    ParameterInfo { name: names::LOAD_INERTIA, unit: "kg m^2", description: "load inertia about the axis", neutral: 0.0 },
+    ParameterInfo { name: names::STIFFNESS, unit: "N m/rad", description: "drive path stiffness, axis side", neutral: 0.0 },
+    ParameterInfo { name: names::DAMPING, unit: "N m s/rad", description: "drive path damping, axis side", neutral: 0.0 },
+    ParameterInfo { name: names::VISCOUS, unit: "N m s/rad", description: "viscous friction at the motor, referred to the axis", neutral: 0.0 },
+    ParameterInfo { name: names::COULOMB, unit: "N m", description: "Coulomb friction at the motor, referred to the axis", neutral: 0.0 },
+    ParameterInfo { name: names::STATIC, unit: "N m", description: "breakaway (static) friction level; equal to Coulomb means no Stribeck hump", neutral: 0.0 },
+    ParameterInfo { name: names::STRIBECK_VELOCITY, unit: "rad/s", description: "Stribeck velocity of exp(-(w/ws)^2), axis side", neutral: 0.01 },
+    ParameterInfo { name: names::ASYMMETRY, unit: "-", description: "friction asymmetry a (the plant FMU's form): both friction levels are (1 + a) times nominal moving forward and (1 - a) times moving backward", neutral: 0.0 },
+    ParameterInfo { name: names::TORQUE_OFFSET, unit: "N m", description: "constant torque the drive must supply to the load (cable drag, preload, sensor offset), axis side; the FMU's load.torque_offset is its negative", neutral: 0.0 },
+    ParameterInfo { name: names::UNBALANCE_TORQUE, unit: "N m", description: "unbalance torque amplitude m g r: the load needs T = A cos(angle + phase) to hold it", neutral: 0.0 },
+    ParameterInfo { name: names::UNBALANCE_PHASE, unit: "rad", description: "unbalance phase; the angle is the axis (load) angle", neutral: 0.0 },
+    ParameterInfo { name: names::DELAY, unit: "s", description: "delay of the applied torque behind the logged current/torque", neutral: 0.0 },
+    ParameterInfo { name: names::TORQUE_CONSTANT_SCALE, unit: "-", description: "true torque constant / nominal torque constant", neutral: 1.0 },
+    ParameterInfo { name: names::COGGING_AMPLITUDE, unit: "N m", description: "position-periodic torque amplitude: T = A sin(2 pi angle/period + phase), angle = motor angle referred to the axis", neutral: 0.0 },
+    ParameterInfo { name: names::COGGING_PERIOD, unit: "rad", description: "period of the position-periodic torque in axis-referred motor angle", neutral: 0.0 },
+    ParameterInfo { name: names::COGGING_PHASE, unit: "rad", description: "phase of the position-periodic torque", neutral: 0.0 },
+    ParameterInfo { name: names::BACKLASH_WIDTH, unit: "rad", description: "total lost motion (dead zone width) of the drive path, axis side", neutral: 0.0 },
+    ParameterInfo { name: names::PRESLIDING_STIFFNESS, unit: "N m/rad", description: "presliding (bristle) stiffness of the motor friction while it sticks, referred to the axis; 0 is a rigid stick", neutral: 0.0 },
+    ParameterInfo { name: names::PRESLIDING_DAMPING, unit: "N m s/rad", description: "damping of the presliding spring, referred to the axis", neutral: 0.0 },
+];
+
+/// Looks up the description of a known parameter.
+pub fn info(name: &str) -> Option<&'static ParameterInfo> {
+    PARAMETERS.iter().find(|p| p.name == name)
+}
+
+/// How the log drives the plant FMU's two motor inputs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmuDrive {
+    /// One motor (or a log whose motors are summed): the two FMU motors are identical
+    /// half-motors, each commanded with the whole logged current or torque. With equal
+    /// commands, identical halves and identical initial states the two-motor plant is exactly
+    /// the single-motor axis (tested in fmu-plant; a symmetric backlash stays symmetric).
+    Mirrored,
+    /// The log has two motors: FMU motor k is commanded with log motor k, so a torque bias
+    /// between them acts as on the real azimuth drive.
+    TwoMotors,
+}
+
+/// What the log's command column is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmuInput {
+    /// Measured motor current, A: the FMU's torque constant is the parameter set's.
+    Current,
+    /// Measured motor-side torque, N m: the FMU's "current" is the torque and its torque
+    /// constant is 1 N m per unit (shared between the half-motors when mirrored).
+    Torque,
+}
+
+/// The settings of the FMU that depend on the log rather than on the model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FmuConfig {
+    pub drive: FmuDrive,
+    pub input: FmuInput,
+    /// Sample interval of the log (s): it sets the current-loop bandwidth, which must be far
+    /// above the log's bandwidth because the log holds the measured (not commanded) current,
+    /// and the stiffness that emulates a rigid drive when the set has none.
+    pub sample_interval: f64,
+}
+
+impl FmuConfig {
+    /// Bandwidth of the FMU's current loop (Hz): 1000 times the sample rate, so its lag
+    /// (1/(2 pi f)) is below 2e-4 of a sample, but at most the largest bandwidth the plant
+    /// declares (10 kHz, a lag of 16 us: below 0.01 of a sample at 500 Hz, 0.004 at 250 Hz).
+    /// The logged current is what the motor carried; the FMU's first-order current loop must
+    /// pass it (nearly) unchanged.
+    pub fn current_loop_hz(&self) -> f64 {
+        (1000.0 / self.sample_interval).min(declared_maximum("motor1.current_loop_bandwidth"))
+    }
+
+    /// Frequency (Hz) of the drive-path mode that emulates a rigid drive when the parameter
+    /// set has no stiffness: 5 times the sample rate (10 times the Nyquist frequency), so the
+    /// compliance is invisible in the sampled outputs. The FMU's exact zero-order-hold
+    /// discretisation stays exact at any stiffness.
+    pub fn rigid_mode_hz(&self) -> f64 {
+        5.0 / self.sample_interval
+    }
+}
+
+/// The maximum the `AzimuthPlant` variable table declares for a real variable (infinite when
+/// it declares none), so a value the tool chooses stays within what the FMU accepts.
+fn declared_maximum(name: &str) -> f64 {
+    use fmu_runtime::variables::{Kind, VariableSet};
+    match fmu_plant::fmi::AzVar::by_name(name).map(|v| &v.var().kind) {
+        Some(Kind::Real { max: Some(max), .. }) => *max,
+        _ => f64::INFINITY,
+    }
+}
+
+/// One row of the parameter-to-FMU mapping table.
+#[derive(Debug, Clone, Copy)]
+pub struct FmuMapping {
+    /// Single-axis parameter names (several when they map together).
+    pub parameters: &'static [&'static str],
+    /// The `AzimuthPlant` variables they set (k = 1, 2: both half-motors or pinion paths).
+    pub variables: &'static [&'static str],
+    /// The conversion, N the gear ratio.
+    pub rule: &'static str,
+}
+
+/// The mapping of the single-axis parameter set onto the `AzimuthPlant` FMU. A single-motor
+/// axis is two identical half-motors, each with its own half-stiffness path; everything the
+/// axis set holds for "all motors" is halved per motor. Torques and speeds on the motor side
+/// are the axis-side values through the gear ratio.
+pub const FMU_MAPPING: [FmuMapping; 19] = [
+    FmuMapping { parameters: &[names::GEAR_RATIO], variables: &["gear.ratio"], rule: "N" },
+    FmuMapping { parameters: &[names::MOTOR_INERTIA], variables: &["motor1.inertia", "motor2.inertia"], rule: "J_m/2 each" },
+    FmuMapping {
+        parameters: &[names::TORQUE_CONSTANT],
+        variables: &["motor1.torque_constant", "motor2.torque_constant"],
+        rule: "K/2 each when mirrored (each half-motor carries the whole current), K each with two logged motors; a torque log uses 1/2 (mirrored) or 1 N m per unit",
+    },
+    FmuMapping {
+        parameters: &[names::LOAD_INERTIA],
+        variables: &["load.turning_head_inertia", "load.elevation_structure_cross_inertia", "load.elevation_structure_boresight_inertia"],
+        rule: "J_L, 0, 0 (the axis inertia does not depend on the elevation input)",
+    },
+    FmuMapping { parameters: &[names::STIFFNESS], variables: &["pinion1.stiffness", "pinion2.stiffness"], rule: "K_s/2 each (paths in parallel)" },
+    FmuMapping { parameters: &[names::DAMPING], variables: &["pinion1.damping", "pinion2.damping"], rule: "D/2 each" },
+    FmuMapping { parameters: &[names::VISCOUS], variables: &["motor1.viscous_friction", "motor2.viscous_friction"], rule: "B/(2 N^2) each" },
+    FmuMapping { parameters: &[names::PRESLIDING_STIFFNESS], variables: &["motor1.presliding_stiffness", "motor2.presliding_stiffness"], rule: "sigma/(2 N^2) each" },
+    FmuMapping { parameters: &[names::PRESLIDING_DAMPING], variables: &["motor1.presliding_damping", "motor2.presliding_damping"], rule: "c/(2 N^2) each" },
+    FmuMapping { parameters: &[names::COULOMB], variables: &["motor1.coulomb_friction", "motor2.coulomb_friction"], rule: "F_c/(2 N) each" },
+    FmuMapping { parameters: &[names::STATIC], variables: &["motor1.static_friction", "motor2.static_friction"], rule: "F_s/(2 N) each (F_s = F_c when not set)" },
+    FmuMapping { parameters: &[names::STRIBECK_VELOCITY], variables: &["motor1.stribeck_velocity", "motor2.stribeck_velocity"], rule: "w_s N (motor rad/s)" },
+    FmuMapping { parameters: &[names::ASYMMETRY], variables: &["motor1.friction_asymmetry", "motor2.friction_asymmetry"], rule: "a (same multiplicative form)" },
+    FmuMapping { parameters: &[names::TORQUE_OFFSET], variables: &["load.torque_offset"], rule: "-T_0 (the FMU's offset drives the load; the axis set's is what the drive must supply)" },
+    FmuMapping {
+        parameters: &[names::UNBALANCE_TORQUE, names::UNBALANCE_PHASE],
+        variables: &["load.periodic_torque_amplitude", "load.periodic_torque_period", "load.periodic_torque_phase"],
+        rule: "A, 360 deg, phase - 90 deg: -A cos(q + phase) = A sin(q + phase - 90 deg)",
+    },
+    FmuMapping { parameters: &[names::DELAY], variables: &["motor1.command_delay", "motor2.command_delay"], rule: "d" },
+    FmuMapping { parameters: &[names::TORQUE_CONSTANT_SCALE], variables: &["motor1.torque_constant_scale", "motor2.torque_constant_scale"], rule: "s" },
+    FmuMapping {
+        parameters: &[names::COGGING_AMPLITUDE, names::COGGING_PERIOD, names::COGGING_PHASE],
+        variables: &[
+            "motor1.cogging_amplitude",
+            "motor2.cogging_amplitude",
+            "motor1.cogging_period",
+            "motor2.cogging_period",
+            "motor1.cogging_phase",
+            "motor2.cogging_phase",
+        ],
+        rule: "A/(2 N) each, N P/(2 pi) motor revolutions, phase + 180 deg (the FMU's cogging drives the motor)",
+    },
+    FmuMapping { parameters: &[names::BACKLASH_WIDTH], variables: &["pinion1.backlash", "pinion2.backlash"], rule: "b in arcsec, each (both paths have the whole dead zone)" },
+];
+
+/// FMU variables the mapping fixes whatever the parameters: what the single-axis model does not
+/// have (bearing friction: all friction is at the motor; current saturation; quantisation)
+/// switched off, and the current loop made transparent.
+pub const FMU_FIXED: [(&str, &str); 9] = [
+    ("motor1.current_limit, motor2.current_limit", "1e9 A: no saturation (the log holds what the drive did)"),
+    (
+        "motor1.current_loop_bandwidth, motor2.current_loop_bandwidth",
+        "1000 x the sample rate: the log holds the measured current",
+    ),
+    ("bearing.coulomb_friction, bearing.static_friction", "0: all friction is at the motor"),
+    ("bearing.stribeck_velocity, bearing.friction_asymmetry", "0"),
+    ("bearing.viscous_friction", "0"),
+    ("encoder.bits", "0: the simulated angle is compared with the logged one, whose quantisation is in the data"),
+    ("linear_configuration", "false"),
+    (
+        "pinion stiffness and damping without path.stiffness",
+        "a critically damped mode at 5 x the sample rate emulates a rigid drive",
+    ),
+    (
+        "load.turning_head_inertia without load.inertia",
+        "1e-3 of the reflected motor inertia, taken from the motors (the total is kept)",
+    ),
+];
+
+/// The FMU parameter-file entries (name, value, comment) for a parameter set, following
+/// [`FMU_MAPPING`] and [`FMU_FIXED`]. Fails when the set has no gear ratio or describes a plant
+/// the FMU rejects (for example static friction below Coulomb friction).
+pub fn fmu_parameter_entries(
+    params: &ParameterSet,
+    config: &FmuConfig,
+) -> Result<Vec<(String, fmu_runtime::params::ParameterValue, String)>, String> {
+    use fmu_runtime::params::ParameterValue::{Boolean, Number};
+    let gear =
+        params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
+    if gear.is_nan() || gear <= 0.0 {
+        return Err(format!("{} must be positive", names::GEAR_RATIO));
+    }
+    let n2 = gear * gear;
+    let mut motor_inertia = params.value(names::MOTOR_INERTIA);
+    let mut load_inertia = params.value(names::LOAD_INERTIA);
+    if motor_inertia <= 0.0 && load_inertia <= 0.0 {
+        return Err(format!("the parameter set has neither {} nor {}", names::MOTOR_INERTIA, names::LOAD_INERTIA));
+    }
+    if load_inertia <= 0.0 {
+        // The FMU needs a load inertia; a small share of the motor's keeps the total.
+        load_inertia = 1e-3 * motor_inertia * n2;
+        motor_inertia *= 1.0 - 1e-3;
+    }
+    if motor_inertia <= 0.0 {
+        motor_inertia = 1e-3 * load_inertia / n2;
+        load_inertia *= 1.0 - 1e-3;
+    }
+    let (stiffness, damping, rigid) = match params.get(names::STIFFNESS).filter(|k| *k > 0.0) {
+        Some(k) => (k, params.value(names::DAMPING), false),
+        None => {
+            let reduced = motor_inertia * n2 * load_inertia / (motor_inertia * n2 + load_inertia);
+            let omega = 2.0 * std::f64::consts::PI * config.rigid_mode_hz();
+            (omega * omega * reduced, 2.0 * omega * reduced, true)
+        }
+    };
+    let torque_constant = match (config.input, config.drive) {
+        (FmuInput::Current, FmuDrive::Mirrored) => {
+            params
+                .get(names::TORQUE_CONSTANT)
+                .ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?
+                / 2.0
+        }
+        (FmuInput::Current, FmuDrive::TwoMotors) => params
+            .get(names::TORQUE_CONSTANT)
+            .ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?,
+        (FmuInput::Torque, FmuDrive::Mirrored) => 0.5,
+        (FmuInput::Torque, FmuDrive::TwoMotors) => 1.0,
+    };
+    let coulomb = params.value(names::COULOMB);
+    let static_friction = params.get(names::STATIC).unwrap_or(coulomb);
+    let cogging_amplitude = params.value(names::COGGING_AMPLITUDE);
+    let cogging_period = params.value(names::COGGING_PERIOD);
+    let (cogging_amplitude, cogging_period_rev) = if cogging_amplitude != 0.0 && cogging_period > 0.0 {
+        (cogging_amplitude / (2.0 * gear), gear * cogging_period / (2.0 * std::f64::consts::PI))
+    } else {
+        (0.0, 1.0)
+    };
+    let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
+    let mut out = Vec::new();
+    let both = |stem: &str, value: f64, comment: &str, out: &mut Vec<_>| {
+        for k in ["1", "2"] {
+            out.push((stem.replacen('#', k, 1), Number(value), comment.to_string()));
+        }
+    };
+    out.push(("gear.ratio".to_string(), Number(gear), "gear.ratio".to_string()));
+    both("motor#.inertia", motor_inertia / 2.0, "motor.inertia / 2, kg m^2", &mut out);
+    both("motor#.torque_constant", torque_constant, "motor.torque_constant per half-motor (see FMU_MAPPING)", &mut out);
+    both(
+        "motor#.torque_constant_scale",
+        params.value(names::TORQUE_CONSTANT_SCALE),
+        "effect.torque_constant_scale",
+        &mut out,
+    );
+    both(
+        "motor#.viscous_friction",
+        params.value(names::VISCOUS) / (2.0 * n2),
+        "friction.viscous / (2 N^2), N m s/rad at the motor",
+        &mut out,
+    );
+    both(
+        "motor#.presliding_stiffness",
+        params.value(names::PRESLIDING_STIFFNESS) / (2.0 * n2),
+        "friction.presliding_stiffness / (2 N^2), N m/rad at the motor",
+        &mut out,
+    );
+    both(
+        "motor#.presliding_damping",
+        params.value(names::PRESLIDING_DAMPING) / (2.0 * n2),
+        "friction.presliding_damping / (2 N^2), N m s/rad at the motor",
+        &mut out,
+    );
+    both("motor#.coulomb_friction", coulomb / (2.0 * gear), "friction.coulomb / (2 N), N m at the motor", &mut out);
+    both(
+        "motor#.static_friction",
+        static_friction / (2.0 * gear),
+        "friction.static / (2 N), N m at the motor",
+        &mut out,
+    );
+    both(
+        "motor#.stribeck_velocity",
+        params.value(names::STRIBECK_VELOCITY) * gear,
+        "friction.stribeck_velocity N, motor rad/s",
+        &mut out,
+    );
+    both("motor#.friction_asymmetry", params.value(names::ASYMMETRY), "friction.asymmetry", &mut out);
+    both("motor#.command_delay", params.value(names::DELAY), "effect.delay, s", &mut out);
+    both("motor#.cogging_amplitude", cogging_amplitude, "effect.cogging_amplitude / (2 N), N m at the motor", &mut out);
+    both("motor#.cogging_period", cogging_period_rev, "N effect.cogging_period / (2 pi), motor revolutions", &mut out);
+    both(
+        "motor#.cogging_phase",
+        (params.value(names::COGGING_PHASE) + std::f64::consts::PI).to_degrees(),
+        "effect.cogging_phase + 180 deg",
+        &mut out,
+    );
+    both("motor#.current_limit", 1e9, "no saturation: the log holds what the drive did", &mut out);
+    both(
+        "motor#.current_loop_bandwidth",
+        config.current_loop_hz(),
+        "transparent: the log holds the measured current",
+        &mut out,
+    );
+    let stiffness_comment = if rigid {
+        "rigid drive emulated: a critically damped mode at 5 x the sample rate"
+    } else {
+        "path.stiffness / 2, N m/rad"
+    };
+    both("pinion#.stiffness", stiffness / 2.0, stiffness_comment, &mut out);
+    both(
+        "pinion#.damping",
+        damping / 2.0,
+        if rigid { stiffness_comment } else { "path.damping / 2, N m s/rad" },
+        &mut out,
+    );
+    both(
+        "pinion#.backlash",
+        params.value(names::BACKLASH_WIDTH) / arcsec,
+        "backlash.width in arcsec, each path",
+        &mut out,
+    );
+    out.push(("load.turning_head_inertia".into(), Number(load_inertia), "load.inertia, kg m^2".into()));
+    out.push((
+        "load.elevation_structure_cross_inertia".into(),
+        Number(0.0),
+        "the axis inertia does not depend on the elevation input".into(),
+    ));
+    out.push(("load.elevation_structure_boresight_inertia".into(), Number(0.0), String::new()));
+    out.push((
+        "load.torque_offset".into(),
+        Number(-params.value(names::TORQUE_OFFSET)),
+        "-effect.torque_offset, N m".into(),
+    ));
+    out.push((
+        "load.periodic_torque_amplitude".into(),
+        Number(params.value(names::UNBALANCE_TORQUE)),
+        "effect.unbalance_torque, N m".into(),
+    ));
+    out.push(("load.periodic_torque_period".into(), Number(360.0), "deg: an unbalance".into()));
+    out.push((
+        "load.periodic_torque_phase".into(),
+        Number(params.value(names::UNBALANCE_PHASE).to_degrees() - 90.0),
+        "effect.unbalance_phase - 90 deg".into(),
+    ));
+    for name in [
+        "bearing.coulomb_friction",
+        "bearing.static_friction",
+        "bearing.stribeck_velocity",
+        "bearing.friction_asymmetry",
+        "bearing.viscous_friction",
+    ] {
+        out.push((name.into(), Number(0.0), "all friction is at the motor".into()));
+    }
+    out.push(("encoder.bits".into(), Number(0.0), "unquantised: the log's quantisation is in the data".into()));
+    out.push(("linear_configuration".into(), Boolean(false), String::new()));
+    if static_friction < coulomb {
+        return Err(format!("{} ({static_friction}) is below {} ({coulomb}): the plant FMU needs breakaway friction at least the sliding friction", names::STATIC, names::COULOMB));
+    }
+    let asymmetry = params.value(names::ASYMMETRY);
+    if asymmetry.is_nan() || asymmetry.abs() >= 0.99 {
+        return Err(format!("{} ({asymmetry}) must lie within +-0.99", names::ASYMMETRY));
+    }
+    Ok(out)
+}
+
+/// The FMU parameter file for a parameter set: the entries of [`fmu_parameter_entries`] after
+/// a `#` header, loadable through the FMU's `parameter_file` variable.
+pub fn fmu_parameter_text(params: &ParameterSet, config: &FmuConfig, header: &str) -> Result<String, String> {
+    let mut text = String::new();
+    for line in header.lines() {
+        text.push_str(&format!("# {line}\n"));
+    }
+    text.push_str(&fmu_runtime::params::format(&fmu_parameter_entries(params, config)?));
+    Ok(text)
+}
+
+/// An error reading a parameter file, with its 1-based line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterError {
+    pub line: usize,
+    pub message: String,
+}
+
+impl fmt::Display for ParameterError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "line {}: {}", self.line, self.message)
+    }
+}
+
+impl std::error::Error for ParameterError {}
+
+/// An ordered set of named parameters with a comment each (unit first, by convention).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ParameterSet {
+    entries: Vec<(String, f64, String)>,
+}
+
+impl ParameterSet {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The value of a parameter, if set.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.entries.iter().find(|e| e.0 == name).map(|e| e.1)
+    }
+
+    /// The value of a parameter, or its neutral value (effect absent) when it is not set.
+    pub fn value(&self, name: &str) -> f64 {
+        self.get(name).unwrap_or_else(|| info(name).map(|i| i.neutral).unwrap_or(0.0))
+    }
+
+    /// Sets a parameter, keeping its place (and its comment) if it exists already. New known
+    /// parameters get their unit and description as the comment.
+    pub fn set(&mut self, name: &str, value: f64) {
+        if let Some(entry) = self.entries.iter_mut().find(|e| e.0 == name) {
+            entry.1 = value;
+        } else {
+            let comment = info(name).map(|i| format!("{}, {}", i.unit, i.description)).unwrap_or_default();
+            self.entries.push((name.to_string(), value, comment));
+        }
+    }
+
+    /// Sets a parameter with an explicit comment.
+    pub fn set_with_comment(&mut self, name: &str, value: f64, comment: &str) {
+        self.set(name, value);
+        if let Some(entry) = self.entries.iter_mut().find(|e| e.0 == name) {
+            entry.2 = comment.to_string();
+        }
+    }
+
+    /// Names in file order.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.entries.iter().map(|e| e.0.as_str())
+    }
+
+    /// Parses `name = value  # comment` lines; blank lines and `#` lines are ignored.
+    pub fn parse(text: &str) -> Result<ParameterSet, ParameterError> {
+        let mut set = ParameterSet::new();
+        for (index, raw) in text.lines().enumerate() {
+            let line = index + 1;
+            let (content, comment) = match raw.split_once('#') {
+                Some((c, k)) => (c.trim(), k.trim()),
+                None => (raw.trim(), ""),
+            };
+            if content.is_empty() {
+                continue;
+            }
+            let Some((name, value)) = content.split_once('=') else {
+                return Err(ParameterError { line, message: format!("expected 'name = value', found '{content}'") });
+            };
+            let name = name.trim();
+            if name.is_empty() || name.contains(char::is_whitespace) {
+                return Err(ParameterError { line, message: format!("bad parameter name '{name}'") });
+            }
+            let value: f64 = value.trim().parse().map_err(|_| ParameterError {
+                line,
+                message: format!("'{}' is not a number (parameter {name})", value.trim()),
+            })?;
+            if !value.is_finite() {
+                return Err(ParameterError { line, message: format!("parameter {name} is not finite") });
+            }
+            if set.get(name).is_some() {
+                return Err(ParameterError { line, message: format!("parameter {name} is set twice") });
+            }
+            set.entries.push((name.to_string(), value, comment.to_string()));
+        }
+        Ok(set)
+    }
+
+    pub fn read(path: &Path) -> Result<ParameterSet, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        ParameterSet::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// The file text: one `name = value  # comment` line per parameter, values in full precision.
+    pub fn to_text(&self) -> String {
+        let width = self.entries.iter().map(|e| e.0.len()).max().unwrap_or(0);
+        let mut out = String::new();
+        for (name, value, comment) in &self.entries {
+            if comment.is_empty() {
+                out.push_str(&format!("{name:width$} = {value:e}\n"));
+            } else {
+                out.push_str(&format!("{name:width$} = {value:e}  # {comment}\n"));
+            }
+        }
+        out
+    }
+
+    pub fn write(&self, path: &Path, header: &str) -> Result<(), String> {
+        let mut text = String::new();
+        for line in header.lines() {
+            text.push_str(&format!("# {line}\n"));
+        }
+        text.push_str(&self.to_text());
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameter_names_are_unique() {
+        for (i, a) in PARAMETERS.iter().enumerate() {
+            assert!(PARAMETERS[..i].iter().all(|b| b.name != a.name), "{} twice", a.name);
+        }
+    }
+
+    #[test]
+    fn text_round_trip_keeps_order_values_and_comments() {
+        let text =
+            "# start\ngear.ratio = 256.9  # -, KUKA axis 1\nmotor.inertia=0.00923\n\nfriction.coulomb = 1.5e2 # N m\n";
+        let set = ParameterSet::parse(text).unwrap();
+        assert_eq!(set.names().collect::<Vec<_>>(), vec!["gear.ratio", "motor.inertia", "friction.coulomb"]);
+        let back = ParameterSet::parse(&set.to_text()).unwrap();
+        assert_eq!(back, set);
+        assert_eq!(back.get("friction.coulomb"), Some(150.0));
+    }
+
+    #[test]
+    fn missing_parameters_read_as_their_neutral_value() {
+        let set = ParameterSet::parse("gear.ratio = 10").unwrap();
+        assert_eq!(set.value(names::TORQUE_CONSTANT_SCALE), 1.0);
+        assert_eq!(set.value(names::COULOMB), 0.0);
+    }
+
+    fn axis_set() -> ParameterSet {
+        // An antenna-like azimuth drive (the truth generator's default plant): anti-resonance
+        // near 4 Hz, reflected motor inertia about half the load inertia.
+        let load_inertia = 6.0e4;
+        let stiffness = load_inertia * (2.0 * std::f64::consts::PI * 4.0_f64).powi(2);
+        let mut set = ParameterSet::new();
+        for (name, value) in [
+            (names::GEAR_RATIO, 1200.0),
+            (names::MOTOR_INERTIA, 0.02),
+            (names::TORQUE_CONSTANT, 2.0),
+            (names::LOAD_INERTIA, load_inertia),
+            (names::STIFFNESS, stiffness),
+            (names::DAMPING, 2.0 * 0.04 * (stiffness * load_inertia).sqrt()),
+            (names::VISCOUS, 2.0e4),
+            (names::COULOMB, 3000.0),
+            (names::STATIC, 4000.0),
+            (names::STRIBECK_VELOCITY, 0.002),
+            (names::TORQUE_CONSTANT_SCALE, 1.0),
+        ] {
+            set.set(name, value);
+        }
+        set.set(names::TORQUE_OFFSET, 250.0);
+        set.set(names::UNBALANCE_TORQUE, 900.0);
+        set.set(names::UNBALANCE_PHASE, 0.4);
+        set.set(names::COGGING_AMPLITUDE, 120.0);
+        set.set(names::COGGING_PERIOD, 0.01);
+        set.set(names::COGGING_PHASE, -1.0);
+        set.set(names::BACKLASH_WIDTH, 2e-5);
+        set.set(names::DELAY, 0.003);
+        set.set(names::ASYMMETRY, 0.05);
+        set
+    }
+
+    #[test]
+    fn the_fmu_mapping_covers_every_parameter_with_existing_fmu_variables() {
+        use fmu_plant::fmi::AzVar;
+        use fmu_runtime::VariableSet;
+        for p in PARAMETERS {
+            assert!(FMU_MAPPING.iter().any(|m| m.parameters.contains(&p.name)), "{} has no row in FMU_MAPPING", p.name);
+        }
+        for m in FMU_MAPPING {
+            for v in m.variables {
+                assert!(AzVar::by_name(v).is_some(), "FMU_MAPPING names {v}, which AzimuthPlant does not have");
+            }
+        }
+    }
+
+    #[test]
+    fn the_written_fmu_parameter_file_is_accepted_by_the_plant_variable_table() {
+        // The file goes through the same checks as the FMU's parameter_file loading: known
+        // names, settable, types, ranges and the model's own checks.
+        use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
+        for drive in [FmuDrive::Mirrored, FmuDrive::TwoMotors] {
+            for input in [FmuInput::Current, FmuInput::Torque] {
+                let config = FmuConfig { drive, input, sample_interval: 0.002 };
+                let text = fmu_parameter_text(&axis_set(), &config, "test").unwrap();
+                let mut values = fmu_runtime::Values::<AzVar>::at_start();
+                let count = fmu_runtime::params::apply::<AzimuthPlantModel>(&text, "test", &mut values).unwrap();
+                assert_eq!(count, text.lines().filter(|l| !l.starts_with('#')).count());
+                let params = fmu_plant::fmi::azimuth::azimuth_params(&values);
+                params.validate().unwrap();
+            }
+        }
+    }
+
+    #[test]
+    fn the_mirrored_fmu_is_the_single_axis_with_the_same_totals() {
+        // Totals of the two half-motors and paths, through the plant's own parameter struct:
+        // the conversions of FMU_MAPPING, checked against the axis set one by one.
+        use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
+        let axis = axis_set();
+        let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: 0.002 };
+        let mut values = fmu_runtime::Values::<AzVar>::at_start();
+        fmu_runtime::params::apply::<AzimuthPlantModel>(
+            &fmu_parameter_text(&axis, &config, "").unwrap(),
+            "test",
+            &mut values,
+        )
+        .unwrap();
+        let p = fmu_plant::fmi::azimuth::azimuth_params(&values);
+        let n = axis.value(names::GEAR_RATIO);
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+        let m = p.motors;
+        assert!(close(n, p.gear_ratio));
+        assert!(close(m[0].inertia_kg_m2 + m[1].inertia_kg_m2, axis.value(names::MOTOR_INERTIA)));
+        // Each half-motor carries the whole logged current: total torque per ampere is K.
+        assert!(close(
+            m[0].effective_torque_constant() + m[1].effective_torque_constant(),
+            axis.value(names::TORQUE_CONSTANT)
+        ));
+        assert!(close(
+            (m[0].viscous_friction_nm_s_per_rad + m[1].viscous_friction_nm_s_per_rad) * n * n,
+            axis.value(names::VISCOUS)
+        ));
+        assert!(close((m[0].friction.coulomb_nm + m[1].friction.coulomb_nm) * n, axis.value(names::COULOMB)));
+        assert!(close((m[0].friction.static_nm + m[1].friction.static_nm) * n, axis.value(names::STATIC)));
+        assert!(close(m[0].friction.stribeck_velocity_rad_per_s / n, axis.value(names::STRIBECK_VELOCITY)));
+        assert!(close(m[0].friction.asymmetry, axis.value(names::ASYMMETRY)));
+        assert!(close(p.path_stiffness_nm_per_rad[0] + p.path_stiffness_nm_per_rad[1], axis.value(names::STIFFNESS)));
+        assert!(close(p.path_damping_nm_s_per_rad[0] + p.path_damping_nm_s_per_rad[1], axis.value(names::DAMPING)));
+        assert!(close(p.pinion_backlash_rad[0], axis.value(names::BACKLASH_WIDTH)));
+        assert!(
+            close(p.axis_inertia_kg_m2(10.0), axis.value(names::LOAD_INERTIA))
+                && close(p.axis_inertia_kg_m2(80.0), axis.value(names::LOAD_INERTIA))
+        );
+        assert!(close(m[0].current_command_delay_s, axis.value(names::DELAY)));
+        // Torques at sample angles: the FMU's drive the load/motor, the axis set's must be
+        // supplied, so they are opposite.
+        for q in [0.1, 0.7, 1.3, -2.0] {
+            let unbalance = axis.value(names::UNBALANCE_TORQUE) * (q + axis.value(names::UNBALANCE_PHASE)).cos();
+            assert!(
+                (p.periodic_torque.torque_nm(q) + unbalance).abs() < 1e-9 * axis.value(names::UNBALANCE_TORQUE),
+                "unbalance at {q}"
+            );
+            let qm = q + 1e-4;
+            let cogging = axis.value(names::COGGING_AMPLITUDE)
+                * (2.0 * std::f64::consts::PI * qm / axis.value(names::COGGING_PERIOD)
+                    + axis.value(names::COGGING_PHASE))
+                .sin();
+            let fmu_axis_side = n * (m[0].cogging.torque_nm(n * qm) + m[1].cogging.torque_nm(n * qm));
+            assert!(
+                (fmu_axis_side + cogging).abs() < 1e-6 * axis.value(names::COGGING_AMPLITUDE),
+                "cogging at {qm}: {fmu_axis_side} vs {cogging}"
+            );
+        }
+        assert!(close(p.torque_offset_nm, -axis.value(names::TORQUE_OFFSET)));
+    }
+
+    #[test]
+    fn malformed_lines_are_reported_with_their_line() {
+        assert_eq!(ParameterSet::parse("a = 1\nb 2\n").unwrap_err().line, 2);
+        assert_eq!(ParameterSet::parse("a = x\n").unwrap_err().line, 1);
+        assert_eq!(ParameterSet::parse("a = 1\na = 2\n").unwrap_err().line, 2);
+        assert_eq!(ParameterSet::parse("a = nan\n").unwrap_err().line, 1);
+    }
+}

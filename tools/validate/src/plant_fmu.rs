@@ -1,0 +1,418 @@
+//! The packaged plant FMU (`AzimuthPlant.fmu`) as the validate tool's simulator, loaded through
+//! the FMI 2.0 C ABI by `fmu_import`, exactly as any master loads it.
+//!
+//! A [`Session`] is one FMU instance configured with one parameter set (written as a parameter
+//! file and loaded through the FMU's `parameter_file` string variable, the same file the tool
+//! writes as its corrected model). Each output-error window starts the instance from the
+//! measured state: the FMU's own initialisation can only put the axis at rest
+//! (`initial_position`), so the tool takes the state the FMU serialises after initialisation
+//! (`fmi2SerializeFMUstate`), writes the measured positions, speeds, twist, currents and the
+//! recent command history into it, and restores it with `fmi2DeSerializeFMUstate` and
+//! `fmi2SetFMUstate`. The state layout is the one `docs/plant-model.md` (section 7) documents
+//! and `fmu_runtime::state` writes: runtime header, variable values, then the plant's format
+//! byte, time, grid cell, state vector `[p_L, v_L, (d_k, v_Mk, i_k, beta_k) per path]` (motor
+//! side), compensation term, body motions, meshes and delay lines. Both format versions are
+//! checked, so a change of layout is an error, not a wrong simulation. One instance serves all
+//! windows of a parameter set; restoring a state costs one plant construction (tens of
+//! microseconds).
+
+use super::output_error::{PlantSimulator, SimulatedOutputs, WindowStart};
+use super::parameters::{fmu_parameter_text, FmuConfig, ParameterSet};
+use fmu_plant::fmi::AzVar;
+use fmu_import::{Fmu, Instance};
+use fmu_runtime::{StateReader, StateWriter, Values};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The runtime's state header version and the azimuth plant's state format this code writes.
+const RUNTIME_STATE_VERSION: u64 = 1;
+const PLANT_STATE_FORMAT: u8 = 1;
+const PATHS: usize = 2;
+const STATES: usize = 2 + 4 * PATHS;
+
+/// Motion and mesh codes of the plant's state format.
+const FORWARD: u8 = 0;
+const BACKWARD: u8 = 1;
+const STUCK: u8 = 2;
+const POSITIVE_FLANK: u8 = 0;
+const NEGATIVE_FLANK: u8 = 1;
+const GAP: u8 = 2;
+
+static FILE_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// The plant FMU, unpacked and loaded.
+pub struct PlantFmu {
+    fmu: Fmu,
+}
+
+impl PlantFmu {
+    /// Where `cargo run --release -p xtask --bin package` writes the azimuth plant.
+    pub fn default_path() -> PathBuf {
+        antenna_fmus::fmu_path("AzimuthPlant")
+    }
+
+    pub fn open(path: &Path) -> Result<PlantFmu, String> {
+        if !path.is_file() {
+            return Err(format!(
+                "{} is missing: package the FMUs first (cargo run --release -p xtask --bin package)",
+                path.display()
+            ));
+        }
+        let fmu = Fmu::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        if fmu.description.model_identifier != "AzimuthPlant" {
+            return Err(format!(
+                "{} is {}, not the AzimuthPlant FMU",
+                path.display(),
+                fmu.description.model_identifier
+            ));
+        }
+        Ok(PlantFmu { fmu })
+    }
+
+    /// An instance configured by a parameter-file text (written to a temporary file, loaded
+    /// through `parameter_file`, removed).
+    pub fn session(&self, parameter_text: &str) -> Result<Session, String> {
+        let path = std::env::temp_dir().join(format!(
+            "validate-{}-{}.params",
+            std::process::id(),
+            FILE_COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::write(&path, parameter_text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        let session = self.session_from_file(&path);
+        let _ = std::fs::remove_file(&path);
+        session
+    }
+
+    /// An instance configured by a parameter file on disk (absolute path).
+    pub fn session_from_file(&self, path: &Path) -> Result<Session, String> {
+        let description = &self.fmu.description;
+        let vr = |name: &str| description.vr(name).map_err(|e| e.to_string());
+        let mut instance = self.fmu.instantiate("validate", false).map_err(|e| e.to_string())?;
+        let absolute = std::fs::canonicalize(path).map_err(|e| format!("cannot find {}: {e}", path.display()))?;
+        let file = absolute.to_str().ok_or("the parameter file path is not UTF-8")?;
+        instance
+            .set_string(&[vr("parameter_file")?], &[file])
+            .map_err(|e| format!("the plant FMU rejects the parameter set: {e}"))?;
+        instance.initialize(0.0, &[]).map_err(|e| format!("the plant FMU does not initialise: {e}"))?;
+        let parameters = [
+            vr("gear.ratio")?,
+            vr("pinion1.backlash")?,
+            vr("pinion2.backlash")?,
+            vr("pinion1.stiffness")?,
+            vr("pinion2.stiffness")?,
+            vr("motor1.torque_constant")?,
+            vr("motor2.torque_constant")?,
+            vr("motor1.torque_constant_scale")?,
+            vr("motor2.torque_constant_scale")?,
+        ];
+        let mut values = [0.0; 9];
+        instance.get_real(&parameters, &mut values).map_err(|e| e.to_string())?;
+        let template = StateTemplate::capture(&mut instance)?;
+        Ok(Session {
+            instance,
+            template,
+            gear_ratio: values[0],
+            backlash_motor_rad: [values[1], values[2]].map(|b| b * std::f64::consts::PI / (180.0 * 3600.0) * values[0]),
+            path_stiffness: [values[3], values[4]],
+            axis_torque_per_input: [values[0] * values[5] * values[7], values[0] * values[6] * values[8]],
+            inputs: [vr("motor1.current_command")?, vr("motor2.current_command")?, vr("load.disturbance_torque")?],
+            outputs: [vr("axis.position")?, vr("axis.speed")?, vr("motor1.speed")?, vr("motor2.speed")?],
+        })
+    }
+}
+
+/// The parts of a serialised FMU state that a window start does not change.
+struct StateTemplate {
+    identifier: String,
+    guid: String,
+    phase: u8,
+    needs_initialize: bool,
+    values: Vec<u8>,
+    cell: i64,
+    load_motion: u8,
+    motor_has_friction: [bool; PATHS],
+    /// Motors with a presliding element: their friction anchors follow the delay lines.
+    motor_presliding: [bool; PATHS],
+}
+
+impl StateTemplate {
+    fn capture(instance: &mut Instance) -> Result<StateTemplate, String> {
+        let state = instance.get_state().map_err(|e| e.to_string())?;
+        let bytes = instance.serialize_state(&state).map_err(|e| e.to_string())?;
+        instance.free_state(state).map_err(|e| e.to_string())?;
+        let error = |e: fmu_runtime::StateError| format!("unexpected plant FMU state layout: {e}");
+        let mut r = StateReader::new(&bytes);
+        let _magic = r.u64().map_err(error)?;
+        let version = r.u64().map_err(error)?;
+        if version != RUNTIME_STATE_VERSION {
+            return Err(format!(
+                "the plant FMU writes state format {version}; this tool knows {RUNTIME_STATE_VERSION}"
+            ));
+        }
+        let identifier = r.str().map_err(error)?;
+        let guid = r.str().map_err(error)?;
+        let phase = r.u8().map_err(error)?;
+        for _ in 0..3 {
+            r.f64().map_err(error)?;
+        }
+        r.bool().map_err(error)?;
+        r.f64().map_err(error)?;
+        let needs_initialize = r.bool().map_err(error)?;
+        let values_start = bytes.len() - r.remaining();
+        let values = Values::<AzVar>::load(&mut r).map_err(error)?;
+        let values_end = bytes.len() - r.remaining();
+        if !r.bool().map_err(error)? {
+            return Err("the plant FMU state has no plant (not initialised)".into());
+        }
+        let format = r.u8().map_err(error)?;
+        if format != PLANT_STATE_FORMAT {
+            return Err(format!(
+                "the azimuth plant writes state format {format}; this tool knows {PLANT_STATE_FORMAT}"
+            ));
+        }
+        r.f64().map_err(error)?;
+        let cell = r.i64().map_err(error)?;
+        r.f64s(Some(STATES)).map_err(error)?;
+        r.f64().map_err(error)?;
+        let load_motion = r.u8().map_err(error)?;
+        for _ in 0..PATHS {
+            r.u8().map_err(error)?;
+            r.u8().map_err(error)?;
+            let n = r.u64().map_err(error)?;
+            for _ in 0..2 * n {
+                r.f64().map_err(error)?;
+            }
+        }
+        let has_friction = |coulomb: AzVar, stat: AzVar| values.real(coulomb) > 0.0 || values.real(stat) > 0.0;
+        let motor_has_friction =
+            [has_friction(AzVar::M1Coulomb, AzVar::M1Static), has_friction(AzVar::M2Coulomb, AzVar::M2Static)];
+        let motor_presliding = [
+            motor_has_friction[0] && values.real(AzVar::M1PreslidingStiffness) > 0.0,
+            motor_has_friction[1] && values.real(AzVar::M2PreslidingStiffness) > 0.0,
+        ];
+        for presliding in motor_presliding {
+            if presliding {
+                r.f64().map_err(error)?;
+            }
+        }
+        r.finish().map_err(error)?;
+        Ok(StateTemplate {
+            identifier,
+            guid,
+            phase,
+            needs_initialize,
+            values: bytes[values_start..values_end].to_vec(),
+            cell,
+            load_motion,
+            motor_has_friction,
+            motor_presliding,
+        })
+    }
+}
+
+/// One configured FMU instance.
+pub struct Session {
+    instance: Instance,
+    template: StateTemplate,
+    gear_ratio: f64,
+    backlash_motor_rad: [f64; PATHS],
+    /// Each path's stiffness (axis side, N m/rad) and each motor's axis torque per unit of its
+    /// input (A or N m), for the paths' counter-deflection under a torque bias.
+    path_stiffness: [f64; PATHS],
+    axis_torque_per_input: [f64; PATHS],
+    inputs: [u32; 3],
+    outputs: [u32; 4],
+}
+
+impl Session {
+    pub fn gear_ratio(&self) -> f64 {
+        self.gear_ratio
+    }
+
+    /// The serialised state of the plant at a window start (time 0 of the window).
+    ///
+    /// Motor k: angle difference `d_k = N (q_m - q_L)`, speed `N w_m`, current as logged at the
+    /// start; it slides in the direction of its speed, or sticks when the speed is exactly 0
+    /// (the plant's own event handling makes a slow body stick within the first step if its
+    /// holding torque is below breakaway). A path with backlash is on the flank the twist
+    /// presses (`beta = +-b/2`) when the twist exceeds half the gap, else in the gap with a
+    /// relaxed spring. The command history within the delay goes into the delay lines.
+    pub fn state_bytes(&self, start: &WindowStart) -> Vec<u8> {
+        let n = self.gear_ratio;
+        let mut w = StateWriter::new();
+        w.u64(fmu_runtime::instance::STATE_MAGIC);
+        w.u64(RUNTIME_STATE_VERSION);
+        w.str(&self.template.identifier);
+        w.str(&self.template.guid);
+        w.u8(self.template.phase);
+        // Time, start time, no stop time, last successful time: the window runs from 0.
+        w.f64(0.0);
+        w.f64(0.0);
+        w.bool(false);
+        w.f64(0.0);
+        w.f64(0.0);
+        w.bool(self.template.needs_initialize);
+        let mut bytes = w.into_bytes();
+        bytes.extend_from_slice(&self.template.values);
+        let mut w = StateWriter::new();
+        w.bool(true);
+        w.u8(PLANT_STATE_FORMAT);
+        w.f64(0.0);
+        w.i64(self.template.cell);
+        let mut x = [0.0; STATES];
+        x[0] = n * start.load_angle;
+        x[1] = n * start.load_speed;
+        let mut meshes = [POSITIVE_FLANK; PATHS];
+        // Two motors with different torques (a torque bias) deflect their paths against each
+        // other: moving together, with equal inertias and friction, the path torques differ by
+        // the motor torques' difference, half of it each way about the common twist. Without
+        // this every window of a biased drive would start with the bias unbalanced and ring.
+        let torques: [f64; PATHS] = std::array::from_fn(|k| self.axis_torque_per_input[k] * start.currents[k]);
+        let imbalance = 0.5 * (torques[0] - torques[1]);
+        for k in 0..PATHS {
+            let sign = if k == 0 { 1.0 } else { -1.0 };
+            let counter = if self.path_stiffness[k] > 0.0 { sign * imbalance / self.path_stiffness[k] } else { 0.0 };
+            let d = n * (start.twist + counter);
+            x[2 + 4 * k] = d;
+            x[3 + 4 * k] = n * start.motor_speed;
+            x[4 + 4 * k] = start.currents[k];
+            let half_gap = 0.5 * self.backlash_motor_rad[k];
+            if half_gap > 0.0 {
+                if d > half_gap {
+                    x[5 + 4 * k] = half_gap;
+                } else if d < -half_gap {
+                    x[5 + 4 * k] = -half_gap;
+                    meshes[k] = NEGATIVE_FLANK;
+                } else {
+                    x[5 + 4 * k] = d;
+                    meshes[k] = GAP;
+                }
+            }
+        }
+        w.f64s(&x);
+        w.f64(0.0);
+        w.u8(self.template.load_motion);
+        for k in 0..PATHS {
+            let motion = if !self.template.motor_has_friction[k] || start.motor_speed > 0.0 {
+                FORWARD
+            } else if start.motor_speed < 0.0 {
+                BACKWARD
+            } else {
+                STUCK
+            };
+            w.u8(motion);
+            w.u8(meshes[k]);
+            // Delay line: (time the command was issued, command), oldest first, consecutive
+            // equal commands merged as the plant does.
+            let mut entries: Vec<(f64, f64)> = Vec::new();
+            for &(t, commands) in &start.history {
+                if entries.last().is_none_or(|&(_, v)| v != commands[k]) {
+                    entries.push((t, commands[k]));
+                }
+            }
+            w.u64(entries.len() as u64);
+            for (t, v) in entries {
+                w.f64(t);
+                w.f64(v);
+            }
+        }
+        // Friction anchors of presliding motors at the motor angle (d_k + p_L): a relaxed
+        // bristle. Only a motor that starts sticking uses it; a sliding one sets its own when it
+        // comes to rest.
+        for k in 0..PATHS {
+            if self.template.motor_presliding[k] {
+                w.f64(x[2 + 4 * k] + x[0]);
+            }
+        }
+        bytes.extend_from_slice(&w.into_bytes());
+        bytes
+    }
+
+    /// Simulates one window: restores the start state, then one communication step per log
+    /// interval with the commands (per motor) and the disturbance held over each step.
+    /// Returns the outputs at the start and after every step.
+    pub fn run(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
+        let bytes = self.state_bytes(start);
+        let state = self
+            .instance
+            .deserialize_state(&bytes)
+            .map_err(|e| format!("the plant FMU rejects the window's start state: {e}"))?;
+        let set = self.instance.set_state(&state).map_err(|e| e.to_string());
+        self.instance.free_state(state).map_err(|e| e.to_string())?;
+        set?;
+        let n = self.gear_ratio;
+        let steps = commands.len();
+        let mut out = SimulatedOutputs::with_capacity(steps + 1);
+        out.push(start.load_angle, start.load_speed, start.motor_angle, start.motor_speed);
+        let mut motor_angle = start.motor_angle;
+        let mut motor_speed = start.motor_speed;
+        let mut values = [0.0; 4];
+        for (j, command) in commands.iter().enumerate() {
+            let inputs = [command[0], command[1], disturbance.get(j).copied().unwrap_or(0.0)];
+            self.instance.set_real(&self.inputs, &inputs).map_err(|e| e.to_string())?;
+            self.instance.do_step(j as f64 * dt, dt).map_err(|e| format!("plant FMU step {j}: {e}"))?;
+            self.instance.get_real(&self.outputs, &mut values).map_err(|e| e.to_string())?;
+            let speed = 0.5 * (values[2] + values[3]) / n;
+            // The FMU has no motor-angle output: the angle is the trapezoidal integral of the
+            // motor speed, whose error over a step is dt^3/12 times the speed's second
+            // derivative (below 1e-9 rad per step for the suite's plant).
+            motor_angle += 0.5 * dt * (motor_speed + speed);
+            motor_speed = speed;
+            out.push(values[0].to_radians(), values[1].to_radians(), motor_angle, speed);
+        }
+        Ok(out)
+    }
+}
+
+/// The plant FMU as a [`PlantSimulator`]: one session per parameter set, reused for every
+/// window of that set.
+pub struct FmuSimulator {
+    fmu: PlantFmu,
+    session: Option<(String, Session)>,
+}
+
+impl FmuSimulator {
+    pub fn new(fmu: PlantFmu) -> Self {
+        FmuSimulator { fmu, session: None }
+    }
+
+    pub fn open(path: &Path) -> Result<Self, String> {
+        Ok(Self::new(PlantFmu::open(path)?))
+    }
+
+    /// Configures the simulator from a parameter file on disk (for checking a written file).
+    pub fn configure_from_file(&mut self, path: &Path) -> Result<(), String> {
+        let session = self.fmu.session_from_file(path)?;
+        self.session = Some((format!("file:{}", path.display()), session));
+        Ok(())
+    }
+}
+
+impl PlantSimulator for FmuSimulator {
+    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String> {
+        let text = fmu_parameter_text(params, config, "written by validate for an output-error run")?;
+        if self.session.as_ref().is_some_and(|(t, _)| *t == text) {
+            return Ok(());
+        }
+        let session = self.fmu.session(&text)?;
+        self.session = Some((text, session));
+        Ok(())
+    }
+
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
+        let (_, session) = self.session.as_mut().ok_or("the simulator is not configured")?;
+        session.run(start, commands, disturbance, dt)
+    }
+}

@@ -1,0 +1,682 @@
+//! Report of a validation run: a markdown summary (effects found, fitted parameters with
+//! uncertainty, error before and after on the output error and the equation error, residual
+//! statistics, the output-error confirmations, the frequency response, the search steps) and
+//! PNG figures: the output error (measured and simulated motion, residuals, before and after),
+//! the equation-error residuals and fit, the residual spectra, and the measured and model
+//! frequency responses.
+
+use super::equation_error::Structure;
+use super::frequency::FrequencyResponse;
+use super::output_error::ChannelKind;
+use super::twist::TwistAnalysis;
+use super::{ChannelStats, OutputReport, Validation};
+use antenna_plot::{Figure, Panel};
+use std::fmt::Write as _;
+use std::path::Path;
+
+fn stats_rows(out: &mut String, label: &str, stats: &[ChannelStats]) {
+    for s in stats {
+        let worst = s.cross_correlation.iter().fold(("", 0.0f64, 0.0f64), |w, (n, v, l)| {
+            if v.abs() > w.1.abs() {
+                (n.as_str(), *v, *l)
+            } else {
+                w
+            }
+        });
+        let _ = writeln!(
+            out,
+            "| {label} | {} | {:.4} | {:.1} | {:.1} | {:.2e} | {:.2} | {} {:+.2} at {:+.3} s (bound {:.3}) |",
+            s.name,
+            s.rms,
+            s.fit_percent,
+            s.correlation_time,
+            s.whiteness_p,
+            s.lags_outside,
+            worst.0,
+            worst.1,
+            worst.2,
+            s.cross_bound
+        );
+    }
+}
+
+/// The markdown report.
+pub fn markdown(validation: &Validation, log_name: &str) -> String {
+    let v = validation;
+    let d = &v.data;
+    let mut out = String::new();
+    let _ = writeln!(out, "# Validation of {log_name}\n");
+    let _ = writeln!(
+        out,
+        "Equation-error route ({:?}): {} samples analysed at {:.1} Hz, smoothing cut-off {:.1} Hz, \
+         sticking below {:.3e} rad/s left out of the torque equation. Sensor noise estimated from the data: \
+         torque {:.4} N m (axis side), motor encoder {:.3e} rad, load encoder {:.3e} rad.\n",
+        d.structure,
+        d.len(),
+        1.0 / d.dt,
+        d.cutoff_hz,
+        d.stick_speed,
+        d.torque_sigma,
+        d.motor_pos_sigma,
+        d.load_pos_sigma
+    );
+    for note in &v.notes {
+        let _ = writeln!(out, "- note: {note}");
+    }
+    let _ = writeln!(out, "\n## Effects found\n");
+    if v.selection.found.is_empty() {
+        let _ = writeln!(out, "No significant missing effect.\n");
+    }
+    for found in &v.selection.found {
+        let _ = writeln!(out, "**{}** ({})\n", found.kind.name(), found.kind.description());
+        let _ = writeln!(out, "| parameter | value | standard deviation | unit |\n|---|---|---|---|");
+        for (name, value, sd, unit) in &found.parameters {
+            let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
+        }
+        let _ = writeln!(out);
+        let alike = v.selection.equally_consistent(found.kind);
+        if !alike.is_empty() {
+            let names: Vec<String> = alike.iter().map(|k| format!("{} ({})", k.name(), k.description())).collect();
+            let _ = writeln!(
+                out,
+                "The data cannot tell it from: {}. Each was confirmed on its own and predicts the log as well as {}; a log with a wider range of motion (angle, speed) would separate them.\n",
+                names.join(", "),
+                found.kind.name()
+            );
+        }
+    }
+    if let Some(t) = &v.twist {
+        twist_section(&mut out, t, v.encoder_skew);
+    }
+    if let Some(o) = &v.output {
+        output_section(&mut out, o);
+    }
+    if let Some(f) = &v.frequency {
+        frequency_section(&mut out, f);
+    }
+    if !v.hints.is_empty() {
+        let _ = writeln!(out, "## Not claimed: what the output error alone would confirm\n");
+        let _ = writeln!(
+            out,
+            "These effects were not significant in the equation-error test (too few independent samples: the residual's correlation time against the log's length), \
+             so they are not claimed and not in the corrected parameters; added to the corrected model, the simulation would predict significantly better:\n"
+        );
+        for h in &v.hints {
+            let _ = writeln!(
+                out,
+                "- {} ({}; {}): {}; equation-error p {:.2e} against its threshold {:.2e}.",
+                h.kind.name(),
+                h.kind.description(),
+                h.changes(&v.selection.corrected),
+                h.comparison.reason,
+                h.equation_p,
+                h.threshold
+            );
+        }
+        let _ = writeln!(out);
+    }
+    let _ = writeln!(out, "## Equation error before and after\n");
+    let _ = writeln!(
+        out,
+        "Residuals in axis-side N m (divide the torque equation by the gear ratio {} for motor-side N m).\n",
+        d.gear_ratio
+    );
+    let _ = writeln!(out, "| model | channel | RMS | NRMSE fit % | corr. time (samples) | whiteness p | lags outside | largest cross-correlation |");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+    stats_rows(&mut out, "before", &v.before);
+    stats_rows(&mut out, "after", &v.after);
+    let _ = writeln!(out, "\n## Search steps\n");
+    for (i, step) in v.selection.steps.iter().enumerate() {
+        let chosen = match (step.chosen, step.paired) {
+            (Some(a), Some(b)) => {
+                format!("{} and {} (jointly: no single effect passed, the pair did)", a.name(), b.name())
+            }
+            (Some(a), None) => a.name().to_string(),
+            _ => "none".to_string(),
+        };
+        let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
+        let _ = writeln!(
+            out,
+            "| candidate | chi2 | parameters | p | trials | BIC gain | effect/noise | significant | searched |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+        for s in &step.scores {
+            if let Some(reason) = &s.not_applicable {
+                let _ = writeln!(out, "| {} | - | - | - | - | - | - | not applicable: {reason} | |", s.kind.name());
+                continue;
+            }
+            let searched: Vec<String> = s.searched.iter().map(|(n, v)| format!("{n} = {v:.4e}")).collect();
+            let _ = writeln!(
+                out,
+                "| {} | {:.1} | {} | {:.2e} | {:.0} | {:.1} | {:.2} | {} | {} |",
+                s.kind.name(),
+                s.likelihood_ratio,
+                s.parameters,
+                s.p_value,
+                s.trials,
+                s.bic_gain,
+                s.effect_to_noise,
+                if s.significant { "yes" } else { "no" },
+                searched.join(", ")
+            );
+        }
+        let _ = writeln!(out);
+    }
+    out
+}
+
+const ARCSEC: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
+
+/// A value in display units: angles in arcsec, speeds in arcsec/s.
+fn display(value: f64, unit: &str) -> (f64, &'static str) {
+    match unit {
+        "rad" => (value * ARCSEC, "arcsec"),
+        "rad/s" => (value * ARCSEC, "arcsec/s"),
+        _ => (value, "N m"),
+    }
+}
+
+fn output_section(out: &mut String, o: &OutputReport) {
+    let _ = writeln!(out, "## Output error before and after (plant FMU, windowed simulation)\n");
+    let _ = writeln!(
+        out,
+        "The plant FMU (`AzimuthPlant`, {:?} drive, {:?} input) was simulated through its C ABI over {} windows of {:.3} s ({}), each started from the measured state \
+         (Savitzky-Golay order 4 over {} samples) and driven by the logged command, held over each log interval at the mean of its two samples. \
+         RMS over all window samples; NRMSE fit against the measured signal's variation within each window.\n",
+        o.config.drive,
+        o.config.input,
+        o.plan.starts.len(),
+        o.plan.seconds,
+        o.plan.reason,
+        2 * o.state_half_width + 1
+    );
+    if o.plan.drive_length < o.plan.length {
+        let _ = writeln!(
+            out,
+            "The twist (the drive-path channel) is simulated on pieces of about {} samples ({}), each restarted from the measured state.\n",
+            o.plan.drive_length, o.plan.drive_reason
+        );
+    }
+    let _ = writeln!(out, "| output | scored | RMS before | RMS after | after/before | NRMSE fit before (%) | NRMSE fit after (%) |\n|---|---|---|---|---|---|---|");
+    for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
+        let (rb, unit) = display(b.rms, b.kind.unit());
+        let (ra, _) = display(a.rms, a.kind.unit());
+        let _ = writeln!(
+            out,
+            "| {} | {} | {rb:.4} {unit} | {ra:.4} {unit} | {:.3} | {:.1} | {:.1} |",
+            b.kind.name(),
+            if b.scored {
+                "yes"
+            } else if b.criterion {
+                "before/after only"
+            } else {
+                "no"
+            },
+            a.rms / b.rms,
+            b.fit_percent,
+            a.fit_percent
+        );
+    }
+    let _ = writeln!(out, "\nCorrected against starting model: {}.\n", o.overall.reason);
+    if let Some(c) = &o.calibration {
+        let _ = writeln!(
+            out,
+            "Friction-form calibration (presliding compliance, not an effect): presliding displacement at breakaway {:.3e} rad (bristle stiffness {:.4e} N m/rad, damping {:.4e} N m s/rad, axis side), {} evaluations; {}; {}.\n",
+            c.displacement,
+            c.stiffness,
+            c.damping,
+            c.evaluations.len(),
+            c.comparison.reason,
+            if c.kept { "kept: \"before\" and \"after\" above are with it" } else { "not kept: the rigid stick stays" }
+        );
+        if let Some(starting) = &o.starting {
+            let rows: Vec<String> = starting
+                .channels
+                .iter()
+                .zip(&o.before.channels)
+                .zip(&o.after.channels)
+                .filter(|((s, _), _)| s.scored)
+                .map(|((s, b), a)| {
+                    let (rs, unit) = display(s.rms, s.kind.unit());
+                    let (rb, _) = display(b.rms, b.kind.unit());
+                    let (ra, _) = display(a.rms, a.kind.unit());
+                    format!("{} {rs:.4} -> {rb:.4} -> {ra:.4} {unit}", s.kind.name())
+                })
+                .collect();
+            let _ = writeln!(out, "Starting model (rigid stick) -> calibrated -> corrected: {}.\n", rows.join("; "));
+        }
+    }
+    if let Some(r) = &o.refit {
+        let changes: Vec<String> = r.changes.iter().map(|(name, a, b)| format!("{name} {a:.4e} -> {b:.4e}")).collect();
+        let _ = writeln!(
+            out,
+            "Parameters refitted on the output error (Levenberg-Marquardt, {} iterations): {}; score {:.3} of the equation-error fit's.\n",
+            r.iterations,
+            changes.join(", "),
+            r.score_after
+        );
+    }
+    if !o.confirmations.is_empty() {
+        let _ = writeln!(
+            out,
+            "Output-error confirmations asked during the search (each effect against the model without it):\n"
+        );
+        for (kind, c) in &o.confirmations {
+            let _ = writeln!(
+                out,
+                "- {}: {} -> **{}**",
+                kind.name(),
+                c.reason,
+                if c.confirmed { "confirmed" } else { "rejected" }
+            );
+        }
+        let _ = writeln!(out);
+    }
+}
+
+/// One line on what the twist says, for the KUKA summary and the report.
+pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
+    let mut parts = Vec::new();
+    let skew = t.skew();
+    parts.push(match corrected {
+        Some(tau) => format!(
+            "load encoder **{:.2} ms behind** the motor encoder (+- {:.2} ms; data corrected)",
+            tau * 1e3,
+            skew.sd * 1e3
+        ),
+        None => format!("no encoder timing skew ({:.3} +- {:.3} ms, not significant)", skew.value * 1e3, skew.sd * 1e3),
+    });
+    if let Some((k, sd)) = t.rigid_stiffness() {
+        parts.push(format!(
+            "path compliance: K = {k:.3e} +- {sd:.1e} N m/rad (twist {:.1} arcsec RMS)",
+            t.compliance().rms * ARCSEC
+        ));
+    } else if t.structure != Structure::TwoMass {
+        parts.push(format!(
+            "no significant path compliance (1/K = {:.2e} +- {:.1e} rad/(N m))",
+            t.compliance().value,
+            t.compliance().sd
+        ));
+    }
+    let b = t.lost_motion();
+    if b.significant && t.structure != Structure::TwoMass {
+        parts.push(format!("lost motion {:.1} +- {:.1} arcsec", b.value * ARCSEC, b.sd * ARCSEC));
+    }
+    let position = t.position_dependent();
+    if position.significant {
+        parts.push(format!("position-dependent twist (transmission error) {:.1} arcsec RMS", position.rms * ARCSEC));
+    }
+    parts.push(format!(
+        "twist residual {:.1} -> {:.1} arcsec RMS (sensor noise {:.2} arcsec)",
+        t.rms_before * ARCSEC,
+        t.rms_after * ARCSEC,
+        t.noise * ARCSEC
+    ));
+    parts.join("; ")
+}
+
+fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
+    let _ = writeln!(out, "## Two encoders: what the twist says\n");
+    let _ = writeln!(
+        out,
+        "The measured twist (motor encoder referred to the axis minus load encoder) less the model's own twist, regressed on a constant (encoder offsets), \
+         the load speed (a timing skew between the encoders), the shaft torque the model says the motor delivers (compliance), its smoothed sign \
+         (lost motion) and a cubic in the axis angle (transmission error); {} samples, residual correlation time {:.1} samples. {}.\n",
+        t.samples,
+        t.correlation_time,
+        twist_summary(t, corrected)
+    );
+    let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist (arcsec) | significant |\n|---|---|---|---|---|---|");
+    for term in &t.terms {
+        let _ = writeln!(
+            out,
+            "| {} | {:.4e} | {:.2e} | {} | {:.3} | {} |",
+            term.name,
+            term.value,
+            term.sd,
+            term.unit,
+            term.rms * ARCSEC,
+            if term.significant { "yes" } else { "no" }
+        );
+    }
+    if t.structure == Structure::TwoMass {
+        let _ = writeln!(out, "\nWith a two-mass starting set, compliance and lost motion are judged by the candidate library (stiffness, backlash); only the skew is acted on here.");
+    } else if t.rigid_stiffness().is_some() || t.lost_motion().significant {
+        let _ = writeln!(
+            out,
+            "\nNot written into the corrected parameters: a compliant plant also needs the split of the inertia between motor and load, which a rigid starting set does not have. \
+             Give path.stiffness and load.inertia in the starting set to check compliance and lost motion in the two torque equations."
+        );
+    }
+    let _ = writeln!(out);
+}
+
+fn frequency_section(out: &mut String, f: &FrequencyResponse) {
+    let _ = writeln!(out, "## Frequency response, torque to motor speed\n");
+    let measured = match f.measured_anti_resonance {
+        Some(m) => format!("{m:.3} Hz"),
+        None => "not resolved (coherence below its 95 % threshold over more than 20 % of the band)".to_string(),
+    };
+    let _ = writeln!(
+        out,
+        "H1 from the logged torque to the motor speed, band {:.2}-{:.2} Hz around the model's anti-resonance; broadband excitation there: {}. \
+         Anti-resonance (trough): measured {measured}, model before {:.3} Hz, after {:.3} Hz.\n",
+        f.band.0,
+        f.band.1,
+        if f.broadband { "yes" } else { "no" },
+        f.before_anti_resonance,
+        f.after_anti_resonance
+    );
+}
+
+/// Writes the figures: output error (measured and simulated, residuals), equation-error
+/// residuals and fit, spectra, frequency response.
+pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<String>, String> {
+    let v = validation;
+    let d = &v.data;
+    let mut written = Vec::new();
+    let t = &d.time;
+    let before_fitted = v.selection.before.fitted();
+    let after_fitted = v.selection.after.fitted();
+    let mut figure =
+        Figure::new(1400, 450 * v.before.len() as u32 * 2).title(&format!("{stem}: equation-error residuals and fit"));
+    for (c, channel) in v.selection.before.channels.iter().enumerate() {
+        let measured = &channel.measured;
+        figure = figure.panel(
+            Panel::new(&format!("{}: measured and model (N m)", channel.name))
+                .x_label("time (s)")
+                .y_label("torque (N m)")
+                .line("measured", t, measured)
+                .line("model before", t, &before_fitted[c])
+                .line("model after", t, &after_fitted[c]),
+        );
+        figure = figure.panel(
+            Panel::new(&format!(
+                "{}: residual before (RMS {:.3}) and after (RMS {:.3})",
+                channel.name, v.before[c].rms, v.after[c].rms
+            ))
+            .x_label("time (s)")
+            .y_label("residual (N m)")
+            .line("before", t, &v.selection.before.residual[c])
+            .line("after", t, &v.selection.after.residual[c]),
+        );
+    }
+    let path = dir.join(format!("{stem}_residuals.png"));
+    figure.save_png(&path).map_err(|e| e.to_string())?;
+    written.push(path.display().to_string());
+
+    let mut spectra = Figure::new(1200, 450 * v.before.len() as u32).title(&format!("{stem}: residual spectra"));
+    for (c, channel) in v.selection.before.channels.iter().enumerate() {
+        let segment = (d.len() / 8).clamp(64, 4096);
+        let config = antenna_dsp::WelchConfig::new(segment.min(d.len()));
+        let (Ok(before), Ok(after)) = (
+            antenna_dsp::welch_psd(&v.selection.before.residual[c], 1.0 / d.dt, &config),
+            antenna_dsp::welch_psd(&v.selection.after.residual[c], 1.0 / d.dt, &config),
+        ) else {
+            continue;
+        };
+        let (f, before, after) = (before.frequency_hz, before.psd, after.psd);
+        spectra = spectra.panel(
+            Panel::new(&format!("{}: residual PSD", channel.name))
+                .x_label("frequency (Hz)")
+                .y_label("PSD ((N m)^2/Hz)")
+                .log_x()
+                .log_y()
+                .line("before", &f[1..], &before[1..])
+                .line("after", &f[1..], &after[1..])
+                .vertical_line("smoothing cut-off", d.cutoff_hz),
+        );
+    }
+    let path = dir.join(format!("{stem}_spectra.png"));
+    spectra.save_png(&path).map_err(|e| e.to_string())?;
+    written.push(path.display().to_string());
+    if let Some(o) = &v.output {
+        let path = dir.join(format!("{stem}_output.png"));
+        output_figure(o, stem).save_png(&path).map_err(|e| e.to_string())?;
+        written.push(path.display().to_string());
+    }
+    if let Some(t) = &v.twist {
+        let path = dir.join(format!("{stem}_twist.png"));
+        twist_figure(t, v.encoder_skew, stem).save_png(&path).map_err(|e| e.to_string())?;
+        written.push(path.display().to_string());
+    }
+    if let Some(f) = &v.frequency {
+        let path = dir.join(format!("{stem}_frequency.png"));
+        frequency_figure(f, stem).save_png(&path).map_err(|e| e.to_string())?;
+        written.push(path.display().to_string());
+    }
+    Ok(written)
+}
+
+/// The measured twist less the model's, what the significant terms fit of it, and what is
+/// left, in arcsec.
+pub fn twist_figure(t: &TwistAnalysis, corrected: Option<f64>, stem: &str) -> Figure {
+    let scale = |x: &[f64]| x.iter().map(|v| v * ARCSEC).collect::<Vec<f64>>();
+    let residual: Vec<f64> = t.before.iter().zip(&t.fitted).map(|(b, f)| (b - f) * ARCSEC).collect();
+    let skew = match corrected {
+        Some(tau) => format!("load encoder {:.2} ms behind the motor encoder", tau * 1e3),
+        None => "no timing skew".to_string(),
+    };
+    Figure::new(1400, 900)
+        .title(&format!("{stem}: twist (motor minus load encoder) less the model's; {skew}"))
+        .panel(
+            Panel::new(&format!("measured (RMS {:.2} arcsec) and the significant terms", t.rms_before * ARCSEC))
+                .x_label("time (s)")
+                .y_label("arcsec")
+                .line("measured less model", &t.time, &scale(&t.before))
+                .line("fitted terms", &t.time, &scale(&t.fitted)),
+        )
+        .panel(
+            Panel::new(&format!(
+                "left after the terms (RMS {:.2} arcsec; sensor noise {:.2} arcsec)",
+                t.rms_after * ARCSEC,
+                t.noise * ARCSEC
+            ))
+            .x_label("time (s)")
+            .y_label("arcsec")
+            .line("residual", &t.time, &residual),
+        )
+}
+
+/// Values of consecutive windows with a NaN between windows, so a line breaks at each restart.
+fn with_gaps(values: &[f64], length: usize, scale: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(values.len() + values.len() / length.max(1));
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 && i % length == 0 {
+            out.push(f64::NAN);
+        }
+        out.push(v * scale);
+    }
+    out
+}
+
+/// Measured and simulated motion and the residual, before and after, per scored output.
+pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
+    let length = o.plan.length;
+    let time = with_gaps(&o.before.time, length, 1.0);
+    let scored: Vec<usize> = (0..o.before.channels.len()).filter(|&c| o.before.channels[c].criterion).collect();
+    let mut figure = Figure::new(1400, 420 * 2 * scored.len() as u32).title(&format!(
+        "{stem}: output error (plant FMU over {} windows of {:.2} s)",
+        o.plan.starts.len(),
+        o.plan.seconds
+    ));
+    for c in scored {
+        let (b, a) = (&o.before.channels[c], &o.after.channels[c]);
+        let (scale, unit) = if b.kind.unit() == "rad" { (ARCSEC, "arcsec") } else { (ARCSEC, "arcsec/s") };
+        figure = figure.panel(
+            Panel::new(&format!("{}: measured and simulated", b.kind.name()))
+                .x_label("time (s)")
+                .y_label(unit)
+                .line("measured", &time, &with_gaps(&b.measured, length, scale))
+                .line("model before", &time, &with_gaps(&b.simulated, length, scale))
+                .line("model after", &time, &with_gaps(&a.simulated, length, scale)),
+        );
+        figure = figure.panel(
+            Panel::new(&format!(
+                "{}: residual, RMS {:.4} -> {:.4} {unit}",
+                b.kind.name(),
+                b.rms * scale,
+                a.rms * scale
+            ))
+            .x_label("time (s)")
+            .y_label(unit)
+            .line("before", &time, &with_gaps(&b.residual(), length, scale))
+            .line("after", &time, &with_gaps(&a.residual(), length, scale)),
+        );
+    }
+    figure
+}
+
+/// Measured H1 with the model responses, and the coherence.
+pub fn frequency_figure(f: &FrequencyResponse, stem: &str) -> Figure {
+    let keep: Vec<usize> = (1..f.frequency_hz.len()).collect();
+    let x: Vec<f64> = keep.iter().map(|&k| f.frequency_hz[k]).collect();
+    let db = |h: &[antenna_dsp::Complex64]| keep.iter().map(|&k| 20.0 * h[k].norm().log10()).collect::<Vec<_>>();
+    let mut magnitude = Panel::new("torque to motor speed |H| (dB re 1 rad/s per N m)")
+        .x_label("frequency (Hz)")
+        .y_label("dB")
+        .log_x()
+        .line("measured H1", &x, &db(&f.measured))
+        .line("model before", &x, &db(&f.before))
+        .line("model after", &x, &db(&f.after))
+        .vertical_line("model anti-resonance (before)", f.before_anti_resonance);
+    if let Some(m) = f.measured_anti_resonance {
+        magnitude = magnitude.vertical_line("measured anti-resonance", m);
+    }
+    let coherence: Vec<f64> = keep.iter().map(|&k| f.coherence[k]).collect();
+    Figure::new(1200, 900).title(&format!("{stem}: frequency response")).panel(magnitude).panel(
+        Panel::new("coherence")
+            .x_label("frequency (Hz)")
+            .y_label("coherence")
+            .log_x()
+            .y_range(0.0, 1.05)
+            .line("coherence", &x, &coherence)
+            .horizontal_line("95 % threshold", f.coherence_threshold),
+    )
+}
+
+/// The section of docs/validation-results.md on measured logs (the KUKA axes): per axis the
+/// effects found with their parameters, the output and equation errors before and after, the
+/// confirmations that were rejected, and the figures. `rows` holds (axis, validation, run time
+/// in seconds, figure paths).
+pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "Starting sets `tools/validate/data/kuka/axisN.params`: only the published gear ratio, motor inertia and torque constant (no stiffness, \
+         so the plant FMU runs with a rigid drive and only the total torque equation is used). Output error: the plant FMU driven by the \
+         logged motor torque over windows re-initialised from the measured state; positions in arcsec (1 deg = 3600 arcsec). \
+         Equation error: axis-side N m (motor side = / gear ratio).\n"
+    );
+    let _ = writeln!(out, "| axis | effects found (value +- sd) | windows | axis position RMS before -> after | motor position RMS before -> after | NRMSE fit (axis position) | total torque RMS before -> after (axis N m) | fit (torque) | whiteness p after | run time |");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
+    for (axis, v, seconds, _) in rows {
+        let found: Vec<String> = v
+            .selection
+            .found
+            .iter()
+            .map(|f| {
+                let params: Vec<String> = f
+                    .parameters
+                    .iter()
+                    .filter(|p| !p.0.ends_with("change"))
+                    .map(|(n, value, sd, unit)| format!("{n} = {value:.4e} +- {sd:.2e} {unit}"))
+                    .collect();
+                format!("**{}**: {}", f.kind.name(), params.join(", "))
+            })
+            .collect();
+        let mut found = found;
+        if let Some(skew) = v.encoder_skew {
+            found.insert(
+                0,
+                format!(
+                    "**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)",
+                    skew * 1e3
+                ),
+            );
+        }
+        let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };
+        let (windows, axis_pos, motor_pos, fit) = match &v.output {
+            Some(o) => {
+                let pick = |kind: ChannelKind| -> String {
+                    match (o.before.channel(kind), o.after.channel(kind)) {
+                        (Some(b), Some(a)) => {
+                            format!("{:.1} -> {:.1} ({:.2})", b.rms * ARCSEC, a.rms * ARCSEC, a.rms / b.rms)
+                        }
+                        _ => "-".into(),
+                    }
+                };
+                let fit =
+                    match (o.before.channel(ChannelKind::AxisPosition), o.after.channel(ChannelKind::AxisPosition)) {
+                        (Some(b), Some(a)) => format!("{:.1} -> {:.1} %", b.fit_percent, a.fit_percent),
+                        _ => "-".into(),
+                    };
+                (
+                    format!("{} x {:.2} s", o.plan.starts.len(), o.plan.seconds),
+                    pick(ChannelKind::AxisPosition),
+                    pick(ChannelKind::MotorPosition),
+                    fit,
+                )
+            }
+            None => ("-".into(), "-".into(), "-".into(), "-".into()),
+        };
+        let c = v.most_improved_channel();
+        let _ = writeln!(
+            out,
+            "| {axis} | {found} | {windows} | {axis_pos} | {motor_pos} | {fit} | {:.0} -> {:.0} ({:.2}) | {:.1} -> {:.1} % | {:.1e} | {:.1} s |",
+            v.before[c].rms,
+            v.after[c].rms,
+            v.after[c].rms / v.before[c].rms,
+            v.before[c].fit_percent,
+            v.after[c].fit_percent,
+            v.after[c].whiteness_p,
+            seconds
+        );
+    }
+    let _ = writeln!(out);
+    for (axis, v, _, figures) in rows {
+        let _ = writeln!(out, "**Axis {axis}.**");
+        if let Some(o) = &v.output {
+            let rejected: Vec<String> = o
+                .confirmations
+                .iter()
+                .filter(|(_, c)| !c.confirmed)
+                .map(|(k, c)| format!("{} ({})", k.name(), c.reason))
+                .collect();
+            if !rejected.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "Significant in the equation error but not confirmed by the output error: {}.",
+                    rejected.join("; ")
+                );
+            }
+            let _ =
+                writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
+        }
+        if let Some(t) = &v.twist {
+            let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
+        }
+        for h in &v.hints {
+            let _ = writeln!(
+                out,
+                "Not claimed (equation-error p {:.1e} above its threshold {:.1e}), but the output error alone would confirm **{}** ({}) on top of the corrected model: {}.",
+                h.equation_p,
+                h.threshold,
+                h.kind.name(),
+                h.changes(&v.selection.corrected),
+                h.comparison.reason
+            );
+        }
+        for note in &v.notes {
+            let _ = writeln!(out, "Note: {note}.");
+        }
+        let names: Vec<String> = figures
+            .iter()
+            .filter_map(|f| {
+                Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))
+            })
+            .collect();
+        let _ = writeln!(out, "Figures: {}.\n", names.join(", "));
+    }
+    out
+}
