@@ -23,6 +23,16 @@ use std::collections::BTreeMap;
 
 pub use trajectory::{Trajectory, TrajectoryConfig};
 
+/// A progress bar on stderr for a run over `len` items; it draws nothing when stderr is not a
+/// terminal (indicatif's default target), so logs and pipes stay clean.
+pub fn progress_bar(len: usize, message: &'static str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64).with_message(message);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} ({elapsed}, {eta} left)") {
+        bar.set_style(style);
+    }
+    bar
+}
+
 /// Nominal plant of the truth, all axis-side except the motor inertia and torque constant.
 /// These values are also the model's starting parameter set.
 #[derive(Debug, Clone)]

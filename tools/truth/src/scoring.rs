@@ -4,13 +4,14 @@
 //!
 //! Only this module reads the `.truth` sidecars; the validation itself never sees them.
 
+use crate::suite::{parse_truth, CaseTruth};
+use crate::Effect;
+use antenna_validate::measured_log::MeasuredLog;
 use antenna_validate::output_error::PlantSimulator;
 use antenna_validate::parameters::{names, ParameterSet};
 use antenna_validate::plant_fmu::FmuSimulator;
 use antenna_validate::{validate_with, ValidateOptions, Validation};
-use antenna_validate::measured_log::MeasuredLog;
-use crate::suite::{parse_truth, CaseTruth};
-use crate::Effect;
+use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -279,39 +280,30 @@ pub fn run_suite(
         })
         .collect();
     logs.sort();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    let failure = std::sync::Mutex::new(None);
-    std::thread::scope(|scope| {
-        for _ in 0..threads.max(1) {
-            scope.spawn(|| {
-                let mut simulator = match fmu.map(FmuSimulator::open).transpose() {
-                    Ok(s) => s,
-                    Err(e) => {
-                        *failure.lock().unwrap() = Some(e);
-                        return;
-                    }
-                };
-                loop {
-                    let index = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(path) = logs.get(index) else { break };
-                    match run_case(path, &start, options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator)) {
-                        Ok(result) => {
-                            progress(&result);
-                            results.lock().unwrap().push(result);
-                        }
-                        Err(e) => *failure.lock().unwrap() = Some(e),
-                    }
-                }
-            });
-        }
+    let bar = crate::progress_bar(logs.len(), "validating logs");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+    // Each worker opens its own plant FMU instance; a case's result does not depend on which
+    // worker ran it, and the results are collected in the sorted log order.
+    let results: Vec<Result<CaseResult, String>> = pool.install(|| {
+        logs.par_iter()
+            .map_init(
+                || fmu.map(FmuSimulator::open).transpose(),
+                |simulator, path| {
+                    let simulator = simulator.as_mut().map_err(|e| e.clone())?;
+                    let result =
+                        run_case(path, &start, options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+                    bar.suspend(|| progress(&result));
+                    bar.inc(1);
+                    Ok(result)
+                },
+            )
+            .collect()
     });
-    if let Some(e) = failure.into_inner().unwrap() {
-        return Err(e);
-    }
-    let mut results = results.into_inner().unwrap();
-    results.sort_by(|a, b| a.truth.log_file.cmp(&b.truth.log_file));
-    Ok(results)
+    bar.finish_and_clear();
+    results.into_iter().collect()
 }
 
 const ARCSEC_PER_RAD: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
