@@ -601,24 +601,37 @@ pub fn detection_csv(results: &[CaseResult]) -> String {
 
 /// The detection curve as a PNG.
 pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), String> {
-    use antenna_plot::{Figure, Panel};
+    use antenna_plot::{Figure, Panel, Series};
     let curve = detection_curve(results);
     let x: Vec<f64> = curve.iter().map(|c| c.size).collect();
     let rate = |k: fn(&CurvePoint) -> usize| -> Vec<f64> {
         curve.iter().map(|c| 100.0 * k(c) as f64 / c.cases.max(1) as f64).collect()
     };
+    // The first three rates are often equal: the widest line goes first and the narrower,
+    // differently dashed ones on top, each with markers, so every line stays visible.
     Figure::new(1000, 600)
         .panel(
             Panel::new("Detection rate against effect size (generated suite, single-effect logs)")
                 .x_label("effect size / sensor noise")
                 .y_label("cases (%)")
                 .log_x()
-                .y_range(0.0, 105.0)
-                .line("right effect named", &x, &rate(|c| c.named))
-                .line("named, nothing extra", &x, &rate(|c| c.named_without_extra))
-                .line("parameters within tolerance", &x, &rate(|c| c.parameters_within_tolerance))
-                .line("output error after <= 20 % of before", &x, &rate(|c| c.error_criterion))
-                .dashed("equation error after <= 20 % of before", &x, &rate(|c| c.equation_criterion)),
+                // Headroom above 100 % for the legend, which would otherwise cover the top line.
+                .y_range(0.0, 135.0)
+                .series(Series::new("right effect named", &x, &rate(|c| c.named)).width(7).with_markers())
+                .series(Series::new("named, nothing extra", &x, &rate(|c| c.named_without_extra)).width(3).dashed())
+                .series(
+                    Series::new("parameters within tolerance", &x, &rate(|c| c.parameters_within_tolerance))
+                        .width(2)
+                        .dotted()
+                        .with_markers(),
+                )
+                .series(Series::new("output error after <= 20 % of before", &x, &rate(|c| c.error_criterion)).width(2))
+                .series(
+                    Series::new("equation error after <= 20 % of before", &x, &rate(|c| c.equation_criterion))
+                        .width(2)
+                        .dashed()
+                        .with_markers(),
+                ),
         )
         .save_png(path)
         .map_err(|e| e.to_string())
@@ -627,6 +640,43 @@ pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_detection_figure_is_written_when_rates_coincide() {
+        let truth = |size: f64| CaseTruth {
+            log_file: "log_001.csv".into(),
+            seed: 1,
+            effects: vec![("coulomb".into(), size, Effect::Coulomb(1.0))],
+            torque_sigma: 1.0,
+            twist_sigma: 1.0,
+            sample_interval: 0.002,
+        };
+        let results: Vec<CaseResult> = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0]
+            .iter()
+            .map(|&size| CaseResult {
+                truth: truth(size),
+                found: vec!["coulomb".into()],
+                parameters: vec![("coulomb".into(), 1.0, 1.0, 0.0, size >= 5.0)],
+                named: size >= 2.0,
+                extras: Vec::new(),
+                equally_consistent: Vec::new(),
+                output: None,
+                equation: None,
+                anti_resonance: None,
+                measured_trough: None,
+                response: None,
+                score_ratio: None,
+                error: None,
+                seconds: 0.0,
+            })
+            .collect();
+        let path = std::env::temp_dir().join(format!("detection-{}.png", std::process::id()));
+        detection_figure(&results, &path).unwrap();
+        assert!(std::fs::metadata(&path).unwrap().len() > 1000);
+        if std::env::var_os("KEEP_FIGURE").is_none() {
+            std::fs::remove_file(&path).unwrap();
+        }
+    }
 
     #[test]
     fn a_suite_folder_validated_before_is_not_read_as_logs() {

@@ -502,15 +502,22 @@ pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
     ));
     for c in scored {
         let (b, a) = (&o.before.channels[c], &o.after.channels[c]);
-        let (scale, unit) = if b.kind.unit() == "rad" { (ARCSEC, "arcsec") } else { (ARCSEC, "arcsec/s") };
+        let per_second = b.kind.unit() != "rad";
+        let largest = |series: &[&[f64]]| {
+            series.iter().flat_map(|s| s.iter()).filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()))
+        };
+        let (motion_scale, motion_unit) =
+            angle_display(largest(&[&b.measured, &b.simulated, &a.simulated]), per_second);
         figure = figure.panel(
             Panel::new(&format!("{}: measured and simulated", b.kind.name()))
                 .x_label("time (s)")
-                .y_label(unit)
-                .line("measured", &time, &with_gaps(&b.measured, length, scale))
-                .line("model before", &time, &with_gaps(&b.simulated, length, scale))
-                .line("model after", &time, &with_gaps(&a.simulated, length, scale)),
+                .y_label(motion_unit)
+                .line("measured", &time, &with_gaps(&b.measured, length, motion_scale))
+                .line("model before", &time, &with_gaps(&b.simulated, length, motion_scale))
+                .line("model after", &time, &with_gaps(&a.simulated, length, motion_scale)),
         );
+        let (residual_before, residual_after) = (b.residual(), a.residual());
+        let (scale, unit) = angle_display(largest(&[&residual_before, &residual_after]), per_second);
         figure = figure.panel(
             Panel::new(&format!(
                 "{}: residual, RMS {:.4} -> {:.4} {unit}",
@@ -520,11 +527,24 @@ pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
             ))
             .x_label("time (s)")
             .y_label(unit)
-            .line("before", &time, &with_gaps(&b.residual(), length, scale))
-            .line("after", &time, &with_gaps(&a.residual(), length, scale)),
+            .line("before", &time, &with_gaps(&residual_before, length, scale))
+            .line("after", &time, &with_gaps(&residual_after, length, scale)),
         );
     }
     figure
+}
+
+/// The display unit that fits angles (or angular speeds) up to `largest` rad (rad/s): degrees
+/// for motions of a degree and more, arcsec for small residuals, so the tick labels stay
+/// plain numbers (no mix of decimals and powers of ten). (factor from SI, unit)
+fn angle_display(largest: f64, per_second: bool) -> (f64, &'static str) {
+    let degree = std::f64::consts::PI / 180.0;
+    match (largest >= degree, per_second) {
+        (true, false) => (1.0 / degree, "deg"),
+        (true, true) => (1.0 / degree, "deg/s"),
+        (false, false) => (ARCSEC, "arcsec"),
+        (false, true) => (ARCSEC, "arcsec/s"),
+    }
 }
 
 /// Measured H1 with the model responses, and the coherence.
