@@ -291,7 +291,9 @@ impl MeasuredLog {
             let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, z)| x * z).sum::<f64>();
             let (tt, ll, tl) =
                 (dot(&columns[1], &columns[1]), dot(&columns[2], &columns[2]), dot(&columns[1], &columns[2]));
-            if !(tt * ll - tl * tl > 1e-9 * tt * ll) {
+            // Written so that NaN counts as ill-posed too.
+            let well_posed = tt * ll - tl * tl > 1e-9 * tt * ll;
+            if !well_posed {
                 return None;
             }
             let target: Vec<f64> = integral.iter().zip(load).map(|(q, l)| q - l).collect();
@@ -999,7 +1001,7 @@ mod tests {
         // The encoder reading (not the true angle) is the load position, in deg in the file.
         let load = log.signals(Signal::LoadPos);
         assert_eq!((load.len(), load[0].column.as_str()), (1, "axis.encoder_position"));
-        assert!((load[0].values[1] - 10.000010728836059f64.to_radians()).abs() < 1e-15);
+        assert!((load[0].values[1] - "10.000010728836059".parse::<f64>().unwrap().to_radians()).abs() < 1e-15);
         assert!((log.signal(Signal::LoadVel).unwrap()[1] - 0.012f64.to_radians()).abs() < 1e-15);
         // Two motors, numbered as in the FMU; torques in N m win over currents.
         let currents = log.signals(Signal::MotorCurrent);

@@ -591,10 +591,13 @@ const VALUE_UNITS: [(&str, &str, f64); 30] = [
     ("s", "ms", 1e-3),
 ];
 
+/// A parameter, the test its value must pass, and the requirement in words.
+type Requirement = (&'static str, fn(f64) -> bool, &'static str);
+
 /// What a parameter's value must satisfy to describe a drive that can exist: (name, test,
 /// requirement). Parameters not listed may take any finite value (an offset, a phase, a delay
 /// that is really a lead of the logged current).
-const PHYSICAL: [(&str, fn(f64) -> bool, &str); 15] = [
+const PHYSICAL: [Requirement; 15] = [
     (names::GEAR_RATIO, |x| x > 0.0, "a gear ratio must be positive"),
     (names::MOTOR_INERTIA, |x| x >= 0.0, "an inertia cannot be negative"),
     (names::TORQUE_CONSTANT, |x| x > 0.0, "a torque constant must be positive"),

@@ -131,7 +131,9 @@ impl TruthArgs {
             base.plant.presliding_displacement = positive(displacement, "--presliding")?;
         }
         if let Some(rate) = self.internal_rate {
-            if !(rate >= base.controller_rate) {
+            // Written so that NaN is refused too.
+            let fast_enough = rate >= base.controller_rate;
+            if !fast_enough {
                 bail!("--internal-rate must be at least the controller rate");
             }
             base.internal_rate = rate;
