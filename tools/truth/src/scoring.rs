@@ -426,9 +426,19 @@ pub fn detection_curve(results: &[CaseResult]) -> Vec<CurvePoint> {
         .collect()
 }
 
-/// Summary text: detection curve, per-effect results at >= 10x noise, clean logs.
+/// Summary text: detection curve, per-effect results at >= 10x noise, the drive path in the
+/// frequency domain, clean and two-effect logs.
 pub fn summary_markdown(results: &[CaseResult]) -> String {
     let mut out = String::new();
+    detection_summary(&mut out, results);
+    by_effect_summary(&mut out, results);
+    frequency_summary(&mut out, results);
+    clean_and_pair_summary(&mut out, results);
+    out
+}
+
+/// The detection curve as a table.
+fn detection_summary(out: &mut String, results: &[CaseResult]) {
     let _ = writeln!(out, "Detection against effect size (single-effect logs). \"Error after <= 20 %\" is on the output error (windowed simulation of the plant FMU, the scored position channel where the error dropped most); the equation-error figure is given for comparison.\n");
     let _ = writeln!(out, "| size / noise | cases | right effect named | named, nothing extra | parameters within tolerance | output error after <= 20 % of before | equation error after <= 20 % of before |");
     let _ = writeln!(out, "|---|---|---|---|---|---|---|");
@@ -451,6 +461,10 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             pct(p.equation_criterion)
         );
     }
+}
+
+/// Per effect kind, single-effect logs at 10 times the noise and above.
+fn by_effect_summary(out: &mut String, results: &[CaseResult]) {
     let _ = writeln!(out, "\nBy effect, single-effect logs at 10 times the noise and above (median after/before of each error over those logs):\n");
     let _ = writeln!(
         out,
@@ -494,6 +508,10 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             median(cases.iter().filter_map(|r| r.equation.as_ref().map(|o| o.ratio())).collect()),
         );
     }
+}
+
+/// The anti-resonance and response errors of the drive-path effects.
+fn frequency_summary(out: &mut String, results: &[CaseResult]) {
     let _ = writeln!(
         out,
         "\nThe drive path in the frequency domain, as the paper checks its stiffness: the anti-resonance error |measured trough - model trough| of the \
@@ -539,6 +557,10 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             responses.iter().filter(|r| **r <= 0.2).count()
         );
     }
+}
+
+/// The response error's floor, claims on clean logs, two-effect logs, failures.
+fn clean_and_pair_summary(out: &mut String, results: &[CaseResult]) {
     let clean: Vec<&CaseResult> = results.iter().filter(|r| r.truth.effects.is_empty()).collect();
     let clean_response: Vec<f64> = clean.iter().filter_map(|r| r.response.as_ref().map(|e| e.before)).collect();
     let delay_after: Vec<f64> = results
@@ -577,7 +599,6 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
     if errors > 0 {
         let _ = writeln!(out, "Logs that could not be validated: {errors}.");
     }
-    out
 }
 
 /// The detection curve as CSV.
