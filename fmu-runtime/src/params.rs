@@ -41,58 +41,156 @@ pub struct Assignment {
     pub line: usize,
 }
 
-/// Parses a parameter file. Errors name the origin (usually the file path) and the line.
-pub fn parse(text: &str, origin: &str) -> Result<Vec<Assignment>, String> {
-    let mut out = Vec::new();
+/// One `name = value  # comment` line as written: the value not yet interpreted, so that a
+/// reader with its own value rules (numbers with units, say) shares this one syntax.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    pub name: String,
+    /// The value text, trimmed.
+    pub value: String,
+    /// The text after the `#`, trimmed (empty without a comment).
+    pub comment: String,
+    /// 1-based line number.
+    pub line: usize,
+}
+
+/// What is wrong with a parameter file, and on which line (1-based).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParseError {
+    pub line: usize,
+    pub kind: ParseErrorKind,
+}
+
+/// The kinds of syntax error in a parameter file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParseErrorKind {
+    /// A line that is not blank, not a comment and has no `=`.
+    MissingEquals { found: String },
+    /// An empty name or one with white space in it.
+    InvalidName { name: String },
+    /// A name assigned on an earlier line too.
+    Duplicate { name: String },
+    /// A value that is not a number, `true`/`false` or a quoted string.
+    InvalidValue { name: String, error: ValueError },
+}
+
+/// Why a value text is not a valid value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ValueError {
+    Missing,
+    MissingClosingQuote,
+    UnknownEscape(char),
+    LoneBackslash,
+    NotANumber(String),
+    NotFinite(String),
+}
+
+impl fmt::Display for ValueError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ValueError::Missing => write!(f, "value is missing"),
+            ValueError::MissingClosingQuote => write!(f, "string value is missing its closing quote"),
+            ValueError::UnknownEscape(c) => write!(f, "unknown escape `\\{c}` in string"),
+            ValueError::LoneBackslash => write!(f, "string ends with a lone backslash"),
+            ValueError::NotANumber(text) => write!(f, "`{text}` is not a number, true/false or a quoted string"),
+            ValueError::NotFinite(text) => write!(f, "`{text}` is not a finite number"),
+        }
+    }
+}
+
+impl std::error::Error for ValueError {}
+
+impl fmt::Display for ParseErrorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ParseErrorKind::MissingEquals { found } => write!(f, "expected `name = value`, found `{found}`"),
+            ParseErrorKind::InvalidName { name } => write!(f, "invalid variable name `{name}`"),
+            ParseErrorKind::Duplicate { name } => write!(f, "{name} is assigned twice"),
+            ParseErrorKind::InvalidValue { name, error } => write!(f, "{name}: {error}"),
+        }
+    }
+}
+
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "line {}: {}", self.line, self.kind)
+    }
+}
+
+// A hand-written error type: this crate is linked into every FMU and stays free of
+// dependencies beyond the FMI essentials.
+impl std::error::Error for ParseError {}
+
+/// Splits a parameter file into its entries: blank lines and `#` comments skipped, names
+/// checked, each name assigned once. The one parser of the format; values are left as text.
+pub fn entries(text: &str) -> Result<Vec<Entry>, ParseError> {
+    let mut out: Vec<Entry> = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
-        let content = strip_comment(raw);
+        let (content, comment) = split_comment(raw);
         let content = content.trim();
         if content.is_empty() {
             continue;
         }
-        let (name, value) = content
-            .split_once('=')
-            .ok_or_else(|| format!("{origin}:{line}: expected `name = value`, found `{}`", raw.trim()))?;
+        let error = |kind| ParseError { line, kind };
+        let (name, value) =
+            content.split_once('=').ok_or_else(|| error(ParseErrorKind::MissingEquals { found: raw.trim().into() }))?;
         let name = name.trim();
         if name.is_empty() || name.contains(char::is_whitespace) {
-            return Err(format!("{origin}:{line}: invalid variable name `{name}`"));
+            return Err(error(ParseErrorKind::InvalidName { name: name.into() }));
         }
-        let value = parse_value(value.trim()).map_err(|e| format!("{origin}:{line}: {name}: {e}"))?;
-        if out.iter().any(|a: &Assignment| a.name == name) {
-            return Err(format!("{origin}:{line}: {name} is assigned twice"));
+        if out.iter().any(|e| e.name == name) {
+            return Err(error(ParseErrorKind::Duplicate { name: name.into() }));
         }
-        out.push(Assignment { name: name.to_string(), value, line });
+        out.push(Entry { name: name.into(), value: value.trim().into(), comment: comment.trim().into(), line });
     }
     Ok(out)
 }
 
-/// Removes a `#` comment, leaving `#` inside a quoted string alone.
-fn strip_comment(line: &str) -> &str {
+/// Parses a parameter file into typed assignments. Errors name the line.
+pub fn parse_assignments(text: &str) -> Result<Vec<Assignment>, ParseError> {
+    entries(text)?
+        .into_iter()
+        .map(|e| match parse_value(&e.value) {
+            Ok(value) => Ok(Assignment { name: e.name, value, line: e.line }),
+            Err(error) => Err(ParseError { line: e.line, kind: ParseErrorKind::InvalidValue { name: e.name, error } }),
+        })
+        .collect()
+}
+
+/// Parses a parameter file. Errors name the origin (usually the file path) and the line.
+pub fn parse(text: &str, origin: &str) -> Result<Vec<Assignment>, String> {
+    parse_assignments(text).map_err(|e| format!("{origin}:{}: {}", e.line, e.kind))
+}
+
+/// Splits a line at its `#` comment, leaving `#` inside a quoted string alone.
+fn split_comment(line: &str) -> (&str, &str) {
     let mut in_string = false;
     let mut escaped = false;
     for (i, c) in line.char_indices() {
         match c {
             '\\' if in_string => escaped = !escaped,
             '"' if !escaped => in_string = !in_string,
-            '#' if !in_string => return &line[..i],
+            '#' if !in_string => return (&line[..i], &line[i + 1..]),
             _ => escaped = false,
         }
     }
-    line
+    (line, "")
 }
 
-fn parse_value(text: &str) -> Result<ParameterValue, String> {
+/// Interprets a value text: a finite number, `true`/`false`, or a double-quoted string with
+/// `\\` and `\"` escapes.
+pub fn parse_value(text: &str) -> Result<ParameterValue, ValueError> {
     if let Some(inner) = text.strip_prefix('"') {
-        let inner = inner.strip_suffix('"').ok_or("string value is missing its closing quote")?;
+        let inner = inner.strip_suffix('"').ok_or(ValueError::MissingClosingQuote)?;
         let mut out = String::new();
         let mut chars = inner.chars();
         while let Some(c) = chars.next() {
             if c == '\\' {
                 match chars.next() {
                     Some(e @ ('\\' | '"')) => out.push(e),
-                    Some(other) => return Err(format!("unknown escape `\\{other}` in string")),
-                    None => return Err("string ends with a lone backslash".into()),
+                    Some(other) => return Err(ValueError::UnknownEscape(other)),
+                    None => return Err(ValueError::LoneBackslash),
                 }
             } else {
                 out.push(c);
@@ -103,12 +201,12 @@ fn parse_value(text: &str) -> Result<ParameterValue, String> {
     match text {
         "true" => return Ok(ParameterValue::Boolean(true)),
         "false" => return Ok(ParameterValue::Boolean(false)),
-        "" => return Err("value is missing".into()),
+        "" => return Err(ValueError::Missing),
         _ => {}
     }
-    let x: f64 = text.parse().map_err(|_| format!("`{text}` is not a number, true/false or a quoted string"))?;
+    let x: f64 = text.parse().map_err(|_| ValueError::NotANumber(text.into()))?;
     if !x.is_finite() {
-        return Err(format!("`{text}` is not a finite number"));
+        return Err(ValueError::NotFinite(text.into()));
     }
     Ok(ParameterValue::Number(x))
 }
@@ -208,6 +306,23 @@ mod tests {
             let err = parse(text, "t").unwrap_err();
             assert!(err.contains(needle), "{text:?} gave {err:?}");
         }
+    }
+
+    #[test]
+    fn entries_keep_comments_and_raw_values_for_other_readers() {
+        let parsed = entries("# header\nx = 1.5 kN m  # N m, measured\ny = \"a # b\"\n").unwrap();
+        assert_eq!(parsed.len(), 2);
+        assert_eq!(
+            (parsed[0].value.as_str(), parsed[0].comment.as_str(), parsed[0].line),
+            ("1.5 kN m", "N m, measured", 2)
+        );
+        assert_eq!((parsed[1].value.as_str(), parsed[1].comment.as_str()), ("\"a # b\"", ""));
+        let error = parse_assignments("a = 1\nb = nan\n").unwrap_err();
+        assert_eq!(error.line, 2);
+        assert_eq!(
+            error.kind,
+            ParseErrorKind::InvalidValue { name: "b".into(), error: ValueError::NotFinite("nan".into()) }
+        );
     }
 
     #[test]

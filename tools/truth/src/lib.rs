@@ -23,6 +23,16 @@ use std::collections::BTreeMap;
 
 pub use trajectory::{Trajectory, TrajectoryConfig};
 
+/// A progress bar on stderr for a run over `len` items; it draws nothing when stderr is not a
+/// terminal (indicatif's default target), so logs and pipes stay clean.
+pub fn progress_bar(len: usize, message: &'static str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64).with_message(message);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} ({elapsed}, {eta} left)") {
+        bar.set_style(style);
+    }
+    bar
+}
+
 /// Nominal plant of the truth, all axis-side except the motor inertia and torque constant.
 /// These values are also the model's starting parameter set.
 #[derive(Debug, Clone)]
@@ -418,10 +428,214 @@ impl Actual {
     }
 }
 
-/// Runs the truth simulation and writes the log.
+impl Actual {
+    /// The state derivative with the applied torque held, the shaft torque and the load
+    /// acceleration. State: motor angle, motor speed, load angle, load speed (axis side),
+    /// LuGre bristle z, actual current (whose derivative the caller sets).
+    fn derivative(&self, x: &[f64; 6], applied: f64) -> ([f64; 6], f64, f64) {
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let twist = x[0] - x[2];
+        let shaft = self.shaft_torque(twist, x[1] - x[3]);
+        let (friction, dz) = self.lugre(x[1], x[4]);
+        let (amp, period, phase) = self.cogging;
+        let cogging = if amp != 0.0 { amp * (two_pi * x[0] / period + phase).sin() } else { 0.0 };
+        let unbalance = self.unbalance.0 * (x[2] + self.unbalance.1).cos();
+        let motor_acc = (applied - shaft - friction - self.offset - cogging) / self.p.reflected_motor_inertia();
+        let load_acc = (shaft - unbalance) / self.p.load_inertia;
+        ([x[1], motor_acc, x[3], load_acc, dz, 0.0], shaft, load_acc)
+    }
+}
+
+/// The sampled cascade controller (position, velocity with integrator, acceleration
+/// feed-forward, band-limited noise injection), tuned on the nominal plant as a commissioning
+/// engineer would, and its state.
+struct Controller {
+    kp: f64,
+    kv: f64,
+    ki: f64,
+    total_inertia: f64,
+    current_limit: f64,
+    tc: f64,
+    speed_alpha: f64,
+    injection_alpha: f64,
+    injection_gain: f64,
+    /// Torque-to-current factor: gear ratio times nominal torque constant.
+    torque_per_amp: f64,
+    integrator: f64,
+    /// The current command.
+    i_cmd: f64,
+    motor_prev: f64,
+    speed_estimate: f64,
+    injection: (f64, f64),
+}
+
+impl Controller {
+    fn new(config: &TruthConfig, tc: f64, unbalance0: f64, motor_start: f64) -> Controller {
+        let nominal = &config.plant;
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let total_inertia = nominal.reflected_motor_inertia() + nominal.load_inertia;
+        let kv = total_inertia * two_pi * config.velocity_bandwidth;
+        let injection_alpha = (-two_pi * config.injection_bandwidth * tc).exp();
+        // Two cascaded first-order stages driven by unit white noise have the impulse response
+        // (1-a)^2 (k+1) a^k, whose energy is (1-a)^4 (1+a^2)/(1-a^2)^3: this gain makes the
+        // injected torque's standard deviation injection_sigma.
+        let ia = injection_alpha;
+        let injection_gain =
+            config.injection_sigma / ((1.0 - ia).powi(4) * (1.0 + ia * ia) / (1.0 - ia * ia).powi(3)).sqrt();
+        let torque_per_amp = nominal.gear_ratio * nominal.torque_constant;
+        Controller {
+            kp: two_pi * config.position_bandwidth,
+            kv,
+            ki: kv * two_pi * config.velocity_bandwidth / 5.0,
+            total_inertia,
+            current_limit: 50.0,
+            tc,
+            speed_alpha: (-two_pi * 300.0 * tc).exp(),
+            injection_alpha,
+            injection_gain,
+            torque_per_amp,
+            integrator: unbalance0,
+            i_cmd: unbalance0 / torque_per_amp,
+            motor_prev: motor_start,
+            speed_estimate: 0.0,
+            injection: (0.0, 0.0),
+        }
+    }
+
+    /// One controller sample at time `t` from the measured load and motor angles; updates the
+    /// current command. `noise` is a unit normal draw for the injection.
+    fn sample(&mut self, t: f64, load_meas: f64, motor_meas: f64, trajectory: &Trajectory, noise: f64) {
+        let raw_speed = (motor_meas - self.motor_prev) / self.tc;
+        self.motor_prev = motor_meas;
+        self.speed_estimate = self.speed_alpha * self.speed_estimate + (1.0 - self.speed_alpha) * raw_speed;
+        let (r, v, a) = (trajectory.position(t), trajectory.velocity(t), trajectory.acceleration(t));
+        let speed_command = v + self.kp * (r - load_meas);
+        let speed_error = speed_command - self.speed_estimate;
+        let (inj1, inj2) = &mut self.injection;
+        *inj1 = self.injection_alpha * *inj1 + (1.0 - self.injection_alpha) * noise;
+        *inj2 = self.injection_alpha * *inj2 + (1.0 - self.injection_alpha) * *inj1;
+        let torque_command =
+            self.kv * speed_error + self.integrator + self.total_inertia * a + self.injection_gain * *inj2;
+        let unclamped = torque_command / self.torque_per_amp;
+        self.i_cmd = unclamped.clamp(-self.current_limit, self.current_limit);
+        if unclamped == self.i_cmd {
+            self.integrator += self.ki * speed_error * self.tc;
+        }
+    }
+}
+
+/// The logged signals and the clean truth at the log instants, as the run goes.
+struct Recorder {
+    time: Vec<f64>,
+    current: Vec<f64>,
+    current_2: Vec<f64>,
+    speeds: Vec<Vec<f64>>,
+    reference: Vec<f64>,
+    motor: Vec<f64>,
+    load: Vec<f64>,
+    clean: CleanSignals,
+}
+
+impl Recorder {
+    fn new(samples: usize, motors: usize, fine_dt: f64) -> Recorder {
+        Recorder {
+            time: Vec::with_capacity(samples),
+            current: Vec::with_capacity(samples),
+            current_2: Vec::new(),
+            speeds: vec![Vec::new(); motors],
+            reference: Vec::with_capacity(samples),
+            motor: Vec::with_capacity(samples),
+            load: Vec::with_capacity(samples),
+            clean: CleanSignals { fine_dt, ..Default::default() },
+        }
+    }
+
+    /// The measured log: the channels the configured sensors give.
+    fn into_run(self, config: &TruthConfig, motors: usize) -> TruthRun {
+        let mut metadata = BTreeMap::new();
+        metadata.insert("generated_by".to_string(), "truthgen (antenna-tools)".to_string());
+        let channel = |signal: Signal, motor: Option<u32>, values: Vec<f64>| Channel {
+            signal,
+            motor,
+            column: String::new(),
+            unit: String::new(),
+            values,
+        };
+        let numbered = |k: u32| (motors == 2).then_some(k);
+        let mut channels = vec![
+            channel(Signal::RefPos, None, self.reference),
+            channel(Signal::MotorCurrent, numbered(1), self.current),
+        ];
+        if motors == 2 {
+            channels.push(channel(Signal::MotorCurrent, numbered(2), self.current_2));
+        }
+        match config.noise.motor_sensor {
+            MotorSensor::Encoder => channels.push(channel(Signal::MotorPos, None, self.motor)),
+            MotorSensor::Speed(_) => {
+                for (k, speeds) in self.speeds.into_iter().enumerate() {
+                    channels.push(channel(Signal::MotorVel, numbered(k as u32 + 1), speeds));
+                }
+            }
+            MotorSensor::None => {}
+        }
+        channels.push(channel(Signal::LoadPos, None, self.load));
+        let log = MeasuredLog { metadata, time: self.time, channels, notes: Vec::new() };
+        TruthRun { log, clean: self.clean }
+    }
+}
+
+/// The applied torque's recent history (the actual current, one entry per internal step) for
+/// the delay effect.
+struct CurrentHistory {
+    values: Vec<f64>,
+    head: usize,
+    delay_steps: f64,
+}
+
+impl CurrentHistory {
+    fn new(delay_steps: f64, current: f64) -> CurrentHistory {
+        CurrentHistory { values: vec![current; delay_steps.ceil() as usize + 2], head: 0, delay_steps }
+    }
+
+    fn applied(&self, gain: f64) -> f64 {
+        applied_torque(&self.values, self.head, self.delay_steps, gain)
+    }
+
+    fn push(&mut self, current: f64) {
+        self.head = (self.head + 1) % self.values.len();
+        self.values[self.head] = current;
+    }
+}
+
+/// Advances the state over one internal step `h` with the applied torque held and the current
+/// following its command through a first-order loop of time constant `tau_current`.
+///
+/// The bristle state relaxes at sigma0 |v| / g, which at full speed is far faster than the
+/// internal rate: the step is cut into as many RK4 substeps as keep the fastest rate times the
+/// substep at or below one (accurate, and well inside RK4's stability limit of 2.8), so stiff
+/// bristles cost time only while the motor slides fast.
+fn rk4_step(x: &mut [f64; 6], applied: f64, i_cmd: f64, tau_current: f64, h: f64, actual: &Actual) {
+    let f = |s: &[f64; 6]| {
+        let (mut d, _, _) = actual.derivative(s, applied);
+        d[5] = (i_cmd - s[5]) / tau_current;
+        d
+    };
+    let substeps = ((h * actual.fastest_rate(x[1])).ceil() as usize).clamp(1, 10_000);
+    let hs = h / substeps as f64;
+    for _ in 0..substeps {
+        let k1 = f(x);
+        let k2 = f(&add(x, &k1, 0.5 * hs));
+        let k3 = f(&add(x, &k2, 0.5 * hs));
+        let k4 = f(&add(x, &k3, hs));
+        for i in 0..6 {
+            x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+    }
+}
+
+/// Runs the truth simulation and returns the log and the clean signals.
 pub fn simulate(config: &TruthConfig) -> TruthRun {
     let actual = Actual::new(config);
-    let nominal = &config.plant;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed);
     // The sensors a log variant adds (a second current, a speed signal) draw from a stream of
     // their own, so the default logs stay bit for bit what they were.
@@ -435,91 +649,30 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     let control_every = (config.internal_rate / config.controller_rate).round().max(1.0) as usize;
     let log_every = (config.internal_rate / config.log_rate).round().max(1.0) as usize;
     let tc = control_every as f64 * h;
-    let n_ratio = nominal.gear_ratio;
-    let kt = nominal.torque_constant;
+    let (n_ratio, kt) = (config.plant.gear_ratio, config.plant.torque_constant);
     let two_pi = 2.0 * std::f64::consts::PI;
     let load_step = two_pi / config.noise.load_encoder_counts;
     let motor_step = two_pi / (config.noise.motor_encoder_counts * n_ratio);
     let quantise = |x: f64, step: f64| (x / step).round() * step;
-
-    // Cascade controller tuned on the nominal plant, as a commissioning engineer would.
-    let total_inertia = nominal.reflected_motor_inertia() + nominal.load_inertia;
-    let kp = two_pi * config.position_bandwidth;
-    let kv = total_inertia * two_pi * config.velocity_bandwidth;
-    let ki = kv * two_pi * config.velocity_bandwidth / 5.0;
-    let current_limit = 50.0;
     let tau_current = 1.0 / (two_pi * config.current_bandwidth);
-    let injection_alpha = (-two_pi * config.injection_bandwidth * tc).exp();
-    // Two cascaded first-order stages driven by unit white noise have the impulse response
-    // (1-a)^2 (k+1) a^k, whose energy is (1-a)^4 (1+a^2)/(1-a^2)^3: this gain makes the
-    // injected torque's standard deviation injection_sigma.
-    let ia = injection_alpha;
-    let injection_gain =
-        config.injection_sigma / ((1.0 - ia).powi(4) * (1.0 + ia * ia) / (1.0 - ia * ia).powi(3)).sqrt();
 
     // State: motor angle, motor speed, load angle, load speed (axis side), LuGre bristle z,
-    // actual current.
+    // actual current. Start at rest in equilibrium with gravity through the shaft.
     let start = trajectory.position(0.0);
     let mut x = [start, 0.0, start, 0.0, 0.0, 0.0];
-    // Start at rest in equilibrium with gravity through the shaft.
     let unbalance0 = actual.unbalance.0 * (start + actual.unbalance.1).cos();
     x[0] += unbalance0 / actual.p.stiffness.max(1.0);
-
-    let delay_steps = actual.delay / h;
-    let history_len = delay_steps.ceil() as usize + 2;
-    let mut current_history = vec![0.0; history_len];
-    let mut history_head = 0usize;
-
-    let mut integrator = unbalance0;
-    let mut i_cmd = unbalance0 / (n_ratio * kt);
-    x[5] = i_cmd;
-    current_history.iter_mut().for_each(|c| *c = i_cmd);
-    let mut motor_prev = quantise(x[0], motor_step);
-    let mut speed_estimate = 0.0;
-    let speed_alpha = (-two_pi * 300.0 * tc).exp();
-    let (mut inj1, mut inj2) = (0.0, 0.0);
-
-    let n_log = steps / log_every + 1;
-    let mut time = Vec::with_capacity(n_log);
-    let mut log_current = Vec::with_capacity(n_log);
-    let mut log_current_2 = Vec::new();
-    let mut log_speed: Vec<Vec<f64>> = vec![Vec::new(); motors];
-    let mut log_ref = Vec::with_capacity(n_log);
-    let mut log_motor = Vec::with_capacity(n_log);
-    let mut log_load = Vec::with_capacity(n_log);
-    let mut clean = CleanSignals { fine_dt: h, ..Default::default() };
-
-    let derivative = |x: &[f64; 6], applied: f64, actual: &Actual| -> ([f64; 6], f64, f64) {
-        let twist = x[0] - x[2];
-        let shaft = actual.shaft_torque(twist, x[1] - x[3]);
-        let (friction, dz) = actual.lugre(x[1], x[4]);
-        let (amp, period, phase) = actual.cogging;
-        let cogging = if amp != 0.0 { amp * (two_pi * x[0] / period + phase).sin() } else { 0.0 };
-        let unbalance = actual.unbalance.0 * (x[2] + actual.unbalance.1).cos();
-        let motor_acc = (applied - shaft - friction - actual.offset - cogging) / actual.p.reflected_motor_inertia();
-        let load_acc = (shaft - unbalance) / actual.p.load_inertia;
-        ([x[1], motor_acc, x[3], load_acc, dz, 0.0], shaft, load_acc)
-    };
+    let mut controller = Controller::new(config, tc, unbalance0, quantise(x[0], motor_step));
+    x[5] = controller.i_cmd;
+    let mut history = CurrentHistory::new(actual.delay / h, controller.i_cmd);
+    let mut record = Recorder::new(steps / log_every + 1, motors, h);
 
     for step in 0..=steps {
         let t = step as f64 * h;
         if step % control_every == 0 {
             let load_meas = quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step);
             let motor_meas = quantise(x[0], motor_step);
-            let raw_speed = (motor_meas - motor_prev) / tc;
-            motor_prev = motor_meas;
-            speed_estimate = speed_alpha * speed_estimate + (1.0 - speed_alpha) * raw_speed;
-            let (r, v, a) = (trajectory.position(t), trajectory.velocity(t), trajectory.acceleration(t));
-            let speed_command = v + kp * (r - load_meas);
-            let speed_error = speed_command - speed_estimate;
-            inj1 = injection_alpha * inj1 + (1.0 - injection_alpha) * unit_normal.sample(&mut rng);
-            inj2 = injection_alpha * inj2 + (1.0 - injection_alpha) * inj1;
-            let torque_command = kv * speed_error + integrator + total_inertia * a + injection_gain * inj2;
-            let unclamped = torque_command / (n_ratio * kt);
-            i_cmd = unclamped.clamp(-current_limit, current_limit);
-            if unclamped == i_cmd {
-                integrator += ki * speed_error * tc;
-            }
+            controller.sample(t, load_meas, motor_meas, &trajectory, unit_normal.sample(&mut rng));
         }
         if step % log_every == 0 {
             let share = x[5] / motors as f64;
@@ -528,16 +681,16 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
                 share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng),
                 config.noise.current_step,
             );
-            time.push(t);
-            log_current.push(measured_current);
+            record.time.push(t);
+            record.current.push(measured_current);
             if motors == 2 {
-                log_current_2.push(quantise(
+                record.current_2.push(quantise(
                     share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng),
                     config.noise.current_step,
                 ));
             }
             if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
-                for speeds in log_speed.iter_mut() {
+                for speeds in record.speeds.iter_mut() {
                     speeds.push(
                         (1.0 + sensor.scale_error) * x[1]
                             + sensor.bias
@@ -545,12 +698,14 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
                     );
                 }
             }
-            log_ref.push(trajectory.position(t));
-            log_motor.push(quantise(x[0], motor_step));
-            log_load.push(quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step));
-            let applied = applied_torque(&current_history, history_head, delay_steps, actual.k_scale * n_ratio * kt);
-            let (d, shaft, load_acc) = derivative(&x, applied, &actual);
-            let _ = d;
+            record.reference.push(trajectory.position(t));
+            record.motor.push(quantise(x[0], motor_step));
+            record
+                .load
+                .push(quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step));
+            let applied = history.applied(actual.k_scale * n_ratio * kt);
+            let (_, shaft, load_acc) = actual.derivative(&x, applied);
+            let clean = &mut record.clean;
             clean.motor_pos.push(x[0]);
             clean.motor_vel.push(x[1]);
             clean.load_pos.push(x[2]);
@@ -564,59 +719,12 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
         }
         // The applied torque is held over the internal step: the current loop is much slower
         // than the internal rate, so this costs nothing in accuracy and keeps RK4 simple.
-        let applied = applied_torque(&current_history, history_head, delay_steps, actual.k_scale * n_ratio * kt);
-        clean.applied_torque_fine.push(applied);
-        let f = |s: &[f64; 6]| {
-            let (mut d, _, _) = derivative(s, applied, &actual);
-            d[5] = (i_cmd - s[5]) / tau_current;
-            d
-        };
-        // The bristle state relaxes at sigma0 |v| / g, which at full speed is far faster than
-        // the internal rate: the step is cut into as many RK4 substeps as keep the fastest
-        // rate times the substep at or below one (accurate, and well inside RK4's stability
-        // limit of 2.8), so stiff bristles cost time only while the motor slides fast.
-        let substeps = ((h * actual.fastest_rate(x[1])).ceil() as usize).clamp(1, 10_000);
-        let hs = h / substeps as f64;
-        for _ in 0..substeps {
-            let k1 = f(&x);
-            let k2 = f(&add(&x, &k1, 0.5 * hs));
-            let k3 = f(&add(&x, &k2, 0.5 * hs));
-            let k4 = f(&add(&x, &k3, hs));
-            for i in 0..6 {
-                x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-            }
-        }
-        history_head = (history_head + 1) % history_len;
-        current_history[history_head] = x[5];
+        let applied = history.applied(actual.k_scale * n_ratio * kt);
+        record.clean.applied_torque_fine.push(applied);
+        rk4_step(&mut x, applied, controller.i_cmd, tau_current, h, &actual);
+        history.push(x[5]);
     }
-
-    let mut metadata = BTreeMap::new();
-    metadata.insert("generated_by".to_string(), "truthgen (antenna-tools)".to_string());
-    let channel = |signal: Signal, motor: Option<u32>, values: Vec<f64>| Channel {
-        signal,
-        motor,
-        column: String::new(),
-        unit: String::new(),
-        values,
-    };
-    let numbered = |k: u32| (motors == 2).then_some(k);
-    let mut channels =
-        vec![channel(Signal::RefPos, None, log_ref), channel(Signal::MotorCurrent, numbered(1), log_current)];
-    if motors == 2 {
-        channels.push(channel(Signal::MotorCurrent, numbered(2), log_current_2));
-    }
-    match config.noise.motor_sensor {
-        MotorSensor::Encoder => channels.push(channel(Signal::MotorPos, None, log_motor)),
-        MotorSensor::Speed(_) => {
-            for (k, speeds) in log_speed.into_iter().enumerate() {
-                channels.push(channel(Signal::MotorVel, numbered(k as u32 + 1), speeds));
-            }
-        }
-        MotorSensor::None => {}
-    }
-    channels.push(channel(Signal::LoadPos, None, log_load));
-    let log = MeasuredLog { metadata, time, channels, notes: Vec::new() };
-    TruthRun { log, clean }
+    record.into_run(config, motors)
 }
 
 /// The applied torque now: the actual current `delay_steps` internal steps ago (interpolated),

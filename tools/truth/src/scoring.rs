@@ -4,13 +4,14 @@
 //!
 //! Only this module reads the `.truth` sidecars; the validation itself never sees them.
 
+use crate::suite::{parse_truth, CaseTruth};
+use crate::Effect;
+use antenna_validate::measured_log::MeasuredLog;
 use antenna_validate::output_error::PlantSimulator;
 use antenna_validate::parameters::{names, ParameterSet};
 use antenna_validate::plant_fmu::FmuSimulator;
 use antenna_validate::{validate_with, ValidateOptions, Validation};
-use antenna_validate::measured_log::MeasuredLog;
-use crate::suite::{parse_truth, CaseTruth};
-use crate::Effect;
+use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -279,39 +280,30 @@ pub fn run_suite(
         })
         .collect();
     logs.sort();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    let failure = std::sync::Mutex::new(None);
-    std::thread::scope(|scope| {
-        for _ in 0..threads.max(1) {
-            scope.spawn(|| {
-                let mut simulator = match fmu.map(FmuSimulator::open).transpose() {
-                    Ok(s) => s,
-                    Err(e) => {
-                        *failure.lock().unwrap() = Some(e);
-                        return;
-                    }
-                };
-                loop {
-                    let index = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(path) = logs.get(index) else { break };
-                    match run_case(path, &start, options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator)) {
-                        Ok(result) => {
-                            progress(&result);
-                            results.lock().unwrap().push(result);
-                        }
-                        Err(e) => *failure.lock().unwrap() = Some(e),
-                    }
-                }
-            });
-        }
+    let bar = crate::progress_bar(logs.len(), "validating logs");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+    // Each worker opens its own plant FMU instance; a case's result does not depend on which
+    // worker ran it, and the results are collected in the sorted log order.
+    let results: Vec<Result<CaseResult, String>> = pool.install(|| {
+        logs.par_iter()
+            .map_init(
+                || fmu.map(FmuSimulator::open).transpose(),
+                |simulator, path| {
+                    let simulator = simulator.as_mut().map_err(|e| e.clone())?;
+                    let result =
+                        run_case(path, &start, options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+                    bar.suspend(|| progress(&result));
+                    bar.inc(1);
+                    Ok(result)
+                },
+            )
+            .collect()
     });
-    if let Some(e) = failure.into_inner().unwrap() {
-        return Err(e);
-    }
-    let mut results = results.into_inner().unwrap();
-    results.sort_by(|a, b| a.truth.log_file.cmp(&b.truth.log_file));
-    Ok(results)
+    bar.finish_and_clear();
+    results.into_iter().collect()
 }
 
 const ARCSEC_PER_RAD: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
@@ -434,9 +426,19 @@ pub fn detection_curve(results: &[CaseResult]) -> Vec<CurvePoint> {
         .collect()
 }
 
-/// Summary text: detection curve, per-effect results at >= 10x noise, clean logs.
+/// Summary text: detection curve, per-effect results at >= 10x noise, the drive path in the
+/// frequency domain, clean and two-effect logs.
 pub fn summary_markdown(results: &[CaseResult]) -> String {
     let mut out = String::new();
+    detection_summary(&mut out, results);
+    by_effect_summary(&mut out, results);
+    frequency_summary(&mut out, results);
+    clean_and_pair_summary(&mut out, results);
+    out
+}
+
+/// The detection curve as a table.
+fn detection_summary(out: &mut String, results: &[CaseResult]) {
     let _ = writeln!(out, "Detection against effect size (single-effect logs). \"Error after <= 20 %\" is on the output error (windowed simulation of the plant FMU, the scored position channel where the error dropped most); the equation-error figure is given for comparison.\n");
     let _ = writeln!(out, "| size / noise | cases | right effect named | named, nothing extra | parameters within tolerance | output error after <= 20 % of before | equation error after <= 20 % of before |");
     let _ = writeln!(out, "|---|---|---|---|---|---|---|");
@@ -459,6 +461,10 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             pct(p.equation_criterion)
         );
     }
+}
+
+/// Per effect kind, single-effect logs at 10 times the noise and above.
+fn by_effect_summary(out: &mut String, results: &[CaseResult]) {
     let _ = writeln!(out, "\nBy effect, single-effect logs at 10 times the noise and above (median after/before of each error over those logs):\n");
     let _ = writeln!(
         out,
@@ -502,6 +508,10 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             median(cases.iter().filter_map(|r| r.equation.as_ref().map(|o| o.ratio())).collect()),
         );
     }
+}
+
+/// The anti-resonance and response errors of the drive-path effects.
+fn frequency_summary(out: &mut String, results: &[CaseResult]) {
     let _ = writeln!(
         out,
         "\nThe drive path in the frequency domain, as the paper checks its stiffness: the anti-resonance error |measured trough - model trough| of the \
@@ -547,6 +557,10 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
             responses.iter().filter(|r| **r <= 0.2).count()
         );
     }
+}
+
+/// The response error's floor, claims on clean logs, two-effect logs, failures.
+fn clean_and_pair_summary(out: &mut String, results: &[CaseResult]) {
     let clean: Vec<&CaseResult> = results.iter().filter(|r| r.truth.effects.is_empty()).collect();
     let clean_response: Vec<f64> = clean.iter().filter_map(|r| r.response.as_ref().map(|e| e.before)).collect();
     let delay_after: Vec<f64> = results
@@ -585,7 +599,6 @@ pub fn summary_markdown(results: &[CaseResult]) -> String {
     if errors > 0 {
         let _ = writeln!(out, "Logs that could not be validated: {errors}.");
     }
-    out
 }
 
 /// The detection curve as CSV.
@@ -609,24 +622,37 @@ pub fn detection_csv(results: &[CaseResult]) -> String {
 
 /// The detection curve as a PNG.
 pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), String> {
-    use antenna_plot::{Figure, Panel};
+    use antenna_plot::{Figure, Panel, Series};
     let curve = detection_curve(results);
     let x: Vec<f64> = curve.iter().map(|c| c.size).collect();
     let rate = |k: fn(&CurvePoint) -> usize| -> Vec<f64> {
         curve.iter().map(|c| 100.0 * k(c) as f64 / c.cases.max(1) as f64).collect()
     };
+    // The first three rates are often equal: the widest line goes first and the narrower,
+    // differently dashed ones on top, each with markers, so every line stays visible.
     Figure::new(1000, 600)
         .panel(
             Panel::new("Detection rate against effect size (generated suite, single-effect logs)")
                 .x_label("effect size / sensor noise")
                 .y_label("cases (%)")
                 .log_x()
-                .y_range(0.0, 105.0)
-                .line("right effect named", &x, &rate(|c| c.named))
-                .line("named, nothing extra", &x, &rate(|c| c.named_without_extra))
-                .line("parameters within tolerance", &x, &rate(|c| c.parameters_within_tolerance))
-                .line("output error after <= 20 % of before", &x, &rate(|c| c.error_criterion))
-                .dashed("equation error after <= 20 % of before", &x, &rate(|c| c.equation_criterion)),
+                // Headroom above 100 % for the legend, which would otherwise cover the top line.
+                .y_range(0.0, 135.0)
+                .series(Series::new("right effect named", &x, &rate(|c| c.named)).width(7).with_markers())
+                .series(Series::new("named, nothing extra", &x, &rate(|c| c.named_without_extra)).width(3).dashed())
+                .series(
+                    Series::new("parameters within tolerance", &x, &rate(|c| c.parameters_within_tolerance))
+                        .width(2)
+                        .dotted()
+                        .with_markers(),
+                )
+                .series(Series::new("output error after <= 20 % of before", &x, &rate(|c| c.error_criterion)).width(2))
+                .series(
+                    Series::new("equation error after <= 20 % of before", &x, &rate(|c| c.equation_criterion))
+                        .width(2)
+                        .dashed()
+                        .with_markers(),
+                ),
         )
         .save_png(path)
         .map_err(|e| e.to_string())
@@ -635,6 +661,43 @@ pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_detection_figure_is_written_when_rates_coincide() {
+        let truth = |size: f64| CaseTruth {
+            log_file: "log_001.csv".into(),
+            seed: 1,
+            effects: vec![("coulomb".into(), size, Effect::Coulomb(1.0))],
+            torque_sigma: 1.0,
+            twist_sigma: 1.0,
+            sample_interval: 0.002,
+        };
+        let results: Vec<CaseResult> = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0]
+            .iter()
+            .map(|&size| CaseResult {
+                truth: truth(size),
+                found: vec!["coulomb".into()],
+                parameters: vec![("coulomb".into(), 1.0, 1.0, 0.0, size >= 5.0)],
+                named: size >= 2.0,
+                extras: Vec::new(),
+                equally_consistent: Vec::new(),
+                output: None,
+                equation: None,
+                anti_resonance: None,
+                measured_trough: None,
+                response: None,
+                score_ratio: None,
+                error: None,
+                seconds: 0.0,
+            })
+            .collect();
+        let path = std::env::temp_dir().join(format!("detection-{}.png", std::process::id()));
+        detection_figure(&results, &path).unwrap();
+        assert!(std::fs::metadata(&path).unwrap().len() > 1000);
+        if std::env::var_os("KEEP_FIGURE").is_none() {
+            std::fs::remove_file(&path).unwrap();
+        }
+    }
 
     #[test]
     fn a_suite_folder_validated_before_is_not_read_as_logs() {

@@ -9,6 +9,7 @@
 
 use super::{simulate, CleanSignals, Effect, MotorSensor, SpeedSensor, TruthConfig, LOG_UNITS};
 use rand::{RngExt, SeedableRng};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -320,6 +321,7 @@ pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&st
 /// Writes the suite like [`write_suite`], generating the logs on `threads` threads (each with
 /// its own cache of clean runs), after removing the logs and truths of an earlier suite in
 /// `dir`. The files are the same as [`write_suite`]'s: every case depends only on its seed.
+/// The truths come back in case order, whatever the thread count.
 pub fn write_suite_parallel(
     dir: &Path,
     suite: &SuiteConfig,
@@ -334,44 +336,45 @@ pub fn write_suite_parallel(
         }
     }
     let cases = suite_cases(suite);
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let truths = std::sync::Mutex::new(Vec::new());
-    let failure = std::sync::Mutex::new(None);
-    std::thread::scope(|scope| {
-        for _ in 0..threads.max(1) {
-            scope.spawn(|| {
-                let mut clean_cache = BTreeMap::new();
-                loop {
-                    let index = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some((seed, kinds)) = cases.get(index) else { break };
-                    let name = format!("log_{:03}", index + 1);
-                    match generate_case(&suite.base, *seed, kinds, &format!("{name}.csv"), &mut clean_cache) {
-                        Ok((text, truth)) => {
-                            let written = std::fs::write(dir.join(format!("{name}.csv")), text)
-                                .and_then(|()| std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth)));
-                            if let Err(e) = written {
-                                *failure.lock().unwrap() = Some(format!("cannot write {name}: {e}"));
-                                return;
-                            }
-                            progress(&format!("{name}: {}", describe(&truth)));
-                            truths.lock().unwrap().push((index, truth));
-                        }
-                        Err(message) => progress(&format!("{name}: skipped: {message}")),
+    let bar = crate::progress_bar(cases.len(), "generating logs");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+    // Each worker keeps its own cache of clean runs; a case depends only on its seed and
+    // effects, so the files are the same whichever worker generates it.
+    let generated: Vec<Result<Option<CaseTruth>, String>> = pool.install(|| {
+        cases
+            .par_iter()
+            .enumerate()
+            .map_init(BTreeMap::new, |clean_cache, (index, (seed, kinds))| {
+                let name = format!("log_{:03}", index + 1);
+                let outcome = match generate_case(&suite.base, *seed, kinds, &format!("{name}.csv"), clean_cache) {
+                    Ok((text, truth)) => {
+                        std::fs::write(dir.join(format!("{name}.csv")), text)
+                            .and_then(|()| std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth)))
+                            .map_err(|e| format!("cannot write {name}: {e}"))?;
+                        bar.suspend(|| progress(&format!("{name}: {}", describe(&truth))));
+                        Some(truth)
                     }
-                }
-            });
-        }
+                    // An effect size the plant cannot produce is skipped with a note.
+                    Err(message) => {
+                        bar.suspend(|| progress(&format!("{name}: skipped: {message}")));
+                        None
+                    }
+                };
+                bar.inc(1);
+                Ok(outcome)
+            })
+            .collect()
     });
-    if let Some(e) = failure.into_inner().unwrap() {
-        return Err(e);
-    }
+    bar.finish_and_clear();
+    let truths: Vec<CaseTruth> = generated.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().flatten().collect();
     suite.base.plant.starting_parameters().write(
         &dir.join("start.params"),
         "Starting parameter set of the generated suite: the truth's nominal plant, no effects.",
     )?;
-    let mut truths = truths.into_inner().unwrap();
-    truths.sort_by_key(|(i, _)| *i);
-    Ok(truths.into_iter().map(|(_, t)| t).collect())
+    Ok(truths)
 }
 
 /// A one-line description of a case, for progress output and tables.

@@ -14,12 +14,13 @@
 //!
 //! The FMU must be packaged first (`cargo run --release -p xtask --bin package`).
 
-use antenna_validate::measured_log::parse_str;
+use antenna_truth::scoring::{score, CaseResult};
 use antenna_truth::suite::{generate_case, SuiteConfig};
 use antenna_truth::{MotorSensor, SpeedSensor, TruthConfig};
+use antenna_validate::measured_log::parse_str;
 use antenna_validate::plant_fmu::{FmuSimulator, PlantFmu};
-use antenna_truth::scoring::{score, CaseResult};
 use antenna_validate::{validate_with, ValidateOptions};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 fn run(seed: u64, kinds: &[(&str, f64)]) -> CaseResult {
@@ -63,10 +64,7 @@ fn suite_cases_meet_the_issue_criteria_at_twenty_times_the_noise() {
         (11, vec![("delay", 20.0)]),
         (11, vec![("stiffness", 20.0)]),
     ];
-    let results: Vec<CaseResult> = std::thread::scope(|scope| {
-        let handles: Vec<_> = cases.iter().map(|(seed, kinds)| scope.spawn(move || run(*seed, kinds))).collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
-    });
+    let results: Vec<CaseResult> = cases.par_iter().map(|(seed, kinds)| run(*seed, kinds)).collect();
 
     // Clean: no significant missing effect.
     assert!(results[0].found.is_empty(), "an effect was claimed on a clean log: {:?}", results[0].found);
@@ -121,11 +119,7 @@ fn logs_with_other_sensors_get_no_false_claim_and_their_effect_named() {
         (&load_encoder, 302, vec![]),
         (&load_encoder, 31, vec![("coulomb", 20.0)]),
     ];
-    let results: Vec<CaseResult> = std::thread::scope(|scope| {
-        let handles: Vec<_> =
-            cases.iter().map(|(base, seed, kinds)| scope.spawn(move || run_with(base, *seed, kinds))).collect();
-        handles.into_iter().map(|h| h.join().unwrap()).collect()
-    });
+    let results: Vec<CaseResult> = cases.par_iter().map(|(base, seed, kinds)| run_with(base, *seed, kinds)).collect();
     assert!(results[0].found.is_empty(), "an effect was claimed on a clean speed-sensor log: {:?}", results[0].found);
     assert_named_alone_and_fitted(&results[1]);
     assert!(results[2].found.is_empty(), "an effect was claimed on a clean load-encoder log: {:?}", results[2].found);

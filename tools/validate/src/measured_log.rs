@@ -7,7 +7,6 @@
 //! It never panics, whatever bytes it is given.
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::path::Path;
 
 /// The physical quantity a column measures; a unit is accepted only for its own dimension.
@@ -100,33 +99,79 @@ pub const UNITS: [(&str, Dimension, f64); 15] = [
 ];
 
 /// A parse or validation error, naming where it is so the file can be fixed.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}{kind}", location(.line, .column))]
 pub struct LogError {
     /// 1-based line number in the file, when the error belongs to one line.
     pub line: Option<usize>,
     /// The column name as written in the header, when the error belongs to one column.
     pub column: Option<String>,
-    pub message: String,
+    pub kind: LogErrorKind,
+}
+
+/// `line N, column 'C': ` (or the parts known), the prefix of an error message.
+fn location(line: &Option<usize>, column: &Option<String>) -> String {
+    match (line, column) {
+        (Some(line), Some(column)) => format!("line {line}, column '{column}': "),
+        (Some(line), None) => format!("line {line}: "),
+        (None, Some(column)) => format!("column '{column}': "),
+        (None, None) => String::new(),
+    }
+}
+
+/// What is wrong with a log.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LogErrorKind {
+    #[error("cannot read {path}: {reason}")]
+    Read { path: String, reason: String },
+    #[error("the file is empty")]
+    Empty,
+    #[error("the file is not valid UTF-8 text")]
+    NotUtf8,
+    #[error("metadata line has an empty key (expected '# key = value')")]
+    EmptyMetadataKey,
+    #[error("the file has no header line (only comments)")]
+    NoHeader,
+    #[error("header cell {0} is empty")]
+    EmptyHeaderCell(usize),
+    #[error("column appears twice in the header")]
+    ColumnTwice,
+    #[error("a second column for the same signal")]
+    SecondColumnForSignal,
+    #[error("required column missing: {0}")]
+    MissingColumn(String),
+    #[error("signal '{stem}' has no unit suffix (write e.g. '{stem}_{si}')")]
+    NoUnit { stem: &'static str, si: &'static str },
+    #[error("signal '{0}' does not take a motor number")]
+    NotNumbered(&'static str),
+    #[error("unit '{unit}' is not a unit of {dimension:?} (signal '{stem}')")]
+    WrongDimension { unit: String, dimension: Dimension, stem: &'static str },
+    /// A unit the reader cannot convert to SI: refused rather than read as NaN or as SI.
+    #[error("unknown unit suffix '{unit}' for signal '{stem}' (units of {dimension:?}: {known})")]
+    UnknownUnit { unit: String, stem: &'static str, dimension: Dimension, known: String },
+    #[error("row has {cells} cells but the header has {columns} columns")]
+    RaggedRow { cells: usize, columns: usize },
+    #[error("not a number: '{0}'")]
+    NotANumber(String),
+    #[error("value is not finite: '{0}'")]
+    NotFinite(String),
+    #[error("the file has a header but no data rows")]
+    NoRows,
+    #[error("a log needs at least two samples")]
+    TooFewSamples,
+    #[error("time does not increase ({time} s after {previous} s on the previous row)")]
+    TimeNotIncreasing { time: f64, previous: f64 },
+    #[error("a gap of {gap} s after {after} s is more than {MAX_GAP_INTERVALS} times the usual sample interval {interval} s: split the log into continuous runs at this row")]
+    Gap { gap: f64, after: f64, interval: f64 },
+    #[error("malformed CSV: {0}")]
+    Csv(String),
 }
 
 impl LogError {
-    fn new(line: Option<usize>, column: Option<&str>, message: impl Into<String>) -> Self {
-        LogError { line, column: column.map(str::to_string), message: message.into() }
+    fn at(line: Option<usize>, column: Option<&str>, kind: LogErrorKind) -> Self {
+        LogError { line, column: column.map(str::to_string), kind }
     }
 }
-
-impl fmt::Display for LogError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match (&self.line, &self.column) {
-            (Some(line), Some(column)) => write!(f, "line {line}, column '{column}': {}", self.message),
-            (Some(line), None) => write!(f, "line {line}: {}", self.message),
-            (None, Some(column)) => write!(f, "column '{column}': {}", self.message),
-            (None, None) => write!(f, "{}", self.message),
-        }
-    }
-}
-
-impl std::error::Error for LogError {}
 
 /// One recognised column, converted to SI.
 #[derive(Debug, Clone, PartialEq)]
@@ -246,7 +291,9 @@ impl MeasuredLog {
             let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, z)| x * z).sum::<f64>();
             let (tt, ll, tl) =
                 (dot(&columns[1], &columns[1]), dot(&columns[2], &columns[2]), dot(&columns[1], &columns[2]));
-            if !(tt * ll - tl * tl > 1e-9 * tt * ll) {
+            // Written so that NaN counts as ill-posed too.
+            let well_posed = tt * ll - tl * tl > 1e-9 * tt * ll;
+            if !well_posed {
                 return None;
             }
             let target: Vec<f64> = integral.iter().zip(load).map(|(q, l)| q - l).collect();
@@ -287,8 +334,10 @@ impl MeasuredLog {
 
     /// Reads and parses a log file.
     pub fn read(path: &Path) -> Result<MeasuredLog, LogError> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| LogError::new(None, None, format!("cannot read {}: {e}", path.display())))?;
+        let bytes = std::fs::read(path).map_err(|e| {
+            let kind = LogErrorKind::Read { path: path.display().to_string(), reason: e.to_string() };
+            LogError::at(None, None, kind)
+        })?;
         parse_bytes(&bytes)
     }
 
@@ -317,16 +366,25 @@ impl MeasuredLog {
             header.push(name);
             factors.push(factor);
         }
-        out.push_str(&header.join(","));
-        out.push('\n');
-        for i in 0..self.len() {
-            let mut cells = vec![format_number(self.time[i] / factors[0])];
-            for (channel, factor) in self.channels.iter().zip(&factors[1..]) {
-                cells.push(format_number(channel.values[i] / factor));
+        // Names and numbers never need quoting, so the writer's output is the plain
+        // comma-separated text of the format.
+        let mut writer = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
+        let written: Result<(), csv::Error> = (|| {
+            writer.write_record(&header)?;
+            for i in 0..self.len() {
+                let mut cells = vec![format_number(self.time[i] / factors[0])];
+                for (channel, factor) in self.channels.iter().zip(&factors[1..]) {
+                    cells.push(format_number(channel.values[i] / factor));
+                }
+                writer.write_record(&cells)?;
             }
-            out.push_str(&cells.join(","));
-            out.push('\n');
-        }
+            writer.flush()?;
+            Ok(())
+        })();
+        // Writing into memory cannot fail.
+        written.expect("writing CSV into memory");
+        let bytes = writer.into_inner().expect("CSV writer into memory");
+        out.push_str(&String::from_utf8(bytes).expect("the CSV text is UTF-8"));
         out
     }
 }
@@ -353,6 +411,44 @@ enum ColumnKind {
     Unknown,
 }
 
+/// FMU output and input variables that an fmpy result file (`fmpy.util.write_csv`: a header of
+/// quoted variable names starting with `"time"`, values in the units of the FMU's model
+/// description) may hold, and the signal each one is: (variable, signal, motor number, unit
+/// suffix of the FMU's unit). The names are those of `AzimuthPlant` and `ElevationPlant`;
+/// docs/measured-log-format.md has this table for users.
+pub const FMU_VARIABLES: [(&str, Signal, Option<u32>, &str); 10] = [
+    ("motor1.current", Signal::MotorCurrent, Some(1), "A"),
+    ("motor2.current", Signal::MotorCurrent, Some(2), "A"),
+    ("motor.current", Signal::MotorCurrent, None, "A"),
+    ("motor1.torque", Signal::MotorTorque, Some(1), "Nm"),
+    ("motor2.torque", Signal::MotorTorque, Some(2), "Nm"),
+    ("motor.torque", Signal::MotorTorque, None, "Nm"),
+    ("axis.encoder_position", Signal::LoadPos, None, "deg"),
+    ("axis.speed", Signal::LoadVel, None, "deg_s"),
+    ("load.disturbance_torque", Signal::DisturbanceTorque, None, "Nm"),
+    ("elevation", Signal::Elevation, None, "deg"),
+];
+
+/// The FMU's true (unquantised) axis angle: the load position of an fmpy result file that has
+/// no `axis.encoder_position`.
+pub const FMU_TRUE_POSITION: &str = "axis.position";
+
+/// The column kind of an FMU variable of an fmpy result file, if it is one of [`FMU_VARIABLES`].
+fn classify_fmu_variable(name: &str, header: &[String]) -> Option<ColumnKind> {
+    let known = |signal, motor, unit: &str| {
+        let factor = UNITS.iter().find(|u| u.0 == unit).map_or(1.0, |u| u.2);
+        Some(ColumnKind::Known { signal, motor, unit: unit.to_string(), factor })
+    };
+    if name == "time" {
+        return known(Signal::Time, None, "s");
+    }
+    if name == FMU_TRUE_POSITION && !header.iter().any(|h| h == "axis.encoder_position") {
+        return known(Signal::LoadPos, None, "deg");
+    }
+    let &(_, signal, motor, unit) = FMU_VARIABLES.iter().find(|v| v.0 == name)?;
+    known(signal, motor, unit)
+}
+
 /// Splits a header name into signal, optional motor number and unit.
 ///
 /// Stems are tried longest first so that `motor_vel_deg_s` is not read as a `motor_...` with a
@@ -362,12 +458,9 @@ fn classify_column(name: &str, line: usize) -> Result<ColumnKind, LogError> {
     let mut vocabulary = Signal::VOCABULARY.to_vec();
     vocabulary.sort_by_key(|entry| std::cmp::Reverse(entry.1.len()));
     for (signal, stem, dimension, numbered) in vocabulary {
+        let error = |kind| Err(LogError::at(Some(line), Some(name), kind));
         if name == stem {
-            return Err(LogError::new(
-                Some(line),
-                Some(name),
-                format!("signal '{stem}' has no unit suffix (write e.g. '{stem}_{}')", si_unit(dimension)),
-            ));
+            return error(LogErrorKind::NoUnit { stem, si: si_unit(dimension) });
         }
         let Some(rest) = name.strip_prefix(stem).and_then(|r| r.strip_prefix('_')) else { continue };
         let (motor, unit) = match rest.split_once('_') {
@@ -379,19 +472,16 @@ fn classify_column(name: &str, line: usize) -> Result<ColumnKind, LogError> {
         if !numbered
             && rest.split_once('_').is_some_and(|(d, _)| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
         {
-            return Err(LogError::new(Some(line), Some(name), format!("signal '{stem}' does not take a motor number")));
+            return error(LogErrorKind::NotNumbered(stem));
         }
         return match UNITS.iter().find(|u| u.0 == unit) {
             Some(&(_, unit_dimension, factor)) if unit_dimension == dimension => {
                 Ok(ColumnKind::Known { signal, motor, unit: unit.to_string(), factor })
             }
-            Some(_) => Err(LogError::new(
-                Some(line),
-                Some(name),
-                format!("unit '{unit}' is not a unit of {dimension:?} (signal '{stem}')"),
-            )),
+            Some(_) => error(LogErrorKind::WrongDimension { unit: unit.to_string(), dimension, stem }),
             None => {
-                Err(LogError::new(Some(line), Some(name), format!("unknown unit suffix '{unit}' for signal '{stem}'")))
+                let known: Vec<&str> = UNITS.iter().filter(|u| u.1 == dimension).map(|u| u.0).collect();
+                error(LogErrorKind::UnknownUnit { unit: unit.to_string(), stem, dimension, known: known.join(", ") })
             }
         };
     }
@@ -402,140 +492,182 @@ fn classify_column(name: &str, line: usize) -> Result<ColumnKind, LogError> {
 pub fn parse_bytes(bytes: &[u8]) -> Result<MeasuredLog, LogError> {
     let text = std::str::from_utf8(bytes).map_err(|e| {
         let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
-        LogError::new(Some(line), None, "the file is not valid UTF-8 text")
+        LogError::at(Some(line), None, LogErrorKind::NotUtf8)
     })?;
     parse_str(text)
+}
+
+/// The `# key = value` lines before the header. Later comment lines are skipped by the CSV
+/// reader and carry no metadata.
+fn read_metadata(text: &str) -> Result<BTreeMap<String, String>, LogError> {
+    let mut metadata = BTreeMap::new();
+    for (index, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if line.is_empty() {
+            continue;
+        }
+        let Some(comment) = line.strip_prefix('#') else { break };
+        if let Some((key, value)) = comment.split_once('=') {
+            let key = key.trim();
+            if key.is_empty() {
+                return Err(LogError::at(Some(index + 1), None, LogErrorKind::EmptyMetadataKey));
+            }
+            metadata.insert(key.to_string(), value.trim().to_string());
+        }
+    }
+    Ok(metadata)
+}
+
+/// The recognised columns of a header, with the notes on the ignored ones.
+struct Header {
+    names: Vec<String>,
+    kinds: Vec<ColumnKind>,
+    notes: Vec<String>,
+}
+
+impl Header {
+    /// Classifies the header cells. A header with a bare `time` column is an fmpy result file:
+    /// its columns are FMU variable names (see [`FMU_VARIABLES`]).
+    fn read(record: &csv::StringRecord, line: usize) -> Result<Header, LogError> {
+        let names: Vec<String> = record.iter().map(|c| c.trim_matches('"').to_string()).collect();
+        let fmpy = names.iter().any(|n| n == "time");
+        let mut kinds = Vec::new();
+        let mut notes = Vec::new();
+        for (i, name) in names.iter().enumerate() {
+            if name.is_empty() {
+                return Err(LogError::at(Some(line), None, LogErrorKind::EmptyHeaderCell(i + 1)));
+            }
+            if names[..i].contains(name) {
+                return Err(LogError::at(Some(line), Some(name), LogErrorKind::ColumnTwice));
+            }
+            let kind = match fmpy.then(|| classify_fmu_variable(name, &names)).flatten() {
+                Some(kind) => kind,
+                None => classify_column(name, line)?,
+            };
+            if matches!(kind, ColumnKind::Unknown) {
+                notes.push(if fmpy {
+                    format!("column '{name}' is not an FMU variable with a signal in the log format and is ignored")
+                } else {
+                    format!("column '{name}' is not in the vocabulary and is ignored")
+                });
+            }
+            kinds.push(kind);
+        }
+        check_required(&kinds, &names, line)?;
+        // Two columns of the same signal and motor number would be ambiguous.
+        for (i, a) in kinds.iter().enumerate() {
+            for b in &kinds[..i] {
+                if let (
+                    ColumnKind::Known { signal: sa, motor: ma, .. },
+                    ColumnKind::Known { signal: sb, motor: mb, .. },
+                ) = (a, b)
+                {
+                    if sa == sb && ma == mb {
+                        return Err(LogError::at(Some(line), Some(&names[i]), LogErrorKind::SecondColumnForSignal));
+                    }
+                }
+            }
+        }
+        Ok(Header { names, kinds, notes })
+    }
+}
+
+/// The CSV reader of the log format: comma-separated, `#` comment lines, cells trimmed, rows
+/// of any length (a ragged row is reported with its line by the caller).
+fn csv_reader(text: &str) -> csv::Reader<&[u8]> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes())
+}
+
+/// A record that is a blank line or a comment line indented by white space.
+fn is_blank_or_comment(record: &csv::StringRecord) -> bool {
+    (record.len() == 1 && record[0].is_empty()) || record.get(0).is_some_and(|c| c.starts_with('#'))
+}
+
+/// The data rows converted to SI, one vector per column (empty for unknown columns), with the
+/// file line of each row.
+fn read_rows(
+    records: &mut csv::StringRecordsIter<&[u8]>,
+    header: &Header,
+) -> Result<(Vec<Vec<f64>>, Vec<usize>), LogError> {
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); header.names.len()];
+    let mut row_lines = Vec::new();
+    for record in records {
+        let record = record.map_err(|e| LogError::at(None, None, LogErrorKind::Csv(e.to_string())))?;
+        if is_blank_or_comment(&record) {
+            continue;
+        }
+        let line = record.position().map_or(0, |p| p.line() as usize);
+        if record.len() != header.names.len() {
+            let kind = LogErrorKind::RaggedRow { cells: record.len(), columns: header.names.len() };
+            return Err(LogError::at(Some(line), None, kind));
+        }
+        for (j, cell) in record.iter().enumerate() {
+            let ColumnKind::Known { factor, .. } = &header.kinds[j] else { continue };
+            let error = |kind| LogError::at(Some(line), Some(&header.names[j]), kind);
+            let value: f64 = cell.parse().map_err(|_| error(LogErrorKind::NotANumber(truncate(cell, 40))))?;
+            if !value.is_finite() {
+                return Err(error(LogErrorKind::NotFinite(truncate(cell, 40))));
+            }
+            columns[j].push(value * factor);
+        }
+        row_lines.push(line);
+    }
+    Ok((columns, row_lines))
 }
 
 /// Parses a log from text.
 pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if text.trim().is_empty() {
-        return Err(LogError::new(None, None, "the file is empty"));
+        return Err(LogError::at(None, None, LogErrorKind::Empty));
     }
-    let mut metadata = BTreeMap::new();
-    let mut notes = Vec::new();
-    let mut header: Option<(usize, Vec<String>)> = None;
-    let mut kinds: Vec<ColumnKind> = Vec::new();
-    let mut columns: Vec<Vec<f64>> = Vec::new();
-    let mut row_lines: Vec<usize> = Vec::new();
-
-    for (index, raw_line) in text.lines().enumerate() {
-        let line_number = index + 1;
-        let line = raw_line.trim();
-        if line.is_empty() {
-            continue;
-        }
-        if let Some(comment) = line.strip_prefix('#') {
-            // Metadata counts only before the header; later comment lines are skipped.
-            if header.is_none() {
-                if let Some((key, value)) = comment.split_once('=') {
-                    let key = key.trim();
-                    if key.is_empty() {
-                        return Err(LogError::new(
-                            Some(line_number),
-                            None,
-                            "metadata line has an empty key (expected '# key = value')",
-                        ));
-                    }
-                    metadata.insert(key.to_string(), value.trim().to_string());
-                }
-            }
-            continue;
-        }
-        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-        match &header {
-            None => {
-                let names: Vec<String> = cells.iter().map(|c| c.trim_matches('"').to_string()).collect();
-                for (i, name) in names.iter().enumerate() {
-                    if name.is_empty() {
-                        return Err(LogError::new(Some(line_number), None, format!("header cell {} is empty", i + 1)));
-                    }
-                    if names[..i].contains(name) {
-                        return Err(LogError::new(Some(line_number), Some(name), "column appears twice in the header"));
-                    }
-                    let kind = classify_column(name, line_number)?;
-                    if matches!(kind, ColumnKind::Unknown) {
-                        notes.push(format!("column '{name}' is not in the vocabulary and is ignored"));
-                    }
-                    kinds.push(kind);
-                }
-                check_required(&kinds, &names, line_number)?;
-                // Two columns of the same signal and motor number would be ambiguous.
-                for (i, a) in kinds.iter().enumerate() {
-                    for b in &kinds[..i] {
-                        if let (
-                            ColumnKind::Known { signal: sa, motor: ma, .. },
-                            ColumnKind::Known { signal: sb, motor: mb, .. },
-                        ) = (a, b)
-                        {
-                            if sa == sb && ma == mb {
-                                return Err(LogError::new(
-                                    Some(line_number),
-                                    Some(&names[i]),
-                                    "a second column for the same signal",
-                                ));
-                            }
-                        }
-                    }
-                }
-                columns = vec![Vec::new(); names.len()];
-                header = Some((line_number, names));
-            }
-            Some((_, names)) => {
-                if cells.len() != names.len() {
-                    return Err(LogError::new(
-                        Some(line_number),
-                        None,
-                        format!("row has {} cells but the header has {} columns", cells.len(), names.len()),
-                    ));
-                }
-                for (j, cell) in cells.iter().enumerate() {
-                    let ColumnKind::Known { factor, .. } = &kinds[j] else { continue };
-                    let value: f64 = cell.parse().map_err(|_| {
-                        LogError::new(
-                            Some(line_number),
-                            Some(&names[j]),
-                            format!("not a number: '{}'", truncate(cell, 40)),
-                        )
-                    })?;
-                    if !value.is_finite() {
-                        return Err(LogError::new(
-                            Some(line_number),
-                            Some(&names[j]),
-                            format!("value is not finite: '{}'", truncate(cell, 40)),
-                        ));
-                    }
-                    columns[j].push(value * factor);
-                }
-                row_lines.push(line_number);
+    let metadata = read_metadata(text)?;
+    let mut reader = csv_reader(text);
+    let mut records = reader.records();
+    let header = loop {
+        match records.next() {
+            None => return Err(LogError::at(None, None, LogErrorKind::NoHeader)),
+            Some(Err(e)) => return Err(LogError::at(None, None, LogErrorKind::Csv(e.to_string()))),
+            Some(Ok(record)) if is_blank_or_comment(&record) => continue,
+            Some(Ok(record)) => {
+                let line = record.position().map_or(0, |p| p.line() as usize);
+                break Header::read(&record, line)?;
             }
         }
-    }
-
-    let Some((_, names)) = header else {
-        return Err(LogError::new(None, None, "the file has no header line (only comments)"));
     };
+    let (columns, row_lines) = read_rows(&mut records, &header)?;
     if row_lines.is_empty() {
-        return Err(LogError::new(None, None, "the file has a header but no data rows"));
+        return Err(LogError::at(None, None, LogErrorKind::NoRows));
     }
     if row_lines.len() < 2 {
-        return Err(LogError::new(Some(row_lines[0]), None, "a log needs at least two samples"));
+        return Err(LogError::at(Some(row_lines[0]), None, LogErrorKind::TooFewSamples));
     }
+    assemble(metadata, header, columns, &row_lines)
+}
 
+/// The log from its columns: time checked to increase without gaps, the other known columns as
+/// channels in file order.
+fn assemble(
+    metadata: BTreeMap<String, String>,
+    header: Header,
+    mut columns: Vec<Vec<f64>>,
+    row_lines: &[usize],
+) -> Result<MeasuredLog, LogError> {
+    let Header { names, kinds, notes } = header;
     let time_index =
         kinds.iter().position(|k| matches!(k, ColumnKind::Known { signal: Signal::Time, .. })).unwrap_or(0);
     let time = std::mem::take(&mut columns[time_index]);
+    let time_error = |row: usize, kind| LogError::at(Some(row_lines[row]), Some(&names[time_index]), kind);
     for i in 1..time.len() {
         if time[i] <= time[i - 1] {
-            return Err(LogError::new(
-                Some(row_lines[i]),
-                Some(&names[time_index]),
-                format!("time does not increase ({} s after {} s on the previous row)", time[i], time[i - 1]),
-            ));
+            return Err(time_error(i, LogErrorKind::TimeNotIncreasing { time: time[i], previous: time[i - 1] }));
         }
     }
-
     let mut channels = Vec::new();
     for (j, kind) in kinds.into_iter().enumerate() {
         if let ColumnKind::Known { signal, motor, unit, .. } = kind {
@@ -551,22 +683,14 @@ pub fn parse_str(text: &str) -> Result<MeasuredLog, LogError> {
             });
         }
     }
-
     let mut log = MeasuredLog { metadata, time, channels, notes };
     let dt = log.sample_interval();
     // A gap many times the usual interval is a record stitched from separate runs (or a
     // logger that stalled): the analyses assume one continuous run, and resampling across the
     // gap would invent data (and, for a long gap, exhaust memory). Say where to split it.
     if let Some(i) = (1..log.time.len()).find(|&i| log.time[i] - log.time[i - 1] > MAX_GAP_INTERVALS * dt) {
-        return Err(LogError::new(
-            Some(row_lines[i]),
-            Some(&names[time_index]),
-            format!(
-                "a gap of {} s after {} s is more than {MAX_GAP_INTERVALS} times the usual sample interval {dt} s: split the log into continuous runs at this row",
-                log.time[i] - log.time[i - 1],
-                log.time[i - 1]
-            ),
-        ));
+        let kind = LogErrorKind::Gap { gap: log.time[i] - log.time[i - 1], after: log.time[i - 1], interval: dt };
+        return Err(time_error(i, kind));
     }
     let worst = log.time.windows(2).map(|w| ((w[1] - w[0]) / dt - 1.0).abs()).fold(0.0, f64::max);
     if worst > 0.01 {
@@ -583,24 +707,27 @@ fn check_required(kinds: &[ColumnKind], names: &[String], line: usize) -> Result
         kinds.iter().any(|k| matches!(k, ColumnKind::Known { signal, .. } if wanted.contains(signal)))
     };
     if !has(&[Signal::Time]) {
-        return Err(LogError::new(
+        return Err(LogError::at(
             Some(line),
             Some("time"),
-            format!("required column missing: time (e.g. 'time_s'); header is: {}", names.join(",")),
+            LogErrorKind::MissingColumn(format!(
+                "time (e.g. 'time_s', or 'time' in an fmpy result file); header is: {}",
+                names.join(",")
+            )),
         ));
     }
     if !has(&[Signal::MotorCurrent, Signal::MotorTorque]) {
-        return Err(LogError::new(
+        return Err(LogError::at(
             Some(line),
             Some("motor_current / motor_torque"),
-            "required column missing: at least one motor_current_<unit> or motor_torque_<unit>",
+            LogErrorKind::MissingColumn("at least one motor_current_<unit> or motor_torque_<unit>".into()),
         ));
     }
     if !has(&[Signal::LoadPos, Signal::MotorPos]) {
-        return Err(LogError::new(
+        return Err(LogError::at(
             Some(line),
             Some("load_pos / motor_pos"),
-            "required column missing: at least one position output, load_pos_<unit> or motor_pos_<unit>",
+            LogErrorKind::MissingColumn("at least one position output, load_pos_<unit> or motor_pos_<unit>".into()),
         ));
     }
     Ok(())
@@ -777,7 +904,8 @@ mod tests {
     fn unknown_unit_on_a_known_signal_is_an_error() {
         let e = error_of("time_s,motor_torque_lbft,load_pos_rad\n0,1,0\n1,1,0\n");
         assert_eq!(e.column.as_deref(), Some("motor_torque_lbft"));
-        assert!(e.message.contains("unknown unit"), "{e}");
+        assert!(matches!(&e.kind, LogErrorKind::UnknownUnit { unit, .. } if unit == "lbft"), "{e}");
+        assert!(e.to_string().contains("unknown unit suffix 'lbft'"), "{e}");
         // A real unit of the wrong dimension is an error too.
         let e = error_of("time_s,motor_torque_Nm,load_pos_rad_s\n0,1,0\n1,1,0\n");
         assert_eq!(e.column.as_deref(), Some("load_pos_rad_s"));
@@ -856,6 +984,48 @@ mod tests {
                 assert!((x - y).abs() <= 1e-9 * y.abs().max(1e-12), "{x} vs {y}");
             }
         }
+    }
+
+    /// The start of an `AzimuthPlant` result as fmpy's `write_csv` writes it: every output, in
+    /// the model description's order, quoted names, Python's `str` of each value.
+    const FMPY_AZIMUTH: &str = "\"time\",\"axis.encoder_position\",\"axis.position\",\"axis.speed\",\"motor1.speed\",\"motor2.speed\",\"motor1.current\",\"motor2.current\",\"motor1.torque\",\"motor2.torque\",\"pinion1.torque\",\"pinion2.torque\",\"pinion1.flank\",\"pinion2.flank\",\"load.inertia\",\"drive.anti_resonance_frequency\"
+0.0,10.0,10.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0,0,60000.0,4.0
+0.002,10.000010728836059,10.000012345678901,0.012,1.2566370614359172,1.2566370614359172,1.5,-0.5,3.0,-1.0,1800.0,-600.0,1,-1,60000.0,4.0
+0.004,10.000042915344238,10.00004938271605,0.024,2.5132741228718345,2.5132741228718345,2.0,1e-05,4.0,2e-05,2400.0,0.024,1,1,60000.0,4.0
+";
+
+    #[test]
+    fn an_fmpy_result_file_maps_the_fmu_variables_to_signals() {
+        let log = parse_str(FMPY_AZIMUTH).unwrap();
+        assert_eq!(log.time, vec![0.0, 0.002, 0.004]);
+        // The encoder reading (not the true angle) is the load position, in deg in the file.
+        let load = log.signals(Signal::LoadPos);
+        assert_eq!((load.len(), load[0].column.as_str()), (1, "axis.encoder_position"));
+        assert!((load[0].values[1] - "10.000010728836059".parse::<f64>().unwrap().to_radians()).abs() < 1e-15);
+        assert!((log.signal(Signal::LoadVel).unwrap()[1] - 0.012f64.to_radians()).abs() < 1e-15);
+        // Two motors, numbered as in the FMU; torques in N m win over currents.
+        let currents = log.signals(Signal::MotorCurrent);
+        assert_eq!((currents[0].motor, currents[1].motor), (Some(1), Some(2)));
+        assert_eq!(currents[1].values[2], 1e-5);
+        assert!(!log.torque_from_current());
+        assert_eq!(log.total_motor_torque(99.0), vec![0.0, 2.0, 4.00002]);
+        // Shaft speeds (not referred to the axis), pinion torques and the rest are ignored,
+        // each with a note.
+        assert!(log.signal(Signal::MotorVel).is_none() && log.signal(Signal::MotorPos).is_none());
+        for ignored in ["axis.position", "motor1.speed", "pinion2.flank", "drive.anti_resonance_frequency"] {
+            assert!(log.notes.iter().any(|n| n.contains(&format!("'{ignored}'"))), "{ignored}: {:?}", log.notes);
+        }
+    }
+
+    #[test]
+    fn an_fmpy_result_file_without_the_encoder_uses_the_true_angle() {
+        let text = "\"time\",\"axis.position\",\"motor.current\"\n0.0,1.0,0.5\n0.01,2.0,0.5\n";
+        let log = parse_str(text).unwrap();
+        assert_eq!(log.signals(Signal::LoadPos)[0].column, "axis.position");
+        assert!((log.signal(Signal::LoadPos).unwrap()[1] - 2f64.to_radians()).abs() < 1e-15);
+        // An fmpy file without any current, torque or position is refused by name.
+        let e = error_of("\"time\",\"axis.speed\"\n0.0,1.0\n0.01,2.0\n");
+        assert_eq!(e.column.as_deref(), Some("motor_current / motor_torque"));
     }
 
     #[test]

@@ -11,7 +11,6 @@
 //! [`names`] and every piece of code refers to the constant, so renaming a parameter is one
 //! edit here.
 
-use std::fmt;
 use std::path::Path;
 
 /// Names of the single-axis parameters. Rename here only; [`FMU_MAPPING`] says which plant-FMU
@@ -231,27 +230,44 @@ pub const FMU_FIXED: [(&str, &str); 9] = [
     ),
 ];
 
+/// One line of an FMU parameter file: variable name, value, comment.
+pub type FmuEntry = (String, fmu_runtime::params::ParameterValue, String);
+
 /// The FMU parameter-file entries (name, value, comment) for a parameter set, following
 /// [`FMU_MAPPING`] and [`FMU_FIXED`]. Fails when the set has no gear ratio or describes a plant
 /// the FMU rejects (for example static friction below Coulomb friction).
-pub fn fmu_parameter_entries(
-    params: &ParameterSet,
-    config: &FmuConfig,
-) -> Result<Vec<(String, fmu_runtime::params::ParameterValue, String)>, String> {
-    use fmu_runtime::params::ParameterValue::{Boolean, Number};
-    let gear =
-        params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
+pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Result<Vec<FmuEntry>, ParameterError> {
+    use fmu_runtime::params::ParameterValue::Number;
+    let gear = params
+        .get(names::GEAR_RATIO)
+        .ok_or(ParameterError::Missing { name: names::GEAR_RATIO, reason: "the parameter set has no gear.ratio" })?;
     if gear.is_nan() || gear <= 0.0 {
-        return Err(format!("{} must be positive", names::GEAR_RATIO));
+        return Err(ParameterError::Unusable { message: format!("{} must be positive", names::GEAR_RATIO) });
     }
+    let (motor_inertia, load_inertia) = fmu_inertias(params, gear)?;
+    let path = DrivePath::of(params, motor_inertia, load_inertia, gear, config);
+    let torque_constant = fmu_torque_constant(params, config)?;
+    let mut out = vec![("gear.ratio".to_string(), Number(gear), "gear.ratio".to_string())];
+    motor_entries(&mut out, params, config, gear, motor_inertia, torque_constant);
+    pinion_entries(&mut out, params, &path);
+    load_entries(&mut out, params, load_inertia);
+    fixed_entries(&mut out);
+    check_fmu_friction(params)?;
+    Ok(out)
+}
+
+/// The motor (all motors together) and load inertias the FMU gets. The FMU needs both; a set
+/// with only one gives a small share of it to the other, keeping the total.
+fn fmu_inertias(params: &ParameterSet, gear: f64) -> Result<(f64, f64), ParameterError> {
     let n2 = gear * gear;
     let mut motor_inertia = params.value(names::MOTOR_INERTIA);
     let mut load_inertia = params.value(names::LOAD_INERTIA);
     if motor_inertia <= 0.0 && load_inertia <= 0.0 {
-        return Err(format!("the parameter set has neither {} nor {}", names::MOTOR_INERTIA, names::LOAD_INERTIA));
+        return Err(ParameterError::Unusable {
+            message: format!("the parameter set has neither {} nor {}", names::MOTOR_INERTIA, names::LOAD_INERTIA),
+        });
     }
     if load_inertia <= 0.0 {
-        // The FMU needs a load inertia; a small share of the motor's keeps the total.
         load_inertia = 1e-3 * motor_inertia * n2;
         motor_inertia *= 1.0 - 1e-3;
     }
@@ -259,27 +275,64 @@ pub fn fmu_parameter_entries(
         motor_inertia = 1e-3 * load_inertia / n2;
         load_inertia *= 1.0 - 1e-3;
     }
-    let (stiffness, damping, rigid) = match params.get(names::STIFFNESS).filter(|k| *k > 0.0) {
-        Some(k) => (k, params.value(names::DAMPING), false),
-        None => {
-            let reduced = motor_inertia * n2 * load_inertia / (motor_inertia * n2 + load_inertia);
-            let omega = 2.0 * std::f64::consts::PI * config.rigid_mode_hz();
-            (omega * omega * reduced, 2.0 * omega * reduced, true)
+    Ok((motor_inertia, load_inertia))
+}
+
+/// The drive path the FMU gets: the set's stiffness and damping, or, without a stiffness, a
+/// critically damped mode far above the log's bandwidth that emulates a rigid drive.
+struct DrivePath {
+    stiffness: f64,
+    damping: f64,
+    rigid: bool,
+}
+
+impl DrivePath {
+    fn of(params: &ParameterSet, motor_inertia: f64, load_inertia: f64, gear: f64, config: &FmuConfig) -> Self {
+        match params.get(names::STIFFNESS).filter(|k| *k > 0.0) {
+            Some(k) => DrivePath { stiffness: k, damping: params.value(names::DAMPING), rigid: false },
+            None => {
+                let n2 = gear * gear;
+                let reduced = motor_inertia * n2 * load_inertia / (motor_inertia * n2 + load_inertia);
+                let omega = 2.0 * std::f64::consts::PI * config.rigid_mode_hz();
+                DrivePath { stiffness: omega * omega * reduced, damping: 2.0 * omega * reduced, rigid: true }
+            }
         }
+    }
+}
+
+/// The torque constant of each FMU half-motor (see [`FMU_MAPPING`]).
+fn fmu_torque_constant(params: &ParameterSet, config: &FmuConfig) -> Result<f64, ParameterError> {
+    let logged = || {
+        params.get(names::TORQUE_CONSTANT).ok_or(ParameterError::Missing {
+            name: names::TORQUE_CONSTANT,
+            reason: "the log has currents: the parameter set needs motor.torque_constant",
+        })
     };
-    let torque_constant = match (config.input, config.drive) {
-        (FmuInput::Current, FmuDrive::Mirrored) => {
-            params
-                .get(names::TORQUE_CONSTANT)
-                .ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?
-                / 2.0
-        }
-        (FmuInput::Current, FmuDrive::TwoMotors) => params
-            .get(names::TORQUE_CONSTANT)
-            .ok_or_else(|| format!("the log has currents: the parameter set needs {}", names::TORQUE_CONSTANT))?,
+    Ok(match (config.input, config.drive) {
+        (FmuInput::Current, FmuDrive::Mirrored) => logged()? / 2.0,
+        (FmuInput::Current, FmuDrive::TwoMotors) => logged()?,
         (FmuInput::Torque, FmuDrive::Mirrored) => 0.5,
         (FmuInput::Torque, FmuDrive::TwoMotors) => 1.0,
-    };
+    })
+}
+
+/// Pushes the same value for both motors or pinions: `#` in the stem is the number.
+fn both(out: &mut Vec<FmuEntry>, stem: &str, value: f64, comment: &str) {
+    for k in ["1", "2"] {
+        out.push((stem.replacen('#', k, 1), fmu_runtime::params::ParameterValue::Number(value), comment.to_string()));
+    }
+}
+
+/// The two half-motors: inertia, torque constant, friction, delay, cogging, current loop.
+fn motor_entries(
+    out: &mut Vec<FmuEntry>,
+    params: &ParameterSet,
+    config: &FmuConfig,
+    gear: f64,
+    motor_inertia: f64,
+    torque_constant: f64,
+) {
+    let n2 = gear * gear;
     let coulomb = params.value(names::COULOMB);
     let static_friction = params.get(names::STATIC).unwrap_or(coulomb);
     let cogging_amplitude = params.value(names::COGGING_AMPLITUDE);
@@ -289,88 +342,80 @@ pub fn fmu_parameter_entries(
     } else {
         (0.0, 1.0)
     };
-    let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
-    let mut out = Vec::new();
-    let both = |stem: &str, value: f64, comment: &str, out: &mut Vec<_>| {
-        for k in ["1", "2"] {
-            out.push((stem.replacen('#', k, 1), Number(value), comment.to_string()));
-        }
-    };
-    out.push(("gear.ratio".to_string(), Number(gear), "gear.ratio".to_string()));
-    both("motor#.inertia", motor_inertia / 2.0, "motor.inertia / 2, kg m^2", &mut out);
-    both("motor#.torque_constant", torque_constant, "motor.torque_constant per half-motor (see FMU_MAPPING)", &mut out);
+    both(out, "motor#.inertia", motor_inertia / 2.0, "motor.inertia / 2, kg m^2");
+    both(out, "motor#.torque_constant", torque_constant, "motor.torque_constant per half-motor (see FMU_MAPPING)");
     both(
+        out,
         "motor#.torque_constant_scale",
         params.value(names::TORQUE_CONSTANT_SCALE),
         "effect.torque_constant_scale",
-        &mut out,
     );
     both(
+        out,
         "motor#.viscous_friction",
         params.value(names::VISCOUS) / (2.0 * n2),
         "friction.viscous / (2 N^2), N m s/rad at the motor",
-        &mut out,
     );
     both(
+        out,
         "motor#.presliding_stiffness",
         params.value(names::PRESLIDING_STIFFNESS) / (2.0 * n2),
         "friction.presliding_stiffness / (2 N^2), N m/rad at the motor",
-        &mut out,
     );
     both(
+        out,
         "motor#.presliding_damping",
         params.value(names::PRESLIDING_DAMPING) / (2.0 * n2),
         "friction.presliding_damping / (2 N^2), N m s/rad at the motor",
-        &mut out,
     );
-    both("motor#.coulomb_friction", coulomb / (2.0 * gear), "friction.coulomb / (2 N), N m at the motor", &mut out);
+    both(out, "motor#.coulomb_friction", coulomb / (2.0 * gear), "friction.coulomb / (2 N), N m at the motor");
+    both(out, "motor#.static_friction", static_friction / (2.0 * gear), "friction.static / (2 N), N m at the motor");
     both(
-        "motor#.static_friction",
-        static_friction / (2.0 * gear),
-        "friction.static / (2 N), N m at the motor",
-        &mut out,
-    );
-    both(
+        out,
         "motor#.stribeck_velocity",
         params.value(names::STRIBECK_VELOCITY) * gear,
         "friction.stribeck_velocity N, motor rad/s",
-        &mut out,
     );
-    both("motor#.friction_asymmetry", params.value(names::ASYMMETRY), "friction.asymmetry", &mut out);
-    both("motor#.command_delay", params.value(names::DELAY), "effect.delay, s", &mut out);
-    both("motor#.cogging_amplitude", cogging_amplitude, "effect.cogging_amplitude / (2 N), N m at the motor", &mut out);
-    both("motor#.cogging_period", cogging_period_rev, "N effect.cogging_period / (2 pi), motor revolutions", &mut out);
+    both(out, "motor#.friction_asymmetry", params.value(names::ASYMMETRY), "friction.asymmetry");
+    both(out, "motor#.command_delay", params.value(names::DELAY), "effect.delay, s");
+    both(out, "motor#.cogging_amplitude", cogging_amplitude, "effect.cogging_amplitude / (2 N), N m at the motor");
+    both(out, "motor#.cogging_period", cogging_period_rev, "N effect.cogging_period / (2 pi), motor revolutions");
     both(
+        out,
         "motor#.cogging_phase",
         (params.value(names::COGGING_PHASE) + std::f64::consts::PI).to_degrees(),
         "effect.cogging_phase + 180 deg",
-        &mut out,
     );
-    both("motor#.current_limit", 1e9, "no saturation: the log holds what the drive did", &mut out);
+    both(out, "motor#.current_limit", 1e9, "no saturation: the log holds what the drive did");
     both(
+        out,
         "motor#.current_loop_bandwidth",
         config.current_loop_hz(),
         "transparent: the log holds the measured current",
-        &mut out,
     );
-    let stiffness_comment = if rigid {
+}
+
+/// The two pinion paths: half the stiffness and damping each, the whole dead zone each.
+fn pinion_entries(out: &mut Vec<FmuEntry>, params: &ParameterSet, path: &DrivePath) {
+    let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
+    let stiffness_comment = if path.rigid {
         "rigid drive emulated: a critically damped mode at 5 x the sample rate"
     } else {
         "path.stiffness / 2, N m/rad"
     };
-    both("pinion#.stiffness", stiffness / 2.0, stiffness_comment, &mut out);
+    both(out, "pinion#.stiffness", path.stiffness / 2.0, stiffness_comment);
     both(
+        out,
         "pinion#.damping",
-        damping / 2.0,
-        if rigid { stiffness_comment } else { "path.damping / 2, N m s/rad" },
-        &mut out,
+        path.damping / 2.0,
+        if path.rigid { stiffness_comment } else { "path.damping / 2, N m s/rad" },
     );
-    both(
-        "pinion#.backlash",
-        params.value(names::BACKLASH_WIDTH) / arcsec,
-        "backlash.width in arcsec, each path",
-        &mut out,
-    );
+    both(out, "pinion#.backlash", params.value(names::BACKLASH_WIDTH) / arcsec, "backlash.width in arcsec, each path");
+}
+
+/// The load: its inertia (independent of the elevation input), torque offset and unbalance.
+fn load_entries(out: &mut Vec<FmuEntry>, params: &ParameterSet, load_inertia: f64) {
+    use fmu_runtime::params::ParameterValue::Number;
     out.push(("load.turning_head_inertia".into(), Number(load_inertia), "load.inertia, kg m^2".into()));
     out.push((
         "load.elevation_structure_cross_inertia".into(),
@@ -394,6 +439,11 @@ pub fn fmu_parameter_entries(
         Number(params.value(names::UNBALANCE_PHASE).to_degrees() - 90.0),
         "effect.unbalance_phase - 90 deg".into(),
     ));
+}
+
+/// What the single-axis model does not have, switched off ([`FMU_FIXED`]).
+fn fixed_entries(out: &mut Vec<FmuEntry>) {
+    use fmu_runtime::params::ParameterValue::{Boolean, Number};
     for name in [
         "bearing.coulomb_friction",
         "bearing.static_friction",
@@ -405,19 +455,33 @@ pub fn fmu_parameter_entries(
     }
     out.push(("encoder.bits".into(), Number(0.0), "unquantised: the log's quantisation is in the data".into()));
     out.push(("linear_configuration".into(), Boolean(false), String::new()));
+}
+
+/// The plant FMU's own friction checks, stated in the set's names.
+fn check_fmu_friction(params: &ParameterSet) -> Result<(), ParameterError> {
+    let coulomb = params.value(names::COULOMB);
+    let static_friction = params.get(names::STATIC).unwrap_or(coulomb);
     if static_friction < coulomb {
-        return Err(format!("{} ({static_friction}) is below {} ({coulomb}): the plant FMU needs breakaway friction at least the sliding friction", names::STATIC, names::COULOMB));
+        return Err(ParameterError::Unusable {
+            message: format!(
+                "{} ({static_friction}) is below {} ({coulomb}): the plant FMU needs breakaway friction at least the sliding friction",
+                names::STATIC,
+                names::COULOMB
+            ),
+        });
     }
     let asymmetry = params.value(names::ASYMMETRY);
     if asymmetry.is_nan() || asymmetry.abs() >= 0.99 {
-        return Err(format!("{} ({asymmetry}) must lie within +-0.99", names::ASYMMETRY));
+        return Err(ParameterError::Unusable {
+            message: format!("{} ({asymmetry}) must lie within +-0.99", names::ASYMMETRY),
+        });
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The FMU parameter file for a parameter set: the entries of [`fmu_parameter_entries`] after
 /// a `#` header, loadable through the FMU's `parameter_file` variable.
-pub fn fmu_parameter_text(params: &ParameterSet, config: &FmuConfig, header: &str) -> Result<String, String> {
+pub fn fmu_parameter_text(params: &ParameterSet, config: &FmuConfig, header: &str) -> Result<String, ParameterError> {
     let mut text = String::new();
     for line in header.lines() {
         text.push_str(&format!("# {line}\n"));
@@ -426,20 +490,191 @@ pub fn fmu_parameter_text(params: &ParameterSet, config: &FmuConfig, header: &st
     Ok(text)
 }
 
-/// An error reading a parameter file, with its 1-based line.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParameterError {
-    pub line: usize,
-    pub message: String,
+/// What is wrong with a parameter file or a parameter set. Messages name the line and the
+/// parameter, so the file can be fixed.
+#[derive(Debug, thiserror::Error)]
+pub enum ParameterError {
+    /// The `name = value` syntax itself (shared with the FMUs' parameter files).
+    #[error("{0}")]
+    Syntax(fmu_runtime::params::ParseError),
+    /// A name the parameter set does not know, usually a misspelling.
+    #[error("line {line}: unknown parameter '{name}' (the closest known one is '{closest}')")]
+    UnknownKey { line: usize, name: String, closest: &'static str },
+    /// A value that is not a number.
+    #[error("line {line}: {name}: '{value}' is not a number")]
+    NotANumber { line: usize, name: String, value: String },
+    /// A value that is infinite or NaN.
+    #[error("line {line}: parameter {name} is not finite")]
+    NotFinite { line: usize, name: String },
+    /// A unit after the value that cannot be converted to the parameter's unit.
+    #[error("line {line}: {name}: unit '{unit}' cannot be converted to {expected} (write the value in {expected}, or in one of: {accepted})")]
+    Unit { line: usize, name: String, unit: String, expected: &'static str, accepted: String },
+    /// A value no physical drive can have.
+    #[error("line {line}: {name} = {value} is impossible: {requirement}")]
+    Impossible { line: usize, name: String, value: f64, requirement: &'static str },
+    /// A parameter a use of the set needs and it lacks.
+    #[error("{reason}")]
+    Missing { name: &'static str, reason: &'static str },
+    /// A set the plant FMU cannot be configured from.
+    #[error("{message}")]
+    Unusable { message: String },
+    #[error("cannot read {path}")]
+    Read { path: std::path::PathBuf, source: std::io::Error },
+    #[error("cannot write {path}")]
+    Write { path: std::path::PathBuf, source: std::io::Error },
+    /// An error inside a file, with the file's path.
+    #[error("{path}")]
+    InFile { path: std::path::PathBuf, source: Box<ParameterError> },
 }
 
-impl fmt::Display for ParameterError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "line {}: {}", self.line, self.message)
+impl ParameterError {
+    /// The 1-based line of the file the error is on, when it belongs to one line.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            ParameterError::Syntax(e) => Some(e.line),
+            ParameterError::UnknownKey { line, .. }
+            | ParameterError::NotANumber { line, .. }
+            | ParameterError::NotFinite { line, .. }
+            | ParameterError::Unit { line, .. }
+            | ParameterError::Impossible { line, .. } => Some(*line),
+            ParameterError::InFile { source, .. } => source.line(),
+            _ => None,
+        }
     }
 }
 
-impl std::error::Error for ParameterError {}
+/// The whole cause chain as one line (`outer: inner: ...`), for callers whose errors are text.
+impl From<ParameterError> for String {
+    fn from(error: ParameterError) -> String {
+        let mut text = error.to_string();
+        let mut source = std::error::Error::source(&error);
+        while let Some(cause) = source {
+            text.push_str(&format!(": {cause}"));
+            source = cause.source();
+        }
+        text
+    }
+}
+
+/// Units a value may carry after its number, per parameter unit: (parameter unit, written
+/// unit, factor to the parameter unit). A value without a unit is in the parameter's unit.
+const VALUE_UNITS: [(&str, &str, f64); 30] = [
+    ("-", "-", 1.0),
+    ("kg m^2", "kg m^2", 1.0),
+    ("kg m^2", "kg m2", 1.0),
+    ("kg m^2", "kg.m2", 1.0),
+    ("N m/A", "N m/A", 1.0),
+    ("N m/A", "Nm/A", 1.0),
+    ("N m/A", "N.m/A", 1.0),
+    ("N m", "N m", 1.0),
+    ("N m", "Nm", 1.0),
+    ("N m", "N.m", 1.0),
+    ("N m", "kN m", 1e3),
+    ("N m", "kNm", 1e3),
+    ("N m/rad", "N m/rad", 1.0),
+    ("N m/rad", "Nm/rad", 1.0),
+    ("N m/rad", "N.m/rad", 1.0),
+    ("N m/rad", "kN m/rad", 1e3),
+    ("N m s/rad", "N m s/rad", 1.0),
+    ("N m s/rad", "Nms/rad", 1.0),
+    ("N m s/rad", "N.m.s/rad", 1.0),
+    ("N m s/rad", "kN m s/rad", 1e3),
+    ("rad", "rad", 1.0),
+    ("rad", "mrad", 1e-3),
+    ("rad", "urad", 1e-6),
+    ("rad", "deg", std::f64::consts::PI / 180.0),
+    ("rad", "arcsec", std::f64::consts::PI / (180.0 * 3600.0)),
+    ("rad/s", "rad/s", 1.0),
+    ("rad/s", "deg/s", std::f64::consts::PI / 180.0),
+    ("rad/s", "rpm", 2.0 * std::f64::consts::PI / 60.0),
+    ("s", "s", 1.0),
+    ("s", "ms", 1e-3),
+];
+
+/// A parameter, the test its value must pass, and the requirement in words.
+type Requirement = (&'static str, fn(f64) -> bool, &'static str);
+
+/// What a parameter's value must satisfy to describe a drive that can exist: (name, test,
+/// requirement). Parameters not listed may take any finite value (an offset, a phase, a delay
+/// that is really a lead of the logged current).
+const PHYSICAL: [Requirement; 15] = [
+    (names::GEAR_RATIO, |x| x > 0.0, "a gear ratio must be positive"),
+    (names::MOTOR_INERTIA, |x| x >= 0.0, "an inertia cannot be negative"),
+    (names::TORQUE_CONSTANT, |x| x > 0.0, "a torque constant must be positive"),
+    (names::LOAD_INERTIA, |x| x >= 0.0, "an inertia cannot be negative"),
+    (names::STIFFNESS, |x| x >= 0.0, "a stiffness cannot be negative"),
+    (names::DAMPING, |x| x >= 0.0, "a damping cannot be negative"),
+    (names::VISCOUS, |x| x >= 0.0, "friction cannot be negative"),
+    (names::COULOMB, |x| x >= 0.0, "friction cannot be negative"),
+    (names::STATIC, |x| x >= 0.0, "friction cannot be negative"),
+    (names::STRIBECK_VELOCITY, |x| x > 0.0, "a Stribeck velocity must be positive"),
+    (names::ASYMMETRY, |x| x.abs() < 1.0, "an asymmetry must lie within +-1 (friction cannot change sign)"),
+    (names::TORQUE_CONSTANT_SCALE, |x| x > 0.0, "a torque constant scale must be positive"),
+    (names::COGGING_PERIOD, |x| x >= 0.0, "a period cannot be negative"),
+    (names::BACKLASH_WIDTH, |x| x >= 0.0, "a dead zone cannot be narrower than nothing"),
+    (names::PRESLIDING_STIFFNESS, |x| x >= 0.0, "a stiffness cannot be negative"),
+];
+
+/// The known parameter name closest to `name` (fewest single-character edits).
+fn closest_known_name(name: &str) -> &'static str {
+    fn edits(a: &str, b: &str) -> usize {
+        let b: Vec<char> = b.chars().collect();
+        let mut row: Vec<usize> = (0..=b.len()).collect();
+        for (i, ca) in a.chars().enumerate() {
+            let mut diagonal = row[0];
+            row[0] = i + 1;
+            for (j, cb) in b.iter().enumerate() {
+                let next = (diagonal + usize::from(ca != *cb)).min(row[j] + 1).min(row[j + 1] + 1);
+                diagonal = row[j + 1];
+                row[j + 1] = next;
+            }
+        }
+        row[b.len()]
+    }
+    PARAMETERS.iter().min_by_key(|p| edits(name, p.name)).map(|p| p.name).unwrap_or(names::GEAR_RATIO)
+}
+
+/// Reads one entry's value: a number, optionally followed by a unit convertible to the
+/// parameter's, checked for what a drive can have.
+fn entry_value(entry: &fmu_runtime::params::Entry, info: &ParameterInfo) -> Result<f64, ParameterError> {
+    let (number, unit) = match entry.value.split_once(char::is_whitespace) {
+        Some((number, unit)) => (number, Some(unit.trim())),
+        None => (entry.value.as_str(), None),
+    };
+    let raw: f64 = number.parse().map_err(|_| ParameterError::NotANumber {
+        line: entry.line,
+        name: entry.name.clone(),
+        value: entry.value.clone(),
+    })?;
+    if !raw.is_finite() {
+        return Err(ParameterError::NotFinite { line: entry.line, name: entry.name.clone() });
+    }
+    let value = match unit {
+        None => raw,
+        Some(unit) => {
+            let factor = VALUE_UNITS.iter().find(|u| u.0 == info.unit && u.1 == unit).map(|u| u.2);
+            match factor {
+                Some(factor) => raw * factor,
+                None => {
+                    let accepted: Vec<&str> = VALUE_UNITS.iter().filter(|u| u.0 == info.unit).map(|u| u.1).collect();
+                    return Err(ParameterError::Unit {
+                        line: entry.line,
+                        name: entry.name.clone(),
+                        unit: unit.to_string(),
+                        expected: info.unit,
+                        accepted: accepted.join(", "),
+                    });
+                }
+            }
+        }
+    };
+    if let Some((_, possible, requirement)) = PHYSICAL.iter().find(|p| p.0 == info.name) {
+        if !possible(value) {
+            return Err(ParameterError::Impossible { line: entry.line, name: entry.name.clone(), value, requirement });
+        }
+    }
+    Ok(value)
+}
 
 /// An ordered set of named parameters with a comment each (unit first, by convention).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -486,43 +721,30 @@ impl ParameterSet {
         self.entries.iter().map(|e| e.0.as_str())
     }
 
-    /// Parses `name = value  # comment` lines; blank lines and `#` lines are ignored.
+    /// Parses `name = value  # comment` lines (the format of `fmu_runtime::params`); blank
+    /// lines and `#` lines are ignored. Every name must be a known parameter, every value a
+    /// finite number (optionally with a unit convertible to the parameter's, `1.5 kN m`) that
+    /// a drive can have.
     pub fn parse(text: &str) -> Result<ParameterSet, ParameterError> {
         let mut set = ParameterSet::new();
-        for (index, raw) in text.lines().enumerate() {
-            let line = index + 1;
-            let (content, comment) = match raw.split_once('#') {
-                Some((c, k)) => (c.trim(), k.trim()),
-                None => (raw.trim(), ""),
+        for entry in fmu_runtime::params::entries(text).map_err(ParameterError::Syntax)? {
+            let Some(info) = info(&entry.name) else {
+                return Err(ParameterError::UnknownKey {
+                    line: entry.line,
+                    closest: closest_known_name(&entry.name),
+                    name: entry.name,
+                });
             };
-            if content.is_empty() {
-                continue;
-            }
-            let Some((name, value)) = content.split_once('=') else {
-                return Err(ParameterError { line, message: format!("expected 'name = value', found '{content}'") });
-            };
-            let name = name.trim();
-            if name.is_empty() || name.contains(char::is_whitespace) {
-                return Err(ParameterError { line, message: format!("bad parameter name '{name}'") });
-            }
-            let value: f64 = value.trim().parse().map_err(|_| ParameterError {
-                line,
-                message: format!("'{}' is not a number (parameter {name})", value.trim()),
-            })?;
-            if !value.is_finite() {
-                return Err(ParameterError { line, message: format!("parameter {name} is not finite") });
-            }
-            if set.get(name).is_some() {
-                return Err(ParameterError { line, message: format!("parameter {name} is set twice") });
-            }
-            set.entries.push((name.to_string(), value, comment.to_string()));
+            let value = entry_value(&entry, info)?;
+            set.entries.push((entry.name, value, entry.comment));
         }
         Ok(set)
     }
 
-    pub fn read(path: &Path) -> Result<ParameterSet, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        ParameterSet::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    pub fn read(path: &Path) -> Result<ParameterSet, ParameterError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ParameterError::Read { path: path.to_path_buf(), source })?;
+        ParameterSet::parse(&text).map_err(|e| ParameterError::InFile { path: path.to_path_buf(), source: Box::new(e) })
     }
 
     /// The file text: one `name = value  # comment` line per parameter, values in full precision.
@@ -539,13 +761,13 @@ impl ParameterSet {
         out
     }
 
-    pub fn write(&self, path: &Path, header: &str) -> Result<(), String> {
+    pub fn write(&self, path: &Path, header: &str) -> Result<(), ParameterError> {
         let mut text = String::new();
         for line in header.lines() {
             text.push_str(&format!("# {line}\n"));
         }
         text.push_str(&self.to_text());
-        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+        std::fs::write(path, text).map_err(|source| ParameterError::Write { path: path.to_path_buf(), source })
     }
 }
 
@@ -708,9 +930,92 @@ mod tests {
 
     #[test]
     fn malformed_lines_are_reported_with_their_line() {
-        assert_eq!(ParameterSet::parse("a = 1\nb 2\n").unwrap_err().line, 2);
-        assert_eq!(ParameterSet::parse("a = x\n").unwrap_err().line, 1);
-        assert_eq!(ParameterSet::parse("a = 1\na = 2\n").unwrap_err().line, 2);
-        assert_eq!(ParameterSet::parse("a = nan\n").unwrap_err().line, 1);
+        let line = |text: &str| ParameterSet::parse(text).unwrap_err().line();
+        assert_eq!(line("gear.ratio = 1\nmotor.inertia 2\n"), Some(2));
+        assert_eq!(line("gear.ratio = x\n"), Some(1));
+        assert_eq!(line("gear.ratio = 1\ngear.ratio = 2\n"), Some(2));
+        assert_eq!(line("gear.ratio = nan\n"), Some(1));
+    }
+
+    #[test]
+    fn a_misspelt_key_is_named_with_the_closest_known_one() {
+        let error = ParameterSet::parse("gear.ratioo = 10\n").unwrap_err();
+        assert!(
+            matches!(&error, ParameterError::UnknownKey { line: 1, name, closest: "gear.ratio" } if name == "gear.ratioo"),
+            "{error:?}"
+        );
+        assert!(error.to_string().contains("closest known one is 'gear.ratio'"), "{error}");
+        let error = ParameterSet::parse("gear.ratio = 10\nfriction.colomb = 3\n").unwrap_err();
+        assert!(matches!(error, ParameterError::UnknownKey { line: 2, closest: names::COULOMB, .. }), "{error:?}");
+    }
+
+    #[test]
+    fn physically_impossible_values_are_named_errors() {
+        for (text, name) in [
+            ("gear.ratio = -5", names::GEAR_RATIO),
+            ("gear.ratio = 0", names::GEAR_RATIO),
+            ("motor.inertia = -0.01", names::MOTOR_INERTIA),
+            ("load.inertia = -1e4", names::LOAD_INERTIA),
+            ("path.stiffness = -3e7", names::STIFFNESS),
+            ("friction.coulomb = -1", names::COULOMB),
+            ("friction.asymmetry = 1.5", names::ASYMMETRY),
+        ] {
+            let error = ParameterSet::parse(text).unwrap_err();
+            assert!(
+                matches!(&error, ParameterError::Impossible { line: 1, name: n, .. } if n == name),
+                "{text}: {error:?}"
+            );
+            assert!(error.to_string().contains("impossible"), "{error}");
+        }
+        // Offsets, phases and delays may have either sign.
+        assert!(ParameterSet::parse(
+            "effect.torque_offset = -250\neffect.unbalance_phase = -1\neffect.delay = -0.001\n"
+        )
+        .is_ok());
+    }
+
+    #[test]
+    fn values_with_units_are_converted_or_refused_by_name() {
+        let set = ParameterSet::parse("friction.coulomb = 1.5 kN m\neffect.delay = 3 ms\nbacklash.width = 36 arcsec\n")
+            .unwrap();
+        assert_eq!(set.get(names::COULOMB), Some(1500.0));
+        assert!((set.get(names::DELAY).unwrap() - 3e-3).abs() < 1e-18);
+        assert!(
+            (set.get(names::BACKLASH_WIDTH).unwrap() - 36f64 / 3600.0 * std::f64::consts::PI / 180.0).abs() < 1e-18
+        );
+        let error = ParameterSet::parse("gear.ratio = 10\nfriction.coulomb = 3 lbf ft\n").unwrap_err();
+        assert!(
+            matches!(&error, ParameterError::Unit { line: 2, unit, expected: "N m", .. } if unit == "lbf ft"),
+            "{error:?}"
+        );
+        assert!(error.to_string().contains("cannot be converted to N m"), "{error}");
+        // A unit of another dimension is refused just the same.
+        assert!(matches!(ParameterSet::parse("effect.delay = 3 deg").unwrap_err(), ParameterError::Unit { .. }));
+    }
+
+    #[test]
+    fn every_value_unit_belongs_to_a_parameter_unit() {
+        for (unit, _, _) in VALUE_UNITS {
+            assert!(PARAMETERS.iter().any(|p| p.unit == unit), "{unit} is no parameter's unit");
+        }
+        for p in PARAMETERS {
+            assert!(
+                VALUE_UNITS.iter().any(|u| u.0 == p.unit && u.1 == p.unit),
+                "{}'s own unit {} is not accepted",
+                p.name,
+                p.unit
+            );
+        }
+    }
+
+    #[test]
+    fn a_file_error_names_the_file_and_the_line() {
+        let path = std::env::temp_dir().join(format!("b2-params-{}.params", std::process::id()));
+        std::fs::write(&path, "gear.ratio = 10\ngear.ratio = -5\n").unwrap();
+        let error = ParameterSet::read(&path).unwrap_err();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(error.line(), Some(2));
+        let text = String::from(error);
+        assert!(text.contains(&path.display().to_string()) && text.contains("line 2"), "{text}");
     }
 }

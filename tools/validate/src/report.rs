@@ -63,6 +63,24 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     for note in &v.notes {
         let _ = writeln!(out, "- note: {note}");
     }
+    effects_section(&mut out, v);
+    if let Some(t) = &v.twist {
+        twist_section(&mut out, t, v.encoder_skew);
+    }
+    if let Some(o) = &v.output {
+        output_section(&mut out, o);
+    }
+    if let Some(f) = &v.frequency {
+        frequency_section(&mut out, f);
+    }
+    hints_section(&mut out, v);
+    equation_section(&mut out, v);
+    search_steps_section(&mut out, v);
+    out
+}
+
+/// The effects found, with their parameters and what the data cannot tell them from.
+fn effects_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out, "\n## Effects found\n");
     if v.selection.found.is_empty() {
         let _ = writeln!(out, "No significant missing effect.\n");
@@ -85,15 +103,10 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
             );
         }
     }
-    if let Some(t) = &v.twist {
-        twist_section(&mut out, t, v.encoder_skew);
-    }
-    if let Some(o) = &v.output {
-        output_section(&mut out, o);
-    }
-    if let Some(f) = &v.frequency {
-        frequency_section(&mut out, f);
-    }
+}
+
+/// What the output error alone would confirm, not claimed.
+fn hints_section(out: &mut String, v: &Validation) {
     if !v.hints.is_empty() {
         let _ = writeln!(out, "## Not claimed: what the output error alone would confirm\n");
         let _ = writeln!(
@@ -115,6 +128,11 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
         }
         let _ = writeln!(out);
     }
+}
+
+/// The equation-error residual statistics before and after.
+fn equation_section(out: &mut String, v: &Validation) {
+    let d = &v.data;
     let _ = writeln!(out, "## Equation error before and after\n");
     let _ = writeln!(
         out,
@@ -123,8 +141,12 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     );
     let _ = writeln!(out, "| model | channel | RMS | NRMSE fit % | corr. time (samples) | whiteness p | lags outside | largest cross-correlation |");
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
-    stats_rows(&mut out, "before", &v.before);
-    stats_rows(&mut out, "after", &v.after);
+    stats_rows(out, "before", &v.before);
+    stats_rows(out, "after", &v.after);
+}
+
+/// The forward search, step by step, with every candidate's score.
+fn search_steps_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out, "\n## Search steps\n");
     for (i, step) in v.selection.steps.iter().enumerate() {
         let chosen = match (step.chosen, step.paired) {
@@ -162,7 +184,6 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
         }
         let _ = writeln!(out);
     }
-    out
 }
 
 const ARCSEC: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
@@ -502,15 +523,22 @@ pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
     ));
     for c in scored {
         let (b, a) = (&o.before.channels[c], &o.after.channels[c]);
-        let (scale, unit) = if b.kind.unit() == "rad" { (ARCSEC, "arcsec") } else { (ARCSEC, "arcsec/s") };
+        let per_second = b.kind.unit() != "rad";
+        let largest = |series: &[&[f64]]| {
+            series.iter().flat_map(|s| s.iter()).filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()))
+        };
+        let (motion_scale, motion_unit) =
+            angle_display(largest(&[&b.measured, &b.simulated, &a.simulated]), per_second);
         figure = figure.panel(
             Panel::new(&format!("{}: measured and simulated", b.kind.name()))
                 .x_label("time (s)")
-                .y_label(unit)
-                .line("measured", &time, &with_gaps(&b.measured, length, scale))
-                .line("model before", &time, &with_gaps(&b.simulated, length, scale))
-                .line("model after", &time, &with_gaps(&a.simulated, length, scale)),
+                .y_label(motion_unit)
+                .line("measured", &time, &with_gaps(&b.measured, length, motion_scale))
+                .line("model before", &time, &with_gaps(&b.simulated, length, motion_scale))
+                .line("model after", &time, &with_gaps(&a.simulated, length, motion_scale)),
         );
+        let (residual_before, residual_after) = (b.residual(), a.residual());
+        let (scale, unit) = angle_display(largest(&[&residual_before, &residual_after]), per_second);
         figure = figure.panel(
             Panel::new(&format!(
                 "{}: residual, RMS {:.4} -> {:.4} {unit}",
@@ -520,11 +548,24 @@ pub fn output_figure(o: &OutputReport, stem: &str) -> Figure {
             ))
             .x_label("time (s)")
             .y_label(unit)
-            .line("before", &time, &with_gaps(&b.residual(), length, scale))
-            .line("after", &time, &with_gaps(&a.residual(), length, scale)),
+            .line("before", &time, &with_gaps(&residual_before, length, scale))
+            .line("after", &time, &with_gaps(&residual_after, length, scale)),
         );
     }
     figure
+}
+
+/// The display unit that fits angles (or angular speeds) up to `largest` rad (rad/s): degrees
+/// for motions of a degree and more, arcsec for small residuals, so the tick labels stay
+/// plain numbers (no mix of decimals and powers of ten). (factor from SI, unit)
+fn angle_display(largest: f64, per_second: bool) -> (f64, &'static str) {
+    let degree = std::f64::consts::PI / 180.0;
+    match (largest >= degree, per_second) {
+        (true, false) => (1.0 / degree, "deg"),
+        (true, true) => (1.0 / degree, "deg/s"),
+        (false, false) => (ARCSEC, "arcsec"),
+        (false, true) => (ARCSEC, "arcsec/s"),
+    }
 }
 
 /// Measured H1 with the model responses, and the coherence.
@@ -571,112 +612,118 @@ pub fn kuka_section(rows: &[(usize, Validation, f64, Vec<String>)]) -> String {
     let _ = writeln!(out, "| axis | effects found (value +- sd) | windows | axis position RMS before -> after | motor position RMS before -> after | NRMSE fit (axis position) | total torque RMS before -> after (axis N m) | fit (torque) | whiteness p after | run time |");
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
     for (axis, v, seconds, _) in rows {
-        let found: Vec<String> = v
-            .selection
-            .found
-            .iter()
-            .map(|f| {
-                let params: Vec<String> = f
-                    .parameters
-                    .iter()
-                    .filter(|p| !p.0.ends_with("change"))
-                    .map(|(n, value, sd, unit)| format!("{n} = {value:.4e} +- {sd:.2e} {unit}"))
-                    .collect();
-                format!("**{}**: {}", f.kind.name(), params.join(", "))
-            })
-            .collect();
-        let mut found = found;
-        if let Some(skew) = v.encoder_skew {
-            found.insert(
-                0,
-                format!(
-                    "**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)",
-                    skew * 1e3
-                ),
-            );
-        }
-        let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };
-        let (windows, axis_pos, motor_pos, fit) = match &v.output {
-            Some(o) => {
-                let pick = |kind: ChannelKind| -> String {
-                    match (o.before.channel(kind), o.after.channel(kind)) {
-                        (Some(b), Some(a)) => {
-                            format!("{:.1} -> {:.1} ({:.2})", b.rms * ARCSEC, a.rms * ARCSEC, a.rms / b.rms)
-                        }
-                        _ => "-".into(),
-                    }
-                };
-                let fit =
-                    match (o.before.channel(ChannelKind::AxisPosition), o.after.channel(ChannelKind::AxisPosition)) {
-                        (Some(b), Some(a)) => format!("{:.1} -> {:.1} %", b.fit_percent, a.fit_percent),
-                        _ => "-".into(),
-                    };
-                (
-                    format!("{} x {:.2} s", o.plan.starts.len(), o.plan.seconds),
-                    pick(ChannelKind::AxisPosition),
-                    pick(ChannelKind::MotorPosition),
-                    fit,
-                )
-            }
-            None => ("-".into(), "-".into(), "-".into(), "-".into()),
-        };
-        let c = v.most_improved_channel();
-        let _ = writeln!(
-            out,
-            "| {axis} | {found} | {windows} | {axis_pos} | {motor_pos} | {fit} | {:.0} -> {:.0} ({:.2}) | {:.1} -> {:.1} % | {:.1e} | {:.1} s |",
-            v.before[c].rms,
-            v.after[c].rms,
-            v.after[c].rms / v.before[c].rms,
-            v.before[c].fit_percent,
-            v.after[c].fit_percent,
-            v.after[c].whiteness_p,
-            seconds
-        );
+        kuka_row(&mut out, *axis, v, *seconds);
     }
     let _ = writeln!(out);
     for (axis, v, _, figures) in rows {
-        let _ = writeln!(out, "**Axis {axis}.**");
-        if let Some(o) = &v.output {
-            let rejected: Vec<String> = o
-                .confirmations
-                .iter()
-                .filter(|(_, c)| !c.confirmed)
-                .map(|(k, c)| format!("{} ({})", k.name(), c.reason))
-                .collect();
-            if !rejected.is_empty() {
-                let _ = writeln!(
-                    out,
-                    "Significant in the equation error but not confirmed by the output error: {}.",
-                    rejected.join("; ")
-                );
-            }
-            let _ =
-                writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
-        }
-        if let Some(t) = &v.twist {
-            let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
-        }
-        for h in &v.hints {
-            let _ = writeln!(
-                out,
-                "Not claimed (equation-error p {:.1e} above its threshold {:.1e}), but the output error alone would confirm **{}** ({}) on top of the corrected model: {}.",
-                h.equation_p,
-                h.threshold,
-                h.kind.name(),
-                h.changes(&v.selection.corrected),
-                h.comparison.reason
-            );
-        }
-        for note in &v.notes {
-            let _ = writeln!(out, "Note: {note}.");
-        }
-        let names: Vec<String> = figures
-            .iter()
-            .filter_map(|f| {
-                Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))
-            })
-            .collect();
-        let _ = writeln!(out, "Figures: {}.\n", names.join(", "));
+        kuka_axis_notes(&mut out, *axis, v, figures);
     }
     out
+}
+
+/// One axis's row of the KUKA table.
+fn kuka_row(out: &mut String, axis: usize, v: &Validation, seconds: f64) {
+    let found: Vec<String> = v
+        .selection
+        .found
+        .iter()
+        .map(|f| {
+            let params: Vec<String> = f
+                .parameters
+                .iter()
+                .filter(|p| !p.0.ends_with("change"))
+                .map(|(n, value, sd, unit)| format!("{n} = {value:.4e} +- {sd:.2e} {unit}"))
+                .collect();
+            format!("**{}**: {}", f.kind.name(), params.join(", "))
+        })
+        .collect();
+    let mut found = found;
+    if let Some(skew) = v.encoder_skew {
+        found.insert(
+            0,
+            format!("**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)", skew * 1e3),
+        );
+    }
+    let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };
+    let (windows, axis_pos, motor_pos, fit) = match &v.output {
+        Some(o) => {
+            let pick = |kind: ChannelKind| -> String {
+                match (o.before.channel(kind), o.after.channel(kind)) {
+                    (Some(b), Some(a)) => {
+                        format!("{:.1} -> {:.1} ({:.2})", b.rms * ARCSEC, a.rms * ARCSEC, a.rms / b.rms)
+                    }
+                    _ => "-".into(),
+                }
+            };
+            let fit = match (o.before.channel(ChannelKind::AxisPosition), o.after.channel(ChannelKind::AxisPosition)) {
+                (Some(b), Some(a)) => format!("{:.1} -> {:.1} %", b.fit_percent, a.fit_percent),
+                _ => "-".into(),
+            };
+            (
+                format!("{} x {:.2} s", o.plan.starts.len(), o.plan.seconds),
+                pick(ChannelKind::AxisPosition),
+                pick(ChannelKind::MotorPosition),
+                fit,
+            )
+        }
+        None => ("-".into(), "-".into(), "-".into(), "-".into()),
+    };
+    let c = v.most_improved_channel();
+    let _ = writeln!(
+        out,
+        "| {axis} | {found} | {windows} | {axis_pos} | {motor_pos} | {fit} | {:.0} -> {:.0} ({:.2}) | {:.1} -> {:.1} % | {:.1e} | {:.1} s |",
+        v.before[c].rms,
+        v.after[c].rms,
+        v.after[c].rms / v.before[c].rms,
+        v.before[c].fit_percent,
+        v.after[c].fit_percent,
+        v.after[c].whiteness_p,
+        seconds
+    );
+}
+
+/// One axis's paragraph under the KUKA table: rejected confirmations, windows, the twist, the
+/// hints, the notes and the figures.
+fn kuka_axis_notes(out: &mut String, axis: usize, v: &Validation, figures: &[String]) {
+    let _ = writeln!(out, "**Axis {axis}.**");
+    if let Some(o) = &v.output {
+        let rejected: Vec<String> = o
+            .confirmations
+            .iter()
+            .filter(|(_, c)| !c.confirmed)
+            .map(|(k, c)| format!("{} ({})", k.name(), c.reason))
+            .collect();
+        if !rejected.is_empty() {
+            let _ = writeln!(
+                out,
+                "Significant in the equation error but not confirmed by the output error: {}.",
+                rejected.join("; ")
+            );
+        }
+        let _ = writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
+    }
+    if let Some(t) = &v.twist {
+        let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
+    }
+    for h in &v.hints {
+        let _ = writeln!(
+            out,
+            "Not claimed (equation-error p {:.1e} above its threshold {:.1e}), but the output error alone would confirm **{}** ({}) on top of the corrected model: {}.",
+            h.equation_p,
+            h.threshold,
+            h.kind.name(),
+            h.changes(&v.selection.corrected),
+            h.comparison.reason
+        );
+    }
+    for note in &v.notes {
+        let _ = writeln!(out, "Note: {note}.");
+    }
+    let names: Vec<String> = figures
+        .iter()
+        .filter_map(|f| {
+            Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))
+        })
+        .collect();
+    let _ = writeln!(out, "Figures: {}.\n", names.join(", "));
 }

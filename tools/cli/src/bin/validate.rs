@@ -1,242 +1,394 @@
 //! validate: traces a measured log's residual to effects the model lacks.
 //!
-//! Usage:
-//!   validate run LOG.csv --params START.params [--out DIR] [--fmu PATH | --no-fmu]
-//!                [--window SECONDS] [--drive-window SECONDS] [--no-refit] [--no-presliding] [--alpha 1e-3] [--verbose]
-//!       Validates one log: writes DIR/<log>_report.md, DIR/<log>_corrected.params (the plant
-//!       FMU's parameter file, loadable through its `parameter_file` variable),
-//!       DIR/<log>_corrected_axis.params (the single-axis set, usable as a start) and PNG
-//!       figures, and prints the summary. Exit code 0 on success, 2 on an input error.
-//!   validate suite --generate [--suite DIR] [--threads N] [--kuka DIR] [--fmu PATH | --no-fmu]
-//!       Generates the test suite (truthgen) into DIR (default target/validation-suite),
-//!       validates and scores every log, runs the three KUKA axes, and regenerates
-//!       docs/validation-results.md, docs/validation-detection.csv, the figures under
-//!       docs/figures/ and the summary tables in README.md.
-//!   validate suite DIR [--out DIR2] [--threads N] [--fmu PATH | --no-fmu]
-//!       Validates and scores an existing suite: writes DIR2 (default DIR)/results.md,
-//!       detection.csv and detection.png.
-//!   validate kuka [--kuka DIR] [--out DIR]
-//!       Runs the three KUKA axes with tools/validate/data/kuka/axisN.params and writes their reports.
-//!   validate holdout [--suite DIR] [--threads N] [--fmu PATH]
-//!       Generates the holdout suites (truth::suite::holdout_suites: other sensors, or other log
-//!       rates, noise, drives, and seeds than the main suite), validates and scores them, and writes
-//!       docs/validation-holdout.md.
-//!   validate floor [--seed N]
-//!       The investigation of the error floors on clean logs (docs/validation.md): equation-
-//!       and output-error residuals of the nominal model on clean truth logs with each sensor
-//!       noise switched off in turn, and with softer LuGre bristles.
+//! Subcommands (each has `--help`): `run` validates one log (the measured-log format of
+//! docs/measured-log-format.md, or an fmpy result file of the plant FMU); `suite` generates
+//! and scores the validation suite; `holdout` the holdout suites; `kuka` runs the three KUKA
+//! axes; `floor` investigates the error floors on clean logs. Exit codes: 0 ok, 2 bad usage or
+//! bad input (an unreadable or malformed log, a missing column, an invalid parameter, NaN in
+//! the data or the results).
 //!
 //! The plant FMU defaults to target/fmu/AzimuthPlant.fmu (package it first with
 //! `cargo run --release -p xtask --bin package`).
 
-use antenna_validate::measured_log::MeasuredLog;
+use antenna_truth::scoring;
 use antenna_truth::suite::{self, SuiteConfig};
+use antenna_validate::measured_log::MeasuredLog;
 use antenna_validate::output_error::PlantSimulator;
 use antenna_validate::parameters::{fmu_parameter_text, ParameterSet};
 use antenna_validate::plant_fmu::{FmuSimulator, PlantFmu};
-use antenna_truth::scoring;
 use antenna_validate::{self as validate, report, ValidateOptions, Validation};
+use anyhow::{anyhow, bail, Context};
+use clap::{Args, Parser, Subcommand};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::Instant;
 
-fn main() {
-    if let Err(message) = run(std::env::args().skip(1).collect()) {
-        eprintln!("validate: {message}");
-        std::process::exit(2);
-    }
+/// Traces a measured drive log's residual to the effects the model lacks (friction, offsets,
+/// compliance, backlash, delay ...), confirms them on the plant FMU's output error, and writes
+/// the corrected parameter sets and a report.
+#[derive(Parser)]
+#[command(version, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
 }
 
-struct Arguments {
-    command: String,
-    target: Option<String>,
-    params: Option<PathBuf>,
-    out: Option<PathBuf>,
-    suite: Option<PathBuf>,
-    kuka: Option<PathBuf>,
+#[derive(Subcommand)]
+enum Command {
+    /// Validate one log: prints the summary; with --out writes DIR/<log>_report.md,
+    /// DIR/<log>_corrected.params (the plant FMU's parameter file, loadable through its
+    /// `parameter_file` variable), DIR/<log>_corrected_axis.params (the single-axis set) and
+    /// PNG figures.
+    Run {
+        /// The log: the measured-log format (docs/measured-log-format.md) or an fmpy result CSV
+        /// of the AzimuthPlant/ElevationPlant FMU.
+        log: PathBuf,
+        /// The starting parameter set (`name = value  # unit, comment` lines).
+        #[arg(long, value_name = "FILE")]
+        params: PathBuf,
+        /// Folder for the report, the corrected parameter sets and the figures.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Print the whole markdown report instead of the summary.
+        #[arg(long)]
+        verbose: bool,
+        #[command(flatten)]
+        fmu: FmuArgs,
+        #[command(flatten)]
+        tuning: TuningArgs,
+    },
+    /// Validate and score a generated suite: with --generate, generate it (truthgen) first,
+    /// run the KUKA axes and regenerate docs/validation-results.md, docs/validation-detection.csv,
+    /// the figures under docs/figures/ and the summary tables in README.md; with a suite folder,
+    /// write results.md, detection.csv and detection.png into --out (default the folder).
+    Suite {
+        /// An existing suite folder (log_NNN.csv with .truth sidecars and start.params).
+        #[arg(required_unless_present = "generate")]
+        dir: Option<PathBuf>,
+        /// Generate the suite first (into --suite, default target/validation-suite).
+        #[arg(long, conflicts_with = "dir")]
+        generate: bool,
+        /// Where --generate writes the suite.
+        #[arg(long, value_name = "DIR")]
+        suite: Option<PathBuf>,
+        /// Where the results of an existing suite go (default: the suite folder).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// The KUKA data folder (default ../shared/data/kuka-robot-drive beside the workspace).
+        #[arg(long, value_name = "DIR")]
+        kuka: Option<PathBuf>,
+        #[command(flatten)]
+        threads: ThreadArgs,
+        #[command(flatten)]
+        fmu: FmuArgs,
+        #[command(flatten)]
+        tuning: TuningArgs,
+    },
+    /// Generate the holdout suites (other sensors, log rates, noise, drives and seeds than the
+    /// main suite), validate and score them, and write docs/validation-holdout.md.
+    Holdout {
+        /// Where the holdout suites are generated (default target/validation-holdout).
+        #[arg(long, value_name = "DIR")]
+        suite: Option<PathBuf>,
+        #[command(flatten)]
+        threads: ThreadArgs,
+        #[command(flatten)]
+        fmu: FmuArgs,
+        #[command(flatten)]
+        tuning: TuningArgs,
+    },
+    /// Run the three KUKA axes with tools/validate/data/kuka/axisN.params: prints the results
+    /// section and writes it to DIR/report.md with the figures.
+    Kuka {
+        /// The KUKA data folder (default ../shared/data/kuka-robot-drive beside the workspace).
+        #[arg(long, value_name = "DIR")]
+        kuka: Option<PathBuf>,
+        /// Folder for report.md and the figures (default: the current folder).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        fmu: FmuArgs,
+        #[command(flatten)]
+        tuning: TuningArgs,
+    },
+    /// The investigation of the error floors on clean logs (docs/validation.md): equation- and
+    /// output-error residuals of the nominal model on clean truth logs with each sensor noise
+    /// switched off in turn, and with softer LuGre bristles.
+    Floor {
+        /// Seed of the truth runs.
+        #[arg(default_value_t = 1)]
+        seed: u64,
+        #[command(flatten)]
+        fmu: FmuArgs,
+        #[command(flatten)]
+        tuning: TuningArgs,
+    },
+}
+
+/// The plant FMU for the output error.
+#[derive(Args, Clone)]
+struct FmuArgs {
+    /// The plant FMU (default target/fmu/AzimuthPlant.fmu).
+    #[arg(long, value_name = "PATH")]
     fmu: Option<PathBuf>,
-    generate: bool,
-    verbose: bool,
-    threads: usize,
-    options: ValidateOptions,
+    /// No output error: the equation error alone.
+    #[arg(long, conflicts_with = "fmu")]
+    no_fmu: bool,
 }
 
-fn parse(args: Vec<String>) -> Result<Arguments, String> {
-    let command = args.first().ok_or("expected a command: run, suite or kuka (see the source header)")?.clone();
-    let mut a = Arguments {
-        command,
-        target: None,
-        params: None,
-        out: None,
-        suite: None,
-        kuka: None,
-        fmu: Some(PlantFmu::default_path()),
-        generate: false,
-        verbose: false,
-        threads: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
-        options: ValidateOptions::default(),
-    };
-    let mut i = 1;
-    while i < args.len() {
-        let flag = args[i].as_str();
-        let mut value = || -> Result<String, String> {
-            i += 1;
-            args.get(i).cloned().ok_or_else(|| format!("{flag} needs a value"))
-        };
-        match flag {
-            "--params" => a.params = Some(PathBuf::from(value()?)),
-            "--out" => a.out = Some(PathBuf::from(value()?)),
-            "--suite" => a.suite = Some(PathBuf::from(value()?)),
-            "--kuka" => a.kuka = Some(PathBuf::from(value()?)),
-            "--fmu" => a.fmu = Some(PathBuf::from(value()?)),
-            "--no-fmu" => a.fmu = None,
-            "--generate" => a.generate = true,
-            "--verbose" => a.verbose = true,
-            "--threads" => a.threads = value()?.parse().map_err(|_| "--threads needs a count")?,
-            "--alpha" => a.options.selection.alpha = value()?.parse().map_err(|_| "--alpha needs a number")?,
-            "--min-effect-to-noise" => {
-                a.options.selection.min_effect_to_noise =
-                    value()?.parse().map_err(|_| "--min-effect-to-noise needs a number")?
-            }
-            "--window" => {
-                a.options.output.window_seconds = Some(value()?.parse().map_err(|_| "--window needs seconds")?)
-            }
-            "--no-refit" => a.options.output.refit = false,
-            "--no-presliding" => a.options.output.presliding = false,
-            "--drive-window" => {
-                a.options.output.drive_window_seconds =
-                    Some(value()?.parse().map_err(|_| "--drive-window needs seconds")?)
-            }
-            other if !other.starts_with("--") && a.target.is_none() => a.target = Some(other.to_string()),
-            other => return Err(format!("unknown option '{other}'")),
-        }
-        i += 1;
+impl FmuArgs {
+    fn path(&self) -> Option<PathBuf> {
+        (!self.no_fmu).then(|| self.fmu.clone().unwrap_or_else(PlantFmu::default_path))
     }
-    Ok(a)
 }
 
-fn run(args: Vec<String>) -> Result<(), String> {
-    let a = parse(args)?;
-    match a.command.as_str() {
-        "run" => {
-            let log_path = PathBuf::from(a.target.as_deref().ok_or("expected a log file")?);
-            let params_path = a.params.clone().ok_or("--params is required")?;
-            let (validation, _) = run_one(&log_path, &params_path, &a)?;
-            if let Some(dir) = &a.out {
-                write_outputs(&validation, &log_path, &params_path, dir, &stem_of(&log_path))?;
-            }
-            if a.verbose {
-                println!("{}", report::markdown(&validation, &log_path.display().to_string()));
+/// Worker threads of the suite runs.
+#[derive(Args, Clone)]
+struct ThreadArgs {
+    /// Logs generated and validated in parallel (default: the machine's cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    threads: Option<u64>,
+}
+
+impl ThreadArgs {
+    fn count(&self) -> usize {
+        self.threads
+            .map(|n| n as usize)
+            .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
+    }
+}
+
+/// The validation's settings a user may change.
+#[derive(Args, Clone)]
+struct TuningArgs {
+    /// Family-wise significance level of the effect search.
+    #[arg(long, value_name = "P")]
+    alpha: Option<f64>,
+    /// Smallest effect, relative to the noise, that is claimed.
+    #[arg(long, value_name = "RATIO")]
+    min_effect_to_noise: Option<f64>,
+    /// Output-error window length (default: from the motor speed's autocorrelation).
+    #[arg(long, value_name = "SECONDS")]
+    window: Option<f64>,
+    /// Length of the pieces the twist is simulated on.
+    #[arg(long, value_name = "SECONDS")]
+    drive_window: Option<f64>,
+    /// Do not refit the parameters on the output error.
+    #[arg(long)]
+    no_refit: bool,
+    /// Do not calibrate the presliding (bristle) compliance.
+    #[arg(long)]
+    no_presliding: bool,
+}
+
+impl TuningArgs {
+    fn options(&self) -> ValidateOptions {
+        let mut options = ValidateOptions::default();
+        if let Some(alpha) = self.alpha {
+            options.selection.alpha = alpha;
+        }
+        if let Some(ratio) = self.min_effect_to_noise {
+            options.selection.min_effect_to_noise = ratio;
+        }
+        if self.window.is_some() {
+            options.output.window_seconds = self.window;
+        }
+        if self.drive_window.is_some() {
+            options.output.drive_window_seconds = self.drive_window;
+        }
+        if self.no_refit {
+            options.output.refit = false;
+        }
+        if self.no_presliding {
+            options.output.presliding = false;
+        }
+        options
+    }
+}
+
+/// What a validation run needs besides its input files.
+struct Settings {
+    fmu: Option<PathBuf>,
+    options: ValidateOptions,
+    threads: usize,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("validate: error: {error:#}");
+            // Every failure here is bad input: a file that cannot be read or is malformed, an
+            // invalid parameter, a missing FMU, NaN in the data or the results.
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// The library's text errors as anyhow errors.
+fn text<T>(result: Result<T, String>) -> anyhow::Result<T> {
+    result.map_err(|message| anyhow!(message))
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    let root = antenna_fmus::workspace_root();
+    let default_kuka = || root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive");
+    match cli.command {
+        Command::Run { log, params, out, verbose, fmu, tuning } => {
+            let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 };
+            run_log(&log, &params, out.as_deref(), verbose, &settings)
+        }
+        Command::Suite { dir, generate, suite, out, kuka, threads, fmu, tuning } => {
+            let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: threads.count() };
+            if generate {
+                let dir = suite.unwrap_or_else(|| root.join("target").join("validation-suite"));
+                generate_suite(&root, &dir, &kuka.unwrap_or_else(default_kuka), &settings)
             } else {
-                print_summary(&validation);
+                let dir = dir.context("expected a suite folder (or --generate)")?;
+                score_existing_suite(&dir, &out.unwrap_or_else(|| dir.clone()), &settings)
             }
         }
-        "suite" => {
-            let root = antenna_fmus::workspace_root();
-            if a.generate {
-                let dir = a.suite.clone().unwrap_or_else(|| root.join("target").join("validation-suite"));
-                let clock = Instant::now();
-                suite::write_suite_parallel(&dir, &SuiteConfig::default(), a.threads, &|line| println!("{line}"))?;
-                let generation = clock.elapsed().as_secs_f64();
-                let clock = Instant::now();
-                let results = score_suite(&dir, &a)?;
-                let scoring_time = clock.elapsed().as_secs_f64();
-                let kuka_dir = a.kuka.clone().unwrap_or_else(|| {
-                    root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive")
-                });
-                let docs = root.join("docs");
-                let figures = docs.join("figures");
-                std::fs::create_dir_all(&figures).map_err(|e| format!("cannot create {}: {e}", figures.display()))?;
-                let clock = Instant::now();
-                let kuka = if kuka_dir.is_dir() { Some(run_kuka(&kuka_dir, &figures, &a)?) } else { None };
-                let kuka_time = clock.elapsed().as_secs_f64();
-                let timing = format!(
-                    "Generated {} logs in {generation:.0} s and validated them in {scoring_time:.0} s on {} threads; the KUKA axes took {kuka_time:.1} s.",
-                    results.len(),
-                    a.threads
-                );
-                let text = results_document(&results, kuka.as_deref(), &timing);
-                std::fs::write(docs.join("validation-results.md"), text).map_err(|e| e.to_string())?;
-                replace_readme_block(&root.join("README.md"), &scoring::summary_markdown(&results))?;
-                std::fs::write(docs.join("validation-detection.csv"), scoring::detection_csv(&results))
-                    .map_err(|e| e.to_string())?;
-                scoring::detection_figure(&results, &figures.join("validation-detection.png"))?;
-                println!("{}", scoring::summary_markdown(&results));
-                println!("{timing}");
-                println!("wrote {}", docs.join("validation-results.md").display());
-            } else {
-                let dir = PathBuf::from(a.target.as_deref().ok_or("expected a suite folder (or --generate)")?);
-                let out = a.out.clone().unwrap_or_else(|| dir.clone());
-                std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-                let results = score_suite(&dir, &a)?;
-                let mut text = String::from("## Results on the generated suite\n\n");
-                text.push_str(&scoring::summary_markdown(&results));
-                text.push_str("\n### All cases\n\n");
-                text.push_str(&scoring::table_markdown(&results));
-                std::fs::write(out.join("results.md"), &text).map_err(|e| e.to_string())?;
-                std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results))
-                    .map_err(|e| e.to_string())?;
-                scoring::detection_figure(&results, &out.join("detection.png"))?;
-                println!("{}", scoring::summary_markdown(&results));
-                println!("wrote {}", out.join("results.md").display());
-            }
+        Command::Holdout { suite, threads, fmu, tuning } => {
+            let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: threads.count() };
+            holdout(&root, &suite.unwrap_or_else(|| root.join("target").join("validation-holdout")), &settings)
         }
-        "holdout" => {
-            let root = antenna_fmus::workspace_root();
-            let dir = a.suite.clone().unwrap_or_else(|| root.join("target").join("validation-holdout"));
-            let mut text = String::from(HOLDOUT_HEADER);
-            for (name, description, config) in suite::holdout_suites() {
-                let sub = dir.join(name);
-                let clock = Instant::now();
-                suite::write_suite_parallel(&sub, &config, a.threads, &|line| println!("{name} {line}"))?;
-                let generation = clock.elapsed().as_secs_f64();
-                let clock = Instant::now();
-                let results = score_suite(&sub, &a)?;
-                let _ = write!(
-                    text,
-                    "## {name}: {description}\n\nSeeds {:?}, clean seeds {:?}; {} logs generated in {generation:.0} s and validated in {:.0} s on {} threads.\n\n{}\n### All cases\n\n{}\n",
-                    config.seeds,
-                    config.clean_seeds,
-                    results.len(),
-                    clock.elapsed().as_secs_f64(),
-                    a.threads,
-                    scoring::summary_markdown(&results),
-                    scoring::table_markdown(&results)
-                );
-            }
-            let path = root.join("docs").join("validation-holdout.md");
-            std::fs::write(&path, text).map_err(|e| e.to_string())?;
-            println!("wrote {}", path.display());
-        }
-        "kuka" => {
-            let root = antenna_fmus::workspace_root();
-            let kuka_dir = a
-                .kuka
-                .clone()
-                .unwrap_or_else(|| root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive"));
-            let out = a.out.clone().unwrap_or_else(|| PathBuf::from("."));
-            std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-            let section = run_kuka(&kuka_dir, &out, &a)?;
+        Command::Kuka { kuka, out, fmu, tuning } => {
+            let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 };
+            let out = out.unwrap_or_else(|| PathBuf::from("."));
+            std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+            let section = run_kuka(&kuka.unwrap_or_else(default_kuka), &out, &settings)?;
+            let report = out.join("report.md");
+            std::fs::write(&report, &section).with_context(|| format!("cannot write {}", report.display()))?;
             println!("{section}");
+            Ok(())
         }
-        "floor" => {
-            let seed = a
-                .target
-                .as_deref()
-                .map(|s| s.parse::<u64>().map_err(|_| "floor takes a seed"))
-                .transpose()?
-                .unwrap_or(1);
-            floor(seed, &a)?;
+        Command::Floor { seed, fmu, tuning } => {
+            floor(seed, &Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 })
         }
-        other => return Err(format!("unknown command '{other}'")),
+    }
+}
+
+/// `validate run`: one log.
+fn run_log(
+    log_path: &Path,
+    params_path: &Path,
+    out: Option<&Path>,
+    verbose: bool,
+    settings: &Settings,
+) -> anyhow::Result<()> {
+    let validation = run_one(log_path, params_path, settings)?;
+    check_finite(&validation)?;
+    if let Some(dir) = out {
+        write_outputs(&validation, log_path, params_path, dir, &stem_of(log_path))?;
+    }
+    if verbose {
+        println!("{}", report::markdown(&validation, &log_path.display().to_string()));
+    } else {
+        print_summary(&validation);
     }
     Ok(())
 }
 
+/// NaN in the results is an error with its cause, never "no significant missing effect".
+fn check_finite(v: &Validation) -> anyhow::Result<()> {
+    for (b, a) in v.before.iter().zip(&v.after) {
+        if !(b.rms.is_finite() && a.rms.is_finite()) {
+            bail!(
+                "the {} residual is not finite (RMS {} before, {} after): the log or the parameter set gives the model no usable numbers",
+                b.name,
+                b.rms,
+                a.rms
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `validate suite --generate`: the suite, its scores, the KUKA axes and the documents.
+fn generate_suite(root: &Path, dir: &Path, kuka_dir: &Path, settings: &Settings) -> anyhow::Result<()> {
+    let clock = Instant::now();
+    text(suite::write_suite_parallel(dir, &SuiteConfig::default(), settings.threads, &|line| println!("{line}")))?;
+    let generation = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let results = score_suite(dir, settings)?;
+    let scoring_time = clock.elapsed().as_secs_f64();
+    let docs = root.join("docs");
+    let figures = docs.join("figures");
+    std::fs::create_dir_all(&figures).with_context(|| format!("cannot create {}", figures.display()))?;
+    let clock = Instant::now();
+    let kuka = if kuka_dir.is_dir() { Some(run_kuka(kuka_dir, &figures, settings)?) } else { None };
+    let kuka_time = clock.elapsed().as_secs_f64();
+    let timing = format!(
+        "Generated {} logs in {generation:.0} s and validated them in {scoring_time:.0} s on {} threads; the KUKA axes took {kuka_time:.1} s.",
+        results.len(),
+        settings.threads
+    );
+    let results_path = docs.join("validation-results.md");
+    std::fs::write(&results_path, results_document(&results, kuka.as_deref(), &timing))
+        .with_context(|| format!("cannot write {}", results_path.display()))?;
+    replace_readme_block(&root.join("README.md"), &scoring::summary_markdown(&results))?;
+    let csv_path = docs.join("validation-detection.csv");
+    std::fs::write(&csv_path, scoring::detection_csv(&results))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    text(scoring::detection_figure(&results, &figures.join("validation-detection.png")))?;
+    println!("{}", scoring::summary_markdown(&results));
+    println!("{timing}");
+    println!("wrote {}", results_path.display());
+    Ok(())
+}
+
+/// `validate suite DIR`: scores an existing suite.
+fn score_existing_suite(dir: &Path, out: &Path, settings: &Settings) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let results = score_suite(dir, settings)?;
+    let mut document = String::from("## Results on the generated suite\n\n");
+    document.push_str(&scoring::summary_markdown(&results));
+    document.push_str("\n### All cases\n\n");
+    document.push_str(&scoring::table_markdown(&results));
+    std::fs::write(out.join("results.md"), &document)
+        .with_context(|| format!("cannot write into {}", out.display()))?;
+    std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results))
+        .with_context(|| format!("cannot write into {}", out.display()))?;
+    text(scoring::detection_figure(&results, &out.join("detection.png")))?;
+    println!("{}", scoring::summary_markdown(&results));
+    println!("wrote {}", out.join("results.md").display());
+    Ok(())
+}
+
+/// `validate holdout`: the holdout suites and docs/validation-holdout.md.
+fn holdout(root: &Path, dir: &Path, settings: &Settings) -> anyhow::Result<()> {
+    let mut document = String::from(HOLDOUT_HEADER);
+    for (name, description, config) in suite::holdout_suites() {
+        let sub = dir.join(name);
+        let clock = Instant::now();
+        text(suite::write_suite_parallel(&sub, &config, settings.threads, &|line| println!("{name} {line}")))?;
+        let generation = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let results = score_suite(&sub, settings)?;
+        let _ = write!(
+            document,
+            "## {name}: {description}\n\nSeeds {:?}, clean seeds {:?}; {} logs generated in {generation:.0} s and validated in {:.0} s on {} threads.\n\n{}\n### All cases\n\n{}\n",
+            config.seeds,
+            config.clean_seeds,
+            results.len(),
+            clock.elapsed().as_secs_f64(),
+            settings.threads,
+            scoring::summary_markdown(&results),
+            scoring::table_markdown(&results)
+        );
+    }
+    let path = root.join("docs").join("validation-holdout.md");
+    std::fs::write(&path, document).with_context(|| format!("cannot write {}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
 /// The floor investigation: what limits the residuals of the right model on clean logs.
-fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
+fn floor(seed: u64, settings: &Settings) -> anyhow::Result<()> {
     use antenna_truth::{simulate, NoiseConfig, TruthConfig};
-    let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
+    let mut simulator = text(settings.fmu.as_deref().map(FmuSimulator::open).transpose())?;
     println!("| truth variant (seed {seed}) | torque equation RMS (axis N m) | load equation RMS (N m) | output error: axis position (arcsec) | twist (arcsec) | load side driven by the motor encoder (arcsec) |");
     println!("|---|---|---|---|---|---|");
     let quiet = NoiseConfig {
@@ -267,10 +419,14 @@ fn floor(seed: u64, a: &Arguments) -> Result<(), String> {
         config.noise = noise;
         let start = config.plant.starting_parameters();
         let log = simulate(&config).log;
-        let mut options = a.options.clone();
+        let mut options = settings.options.clone();
         options.selection.max_effects = 0;
-        let v =
-            validate::validate_with(&log, &start, &options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
+        let v = text(validate::validate_with(
+            &log,
+            &start,
+            &options,
+            simulator.as_mut().map(|s| s as &mut dyn PlantSimulator),
+        ))?;
         let arcsec = 180.0 * 3600.0 / std::f64::consts::PI;
         use validate::output_error::ChannelKind;
         let rms_of = |kind: ChannelKind| {
@@ -299,14 +455,18 @@ fn stem_of(path: &Path) -> String {
     path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "log".into())
 }
 
-/// Validates one log; returns the validation and the log.
-fn run_one(log_path: &Path, params_path: &Path, a: &Arguments) -> Result<(Validation, MeasuredLog), String> {
-    let log = MeasuredLog::read(log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+/// Validates one log.
+fn run_one(log_path: &Path, params_path: &Path, settings: &Settings) -> anyhow::Result<Validation> {
+    let log = MeasuredLog::read(log_path).with_context(|| format!("{}", log_path.display()))?;
     let start = ParameterSet::read(params_path)?;
-    let mut simulator = a.fmu.as_deref().map(FmuSimulator::open).transpose()?;
-    let validation =
-        validate::validate_with(&log, &start, &a.options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
-    Ok((validation, log))
+    let mut simulator = text(settings.fmu.as_deref().map(FmuSimulator::open).transpose())?;
+    let validation = text(validate::validate_with(
+        &log,
+        &start,
+        &settings.options,
+        simulator.as_mut().map(|s| s as &mut dyn PlantSimulator),
+    ))?;
+    Ok(validation)
 }
 
 /// Writes the report, the corrected parameter sets and the figures of one validation.
@@ -316,10 +476,11 @@ fn write_outputs(
     params_path: &Path,
     dir: &Path,
     stem: &str,
-) -> Result<Vec<String>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let text = report::markdown(validation, &log_path.display().to_string());
-    std::fs::write(dir.join(format!("{stem}_report.md")), &text).map_err(|e| e.to_string())?;
+) -> anyhow::Result<Vec<String>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let report_path = dir.join(format!("{stem}_report.md"));
+    std::fs::write(&report_path, report::markdown(validation, &log_path.display().to_string()))
+        .with_context(|| format!("cannot write {}", report_path.display()))?;
     let header = format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display());
     validation.selection.corrected.write(
         &dir.join(format!("{stem}_corrected_axis.params")),
@@ -331,13 +492,14 @@ fn write_outputs(
             &o.config,
             &format!("{header}\nAzimuthPlant parameter file: load it through the FMU's parameter_file variable.\nMapping from the single-axis set: docs/validation.md, validate::parameters::FMU_MAPPING."),
         )?;
-        std::fs::write(dir.join(format!("{stem}_corrected.params")), fmu_text).map_err(|e| e.to_string())?;
+        let path = dir.join(format!("{stem}_corrected.params"));
+        std::fs::write(&path, fmu_text).with_context(|| format!("cannot write {}", path.display()))?;
     }
-    report::figures(validation, dir, stem)
+    text(report::figures(validation, dir, stem))
 }
 
-fn score_suite(dir: &Path, a: &Arguments) -> Result<Vec<scoring::CaseResult>, String> {
-    scoring::run_suite(dir, &a.options, a.fmu.as_deref(), a.threads, &|r| {
+fn score_suite(dir: &Path, settings: &Settings) -> anyhow::Result<Vec<scoring::CaseResult>> {
+    text(scoring::run_suite(dir, &settings.options, settings.fmu.as_deref(), settings.threads, &|r| {
         let truth = suite::describe(&r.truth);
         let found =
             r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
@@ -348,21 +510,22 @@ fn score_suite(dir: &Path, a: &Arguments) -> Result<Vec<scoring::CaseResult>, St
             "{}: {truth} -> {found} (output error after/before {ratio} most-improved channel, {summed} all scored channels; response error {response}; {:.1} s)",
             r.truth.log_file, r.seconds
         );
-    })
+    }))
 }
 
 /// Runs the KUKA axes and returns the markdown section; figures go to `figures`.
-fn run_kuka(data_dir: &Path, figures: &Path, a: &Arguments) -> Result<String, String> {
-    let root = antenna_fmus::workspace_root();
+fn run_kuka(data_dir: &Path, figures: &Path, settings: &Settings) -> anyhow::Result<String> {
+    let params_dir = antenna_fmus::workspace_root().join("tools").join("validate").join("data").join("kuka");
     let mut rows = Vec::new();
     for axis in 1..=3 {
         let log_path = data_dir.join(format!("axis{axis}.csv"));
-        let params_path = root.join("tools").join("data").join("kuka").join(format!("axis{axis}.params"));
+        let params_path = params_dir.join(format!("axis{axis}.params"));
         let clock = Instant::now();
-        let (validation, _) = run_one(&log_path, &params_path, a)?;
+        let validation = run_one(&log_path, &params_path, settings)?;
+        check_finite(&validation)?;
         let seconds = clock.elapsed().as_secs_f64();
         let stem = format!("validation-kuka-axis{axis}");
-        let written = report::figures(&validation, figures, &stem)?;
+        let written = text(report::figures(&validation, figures, &stem))?;
         rows.push((axis, validation, seconds, written));
     }
     Ok(report::kuka_section(&rows))
@@ -374,13 +537,13 @@ const README_BEGIN: &str = "<!-- validation-summary: generated by `validate suit
 const README_END: &str = "<!-- end of validation-summary -->";
 
 /// Puts `summary` between the README's markers.
-fn replace_readme_block(readme: &Path, summary: &str) -> Result<(), String> {
-    let text = std::fs::read_to_string(readme).map_err(|e| format!("cannot read {}: {e}", readme.display()))?;
+fn replace_readme_block(readme: &Path, summary: &str) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(readme).with_context(|| format!("cannot read {}", readme.display()))?;
     let (Some(begin), Some(end)) = (text.find(README_BEGIN), text.find(README_END)) else {
-        return Err(format!("{} has no validation-summary markers", readme.display()));
+        bail!("{} has no validation-summary markers", readme.display());
     };
     let updated = format!("{}{README_BEGIN}\n{summary}{}", &text[..begin], &text[end..]);
-    std::fs::write(readme, updated).map_err(|e| format!("cannot write {}: {e}", readme.display()))
+    std::fs::write(readme, updated).with_context(|| format!("cannot write {}", readme.display()))
 }
 
 /// The generated results document (docs/validation-results.md).

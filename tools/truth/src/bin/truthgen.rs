@@ -1,166 +1,240 @@
 //! truthgen: writes measured logs from the independent truth simulation.
 //!
-//! Usage:
-//!   truthgen suite --out DIR [--seeds 11,12] [--sizes 0.5,1,2,5,10,20,50] [--clean 10]
-//!                  [--kinds coulomb,delay,...] [--duration 60] [--no-pairs] [--presliding RAD] [--internal-rate HZ]
-//!                  [--log-rate HZ] [--noise-scale X] [--anti-resonance HZ] [--load-inertia KGM2]
-//!                  [--motor-speed | --no-motor-sensor] [--motors 2 [--current-bias A]]
-//!   truthgen one --out FILE.csv [--effect KIND --size RATIO]... [--seed N] [--duration 60]
-//!   truthgen start --out FILE.params
-//!
 //! `suite` writes `log_NNN.csv` logs with a hidden `log_NNN.truth` beside each and the starting
-//! parameter set `start.params`. `one` writes a single log (and FILE.truth). Sizes are the RMS
-//! of what the effect adds to its channel divided by that channel's sensor noise.
-//! `--presliding` sets the truth's LuGre bristle deflection at breakaway (axis rad, default
-//! 1e-7), for studies of the friction-model-form floor; the suite uses the default.
-//! `--internal-rate` sets the RK4 base rate (default 20 kHz; steps are cut into substeps
-//! while the bristles relax faster than that).
-//! `--log-rate`, `--noise-scale` (current and load-encoder noise times X), `--anti-resonance`
-//! (the nominal path stiffness set for this locked-motor anti-resonance, damping ratio kept)
-//! and `--load-inertia` make logs unlike the suite's, to check that `validate` is not tuned to
-//! the suite (docs/validation.md, "Logs unlike the suite"); the starting set follows the plant.
-//! `--motor-speed` logs a motor speed signal (truth::SpeedSensor's default: noise, bias, scale
-//! error) instead of the motor encoder, `--no-motor-sensor` neither (the load encoder is the
-//! only position), and `--motors 2` the current of two identical motors in
-//! columns of their own, as an antenna's azimuth drive logs them, with `--current-bias` amperes
-//! added to motor 1's and taken from motor 2's.
+//! parameter set `start.params`; `one` writes a single log (and FILE.truth); `start` the
+//! starting parameter set. Sizes are the RMS of what the effect adds to its channel divided by
+//! that channel's sensor noise. Exit codes: 0 ok, 2 bad usage or bad input.
 
 use antenna_truth::suite::{self, SuiteConfig};
 use antenna_truth::{MotorSensor, SpeedSensor, TruthConfig};
+use anyhow::{anyhow, bail, Context};
+use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::process::ExitCode;
 
-fn main() {
-    if let Err(message) = run(std::env::args().skip(1).collect()) {
-        eprintln!("truthgen: {message}");
-        std::process::exit(2);
+/// Writes measured logs with hidden effects from the independent truth simulation of a drive
+/// axis, to test `validate` on data whose truth is known.
+#[derive(Parser)]
+#[command(version, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// A suite: every kind at every size and seed, pairs, clean logs, in a shuffled order.
+    Suite {
+        /// The suite folder.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Seeds of the effect logs.
+        #[arg(long, value_delimiter = ',', default_values_t = [11u64, 12])]
+        seeds: Vec<u64>,
+        /// Effect sizes, times the channel's noise.
+        #[arg(long, value_delimiter = ',', default_values_t = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0])]
+        sizes: Vec<f64>,
+        /// Number of clean logs (seeds 101, 102, ...).
+        #[arg(long, value_name = "COUNT", default_value_t = 10)]
+        clean: u64,
+        /// Effect kinds (default: all of them).
+        #[arg(long, value_delimiter = ',')]
+        kinds: Option<Vec<String>>,
+        /// No two-effect logs.
+        #[arg(long)]
+        no_pairs: bool,
+        #[command(flatten)]
+        truth: TruthArgs,
+    },
+    /// One log, with its truth in FILE.truth.
+    One {
+        /// The log file.
+        #[arg(long, value_name = "FILE.csv")]
+        out: PathBuf,
+        /// An effect kind; repeat for several. Each takes the --size after it (default 10).
+        #[arg(long = "effect", value_name = "KIND")]
+        effects: Vec<String>,
+        /// Size of the effect before it, times the channel's noise.
+        #[arg(long = "size", value_name = "RATIO")]
+        sizes: Vec<f64>,
+        /// Seed of the noise, the excitation and the effect's random parts.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[command(flatten)]
+        truth: TruthArgs,
+    },
+    /// The starting parameter set: the truth's nominal plant.
+    Start {
+        /// The parameter file.
+        #[arg(long, value_name = "FILE.params")]
+        out: PathBuf,
+        #[command(flatten)]
+        truth: TruthArgs,
+    },
+}
+
+/// The truth's plant, sensors and run, where they differ from the suite's.
+#[derive(Args)]
+struct TruthArgs {
+    /// Length of each log (s).
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+    /// The truth's LuGre bristle deflection at breakaway (axis rad, default 1e-7), for studies
+    /// of the friction-model-form floor.
+    #[arg(long, value_name = "RAD")]
+    presliding: Option<f64>,
+    /// The RK4 base rate (default 20 kHz; steps are cut into substeps while the bristles relax
+    /// faster than that).
+    #[arg(long, value_name = "HZ")]
+    internal_rate: Option<f64>,
+    /// The log rate (default 500 Hz).
+    #[arg(long, value_name = "HZ")]
+    log_rate: Option<f64>,
+    /// Current and load-encoder noise times X.
+    #[arg(long, value_name = "X")]
+    noise_scale: Option<f64>,
+    /// The nominal path stiffness set for this locked-motor anti-resonance (damping ratio kept).
+    #[arg(long, value_name = "HZ")]
+    anti_resonance: Option<f64>,
+    /// The load inertia (the anti-resonance kept).
+    #[arg(long, value_name = "KGM2")]
+    load_inertia: Option<f64>,
+    /// Log a motor speed signal (noise, bias, scale error) instead of the motor encoder.
+    #[arg(long, conflicts_with = "no_motor_sensor")]
+    motor_speed: bool,
+    /// Log no motor sensor: the load encoder is the only position.
+    #[arg(long)]
+    no_motor_sensor: bool,
+    /// Motors whose currents are logged in columns of their own (1 or 2).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=2))]
+    motors: Option<u64>,
+    /// With two motors, amperes added to motor 1's current and taken from motor 2's.
+    #[arg(long, value_name = "A")]
+    current_bias: Option<f64>,
+}
+
+/// A positive finite number, or an error naming the option.
+fn positive(value: f64, flag: &str) -> anyhow::Result<f64> {
+    if value > 0.0 && value.is_finite() {
+        Ok(value)
+    } else {
+        bail!("{flag} needs a positive number, not {value}")
     }
 }
 
-fn value<'a>(args: &'a [String], i: &mut usize, flag: &str) -> Result<&'a str, String> {
-    *i += 1;
-    args.get(*i).map(String::as_str).ok_or_else(|| format!("{flag} needs a value"))
-}
-
-fn positive(text: &str, flag: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
-        _ => Err(format!("{flag} needs a positive number, not '{text}'")),
-    }
-}
-
-fn list<T: std::str::FromStr>(text: &str, flag: &str) -> Result<Vec<T>, String> {
-    text.split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| s.trim().parse::<T>().map_err(|_| format!("{flag}: bad value '{s}'")))
-        .collect()
-}
-
-fn run(args: Vec<String>) -> Result<(), String> {
-    let Some(command) = args.first() else {
-        return Err("expected a command: suite, one or start (see the source header for usage)".into());
-    };
-    let mut out: Option<PathBuf> = None;
-    let mut suite_config = SuiteConfig::default();
-    let mut base = TruthConfig::default();
-    let mut effects: Vec<(String, f64)> = Vec::new();
-    let mut seed = 1u64;
-    let mut i = 1;
-    while i < args.len() {
-        let flag = args[i].as_str();
-        match flag {
-            "--out" => out = Some(PathBuf::from(value(&args, &mut i, flag)?)),
-            "--seeds" => suite_config.seeds = list(value(&args, &mut i, flag)?, flag)?,
-            "--sizes" => suite_config.sizes = list(value(&args, &mut i, flag)?, flag)?,
-            "--kinds" => suite_config.kinds = list(value(&args, &mut i, flag)?, flag)?,
-            "--clean" => {
-                let n: u64 = value(&args, &mut i, flag)?.parse().map_err(|_| "--clean needs a count")?;
-                suite_config.clean_seeds = (101..101 + n).collect();
-            }
-            "--no-pairs" => suite_config.pairs.clear(),
-            "--presliding" => {
-                base.plant.presliding_displacement =
-                    value(&args, &mut i, flag)?.parse().map_err(|_| "--presliding needs a displacement in rad")?;
-                if !(base.plant.presliding_displacement > 0.0) {
-                    return Err("--presliding needs a positive displacement in rad".into());
-                }
-            }
-            "--internal-rate" => {
-                base.internal_rate =
-                    value(&args, &mut i, flag)?.parse().map_err(|_| "--internal-rate needs a rate in Hz")?;
-                if !(base.internal_rate >= base.controller_rate) {
-                    return Err("--internal-rate must be at least the controller rate".into());
-                }
-            }
-            "--log-rate" => {
-                base.log_rate = positive(value(&args, &mut i, flag)?, flag)?;
-                if base.log_rate > base.controller_rate {
-                    return Err("--log-rate must not exceed the controller rate".into());
-                }
-            }
-            "--noise-scale" => {
-                let scale = positive(value(&args, &mut i, flag)?, flag)?;
-                base.noise.current_sigma *= scale;
-                base.noise.load_encoder_sigma *= scale;
-            }
-            "--anti-resonance" => {
-                let hz = positive(value(&args, &mut i, flag)?, flag)?;
-                base.plant.set_anti_resonance(hz);
-            }
-            "--load-inertia" => {
-                let inertia = positive(value(&args, &mut i, flag)?, flag)?;
-                let hz = base.plant.anti_resonance();
-                base.plant.load_inertia = inertia;
-                base.plant.set_anti_resonance(hz);
-            }
-            "--motor-speed" => base.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default()),
-            "--no-motor-sensor" => base.noise.motor_sensor = MotorSensor::None,
-            "--motors" => {
-                base.noise.motors = value(&args, &mut i, flag)?.parse().map_err(|_| "--motors needs 1 or 2")?;
-                if !(1..=2).contains(&base.noise.motors) {
-                    return Err("--motors needs 1 or 2".into());
-                }
-            }
-            "--current-bias" => {
-                base.noise.current_bias =
-                    value(&args, &mut i, flag)?.parse().map_err(|_| "--current-bias needs amperes")?
-            }
-            "--duration" => {
-                base.duration = value(&args, &mut i, flag)?.parse().map_err(|_| "--duration needs seconds")?
-            }
-            "--seed" => seed = value(&args, &mut i, flag)?.parse().map_err(|_| "--seed needs an integer")?,
-            "--effect" => {
-                let kind = value(&args, &mut i, flag)?.to_string();
-                effects.push((kind, 10.0));
-            }
-            "--size" => {
-                let size: f64 = value(&args, &mut i, flag)?.parse().map_err(|_| "--size needs a number")?;
-                effects.last_mut().ok_or("--size must follow --effect")?.1 = size;
-            }
-            other => return Err(format!("unknown option '{other}'")),
+impl TruthArgs {
+    /// The truth configuration: the suite's, changed by the options given.
+    fn config(&self) -> anyhow::Result<TruthConfig> {
+        let mut base = TruthConfig::default();
+        if let Some(displacement) = self.presliding {
+            base.plant.presliding_displacement = positive(displacement, "--presliding")?;
         }
-        i += 1;
+        if let Some(rate) = self.internal_rate {
+            // Written so that NaN is refused too.
+            let fast_enough = rate >= base.controller_rate;
+            if !fast_enough {
+                bail!("--internal-rate must be at least the controller rate");
+            }
+            base.internal_rate = rate;
+        }
+        if let Some(rate) = self.log_rate {
+            base.log_rate = positive(rate, "--log-rate")?;
+            if base.log_rate > base.controller_rate {
+                bail!("--log-rate must not exceed the controller rate");
+            }
+        }
+        if let Some(scale) = self.noise_scale {
+            let scale = positive(scale, "--noise-scale")?;
+            base.noise.current_sigma *= scale;
+            base.noise.load_encoder_sigma *= scale;
+        }
+        if let Some(hz) = self.anti_resonance {
+            base.plant.set_anti_resonance(positive(hz, "--anti-resonance")?);
+        }
+        if let Some(inertia) = self.load_inertia {
+            let hz = base.plant.anti_resonance();
+            base.plant.load_inertia = positive(inertia, "--load-inertia")?;
+            base.plant.set_anti_resonance(hz);
+        }
+        if self.motor_speed {
+            base.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
+        }
+        if self.no_motor_sensor {
+            base.noise.motor_sensor = MotorSensor::None;
+        }
+        if let Some(motors) = self.motors {
+            base.noise.motors = motors as usize;
+        }
+        if let Some(bias) = self.current_bias {
+            base.noise.current_bias = bias;
+        }
+        if let Some(duration) = self.duration {
+            base.duration = duration;
+        }
+        Ok(base)
     }
-    let out = out.ok_or("--out is required")?;
-    match command.as_str() {
-        "suite" => {
-            suite_config.base = base;
-            let truths = suite::write_suite(&out, &suite_config, &mut |line| println!("{line}"))?;
+}
+
+/// Each `--size` sets the size of the `--effect` given last before it (10 without one), by the
+/// options' positions on the command line.
+fn pair_sizes(matches: Option<&ArgMatches>, effects: Vec<String>, sizes: &[f64]) -> anyhow::Result<Vec<(String, f64)>> {
+    let positions =
+        |id: &str| -> Vec<usize> { matches.and_then(|m| m.indices_of(id)).map(|i| i.collect()).unwrap_or_default() };
+    let (effect_at, size_at) = (positions("effects"), positions("sizes"));
+    let mut paired: Vec<(String, f64)> = effects.into_iter().map(|kind| (kind, 10.0)).collect();
+    for (size, at) in sizes.iter().zip(&size_at) {
+        let Some(last) = effect_at.iter().rposition(|e| e < at) else { bail!("--size must follow --effect") };
+        paired[last].1 = *size;
+    }
+    Ok(paired)
+}
+
+fn main() -> ExitCode {
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    match run(cli, &matches) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("truthgen: error: {error:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Suite { out, seeds, sizes, clean, kinds, no_pairs, truth } => {
+            let mut config =
+                SuiteConfig { seeds, sizes, clean_seeds: (101..101 + clean).collect(), ..SuiteConfig::default() };
+            if let Some(kinds) = kinds {
+                config.kinds = kinds;
+            }
+            if no_pairs {
+                config.pairs.clear();
+            }
+            config.base = truth.config()?;
+            let truths = suite::write_suite(&out, &config, &mut |line| println!("{line}")).map_err(|e| anyhow!(e))?;
             println!("wrote {} logs to {}", truths.len(), out.display());
         }
-        "one" => {
+        Command::One { out, effects, sizes, seed, truth } => {
+            let effects = pair_sizes(matches.subcommand_matches("one"), effects, &sizes)?;
             let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-            let (text, truth) = suite::generate_case(&base, seed, &effects, &name, &mut BTreeMap::new())?;
-            std::fs::write(&out, text).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
-            std::fs::write(out.with_extension("truth"), suite::truth_text(&truth)).map_err(|e| e.to_string())?;
+            let (text, truth) = suite::generate_case(&truth.config()?, seed, &effects, &name, &mut BTreeMap::new())
+                .map_err(|e| anyhow!(e))?;
+            std::fs::write(&out, text).with_context(|| format!("cannot write {}", out.display()))?;
+            let truth_path = out.with_extension("truth");
+            std::fs::write(&truth_path, suite::truth_text(&truth))
+                .with_context(|| format!("cannot write {}", truth_path.display()))?;
             println!("{}: {}", out.display(), suite::describe(&truth));
         }
-        "start" => {
-            base.plant
+        Command::Start { out, truth } => {
+            truth
+                .config()?
+                .plant
                 .starting_parameters()
                 .write(&out, "Starting parameter set: the truth generator's nominal plant.")?;
         }
-        other => return Err(format!("unknown command '{other}'")),
     }
     Ok(())
 }
