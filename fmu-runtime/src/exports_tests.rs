@@ -9,6 +9,141 @@ use fmu_import::LoggerCallbacks;
 use crate::state::{StateError, StateReader, StateWriter};
 use crate::variables::{EnumerationType, Values};
 use crate::{declare_variables, DefaultExperiment};
+use via_c::{instance_from, instantiate, free_instance, setup_experiment, enter_initialization_mode, exit_initialization_mode, terminate, reset, get_real, get_string, set_real, set_integer, set_boolean, set_string, get_fmu_state, set_fmu_state, free_fmu_state, serialized_fmu_state_size, serialize_fmu_state, deserialize_fmu_state, do_step, cancel_step, get_real_status, unsupported, set_debug_logging};
+
+/// The exported functions as the tests call them, each as its C master would. The tests pass
+/// NULL, instances of a live [`Master`] (or deliberately freed ones, caught by the magic
+/// number), states these functions returned, and pointers to their own locals with the
+/// announced lengths: what each function's `# Safety` section asks.
+mod via_c {
+    use super::super as x;
+    use super::*;
+
+    pub(super) fn instance_from(c: fmi2Component) -> Option<&'static mut Instance> {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::instance_from(c) }
+    }
+
+    pub(super) fn instantiate(models: &[ModelEntry], name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, f: *const fmi2CallbackFunctions, visible: fmi2Boolean, on: fmi2Boolean) -> fmi2Component {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::instantiate(models, name, ty, guid, res, f, visible, on) }
+    }
+
+    pub(super) fn free_instance(c: fmi2Component) -> () {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::free_instance(c) }
+    }
+
+    pub(super) fn setup_experiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, start: fmi2Real, sd: fmi2Boolean, stop: fmi2Real) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::setup_experiment(c, td, tol, start, sd, stop) }
+    }
+
+    pub(super) fn enter_initialization_mode(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::enter_initialization_mode(c) }
+    }
+
+    pub(super) fn exit_initialization_mode(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::exit_initialization_mode(c) }
+    }
+
+    pub(super) fn terminate(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::terminate(c) }
+    }
+
+    pub(super) fn reset(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::reset(c) }
+    }
+
+    pub(super) fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_real(c, vr, n, v) }
+    }
+
+    pub(super) fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2String) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_string(c, vr, n, v) }
+    }
+
+    pub(super) fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_real(c, vr, n, v) }
+    }
+
+    pub(super) fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_integer(c, vr, n, v) }
+    }
+
+    pub(super) fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_boolean(c, vr, n, v) }
+    }
+
+    pub(super) fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2String) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_string(c, vr, n, v) }
+    }
+
+    pub(super) fn get_fmu_state(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_fmu_state(c, s) }
+    }
+
+    pub(super) fn set_fmu_state(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_fmu_state(c, s) }
+    }
+
+    pub(super) fn free_fmu_state(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::free_fmu_state(c, s) }
+    }
+
+    pub(super) fn serialized_fmu_state_size(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::serialized_fmu_state_size(c, s, size) }
+    }
+
+    pub(super) fn serialize_fmu_state(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::serialize_fmu_state(c, s, b, size) }
+    }
+
+    pub(super) fn deserialize_fmu_state(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::deserialize_fmu_state(c, b, size, s) }
+    }
+
+    pub(super) fn do_step(c: fmi2Component, t: fmi2Real, h: fmi2Real, nsp: fmi2Boolean) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::do_step(c, t, h, nsp) }
+    }
+
+    pub(super) fn cancel_step(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::cancel_step(c) }
+    }
+
+    pub(super) fn get_real_status(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Real) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_real_status(c, k, v) }
+    }
+
+    pub(super) fn unsupported(c: fmi2Component, function: &'static str, why: &'static str) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::unsupported(c, function, why) }
+    }
+
+    pub(super) fn set_debug_logging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_debug_logging(c, on, n, cats) }
+    }
+}
 
 static MODE: EnumerationType = EnumerationType {
     name: "TestMode",
