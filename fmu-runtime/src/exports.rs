@@ -803,7 +803,7 @@ pub unsafe fn get_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2S
         if state.is_null() {
             return Err("FMUstate pointer is NULL".into());
         }
-        let bytes = instance.save_state();
+        let bytes = instance.save_state().map_err(|e| e.to_string())?;
         // SAFETY: `state` is a valid pointer to the master's FMUstate variable.
         let existing = unsafe { *state };
         if existing.is_null() {

@@ -6,7 +6,7 @@ use std::ptr::{null, null_mut};
 
 use super::*;
 use fmu_import::LoggerCallbacks;
-use crate::state::{StateError, StateReader, StateWriter};
+use crate::state::{StateError, STATE_TAG};
 use crate::variables::{EnumerationType, Values};
 use crate::{declare_variables, DefaultExperiment};
 use via_c::{instance_from, instantiate, free_instance, setup_experiment, enter_initialization_mode, exit_initialization_mode, terminate, reset, get_real, get_string, set_real, set_integer, set_boolean, set_string, get_fmu_state, set_fmu_state, free_fmu_state, serialized_fmu_state_size, serialize_fmu_state, deserialize_fmu_state, do_step, cancel_step, get_real_status, unsupported, set_debug_logging};
@@ -237,12 +237,14 @@ impl Model for TestModel {
         Ok(())
     }
 
-    fn save_state(&self, writer: &mut StateWriter) {
-        writer.f64(self.state);
+    type State = f64;
+
+    fn save_state(&self) -> f64 {
+        self.state
     }
 
-    fn load_state(&mut self, reader: &mut StateReader, _values: &Values<TestVar>) -> Result<(), StateError> {
-        self.state = reader.f64()?;
+    fn load_state(&mut self, state: f64, _values: &Values<TestVar>) -> Result<(), StateError> {
+        self.state = state;
         Ok(())
     }
 }
@@ -580,6 +582,60 @@ fn serialized_states_restore_into_another_instance() {
     assert!(c.last_error().contains("truncated") || c.last_error().contains("rejected"), "{}", c.last_error());
     free_fmu_state(a.c, &mut state);
     free_fmu_state(b.c, &mut restored);
+}
+
+#[test]
+fn truncated_corrupt_or_foreign_states_are_refused_with_the_reason_never_a_panic() {
+    let a = Master::initialized();
+    a.set(U, 3.0);
+    assert_eq!(do_step(a.c, 0.0, 0.25, 0), fmi2OK);
+    let bytes = crate::state::InstanceState::<TestModel>::decode(&serialized(&a)).unwrap().encode().unwrap();
+    assert_eq!(bytes, serialized(&a), "decode then encode is not the identity");
+    let b = Master::new();
+    let deserialize = |bytes: &[u8]| {
+        let mut state: fmi2FMUstate = null_mut();
+        let status = deserialize_fmu_state(b.c, bytes.as_ptr().cast(), bytes.len(), &mut state);
+        if !state.is_null() {
+            free_fmu_state(b.c, &mut state);
+        }
+        (status, b.last_error())
+    };
+    for cut in 0..bytes.len() {
+        let (status, error) = deserialize(&bytes[..cut]);
+        assert_eq!(status, fmi2Error, "a state cut at {cut} bytes was accepted");
+        assert!(error.contains("serialized state rejected") && !error.contains("panic"), "cut at {cut}: {error}");
+    }
+    // A flipped byte may still decode (a number's bits), but it never panics.
+    for i in 0..bytes.len() {
+        let mut flipped = bytes.clone();
+        flipped[i] ^= 0xA5;
+        let (status, error) = deserialize(&flipped);
+        assert!(status == fmi2OK || !error.contains("panic"), "byte {i}: {error}");
+    }
+    let mut other_version = bytes.clone();
+    other_version[STATE_TAG.len()] = 7;
+    assert!(deserialize(&other_version).1.contains("state format version 7 is not supported"));
+    let mut not_a_state = bytes.clone();
+    not_a_state[0] = b'X';
+    assert!(deserialize(&not_a_state).1.contains("not an FMU state of this project"));
+    let mut foreign = crate::state::InstanceState::<TestModel>::decode(&bytes).unwrap();
+    foreign.header.model_identifier = "OtherModel".into();
+    assert!(deserialize(&foreign.encode().unwrap()).1.contains("state belongs to model 'OtherModel'"));
+    let mut trailing = bytes.clone();
+    trailing.push(0);
+    assert!(deserialize(&trailing).1.contains("1 unexpected trailing bytes"));
+}
+
+/// The serialized bytes of an instance's current state.
+fn serialized(m: &Master) -> Vec<u8> {
+    let mut state: fmi2FMUstate = null_mut();
+    assert_eq!(get_fmu_state(m.c, &mut state), fmi2OK);
+    let mut size = 0usize;
+    assert_eq!(serialized_fmu_state_size(m.c, state, &mut size), fmi2OK);
+    let mut bytes = vec![0 as fmi2Byte; size];
+    assert_eq!(serialize_fmu_state(m.c, state, bytes.as_mut_ptr(), size), fmi2OK);
+    assert_eq!(free_fmu_state(m.c, &mut state), fmi2OK);
+    bytes.into_iter().map(|b| b as u8).collect()
 }
 
 #[test]
