@@ -13,7 +13,6 @@ use crate::timing::SampledController;
 use crate::torque_bias::{differential_gain, differential_torque, split_torque};
 use crate::velocity_loop::VelocityGains;
 
-
 /// Measurements and commands of one azimuth sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AzimuthInputs {

@@ -19,7 +19,6 @@ use crate::status::AxisStatus;
 use crate::timing::SampledController;
 use crate::velocity_loop::VelocityGains;
 
-
 /// Measurements and commands of one elevation sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ElevationInputs {

@@ -167,7 +167,6 @@ mod tests {
         input: f64,
     }
 
-
     impl SampledController for Counter {
         type Inputs = f64;
         type Outputs = Out;

@@ -7,7 +7,6 @@
 //! is discretised with a forward-Euler integral, `C(z) = Kv (1 + w_i Ts / (z - 1))`, exactly
 //! what [`crate::linear`] models.
 
-
 /// The velocity loop's gains at a sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VelocityGains {

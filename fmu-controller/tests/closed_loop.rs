@@ -5,8 +5,8 @@
 mod common;
 
 use common::*;
-use fmu_controller::SampleScheduler;
 use fmu_controller::linear::{bandwidth_hz, margins, C64};
+use fmu_controller::SampleScheduler;
 use fmu_controller::{
     AzimuthController, AzimuthControllerParams, ControlMode, ElevationController, ElevationControllerParams,
 };

@@ -34,10 +34,10 @@
 
 use std::sync::Arc;
 
-use lti::zoh;
 use fmu_runtime::state::StateError;
-use serde::{Deserialize, Serialize};
+use lti::zoh;
 use nalgebra::{DMatrix, SMatrix, SVector};
+use serde::{Deserialize, Serialize};
 
 use crate::cache::{BoundedCache, DiscretisationKey};
 use crate::delay::DelayLine;
@@ -204,7 +204,6 @@ impl Motion {
             Motion::Stuck => 0.0,
         }
     }
-
 }
 
 /// The state of a pinion (or nut) mesh.
@@ -227,7 +226,6 @@ impl Mesh {
             Mesh::Gap => 0,
         }
     }
-
 }
 
 /// The owner's state-dependent torques: for a state and the cell's model, the torques on the

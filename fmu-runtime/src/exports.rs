@@ -612,7 +612,12 @@ pub unsafe fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0).
-pub unsafe fn get_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Integer) -> fmi2Status {
+pub unsafe fn get_integer(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetInteger", legal::GET, |instance| {
@@ -631,7 +636,12 @@ pub unsafe fn get_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: us
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0).
-pub unsafe fn get_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Boolean) -> fmi2Status {
+pub unsafe fn get_boolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetBoolean", legal::GET, |instance| {
@@ -654,7 +664,12 @@ pub unsafe fn get_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: us
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0).
-pub unsafe fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2String) -> fmi2Status {
+pub unsafe fn get_string(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *mut fmi2String,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetString", legal::GET, |instance| {
@@ -686,7 +701,12 @@ fn mark_changed(instance: &mut Instance) {
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0).
-pub unsafe fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Real) -> fmi2Status {
+pub unsafe fn set_real(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2Real,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SetReal", legal::SET_REAL, |instance| {
@@ -706,7 +726,12 @@ pub unsafe fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0).
-pub unsafe fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Integer) -> fmi2Status {
+pub unsafe fn set_integer(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2Integer,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SetInteger", legal::SET_OTHER, |instance| {
@@ -726,7 +751,12 @@ pub unsafe fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: us
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0).
-pub unsafe fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Boolean) -> fmi2Status {
+pub unsafe fn set_boolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2Boolean,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SetBoolean", legal::SET_OTHER, |instance| {
@@ -747,7 +777,12 @@ pub unsafe fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: us
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
 /// 0). Each string in `value` is NULL or NUL-terminated.
-pub unsafe fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2String) -> fmi2Status {
+pub unsafe fn set_string(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2String,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SetString", legal::SET_OTHER, |instance| {
@@ -888,7 +923,12 @@ pub unsafe fn serialized_fmu_state_size(c: fmi2Component, state: fmi2FMUstate, s
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed. `state` is NULL or a live state of this library; `bytes` is NULL or points to `size`
 /// writable bytes.
-pub unsafe fn serialize_fmu_state(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fmi2Byte, size: usize) -> fmi2Status {
+pub unsafe fn serialize_fmu_state(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    bytes: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SerializeFMUstate", legal::FMU_STATE, |_instance| {

@@ -5,11 +5,16 @@ use std::ffi::{CStr, CString};
 use std::ptr::{null, null_mut};
 
 use super::*;
-use fmu_import::LoggerCallbacks;
 use crate::state::{StateError, STATE_TAG};
 use crate::variables::{EnumerationType, Values};
 use crate::{declare_variables, DefaultExperiment};
-use via_c::{instance_from, instantiate, free_instance, setup_experiment, enter_initialization_mode, exit_initialization_mode, terminate, reset, get_real, get_string, set_real, set_integer, set_boolean, set_string, get_fmu_state, set_fmu_state, free_fmu_state, serialized_fmu_state_size, serialize_fmu_state, deserialize_fmu_state, do_step, cancel_step, get_real_status, unsupported, set_debug_logging};
+use fmu_import::LoggerCallbacks;
+use via_c::{
+    cancel_step, deserialize_fmu_state, do_step, enter_initialization_mode, exit_initialization_mode, free_fmu_state,
+    free_instance, get_fmu_state, get_real, get_real_status, get_string, instance_from, instantiate, reset,
+    serialize_fmu_state, serialized_fmu_state_size, set_boolean, set_debug_logging, set_fmu_state, set_integer,
+    set_real, set_string, setup_experiment, terminate, unsupported,
+};
 
 /// The exported functions as the tests call them, each as its C master would. The tests pass
 /// NULL, instances of a live [`Master`] (or deliberately freed ones, caught by the magic
@@ -24,17 +29,35 @@ mod via_c {
         unsafe { x::instance_from(c) }
     }
 
-    pub(super) fn instantiate(models: &[ModelEntry], name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, f: *const fmi2CallbackFunctions, visible: fmi2Boolean, on: fmi2Boolean) -> fmi2Component {
+    // The eight arguments of fmi2Instantiate (and the model table), as the C function has them.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn instantiate(
+        models: &[ModelEntry],
+        name: fmi2String,
+        ty: fmi2Type,
+        guid: fmi2String,
+        res: fmi2String,
+        f: *const fmi2CallbackFunctions,
+        visible: fmi2Boolean,
+        on: fmi2Boolean,
+    ) -> fmi2Component {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::instantiate(models, name, ty, guid, res, f, visible, on) }
     }
 
-    pub(super) fn free_instance(c: fmi2Component) -> () {
+    pub(super) fn free_instance(c: fmi2Component) {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::free_instance(c) }
     }
 
-    pub(super) fn setup_experiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, start: fmi2Real, sd: fmi2Boolean, stop: fmi2Real) -> fmi2Status {
+    pub(super) fn setup_experiment(
+        c: fmi2Component,
+        td: fmi2Boolean,
+        tol: fmi2Real,
+        start: fmi2Real,
+        sd: fmi2Boolean,
+        stop: fmi2Real,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::setup_experiment(c, td, tol, start, sd, stop) }
     }
@@ -64,27 +87,52 @@ mod via_c {
         unsafe { x::get_real(c, vr, n, v) }
     }
 
-    pub(super) fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2String) -> fmi2Status {
+    pub(super) fn get_string(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *mut fmi2String,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::get_string(c, vr, n, v) }
     }
 
-    pub(super) fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status {
+    pub(super) fn set_real(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2Real,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::set_real(c, vr, n, v) }
     }
 
-    pub(super) fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status {
+    pub(super) fn set_integer(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2Integer,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::set_integer(c, vr, n, v) }
     }
 
-    pub(super) fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status {
+    pub(super) fn set_boolean(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2Boolean,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::set_boolean(c, vr, n, v) }
     }
 
-    pub(super) fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2String) -> fmi2Status {
+    pub(super) fn set_string(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2String,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::set_string(c, vr, n, v) }
     }
@@ -114,7 +162,12 @@ mod via_c {
         unsafe { x::serialize_fmu_state(c, s, b, size) }
     }
 
-    pub(super) fn deserialize_fmu_state(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status {
+    pub(super) fn deserialize_fmu_state(
+        c: fmi2Component,
+        b: *const fmi2Byte,
+        size: usize,
+        s: *mut fmi2FMUstate,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::deserialize_fmu_state(c, b, size, s) }
     }
@@ -139,7 +192,12 @@ mod via_c {
         unsafe { x::unsupported(c, function, why) }
     }
 
-    pub(super) fn set_debug_logging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status {
+    pub(super) fn set_debug_logging(
+        c: fmi2Component,
+        on: fmi2Boolean,
+        n: usize,
+        cats: *const fmi2String,
+    ) -> fmi2Status {
         // SAFETY: the tests keep the contract (see the module documentation).
         unsafe { x::set_debug_logging(c, on, n, cats) }
     }

@@ -454,27 +454,23 @@ fn check_model_real<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) 
 pub fn check_integer_value<M: Model>(var: M::Var, value: i32, values: &Values<M::Var>) -> Result<(), String> {
     let decl = var.var();
     match decl.kind {
-        Kind::Integer { min, max, .. } => {
-            if min.is_some_and(|lo| value < lo) || max.is_some_and(|hi| value > hi) {
-                return Err(format!(
-                    "'{}' = {value} is outside its range [{}, {}]",
-                    decl.name,
-                    min.map_or("-inf".into(), |v| v.to_string()),
-                    max.map_or("inf".into(), |v| v.to_string())
-                ));
-            }
+        Kind::Integer { min, max, .. } if min.is_some_and(|lo| value < lo) || max.is_some_and(|hi| value > hi) => {
+            return Err(format!(
+                "'{}' = {value} is outside its range [{}, {}]",
+                decl.name,
+                min.map_or("-inf".into(), |v| v.to_string()),
+                max.map_or("inf".into(), |v| v.to_string())
+            ));
         }
-        Kind::Enumeration { declared_type, .. } => {
-            if declared_type.name_of(value).is_none() {
-                let items: Vec<String> =
-                    declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
-                return Err(format!(
-                    "'{}' = {value} is not an item of {} ({})",
-                    decl.name,
-                    declared_type.name,
-                    items.join(", ")
-                ));
-            }
+        Kind::Enumeration { declared_type, .. } if declared_type.name_of(value).is_none() => {
+            let items: Vec<String> =
+                declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
+            return Err(format!(
+                "'{}' = {value} is not an item of {} ({})",
+                decl.name,
+                declared_type.name,
+                items.join(", ")
+            ));
         }
         _ => {}
     }

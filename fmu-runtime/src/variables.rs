@@ -465,7 +465,8 @@ struct SavedValues<'a> {
 
 impl<V: VariableSet> Serialize for Values<V> {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let of_type = |ty: BaseType| V::TABLE.iter().enumerate().filter(move |(_, v)| v.base_type() == ty).map(|(i, _)| i);
+        let of_type =
+            |ty: BaseType| V::TABLE.iter().enumerate().filter(move |(_, v)| v.base_type() == ty).map(|(i, _)| i);
         SavedValues {
             reals: of_type(BaseType::Real).map(|i| self.reals[i]).collect(),
             integers: of_type(BaseType::Integer).map(|i| self.integers[i]).collect(),

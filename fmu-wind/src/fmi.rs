@@ -272,7 +272,9 @@ impl Model for WindModel {
 pub enum WindState {
     NotInitialized,
     /// The gust generator's state; none when the parameters switch the gusts off.
-    Initialized { gusts: Option<GustState> },
+    Initialized {
+        gusts: Option<GustState>,
+    },
 }
 
 /// The FMUs this crate ships: `Wind`, with its default coefficient table and parameters.

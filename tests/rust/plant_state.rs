@@ -9,6 +9,9 @@
 use antenna_tests::{expect_error, initialized, open, output_bits, real_inputs, set_reals, test_signal, vr, PLANTS};
 use fmu_import::{Fmu, Instance};
 
+/// A misuse that puts an instance into the Error phase.
+type Provocation<'a> = dyn Fn(&mut Instance) + 'a;
+
 /// Inputs at a millisecond index that reverse the drive every second with some noise.
 fn inputs(plant: &str, ms: usize) -> Vec<(&'static str, f64)> {
     let common = 1.5 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.3 * test_signal(ms as u64, 5);
@@ -143,7 +146,7 @@ fn after_an_error_a_restored_state_continues_bitwise_as_an_uninterrupted_run() {
         run(&fmu, plant, &mut instance, 0, 1000);
         let state = instance.get_state().unwrap();
         let input = real_inputs(&fmu).remove(0);
-        let provocations: [(&str, &dyn Fn(&mut Instance)); 2] = [
+        let provocations: [(&str, &Provocation); 2] = [
             ("a NaN input", &|instance| {
                 expect_error(
                     instance.set_real(&[vr(&fmu, &input)], &[f64::NAN]),

@@ -53,8 +53,10 @@ crate::controller_variables! {
 
 /// The controller parameters the variable values describe.
 pub fn azimuth_controller_params(v: &Values<AzCtrlVar>) -> AzimuthControllerParams {
-    let mut p = AzimuthControllerParams::default();
-    p.cascade = AzCtrlVar::CASCADE.read(v, CascadeParams::for_axis(2.0, 1.0));
+    let mut p = AzimuthControllerParams {
+        cascade: AzCtrlVar::CASCADE.read(v, CascadeParams::for_axis(2.0, 1.0)),
+        ..AzimuthControllerParams::default()
+    };
     p.drive.gear_ratio = v.real(AzCtrlVar::GearRatio);
     p.drive.motor_inertia_kg_m2 = v.real(AzCtrlVar::MotorInertia);
     p.drive.axis_inertia_kg_m2 = v.real(AzCtrlVar::AxisInertia);
@@ -154,7 +156,11 @@ impl Model for AzimuthControllerModel {
         }
     }
 
-    fn load_state(&mut self, state: ControllerState<AzimuthOutputs>, values: &Values<AzCtrlVar>) -> Result<(), StateError> {
+    fn load_state(
+        &mut self,
+        state: ControllerState<AzimuthOutputs>,
+        values: &Values<AzCtrlVar>,
+    ) -> Result<(), StateError> {
         let ControllerState { cascade, scheduler } = state;
         let controller = match cascade {
             Some(cascade) => {

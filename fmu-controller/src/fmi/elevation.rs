@@ -53,8 +53,10 @@ crate::controller_variables! {
 
 /// The controller parameters the variable values describe.
 pub fn elevation_controller_params(v: &Values<ElCtrlVar>) -> ElevationControllerParams {
-    let mut p = ElevationControllerParams::default();
-    p.cascade = ElCtrlVar::CASCADE.read(v, CascadeParams::for_axis(1.0, 0.5));
+    let mut p = ElevationControllerParams {
+        cascade: ElCtrlVar::CASCADE.read(v, CascadeParams::for_axis(1.0, 0.5)),
+        ..ElevationControllerParams::default()
+    };
     let j = &mut p.drive.jackscrew;
     j.dish_attachment_radius_m = v.real(ElCtrlVar::DishRadius);
     j.yoke_attachment_radius_m = v.real(ElCtrlVar::YokeRadius);
@@ -155,11 +157,16 @@ impl Model for ElevationControllerModel {
         }
     }
 
-    fn load_state(&mut self, state: ControllerState<ElevationOutputs>, values: &Values<ElCtrlVar>) -> Result<(), StateError> {
+    fn load_state(
+        &mut self,
+        state: ControllerState<ElevationOutputs>,
+        values: &Values<ElCtrlVar>,
+    ) -> Result<(), StateError> {
         let ControllerState { cascade, scheduler } = state;
         let controller = match cascade {
             Some(cascade) => {
-                let mut c = ElevationController::new(elevation_controller_params(values)).map_err(StateError::Invalid)?;
+                let mut c =
+                    ElevationController::new(elevation_controller_params(values)).map_err(StateError::Invalid)?;
                 c.load_state(cascade)?;
                 Some(c)
             }
