@@ -1,7 +1,7 @@
 //! The bodies of the 44 exported `fmi2*` functions.
 //!
-//! [`crate::export_fmi2!`] expands, in a model crate, into `#[no_mangle] extern "C"` functions
-//! that forward here. Every function: catches panics; checks the instance pointer (after the
+//! [`crate::export_fmi2!`] expands, in a model crate, into `#[no_mangle] unsafe extern "C"`
+//! functions that forward here. Every function: catches panics; checks the instance pointer (after the
 //! `n == 0` short-cut where the standard has one); checks that the call is legal in the
 //! instance's phase (table in [`crate::instance::legal`]); checks every argument before
 //! anything changes; and reports failures through the master's logger with fmi2Error. An error
