@@ -174,3 +174,32 @@ fn after_an_error_a_restored_state_continues_bitwise_as_an_uninterrupted_run() {
         }
     }
 }
+
+#[test]
+fn truncated_or_corrupt_states_are_refused_with_a_reason_never_a_panic() {
+    for plant in PLANTS {
+        let fmu = open(plant);
+        let mut original = initialized(&fmu, "original", &[]);
+        run(&fmu, plant, &mut original, 0, 500);
+        let state = original.get_state().unwrap();
+        let bytes = original.serialize_state(&state).unwrap();
+        let mut target = fmu.instantiate("target", false).unwrap();
+        for cut in 0..bytes.len() {
+            let messages =
+                expect_error(target.deserialize_state(&bytes[..cut]), &target, &format!("{plant}: cut at {cut}"));
+            assert!(messages.iter().all(|m| !m.contains("panic")), "{plant}: cut at {cut}: {messages:?}");
+        }
+        // A corrupted byte may still decode (a number's bits); if it does not, the reason is
+        // the decoder's or the model's, never a panic.
+        for i in 0..bytes.len() {
+            let mut corrupt = bytes.clone();
+            corrupt[i] ^= 0xA5;
+            match target.deserialize_state(&corrupt) {
+                Ok(restored) => {
+                    target.free_state(restored).unwrap();
+                }
+                Err(e) => assert!(!e.to_string().contains("panic"), "{plant}: byte {i}: {e}"),
+            }
+        }
+    }
+}
