@@ -2,17 +2,16 @@
 //! torque bias and the superimposed differential speed controller that turn the total torque
 //! into two current commands.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
+use serde::{Deserialize, Serialize};
 
-use crate::cascade::{Cascade, CascadeInput, ControlMode};
+use crate::cascade::{Cascade, CascadeInput, CascadeState, ControlMode};
 use crate::linear::{PositionLoopModel, VelocityLoopModel};
 use crate::params::{AzimuthControllerParams, SamplingParams};
 use crate::status::AxisStatus;
-use crate::timing::{OutputState, SampledController};
+use crate::timing::SampledController;
 use crate::torque_bias::{differential_gain, differential_torque, split_torque};
 use crate::velocity_loop::VelocityGains;
-
-const STATE_FORMAT: u8 = 1;
 
 /// Measurements and commands of one azimuth sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -36,7 +35,7 @@ pub struct AzimuthInputs {
 }
 
 /// What one azimuth sample produces.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct AzimuthOutputs {
     /// Current commands of motor 1 and motor 2, A, limited to the current limit.
     pub current_command_a: [f64; 2],
@@ -46,25 +45,6 @@ pub struct AzimuthOutputs {
     pub differential_torque_nm: f64,
     /// Reference, errors and flags.
     pub status: AxisStatus,
-}
-
-impl OutputState for AzimuthOutputs {
-    fn save(&self, w: &mut StateWriter) {
-        w.f64(self.current_command_a[0]);
-        w.f64(self.current_command_a[1]);
-        w.f64(self.bias_torque_nm);
-        w.f64(self.differential_torque_nm);
-        self.status.save(w);
-    }
-
-    fn load(r: &mut StateReader) -> Result<Self, StateError> {
-        Ok(Self {
-            current_command_a: [r.f64()?, r.f64()?],
-            bias_torque_nm: r.f64()?,
-            differential_torque_nm: r.f64()?,
-            status: AxisStatus::load(r)?,
-        })
-    }
 }
 
 /// The gains the azimuth controller runs with.
@@ -174,20 +154,15 @@ impl AzimuthController {
         }
     }
 
-    /// Writes everything that determines the future outputs (not the parameters).
-    pub fn save_state(&self, w: &mut StateWriter) {
-        w.u8(STATE_FORMAT);
-        self.cascade.save(w);
+    /// Everything that determines the future outputs (not the parameters).
+    pub fn save_state(&self) -> CascadeState {
+        self.cascade.saved_state()
     }
 
-    /// Restores a state written by [`save_state`](Self::save_state) of a controller with the
-    /// same parameters. On error the controller is unchanged.
-    pub fn load_state(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let format = r.u8()?;
-        if format != STATE_FORMAT {
-            return Err(StateError(format!("azimuth controller state format {format}, expected {STATE_FORMAT}")));
-        }
-        self.cascade.load(r)
+    /// Restores what [`save_state`](Self::save_state) returned for a controller with the same
+    /// parameters. On error the controller is unchanged.
+    pub fn load_state(&mut self, state: CascadeState) -> Result<(), StateError> {
+        self.cascade.restore(state)
     }
 }
 
@@ -278,12 +253,13 @@ mod tests {
     }
 
     #[test]
-    fn state_of_the_wrong_format_is_rejected() {
+    fn a_state_with_other_speed_filters_is_rejected_and_changes_nothing() {
         let mut c = AzimuthController::new(AzimuthControllerParams::default()).unwrap();
-        let mut w = StateWriter::new();
-        c.save_state(&mut w);
-        let mut bytes = w.into_bytes();
-        bytes[0] = 99;
-        assert!(c.load_state(&mut StateReader::new(&bytes)).is_err());
+        let before = c.clone();
+        let mut state = c.save_state();
+        state.last_torque = 1.0;
+        state.speed_filter.notch = if state.speed_filter.notch.is_some() { None } else { Some([0.0; 2]) };
+        assert!(c.load_state(state).is_err());
+        assert_eq!(c, before);
     }
 }

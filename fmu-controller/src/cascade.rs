@@ -8,16 +8,17 @@
 //! the measured speed after open-loop mode), and leaving open-loop mode sets the velocity
 //! integrator so that the torque carries on from the last open-loop torque.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
+use serde::{Deserialize, Serialize};
 
-use crate::filters::SpeedFilter;
+use crate::filters::{SpeedFilter, SpeedFilterState};
 use crate::params::CascadeParams;
-use crate::position_loop::PositionLoop;
-use crate::profiler::{CommandProfiler, Reference};
+use crate::position_loop::{PositionLoop, PositionLoopState};
+use crate::profiler::{CommandProfiler, ProfilerState, Reference};
 use crate::velocity_loop::{VelocityGains, VelocityLoop};
 
 /// What the controller does with its commands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum ControlMode {
     /// Position control of Fig. 3: profiler, position loop, velocity loop (the default).
     #[default]
@@ -232,32 +233,41 @@ impl Cascade {
         }
     }
 
-    pub fn save(&self, w: &mut StateWriter) {
-        w.u8(self.mode.map_or(0, |m| m.index() as u8));
-        w.f64(self.last_torque);
-        self.profiler.save(w);
-        self.position_loop.save(w);
-        self.velocity_loop.save(w);
-        self.speed_filter.save(w);
+    pub fn saved_state(&self) -> CascadeState {
+        CascadeState {
+            mode: self.mode,
+            last_torque: self.last_torque,
+            profiler: self.profiler.saved_state(),
+            position_loop: self.position_loop.saved_state(),
+            velocity_integral: self.velocity_loop.saved_state(),
+            speed_filter: self.speed_filter.saved_state(),
+        }
     }
 
-    /// Reads a state written by [`save`](Self::save); on error `self` is unchanged.
-    pub fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let mut next = self.clone();
-        let mode = r.u8()?;
-        next.mode = match mode {
-            0 => None,
-            m => Some(
-                ControlMode::from_index(i32::from(m))
-                    .ok_or_else(|| StateError(format!("invalid control mode {m} in state")))?,
-            ),
-        };
-        next.last_torque = r.f64()?;
-        next.profiler.load(r)?;
-        next.position_loop.load(r)?;
-        next.velocity_loop.load(r)?;
-        next.speed_filter.load(r)?;
-        *self = next;
+    /// Restores what [`saved_state`](Self::saved_state) returned for a cascade with the same
+    /// parameters; on error `self` is unchanged.
+    pub fn restore(&mut self, state: CascadeState) -> Result<(), StateError> {
+        let CascadeState { mode, last_torque, profiler, position_loop, velocity_integral, speed_filter } = state;
+        self.speed_filter.restore(speed_filter)?;
+        self.mode = mode;
+        self.last_torque = last_torque;
+        self.profiler.restore(profiler);
+        self.position_loop.restore(position_loop);
+        self.velocity_loop.restore(velocity_integral);
         Ok(())
     }
+}
+
+/// What an FMU state holds of a controller: its cascade's state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CascadeState {
+    /// Mode of the previous sample; `None` before the first sample.
+    pub mode: Option<ControlMode>,
+    /// Torque command of the previous sample, N m.
+    pub last_torque: f64,
+    pub profiler: ProfilerState,
+    pub position_loop: PositionLoopState,
+    /// The velocity loop's integral term, N m.
+    pub velocity_integral: f64,
+    pub speed_filter: SpeedFilterState,
 }

@@ -8,17 +8,16 @@
 //! speed with the right ratio (a constant ratio would leave a tracking error proportional to
 //! the ratio's error times the tracking rate).
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
+use serde::{Deserialize, Serialize};
 
-use crate::cascade::{Cascade, CascadeInput, ControlMode};
+use crate::cascade::{Cascade, CascadeInput, CascadeState, ControlMode};
 use crate::friction_feedforward::friction_feedforward;
 use crate::linear::{PositionLoopModel, VelocityLoopModel};
 use crate::params::{ElevationControllerParams, SamplingParams};
 use crate::status::AxisStatus;
-use crate::timing::{OutputState, SampledController};
+use crate::timing::SampledController;
 use crate::velocity_loop::VelocityGains;
-
-const STATE_FORMAT: u8 = 1;
 
 /// Measurements and commands of one elevation sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -40,7 +39,7 @@ pub struct ElevationInputs {
 }
 
 /// What one elevation sample produces.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct ElevationOutputs {
     /// Motor current command, A, limited to the current limit.
     pub current_command_a: f64,
@@ -50,24 +49,6 @@ pub struct ElevationOutputs {
     pub gear_ratio: f64,
     /// Reference, errors and flags.
     pub status: AxisStatus,
-}
-
-impl OutputState for ElevationOutputs {
-    fn save(&self, w: &mut StateWriter) {
-        w.f64(self.current_command_a);
-        w.f64(self.friction_feedforward_nm);
-        w.f64(self.gear_ratio);
-        self.status.save(w);
-    }
-
-    fn load(r: &mut StateReader) -> Result<Self, StateError> {
-        Ok(Self {
-            current_command_a: r.f64()?,
-            friction_feedforward_nm: r.f64()?,
-            gear_ratio: r.f64()?,
-            status: AxisStatus::load(r)?,
-        })
-    }
 }
 
 /// The elevation axis controller. See the module documentation.
@@ -186,20 +167,15 @@ impl ElevationController {
         }
     }
 
-    /// Writes everything that determines the future outputs (not the parameters).
-    pub fn save_state(&self, w: &mut StateWriter) {
-        w.u8(STATE_FORMAT);
-        self.cascade.save(w);
+    /// Everything that determines the future outputs (not the parameters).
+    pub fn save_state(&self) -> CascadeState {
+        self.cascade.saved_state()
     }
 
-    /// Restores a state written by [`save_state`](Self::save_state) of a controller with the
-    /// same parameters. On error the controller is unchanged.
-    pub fn load_state(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let format = r.u8()?;
-        if format != STATE_FORMAT {
-            return Err(StateError(format!("elevation controller state format {format}, expected {STATE_FORMAT}")));
-        }
-        self.cascade.load(r)
+    /// Restores what [`save_state`](Self::save_state) returned for a controller with the same
+    /// parameters. On error the controller is unchanged.
+    pub fn load_state(&mut self, state: CascadeState) -> Result<(), StateError> {
+        self.cascade.restore(state)
     }
 }
 
@@ -295,13 +271,8 @@ mod tests {
         for k in 0..500 {
             a.sample(&input(k));
         }
-        let mut w = StateWriter::new();
-        a.save_state(&mut w);
-        let bytes = w.into_bytes();
         let mut b = ElevationController::new(ElevationControllerParams::default()).unwrap();
-        let mut r = StateReader::new(&bytes);
-        b.load_state(&mut r).unwrap();
-        r.finish().unwrap();
+        b.load_state(a.save_state()).unwrap();
         assert_eq!(a, b);
         for k in 500..2000 {
             let (oa, ob) = (a.sample(&input(k)), b.sample(&input(k)));

@@ -6,8 +6,9 @@
 //! in closed form so that the linear loop model uses exactly the coefficients the controller
 //! runs with.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
 use nalgebra::Complex;
+use serde::{Deserialize, Serialize};
 
 use crate::params::{NotchParams, VelocityLoopParams};
 
@@ -73,14 +74,9 @@ impl Biquad {
         num / den
     }
 
-    fn save(&self, w: &mut StateWriter) {
-        w.f64(self.state[0]);
-        w.f64(self.state[1]);
-    }
-
-    fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        self.state = [r.f64()?, r.f64()?];
-        Ok(())
+    /// The filter's state, the two delay elements.
+    fn saved_state(&self) -> [f64; 2] {
+        self.state
     }
 }
 
@@ -131,18 +127,33 @@ impl SpeedFilter {
         h
     }
 
-    pub(crate) fn save(&self, w: &mut StateWriter) {
-        for f in [&self.low_pass, &self.notch].into_iter().flatten() {
-            f.save(w);
+    pub(crate) fn saved_state(&self) -> SpeedFilterState {
+        SpeedFilterState {
+            low_pass: self.low_pass.as_ref().map(Biquad::saved_state),
+            notch: self.notch.as_ref().map(Biquad::saved_state),
         }
     }
 
-    pub(crate) fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        for f in [&mut self.low_pass, &mut self.notch].into_iter().flatten() {
-            f.load(r)?;
+    /// Restores a state of a chain with the same filters; on error nothing changes.
+    pub(crate) fn restore(&mut self, state: SpeedFilterState) -> Result<(), StateError> {
+        let SpeedFilterState { low_pass, notch } = state;
+        if low_pass.is_some() != self.low_pass.is_some() || notch.is_some() != self.notch.is_some() {
+            return Err(StateError::Invalid("the state and the parameters disagree about the speed filters".into()));
+        }
+        for (filter, saved) in [(&mut self.low_pass, low_pass), (&mut self.notch, notch)] {
+            if let (Some(filter), Some(saved)) = (filter, saved) {
+                filter.state = saved;
+            }
         }
         Ok(())
     }
+}
+
+/// What an FMU state holds of a [`SpeedFilter`]: each present filter's two delay elements.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SpeedFilterState {
+    pub low_pass: Option<[f64; 2]>,
+    pub notch: Option<[f64; 2]>,
 }
 
 #[cfg(test)]

@@ -36,10 +36,10 @@ pub mod torque_bias;
 pub mod velocity_loop;
 
 pub use azimuth::{AzimuthController, AzimuthGains, AzimuthInputs, AzimuthOutputs};
-pub use cascade::ControlMode;
+pub use cascade::{CascadeState, ControlMode};
 pub use elevation::{ElevationController, ElevationInputs, ElevationOutputs};
 pub use params::{AzimuthControllerParams, CascadeParams, ElevationControllerParams};
 pub use status::AxisStatus;
-pub use timing::{SampleScheduler, SampledController};
+pub use timing::{SampleScheduler, SampledController, SchedulerState};
 
 pub mod fmi;

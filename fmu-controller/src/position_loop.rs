@@ -7,7 +7,7 @@
 //! by velocity mode, so that switching between the modes never makes the velocity reference
 //! jump.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use serde::{Deserialize, Serialize};
 
 use crate::params::{AntiLimitCycleParams, PositionLoopParams};
 
@@ -152,20 +152,31 @@ impl PositionLoop {
         self.previous_velocity_reference
     }
 
-    pub(crate) fn save(&self, w: &mut StateWriter) {
-        w.f64(self.integral);
-        w.f64(self.previous_velocity_reference);
-        w.bool(self.holding);
-        w.f64(self.held_reference);
+    pub(crate) fn saved_state(&self) -> PositionLoopState {
+        PositionLoopState {
+            integral: self.integral,
+            previous_velocity_reference: self.previous_velocity_reference,
+            holding: self.holding,
+            held_reference: self.held_reference,
+        }
     }
 
-    pub(crate) fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        self.integral = r.f64()?;
-        self.previous_velocity_reference = r.f64()?;
-        self.holding = r.bool()?;
-        self.held_reference = r.f64()?;
-        Ok(())
+    pub(crate) fn restore(&mut self, state: PositionLoopState) {
+        let PositionLoopState { integral, previous_velocity_reference, holding, held_reference } = state;
+        self.integral = integral;
+        self.previous_velocity_reference = previous_velocity_reference;
+        self.holding = holding;
+        self.held_reference = held_reference;
     }
+}
+
+/// What an FMU state holds of a [`PositionLoop`] (the fields are the loop's, same units).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PositionLoopState {
+    pub integral: f64,
+    pub previous_velocity_reference: f64,
+    pub holding: bool,
+    pub held_reference: f64,
 }
 
 #[cfg(test)]

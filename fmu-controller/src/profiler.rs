@@ -27,7 +27,7 @@
 //! the distance to go never changes sign. The profile hands back to tracking when it is within
 //! a tolerance of the target in both position and velocity.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use serde::{Deserialize, Serialize};
 
 use crate::params::ProfilerParams;
 
@@ -205,22 +205,35 @@ impl CommandProfiler {
         (s.velocity_gain * (wanted_velocity - self.velocity)).clamp(-s.max_acceleration, s.max_acceleration)
     }
 
-    pub(crate) fn save(&self, w: &mut StateWriter) {
-        w.f64(self.position);
-        w.f64(self.velocity);
-        w.f64(self.acceleration);
-        w.bool(self.stepping);
-        w.bool(self.fresh);
+    pub(crate) fn saved_state(&self) -> ProfilerState {
+        ProfilerState {
+            position: self.position,
+            velocity: self.velocity,
+            acceleration: self.acceleration,
+            stepping: self.stepping,
+            fresh: self.fresh,
+        }
     }
 
-    pub(crate) fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        self.position = r.f64()?;
-        self.velocity = r.f64()?;
-        self.acceleration = r.f64()?;
-        self.stepping = r.bool()?;
-        self.fresh = r.bool()?;
-        Ok(())
+    pub(crate) fn restore(&mut self, state: ProfilerState) {
+        let ProfilerState { position, velocity, acceleration, stepping, fresh } = state;
+        self.position = position;
+        self.velocity = velocity;
+        self.acceleration = acceleration;
+        self.stepping = stepping;
+        self.fresh = fresh;
     }
+}
+
+/// What an FMU state holds of a [`CommandProfiler`] (the fields are the profiler's, same
+/// units).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ProfilerState {
+    pub position: f64,
+    pub velocity: f64,
+    pub acceleration: f64,
+    pub stepping: bool,
+    pub fresh: bool,
 }
 
 /// The jerk limit: the acceleration's magnitude may grow by at most `max_change` per sample,
@@ -478,13 +491,8 @@ mod tests {
         for _ in 0..700 {
             a.update(0.3, 0.0);
         }
-        let mut w = StateWriter::new();
-        a.save(&mut w);
-        let bytes = w.into_bytes();
         let mut b = profiler(&params);
-        let mut r = StateReader::new(&bytes);
-        b.load(&mut r).unwrap();
-        r.finish().unwrap();
+        b.restore(a.saved_state());
         for _ in 0..1000 {
             let (ra, rb) = (a.update(0.3, 0.0), b.update(0.3, 0.0));
             assert_eq!(ra.position.to_bits(), rb.position.to_bits());

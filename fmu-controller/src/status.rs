@@ -2,12 +2,12 @@
 //! profiler, limits and anti-limit-cycle hold, in the ACU's units (deg) for logging and for
 //! the lead's requirement checks.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use serde::{Deserialize, Serialize};
 
 use crate::cascade::CascadeOutput;
 
 /// Internal signals of one sample, axis units.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct AxisStatus {
     /// Reference position the position loop follows (the profile during a step, the command
     /// while tracking; the measured position in velocity and open-loop modes), deg.
@@ -52,39 +52,5 @@ impl AxisStatus {
             torque_limited: out.torque_limited,
             holding: out.holding,
         }
-    }
-
-    pub(crate) fn save(&self, w: &mut StateWriter) {
-        for v in [
-            self.reference_position_deg,
-            self.reference_velocity_deg_per_s,
-            self.reference_acceleration_deg_per_s2,
-            self.position_error_deg,
-            self.command_error_deg,
-            self.velocity_reference_deg_per_s,
-            self.measured_velocity_deg_per_s,
-            self.torque_command_nm,
-        ] {
-            w.f64(v);
-        }
-        w.bool(self.profiling);
-        w.bool(self.torque_limited);
-        w.bool(self.holding);
-    }
-
-    pub(crate) fn load(r: &mut StateReader) -> Result<Self, StateError> {
-        Ok(Self {
-            reference_position_deg: r.f64()?,
-            reference_velocity_deg_per_s: r.f64()?,
-            reference_acceleration_deg_per_s2: r.f64()?,
-            position_error_deg: r.f64()?,
-            command_error_deg: r.f64()?,
-            velocity_reference_deg_per_s: r.f64()?,
-            measured_velocity_deg_per_s: r.f64()?,
-            torque_command_nm: r.f64()?,
-            profiling: r.bool()?,
-            torque_limited: r.bool()?,
-            holding: r.bool()?,
-        })
     }
 }

@@ -27,7 +27,8 @@
 
 use std::collections::VecDeque;
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
+use serde::{Deserialize, Serialize};
 
 use crate::params::SamplingParams;
 
@@ -45,12 +46,6 @@ pub trait SampledController {
     fn idle_outputs(&self) -> Self::Outputs;
 }
 
-/// Outputs that can be written into and read back from a saved state.
-pub trait OutputState: Sized {
-    fn save(&self, w: &mut StateWriter);
-    fn load(r: &mut StateReader) -> Result<Self, StateError>;
-}
-
 /// See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampleScheduler<O> {
@@ -63,7 +58,7 @@ pub struct SampleScheduler<O> {
     applied: O,
 }
 
-impl<O: Clone + OutputState> SampleScheduler<O> {
+impl<O: Clone> SampleScheduler<O> {
     /// A scheduler whose sample 0 is at `start_time`; `idle` is in force until the first
     /// output takes effect.
     pub fn new(start_time: f64, sampling: &SamplingParams, idle: O) -> Self {
@@ -115,34 +110,45 @@ impl<O: Clone + OutputState> SampleScheduler<O> {
         &self.applied
     }
 
-    pub fn save(&self, w: &mut StateWriter) {
-        w.u64(self.next_sample);
-        w.u64(self.pending.len() as u64);
-        for (k, out) in &self.pending {
-            w.u64(*k);
-            out.save(w);
+    /// Everything that determines the future outputs: the grid's start, the next sample, the
+    /// outputs not yet in effect and the one in force.
+    pub fn saved_state(&self) -> SchedulerState<O> {
+        SchedulerState {
+            start_time: self.start_time,
+            next_sample: self.next_sample,
+            pending: self.pending.iter().cloned().collect(),
+            applied: self.applied.clone(),
         }
-        self.applied.save(w);
     }
 
-    /// Reads a state written by [`save`](Self::save); on error `self` is unchanged.
-    pub fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let next_sample = r.u64()?;
-        let count = r.u64()?;
-        if count > u64::from(SamplingParams::MAX_DELAY_SAMPLES) + 1 {
-            return Err(StateError(format!("state holds {count} pending outputs, more than the delay allows")));
+    /// A scheduler restored from what [`saved_state`](Self::saved_state) returned, for the
+    /// given sampling.
+    pub fn restored(sampling: &SamplingParams, state: SchedulerState<O>) -> Result<Self, StateError> {
+        let SchedulerState { start_time, next_sample, pending, applied } = state;
+        if pending.len() > SamplingParams::MAX_DELAY_SAMPLES as usize + 1 {
+            return Err(StateError::Invalid(format!(
+                "state holds {} pending outputs, more than the delay allows",
+                pending.len()
+            )));
         }
-        let mut pending = VecDeque::with_capacity(count as usize);
-        for _ in 0..count {
-            let k = r.u64()?;
-            pending.push_back((k, O::load(r)?));
-        }
-        let applied = O::load(r)?;
-        self.next_sample = next_sample;
-        self.pending = pending;
-        self.applied = applied;
-        Ok(())
+        let mut scheduler = Self::new(start_time, sampling, applied);
+        scheduler.next_sample = next_sample;
+        scheduler.pending = pending.into();
+        Ok(scheduler)
     }
+}
+
+/// What an FMU state holds of a [`SampleScheduler`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SchedulerState<O> {
+    /// Instant of sample 0, s.
+    pub start_time: f64,
+    /// Index of the next sample to execute.
+    pub next_sample: u64,
+    /// Outputs computed but not yet in effect, with the index of the sample that computed them.
+    pub pending: Vec<(u64, O)>,
+    /// The output in force.
+    pub applied: O,
 }
 
 #[cfg(test)]
@@ -159,16 +165,6 @@ mod tests {
     struct Out {
         sample: i64,
         input: f64,
-    }
-
-    impl OutputState for Out {
-        fn save(&self, w: &mut StateWriter) {
-            w.i64(self.sample);
-            w.f64(self.input);
-        }
-        fn load(r: &mut StateReader) -> Result<Self, StateError> {
-            Ok(Out { sample: r.i64()?, input: r.f64()? })
-        }
     }
 
     impl SampledController for Counter {
@@ -269,13 +265,7 @@ mod tests {
         let mut c = Counter { sampling, count: 0 };
         let mut s = SampleScheduler::new(0.0, &sampling, c.idle_outputs());
         s.do_step(&mut c, 0.0, 3.5e-3, &1.0);
-        let mut w = StateWriter::new();
-        s.save(&mut w);
-        let bytes = w.into_bytes();
-        let mut restored = SampleScheduler::new(0.0, &sampling, c.idle_outputs());
-        let mut r = StateReader::new(&bytes);
-        restored.load(&mut r).unwrap();
-        r.finish().unwrap();
+        let mut restored = SampleScheduler::restored(&sampling, s.saved_state()).unwrap();
         let mut c2 = Counter { sampling, count: c.count };
         for j in 0..10 {
             let t = 3.5e-3 + j as f64 * 1e-3;

@@ -7,8 +7,6 @@
 //! is discretised with a forward-Euler integral, `C(z) = Kv (1 + w_i Ts / (z - 1))`, exactly
 //! what [`crate::linear`] models.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
-
 /// The velocity loop's gains at a sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VelocityGains {
@@ -110,13 +108,13 @@ impl VelocityLoop {
         VelocityLoopOutput { torque, limited }
     }
 
-    pub(crate) fn save(&self, w: &mut StateWriter) {
-        w.f64(self.integral);
+    /// The loop's state, its integral term.
+    pub(crate) fn saved_state(&self) -> f64 {
+        self.integral
     }
 
-    pub(crate) fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        self.integral = r.f64()?;
-        Ok(())
+    pub(crate) fn restore(&mut self, integral: f64) {
+        self.integral = integral;
     }
 }
 

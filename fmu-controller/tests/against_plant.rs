@@ -9,7 +9,6 @@ mod common;
 use common::*;
 use fmu_controller::linear::{bandwidth_hz, margins, AxisPlantResponse, C64};
 use fmu_controller::params::{AzimuthDriveModel, ElevationDriveModel};
-use fmu_controller::timing::OutputState;
 use fmu_controller::{AzimuthController, AzimuthControllerParams, ElevationController, ElevationControllerParams};
 use fmu_plant::analytic::current_loop_response;
 use fmu_plant::{AzimuthParams, AzimuthPlant, ElevationParams, ElevationPlant};
@@ -172,7 +171,7 @@ fn loops_designed_on_the_plant_crates_two_mass_model_meet_the_bandwidth_and_marg
 /// Holds `start`, then steps to `start + step` at t = 0; returns records from the step on.
 fn step_case<C: AxisController, P: Plant>(controller: C, plant: P, start: f64, step: f64, seconds: f64) -> Vec<Record>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let mut rig = Rig::new(controller, plant);
     rig.run(3.0, |_| Commands { position_deg: start, ..Commands::default() });
@@ -282,7 +281,7 @@ fn sine_track<C: AxisController, P: Plant>(
     period: f64,
 ) -> Vec<f64>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let w = std::f64::consts::TAU / period;
     let mut rig = Rig::new(controller, plant);
@@ -393,7 +392,7 @@ fn simulated_velocity_loop_on_the_linear_plant_matches_the_analytic_bode_plot() 
 /// sine's frequency.
 fn sine_response<C: AxisController, P: Plant>(controller: C, plant: P, frequency_hz: f64, gear_ratio: f64) -> C64
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let amplitude_deg = 0.01;
     let mut rig = Rig::new(controller, plant);

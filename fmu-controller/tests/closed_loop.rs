@@ -6,11 +6,10 @@ mod common;
 
 use common::*;
 use fmu_controller::linear::{bandwidth_hz, margins, C64};
-use fmu_controller::timing::OutputState;
+use fmu_controller::SampleScheduler;
 use fmu_controller::{
     AzimuthController, AzimuthControllerParams, ControlMode, ElevationController, ElevationControllerParams,
 };
-use fmu_runtime::state::{StateReader, StateWriter};
 
 const ELEVATIONS: [f64; 3] = [15.0, 45.0, 88.0];
 
@@ -72,7 +71,7 @@ fn position_loops_have_half_to_one_hertz_bandwidth_at_every_elevation() {
 
 fn step_case<C: AxisController>(controller: C, plant: LocalAxis, start: f64, step: f64, seconds: f64) -> Vec<Record>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let mut rig = Rig::new(controller, plant);
     // Settle on the start position first, then step.
@@ -155,7 +154,7 @@ fn simulated_sine_identification_matches_the_analytic_closed_velocity_loop() {
 /// complex ratio of motor speed to motor speed reference at the sine's frequency.
 fn sine_response<C: AxisController>(controller: C, plant: LocalAxis, frequency_hz: f64, gear_ratio: f64) -> C64
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let amplitude_deg = 0.01;
     let mut rig = Rig::new(controller, plant);
@@ -260,7 +259,7 @@ fn tracking_jitter_stays_far_below_15_arcsec_rms_at_sidereal_and_at_the_fastest_
 /// Tracks a target moving at `rate` (deg/s) from `start`, the command velocity given.
 fn track<C: AxisController>(controller: C, plant: LocalAxis, start: f64, rate: f64, seconds: f64) -> Vec<Record>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let mut rig = Rig::new(controller, plant);
     rig.run(seconds, |t| Commands { position_deg: start + rate * t, velocity_deg_per_s: rate, ..Commands::default() })
@@ -270,7 +269,7 @@ where
 /// returns the pointing errors (arcsec) after the first period.
 fn sine_track<C: AxisController>(controller: C, plant: LocalAxis, centre: f64, amplitude: f64, period: f64) -> Vec<f64>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     let w = std::f64::consts::TAU / period;
     let mut rig = Rig::new(controller, plant);
@@ -436,20 +435,16 @@ fn saved_state_resumes_the_closed_loop_bitwise() {
     let commands = |_: f64| Commands { position_deg: 12.0, ..Commands::default() };
     let mut rig = Rig::new(azimuth(), LocalAxis::new(LocalAxisParams::azimuth(45.0), 10.0));
     rig.run(1.5, commands);
-    let mut w = StateWriter::new();
-    rig.controller.save_state(&mut w);
-    rig.scheduler.save(&mut w);
-    let bytes = w.into_bytes();
+    let (controller_state, scheduler_state) = (rig.controller.save_state(), rig.scheduler.saved_state());
     let plant = rig.plant.clone();
     let time = rig.time;
     let original = rig.run(2.0, commands);
 
     let mut restored = Rig::new(azimuth(), plant);
     restored.time = time;
-    let mut r = StateReader::new(&bytes);
-    restored.controller.load_state(&mut r).unwrap();
-    restored.scheduler.load(&mut r).unwrap();
-    r.finish().unwrap();
+    restored.controller.load_state(controller_state).unwrap();
+    let sampling = restored.controller.params().cascade.sampling;
+    restored.scheduler = SampleScheduler::restored(&sampling, scheduler_state.clone()).unwrap();
     let replay = restored.run(2.0, commands);
     for (a, b) in original.iter().zip(&replay) {
         assert_eq!(a.currents[0].to_bits(), b.currents[0].to_bits(), "at {} s", a.time);
@@ -457,16 +452,10 @@ fn saved_state_resumes_the_closed_loop_bitwise() {
         assert_eq!(a.status, b.status);
     }
 
-    // A truncated state is an error and leaves the controller as it was.
-    let mut w = StateWriter::new();
-    rig.controller.save_state(&mut w);
-    let controller_bytes = w.into_bytes();
-    let mut c = azimuth();
-    let before = c.clone();
-    for cut in 0..controller_bytes.len() {
-        assert!(c.load_state(&mut StateReader::new(&controller_bytes[..cut])).is_err(), "cut at {cut}");
-        assert_eq!(c, before);
-    }
+    // A scheduler state with more pending outputs than any delay allows is refused.
+    let mut overfull = scheduler_state;
+    overfull.pending = vec![(0, overfull.applied); 1000];
+    assert!(SampleScheduler::restored(&sampling, overfull).is_err());
 }
 
 #[test]

@@ -7,7 +7,6 @@
 
 use std::collections::{HashMap, HashSet};
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -18,48 +17,31 @@ use quick_xml::Reader;
 use fmi2_ffi::*;
 
 /// Why opening, loading or calling an FMU failed.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum ImportError {
+    #[error("{0}")]
     Io(String),
+    #[error("{0}")]
     Archive(String),
+    #[error("{0}")]
     Description(String),
+    #[error("{0}")]
     Library(String),
     /// An fmi2 call returned an error status; `messages` are what the FMU logged during the call.
-    Call {
-        function: &'static str,
-        status: Status,
-        messages: Vec<String>,
-    },
-    Instantiate {
-        messages: Vec<String>,
-    },
+    #[error("{function} returned {}{}", status.name(), logged(messages))]
+    Call { function: &'static str, status: Status, messages: Vec<String> },
+    #[error("fmi2Instantiate returned NULL{}", logged(messages))]
+    Instantiate { messages: Vec<String> },
 }
 
-impl fmt::Display for ImportError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ImportError::Io(m) | ImportError::Archive(m) | ImportError::Description(m) | ImportError::Library(m) => {
-                f.write_str(m)
-            }
-            ImportError::Call { function, status, messages } => {
-                write!(f, "{function} returned {}", status.name())?;
-                if !messages.is_empty() {
-                    write!(f, ": {}", messages.join(" | "))?;
-                }
-                Ok(())
-            }
-            ImportError::Instantiate { messages } => {
-                write!(f, "fmi2Instantiate returned NULL")?;
-                if !messages.is_empty() {
-                    write!(f, ": {}", messages.join(" | "))?;
-                }
-                Ok(())
-            }
-        }
+/// What an FMU logged during a failed call, as `": first | second"` (empty when nothing).
+fn logged(messages: &[String]) -> String {
+    if messages.is_empty() {
+        String::new()
+    } else {
+        format!(": {}", messages.join(" | "))
     }
 }
-
-impl std::error::Error for ImportError {}
 
 // ---------------------------------------------------------------------------------------------
 // The model description, as much of it as a master needs.
@@ -402,7 +384,7 @@ impl Library {
                 // SAFETY: the symbol exists (checked above) and has this signature by the FMI 2.0
                 // standard; function pointers and data pointers have the same size on every
                 // platform FMI supports.
-                unsafe { std::mem::transmute::<*mut c_void, _>(lookup($name)?) }
+                unsafe { function_from_symbol(lookup($name)?) }
             };
         }
         let functions = Functions {
@@ -451,6 +433,17 @@ impl Library {
         // SAFETY: as above.
         unsafe { CStr::from_ptr((self.functions.get_version)()).to_string_lossy().to_string() }
     }
+}
+
+/// A symbol of a shared library as the function pointer type `F`.
+///
+/// # Safety
+///
+/// `symbol` is a function whose signature is `F`, a function pointer type.
+unsafe fn function_from_symbol<F: Copy>(symbol: *mut c_void) -> F {
+    assert_eq!(std::mem::size_of::<F>(), std::mem::size_of::<*mut c_void>(), "F is not a pointer");
+    // SAFETY: the sizes agree (checked) and by this function's contract the symbol is an F.
+    unsafe { std::mem::transmute_copy::<*mut c_void, F>(&symbol) }
 }
 
 impl Drop for Library {

@@ -57,6 +57,7 @@ fn every_function_given_a_null_instance_returns_fmi2_error() {
         let orders = [1 as fmi2Integer];
         // SAFETY: every pointer but the instance is valid for the call; the NULL instance is
         // the misuse under test, which the FMU must detect before dereferencing anything.
+        // SAFETY: a live instance; the NULL is the misuse under test (see above).
         let results: Vec<(&str, fmi2Status)> = unsafe {
             vec![
                 ("fmi2SetDebugLogging", (f.set_debug_logging)(null, fmi2True, 0, std::ptr::null())),
@@ -179,56 +180,75 @@ fn null_arrays_with_elements_announced_are_errors_with_a_message() {
         // SAFETY (for every closure): the component is a live instance and every non-NULL
         // pointer points to one element; the NULL one is the misuse under test.
         let calls: Vec<(&str, Call)> = vec![
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2GetReal(vr = NULL)", Box::new(|f, c| unsafe { (f.get_real)(c, null_vr, 1, real_ptr) })),
             (
                 "fmi2GetReal(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.get_real)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2GetInteger(vr = NULL)", Box::new(|f, c| unsafe { (f.get_integer)(c, null_vr, 1, integer_ptr) })),
             (
                 "fmi2GetInteger(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.get_integer)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2GetBoolean(vr = NULL)", Box::new(|f, c| unsafe { (f.get_boolean)(c, null_vr, 1, integer_ptr) })),
             (
                 "fmi2GetBoolean(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.get_boolean)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2GetString(vr = NULL)", Box::new(|f, c| unsafe { (f.get_string)(c, null_vr, 1, string_ptr) })),
             (
                 "fmi2GetString(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.get_string)(c, vr.as_ptr(), 1, std::ptr::null_mut()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2SetReal(vr = NULL)", Box::new(|f, c| unsafe { (f.set_real)(c, null_vr, 1, real.as_ptr()) })),
             (
                 "fmi2SetReal(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_real)(c, vr.as_ptr(), 1, std::ptr::null()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2SetInteger(vr = NULL)", Box::new(|f, c| unsafe { (f.set_integer)(c, null_vr, 1, integer.as_ptr()) })),
             (
                 "fmi2SetInteger(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_integer)(c, vr.as_ptr(), 1, std::ptr::null()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2SetBoolean(vr = NULL)", Box::new(|f, c| unsafe { (f.set_boolean)(c, null_vr, 1, integer.as_ptr()) })),
             (
                 "fmi2SetBoolean(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_boolean)(c, vr.as_ptr(), 1, std::ptr::null()) }),
             ),
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             ("fmi2SetString(vr = NULL)", Box::new(|f, c| unsafe { (f.set_string)(c, null_vr, 1, texts.as_ptr()) })),
             (
                 "fmi2SetString(value = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_string)(c, vr.as_ptr(), 1, std::ptr::null()) }),
             ),
             (
                 "fmi2SetString(value[0] = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_string)(c, vr.as_ptr(), 1, [std::ptr::null()].as_ptr()) }),
             ),
             (
                 "fmi2SetDebugLogging(categories = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_debug_logging)(c, fmi2True, 1, std::ptr::null()) }),
             ),
             (
                 "fmi2SetDebugLogging(categories[0] = NULL)",
+                // SAFETY: a live instance; the NULL is the misuse under test (see above).
                 Box::new(|f, c| unsafe { (f.set_debug_logging)(c, fmi2True, 1, [std::ptr::null()].as_ptr()) }),
             ),
         ];
@@ -363,6 +383,7 @@ fn unsupported_functions_with_null_arrays_are_errors_with_a_message() {
             let c = instance.component();
             // SAFETY: a live instance; these functions are not provided and must refuse before
             // touching the NULL arrays.
+            // SAFETY: a live instance; the NULL is the misuse under test (see above).
             let status = unsafe {
                 match k {
                     0 => (o.get_directional_derivative)(
@@ -459,6 +480,7 @@ fn an_instance_without_a_logger_or_resource_location_fails_quietly_instead_of_cr
         };
         // SAFETY: valid name, GUID and callback struct; a NULL logger and a NULL resource
         // location are what is tested (a master without resources may pass NULL).
+        // SAFETY: a live instance; the NULL is the misuse under test (see above).
         let c = unsafe {
             (f.instantiate)(
                 name.as_ptr(),

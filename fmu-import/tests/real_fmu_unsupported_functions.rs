@@ -38,30 +38,41 @@ fn probe_every_unsupported_function(fmu: &Fmu, instance: &Instance) -> usize {
     let (flag0, flag1) = (&mut flags[0] as *mut fmi2Boolean, &mut flags[1] as *mut fmi2Boolean);
     // SAFETY (for every closure): `c` is a live instance of this library and every pointer
     // points to a buffer of the announced length that outlives the calls.
+    // SAFETY: a live instance and buffers of the announced length (see above).
     calls.push(("fmi2EnterEventMode", Box::new(|| unsafe { (f.enter_event_mode)(c) })));
+    // SAFETY: a live instance and buffers of the announced length (see above).
     calls.push(("fmi2NewDiscreteStates", Box::new(|| unsafe { (o.new_discrete_states)(c, info) })));
+    // SAFETY: a live instance and buffers of the announced length (see above).
     calls.push(("fmi2EnterContinuousTimeMode", Box::new(|| unsafe { (o.enter_continuous_time_mode)(c) })));
     calls.push((
         "fmi2CompletedIntegratorStep",
+        // SAFETY: a live instance and buffers of the announced length (see above).
         Box::new(|| unsafe { (o.completed_integrator_step)(c, fmi2True, flag0, flag1) }),
     ));
+    // SAFETY: a live instance and buffers of the announced length (see above).
     calls.push(("fmi2SetTime", Box::new(|| unsafe { (o.set_time)(c, 0.5) })));
+    // SAFETY: a live instance and buffers of the announced length (see above).
     calls.push(("fmi2SetContinuousStates", Box::new(|| unsafe { (o.set_continuous_states)(c, input.as_ptr(), 1) })));
     for (name, get) in o.get_arrays {
+        // SAFETY: a live instance and buffers of the announced length (see above).
         calls.push((name, Box::new(move || unsafe { get(c, out, 1) })));
     }
     calls.push((
         "fmi2GetDirectionalDerivative",
+        // SAFETY: a live instance and buffers of the announced length (see above).
         Box::new(|| unsafe { (o.get_directional_derivative)(c, vr.as_ptr(), 1, vr.as_ptr(), 1, input.as_ptr(), out) }),
     ));
     calls.push((
         "fmi2SetRealInputDerivatives",
+        // SAFETY: a live instance and buffers of the announced length (see above).
         Box::new(|| unsafe { (o.set_real_input_derivatives)(c, vr.as_ptr(), 1, orders.as_ptr(), input.as_ptr()) }),
     ));
     calls.push((
         "fmi2GetRealOutputDerivatives",
+        // SAFETY: a live instance and buffers of the announced length (see above).
         Box::new(|| unsafe { (o.get_real_output_derivatives)(c, vr.as_ptr(), 1, orders.as_ptr(), out) }),
     ));
+    // SAFETY: a live instance and buffers of the announced length (see above).
     calls.push(("fmi2CancelStep", Box::new(|| unsafe { (f.cancel_step)(c) })));
     let count = calls.len();
     for (name, call) in &mut calls {

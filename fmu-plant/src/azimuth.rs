@@ -8,7 +8,9 @@
 //! With equal currents, equal initial states and no backlash the two paths move together and
 //! the model is exactly the paper's "double each motor parameter" model.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
+
+use crate::drivetrain::DriveState;
 use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
@@ -24,7 +26,6 @@ use crate::params::{
 const PATHS: usize = 2;
 const STATES: usize = 2 + 4 * PATHS;
 const INPUTS: usize = 2 * PATHS + 1;
-const STATE_FORMAT: u8 = 1;
 
 /// Physical parameters of the azimuth axis. Axis-side values are about the azimuth axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -402,21 +403,16 @@ impl AzimuthPlant {
         self.core.statistics()
     }
 
-    /// Writes everything that affects the future (not the caches), bitwise.
-    pub fn save_state(&self, w: &mut StateWriter) {
-        w.u8(STATE_FORMAT);
-        self.core.save(w);
+    /// Everything that affects the future (not the caches), bitwise.
+    pub fn save_state(&self) -> DriveState {
+        self.core.saved_state()
     }
 
     /// Restores a state written by [`save_state`](Self::save_state) of a plant with the same
     /// parameters.
-    pub fn load_state(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let format = r.u8()?;
-        if format != STATE_FORMAT {
-            return Err(StateError(format!("azimuth state format {format}, expected {STATE_FORMAT}")));
-        }
+    pub fn load_state(&mut self, state: DriveState) -> Result<(), StateError> {
         let mut core = self.core.clone();
-        let cell = core.load(r)?;
+        let cell = core.restore(state)?;
         core.set_cell(cell, self.params.cell_model(cell));
         self.core = core;
         Ok(())
@@ -771,20 +767,19 @@ mod tests {
                 disturbance_torque_nm: 1e308,
                 elevation_deg: 45.0,
             };
-            let mut before = StateWriter::new();
-            plant.save_state(&mut before);
+            // Compared as the FMU state's bytes: bit for bit, -0.0 and NaN included.
+            let before = postcard::to_allocvec(&plant.save_state()).unwrap();
             let outputs = plant.outputs();
             if let Err(error) = plant.step(&inputs, 1e-3) {
-                failure = Some((k, error, before.into_bytes(), outputs));
+                failure = Some((k, error, before, outputs));
                 break;
             }
         }
         let (k, error, before, outputs) = failure.expect("the state never overflowed");
         assert!(k > 1000, "the overflow came after {k} steps, too early to be the disturbance's doing");
         assert!(error.contains("non-finite") && error.contains("load torque 1e308"), "{error}");
-        let mut after = StateWriter::new();
-        plant.save_state(&mut after);
-        assert!(after.into_bytes() == before, "the failed step changed the saved state");
+        let after = postcard::to_allocvec(&plant.save_state()).unwrap();
+        assert!(after == before, "the failed step changed the saved state");
         assert_eq!(plant.outputs(), outputs, "the failed step changed the outputs");
         assert!(plant.outputs().axis_position_deg.is_finite());
     }

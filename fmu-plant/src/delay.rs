@@ -8,8 +8,6 @@
 
 use std::collections::VecDeque;
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
-
 #[derive(Debug, Clone)]
 pub(crate) struct DelayLine {
     delay: f64,
@@ -68,26 +66,14 @@ impl DelayLine {
         }
     }
 
-    pub fn save(&self, w: &mut StateWriter) {
-        w.u64(self.entries.len() as u64);
-        for &(t, v) in &self.entries {
-            w.f64(t);
-            w.f64(v);
-        }
+    /// The commands kept, `(time issued, command)`, oldest first: the line's state.
+    pub fn entries(&self) -> Vec<(f64, f64)> {
+        self.entries.iter().copied().collect()
     }
 
-    pub fn load(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let n = r.u64()?;
-        if n.saturating_mul(16) > r.remaining() as u64 {
-            return Err(StateError(format!("delay line claims {n} entries but the state is shorter")));
-        }
-        self.entries.clear();
-        for _ in 0..n {
-            let t = r.f64()?;
-            let v = r.f64()?;
-            self.entries.push_back((t, v));
-        }
-        Ok(())
+    /// Restores what [`entries`](Self::entries) returned.
+    pub fn set_entries(&mut self, entries: Vec<(f64, f64)>) {
+        self.entries = entries.into();
     }
 }
 

@@ -34,9 +34,10 @@
 
 use std::sync::Arc;
 
+use fmu_runtime::state::StateError;
 use lti::zoh;
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
 use nalgebra::{DMatrix, SMatrix, SVector};
+use serde::{Deserialize, Serialize};
 
 use crate::cache::{BoundedCache, DiscretisationKey};
 use crate::delay::DelayLine;
@@ -185,8 +186,8 @@ pub(crate) struct CoreConfig<const P: usize> {
 }
 
 /// How a body with friction is moving.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Motion {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Motion {
     /// Sliding with non-negative speed (also used for bodies without friction).
     Forward,
     /// Sliding with non-positive speed.
@@ -203,28 +204,11 @@ impl Motion {
             Motion::Stuck => 0.0,
         }
     }
-
-    fn code(self) -> u8 {
-        match self {
-            Motion::Forward => 0,
-            Motion::Backward => 1,
-            Motion::Stuck => 2,
-        }
-    }
-
-    fn from_code(code: u8) -> Result<Self, StateError> {
-        match code {
-            0 => Ok(Motion::Forward),
-            1 => Ok(Motion::Backward),
-            2 => Ok(Motion::Stuck),
-            other => Err(StateError(format!("invalid motion code {other}"))),
-        }
-    }
 }
 
 /// The state of a pinion (or nut) mesh.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Mesh {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mesh {
     /// In contact on the flank that drives the load positively (`beta = +b/2`); also the
     /// permanent state of a path without backlash (`beta = 0`).
     PositiveFlank,
@@ -240,23 +224,6 @@ impl Mesh {
             Mesh::PositiveFlank => 1,
             Mesh::NegativeFlank => -1,
             Mesh::Gap => 0,
-        }
-    }
-
-    fn code(self) -> u8 {
-        match self {
-            Mesh::PositiveFlank => 0,
-            Mesh::NegativeFlank => 1,
-            Mesh::Gap => 2,
-        }
-    }
-
-    fn from_code(code: u8) -> Result<Self, StateError> {
-        match code {
-            0 => Ok(Mesh::PositiveFlank),
-            1 => Ok(Mesh::NegativeFlank),
-            2 => Ok(Mesh::Gap),
-            other => Err(StateError(format!("invalid mesh code {other}"))),
         }
     }
 }
@@ -1153,60 +1120,91 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         }
     }
 
-    /// Writes everything that affects the future, bitwise.
-    pub fn save(&self, w: &mut StateWriter) {
-        w.f64(self.time);
-        w.i64(self.cell);
-        w.f64s(self.x.as_slice());
-        w.f64(self.load_angle_low);
-        w.u8(self.load_motion.code());
-        for k in 0..P {
-            w.u8(self.motor_motion[k].code());
-            w.u8(self.mesh[k].code());
-            self.delay[k].save(w);
-        }
-        // The anchors only when a presliding element is on, so a state without one keeps the
-        // layout of docs/plant-model.md section 7 byte for byte.
-        for k in 0..P {
-            if self.model.presliding_stiffness[k] > 0.0 {
-                w.f64(self.anchor[k]);
-            }
+    /// Everything that affects the future (not the caches), bitwise.
+    pub fn saved_state(&self) -> DriveState {
+        DriveState {
+            time: self.time,
+            cell: self.cell,
+            x: self.x.as_slice().to_vec(),
+            load_angle_low: self.load_angle_low,
+            load_motion: self.load_motion,
+            paths: (0..P)
+                .map(|k| PathState {
+                    motor_motion: self.motor_motion[k],
+                    mesh: self.mesh[k],
+                    delay: self.delay[k].entries(),
+                    anchor: (self.model.presliding_stiffness[k] > 0.0).then_some(self.anchor[k]),
+                })
+                .collect(),
         }
     }
 
-    /// Reads what [`save`](Self::save) wrote. Returns the cell index; the caller must install
-    /// that cell's model with [`set_cell`](Self::set_cell) before stepping.
-    pub fn load(&mut self, r: &mut StateReader) -> Result<i64, StateError> {
-        let time = r.f64()?;
-        let cell = r.i64()?;
-        let values = r.f64s(Some(S))?;
-        let load_angle_low = r.f64()?;
-        let load_motion = Motion::from_code(r.u8()?)?;
-        let mut motor_motion = [Motion::Forward; P];
-        let mut mesh = [Mesh::PositiveFlank; P];
-        let mut delay = self.delay.clone();
-        for k in 0..P {
-            motor_motion[k] = Motion::from_code(r.u8()?)?;
-            mesh[k] = Mesh::from_code(r.u8()?)?;
-            delay[k].load(r)?;
+    /// Restores what [`saved_state`](Self::saved_state) returned for a drive with the same parameters and
+    /// returns the cell index; the caller must install that cell's model with
+    /// [`set_cell`](Self::set_cell) before stepping. On error nothing changes.
+    pub fn restore(&mut self, state: DriveState) -> Result<i64, StateError> {
+        let DriveState { time, cell, x, load_angle_low, load_motion, paths } = state;
+        if x.len() != S || paths.len() != P {
+            return Err(StateError::Invalid(format!(
+                "the drive state has {} states and {} paths, this drive {S} and {P}",
+                x.len(),
+                paths.len()
+            )));
         }
         let mut anchor = self.anchor;
-        for (k, a) in anchor.iter_mut().enumerate() {
-            if self.model.presliding_stiffness[k] > 0.0 {
-                *a = r.f64()?;
+        for (k, path) in paths.iter().enumerate() {
+            match (self.model.presliding_stiffness[k] > 0.0, path.anchor) {
+                (true, Some(a)) => anchor[k] = a,
+                (false, None) => {}
+                _ => {
+                    return Err(StateError::Invalid(format!(
+                        "path {}: the state and the parameters disagree about a presliding element",
+                        k + 1
+                    )))
+                }
             }
+        }
+        for (k, path) in paths.into_iter().enumerate() {
+            self.motor_motion[k] = path.motor_motion;
+            self.mesh[k] = path.mesh;
+            self.delay[k].set_entries(path.delay);
         }
         self.time = time;
         self.cell = cell;
         self.anchor = anchor;
-        self.x = SVector::from_column_slice(&values);
+        self.x = SVector::from_column_slice(&x);
         self.load_angle_low = load_angle_low;
         self.load_motion = load_motion;
-        self.motor_motion = motor_motion;
-        self.mesh = mesh;
-        self.delay = delay;
         Ok(cell)
     }
+}
+
+/// Everything of a drive train that determines its future (not the caches), as its FMU state
+/// holds it. `docs/plant-model.md` (section 7) describes the fields.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DriveState {
+    /// Time since the start, s.
+    pub time: f64,
+    /// The elevation cell whose frozen parameters the drive uses.
+    pub cell: i64,
+    /// The state vector `[p_L, v_L, (d_k, v_Mk, i_k, beta_k) per path]`, motor side.
+    pub x: Vec<f64>,
+    /// The low-order part of the load angle (compensated summation).
+    pub load_angle_low: f64,
+    pub load_motion: Motion,
+    pub paths: Vec<PathState>,
+}
+
+/// One path's part of a [`DriveState`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PathState {
+    pub motor_motion: Motion,
+    pub mesh: Mesh,
+    /// The current commands issued within the delay, `(time issued, command)`, oldest first.
+    pub delay: Vec<(f64, f64)>,
+    /// The motor's friction anchor, motor rad; present exactly when it has a presliding
+    /// element.
+    pub anchor: Option<f64>,
 }
 
 #[cfg(test)]

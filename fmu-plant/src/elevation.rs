@@ -19,7 +19,9 @@
 //! `d^2 s_L/dt^2 = N dw/dt + N' w^2`; it is small (tens of N m equivalent at full slew speed)
 //! and enters as a torque held over each piece of a step.
 
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
+
+use crate::drivetrain::DriveState;
 use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
@@ -36,7 +38,6 @@ use crate::params::{
 const PATHS: usize = 1;
 const STATES: usize = 2 + 4 * PATHS;
 const INPUTS: usize = 2 * PATHS + 1;
-const STATE_FORMAT: u8 = 1;
 
 /// Geometry, stiffness and friction of the elevation jackscrew.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -721,21 +722,16 @@ impl ElevationPlant {
         self.core.statistics()
     }
 
-    /// Writes everything that affects the future (not the caches), bitwise.
-    pub fn save_state(&self, w: &mut StateWriter) {
-        w.u8(STATE_FORMAT);
-        self.core.save(w);
+    /// Everything that affects the future (not the caches), bitwise.
+    pub fn save_state(&self) -> DriveState {
+        self.core.saved_state()
     }
 
     /// Restores a state written by [`save_state`](Self::save_state) of a plant with the same
     /// parameters.
-    pub fn load_state(&mut self, r: &mut StateReader) -> Result<(), StateError> {
-        let format = r.u8()?;
-        if format != STATE_FORMAT {
-            return Err(StateError(format!("elevation state format {format}, expected {STATE_FORMAT}")));
-        }
+    pub fn load_state(&mut self, state: DriveState) -> Result<(), StateError> {
         let mut core = self.core.clone();
-        let cell = core.load(r)?;
+        let cell = core.restore(state)?;
         core.set_cell(cell, self.params.cell_model(cell));
         self.core = core;
         self.update_derived();
@@ -846,20 +842,19 @@ mod tests {
         let inputs = ElevationInputs { current_command_a: 1.0, disturbance_torque_nm: 1e308 };
         let mut failure = None;
         for k in 0..100_000 {
-            let mut before = StateWriter::new();
-            plant.save_state(&mut before);
+            // Compared as the FMU state's bytes: bit for bit, -0.0 and NaN included.
+            let before = postcard::to_allocvec(&plant.save_state()).unwrap();
             let outputs = plant.outputs();
             if let Err(error) = plant.step(&inputs, 1e-3) {
-                failure = Some((k, error, before.into_bytes(), outputs));
+                failure = Some((k, error, before, outputs));
                 break;
             }
         }
         let (k, error, before, outputs) = failure.expect("the state never overflowed");
         assert!(k > 100, "the overflow came after {k} steps, too early to be the disturbance's doing");
         assert!(error.contains("non-finite") && error.contains("load torque 1e308"), "{error}");
-        let mut after = StateWriter::new();
-        plant.save_state(&mut after);
-        assert!(after.into_bytes() == before, "the failed step changed the saved state");
+        let after = postcard::to_allocvec(&plant.save_state()).unwrap();
+        assert!(after == before, "the failed step changed the saved state");
         assert_eq!(plant.outputs(), outputs, "the failed step changed the outputs");
     }
 

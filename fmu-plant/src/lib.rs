@@ -33,7 +33,7 @@ pub mod elevation;
 pub mod params;
 
 pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
-pub use drivetrain::NumericsStatistics;
+pub use drivetrain::{DriveState, Mesh, Motion, NumericsStatistics, PathState};
 pub use elevation::{ElevationInputs, ElevationOutputs, ElevationParams, ElevationPlant, JackscrewParams};
 pub use params::{CoggingParams, FrictionParams, MotorParams, NumericsParams, PeriodicTorqueParams};
 

@@ -5,7 +5,6 @@ use fmu_plant::{
     AzimuthInputs, AzimuthParams, AzimuthPlant, CoggingParams, ElevationInputs, ElevationParams, ElevationPlant,
     FrictionParams,
 };
-use fmu_runtime::state::{StateReader, StateWriter};
 
 fn elevation_at(params: ElevationParams, elevation_deg: f64) -> ElevationPlant {
     let mut plant = ElevationPlant::new(params).unwrap();
@@ -321,12 +320,6 @@ fn cogging_torque_accelerates_a_free_motor_from_rest_by_amplitude_times_sine_of_
     assert!((speed - expected).abs() < 0.01 * expected, "motor speed {speed}, expected {expected}");
 }
 
-fn save(f: impl FnOnce(&mut StateWriter)) -> Vec<u8> {
-    let mut w = StateWriter::new();
-    f(&mut w);
-    w.into_bytes()
-}
-
 #[test]
 fn a_saved_azimuth_state_reproduces_the_future_bitwise() {
     let mut params = AzimuthParams::default();
@@ -340,23 +333,28 @@ fn a_saved_azimuth_state_reproduces_the_future_bitwise() {
     for k in 0..700 {
         plant.step(&inputs(k), 1e-3).unwrap();
     }
-    let bytes = save(|w| plant.save_state(w));
+    let state = plant.save_state();
     let mut expected = Vec::new();
     for k in 700..1400 {
         plant.step(&inputs(k), 1e-3).unwrap();
         expected.push(plant.outputs());
     }
     let mut restored = AzimuthPlant::new(params).unwrap();
-    let mut reader = StateReader::new(&bytes);
-    restored.load_state(&mut reader).unwrap();
-    reader.finish().unwrap();
+    restored.load_state(state.clone()).unwrap();
     for (i, k) in (700..1400).enumerate() {
         restored.step(&inputs(k), 1e-3).unwrap();
         assert_eq!(restored.outputs(), expected[i], "step {k}");
     }
-    for cut in [0, 1, bytes.len() / 2, bytes.len() - 1] {
+    // A state that does not fit the plant is refused and changes nothing.
+    let mut short = state.clone();
+    short.x.pop();
+    let mut presliding = state.clone();
+    presliding.paths[1].anchor = Some(0.0);
+    for wrong in [short, presliding] {
         let mut fresh = AzimuthPlant::new(params).unwrap();
-        assert!(fresh.load_state(&mut StateReader::new(&bytes[..cut])).is_err(), "truncated at {cut}");
+        let untouched = fresh.save_state();
+        assert!(fresh.load_state(wrong).is_err());
+        assert_eq!(fresh.save_state(), untouched);
     }
 }
 
@@ -371,7 +369,7 @@ fn a_saved_elevation_state_reproduces_the_future_bitwise_across_grid_cells() {
     for k in 0..1500 {
         plant.step(&inputs(k), 1e-3).unwrap();
     }
-    let bytes = save(|w| plant.save_state(w));
+    let state = plant.save_state();
     let before = plant.outputs().axis_position_deg;
     let mut expected = Vec::new();
     for k in 1500..4000 {
@@ -381,7 +379,7 @@ fn a_saved_elevation_state_reproduces_the_future_bitwise_across_grid_cells() {
     let cell = params.numerics.parameter_grid_cell_deg;
     assert!((plant.outputs().axis_position_deg - before).abs() > 2.0 * cell, "the run must cross parameter cells");
     let mut restored = ElevationPlant::new(params).unwrap();
-    restored.load_state(&mut StateReader::new(&bytes)).unwrap();
+    restored.load_state(state).unwrap();
     for (i, k) in (1500..4000).enumerate() {
         restored.step(&inputs(k), 1e-3).unwrap();
         assert_eq!(restored.outputs(), expected[i], "step {k}");
@@ -539,7 +537,7 @@ fn a_saved_azimuth_state_with_presliding_motors_reproduces_the_future_bitwise() 
     for k in 0..700 {
         plant.step(&inputs(k), 1e-3).unwrap();
     }
-    let bytes = save(|w| plant.save_state(w));
+    let state = plant.save_state();
     let mut expected = Vec::new();
     for k in 700..2000 {
         plant.step(&inputs(k), 1e-3).unwrap();
@@ -547,9 +545,7 @@ fn a_saved_azimuth_state_with_presliding_motors_reproduces_the_future_bitwise() 
     }
     assert!(expected.iter().any(|o| o.motor_speed_rad_per_s[0] != 0.0), "the motors must move");
     let mut restored = AzimuthPlant::new(params).unwrap();
-    let mut reader = StateReader::new(&bytes);
-    restored.load_state(&mut reader).unwrap();
-    reader.finish().unwrap();
+    restored.load_state(state.clone()).unwrap();
     for (i, k) in (700..2000).enumerate() {
         restored.step(&inputs(k), 1e-3).unwrap();
         assert_eq!(restored.outputs(), expected[i], "step {k}");

@@ -1,7 +1,7 @@
 //! The bodies of the 44 exported `fmi2*` functions.
 //!
-//! [`crate::export_fmi2!`] expands, in a model crate, into `#[no_mangle] extern "C"` functions
-//! that forward here. Every function: catches panics; checks the instance pointer (after the
+//! [`crate::export_fmi2!`] expands, in a model crate, into `#[no_mangle] unsafe extern "C"`
+//! functions that forward here. Every function: catches panics; checks the instance pointer (after the
 //! `n == 0` short-cut where the standard has one); checks that the call is legal in the
 //! instance's phase (table in [`crate::instance::legal`]); checks every argument before
 //! anything changes; and reports failures through the master's logger with fmi2Error. An error
@@ -9,10 +9,10 @@
 //! queries, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance. The exception are the functions
 //! this FMU does not provide ([`unsupported`]): they fail in every phase and change nothing.
 //!
-//! The functions are `pub` only for the export macro. Their raw-pointer arguments come from a
-//! C caller bound by the FMI 2.0 standard, which is what every `// SAFETY:` comment relies on.
-
-#![allow(clippy::not_unsafe_ptr_arg_deref, clippy::missing_safety_doc)]
+//! The functions are `pub` only for the export macro, and `unsafe`: their raw-pointer arguments
+//! must be what the FMI 2.0 standard says (each function's `# Safety` section), which safe Rust
+//! cannot check. The exported shims are `unsafe extern "C"` functions with the same contract,
+//! kept by the C master that calls them; every `// SAFETY:` comment relies on it.
 
 use std::cell::RefCell;
 use std::ffi::{c_char, CStr, CString};
@@ -92,26 +92,34 @@ fn catch<R>(f: impl FnOnce() -> R) -> Result<R, String> {
 // ---------------------------------------------------------------------------------------------
 // The common frame of every function that takes an instance.
 
-fn instance_from<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
+/// The instance behind a component pointer, or `None` for NULL or a pointer whose magic number
+/// is not an instance's.
+///
+/// # Safety
+///
+/// `c` is NULL or points to memory that may be read as an [`Instance`]: one that
+/// [`instantiate`] of this library returned and that is not yet freed (the standard allows
+/// nothing else). The reference must not outlive the call it is used in.
+unsafe fn instance_from<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
     if c.is_null() {
         return None;
     }
-    // SAFETY: a non-null component was returned by fmi2Instantiate of this library and not yet
-    // freed (the standard forbids anything else); the magic number catches the commonest misuse,
-    // a pointer to something else, before any other field is read.
+    // SAFETY: non-null, and by this function's contract an instance of this library; the magic
+    // number catches the commonest misuse, a pointer to something else, before any other field
+    // is read.
     let instance = unsafe { &mut *(c as *mut Instance) };
     (instance.magic == INSTANCE_MAGIC).then_some(instance)
 }
 
-/// Checks the instance and the phase, then runs the body with panics caught. An error result
-/// moves the instance to the Error phase.
+/// Checks the instance (from [`instance_from`]) and the phase, then runs the body with panics
+/// caught. An error result moves the instance to the Error phase.
 fn with_instance(
-    c: fmi2Component,
+    instance: Option<&mut Instance>,
     function: &'static str,
     allowed: u32,
     body: impl FnOnce(&mut Instance) -> Result<Status, String>,
 ) -> fmi2Status {
-    let Some(instance) = instance_from(c) else { return fmi2Error };
+    let Some(instance) = instance else { return fmi2Error };
     if instance.category_enabled(CAT_CALLS) {
         instance.log(Status::Ok, CAT_CALLS, &format!("{function} (phase {})", instance.phase.name()));
     }
@@ -144,35 +152,50 @@ fn with_instance(
 }
 
 /// Builds a slice from a C array after the `n == 0` short-cut and a null check.
-fn slice<'a, T>(pointer: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
+///
+/// # Safety
+///
+/// `pointer` is NULL or points to `n` initialised elements that stay valid and unchanged while
+/// the slice is used (FMI 2.0 calling convention for arrays).
+unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
     if n == 0 {
         return Ok(&[]);
     }
     if pointer.is_null() {
         return Err(format!("{what} is NULL but {n} elements were announced"));
     }
-    // SAFETY: the caller promises `n` valid elements at a non-null pointer (FMI 2.0 calling
-    // convention for arrays); n == 0 was handled above.
+    // SAFETY: non-null, so by this function's contract `n` valid elements; n == 0 was handled
+    // above.
     Ok(unsafe { std::slice::from_raw_parts(pointer, n) })
 }
 
-fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
+/// [`slice`] for a buffer the caller lends for writing.
+///
+/// # Safety
+///
+/// `pointer` is NULL or points to `n` elements that may be written and are not accessed
+/// otherwise while the slice is used.
+unsafe fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
     if n == 0 {
         return Ok(&mut []);
     }
     if pointer.is_null() {
         return Err(format!("{what} is NULL but {n} elements were announced"));
     }
-    // SAFETY: as in `slice`, for a buffer the caller lends us for writing.
+    // SAFETY: non-null, so by this function's contract `n` writable elements lent to us alone.
     Ok(unsafe { std::slice::from_raw_parts_mut(pointer, n) })
 }
 
 /// Copies a C string; the caller's buffer may be freed after the call returns.
-fn copy_string(pointer: fmi2String, what: &str) -> Result<String, String> {
+///
+/// # Safety
+///
+/// `pointer` is NULL or a NUL-terminated string valid during the call.
+unsafe fn copy_string(pointer: fmi2String, what: &str) -> Result<String, String> {
     if pointer.is_null() {
         return Err(format!("{what} is NULL"));
     }
-    // SAFETY: a non-null fmi2String is a NUL-terminated string valid during the call.
+    // SAFETY: non-null, so by this function's contract a NUL-terminated string.
     let c = unsafe { CStr::from_ptr(pointer) };
     c.to_str().map(str::to_string).map_err(|_| format!("{what} is not valid UTF-8"))
 }
@@ -249,15 +272,22 @@ pub fn get_version() -> *const c_char {
     c"2.0".as_ptr()
 }
 
-pub fn set_debug_logging(
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `categories` is NULL or points to `n` NUL-terminated strings.
+pub unsafe fn set_debug_logging(
     c: fmi2Component,
     logging_on: fmi2Boolean,
     n: usize,
     categories: *const fmi2String,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetDebugLogging", legal::SET_DEBUG_LOGGING, |instance| {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetDebugLogging", legal::SET_DEBUG_LOGGING, |instance| {
         let on = logging_on != fmi2False;
-        let names = slice(categories, n, "categories")?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let names = unsafe { slice(categories, n, "categories") }?;
         if names.is_empty() {
             instance.logging_on = on;
             instance.categories = [on; LOG_CATEGORIES.len()];
@@ -265,7 +295,8 @@ pub fn set_debug_logging(
         }
         let mut indices = Vec::with_capacity(names.len());
         for &name in names {
-            let name = copy_string(name, "category name")?;
+            // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+            let name = unsafe { copy_string(name, "category name") }?;
             let index = LOG_CATEGORIES.iter().position(|(n, _)| *n == name).ok_or_else(|| {
                 let known: Vec<&str> = LOG_CATEGORIES.iter().map(|(n, _)| *n).collect();
                 format!("unknown log category '{name}' (known: {})", known.join(", "))
@@ -327,8 +358,12 @@ fn log_without_instance(functions: &fmi2CallbackFunctions, name: &CStr, message:
     }
 }
 
+/// # Safety
+///
+/// Every string argument is NULL or a NUL-terminated string, and `functions` is NULL or points to
+/// the master's callback functions (FMI 2.0, fmi2Instantiate).
 #[allow(clippy::too_many_arguments)]
-pub fn instantiate(
+pub unsafe fn instantiate(
     models: &[ModelEntry],
     instance_name: fmi2String,
     fmu_type: fmi2Type,
@@ -346,7 +381,8 @@ pub fn instantiate(
     // depend on that.
     let callbacks = unsafe { *functions };
     let result = catch(|| -> Result<Box<Instance>, (CString, String)> {
-        let name = match copy_string(instance_name, "instanceName") {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let name = match unsafe { copy_string(instance_name, "instanceName") } {
             Ok(n) if !n.is_empty() => n,
             Ok(_) => return Err((c"?".into(), "fmi2Instantiate: instanceName is empty".into())),
             Err(e) => return Err((c"?".into(), format!("fmi2Instantiate: {e}"))),
@@ -358,7 +394,8 @@ pub fn instantiate(
                 "fmuType {fmu_type} requested, but this FMU supports co-simulation (fmi2CoSimulation = 1) only"
             )));
         }
-        let guid = copy_string(guid, "fmuGUID").map_err(fail)?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let guid = unsafe { copy_string(guid, "fmuGUID") }.map_err(fail)?;
         let entry = models.iter().find(|m| (m.guid)() == guid).ok_or_else(|| {
             let known: Vec<String> =
                 models.iter().map(|m| format!("{} {}", (m.info)().model_identifier, (m.guid)())).collect();
@@ -370,7 +407,8 @@ pub fn instantiate(
         let resource_dir = if resource_location.is_null() {
             None
         } else {
-            let uri = copy_string(resource_location, "fmuResourceLocation").map_err(fail)?;
+            // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+            let uri = unsafe { copy_string(resource_location, "fmuResourceLocation") }.map_err(fail)?;
             Some(resource_path_from_uri(&uri).map_err(fail)?)
         };
         let context = Context { instance_name: name, resource_dir };
@@ -421,8 +459,13 @@ pub fn instantiate(
     }
 }
 
-pub fn free_instance(c: fmi2Component) {
-    let Some(instance) = instance_from(c) else { return };
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. It is not used again after this call.
+pub unsafe fn free_instance(c: fmi2Component) {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let Some(instance) = (unsafe { instance_from(c) }) else { return };
     instance.magic = 0;
     let _ = catch(|| {
         // SAFETY: the pointer came from Box::into_raw in `instantiate` and the master frees each
@@ -431,7 +474,11 @@ pub fn free_instance(c: fmi2Component) {
     });
 }
 
-pub fn setup_experiment(
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn setup_experiment(
     c: fmi2Component,
     _tolerance_defined: fmi2Boolean,
     _tolerance: fmi2Real,
@@ -439,7 +486,9 @@ pub fn setup_experiment(
     stop_time_defined: fmi2Boolean,
     stop_time: fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetupExperiment", legal::SETUP_EXPERIMENT, |instance| {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetupExperiment", legal::SETUP_EXPERIMENT, |instance| {
         if !start_time.is_finite() {
             return Err(format!("startTime {start_time} is not finite"));
         }
@@ -461,16 +510,28 @@ pub fn setup_experiment(
     })
 }
 
-pub fn enter_initialization_mode(c: fmi2Component) -> fmi2Status {
-    with_instance(c, "fmi2EnterInitializationMode", legal::ENTER_INITIALIZATION_MODE, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn enter_initialization_mode(c: fmi2Component) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2EnterInitializationMode", legal::ENTER_INITIALIZATION_MODE, |instance| {
         instance.phase = Phase::InitializationMode;
         instance.needs_initialize = true;
         Ok(Status::Ok)
     })
 }
 
-pub fn exit_initialization_mode(c: fmi2Component) -> fmi2Status {
-    with_instance(c, "fmi2ExitInitializationMode", legal::EXIT_INITIALIZATION_MODE, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn exit_initialization_mode(c: fmi2Component) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2ExitInitializationMode", legal::EXIT_INITIALIZATION_MODE, |instance| {
         let status = if instance.needs_initialize {
             let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
             instance.model.initialize(&instance.context, &mut notes)?;
@@ -484,15 +545,27 @@ pub fn exit_initialization_mode(c: fmi2Component) -> fmi2Status {
     })
 }
 
-pub fn terminate(c: fmi2Component) -> fmi2Status {
-    with_instance(c, "fmi2Terminate", legal::TERMINATE, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn terminate(c: fmi2Component) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2Terminate", legal::TERMINATE, |instance| {
         instance.phase = Phase::Terminated;
         Ok(Status::Ok)
     })
 }
 
-pub fn reset(c: fmi2Component) -> fmi2Status {
-    with_instance(c, "fmi2Reset", legal::RESET, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn reset(c: fmi2Component) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2Reset", legal::RESET, |instance| {
         let model = (instance.create)(&instance.context)?;
         instance.model = model;
         instance.phase = Phase::Instantiated;
@@ -510,10 +583,19 @@ pub fn reset(c: fmi2Component) -> fmi2Status {
 // ---------------------------------------------------------------------------------------------
 // Getting and setting values.
 
-pub fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Real) -> fmi2Status {
-    with_instance(c, "fmi2GetReal", legal::GET, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let out = slice_mut(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Real) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetReal", legal::GET, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let out = unsafe { slice_mut(value, n, "value") }?;
         // The feedthrough part of `ensure_initialized` is done by the model's get, which looks
         // at each reference anyway (the hottest get: no second pass over them).
         let status = if instance.needs_initialize { ensure_initialized(instance, &[])? } else { Status::Ok };
@@ -525,20 +607,48 @@ pub fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value
     })
 }
 
-pub fn get_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Integer) -> fmi2Status {
-    with_instance(c, "fmi2GetInteger", legal::GET, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let out = slice_mut(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn get_integer(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetInteger", legal::GET, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let out = unsafe { slice_mut(value, n, "value") }?;
         let status = ensure_initialized(instance, vrs)?;
         instance.model.get_integer(vrs, out)?;
         Ok(status)
     })
 }
 
-pub fn get_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2Boolean) -> fmi2Status {
-    with_instance(c, "fmi2GetBoolean", legal::GET, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let out = slice_mut(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn get_boolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetBoolean", legal::GET, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let out = unsafe { slice_mut(value, n, "value") }?;
         let status = ensure_initialized(instance, vrs)?;
         let mut values = vec![false; n];
         instance.model.get_boolean(vrs, &mut values)?;
@@ -549,10 +659,24 @@ pub fn get_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, va
     })
 }
 
-pub fn get_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *mut fmi2String) -> fmi2Status {
-    with_instance(c, "fmi2GetString", legal::GET, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let out = slice_mut(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn get_string(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *mut fmi2String,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetString", legal::GET, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let out = unsafe { slice_mut(value, n, "value") }?;
         let status = ensure_initialized(instance, vrs)?;
         let strings = instance.model.get_string(vrs)?;
         instance.returned_strings =
@@ -572,10 +696,24 @@ fn mark_changed(instance: &mut Instance) {
     }
 }
 
-pub fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Real) -> fmi2Status {
-    with_instance(c, "fmi2SetReal", legal::SET_REAL, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let values = slice(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn set_real(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2Real,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetReal", legal::SET_REAL, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let values = unsafe { slice(value, n, "value") }?;
         let phase = set_phase(instance)?;
         instance.model.set_real(vrs, values, phase)?;
         mark_changed(instance);
@@ -583,10 +721,24 @@ pub fn set_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value
     })
 }
 
-pub fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Integer) -> fmi2Status {
-    with_instance(c, "fmi2SetInteger", legal::SET_OTHER, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let values = slice(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn set_integer(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2Integer,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetInteger", legal::SET_OTHER, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let values = unsafe { slice(value, n, "value") }?;
         let phase = set_phase(instance)?;
         instance.model.set_integer(vrs, values, phase)?;
         mark_changed(instance);
@@ -594,10 +746,24 @@ pub fn set_integer(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, va
     })
 }
 
-pub fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2Boolean) -> fmi2Status {
-    with_instance(c, "fmi2SetBoolean", legal::SET_OTHER, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let raw = slice(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0).
+pub unsafe fn set_boolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2Boolean,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetBoolean", legal::SET_OTHER, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let raw = unsafe { slice(value, n, "value") }?;
         let phase = set_phase(instance)?;
         let values: Vec<bool> = raw.iter().map(|&b| b != fmi2False).collect();
         instance.model.set_boolean(vrs, &values, phase)?;
@@ -606,15 +772,30 @@ pub fn set_boolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, va
     })
 }
 
-pub fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, value: *const fmi2String) -> fmi2Status {
-    with_instance(c, "fmi2SetString", legal::SET_OTHER, |instance| {
-        let vrs = slice(vr, n, "vr")?;
-        let raw = slice(value, n, "value")?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `vr` and `value` are NULL or point to `n` elements each (they are not read when `n` is
+/// 0). Each string in `value` is NULL or NUL-terminated.
+pub unsafe fn set_string(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    n: usize,
+    value: *const fmi2String,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetString", legal::SET_OTHER, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let vrs = unsafe { slice(vr, n, "vr") }?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let raw = unsafe { slice(value, n, "value") }?;
         let phase = set_phase(instance)?;
         let values = raw
             .iter()
             .enumerate()
-            .map(|(i, &s)| copy_string(s, &format!("value[{i}]")))
+            // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+            .map(|(i, &s)| unsafe { copy_string(s, &format!("value[{i}]")) })
             .collect::<Result<Vec<_>, _>>()?;
         let context = instance.context.clone();
         instance.model.set_string(vrs, values, phase, &context)?;
@@ -626,12 +807,18 @@ pub fn set_string(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, val
 // ---------------------------------------------------------------------------------------------
 // FMU states.
 
-fn saved_state<'a>(state: fmi2FMUstate) -> Result<&'a mut SavedState, String> {
+/// The saved state behind an FMUstate pointer, checked by its magic number.
+///
+/// # Safety
+///
+/// `state` is NULL or a state that this library created and that is not yet freed (the
+/// standard allows nothing else). The reference must not outlive the call it is used in.
+unsafe fn saved_state<'a>(state: fmi2FMUstate) -> Result<&'a mut SavedState, String> {
     if state.is_null() {
         return Err("FMUstate is NULL".into());
     }
-    // SAFETY: a non-null FMUstate was created by fmi2GetFMUstate or fmi2DeSerializeFMUstate of
-    // this library (the standard allows nothing else); the magic number catches other pointers.
+    // SAFETY: non-null, so by this function's contract a state created by fmi2GetFMUstate or
+    // fmi2DeSerializeFMUstate of this library; the magic number catches other pointers.
     let saved = unsafe { &mut *(state as *mut SavedState) };
     if saved.magic != STATE_MAGIC {
         return Err("FMUstate does not point to a state of this FMU".into());
@@ -639,12 +826,19 @@ fn saved_state<'a>(state: fmi2FMUstate) -> Result<&'a mut SavedState, String> {
     Ok(saved)
 }
 
-pub fn get_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    with_instance(c, "fmi2GetFMUstate", legal::FMU_STATE, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `state` is NULL or points to the master's FMUstate variable, which is NULL or a state of
+/// this library.
+pub unsafe fn get_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetFMUstate", legal::FMU_STATE, |instance| {
         if state.is_null() {
             return Err("FMUstate pointer is NULL".into());
         }
-        let bytes = instance.save_state();
+        let bytes = instance.save_state().map_err(|e| e.to_string())?;
         // SAFETY: `state` is a valid pointer to the master's FMUstate variable.
         let existing = unsafe { *state };
         if existing.is_null() {
@@ -652,22 +846,38 @@ pub fn get_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
             // SAFETY: as above; the master owns the variable and receives the new state.
             unsafe { *state = Box::into_raw(boxed) as fmi2FMUstate };
         } else {
-            saved_state(existing)?.bytes = bytes;
+            // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+            unsafe { saved_state(existing) }?.bytes = bytes;
         }
         Ok(Status::Ok)
     })
 }
 
-pub fn set_fmu_state(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
-    with_instance(c, "fmi2SetFMUstate", legal::FMU_STATE, |instance| {
-        let bytes = saved_state(state)?.bytes.clone();
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `state` is NULL or a state that [`get_fmu_state`] or [`deserialize_fmu_state`] of this
+/// library returned and that is not yet freed.
+pub unsafe fn set_fmu_state(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SetFMUstate", legal::FMU_STATE, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let bytes = unsafe { saved_state(state) }?.bytes.clone();
         instance.load_state(&bytes).map_err(|e| e.to_string())?;
         Ok(Status::Ok)
     })
 }
 
-pub fn free_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    with_instance(c, "fmi2FreeFMUstate", legal::FMU_STATE, |_instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `state` is NULL or points to the master's FMUstate variable, which is NULL or a state of
+/// this library not yet freed.
+pub unsafe fn free_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2FreeFMUstate", legal::FMU_STATE, |_instance| {
         if state.is_null() {
             return Ok(Status::Ok);
         }
@@ -676,7 +886,8 @@ pub fn free_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status 
         if existing.is_null() {
             return Ok(Status::Ok);
         }
-        let saved = saved_state(existing)?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let saved = unsafe { saved_state(existing) }?;
         saved.magic = 0;
         // SAFETY: created by Box::into_raw in this module; the magic check above and its reset
         // make a double free an error instead of undefined behaviour in the common case.
@@ -687,9 +898,17 @@ pub fn free_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status 
     })
 }
 
-pub fn serialized_fmu_state_size(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
-    with_instance(c, "fmi2SerializedFMUstateSize", legal::FMU_STATE, |_instance| {
-        let saved = saved_state(state)?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `state` is NULL or a live state of this library; `size` is NULL or points to the
+/// master's variable.
+pub unsafe fn serialized_fmu_state_size(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SerializedFMUstateSize", legal::FMU_STATE, |_instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let saved = unsafe { saved_state(state) }?;
         if size.is_null() {
             return Err("size is NULL".into());
         }
@@ -699,29 +918,51 @@ pub fn serialized_fmu_state_size(c: fmi2Component, state: fmi2FMUstate, size: *m
     })
 }
 
-pub fn serialize_fmu_state(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fmi2Byte, size: usize) -> fmi2Status {
-    with_instance(c, "fmi2SerializeFMUstate", legal::FMU_STATE, |_instance| {
-        let saved = saved_state(state)?;
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `state` is NULL or a live state of this library; `bytes` is NULL or points to `size`
+/// writable bytes.
+pub unsafe fn serialize_fmu_state(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    bytes: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2SerializeFMUstate", legal::FMU_STATE, |_instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let saved = unsafe { saved_state(state) }?;
         if size != saved.bytes.len() {
             return Err(format!(
                 "buffer has {size} bytes, the state needs exactly {} (fmi2SerializedFMUstateSize)",
                 saved.bytes.len()
             ));
         }
-        let out = slice_mut(bytes as *mut u8, size, "serializedState")?;
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let out = unsafe { slice_mut(bytes as *mut u8, size, "serializedState") }?;
         out.copy_from_slice(&saved.bytes);
         Ok(Status::Ok)
     })
 }
 
-pub fn deserialize_fmu_state(
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `bytes` is NULL or points to `size` bytes; `state` is NULL or points to the master's
+/// FMUstate variable, which is NULL or a state of this library.
+pub unsafe fn deserialize_fmu_state(
     c: fmi2Component,
     bytes: *const fmi2Byte,
     size: usize,
     state: *mut fmi2FMUstate,
 ) -> fmi2Status {
-    with_instance(c, "fmi2DeSerializeFMUstate", legal::FMU_STATE, |instance| {
-        let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2DeSerializeFMUstate", legal::FMU_STATE, |instance| {
+        // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+        let data = unsafe { slice(bytes as *const u8, size, "serializedState") }?.to_vec();
         if state.is_null() {
             return Err("FMUstate pointer is NULL".into());
         }
@@ -733,7 +974,8 @@ pub fn deserialize_fmu_state(
             // SAFETY: as above.
             unsafe { *state = Box::into_raw(boxed) as fmi2FMUstate };
         } else {
-            saved_state(existing)?.bytes = data;
+            // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
+            unsafe { saved_state(existing) }?.bytes = data;
         }
         Ok(Status::Ok)
     })
@@ -758,8 +1000,14 @@ pub const TIME_TOLERANCE: f64 = 1e-9;
 /// so that a master gets an answer in seconds, never a hang; longer runs take several steps.
 pub const MAX_STEP_SIZE: f64 = 86_400.0;
 
-pub fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prior: fmi2Boolean) -> fmi2Status {
-    with_instance(c, "fmi2DoStep", legal::DO_STEP, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prior: fmi2Boolean) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2DoStep", legal::DO_STEP, |instance| {
         // One test for the usual call (NaN fails every comparison); the reasons on the cold path.
         if !(step > 0.0 && step <= MAX_STEP_SIZE && current.abs() <= f64::MAX) {
             return Err(step_arguments_error(current, step));
@@ -812,12 +1060,23 @@ fn step_arguments_error(current: f64, step: f64) -> String {
     format!("currentCommunicationPoint {current} is not finite")
 }
 
-pub fn cancel_step(c: fmi2Component) -> fmi2Status {
-    unsupported(c, "fmi2CancelStep", WHY_CANCEL_STEP)
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn cancel_step(c: fmi2Component) -> fmi2Status {
+    // SAFETY: the caller keeps this function's contract, which is `unsupported`'s.
+    unsafe { unsupported(c, "fmi2CancelStep", WHY_CANCEL_STEP) }
 }
 
-pub fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
-    with_instance(c, "fmi2GetStatus", legal::STATUS, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `value` is NULL or points to the master's variable.
+pub unsafe fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetStatus", legal::STATUS, |instance| {
         if value.is_null() {
             return Err("value is NULL".into());
         }
@@ -836,8 +1095,14 @@ pub fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Status
     })
 }
 
-pub fn get_real_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
-    with_instance(c, "fmi2GetRealStatus", legal::STATUS, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `value` is NULL or points to the master's variable.
+pub unsafe fn get_real_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetRealStatus", legal::STATUS, |instance| {
         if value.is_null() {
             return Err("value is NULL".into());
         }
@@ -856,8 +1121,14 @@ pub fn get_real_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2R
     })
 }
 
-pub fn get_integer_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Integer) -> fmi2Status {
-    with_instance(c, "fmi2GetIntegerStatus", legal::STATUS, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `value` is NULL or points to the master's variable.
+pub unsafe fn get_integer_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Integer) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetIntegerStatus", legal::STATUS, |instance| {
         if value.is_null() {
             return Err("value is NULL".into());
         }
@@ -870,8 +1141,14 @@ pub fn get_integer_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fm
     })
 }
 
-pub fn get_boolean_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
-    with_instance(c, "fmi2GetBooleanStatus", legal::STATUS, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `value` is NULL or points to the master's variable.
+pub unsafe fn get_boolean_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetBooleanStatus", legal::STATUS, |instance| {
         if value.is_null() {
             return Err("value is NULL".into());
         }
@@ -891,8 +1168,14 @@ pub fn get_boolean_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fm
     })
 }
 
-pub fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2String) -> fmi2Status {
-    with_instance(c, "fmi2GetStringStatus", legal::STATUS, |instance| {
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed. `value` is NULL or points to the master's variable.
+pub unsafe fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi2String) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let instance = unsafe { instance_from(c) };
+    with_instance(instance, "fmi2GetStringStatus", legal::STATUS, |instance| {
         if value.is_null() {
             return Err("value is NULL".into());
         }
@@ -915,8 +1198,14 @@ pub fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi
 /// instance after fmi2Error; it does not require the FMU to refuse further calls, so a master
 /// that does give up is served as well as one that carries on. A NULL or foreign instance
 /// pointer is still answered with fmi2Error alone, as everywhere.
-pub fn unsupported(c: fmi2Component, function: &'static str, why: &'static str) -> fmi2Status {
-    let Some(instance) = instance_from(c) else { return fmi2Error };
+///
+/// # Safety
+///
+/// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
+/// freed.
+pub unsafe fn unsupported(c: fmi2Component, function: &'static str, why: &'static str) -> fmi2Status {
+    // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
+    let Some(instance) = (unsafe { instance_from(c) }) else { return fmi2Error };
     // Logging formats a message and calls the master's logger; a panic there must not unwind
     // into C, and there is nothing else to report it through, so it is dropped.
     let _ = catch(|| {
@@ -939,12 +1228,15 @@ pub const WHY_CANCEL_STEP: &str =
 
 /// Exports the 44 `fmi2*` functions of FMI 2.0 from a cdylib, serving the listed models (the
 /// GUID given to fmi2Instantiate selects one).
+///
+/// Each function is an `unsafe extern "C"` shim that forwards to the function of the same
+/// contract in [`crate::exports`]; the standard binds the C master that calls it.
 #[macro_export]
 macro_rules! export_fmi2 {
     ($($model:ty),+ $(,)?) => {
         #[doc(hidden)]
         pub mod fmi2_exports {
-            #![allow(non_snake_case, clippy::missing_safety_doc)]
+            #![allow(non_snake_case)]
             #[allow(unused_imports)]
             use super::*;
             use $crate::ffi::*;
@@ -955,50 +1247,68 @@ macro_rules! export_fmi2 {
 
             #[no_mangle] pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char { x::get_types_platform() }
             #[no_mangle] pub extern "C" fn fmi2GetVersion() -> *const c_char { x::get_version() }
-            #[no_mangle] pub extern "C" fn fmi2SetDebugLogging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status { x::set_debug_logging(c, on, n, cats) }
-            #[no_mangle] pub extern "C" fn fmi2Instantiate(name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, f: *const fmi2CallbackFunctions, visible: fmi2Boolean, on: fmi2Boolean) -> fmi2Component { x::instantiate(MODELS, name, ty, guid, res, f, visible, on) }
-            #[no_mangle] pub extern "C" fn fmi2FreeInstance(c: fmi2Component) { x::free_instance(c) }
-            #[no_mangle] pub extern "C" fn fmi2SetupExperiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, start: fmi2Real, sd: fmi2Boolean, stop: fmi2Real) -> fmi2Status { x::setup_experiment(c, td, tol, start, sd, stop) }
-            #[no_mangle] pub extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status { x::enter_initialization_mode(c) }
-            #[no_mangle] pub extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status { x::exit_initialization_mode(c) }
-            #[no_mangle] pub extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status { x::terminate(c) }
-            #[no_mangle] pub extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status { x::reset(c) }
-            #[no_mangle] pub extern "C" fn fmi2GetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status { x::get_real(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Integer) -> fmi2Status { x::get_integer(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Boolean) -> fmi2Status { x::get_boolean(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2String) -> fmi2Status { x::get_string(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2SetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status { x::set_real(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2SetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status { x::set_integer(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2SetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status { x::set_boolean(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2SetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2String) -> fmi2Status { x::set_string(c, vr, n, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status { x::get_fmu_state(c, s) }
-            #[no_mangle] pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status { x::set_fmu_state(c, s) }
-            #[no_mangle] pub extern "C" fn fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status { x::free_fmu_state(c, s) }
-            #[no_mangle] pub extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status { x::serialized_fmu_state_size(c, s, size) }
-            #[no_mangle] pub extern "C" fn fmi2SerializeFMUstate(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status { x::serialize_fmu_state(c, s, b, size) }
-            #[no_mangle] pub extern "C" fn fmi2DeSerializeFMUstate(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status { x::deserialize_fmu_state(c, b, size, s) }
-            #[no_mangle] pub extern "C" fn fmi2GetDirectionalDerivative(c: fmi2Component, _u: *const fmi2ValueReference, _nu: usize, _z: *const fmi2ValueReference, _nz: usize, _dv: *const fmi2Real, _dz: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetDirectionalDerivative", x::WHY_DIRECTIONAL_DERIVATIVE) }
+            $crate::fmi2_shim!(fmi2SetDebugLogging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status = x::set_debug_logging(c, on, n, cats));
+            $crate::fmi2_shim!(fmi2Instantiate(name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, f: *const fmi2CallbackFunctions, visible: fmi2Boolean, on: fmi2Boolean) -> fmi2Component = x::instantiate(MODELS, name, ty, guid, res, f, visible, on));
+            $crate::fmi2_shim!(fmi2FreeInstance(c: fmi2Component) -> () = x::free_instance(c));
+            $crate::fmi2_shim!(fmi2SetupExperiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, start: fmi2Real, sd: fmi2Boolean, stop: fmi2Real) -> fmi2Status = x::setup_experiment(c, td, tol, start, sd, stop));
+            $crate::fmi2_shim!(fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status = x::enter_initialization_mode(c));
+            $crate::fmi2_shim!(fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status = x::exit_initialization_mode(c));
+            $crate::fmi2_shim!(fmi2Terminate(c: fmi2Component) -> fmi2Status = x::terminate(c));
+            $crate::fmi2_shim!(fmi2Reset(c: fmi2Component) -> fmi2Status = x::reset(c));
+            $crate::fmi2_shim!(fmi2GetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status = x::get_real(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2GetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Integer) -> fmi2Status = x::get_integer(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2GetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Boolean) -> fmi2Status = x::get_boolean(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2GetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2String) -> fmi2Status = x::get_string(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2SetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status = x::set_real(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2SetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status = x::set_integer(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2SetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status = x::set_boolean(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2SetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2String) -> fmi2Status = x::set_string(c, vr, n, v));
+            $crate::fmi2_shim!(fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status = x::get_fmu_state(c, s));
+            $crate::fmi2_shim!(fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status = x::set_fmu_state(c, s));
+            $crate::fmi2_shim!(fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status = x::free_fmu_state(c, s));
+            $crate::fmi2_shim!(fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status = x::serialized_fmu_state_size(c, s, size));
+            $crate::fmi2_shim!(fmi2SerializeFMUstate(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status = x::serialize_fmu_state(c, s, b, size));
+            $crate::fmi2_shim!(fmi2DeSerializeFMUstate(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status = x::deserialize_fmu_state(c, b, size, s));
+            $crate::fmi2_shim!(fmi2GetDirectionalDerivative(c: fmi2Component, _u: *const fmi2ValueReference, _nu: usize, _z: *const fmi2ValueReference, _nz: usize, _dv: *const fmi2Real, _dz: *mut fmi2Real) -> fmi2Status = x::unsupported(c, "fmi2GetDirectionalDerivative", x::WHY_DIRECTIONAL_DERIVATIVE));
             // Model exchange: not provided.
-            #[no_mangle] pub extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterEventMode", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, _info: *mut ::std::ffi::c_void) -> fmi2Status { x::unsupported(c, "fmi2NewDiscreteStates", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status { x::unsupported(c, "fmi2EnterContinuousTimeMode", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2CompletedIntegratorStep(c: fmi2Component, _nsp: fmi2Boolean, _em: *mut fmi2Boolean, _ts: *mut fmi2Boolean) -> fmi2Status { x::unsupported(c, "fmi2CompletedIntegratorStep", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2SetTime(c: fmi2Component, _t: fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetTime", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2SetContinuousStates(c: fmi2Component, _x: *const fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2SetContinuousStates", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetDerivatives(c: fmi2Component, _dx: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetDerivatives", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetEventIndicators(c: fmi2Component, _ei: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetEventIndicators", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetContinuousStates", x::WHY_MODEL_EXCHANGE) }
-            #[no_mangle] pub extern "C" fn fmi2GetNominalsOfContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status { x::unsupported(c, "fmi2GetNominalsOfContinuousStates", x::WHY_MODEL_EXCHANGE) }
+            $crate::fmi2_shim!(fmi2EnterEventMode(c: fmi2Component) -> fmi2Status = x::unsupported(c, "fmi2EnterEventMode", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2NewDiscreteStates(c: fmi2Component, _info: *mut ::std::ffi::c_void) -> fmi2Status = x::unsupported(c, "fmi2NewDiscreteStates", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status = x::unsupported(c, "fmi2EnterContinuousTimeMode", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2CompletedIntegratorStep(c: fmi2Component, _nsp: fmi2Boolean, _em: *mut fmi2Boolean, _ts: *mut fmi2Boolean) -> fmi2Status = x::unsupported(c, "fmi2CompletedIntegratorStep", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2SetTime(c: fmi2Component, _t: fmi2Real) -> fmi2Status = x::unsupported(c, "fmi2SetTime", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2SetContinuousStates(c: fmi2Component, _x: *const fmi2Real, _n: usize) -> fmi2Status = x::unsupported(c, "fmi2SetContinuousStates", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2GetDerivatives(c: fmi2Component, _dx: *mut fmi2Real, _n: usize) -> fmi2Status = x::unsupported(c, "fmi2GetDerivatives", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2GetEventIndicators(c: fmi2Component, _ei: *mut fmi2Real, _n: usize) -> fmi2Status = x::unsupported(c, "fmi2GetEventIndicators", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2GetContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status = x::unsupported(c, "fmi2GetContinuousStates", x::WHY_MODEL_EXCHANGE));
+            $crate::fmi2_shim!(fmi2GetNominalsOfContinuousStates(c: fmi2Component, _x: *mut fmi2Real, _n: usize) -> fmi2Status = x::unsupported(c, "fmi2GetNominalsOfContinuousStates", x::WHY_MODEL_EXCHANGE));
             // Co-simulation.
-            #[no_mangle] pub extern "C" fn fmi2SetRealInputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *const fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2SetRealInputDerivatives", x::WHY_INPUT_DERIVATIVES) }
-            #[no_mangle] pub extern "C" fn fmi2GetRealOutputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *mut fmi2Real) -> fmi2Status { x::unsupported(c, "fmi2GetRealOutputDerivatives", x::WHY_OUTPUT_DERIVATIVES) }
-            #[no_mangle] pub extern "C" fn fmi2DoStep(c: fmi2Component, t: fmi2Real, h: fmi2Real, nsp: fmi2Boolean) -> fmi2Status { x::do_step(c, t, h, nsp) }
-            #[no_mangle] pub extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status { x::cancel_step(c) }
-            #[no_mangle] pub extern "C" fn fmi2GetStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Status) -> fmi2Status { x::get_status(c, k, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetRealStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Real) -> fmi2Status { x::get_real_status(c, k, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Integer) -> fmi2Status { x::get_integer_status(c, k, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Boolean) -> fmi2Status { x::get_boolean_status(c, k, v) }
-            #[no_mangle] pub extern "C" fn fmi2GetStringStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2String) -> fmi2Status { x::get_string_status(c, k, v) }
+            $crate::fmi2_shim!(fmi2SetRealInputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *const fmi2Real) -> fmi2Status = x::unsupported(c, "fmi2SetRealInputDerivatives", x::WHY_INPUT_DERIVATIVES));
+            $crate::fmi2_shim!(fmi2GetRealOutputDerivatives(c: fmi2Component, _vr: *const fmi2ValueReference, _n: usize, _o: *const fmi2Integer, _v: *mut fmi2Real) -> fmi2Status = x::unsupported(c, "fmi2GetRealOutputDerivatives", x::WHY_OUTPUT_DERIVATIVES));
+            $crate::fmi2_shim!(fmi2DoStep(c: fmi2Component, t: fmi2Real, h: fmi2Real, nsp: fmi2Boolean) -> fmi2Status = x::do_step(c, t, h, nsp));
+            $crate::fmi2_shim!(fmi2CancelStep(c: fmi2Component) -> fmi2Status = x::cancel_step(c));
+            $crate::fmi2_shim!(fmi2GetStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Status) -> fmi2Status = x::get_status(c, k, v));
+            $crate::fmi2_shim!(fmi2GetRealStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Real) -> fmi2Status = x::get_real_status(c, k, v));
+            $crate::fmi2_shim!(fmi2GetIntegerStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Integer) -> fmi2Status = x::get_integer_status(c, k, v));
+            $crate::fmi2_shim!(fmi2GetBooleanStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Boolean) -> fmi2Status = x::get_boolean_status(c, k, v));
+            $crate::fmi2_shim!(fmi2GetStringStatus(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2String) -> fmi2Status = x::get_string_status(c, k, v));
+        }
+    };
+}
+
+/// One exported function of [`export_fmi2!`]: an `unsafe extern "C"` shim under its C name that
+/// forwards to the function of the same contract in [`crate::exports`].
+#[doc(hidden)]
+#[macro_export]
+macro_rules! fmi2_shim {
+    ($name:ident($($arg:ident: $ty:ty),*) -> $ret:ty = $call:expr) => {
+        /// # Safety
+        ///
+        /// The FMI 2.0 contract of this function, which the C master keeps (see
+        /// `fmu_runtime::exports`).
+        #[no_mangle]
+        pub unsafe extern "C" fn $name($($arg: $ty),*) -> $ret {
+            // SAFETY: this shim's contract is the forwarded function's, and the caller keeps it.
+            unsafe { $call }
         }
     };
 }

@@ -5,10 +5,203 @@ use std::ffi::{CStr, CString};
 use std::ptr::{null, null_mut};
 
 use super::*;
-use fmu_import::LoggerCallbacks;
-use crate::state::{StateError, StateReader, StateWriter};
+use crate::state::{StateError, STATE_TAG};
 use crate::variables::{EnumerationType, Values};
 use crate::{declare_variables, DefaultExperiment};
+use fmu_import::LoggerCallbacks;
+use via_c::{
+    cancel_step, deserialize_fmu_state, do_step, enter_initialization_mode, exit_initialization_mode, free_fmu_state,
+    free_instance, get_fmu_state, get_real, get_real_status, get_string, instance_from, instantiate, reset,
+    serialize_fmu_state, serialized_fmu_state_size, set_boolean, set_debug_logging, set_fmu_state, set_integer,
+    set_real, set_string, setup_experiment, terminate, unsupported,
+};
+
+/// The exported functions as the tests call them, each as its C master would. The tests pass
+/// NULL, instances of a live [`Master`] (or deliberately freed ones, caught by the magic
+/// number), states these functions returned, and pointers to their own locals with the
+/// announced lengths: what each function's `# Safety` section asks.
+mod via_c {
+    use super::super as x;
+    use super::*;
+
+    pub(super) fn instance_from(c: fmi2Component) -> Option<&'static mut Instance> {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::instance_from(c) }
+    }
+
+    // The eight arguments of fmi2Instantiate (and the model table), as the C function has them.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn instantiate(
+        models: &[ModelEntry],
+        name: fmi2String,
+        ty: fmi2Type,
+        guid: fmi2String,
+        res: fmi2String,
+        f: *const fmi2CallbackFunctions,
+        visible: fmi2Boolean,
+        on: fmi2Boolean,
+    ) -> fmi2Component {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::instantiate(models, name, ty, guid, res, f, visible, on) }
+    }
+
+    pub(super) fn free_instance(c: fmi2Component) {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::free_instance(c) }
+    }
+
+    pub(super) fn setup_experiment(
+        c: fmi2Component,
+        td: fmi2Boolean,
+        tol: fmi2Real,
+        start: fmi2Real,
+        sd: fmi2Boolean,
+        stop: fmi2Real,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::setup_experiment(c, td, tol, start, sd, stop) }
+    }
+
+    pub(super) fn enter_initialization_mode(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::enter_initialization_mode(c) }
+    }
+
+    pub(super) fn exit_initialization_mode(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::exit_initialization_mode(c) }
+    }
+
+    pub(super) fn terminate(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::terminate(c) }
+    }
+
+    pub(super) fn reset(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::reset(c) }
+    }
+
+    pub(super) fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_real(c, vr, n, v) }
+    }
+
+    pub(super) fn get_string(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *mut fmi2String,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_string(c, vr, n, v) }
+    }
+
+    pub(super) fn set_real(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2Real,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_real(c, vr, n, v) }
+    }
+
+    pub(super) fn set_integer(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2Integer,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_integer(c, vr, n, v) }
+    }
+
+    pub(super) fn set_boolean(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2Boolean,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_boolean(c, vr, n, v) }
+    }
+
+    pub(super) fn set_string(
+        c: fmi2Component,
+        vr: *const fmi2ValueReference,
+        n: usize,
+        v: *const fmi2String,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_string(c, vr, n, v) }
+    }
+
+    pub(super) fn get_fmu_state(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_fmu_state(c, s) }
+    }
+
+    pub(super) fn set_fmu_state(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_fmu_state(c, s) }
+    }
+
+    pub(super) fn free_fmu_state(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::free_fmu_state(c, s) }
+    }
+
+    pub(super) fn serialized_fmu_state_size(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::serialized_fmu_state_size(c, s, size) }
+    }
+
+    pub(super) fn serialize_fmu_state(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::serialize_fmu_state(c, s, b, size) }
+    }
+
+    pub(super) fn deserialize_fmu_state(
+        c: fmi2Component,
+        b: *const fmi2Byte,
+        size: usize,
+        s: *mut fmi2FMUstate,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::deserialize_fmu_state(c, b, size, s) }
+    }
+
+    pub(super) fn do_step(c: fmi2Component, t: fmi2Real, h: fmi2Real, nsp: fmi2Boolean) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::do_step(c, t, h, nsp) }
+    }
+
+    pub(super) fn cancel_step(c: fmi2Component) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::cancel_step(c) }
+    }
+
+    pub(super) fn get_real_status(c: fmi2Component, k: fmi2StatusKind, v: *mut fmi2Real) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::get_real_status(c, k, v) }
+    }
+
+    pub(super) fn unsupported(c: fmi2Component, function: &'static str, why: &'static str) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::unsupported(c, function, why) }
+    }
+
+    pub(super) fn set_debug_logging(
+        c: fmi2Component,
+        on: fmi2Boolean,
+        n: usize,
+        cats: *const fmi2String,
+    ) -> fmi2Status {
+        // SAFETY: the tests keep the contract (see the module documentation).
+        unsafe { x::set_debug_logging(c, on, n, cats) }
+    }
+}
 
 static MODE: EnumerationType = EnumerationType {
     name: "TestMode",
@@ -102,12 +295,14 @@ impl Model for TestModel {
         Ok(())
     }
 
-    fn save_state(&self, writer: &mut StateWriter) {
-        writer.f64(self.state);
+    type State = f64;
+
+    fn save_state(&self) -> f64 {
+        self.state
     }
 
-    fn load_state(&mut self, reader: &mut StateReader, _values: &Values<TestVar>) -> Result<(), StateError> {
-        self.state = reader.f64()?;
+    fn load_state(&mut self, state: f64, _values: &Values<TestVar>) -> Result<(), StateError> {
+        self.state = state;
         Ok(())
     }
 }
@@ -445,6 +640,60 @@ fn serialized_states_restore_into_another_instance() {
     assert!(c.last_error().contains("truncated") || c.last_error().contains("rejected"), "{}", c.last_error());
     free_fmu_state(a.c, &mut state);
     free_fmu_state(b.c, &mut restored);
+}
+
+#[test]
+fn truncated_corrupt_or_foreign_states_are_refused_with_the_reason_never_a_panic() {
+    let a = Master::initialized();
+    a.set(U, 3.0);
+    assert_eq!(do_step(a.c, 0.0, 0.25, 0), fmi2OK);
+    let bytes = crate::state::InstanceState::<TestModel>::decode(&serialized(&a)).unwrap().encode().unwrap();
+    assert_eq!(bytes, serialized(&a), "decode then encode is not the identity");
+    let b = Master::new();
+    let deserialize = |bytes: &[u8]| {
+        let mut state: fmi2FMUstate = null_mut();
+        let status = deserialize_fmu_state(b.c, bytes.as_ptr().cast(), bytes.len(), &mut state);
+        if !state.is_null() {
+            free_fmu_state(b.c, &mut state);
+        }
+        (status, b.last_error())
+    };
+    for cut in 0..bytes.len() {
+        let (status, error) = deserialize(&bytes[..cut]);
+        assert_eq!(status, fmi2Error, "a state cut at {cut} bytes was accepted");
+        assert!(error.contains("serialized state rejected") && !error.contains("panic"), "cut at {cut}: {error}");
+    }
+    // A flipped byte may still decode (a number's bits), but it never panics.
+    for i in 0..bytes.len() {
+        let mut flipped = bytes.clone();
+        flipped[i] ^= 0xA5;
+        let (status, error) = deserialize(&flipped);
+        assert!(status == fmi2OK || !error.contains("panic"), "byte {i}: {error}");
+    }
+    let mut other_version = bytes.clone();
+    other_version[STATE_TAG.len()] = 7;
+    assert!(deserialize(&other_version).1.contains("state format version 7 is not supported"));
+    let mut not_a_state = bytes.clone();
+    not_a_state[0] = b'X';
+    assert!(deserialize(&not_a_state).1.contains("not an FMU state of this project"));
+    let mut foreign = crate::state::InstanceState::<TestModel>::decode(&bytes).unwrap();
+    foreign.header.model_identifier = "OtherModel".into();
+    assert!(deserialize(&foreign.encode().unwrap()).1.contains("state belongs to model 'OtherModel'"));
+    let mut trailing = bytes.clone();
+    trailing.push(0);
+    assert!(deserialize(&trailing).1.contains("1 unexpected trailing bytes"));
+}
+
+/// The serialized bytes of an instance's current state.
+fn serialized(m: &Master) -> Vec<u8> {
+    let mut state: fmi2FMUstate = null_mut();
+    assert_eq!(get_fmu_state(m.c, &mut state), fmi2OK);
+    let mut size = 0usize;
+    assert_eq!(serialized_fmu_state_size(m.c, state, &mut size), fmi2OK);
+    let mut bytes = vec![0 as fmi2Byte; size];
+    assert_eq!(serialize_fmu_state(m.c, state, bytes.as_mut_ptr(), size), fmi2OK);
+    assert_eq!(free_fmu_state(m.c, &mut state), fmi2OK);
+    bytes.into_iter().map(|b| b as u8).collect()
 }
 
 #[test]

@@ -8,12 +8,14 @@ use std::ffi::CString;
 
 use crate::ffi::{fmi2CallbackFunctions, Status};
 use crate::model::{Context, Model, Notes};
-use crate::state::{StateError, StateReader, StateWriter};
+use serde::{Deserialize, Serialize};
+
+use crate::state::{InstanceState, StateError, StateHeader};
 use crate::variables::{BaseType, Kind, SetPhase, Values, Var, VariableSet};
 
 /// The phases of the co-simulation state machine (FMI 2.0, Fig. 10), one bit each so that the
 /// table of legal calls is a set of masks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[repr(u32)]
 pub enum Phase {
     Instantiated = 1 << 0,
@@ -36,24 +38,6 @@ impl Phase {
             Phase::Error => "Error",
             Phase::Fatal => "Fatal",
         }
-    }
-
-    fn to_byte(self) -> u8 {
-        (self as u32).trailing_zeros() as u8
-    }
-
-    fn from_byte(b: u8) -> Option<Phase> {
-        [
-            Phase::Instantiated,
-            Phase::InitializationMode,
-            Phase::StepComplete,
-            Phase::StepFailed,
-            Phase::Terminated,
-            Phase::Error,
-            Phase::Fatal,
-        ]
-        .get(usize::from(b))
-        .copied()
     }
 }
 
@@ -123,7 +107,6 @@ pub const CAT_CALLS: usize = 5;
 /// Guards against a stray or freed pointer being used as an instance.
 pub const INSTANCE_MAGIC: u64 = 0x4D4B_4154_5F46_4D55; // "MKAT_FMU"
 pub const STATE_MAGIC: u64 = 0x4D4B_4154_5354_4154; // "MKATSTAT"
-const STATE_FORMAT_VERSION: u64 = 1;
 
 /// A saved FMU state, handed to the master as an opaque pointer.
 pub struct SavedState {
@@ -159,8 +142,11 @@ pub trait DynModel: Send {
     /// Whether any of `vrs` is an output with direct feedthrough (unknown references are not).
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool;
     fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
-    fn save(&self, w: &mut StateWriter);
-    fn load(&mut self, r: &mut StateReader, context: &Context) -> Result<(), StateError>;
+    /// The bytes of a state: `header`, then the values and the model's state.
+    fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError>;
+    /// Restores a state of this model (checked by identifier and GUID) and returns its header.
+    /// Nothing changes unless all of it reads back.
+    fn load(&mut self, bytes: &[u8], context: &Context) -> Result<StateHeader, StateError>;
 }
 
 /// What a get or set of one value reference needs on the hot path, packed into a small entry:
@@ -419,20 +405,19 @@ impl<M: Model> DynModel for ModelSlot<M> {
         self.model.do_step(&mut self.values, time, step, notes)
     }
 
-    fn save(&self, w: &mut StateWriter) {
-        self.values.save(w);
-        self.model.save_state(w);
+    fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError> {
+        crate::state::encode::<M>(header, &self.values, &self.model.save_state())
     }
 
-    fn load(&mut self, r: &mut StateReader, context: &Context) -> Result<(), StateError> {
+    fn load(&mut self, bytes: &[u8], context: &Context) -> Result<StateHeader, StateError> {
         // Build the restored model aside and swap it in only when everything was read.
-        let values = Values::<M::Var>::load(r)?;
-        let mut model = M::new(&values, context).map_err(StateError)?;
-        model.load_state(r, &values)?;
-        r.finish()?;
+        let InstanceState { header, values, model: state } =
+            crate::state::decode::<M>(bytes, M::info().model_identifier, &self.guid)?;
+        let mut model = M::new(&values, context).map_err(StateError::Invalid)?;
+        model.load_state(state, &values)?;
         self.values = values;
         self.model = model;
-        Ok(())
+        Ok(header)
     }
 }
 
@@ -469,27 +454,23 @@ fn check_model_real<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) 
 pub fn check_integer_value<M: Model>(var: M::Var, value: i32, values: &Values<M::Var>) -> Result<(), String> {
     let decl = var.var();
     match decl.kind {
-        Kind::Integer { min, max, .. } => {
-            if min.is_some_and(|lo| value < lo) || max.is_some_and(|hi| value > hi) {
-                return Err(format!(
-                    "'{}' = {value} is outside its range [{}, {}]",
-                    decl.name,
-                    min.map_or("-inf".into(), |v| v.to_string()),
-                    max.map_or("inf".into(), |v| v.to_string())
-                ));
-            }
+        Kind::Integer { min, max, .. } if min.is_some_and(|lo| value < lo) || max.is_some_and(|hi| value > hi) => {
+            return Err(format!(
+                "'{}' = {value} is outside its range [{}, {}]",
+                decl.name,
+                min.map_or("-inf".into(), |v| v.to_string()),
+                max.map_or("inf".into(), |v| v.to_string())
+            ));
         }
-        Kind::Enumeration { declared_type, .. } => {
-            if declared_type.name_of(value).is_none() {
-                let items: Vec<String> =
-                    declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
-                return Err(format!(
-                    "'{}' = {value} is not an item of {} ({})",
-                    decl.name,
-                    declared_type.name,
-                    items.join(", ")
-                ));
-            }
+        Kind::Enumeration { declared_type, .. } if declared_type.name_of(value).is_none() => {
+            let items: Vec<String> =
+                declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
+            return Err(format!(
+                "'{}' = {value} is not an item of {} ({})",
+                decl.name,
+                declared_type.name,
+                items.join(", ")
+            ));
         }
         _ => {}
     }
@@ -559,30 +540,25 @@ impl Instance {
         self.log(Status::Error, CAT_ERROR, &format!("{function}: {message}"));
     }
 
-    /// Writes the whole instance (phase, time and model) in the portable state format.
-    pub fn save_state(&self) -> Vec<u8> {
-        let mut w = StateWriter::new();
-        w.u64(STATE_MAGIC);
-        w.u64(STATE_FORMAT_VERSION);
-        w.str(self.model.model_identifier());
-        w.str(self.model.guid());
-        w.u8(self.phase.to_byte());
-        w.f64(self.time);
-        w.f64(self.start_time);
-        w.bool(self.stop_time.is_some());
-        w.f64(self.stop_time.unwrap_or(0.0));
-        w.f64(self.last_successful_time);
-        w.bool(self.needs_initialize);
-        self.model.save(&mut w);
-        w.into_bytes()
+    /// The whole instance (phase, times, values and model) as a portable state.
+    pub fn save_state(&self) -> Result<Vec<u8>, StateError> {
+        let header = StateHeader {
+            model_identifier: self.model.model_identifier().to_string(),
+            guid: self.model.guid().to_string(),
+            phase: self.phase,
+            time: self.time,
+            start_time: self.start_time,
+            stop_time: self.stop_time,
+            last_successful_time: self.last_successful_time,
+            needs_initialize: self.needs_initialize,
+        };
+        self.model.save(&header)
     }
 
     /// Restores a state written by [`Instance::save_state`], from this or another instance of
     /// the same model. Nothing changes unless all of it reads back.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), StateError> {
-        let header = Self::read_header(bytes, self.model.model_identifier(), self.model.guid())?;
-        let mut r = StateReader::new(&bytes[header.body_offset..]);
-        self.model.load(&mut r, &self.context)?;
+        let header = self.model.load(bytes, &self.context)?;
         self.phase = header.phase;
         self.time = header.time;
         self.start_time = header.start_time;
@@ -594,60 +570,10 @@ impl Instance {
         Ok(())
     }
 
-    /// Checks that bytes are a state of this model, without applying them.
+    /// Checks that bytes are a state of this model, without applying them: a trial load into a
+    /// throw-away model catches corrupt states at deserialisation time.
     pub fn check_state(&self, bytes: &[u8]) -> Result<(), StateError> {
-        let header = Self::read_header(bytes, self.model.model_identifier(), self.model.guid())?;
-        // A trial load into a throw-away model catches corrupt bodies at deserialisation time.
-        let mut scratch = (self.create)(&self.context).map_err(StateError)?;
-        let mut r = StateReader::new(&bytes[header.body_offset..]);
-        scratch.load(&mut r, &self.context)
+        let mut scratch = (self.create)(&self.context).map_err(StateError::Invalid)?;
+        scratch.load(bytes, &self.context).map(|_| ())
     }
-
-    fn read_header(bytes: &[u8], identifier: &str, guid: &str) -> Result<StateHeader, StateError> {
-        let mut r = StateReader::new(bytes);
-        if r.u64()? != STATE_MAGIC {
-            return Err(StateError("not an FMU state of this project (bad magic number)".into()));
-        }
-        let version = r.u64()?;
-        if version != STATE_FORMAT_VERSION {
-            return Err(StateError(format!(
-                "state format version {version} is not supported (this FMU reads version {STATE_FORMAT_VERSION})"
-            )));
-        }
-        let state_identifier = r.str()?;
-        let state_guid = r.str()?;
-        if state_identifier != identifier || state_guid != guid {
-            return Err(StateError(format!(
-                "state belongs to model '{state_identifier}' {state_guid}, not to '{identifier}' {guid}"
-            )));
-        }
-        let phase_byte = r.u8()?;
-        let phase =
-            Phase::from_byte(phase_byte).ok_or_else(|| StateError(format!("invalid phase {phase_byte} in state")))?;
-        let time = r.f64()?;
-        let start_time = r.f64()?;
-        let has_stop = r.bool()?;
-        let stop = r.f64()?;
-        let last_successful_time = r.f64()?;
-        let needs_initialize = r.bool()?;
-        Ok(StateHeader {
-            phase,
-            time,
-            start_time,
-            stop_time: has_stop.then_some(stop),
-            last_successful_time,
-            needs_initialize,
-            body_offset: bytes.len() - r.remaining(),
-        })
-    }
-}
-
-struct StateHeader {
-    phase: Phase,
-    time: f64,
-    start_time: f64,
-    stop_time: Option<f64>,
-    last_successful_time: f64,
-    needs_initialize: bool,
-    body_offset: usize,
 }

@@ -17,5 +17,5 @@ pub mod variables;
 pub mod xml;
 
 pub use model::{Context, DefaultExperiment, Model, ModelInfo, Notes};
-pub use state::{StateError, StateReader, StateWriter};
+pub use state::{InstanceState, StateError, StateHeader};
 pub use variables::{EnumerationType, Values, Var, VariableSet};

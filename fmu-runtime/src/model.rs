@@ -4,7 +4,10 @@
 
 use std::path::PathBuf;
 
-use crate::state::{StateError, StateReader, StateWriter};
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+
+use crate::state::StateError;
 use crate::variables::{Values, VariableSet};
 
 /// The `<DefaultExperiment>` of the model description.
@@ -130,9 +133,15 @@ pub trait Model: Sized + Send + 'static {
         Ok(())
     }
 
-    /// Writes everything that determines the model's future (not caches).
-    fn save_state(&self, writer: &mut StateWriter);
+    /// Everything that determines the model's future beyond its variable values (not caches),
+    /// as FMU states keep it ([`crate::state`] encodes it).
+    type State: Serialize + DeserializeOwned;
 
-    /// Reads back what [`Model::save_state`] wrote; `values` are already restored.
-    fn load_state(&mut self, reader: &mut StateReader, values: &Values<Self::Var>) -> Result<(), StateError>;
+    /// The model's part of an FMU state.
+    fn save_state(&self) -> Self::State;
+
+    /// Restores what [`Model::save_state`] returned (possibly in another instance or process)
+    /// into a model just created by [`Model::new`] from `values`, which are already restored.
+    /// A state that does not fit the model (its parameters) is an error.
+    fn load_state(&mut self, state: Self::State, values: &Values<Self::Var>) -> Result<(), StateError>;
 }

@@ -1,221 +1,140 @@
-//! A small, versioned, portable byte format for FMU states.
+//! FMU states: what fmi2GetFMUstate keeps and fmi2SerializeFMUstate hands out.
 //!
-//! `fmi2SerializeFMUstate` must produce bytes that another instance (possibly another process
-//! or machine) can read back. Everything is written little-endian with explicit lengths, so the
-//! format does not depend on the platform, the Rust version or a serialisation crate's layout.
-//! Models write their internal state with [`StateWriter`] and read it back with [`StateReader`]
-//! in the same order; the runtime wraps it in a header that names the model and the format
-//! version.
+//! A state is a format tag, a [`StateHeader`] that names the model (identifier and GUID) and
+//! holds the instance's phase and times, the variable values and the model's own
+//! [`Model::State`]. Each part is a serde type, so what is written and what is read back are
+//! one declaration and cannot disagree. The bytes are postcard's encoding, which its
+//! specification fixes independently of the machine and the Rust version: integers as
+//! little-endian varints, floating-point numbers as their little-endian IEEE 754 bits (they
+//! come back bit for bit), sequences and strings with their length first. Another instance,
+//! process or machine reads them back.
+//!
+//! Reading checks the tag, the format version and the model before the rest, so a state of
+//! another FMU or of another version is refused with the reason; truncated or corrupt bytes are
+//! an error, never a panic; a length read from corrupt bytes fails when the bytes run out (serde
+//! allocates at most about a megabyte ahead for it).
 
-use std::fmt;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
-/// Why a byte string could not be read back as a state.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct StateError(pub String);
+use crate::instance::Phase;
+use crate::model::Model;
+use crate::variables::Values;
 
-impl fmt::Display for StateError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
+/// The first bytes of every state of this project.
+pub const STATE_TAG: [u8; 8] = *b"MKATSTAT";
+
+/// The version of the state layout; a state of another version is refused. Version 1 was the
+/// hand-written field-by-field format before the states became serde types.
+pub const STATE_FORMAT_VERSION: u32 = 2;
+
+/// Why bytes could not be read back as a state of this model.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum StateError {
+    #[error("not an FMU state of this project (its first bytes are not the state tag)")]
+    NotAState,
+    #[error("state format version {found} is not supported (this FMU reads version {STATE_FORMAT_VERSION})")]
+    Version { found: u32 },
+    #[error("state belongs to model '{found_identifier}' {found_guid}, not to '{identifier}' {guid}")]
+    OtherModel { found_identifier: String, found_guid: String, identifier: String, guid: String },
+    #[error("state is truncated or corrupt in its {part}: {cause}")]
+    Corrupt { part: &'static str, cause: postcard::Error },
+    #[error("{0} unexpected trailing bytes in state")]
+    TrailingBytes(usize),
+    #[error("state could not be written: {0}")]
+    Encode(postcard::Error),
+    /// The bytes decoded, but do not fit the model (a length, a mode or a parameter disagrees).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// What a state says about the instance around the model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StateHeader {
+    pub model_identifier: String,
+    pub guid: String,
+    pub phase: Phase,
+    pub time: f64,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+    pub last_successful_time: f64,
+    pub needs_initialize: bool,
+}
+
+/// The tag and version, read before anything else.
+#[derive(Serialize, Deserialize)]
+struct FormatTag {
+    tag: [u8; 8],
+    version: u32,
+}
+
+/// A whole saved instance of model `M`: what the runtime writes and reads, and what a tool can
+/// decode, edit and encode again (the validate tool starts its windows from edited plant
+/// states).
+pub struct InstanceState<M: Model> {
+    pub header: StateHeader,
+    pub values: Values<M::Var>,
+    pub model: M::State,
+}
+
+impl<M: Model> Clone for InstanceState<M>
+where
+    M::State: Clone,
+{
+    fn clone(&self) -> Self {
+        InstanceState { header: self.header.clone(), values: self.values.clone(), model: self.model.clone() }
     }
 }
 
-impl std::error::Error for StateError {}
-
-/// Appends values to a state buffer.
-#[derive(Default, Debug, Clone)]
-pub struct StateWriter {
-    bytes: Vec<u8>,
-}
-
-impl StateWriter {
-    pub fn new() -> Self {
-        Self::default()
+impl<M: Model> InstanceState<M> {
+    /// The state's bytes.
+    pub fn encode(&self) -> Result<Vec<u8>, StateError> {
+        encode::<M>(&self.header, &self.values, &self.model)
     }
 
-    pub fn into_bytes(self) -> Vec<u8> {
-        self.bytes
-    }
-
-    pub fn f64(&mut self, value: f64) {
-        self.bytes.extend_from_slice(&value.to_bits().to_le_bytes());
-    }
-
-    pub fn u64(&mut self, value: u64) {
-        self.bytes.extend_from_slice(&value.to_le_bytes());
-    }
-
-    pub fn u128(&mut self, value: u128) {
-        self.bytes.extend_from_slice(&value.to_le_bytes());
-    }
-
-    pub fn i64(&mut self, value: i64) {
-        self.bytes.extend_from_slice(&value.to_le_bytes());
-    }
-
-    pub fn bool(&mut self, value: bool) {
-        self.bytes.push(u8::from(value));
-    }
-
-    pub fn u8(&mut self, value: u8) {
-        self.bytes.push(value);
-    }
-
-    /// A length-prefixed run of raw bytes.
-    pub fn bytes(&mut self, value: &[u8]) {
-        self.u64(value.len() as u64);
-        self.bytes.extend_from_slice(value);
-    }
-
-    pub fn str(&mut self, value: &str) {
-        self.bytes(value.as_bytes());
-    }
-
-    /// A length-prefixed run of `f64`.
-    pub fn f64s(&mut self, values: &[f64]) {
-        self.u64(values.len() as u64);
-        for &v in values {
-            self.f64(v);
-        }
+    /// Reads bytes written for model `M` (by any instance of it).
+    pub fn decode(bytes: &[u8]) -> Result<Self, StateError> {
+        decode::<M>(bytes, M::info().model_identifier, &crate::xml::guid::<M>())
     }
 }
 
-/// Reads values back in the order they were written; every read checks the length.
-#[derive(Debug, Clone)]
-pub struct StateReader<'a> {
-    bytes: &'a [u8],
-    position: usize,
+/// Writes a state from its parts, borrowed.
+pub(crate) fn encode<M: Model>(
+    header: &StateHeader,
+    values: &Values<M::Var>,
+    model: &M::State,
+) -> Result<Vec<u8>, StateError> {
+    let tag = FormatTag { tag: STATE_TAG, version: STATE_FORMAT_VERSION };
+    postcard::to_allocvec(&(tag, header, values, model)).map_err(StateError::Encode)
 }
 
-impl<'a> StateReader<'a> {
-    pub fn new(bytes: &'a [u8]) -> Self {
-        Self { bytes, position: 0 }
+/// Reads a state of model `M` whose identifier and GUID are given, part by part, so that the
+/// first part that does not fit names the reason.
+pub(crate) fn decode<M: Model>(bytes: &[u8], identifier: &str, guid: &str) -> Result<InstanceState<M>, StateError> {
+    if !bytes.starts_with(&STATE_TAG) {
+        return Err(StateError::NotAState);
     }
-
-    /// Bytes not read yet; a complete read leaves none.
-    pub fn remaining(&self) -> usize {
-        self.bytes.len() - self.position
+    let (tag, rest) = take::<FormatTag>(bytes, "format tag")?;
+    if tag.version != STATE_FORMAT_VERSION {
+        return Err(StateError::Version { found: tag.version });
     }
-
-    fn take(&mut self, n: usize) -> Result<&'a [u8], StateError> {
-        if self.remaining() < n {
-            return Err(StateError(format!(
-                "state is truncated: needed {n} more bytes at offset {}, {} left",
-                self.position,
-                self.remaining()
-            )));
-        }
-        let slice = &self.bytes[self.position..self.position + n];
-        self.position += n;
-        Ok(slice)
+    let (header, rest) = take::<StateHeader>(rest, "header")?;
+    if header.model_identifier != identifier || header.guid != guid {
+        return Err(StateError::OtherModel {
+            found_identifier: header.model_identifier,
+            found_guid: header.guid,
+            identifier: identifier.to_string(),
+            guid: guid.to_string(),
+        });
     }
-
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], StateError> {
-        let mut out = [0u8; N];
-        out.copy_from_slice(self.take(N)?);
-        Ok(out)
+    let (values, rest) = take::<Values<M::Var>>(rest, "variable values")?;
+    let (model, rest) = take::<M::State>(rest, "model state")?;
+    if !rest.is_empty() {
+        return Err(StateError::TrailingBytes(rest.len()));
     }
-
-    pub fn f64(&mut self) -> Result<f64, StateError> {
-        Ok(f64::from_bits(u64::from_le_bytes(self.array()?)))
-    }
-
-    pub fn u64(&mut self) -> Result<u64, StateError> {
-        Ok(u64::from_le_bytes(self.array()?))
-    }
-
-    pub fn u128(&mut self) -> Result<u128, StateError> {
-        Ok(u128::from_le_bytes(self.array()?))
-    }
-
-    pub fn i64(&mut self) -> Result<i64, StateError> {
-        Ok(i64::from_le_bytes(self.array()?))
-    }
-
-    pub fn u8(&mut self) -> Result<u8, StateError> {
-        Ok(self.take(1)?[0])
-    }
-
-    pub fn bool(&mut self) -> Result<bool, StateError> {
-        match self.u8()? {
-            0 => Ok(false),
-            1 => Ok(true),
-            other => Err(StateError(format!("invalid boolean byte {other} at offset {}", self.position - 1))),
-        }
-    }
-
-    /// A length-prefixed run of bytes; the length is checked against what is left before
-    /// anything is allocated, so a corrupt length cannot exhaust memory.
-    pub fn bytes(&mut self) -> Result<&'a [u8], StateError> {
-        let n = self.u64()?;
-        let n = usize::try_from(n).map_err(|_| StateError(format!("length {n} does not fit in memory")))?;
-        self.take(n)
-    }
-
-    pub fn str(&mut self) -> Result<String, StateError> {
-        let raw = self.bytes()?;
-        String::from_utf8(raw.to_vec()).map_err(|_| StateError("string in state is not UTF-8".into()))
-    }
-
-    /// A length-prefixed run of `f64`, which must have exactly `expected` elements when given.
-    pub fn f64s(&mut self, expected: Option<usize>) -> Result<Vec<f64>, StateError> {
-        let n = self.u64()? as usize;
-        if let Some(e) = expected {
-            if n != e {
-                return Err(StateError(format!("expected {e} values, state has {n}")));
-            }
-        }
-        if n.saturating_mul(8) > self.remaining() {
-            return Err(StateError(format!("state claims {n} values but only {} bytes are left", self.remaining())));
-        }
-        (0..n).map(|_| self.f64()).collect()
-    }
-
-    /// Fails unless every byte was consumed: trailing bytes mean the writer and reader disagree.
-    pub fn finish(&self) -> Result<(), StateError> {
-        if self.remaining() == 0 {
-            Ok(())
-        } else {
-            Err(StateError(format!("{} unexpected trailing bytes in state", self.remaining())))
-        }
-    }
+    Ok(InstanceState { header, values, model })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn values_read_back_in_the_order_written() {
-        let mut w = StateWriter::new();
-        w.f64(-1.5);
-        w.u64(42);
-        w.bool(true);
-        w.str("az");
-        w.f64s(&[1.0, f64::NAN]);
-        w.u128(1 << 100);
-        let bytes = w.into_bytes();
-        let mut r = StateReader::new(&bytes);
-        assert_eq!(r.f64().unwrap(), -1.5);
-        assert_eq!(r.u64().unwrap(), 42);
-        assert!(r.bool().unwrap());
-        assert_eq!(r.str().unwrap(), "az");
-        let v = r.f64s(Some(2)).unwrap();
-        assert_eq!(v[0], 1.0);
-        assert!(v[1].is_nan());
-        assert_eq!(r.u128().unwrap(), 1 << 100);
-        r.finish().unwrap();
-    }
-
-    #[test]
-    fn truncated_or_corrupt_states_are_errors_not_panics() {
-        let mut w = StateWriter::new();
-        w.f64s(&[1.0, 2.0, 3.0]);
-        let bytes = w.into_bytes();
-        for cut in 0..bytes.len() {
-            assert!(StateReader::new(&bytes[..cut]).f64s(None).is_err());
-        }
-        let huge = u64::MAX.to_le_bytes();
-        assert!(StateReader::new(&huge).bytes().is_err());
-        assert!(StateReader::new(&huge).f64s(None).is_err());
-    }
+fn take<'a, T: DeserializeOwned>(bytes: &'a [u8], part: &'static str) -> Result<(T, &'a [u8]), StateError> {
+    postcard::take_from_bytes(bytes).map_err(|cause| StateError::Corrupt { part, cause })
 }

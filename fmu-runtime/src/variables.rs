@@ -9,6 +9,8 @@
 use std::fmt;
 use std::marker::PhantomData;
 
+use serde::{Deserialize, Serialize};
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Causality {
     Parameter,
@@ -448,33 +450,54 @@ impl<V: VariableSet> Values<V> {
     pub(crate) fn string_at_mut(&mut self, index: usize) -> &mut String {
         &mut self.strings[index]
     }
+}
 
-    /// Writes every value, in table order, to a state buffer.
-    pub fn save(&self, w: &mut crate::state::StateWriter) {
+/// The values as a state holds them: per base type, the values of that type's variables in
+/// table order (the vectors of [`Values`] have a slot for every variable in each type).
+#[derive(Serialize, Deserialize)]
+struct SavedValues<'a> {
+    reals: Vec<f64>,
+    integers: Vec<i32>,
+    booleans: Vec<bool>,
+    #[serde(borrow)]
+    strings: Vec<std::borrow::Cow<'a, str>>,
+}
+
+impl<V: VariableSet> Serialize for Values<V> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let of_type =
+            |ty: BaseType| V::TABLE.iter().enumerate().filter(move |(_, v)| v.base_type() == ty).map(|(i, _)| i);
+        SavedValues {
+            reals: of_type(BaseType::Real).map(|i| self.reals[i]).collect(),
+            integers: of_type(BaseType::Integer).map(|i| self.integers[i]).collect(),
+            booleans: of_type(BaseType::Boolean).map(|i| self.booleans[i]).collect(),
+            strings: of_type(BaseType::String).map(|i| self.strings[i].as_str().into()).collect(),
+        }
+        .serialize(serializer)
+    }
+}
+
+impl<'de, V: VariableSet> Deserialize<'de> for Values<V> {
+    /// Refuses lists whose lengths are not this table's counts of each type.
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let saved = SavedValues::deserialize(deserializer)?;
+        let mut values = Self::at_start();
+        let mut reals = saved.reals.into_iter();
+        let mut integers = saved.integers.into_iter();
+        let mut booleans = saved.booleans.into_iter();
+        let mut strings = saved.strings.into_iter();
+        let missing = |var: &Var| serde::de::Error::custom(format!("no saved value for '{}'", var.name));
         for (i, var) in V::TABLE.iter().enumerate() {
             match var.base_type() {
-                BaseType::Real => w.f64(self.reals[i]),
-                BaseType::Integer => w.i64(i64::from(self.integers[i])),
-                BaseType::Boolean => w.bool(self.booleans[i]),
-                BaseType::String => w.str(&self.strings[i]),
+                BaseType::Real => values.reals[i] = reals.next().ok_or_else(|| missing(var))?,
+                BaseType::Integer => values.integers[i] = integers.next().ok_or_else(|| missing(var))?,
+                BaseType::Boolean => values.booleans[i] = booleans.next().ok_or_else(|| missing(var))?,
+                BaseType::String => values.strings[i] = strings.next().ok_or_else(|| missing(var))?.into_owned(),
             }
         }
-    }
-
-    /// Reads values written by [`Values::save`] for the same table.
-    pub fn load(r: &mut crate::state::StateReader) -> Result<Self, crate::state::StateError> {
-        let mut values = Self::at_start();
-        for (i, var) in V::TABLE.iter().enumerate() {
-            match var.base_type() {
-                BaseType::Real => values.reals[i] = r.f64()?,
-                BaseType::Integer => {
-                    let raw = r.i64()?;
-                    values.integers[i] = i32::try_from(raw)
-                        .map_err(|_| crate::state::StateError(format!("integer {raw} of {} out of range", var.name)))?;
-                }
-                BaseType::Boolean => values.booleans[i] = r.bool()?,
-                BaseType::String => values.strings[i] = r.str()?,
-            }
+        let extra = reals.len() + integers.len() + booleans.len() + strings.len();
+        if extra > 0 {
+            return Err(serde::de::Error::custom(format!("{extra} saved values more than the model has variables")));
         }
         Ok(values)
     }

@@ -6,7 +6,7 @@ use quick_xml::Writer;
 use sha2::{Digest, Sha256};
 
 use crate::instance::LOG_CATEGORIES;
-use crate::model::Model;
+use crate::model::{Model, ModelInfo};
 use crate::units;
 use crate::variables::{Causality, Kind, Var, VariableSet};
 
@@ -104,13 +104,33 @@ fn start_attribute(var: &Var) -> Option<String> {
     }
 }
 
+/// The XML writer of a model description.
+type XmlWriter = Writer<Vec<u8>>;
+
+fn write(w: &mut XmlWriter, event: Event) {
+    w.write_event(event).expect("writing to a Vec cannot fail");
+}
+
 fn render<M: Model>(guid: &str) -> String {
     let info = M::info();
     let table = M::Var::TABLE;
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
-    let write = |w: &mut Writer<Vec<u8>>, e: Event| w.write_event(e).expect("writing to a Vec cannot fail");
+    write_header(&mut w, &info, guid);
+    write_unit_definitions(&mut w, table);
+    write_type_definitions(&mut w, table);
+    write_log_categories(&mut w);
+    write_default_experiment(&mut w, &info);
+    write_model_variables(&mut w, table);
+    write_model_structure(&mut w, table);
+    write(&mut w, Event::End(BytesEnd::new("fmiModelDescription")));
+    let mut text = String::from_utf8(w.into_inner()).expect("the writer emits UTF-8");
+    text.push('\n');
+    text
+}
 
-    write(&mut w, Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
+/// The declaration, the root element's attributes and the co-simulation capabilities.
+fn write_header(w: &mut XmlWriter, info: &ModelInfo, guid: &str) {
+    write(w, Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
     let mut root = BytesStart::new("fmiModelDescription");
     root.push_attribute(("fmiVersion", "2.0"));
     root.push_attribute(("modelName", info.model_name));
@@ -121,7 +141,7 @@ fn render<M: Model>(guid: &str) -> String {
     root.push_attribute(("generationTool", GENERATION_TOOL));
     root.push_attribute(("variableNamingConvention", "structured"));
     root.push_attribute(("numberOfEventIndicators", "0"));
-    write(&mut w, Event::Start(root));
+    write(w, Event::Start(root));
 
     let mut cs = BytesStart::new("CoSimulation");
     for (k, v) in [
@@ -139,9 +159,11 @@ fn render<M: Model>(guid: &str) -> String {
     ] {
         cs.push_attribute((k, v));
     }
-    write(&mut w, Event::Empty(cs));
+    write(w, Event::Empty(cs));
+}
 
-    // Units, in order of first use.
+/// The units the variables use, in order of first use.
+fn write_unit_definitions(w: &mut XmlWriter, table: &[Var]) {
     let mut used: Vec<&str> = Vec::new();
     for var in table {
         if let Some(u) = var.unit() {
@@ -151,12 +173,12 @@ fn render<M: Model>(guid: &str) -> String {
         }
     }
     if !used.is_empty() {
-        write(&mut w, Event::Start(BytesStart::new("UnitDefinitions")));
+        write(w, Event::Start(BytesStart::new("UnitDefinitions")));
         for name in &used {
             let def = units::lookup(name).unwrap_or_else(|| panic!("unit '{name}' is not in units::UNITS"));
             let mut unit = BytesStart::new("Unit");
             unit.push_attribute(("name", def.name));
-            write(&mut w, Event::Start(unit));
+            write(w, Event::Start(unit));
             let mut base = BytesStart::new("BaseUnit");
             let exponents = [("kg", def.kg), ("m", def.m), ("s", def.s), ("A", def.a), ("rad", def.rad)];
             let exponent_texts: Vec<(&str, String)> =
@@ -168,13 +190,15 @@ fn render<M: Model>(guid: &str) -> String {
             if def.factor != 1.0 {
                 base.push_attribute(("factor", factor.as_str()));
             }
-            write(&mut w, Event::Empty(base));
-            write(&mut w, Event::End(BytesEnd::new("Unit")));
+            write(w, Event::Empty(base));
+            write(w, Event::End(BytesEnd::new("Unit")));
         }
-        write(&mut w, Event::End(BytesEnd::new("UnitDefinitions")));
+        write(w, Event::End(BytesEnd::new("UnitDefinitions")));
     }
+}
 
-    // Enumeration types, in order of first use.
+/// The enumeration types the variables use, in order of first use.
+fn write_type_definitions(w: &mut XmlWriter, table: &[Var]) {
     let mut enums: Vec<&crate::variables::EnumerationType> = Vec::new();
     for var in table {
         if let Kind::Enumeration { declared_type, .. } = var.kind {
@@ -184,45 +208,52 @@ fn render<M: Model>(guid: &str) -> String {
         }
     }
     if !enums.is_empty() {
-        write(&mut w, Event::Start(BytesStart::new("TypeDefinitions")));
+        write(w, Event::Start(BytesStart::new("TypeDefinitions")));
         for e in &enums {
             let mut st = BytesStart::new("SimpleType");
             st.push_attribute(("name", e.name));
             st.push_attribute(("description", e.description));
-            write(&mut w, Event::Start(st));
-            write(&mut w, Event::Start(BytesStart::new("Enumeration")));
+            write(w, Event::Start(st));
+            write(w, Event::Start(BytesStart::new("Enumeration")));
             for (i, (name, description)) in e.items.iter().enumerate() {
                 let mut item = BytesStart::new("Item");
                 let value = (i + 1).to_string();
                 item.push_attribute(("name", *name));
                 item.push_attribute(("value", value.as_str()));
                 item.push_attribute(("description", *description));
-                write(&mut w, Event::Empty(item));
+                write(w, Event::Empty(item));
             }
-            write(&mut w, Event::End(BytesEnd::new("Enumeration")));
-            write(&mut w, Event::End(BytesEnd::new("SimpleType")));
+            write(w, Event::End(BytesEnd::new("Enumeration")));
+            write(w, Event::End(BytesEnd::new("SimpleType")));
         }
-        write(&mut w, Event::End(BytesEnd::new("TypeDefinitions")));
+        write(w, Event::End(BytesEnd::new("TypeDefinitions")));
     }
+}
 
-    write(&mut w, Event::Start(BytesStart::new("LogCategories")));
+fn write_log_categories(w: &mut XmlWriter) {
+    write(w, Event::Start(BytesStart::new("LogCategories")));
     for (name, description) in LOG_CATEGORIES {
         let mut cat = BytesStart::new("Category");
         cat.push_attribute(("name", *name));
         cat.push_attribute(("description", *description));
-        write(&mut w, Event::Empty(cat));
+        write(w, Event::Empty(cat));
     }
-    write(&mut w, Event::End(BytesEnd::new("LogCategories")));
+    write(w, Event::End(BytesEnd::new("LogCategories")));
+}
 
+fn write_default_experiment(w: &mut XmlWriter, info: &ModelInfo) {
     let de = info.default_experiment;
     let mut experiment = BytesStart::new("DefaultExperiment");
     let (start, stop, step) = (format_real(de.start_time), format_real(de.stop_time), format_real(de.step_size));
     experiment.push_attribute(("startTime", start.as_str()));
     experiment.push_attribute(("stopTime", stop.as_str()));
     experiment.push_attribute(("stepSize", step.as_str()));
-    write(&mut w, Event::Empty(experiment));
+    write(w, Event::Empty(experiment));
+}
 
-    write(&mut w, Event::Start(BytesStart::new("ModelVariables")));
+/// One `ScalarVariable` per variable, in value-reference order.
+fn write_model_variables(w: &mut XmlWriter, table: &[Var]) {
+    write(w, Event::Start(BytesStart::new("ModelVariables")));
     for (i, var) in table.iter().enumerate() {
         let mut sv = BytesStart::new("ScalarVariable");
         let vr = i.to_string();
@@ -235,74 +266,80 @@ fn render<M: Model>(guid: &str) -> String {
             // For parameters "exact" is the default; writing it anyway is valid and explicit.
             sv.push_attribute(("initial", initial.xml_name()));
         }
-        write(&mut w, Event::Start(sv));
-        let start = start_attribute(var);
-        let element = match var.kind {
-            Kind::Real { unit, min, max, nominal, .. } => {
-                let mut e = BytesStart::new("Real");
-                e.push_attribute(("unit", unit));
-                if let Some(s) = &start {
-                    e.push_attribute(("start", s.as_str()));
-                }
-                for (k, v) in [("min", min), ("max", max), ("nominal", nominal)] {
-                    if let Some(v) = v {
-                        let text = format_real(v);
-                        e.push_attribute((k, text.as_str()));
-                    }
-                }
-                e
-            }
-            Kind::Integer { min, max, .. } => {
-                let mut e = BytesStart::new("Integer");
-                if let Some(s) = &start {
-                    e.push_attribute(("start", s.as_str()));
-                }
-                for (k, v) in [("min", min), ("max", max)] {
-                    if let Some(v) = v {
-                        let text = v.to_string();
-                        e.push_attribute((k, text.as_str()));
-                    }
-                }
-                e
-            }
-            Kind::Enumeration { declared_type, .. } => {
-                let mut e = BytesStart::new("Enumeration");
-                e.push_attribute(("declaredType", declared_type.name));
-                if let Some(s) = &start {
-                    e.push_attribute(("start", s.as_str()));
-                }
-                e
-            }
-            Kind::Boolean { .. } => {
-                let mut e = BytesStart::new("Boolean");
-                if let Some(s) = &start {
-                    e.push_attribute(("start", s.as_str()));
-                }
-                e
-            }
-            Kind::String { .. } => {
-                let mut e = BytesStart::new("String");
-                if let Some(s) = &start {
-                    e.push_attribute(("start", s.as_str()));
-                }
-                e
-            }
-        };
-        write(&mut w, Event::Empty(element));
-        write(&mut w, Event::End(BytesEnd::new("ScalarVariable")));
+        write(w, Event::Start(sv));
+        write(w, Event::Empty(type_element(var)));
+        write(w, Event::End(BytesEnd::new("ScalarVariable")));
     }
-    write(&mut w, Event::End(BytesEnd::new("ModelVariables")));
+    write(w, Event::End(BytesEnd::new("ModelVariables")));
+}
 
-    // ModelStructure: indices are 1-based positions in ModelVariables.
-    write(&mut w, Event::Start(BytesStart::new("ModelStructure")));
+/// The type element of a `ScalarVariable` with its attributes.
+fn type_element(var: &Var) -> BytesStart<'static> {
+    let start = start_attribute(var);
+    match var.kind {
+        Kind::Real { unit, min, max, nominal, .. } => {
+            let mut e = BytesStart::new("Real");
+            e.push_attribute(("unit", unit));
+            if let Some(s) = &start {
+                e.push_attribute(("start", s.as_str()));
+            }
+            for (k, v) in [("min", min), ("max", max), ("nominal", nominal)] {
+                if let Some(v) = v {
+                    let text = format_real(v);
+                    e.push_attribute((k, text.as_str()));
+                }
+            }
+            e
+        }
+        Kind::Integer { min, max, .. } => {
+            let mut e = BytesStart::new("Integer");
+            if let Some(s) = &start {
+                e.push_attribute(("start", s.as_str()));
+            }
+            for (k, v) in [("min", min), ("max", max)] {
+                if let Some(v) = v {
+                    let text = v.to_string();
+                    e.push_attribute((k, text.as_str()));
+                }
+            }
+            e
+        }
+        Kind::Enumeration { declared_type, .. } => {
+            let mut e = BytesStart::new("Enumeration");
+            e.push_attribute(("declaredType", declared_type.name));
+            if let Some(s) = &start {
+                e.push_attribute(("start", s.as_str()));
+            }
+            e
+        }
+        Kind::Boolean { .. } => {
+            let mut e = BytesStart::new("Boolean");
+            if let Some(s) = &start {
+                e.push_attribute(("start", s.as_str()));
+            }
+            e
+        }
+        Kind::String { .. } => {
+            let mut e = BytesStart::new("String");
+            if let Some(s) = &start {
+                e.push_attribute(("start", s.as_str()));
+            }
+            e
+        }
+    }
+}
+
+/// Outputs and initial unknowns; indices are 1-based positions in `ModelVariables`.
+fn write_model_structure(w: &mut XmlWriter, table: &[Var]) {
+    write(w, Event::Start(BytesStart::new("ModelStructure")));
     let outputs: Vec<(usize, &Var)> =
         table.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).collect();
     if !outputs.is_empty() {
-        write(&mut w, Event::Start(BytesStart::new("Outputs")));
+        write(w, Event::Start(BytesStart::new("Outputs")));
         for (i, var) in &outputs {
-            write(&mut w, Event::Empty(unknown(*i, var, true)));
+            write(w, Event::Empty(unknown(*i, var, true)));
         }
-        write(&mut w, Event::End(BytesEnd::new("Outputs")));
+        write(w, Event::End(BytesEnd::new("Outputs")));
     }
     let initial_unknowns: Vec<(usize, &Var)> = table
         .iter()
@@ -317,20 +354,15 @@ fn render<M: Model>(guid: &str) -> String {
         })
         .collect();
     if !initial_unknowns.is_empty() {
-        write(&mut w, Event::Start(BytesStart::new("InitialUnknowns")));
+        write(w, Event::Start(BytesStart::new("InitialUnknowns")));
         for (i, var) in &initial_unknowns {
             // Initial values depend on parameters and start values; leaving out `dependencies`
             // says "may depend on all knowns", which is the honest statement.
-            write(&mut w, Event::Empty(unknown(*i, var, false)));
+            write(w, Event::Empty(unknown(*i, var, false)));
         }
-        write(&mut w, Event::End(BytesEnd::new("InitialUnknowns")));
+        write(w, Event::End(BytesEnd::new("InitialUnknowns")));
     }
-    write(&mut w, Event::End(BytesEnd::new("ModelStructure")));
-    write(&mut w, Event::End(BytesEnd::new("fmiModelDescription")));
-
-    let mut text = String::from_utf8(w.into_inner()).expect("the writer emits UTF-8");
-    text.push('\n');
-    text
+    write(w, Event::End(BytesEnd::new("ModelStructure")));
 }
 
 fn unknown(index: usize, var: &Var, with_dependencies: bool) -> BytesStart<'static> {

@@ -33,14 +33,14 @@
 //! and `docs/wind-model.md` for the sources of each number).
 
 use nalgebra::DMatrix;
-use std::fmt;
 use std::path::Path;
 
 /// The shipped default table.
 pub const DEFAULT_TABLE_CSV: &str = include_str!("../resources/wind_coefficients.csv");
 
 /// Why a coefficient table could not be read.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("wind coefficient table{}: {message}", location(*.line, .column.as_deref()))]
 pub struct CoefficientError {
     /// 1-based line number, when the problem is on one line.
     pub line: Option<usize>,
@@ -59,20 +59,182 @@ impl CoefficientError {
     }
 }
 
-impl fmt::Display for CoefficientError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("wind coefficient table")?;
-        if let Some(line) = self.line {
-            write!(f, ", line {line}")?;
-        }
-        if let Some(column) = &self.column {
-            write!(f, ", column '{column}'")?;
-        }
-        write!(f, ": {}", self.message)
+/// Where in the table an error is, as `", line 3, column 'tau_az'"` (empty when nowhere).
+fn location(line: Option<usize>, column: Option<&str>) -> String {
+    let mut text = String::new();
+    if let Some(line) = line {
+        text += &format!(", line {line}");
     }
+    if let Some(column) = column {
+        text += &format!(", column '{column}'");
+    }
+    text
 }
 
-impl std::error::Error for CoefficientError {}
+/// The data rows of a table as `(line, [yaw, elevation, tau_az, tau_el])`, with the header's
+/// columns found and every number checked. This is the only CSV reading on the FMU side,
+/// small on purpose: an FMU carries no CSV crate for one four-column table.
+fn read_rows(text: &str) -> Result<Vec<(usize, [f64; 4])>, CoefficientError> {
+    let mut lines =
+        text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let (header_line, header) =
+        lines.next().ok_or_else(|| CoefficientError::general("no header line (the table is empty)"))?;
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let mut index = [0usize; 4];
+    for (k, required) in REQUIRED_COLUMNS.iter().enumerate() {
+        index[k] = names.iter().position(|n| n == required).ok_or_else(|| {
+            CoefficientError::at(
+                header_line,
+                Some(required),
+                format!("missing column '{required}' in header '{header}'"),
+            )
+        })?;
+    }
+
+    // Rows as (line, yaw, elevation, tau_az, tau_el).
+    let mut rows = Vec::new();
+    for (line, text) in lines {
+        let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+        if fields.len() != names.len() {
+            return Err(CoefficientError::at(
+                line,
+                None,
+                format!("{} fields, but the header has {}", fields.len(), names.len()),
+            ));
+        }
+        let mut values = [0.0; 4];
+        for (k, &column) in index.iter().enumerate() {
+            let cell = fields[column];
+            let value: f64 = cell.parse().map_err(|_| {
+                CoefficientError::at(line, Some(REQUIRED_COLUMNS[k]), format!("'{cell}' is not a number"))
+            })?;
+            if !value.is_finite() {
+                return Err(CoefficientError::at(
+                    line,
+                    Some(REQUIRED_COLUMNS[k]),
+                    format!("'{cell}' is not a finite number"),
+                ));
+            }
+            values[k] = value;
+        }
+        rows.push((line, values));
+    }
+    if rows.is_empty() {
+        return Err(CoefficientError::general("the table has a header but no data rows"));
+    }
+    Ok(rows)
+}
+
+/// The rows grouped by elevation: the yaw grid (from the first elevation) and per elevation
+/// the two coefficient rows.
+struct Grid {
+    yaw: Vec<f64>,
+    elevation: Vec<f64>,
+    az: Vec<Vec<f64>>,
+    el: Vec<Vec<f64>>,
+    /// How many yaw values the last elevation has.
+    last_group_len: usize,
+}
+
+impl Grid {
+    /// Groups rows by elevation, checking the order of elevations and yaws and that every
+    /// elevation has the first one's yaw grid.
+    fn from_rows(rows: &[(usize, [f64; 4])]) -> Result<Grid, CoefficientError> {
+        let mut yaw: Vec<f64> = Vec::new();
+        let mut elevation: Vec<f64> = Vec::new();
+        let mut az: Vec<Vec<f64>> = Vec::new();
+        let mut el: Vec<Vec<f64>> = Vec::new();
+        let mut position_in_group = 0usize;
+        for &(line, [y, e, t_az, t_el]) in rows {
+            let new_group = elevation.last() != Some(&e);
+            if new_group {
+                if let Some(&previous) = elevation.last() {
+                    if e < previous {
+                        return Err(CoefficientError::at(
+                            line,
+                            Some("elevation_deg"),
+                            format!("elevation {e} follows {previous}: elevation groups must be strictly increasing"),
+                        ));
+                    }
+                    if position_in_group != yaw.len() {
+                        return Err(CoefficientError::at(
+                            line,
+                            Some("yaw_deg"),
+                            format!(
+                                "elevation {previous} has {position_in_group} yaw values, the first elevation has {}",
+                                yaw.len()
+                            ),
+                        ));
+                    }
+                }
+                elevation.push(e);
+                az.push(Vec::new());
+                el.push(Vec::new());
+                position_in_group = 0;
+            }
+            if elevation.len() == 1 {
+                if let Some(&last) = yaw.last() {
+                    if y <= last {
+                        return Err(CoefficientError::at(
+                            line,
+                            Some("yaw_deg"),
+                            format!("yaw {y} follows {last}: yaw must be strictly increasing within an elevation"),
+                        ));
+                    }
+                }
+                yaw.push(y);
+            } else if yaw.get(position_in_group) != Some(&y) {
+                let expected = yaw.get(position_in_group).map_or("no further value".to_string(), |v| v.to_string());
+                return Err(CoefficientError::at(line, Some("yaw_deg"), format!(
+                    "yaw {y} at elevation {e}, but the first elevation has {expected} here: every elevation needs the same yaw grid"
+                )));
+            }
+            az.last_mut().unwrap().push(t_az);
+            el.last_mut().unwrap().push(t_el);
+            position_in_group += 1;
+        }
+        Ok(Grid { yaw, elevation, az, el, last_group_len: position_in_group })
+    }
+
+    /// Checks what spline interpolation needs: complete groups, enough knots, one yaw period
+    /// with equal coefficients at both ends.
+    fn check(&self) -> Result<(), CoefficientError> {
+        let Grid { yaw, elevation, az, el, last_group_len } = self;
+        if *last_group_len != yaw.len() {
+            return Err(CoefficientError::general(format!(
+                "the last elevation has {last_group_len} yaw values, the first has {}",
+                yaw.len()
+            )));
+        }
+        if yaw.len() < 4 {
+            return Err(CoefficientError::general(format!(
+                "at least 4 yaw values are needed for a periodic spline, got {}",
+                yaw.len()
+            )));
+        }
+        if elevation.len() < 2 {
+            return Err(CoefficientError::general("at least 2 elevations are needed"));
+        }
+        let span = yaw[yaw.len() - 1] - yaw[0];
+        if (span - 360.0).abs() > 1e-9 {
+            return Err(CoefficientError::general(format!(
+                "yaw must span exactly one period, 360 degrees (e.g. -180 to 180); it spans {span}"
+            )));
+        }
+        for (e, (row_az, row_el)) in az.iter().zip(el).enumerate() {
+            for (name, row) in [("tau_az", row_az), ("tau_el", row_el)] {
+                let (first, last) = (row[0], row[row.len() - 1]);
+                if (first - last).abs() > 1e-9 * (1.0 + first.abs()) {
+                    return Err(CoefficientError::general(format!(
+                        "{name} at elevation {}: {first} at yaw {} and {last} at yaw {} must be equal (the same direction)",
+                        elevation[e], yaw[0], yaw[yaw.len() - 1]
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+}
 
 /// One coefficient surface on the grid, with its yaw-spline second derivatives.
 #[derive(Debug, Clone, PartialEq)]
@@ -152,144 +314,15 @@ impl CoefficientTable {
 
     /// Parses a table from text; see the module documentation for the format.
     pub fn from_csv_str(text: &str) -> Result<Self, CoefficientError> {
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let (header_line, header) =
-            lines.next().ok_or_else(|| CoefficientError::general("no header line (the table is empty)"))?;
-        let names: Vec<&str> = header.split(',').map(str::trim).collect();
-        let mut index = [0usize; 4];
-        for (k, required) in REQUIRED_COLUMNS.iter().enumerate() {
-            index[k] = names.iter().position(|n| n == required).ok_or_else(|| {
-                CoefficientError::at(
-                    header_line,
-                    Some(required),
-                    format!("missing column '{required}' in header '{header}'"),
-                )
-            })?;
-        }
+        let rows = read_rows(text)?;
+        let grid = Grid::from_rows(&rows)?;
+        grid.check()?;
+        Ok(Self::from_grid(grid))
+    }
 
-        // Rows as (line, yaw, elevation, tau_az, tau_el).
-        let mut rows = Vec::new();
-        for (line, text) in lines {
-            let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-            if fields.len() != names.len() {
-                return Err(CoefficientError::at(
-                    line,
-                    None,
-                    format!("{} fields, but the header has {}", fields.len(), names.len()),
-                ));
-            }
-            let mut values = [0.0; 4];
-            for (k, &column) in index.iter().enumerate() {
-                let cell = fields[column];
-                let value: f64 = cell.parse().map_err(|_| {
-                    CoefficientError::at(line, Some(REQUIRED_COLUMNS[k]), format!("'{cell}' is not a number"))
-                })?;
-                if !value.is_finite() {
-                    return Err(CoefficientError::at(
-                        line,
-                        Some(REQUIRED_COLUMNS[k]),
-                        format!("'{cell}' is not a finite number"),
-                    ));
-                }
-                values[k] = value;
-            }
-            rows.push((line, values));
-        }
-        if rows.is_empty() {
-            return Err(CoefficientError::general("the table has a header but no data rows"));
-        }
-
-        // Group by elevation and check the grid.
-        let mut yaw: Vec<f64> = Vec::new();
-        let mut elevation: Vec<f64> = Vec::new();
-        let mut az: Vec<Vec<f64>> = Vec::new();
-        let mut el: Vec<Vec<f64>> = Vec::new();
-        let mut position_in_group = 0usize;
-        for &(line, [y, e, t_az, t_el]) in &rows {
-            let new_group = elevation.last() != Some(&e);
-            if new_group {
-                if let Some(&previous) = elevation.last() {
-                    if e < previous {
-                        return Err(CoefficientError::at(
-                            line,
-                            Some("elevation_deg"),
-                            format!("elevation {e} follows {previous}: elevation groups must be strictly increasing"),
-                        ));
-                    }
-                    if position_in_group != yaw.len() {
-                        return Err(CoefficientError::at(
-                            line,
-                            Some("yaw_deg"),
-                            format!(
-                                "elevation {previous} has {position_in_group} yaw values, the first elevation has {}",
-                                yaw.len()
-                            ),
-                        ));
-                    }
-                }
-                elevation.push(e);
-                az.push(Vec::new());
-                el.push(Vec::new());
-                position_in_group = 0;
-            }
-            if elevation.len() == 1 {
-                if let Some(&last) = yaw.last() {
-                    if y <= last {
-                        return Err(CoefficientError::at(
-                            line,
-                            Some("yaw_deg"),
-                            format!("yaw {y} follows {last}: yaw must be strictly increasing within an elevation"),
-                        ));
-                    }
-                }
-                yaw.push(y);
-            } else if yaw.get(position_in_group) != Some(&y) {
-                let expected = yaw.get(position_in_group).map_or("no further value".to_string(), |v| v.to_string());
-                return Err(CoefficientError::at(line, Some("yaw_deg"), format!(
-                    "yaw {y} at elevation {e}, but the first elevation has {expected} here: every elevation needs the same yaw grid"
-                )));
-            }
-            az.last_mut().unwrap().push(t_az);
-            el.last_mut().unwrap().push(t_el);
-            position_in_group += 1;
-        }
-        if position_in_group != yaw.len() {
-            return Err(CoefficientError::general(format!(
-                "the last elevation has {position_in_group} yaw values, the first has {}",
-                yaw.len()
-            )));
-        }
-        if yaw.len() < 4 {
-            return Err(CoefficientError::general(format!(
-                "at least 4 yaw values are needed for a periodic spline, got {}",
-                yaw.len()
-            )));
-        }
-        if elevation.len() < 2 {
-            return Err(CoefficientError::general("at least 2 elevations are needed"));
-        }
-        let span = yaw[yaw.len() - 1] - yaw[0];
-        if (span - 360.0).abs() > 1e-9 {
-            return Err(CoefficientError::general(format!(
-                "yaw must span exactly one period, 360 degrees (e.g. -180 to 180); it spans {span}"
-            )));
-        }
-        for (e, (row_az, row_el)) in az.iter().zip(&el).enumerate() {
-            for (name, row) in [("tau_az", row_az), ("tau_el", row_el)] {
-                let (first, last) = (row[0], row[row.len() - 1]);
-                if (first - last).abs() > 1e-9 * (1.0 + first.abs()) {
-                    return Err(CoefficientError::general(format!(
-                        "{name} at elevation {}: {first} at yaw {} and {last} at yaw {} must be equal (the same direction)",
-                        elevation[e], yaw[0], yaw[yaw.len() - 1]
-                    )));
-                }
-            }
-        }
-
+    /// The splines through a checked grid and the knots each grid cell reads.
+    fn from_grid(grid: Grid) -> Self {
+        let Grid { yaw, elevation, az, el, .. } = grid;
         let periodic = periodic_spline_operator(&yaw);
         let curvature = |rows: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
             rows.iter().map(|r| apply_periodic(&periodic, &yaw, r)).collect()
@@ -315,7 +348,7 @@ impl CoefficientTable {
             .map(|(e, k)| [knots(&tau_az, e, k), knots(&tau_el, e, k)])
             .collect();
         let density = |x: &[f64]| (x.len() - 1) as f64 / (x[x.len() - 1] - x[0]);
-        Ok(Self {
+        Self {
             yaw_density: density(&yaw),
             elevation_density: density(&elevation),
             tau_az,
@@ -323,7 +356,7 @@ impl CoefficientTable {
             cells,
             yaw,
             elevation,
-        })
+        }
     }
 
     /// The yaw grid, degrees (both ends of the period included).

@@ -4,15 +4,15 @@
 
 use fmu_runtime::package::{default_parameter_file, FmuSpec};
 use fmu_runtime::{
-    declare_variables, Context, DefaultExperiment, EnumerationType, Model, ModelInfo, Notes, StateError, StateReader,
-    StateWriter, Values,
+    declare_variables, Context, DefaultExperiment, EnumerationType, Model, ModelInfo, Notes, StateError, Values,
 };
 
 use crate::coefficients::{CoefficientTable, DEFAULT_TABLE_CSV};
 use crate::davenport::Davenport;
-use crate::gust::{seed_from_fmi_integer, GustGenerator};
+use crate::gust::{seed_from_fmi_integer, GustGenerator, GustState};
 use crate::shaping::ShapingFilter;
 use crate::torque::{normalised_gust, TorqueForm, WindTorqueModel};
+use serde::{Deserialize, Serialize};
 
 static SPECTRUM: EnumerationType = EnumerationType {
     name: "SpectrumMode",
@@ -236,36 +236,45 @@ impl Model for WindModel {
         self.write_torques(values);
     }
 
-    fn save_state(&self, w: &mut StateWriter) {
-        w.bool(self.torque.is_some());
-        w.bool(self.generator.is_some());
-        if let Some(generator) = &self.generator {
-            generator.save_state(w);
+    type State = WindState;
+
+    fn save_state(&self) -> WindState {
+        if self.torque.is_none() {
+            return WindState::NotInitialized;
         }
+        WindState::Initialized { gusts: self.generator.as_ref().map(GustGenerator::save_state) }
     }
 
-    fn load_state(&mut self, r: &mut StateReader, values: &Values<WindVar>) -> Result<(), StateError> {
-        let initialized = r.bool()?;
-        let has_generator = r.bool()?;
-        if !initialized {
+    fn load_state(&mut self, state: WindState, values: &Values<WindVar>) -> Result<(), StateError> {
+        let WindState::Initialized { gusts } = state else {
             self.generator = None;
             self.torque = None;
             return Ok(());
-        }
-        let (generator, torque, kappa) = Self::build(values, &self.context).map_err(StateError)?;
-        let generator = match (generator, has_generator) {
-            (Some(mut g), true) => {
-                g.load_state(r)?;
+        };
+        let (generator, torque, kappa) = Self::build(values, &self.context).map_err(StateError::Invalid)?;
+        let generator = match (generator, gusts) {
+            (Some(mut g), Some(saved)) => {
+                g.load_state(saved)?;
                 Some(g)
             }
-            (None, false) => None,
-            _ => return Err(StateError("state and parameters disagree about the gust generator".into())),
+            (None, None) => None,
+            _ => return Err(StateError::Invalid("state and parameters disagree about the gust generator".into())),
         };
         self.generator = generator;
         self.torque = Some(torque);
         self.kappa = kappa;
         Ok(())
     }
+}
+
+/// The wind model's part of an FMU state.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum WindState {
+    NotInitialized,
+    /// The gust generator's state; none when the parameters switch the gusts off.
+    Initialized {
+        gusts: Option<GustState>,
+    },
 }
 
 /// The FMUs this crate ships: `Wind`, with its default coefficient table and parameters.

@@ -36,18 +36,17 @@
 //! so a restored state replays the same gusts bit for bit.
 
 use crate::shaping::{ShapingFilter, NOISE_INTENSITY};
-use fmu_runtime::state::{StateError, StateReader, StateWriter};
+use fmu_runtime::state::StateError;
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha12Rng;
 use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
 
 /// How many step sizes the discretisation cache keeps.
 const CACHE_CAPACITY: usize = 8;
 /// Pivots below this fraction of the largest diagonal end the pivoted Cholesky factorisation.
 const PIVOT_TOLERANCE: f64 = 1e-14;
-/// Version byte of the saved state layout.
-const STATE_VERSION: u8 = 1;
 
 /// The 32-byte ChaCha key for a `u64` seed.
 ///
@@ -217,34 +216,29 @@ impl GustGenerator {
         (&c * p * c.transpose())[(0, 0)]
     }
 
-    /// Appends the generator's state: filter state and the ChaCha key, stream and position.
-    pub fn save_state(&self, writer: &mut StateWriter) {
-        writer.u8(STATE_VERSION);
-        writer.u64(self.seed);
-        writer.f64s(&self.state);
-        writer.bytes(&self.rng.get_seed());
-        writer.u64(self.rng.get_stream());
-        writer.u128(self.rng.get_word_pos());
+    /// The generator's state: filter state and the ChaCha key, stream and position.
+    pub fn save_state(&self) -> GustState {
+        GustState {
+            seed: self.seed,
+            filter: self.state.clone(),
+            key: self.rng.get_seed(),
+            stream: self.rng.get_stream(),
+            word_pos: self.rng.get_word_pos(),
+        }
     }
 
     /// Restores a state written by [`GustGenerator::save_state`] for a filter of the same order.
     ///
     /// Nothing is changed unless the whole state reads back correctly.
-    pub fn load_state(&mut self, reader: &mut StateReader) -> Result<(), StateError> {
-        let version = reader.u8()?;
-        if version != STATE_VERSION {
-            return Err(StateError(format!(
-                "wind gust state version {version} is not supported (expected {STATE_VERSION})"
+    pub fn load_state(&mut self, saved: GustState) -> Result<(), StateError> {
+        let GustState { seed, filter: state, key, stream, word_pos } = saved;
+        if state.len() != self.filter.order() {
+            return Err(StateError::Invalid(format!(
+                "wind gust state: {} filter states for a filter of order {}",
+                state.len(),
+                self.filter.order()
             )));
         }
-        let seed = reader.u64()?;
-        let state = reader.f64s(Some(self.filter.order()))?;
-        let key: [u8; 32] = reader
-            .bytes()?
-            .try_into()
-            .map_err(|_| StateError("wind gust state: the ChaCha key must be 32 bytes".into()))?;
-        let stream = reader.u64()?;
-        let word_pos = reader.u128()?;
         let mut rng = ChaCha12Rng::from_seed(key);
         rng.set_stream(stream);
         rng.set_word_pos(word_pos);
@@ -254,6 +248,18 @@ impl GustGenerator {
         self.gust = self.output();
         Ok(())
     }
+}
+
+/// What an FMU state holds of a [`GustGenerator`]: all that determines its future gusts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GustState {
+    pub seed: u64,
+    /// The shaping filter's state, one number per order.
+    pub filter: Vec<f64>,
+    /// The ChaCha12 generator: key, stream and word position.
+    pub key: [u8; 32],
+    pub stream: u64,
+    pub word_pos: u128,
 }
 
 /// The order of the Davenport shaping filter (the stored prototype's), for which the step
@@ -423,38 +429,25 @@ mod tests {
         for _ in 0..137 {
             g.step(0.01);
         }
-        let mut w = StateWriter::new();
-        g.save_state(&mut w);
-        let saved = w.into_bytes();
+        let saved = g.save_state();
         // Mixed step sizes also exercise the cache, which is not part of the state.
         let steps = [0.01, 0.1, 0.001, 0.01, 0.05];
         let first: Vec<u64> = (0..500).map(|k| g.step(steps[k % steps.len()]).to_bits()).collect();
         let mut restored = generator(9.5, 999);
-        let mut r = StateReader::new(&saved);
-        restored.load_state(&mut r).unwrap();
-        r.finish().unwrap();
+        restored.load_state(saved).unwrap();
         let replay: Vec<u64> = (0..500).map(|k| restored.step(steps[k % steps.len()]).to_bits()).collect();
         assert_eq!(first, replay);
     }
 
     #[test]
-    fn corrupt_states_are_rejected_and_leave_the_generator_unchanged() {
+    fn a_state_of_another_filter_order_is_rejected_and_changes_nothing() {
         let g = generator(3.0, 5);
-        let mut w = StateWriter::new();
-        g.save_state(&mut w);
-        let bytes = w.into_bytes();
-        let mut target = generator(3.0, 6);
-        let before = target.gust();
-        for cut in [0, 1, 9, bytes.len() - 1] {
-            assert!(target.load_state(&mut StateReader::new(&bytes[..cut])).is_err());
-            assert_eq!(target.gust(), before);
-        }
-        let mut wrong_version = bytes.clone();
-        wrong_version[0] = 99;
-        assert!(target.load_state(&mut StateReader::new(&wrong_version)).is_err());
+        let saved = g.save_state();
         // A paper filter has 4 states, the Davenport filter 10: the state does not fit.
         let mut paper = GustGenerator::new(ShapingFilter::paper(3.0).unwrap(), 1);
-        assert!(paper.load_state(&mut StateReader::new(&bytes)).is_err());
+        let before = paper.save_state();
+        assert!(paper.load_state(saved).is_err());
+        assert_eq!(paper.save_state(), before);
     }
 
     #[test]

@@ -9,9 +9,9 @@
 //! the FMU exposes them (azimuth), so a wrong variable mapping shows up as a mismatch.
 
 use antenna_tests::{error_relative_to_range, open, outputs_of_type, real, reals, set_reals, test_signal};
+use fmu_import::{Fmu, Instance};
 use fmu_plant::analytic::{current_loop, RationalFunction, TwoMassParameters};
 use fmu_plant::ElevationParams;
-use fmu_import::{Fmu, Instance};
 
 /// Step responses per unit current command of motor speed, load angle (motor side) and shaft
 /// torque (motor side), for a two-mass model driven through a current loop.

@@ -9,6 +9,9 @@
 use antenna_tests::{expect_error, initialized, open, output_bits, real_inputs, set_reals, test_signal, vr, PLANTS};
 use fmu_import::{Fmu, Instance};
 
+/// A misuse that puts an instance into the Error phase.
+type Provocation<'a> = dyn Fn(&mut Instance) + 'a;
+
 /// Inputs at a millisecond index that reverse the drive every second with some noise.
 fn inputs(plant: &str, ms: usize) -> Vec<(&'static str, f64)> {
     let common = 1.5 * (std::f64::consts::TAU * ms as f64 * 1e-3).sin() + 0.3 * test_signal(ms as u64, 5);
@@ -143,7 +146,7 @@ fn after_an_error_a_restored_state_continues_bitwise_as_an_uninterrupted_run() {
         run(&fmu, plant, &mut instance, 0, 1000);
         let state = instance.get_state().unwrap();
         let input = real_inputs(&fmu).remove(0);
-        let provocations: [(&str, &dyn Fn(&mut Instance)); 2] = [
+        let provocations: [(&str, &Provocation); 2] = [
             ("a NaN input", &|instance| {
                 expect_error(
                     instance.set_real(&[vr(&fmu, &input)], &[f64::NAN]),
@@ -168,6 +171,35 @@ fn after_an_error_a_restored_state_continues_bitwise_as_an_uninterrupted_run() {
                 "{plant}: after {what} and fmi2SetFMUstate the run differs from the uninterrupted one"
             );
             instance.set_state(&state).unwrap();
+        }
+    }
+}
+
+#[test]
+fn truncated_or_corrupt_states_are_refused_with_a_reason_never_a_panic() {
+    for plant in PLANTS {
+        let fmu = open(plant);
+        let mut original = initialized(&fmu, "original", &[]);
+        run(&fmu, plant, &mut original, 0, 500);
+        let state = original.get_state().unwrap();
+        let bytes = original.serialize_state(&state).unwrap();
+        let mut target = fmu.instantiate("target", false).unwrap();
+        for cut in 0..bytes.len() {
+            let messages =
+                expect_error(target.deserialize_state(&bytes[..cut]), &target, &format!("{plant}: cut at {cut}"));
+            assert!(messages.iter().all(|m| !m.contains("panic")), "{plant}: cut at {cut}: {messages:?}");
+        }
+        // A corrupted byte may still decode (a number's bits); if it does not, the reason is
+        // the decoder's or the model's, never a panic.
+        for i in 0..bytes.len() {
+            let mut corrupt = bytes.clone();
+            corrupt[i] ^= 0xA5;
+            match target.deserialize_state(&corrupt) {
+                Ok(restored) => {
+                    target.free_state(restored).unwrap();
+                }
+                Err(e) => assert!(!e.to_string().contains("panic"), "{plant}: byte {i}: {e}"),
+            }
         }
     }
 }

@@ -1,8 +1,8 @@
 //! The azimuth controller as an FMI 2.0 co-simulation model (`AzimuthController`).
 
-use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, StateReader, StateWriter, Values};
+use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
-use super::common::model_info;
+use super::common::{model_info, ControllerState};
 use crate::params::{AzimuthControllerParams, CascadeParams};
 use crate::timing::SampleScheduler;
 use crate::{AzimuthController, AzimuthInputs, AzimuthOutputs, SampledController};
@@ -53,8 +53,10 @@ crate::controller_variables! {
 
 /// The controller parameters the variable values describe.
 pub fn azimuth_controller_params(v: &Values<AzCtrlVar>) -> AzimuthControllerParams {
-    let mut p = AzimuthControllerParams::default();
-    p.cascade = AzCtrlVar::CASCADE.read(v, CascadeParams::for_axis(2.0, 1.0));
+    let mut p = AzimuthControllerParams {
+        cascade: AzCtrlVar::CASCADE.read(v, CascadeParams::for_axis(2.0, 1.0)),
+        ..AzimuthControllerParams::default()
+    };
     p.drive.gear_ratio = v.real(AzCtrlVar::GearRatio);
     p.drive.motor_inertia_kg_m2 = v.real(AzCtrlVar::MotorInertia);
     p.drive.axis_inertia_kg_m2 = v.real(AzCtrlVar::AxisInertia);
@@ -145,34 +147,33 @@ impl Model for AzimuthControllerModel {
         Ok(())
     }
 
-    fn save_state(&self, w: &mut StateWriter) {
-        w.bool(self.controller.is_some());
-        if let Some(c) = &self.controller {
-            c.save_state(w);
-        }
-        w.bool(self.scheduler.is_some());
-        if let Some(s) = &self.scheduler {
-            w.f64(s.sample_instant(0));
-            s.save(w);
+    type State = ControllerState<AzimuthOutputs>;
+
+    fn save_state(&self) -> ControllerState<AzimuthOutputs> {
+        ControllerState {
+            cascade: self.controller.as_ref().map(AzimuthController::save_state),
+            scheduler: self.scheduler.as_ref().map(SampleScheduler::saved_state),
         }
     }
 
-    fn load_state(&mut self, r: &mut StateReader, values: &Values<AzCtrlVar>) -> Result<(), StateError> {
-        let controller = if r.bool()? {
-            let mut c = AzimuthController::new(azimuth_controller_params(values)).map_err(StateError)?;
-            c.load_state(r)?;
-            Some(c)
-        } else {
-            None
+    fn load_state(
+        &mut self,
+        state: ControllerState<AzimuthOutputs>,
+        values: &Values<AzCtrlVar>,
+    ) -> Result<(), StateError> {
+        let ControllerState { cascade, scheduler } = state;
+        let controller = match cascade {
+            Some(cascade) => {
+                let mut c = AzimuthController::new(azimuth_controller_params(values)).map_err(StateError::Invalid)?;
+                c.load_state(cascade)?;
+                Some(c)
+            }
+            None => None,
         };
-        let scheduler = if r.bool()? {
-            let c = controller.as_ref().ok_or_else(|| StateError("scheduler without controller".into()))?;
-            let start = r.f64()?;
-            let mut s = SampleScheduler::new(start, &c.params().cascade.sampling, c.idle_outputs());
-            s.load(r)?;
-            Some(s)
-        } else {
-            None
+        let scheduler = match (scheduler, &controller) {
+            (Some(saved), Some(c)) => Some(SampleScheduler::restored(&c.params().cascade.sampling, saved)?),
+            (None, _) => None,
+            (Some(_), None) => return Err(StateError::Invalid("scheduler without controller".into())),
         };
         self.controller = controller;
         self.scheduler = scheduler;

@@ -3,9 +3,20 @@
 //! the model information.
 
 use fmu_runtime::{DefaultExperiment, ModelInfo, Values, VariableSet};
+use serde::{Deserialize, Serialize};
 
+use crate::cascade::CascadeState;
 use crate::params::CascadeParams;
 use crate::status::AxisStatus;
+use crate::timing::SchedulerState;
+
+/// A controller FMU's part of an FMU state, for outputs `O`; both parts are absent before
+/// initialisation, and the scheduler before the first step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ControllerState<O> {
+    pub cascade: Option<CascadeState>,
+    pub scheduler: Option<SchedulerState<O>>,
+}
 
 const ARCSEC_DEG: f64 = 1.0 / 3600.0;
 

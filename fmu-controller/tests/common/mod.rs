@@ -10,7 +10,7 @@
 #![allow(dead_code)]
 
 use fmu_controller::linear::{AxisPlantResponse, C64};
-use fmu_controller::timing::{OutputState, SampleScheduler, SampledController};
+use fmu_controller::timing::{SampleScheduler, SampledController};
 use fmu_controller::{
     AzimuthController, AzimuthInputs, AzimuthOutputs, ControlMode, ElevationController, ElevationInputs,
     ElevationOutputs,
@@ -297,7 +297,7 @@ impl Plant for LocalAxis {
 /// A controller the rig can drive.
 pub trait AxisController: SampledController + Clone
 where
-    Self::Outputs: OutputState + Clone,
+    Self::Outputs: Clone,
 {
     fn inputs(commands: &Commands, encoder_deg: f64, motor_speeds: &[f64]) -> Self::Inputs;
     fn currents(outputs: &Self::Outputs) -> Vec<f64>;
@@ -360,7 +360,7 @@ pub struct Record {
 /// Controller and plant coupled with one communication step per sample.
 pub struct Rig<C: AxisController, P: Plant>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     pub controller: C,
     pub plant: P,
@@ -370,7 +370,7 @@ where
 
 impl<C: AxisController, P: Plant> Rig<C, P>
 where
-    C::Outputs: OutputState + Clone,
+    C::Outputs: Clone,
 {
     pub fn new(controller: C, plant: P) -> Self {
         let scheduler = SampleScheduler::new(0.0, &controller.sampling(), controller.idle_outputs());

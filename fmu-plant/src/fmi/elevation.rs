@@ -1,7 +1,9 @@
 //! The elevation plant as an FMI 2.0 co-simulation model: its variables and how they map onto
 //! [`ElevationParams`], [`ElevationInputs`] and [`ElevationOutputs`].
 
-use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, StateReader, StateWriter, Values};
+use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, Values};
+
+use crate::drivetrain::DriveState;
 
 use super::common::{
     load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS,
@@ -315,17 +317,17 @@ impl Model for ElevationPlantModel {
         Ok(())
     }
 
-    fn save_state(&self, w: &mut StateWriter) {
-        w.bool(self.plant.is_some());
-        if let Some(plant) = &self.plant {
-            plant.save_state(w);
-        }
+    /// The drive's state; none before initialisation.
+    type State = Option<DriveState>;
+
+    fn save_state(&self) -> Option<DriveState> {
+        self.plant.as_ref().map(|plant| plant.save_state())
     }
 
-    fn load_state(&mut self, r: &mut StateReader, values: &Values<ElVar>) -> Result<(), StateError> {
-        self.plant = if r.bool()? {
-            let mut plant = Self::build(values).map_err(StateError)?;
-            plant.load_state(r)?;
+    fn load_state(&mut self, state: Option<DriveState>, values: &Values<ElVar>) -> Result<(), StateError> {
+        self.plant = if let Some(state) = state {
+            let mut plant = Self::build(values).map_err(StateError::Invalid)?;
+            plant.load_state(state)?;
             Some(plant)
         } else {
             None

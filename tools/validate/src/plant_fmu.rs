@@ -8,35 +8,26 @@
 //! (`initial_position`), so the tool takes the state the FMU serialises after initialisation
 //! (`fmi2SerializeFMUstate`), writes the measured positions, speeds, twist, currents and the
 //! recent command history into it, and restores it with `fmi2DeSerializeFMUstate` and
-//! `fmi2SetFMUstate`. The state layout is the one `docs/plant-model.md` (section 7) documents
-//! and `fmu_runtime::state` writes: runtime header, variable values, then the plant's format
-//! byte, time, grid cell, state vector `[p_L, v_L, (d_k, v_Mk, i_k, beta_k) per path]` (motor
-//! side), compensation term, body motions, meshes and delay lines. Both format versions are
-//! checked, so a change of layout is an error, not a wrong simulation. One instance serves all
-//! windows of a parameter set; restoring a state costs one plant construction (tens of
-//! microseconds).
+//! `fmi2SetFMUstate`. The state is decoded and encoded as the FMU's own serde types
+//! (`fmu_runtime::InstanceState` of `fmu_plant::fmi::AzimuthPlantModel`, whose model part is a
+//! `fmu_plant::DriveState`; `docs/plant-model.md`, section 7): header, variable values, then the
+//! drive's time, grid cell, state vector `[p_L, v_L, (d_k, v_Mk, i_k, beta_k) per path]` (motor
+//! side), compensation term, body motions, meshes, delay lines and friction anchors. The
+//! runtime checks the state format version and the model's GUID, so a change of layout is an
+//! error, not a wrong simulation. One instance serves all windows of a parameter set;
+//! restoring a state costs one plant construction (tens of microseconds).
 
 use super::output_error::{PlantSimulator, SimulatedOutputs, WindowStart};
 use super::parameters::{fmu_parameter_text, FmuConfig, ParameterSet};
-use fmu_plant::fmi::AzVar;
 use fmu_import::{Fmu, Instance};
-use fmu_runtime::{StateReader, StateWriter, Values};
+use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
+use fmu_plant::{Mesh, Motion};
+use fmu_runtime::InstanceState;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The runtime's state header version and the azimuth plant's state format this code writes.
-const RUNTIME_STATE_VERSION: u64 = 1;
-const PLANT_STATE_FORMAT: u8 = 1;
 const PATHS: usize = 2;
 const STATES: usize = 2 + 4 * PATHS;
-
-/// Motion and mesh codes of the plant's state format.
-const FORWARD: u8 = 0;
-const BACKWARD: u8 = 1;
-const STUCK: u8 = 2;
-const POSITIVE_FLANK: u8 = 0;
-const NEGATIVE_FLANK: u8 = 1;
-const GAP: u8 = 2;
 
 static FILE_COUNTER: AtomicU64 = AtomicU64::new(0);
 
@@ -121,92 +112,32 @@ impl PlantFmu {
     }
 }
 
-/// The parts of a serialised FMU state that a window start does not change.
+/// The plant FMU's state after initialisation, which each window start edits.
 struct StateTemplate {
-    identifier: String,
-    guid: String,
-    phase: u8,
-    needs_initialize: bool,
-    values: Vec<u8>,
-    cell: i64,
-    load_motion: u8,
+    state: InstanceState<AzimuthPlantModel>,
     motor_has_friction: [bool; PATHS],
-    /// Motors with a presliding element: their friction anchors follow the delay lines.
-    motor_presliding: [bool; PATHS],
 }
 
 impl StateTemplate {
     fn capture(instance: &mut Instance) -> Result<StateTemplate, String> {
-        let state = instance.get_state().map_err(|e| e.to_string())?;
-        let bytes = instance.serialize_state(&state).map_err(|e| e.to_string())?;
-        instance.free_state(state).map_err(|e| e.to_string())?;
-        let error = |e: fmu_runtime::StateError| format!("unexpected plant FMU state layout: {e}");
-        let mut r = StateReader::new(&bytes);
-        let _magic = r.u64().map_err(error)?;
-        let version = r.u64().map_err(error)?;
-        if version != RUNTIME_STATE_VERSION {
+        let saved = instance.get_state().map_err(|e| e.to_string())?;
+        let bytes = instance.serialize_state(&saved).map_err(|e| e.to_string())?;
+        instance.free_state(saved).map_err(|e| e.to_string())?;
+        let state = InstanceState::<AzimuthPlantModel>::decode(&bytes)
+            .map_err(|e| format!("unexpected plant FMU state: {e}"))?;
+        let drive = state.model.as_ref().ok_or("the plant FMU state has no plant (not initialised)")?;
+        if drive.x.len() != STATES || drive.paths.len() != PATHS {
             return Err(format!(
-                "the plant FMU writes state format {version}; this tool knows {RUNTIME_STATE_VERSION}"
+                "the plant FMU state has {} states and {} paths; this tool knows {STATES} and {PATHS}",
+                drive.x.len(),
+                drive.paths.len()
             ));
         }
-        let identifier = r.str().map_err(error)?;
-        let guid = r.str().map_err(error)?;
-        let phase = r.u8().map_err(error)?;
-        for _ in 0..3 {
-            r.f64().map_err(error)?;
-        }
-        r.bool().map_err(error)?;
-        r.f64().map_err(error)?;
-        let needs_initialize = r.bool().map_err(error)?;
-        let values_start = bytes.len() - r.remaining();
-        let values = Values::<AzVar>::load(&mut r).map_err(error)?;
-        let values_end = bytes.len() - r.remaining();
-        if !r.bool().map_err(error)? {
-            return Err("the plant FMU state has no plant (not initialised)".into());
-        }
-        let format = r.u8().map_err(error)?;
-        if format != PLANT_STATE_FORMAT {
-            return Err(format!(
-                "the azimuth plant writes state format {format}; this tool knows {PLANT_STATE_FORMAT}"
-            ));
-        }
-        r.f64().map_err(error)?;
-        let cell = r.i64().map_err(error)?;
-        r.f64s(Some(STATES)).map_err(error)?;
-        r.f64().map_err(error)?;
-        let load_motion = r.u8().map_err(error)?;
-        for _ in 0..PATHS {
-            r.u8().map_err(error)?;
-            r.u8().map_err(error)?;
-            let n = r.u64().map_err(error)?;
-            for _ in 0..2 * n {
-                r.f64().map_err(error)?;
-            }
-        }
+        let values = &state.values;
         let has_friction = |coulomb: AzVar, stat: AzVar| values.real(coulomb) > 0.0 || values.real(stat) > 0.0;
         let motor_has_friction =
             [has_friction(AzVar::M1Coulomb, AzVar::M1Static), has_friction(AzVar::M2Coulomb, AzVar::M2Static)];
-        let motor_presliding = [
-            motor_has_friction[0] && values.real(AzVar::M1PreslidingStiffness) > 0.0,
-            motor_has_friction[1] && values.real(AzVar::M2PreslidingStiffness) > 0.0,
-        ];
-        for presliding in motor_presliding {
-            if presliding {
-                r.f64().map_err(error)?;
-            }
-        }
-        r.finish().map_err(error)?;
-        Ok(StateTemplate {
-            identifier,
-            guid,
-            phase,
-            needs_initialize,
-            values: bytes[values_start..values_end].to_vec(),
-            cell,
-            load_motion,
-            motor_has_friction,
-            motor_presliding,
-        })
+        Ok(StateTemplate { state, motor_has_friction })
     }
 }
 
@@ -239,30 +170,16 @@ impl Session {
     /// relaxed spring. The command history within the delay goes into the delay lines.
     pub fn state_bytes(&self, start: &WindowStart) -> Vec<u8> {
         let n = self.gear_ratio;
-        let mut w = StateWriter::new();
-        w.u64(fmu_runtime::instance::STATE_MAGIC);
-        w.u64(RUNTIME_STATE_VERSION);
-        w.str(&self.template.identifier);
-        w.str(&self.template.guid);
-        w.u8(self.template.phase);
+        let mut state = self.template.state.clone();
         // Time, start time, no stop time, last successful time: the window runs from 0.
-        w.f64(0.0);
-        w.f64(0.0);
-        w.bool(false);
-        w.f64(0.0);
-        w.f64(0.0);
-        w.bool(self.template.needs_initialize);
-        let mut bytes = w.into_bytes();
-        bytes.extend_from_slice(&self.template.values);
-        let mut w = StateWriter::new();
-        w.bool(true);
-        w.u8(PLANT_STATE_FORMAT);
-        w.f64(0.0);
-        w.i64(self.template.cell);
+        state.header.time = 0.0;
+        state.header.start_time = 0.0;
+        state.header.stop_time = None;
+        state.header.last_successful_time = 0.0;
         let mut x = [0.0; STATES];
         x[0] = n * start.load_angle;
         x[1] = n * start.load_speed;
-        let mut meshes = [POSITIVE_FLANK; PATHS];
+        let mut meshes = [Mesh::PositiveFlank; PATHS];
         // Two motors with different torques (a torque bias) deflect their paths against each
         // other: moving together, with equal inertias and friction, the path torques differ by
         // the motor torques' difference, half of it each way about the common twist. Without
@@ -282,50 +199,40 @@ impl Session {
                     x[5 + 4 * k] = half_gap;
                 } else if d < -half_gap {
                     x[5 + 4 * k] = -half_gap;
-                    meshes[k] = NEGATIVE_FLANK;
+                    meshes[k] = Mesh::NegativeFlank;
                 } else {
                     x[5 + 4 * k] = d;
-                    meshes[k] = GAP;
+                    meshes[k] = Mesh::Gap;
                 }
             }
         }
-        w.f64s(&x);
-        w.f64(0.0);
-        w.u8(self.template.load_motion);
-        for k in 0..PATHS {
-            let motion = if !self.template.motor_has_friction[k] || start.motor_speed > 0.0 {
-                FORWARD
+        let drive = state.model.as_mut().expect("the template has a plant (checked at capture)");
+        drive.time = 0.0;
+        drive.x = x.to_vec();
+        drive.load_angle_low = 0.0;
+        for (k, path) in drive.paths.iter_mut().enumerate() {
+            path.motor_motion = if !self.template.motor_has_friction[k] || start.motor_speed > 0.0 {
+                Motion::Forward
             } else if start.motor_speed < 0.0 {
-                BACKWARD
+                Motion::Backward
             } else {
-                STUCK
+                Motion::Stuck
             };
-            w.u8(motion);
-            w.u8(meshes[k]);
+            path.mesh = meshes[k];
             // Delay line: (time the command was issued, command), oldest first, consecutive
             // equal commands merged as the plant does.
-            let mut entries: Vec<(f64, f64)> = Vec::new();
+            path.delay.clear();
             for &(t, commands) in &start.history {
-                if entries.last().is_none_or(|&(_, v)| v != commands[k]) {
-                    entries.push((t, commands[k]));
+                if path.delay.last().is_none_or(|&(_, v)| v != commands[k]) {
+                    path.delay.push((t, commands[k]));
                 }
             }
-            w.u64(entries.len() as u64);
-            for (t, v) in entries {
-                w.f64(t);
-                w.f64(v);
-            }
+            // Friction anchors of presliding motors at the motor angle (d_k + p_L): a relaxed
+            // bristle. Only a motor that starts sticking uses it; a sliding one sets its own
+            // when it comes to rest.
+            path.anchor = path.anchor.map(|_| x[2 + 4 * k] + x[0]);
         }
-        // Friction anchors of presliding motors at the motor angle (d_k + p_L): a relaxed
-        // bristle. Only a motor that starts sticking uses it; a sliding one sets its own when it
-        // comes to rest.
-        for k in 0..PATHS {
-            if self.template.motor_presliding[k] {
-                w.f64(x[2 + 4 * k] + x[0]);
-            }
-        }
-        bytes.extend_from_slice(&w.into_bytes());
-        bytes
+        state.encode().expect("a plant state always encodes")
     }
 
     /// Simulates one window: restores the start state, then one communication step per log
