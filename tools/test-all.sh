@@ -11,10 +11,10 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 
 echo "== generated files are fresh"
-cargo run --release --quiet -p xtask --bin codegen -- --check
+cargo xtask codegen --check
 
 echo "== build and package the FMUs into target/fmu/, and again from a copy at another path: byte-identical"
-cargo run --release --quiet -p xtask --bin package -- --reproducibility-check
+cargo xtask package --reproducibility-check
 
 echo "== Rust tests"
 cargo test --release --workspace --quiet

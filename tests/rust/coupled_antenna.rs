@@ -31,7 +31,7 @@ fn fmus() -> FmuSet {
     let directory = antenna_fmus::fmu_directory();
     FmuSet::open(&directory).unwrap_or_else(|e| {
         panic!(
-            "cannot open the FMUs in {}: {e}; package them first (cargo run --release -p xtask --bin package)",
+            "cannot open the FMUs in {}: {e}; package them first (cargo xtask package)",
             directory.display()
         )
     })

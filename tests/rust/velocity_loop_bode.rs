@@ -16,7 +16,7 @@ const PAPER_BANDWIDTH_HZ: (f64, f64) = (10.0, 15.0);
 fn identify(axis: Axis) -> VelocityBode {
     let directory = antenna_fmus::fmu_directory();
     let result = identify_velocity_loop(&directory, &VelocityBodeConfig::paper(axis)).unwrap_or_else(|e| {
-        panic!("{}: {e}; package the FMUs first (cargo run --release -p xtask --bin package)", axis.name())
+        panic!("{}: {e}; package the FMUs first (cargo xtask package)", axis.name())
     });
     assert!(
         result.linear_regime_held(),
