@@ -4,7 +4,6 @@
 
 use std::io::Read;
 
-
 #[test]
 fn committed_model_descriptions_are_not_stale() {
     let stale = xtask::codegen(true).expect("codegen --check");
