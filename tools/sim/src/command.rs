@@ -45,9 +45,9 @@ pub enum CommandError {
     OutsideTravel { row: usize, elevation_deg: f64 },
     #[error("command row {row}: time {time_s} s goes backwards")]
     TimeGoesBackwards { row: usize, time_s: f64 },
-    #[error("{}: {source}", path.display())]
+    #[error("cannot read {}", path.display())]
     Read { path: PathBuf, source: std::io::Error },
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Csv { path: PathBuf, source: csv::Error },
     #[error("{}:{line}: expected the header `time_s,azimuth_deg,elevation_deg`, found `{found}`", path.display())]
     Header { path: PathBuf, line: u64, found: String },

@@ -35,11 +35,11 @@ pub struct Outcome {
 /// Why a scenario could not be run or its report not written.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("{scenario}: {source}")]
+    #[error("scenario {scenario}")]
     Simulation { scenario: String, source: ImportError },
     #[error("{scenario}: run too short for a {JITTER_WINDOW_S} s jitter window")]
     TooShortForJitter { scenario: String },
-    #[error("cannot create {}: {source}", path.display())]
+    #[error("cannot create {}", path.display())]
     CreateFolder { path: PathBuf, source: std::io::Error },
     #[error(transparent)]
     Plot(#[from] PlotError),

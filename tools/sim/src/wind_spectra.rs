@@ -30,7 +30,7 @@ pub enum WindSpectraError {
     /// The paper has no filter for this mean speed (only H3 and H10).
     #[error("the paper's filter at {v_mean} m/s: {message}")]
     PaperFilter { v_mean: f64, message: String },
-    #[error("cannot create {}: {source}", path.display())]
+    #[error("cannot create {}", path.display())]
     CreateFolder { path: std::path::PathBuf, source: std::io::Error },
     #[error(transparent)]
     Plot(#[from] PlotError),

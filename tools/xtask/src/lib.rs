@@ -21,25 +21,25 @@ pub const LIBRARY_PROFILE: &str = "fmu-release";
 /// Why a build task could not be done.
 #[derive(Debug, thiserror::Error)]
 pub enum XtaskError {
-    #[error("cannot run cargo: {0}")]
+    #[error("cannot run cargo")]
     CargoNotRunnable(#[source] std::io::Error),
     #[error("cargo build of {packages} failed ({status})")]
     BuildFailed { packages: String, status: std::process::ExitStatus },
-    #[error("cannot read {}: {source}", path.display())]
+    #[error("cannot read {}", path.display())]
     Read { path: PathBuf, source: std::io::Error },
-    #[error("cannot write {}: {source}", path.display())]
+    #[error("cannot write {}", path.display())]
     Write { path: PathBuf, source: std::io::Error },
     #[error("{model_identifier}: invalid variable table: {message}")]
     InvalidVariableTable { model_identifier: String, message: String },
     #[error("resource path '{0}' must be relative and stay inside resources/")]
     ResourceOutsideFolder(String),
-    #[error("zip: {0}")]
+    #[error("zip")]
     Zip(#[from] zip::result::ZipError),
     #[error("generated files are stale: {}; run `cargo xtask codegen`", .0.join(", "))]
     StaleGeneratedFiles(Vec<String>),
-    #[error("git ls-files: {0}")]
+    #[error("cannot run git ls-files")]
     Git(#[source] std::io::Error),
-    #[error("the second build (from a copy of the sources) failed: {0}")]
+    #[error("the second build (from a copy of the sources) failed")]
     SecondBuild(#[source] Box<XtaskError>),
 }
 

@@ -30,7 +30,8 @@ use antenna_sim::{AntennaConfig, FmuSet};
 /// Runs the coupled antenna FMUs through the requirement scenarios (Req. 1-5) and writes the
 /// requirement report.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
 struct Cli {
     /// Use the FMUs already packaged in target/fmu (or $MEERKAT_FMU_DIR) instead of building and
     /// packaging them first.

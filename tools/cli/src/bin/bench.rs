@@ -16,10 +16,11 @@ use fmu_import::Fmu;
 
 /// Speed benchmark of the coupled antenna through the C ABI, and of single FMI calls.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
 struct Cli {
     /// Simulated seconds of the coupled run.
-    #[arg(long, default_value_t = 300.0, value_parser = positive_seconds)]
+    #[arg(long, default_value_t = 300.0, value_parser = positive_seconds, allow_hyphen_values = true)]
     seconds: f64,
     /// Also time the fmpy master (tests/python/coupled_master.py, in .venv).
     #[arg(long)]

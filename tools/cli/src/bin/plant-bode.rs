@@ -20,7 +20,8 @@ use antenna_sim::frequency_response::Axis;
 /// Identifies the plant FMUs' frequency responses (the seed paper's Figs. 6 and 8) and writes
 /// the Bode figures and their summary.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
 struct Cli {
     /// Folder for the figures and plant-bode.md [default: docs/figures].
     #[arg(value_name = "OUTPUT FOLDER")]

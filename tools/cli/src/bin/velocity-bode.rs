@@ -24,7 +24,8 @@ const FIGURE_MAX_FREQUENCY_HZ: f64 = 100.0;
 /// Identifies the closed velocity loop of each axis on the controller and plant FMUs (the seed
 /// paper's Figs. 7 and 9) and writes the Bode figures.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
 struct Cli {
     /// Folder for the figures [default: docs/figures].
     #[arg(value_name = "OUTPUT FOLDER")]

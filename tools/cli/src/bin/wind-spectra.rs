@@ -36,7 +36,8 @@ const RECORDS: [(f64, i32); 2] = [(3.0, 1), (9.5, 2)];
 /// Draws the wind unit's spectra (the filters against Eq. 2, and 2 h records generated through
 /// Wind.fmu) and prints the numbers behind them.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
 struct Cli {
     /// Folder for the figures [default: docs/figures].
     #[arg(value_name = "OUTPUT FOLDER")]

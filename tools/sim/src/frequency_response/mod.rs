@@ -55,7 +55,7 @@ impl Axis {
 pub enum IdentificationError {
     #[error(transparent)]
     Import(#[from] ImportError),
-    #[error("Welch estimate: {0}")]
+    #[error("Welch estimate")]
     Welch(#[source] DspError),
     /// The FMU is configured otherwise than the analytic model assumes.
     #[error("{0}")]
