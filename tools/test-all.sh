@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Runs every test of the project on a fresh machine: builds and packages the FMUs, checks that the
-# generated model descriptions are fresh, runs the Rust tests (which load the packaged .fmu files
-# through the C ABI) and the Python tests with fmpy in a private virtual environment.
+# Runs every test of the project on a fresh machine: checks formatting and lints, builds and
+# packages the FMUs, checks that the generated model descriptions are fresh, runs the Rust tests
+# (which load the packaged .fmu files through the C ABI) and the Python tests with fmpy in a
+# private virtual environment. The build tasks run through the `cargo xtask` alias
+# (.cargo/config.toml).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -9,6 +11,10 @@ if ! command -v cargo >/dev/null 2>&1; then
     echo "cargo not found: install Rust with rustup (https://rustup.rs) first" >&2
     exit 1
 fi
+
+echo "== formatting (cargo fmt --check) and lints (clippy, warnings are errors)"
+cargo fmt --all --check
+cargo clippy --release --workspace --all-targets --quiet -- -D warnings
 
 echo "== generated files are fresh"
 cargo xtask codegen --check
