@@ -10,7 +10,7 @@
 //! `IdentificationConfig::paper`. Run with `-- --nocapture` for the figures of merit.
 
 use antenna_sim::frequency_response::plant::{identify, Identification, IdentificationConfig, COHERENCE_THRESHOLD};
-use antenna_sim::frequency_response::{Axis, MeasuredResponse};
+use antenna_sim::frequency_response::Axis;
 use antenna_tests::fmu_path;
 use fmu_plant::analytic::TwoMassParameters;
 use fmu_plant::{AzimuthParams, ElevationParams};
