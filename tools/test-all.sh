@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Runs every test of the project on a fresh machine: builds and packages the FMUs, checks that the
-# generated model descriptions are fresh, runs the Rust tests (which load the packaged .fmu files
-# through the C ABI) and the Python tests with fmpy in a private virtual environment.
+# Runs every test of the project on a fresh machine: checks formatting and lints, builds and
+# packages the FMUs, checks that the generated model descriptions are fresh, runs the Rust tests
+# (which load the packaged .fmu files through the C ABI) and the Python tests with fmpy in a
+# private virtual environment. The build tasks run through the `cargo xtask` alias
+# (.cargo/config.toml).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -10,11 +12,15 @@ if ! command -v cargo >/dev/null 2>&1; then
     exit 1
 fi
 
+echo "== formatting (cargo fmt --check) and lints (clippy, warnings are errors)"
+cargo fmt --all --check
+cargo clippy --release --workspace --all-targets --quiet -- -D warnings
+
 echo "== generated files are fresh"
-cargo run --release --quiet -p xtask --bin codegen -- --check
+cargo xtask codegen --check
 
 echo "== build and package the FMUs into target/fmu/, and again from a copy at another path: byte-identical"
-cargo run --release --quiet -p xtask --bin package -- --reproducibility-check
+cargo xtask package --reproducibility-check
 
 echo "== Rust tests"
 cargo test --release --workspace --quiet

@@ -1,7 +1,7 @@
 """Locates the packaged FMUs for the Python tests.
 
 The FMUs are in target/fmu/ relative to the repository (written by
-`cargo run --release -p xtask --bin package`), or in the folder that the environment
+`cargo xtask package`), or in the folder that the environment
 variable MEERKAT_FMU_DIR names (as for the Rust tools). Tests that take the fixture `fmu_path`
 run once for every .fmu found there, so FMUs added later are covered without editing the tests;
 a missing folder or a missing plant FMU is a test failure with the instruction to package,
@@ -16,7 +16,7 @@ import pytest
 REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
 FMU_DIRECTORY = pathlib.Path(os.environ.get("MEERKAT_FMU_DIR", REPOSITORY / "target" / "fmu"))
 PLANTS = ("AzimuthPlant", "ElevationPlant")
-PACKAGE_HINT = "package the FMUs first: cargo run --release -p xtask --bin package"
+PACKAGE_HINT = "package the FMUs first: cargo xtask package"
 
 
 def packaged_fmus():

@@ -30,10 +30,7 @@ const ARCSEC_PER_DEG: f64 = 3600.0;
 fn fmus() -> FmuSet {
     let directory = antenna_fmus::fmu_directory();
     FmuSet::open(&directory).unwrap_or_else(|e| {
-        panic!(
-            "cannot open the FMUs in {}: {e}; package them first (cargo run --release -p xtask --bin package)",
-            directory.display()
-        )
+        panic!("cannot open the FMUs in {}: {e}; package them first (cargo xtask package)", directory.display())
     })
 }
 

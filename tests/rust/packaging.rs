@@ -4,11 +4,10 @@
 
 use std::io::Read;
 
-
 #[test]
 fn committed_model_descriptions_are_not_stale() {
     let stale = xtask::codegen(true).expect("codegen --check");
-    assert!(stale.is_empty(), "stale generated files (run `cargo run -p xtask --bin codegen`): {stale:?}");
+    assert!(stale.is_empty(), "stale generated files (run `cargo xtask codegen`): {stale:?}");
 }
 
 #[test]
@@ -21,7 +20,7 @@ fn packaged_fmus_carry_the_generated_model_descriptions() {
         archive.by_name("modelDescription.xml").unwrap().read_to_string(&mut packaged).unwrap();
         assert!(
             packaged == (spec.model_description)(),
-            "{} has an out-of-date modelDescription.xml: package again (cargo run --release -p xtask --bin package)",
+            "{} has an out-of-date modelDescription.xml: package again (cargo xtask package)",
             path.display()
         );
     }
@@ -32,7 +31,7 @@ fn packaging_the_same_build_twice_gives_byte_identical_fmus() {
     let target = antenna_fmus::workspace_root().join("target");
     let root = std::env::temp_dir().join(format!("antenna-packaging-{}", std::process::id()));
     let (first, second) = (root.join("first"), root.join("second"));
-    let hint = "build the libraries first (cargo run --release -p xtask --bin package)";
+    let hint = "build the libraries first (cargo xtask package)";
     let a = xtask::package_all(&target, &first).unwrap_or_else(|e| panic!("{e}; {hint}"));
     let b = xtask::package_all(&target, &second).unwrap_or_else(|e| panic!("{e}; {hint}"));
     assert_eq!(a.len(), antenna_fmus::all_fmus().len());

@@ -5,12 +5,13 @@
 //! trough must lie within 2 % of the analytic one and the magnitude within 1 dB wherever the
 //! coherence exceeds 0.9. The Bode figures go to `out/plant-bode-<axis>-15deg.png`.
 //!
-//! The experiment itself lives in `antenna_sim::plant_identification`, shared with the
+//! The experiment itself lives in `antenna_sim::frequency_response::plant`, shared with the
 //! `plant-bode` tool that draws the README figures; its settings are
 //! `IdentificationConfig::paper`. Run with `-- --nocapture` for the figures of merit.
 
+use antenna_sim::frequency_response::plant::{identify, Identification, IdentificationConfig, COHERENCE_THRESHOLD};
+use antenna_sim::frequency_response::Axis;
 use antenna_tests::fmu_path;
-use antenna_sim::plant_identification::{identify, Axis, Identification, IdentificationConfig, COHERENCE_THRESHOLD};
 use fmu_plant::analytic::TwoMassParameters;
 use fmu_plant::{AzimuthParams, ElevationParams};
 
@@ -145,7 +146,7 @@ fn write_figure(axis: Axis, result: &Identification) {
     let directory = antenna_fmus::workspace_root().join("out");
     std::fs::create_dir_all(&directory).unwrap();
     let path = directory.join(format!("plant-bode-{}-{}deg.png", axis.name(), result.config.elevation_deg));
-    result.figure(antenna_sim::plant_identification::FIGURE_MAX_FREQUENCY_HZ).save_png(&path).unwrap();
+    result.figure(antenna_sim::frequency_response::plant::FIGURE_MAX_FREQUENCY_HZ).save_png(&path).unwrap();
     let size = std::fs::metadata(&path).unwrap().len();
     assert!(size > 10_000, "{} has only {size} bytes", path.display());
     println!("wrote {}", path.display());

@@ -1,9 +1,10 @@
 //! The closed velocity loop identified on the packaged controller and plant FMUs (velocity
-//! mode, white-noise command on a constant speed, H1; `antenna_sim::bode`, the
+//! mode, white-noise command on a constant speed, H1; `antenna_sim::frequency_response::velocity_loop`, the
 //! experiment behind docs/figures/velocity-loop-bode-*.png) against the analytic closed loop of
 //! `fmu_controller::linear` and the seed paper's 10-15 Hz.
 
-use antenna_sim::bode::{identify_velocity_loop, Axis, VelocityBode, VelocityBodeConfig};
+use antenna_sim::frequency_response::velocity_loop::{identify_velocity_loop, VelocityBode, VelocityBodeConfig};
+use antenna_sim::frequency_response::{Axis, MeasuredResponse};
 
 /// Compared up to here, Hz: past the anti-resonance (19-22 Hz) and the resonance (about
 /// 35 Hz), and far enough below the 500 Hz Nyquist frequency that the aliases the analytic
@@ -15,9 +16,8 @@ const PAPER_BANDWIDTH_HZ: (f64, f64) = (10.0, 15.0);
 
 fn identify(axis: Axis) -> VelocityBode {
     let directory = antenna_fmus::fmu_directory();
-    let result = identify_velocity_loop(&directory, &VelocityBodeConfig::paper(axis)).unwrap_or_else(|e| {
-        panic!("{}: {e}; package the FMUs first (cargo run --release -p xtask --bin package)", axis.name())
-    });
+    let result = identify_velocity_loop(&directory, &VelocityBodeConfig::paper(axis))
+        .unwrap_or_else(|e| panic!("{}: {e}; package the FMUs first (cargo xtask package)", axis.name()));
     assert!(
         result.linear_regime_held(),
         "{}: the run left the linear regime (smallest motor speed {} rad/s, largest torque {} N m against the bias fade start {}, {} flank changes)",

@@ -55,24 +55,28 @@ fn register_embedded_font() -> Result<(), PlotError> {
     if ok {
         Ok(())
     } else {
-        Err(PlotError("the embedded DejaVu Sans font could not be loaded".into()))
+        Err(PlotError::FontNotLoaded)
     }
 }
 
 /// Why a figure could not be drawn or written.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct PlotError(pub String);
-
-impl fmt::Display for PlotError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "plot: {}", self.0)
-    }
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlotError {
+    #[error("plot: the embedded DejaVu Sans font could not be loaded")]
+    FontNotLoaded,
+    #[error("plot: figure {width}x{height} is too small to draw axes in (at least 200x150)")]
+    TooSmall { width: u32, height: u32 },
+    #[error("plot: figure has no panels")]
+    NoPanels,
+    #[error("plot: cannot write {}: {message}", path.display())]
+    Write { path: std::path::PathBuf, message: String },
+    /// The drawing backend refused an element (its message, as plotters gives it).
+    #[error("plot: {0}")]
+    Drawing(String),
 }
 
-impl std::error::Error for PlotError {}
-
 fn plot_error(error: impl fmt::Display) -> PlotError {
-    PlotError(error.to_string())
+    PlotError::Drawing(error.to_string())
 }
 
 /// An sRGB colour.
@@ -384,13 +388,24 @@ impl Panel {
     /// Adds a dashed vertical line across the panel at `x`.
     pub fn vertical_line(mut self, name: &str, x: f64) -> Self {
         let colour = self.take_colour();
-        self.references.push(ReferenceLine { name: name.to_string(), value: x, vertical: true, colour });
-        self
+        self.vertical_line_coloured(name, x, colour)
     }
 
     /// Adds a dashed horizontal line across the panel at `y`.
     pub fn horizontal_line(mut self, name: &str, y: f64) -> Self {
         let colour = self.take_colour();
+        self.horizontal_line_coloured(name, y, colour)
+    }
+
+    /// Adds a dashed vertical line at `x` in a given colour (a marker that belongs to a curve
+    /// drawn in that colour, say).
+    pub fn vertical_line_coloured(mut self, name: &str, x: f64, colour: Colour) -> Self {
+        self.references.push(ReferenceLine { name: name.to_string(), value: x, vertical: true, colour });
+        self
+    }
+
+    /// Adds a dashed horizontal line at `y` in a given colour.
+    pub fn horizontal_line_coloured(mut self, name: &str, y: f64, colour: Colour) -> Self {
         self.references.push(ReferenceLine { name: name.to_string(), value: y, vertical: false, colour });
         self
     }
@@ -434,7 +449,7 @@ impl Figure {
         let path = path.as_ref();
         let root = BitMapBackend::new(path, (self.width, self.height)).into_drawing_area();
         self.draw(&root)?;
-        root.present().map_err(|e| PlotError(format!("cannot write {}: {e}", path.display())))
+        root.present().map_err(|e| PlotError::Write { path: path.to_path_buf(), message: e.to_string() })
     }
 
     /// Renders the figure into an RGB buffer (3 bytes per pixel, row by row), e.g. to inspect
@@ -452,13 +467,10 @@ impl Figure {
 
     fn check_size(&self) -> Result<(), PlotError> {
         if self.width < 200 || self.height < 150 {
-            return Err(PlotError(format!(
-                "figure {}x{} is too small to draw axes in (at least 200x150)",
-                self.width, self.height
-            )));
+            return Err(PlotError::TooSmall { width: self.width, height: self.height });
         }
         if self.panels.is_empty() {
-            return Err(PlotError("figure has no panels".into()));
+            return Err(PlotError::NoPanels);
         }
         Ok(())
     }
@@ -1036,10 +1048,24 @@ const X_LABEL_AREA: u32 = 52;
 const Y_LABEL_AREA: u32 = 84;
 const CAPTION_HEIGHT: u32 = 30;
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<(), PlotError>
-where
-    DB::ErrorType: 'static,
-{
+/// The axes of a panel and where its legend goes, worked out before anything is drawn.
+struct Layout {
+    x_axis: Axis,
+    y_axis: Axis,
+    show_legend: bool,
+    legend_position: SeriesLabelPosition,
+    /// Pixels per plot-coordinate unit along x and y (approximate: the label areas' exact sizes
+    /// are plotters' business), for judging angles as the reader sees them.
+    pixels_per_unit: (f64, f64),
+}
+
+impl Layout {
+    fn rect(&self) -> Rect {
+        Rect { x_low: self.x_axis.low, x_high: self.x_axis.high, y_low: self.y_axis.low, y_high: self.y_axis.high }
+    }
+}
+
+fn layout<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Layout {
     let (width, height) = area.dim_in_pixel();
     let caption = if panel.title.is_empty() { 0 } else { CAPTION_HEIGHT };
     let plot_width = width.saturating_sub(Y_LABEL_AREA + 2 * MARGIN).max(1) as f64;
@@ -1052,7 +1078,7 @@ where
 
     let entries = legend_entries(panel);
     let show_legend = panel.legend != LegendPosition::Hidden && !entries.is_empty();
-    let mut position = match panel.legend {
+    let mut legend_position = match panel.legend {
         LegendPosition::UpperLeft => SeriesLabelPosition::UpperLeft,
         LegendPosition::LowerLeft => SeriesLabelPosition::LowerLeft,
         LegendPosition::LowerRight => SeriesLabelPosition::LowerRight,
@@ -1065,19 +1091,27 @@ where
         let legend_width = text_width as f64 + LEGEND_GLYPH_WIDTH;
         let legend_height = LEGEND_ROW * entries.len() as f64 + 12.0;
         let fraction = (legend_width / plot_width, legend_height / plot_height);
-        (position, y_axis) = place_legend(panel, &x_axis, y_axis, fraction, y_ticks);
+        (legend_position, y_axis) = place_legend(panel, &x_axis, y_axis, fraction, y_ticks);
     }
-    let rect = Rect { x_low: x_axis.low, x_high: x_axis.high, y_low: y_axis.low, y_high: y_axis.high };
+    let pixels_per_unit = (plot_width / (x_axis.high - x_axis.low), plot_height / (y_axis.high - y_axis.low));
+    Layout { x_axis, y_axis, show_legend, legend_position, pixels_per_unit }
+}
 
+fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let layout = layout(area, panel);
     let mut builder = ChartBuilder::on(area);
     builder.margin(MARGIN).x_label_area_size(X_LABEL_AREA).y_label_area_size(Y_LABEL_AREA);
     if !panel.title.is_empty() {
         builder.caption(&panel.title, text_style(18));
     }
-    let mut chart =
-        builder.build_cartesian_2d(TickedRange::from(&x_axis), TickedRange::from(&y_axis)).map_err(plot_error)?;
-    let x_formatter = |v: &f64| x_axis.label(*v);
-    let y_formatter = |v: &f64| y_axis.label(*v);
+    let mut chart = builder
+        .build_cartesian_2d(TickedRange::from(&layout.x_axis), TickedRange::from(&layout.y_axis))
+        .map_err(plot_error)?;
+    let x_formatter = |v: &f64| layout.x_axis.label(*v);
+    let y_formatter = |v: &f64| layout.y_axis.label(*v);
     chart
         .configure_mesh()
         .x_desc(panel.x_label.as_str())
@@ -1091,11 +1125,27 @@ where
         .axis_style(BLACK.mix(0.8))
         .draw()
         .map_err(plot_error)?;
+    draw_data(&mut chart, panel, &layout)?;
+    if layout.show_legend {
+        draw_legend(&mut chart, panel, layout.legend_position)?;
+    }
+    Ok(())
+}
 
+/// Bands, then series, then reference lines, each clipped to the plot area.
+fn draw_data<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    panel: &Panel,
+    layout: &Layout,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let rect = layout.rect();
     // Bands first, so lines and markers stay visible on top of them.
     for band in &panel.bands {
         let colour = band.colour.to_plotters();
-        for polygon in band_polygons(band, panel.x_scale, panel.y_scale, y_axis.low - 1.0) {
+        for polygon in band_polygons(band, panel.x_scale, panel.y_scale, layout.y_axis.low - 1.0) {
             let clipped = clip_polygon(&polygon, &rect);
             if clipped.len() >= 3 {
                 chart
@@ -1109,7 +1159,9 @@ where
         let style = ShapeStyle { color: colour.to_rgba(), filled: false, stroke_width: series.width };
         for run in drawable_runs(&series.x, &series.y, panel.x_scale, panel.y_scale) {
             for piece in clip_polyline(&run, &rect) {
-                draw_line(&mut chart, piece.clone(), series.line, style)?;
+                for stroke in split_at_sharp_turns(&piece, layout.pixels_per_unit) {
+                    draw_line(chart, stroke, series.line, style)?;
+                }
             }
             if series.markers {
                 let inside = run.iter().copied().filter(|p| rect.contains(*p));
@@ -1119,17 +1171,25 @@ where
         }
     }
     for reference in &panel.references {
-        if let Some(line) = reference_segment(reference, panel, &x_axis, &y_axis) {
+        if let Some(line) = reference_segment(reference, panel, &layout.x_axis, &layout.y_axis) {
             let style = ShapeStyle { color: reference.colour.to_plotters().to_rgba(), filled: false, stroke_width: 2 };
             for piece in clip_polyline(&line, &rect) {
-                draw_line(&mut chart, piece, LineStyle::Dashed, style)?;
+                draw_line(chart, piece, LineStyle::Dashed, style)?;
             }
         }
     }
+    Ok(())
+}
 
-    if !show_legend {
-        return Ok(());
-    }
+/// The legend: one entry per named band, series and reference line, in that order.
+fn draw_legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    panel: &Panel,
+    position: SeriesLabelPosition,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
     // Empty series carry the legend entries, so every entry appears once even when its data
     // is split into several drawn pieces or lies entirely outside the axes.
     for band in panel.bands.iter().filter(|b| !b.name.is_empty()) {
@@ -1169,6 +1229,44 @@ where
         .draw()
         .map_err(plot_error)?;
     Ok(())
+}
+
+/// How sharply a line may turn before it is drawn as two strokes: the cosine of the angle
+/// between the incoming and the outgoing direction. 0: turns of more than 90 deg, which a
+/// smooth curve never makes between two samples, but a noisy trace does at every dip; the
+/// pixel rounding of short segments makes a turn sharper on screen than it is in the data, so
+/// the limit is not set closer to a full reversal.
+const SHARP_TURN_COSINE: f64 = 0.0;
+
+/// Splits a polyline where it turns back sharply as the reader sees it (in pixels), each part
+/// keeping the turning point. plotters joins the segments of a line wider than a pixel with
+/// mitres, and at a near reversal the inner mitre corner lies far beyond both segments: it
+/// drew spikes outside the plot area (a stray tick below the Req. 5 axis). Two strokes that
+/// meet at the point have no join to get wrong.
+fn split_at_sharp_turns(points: &[Point], pixels_per_unit: (f64, f64)) -> Vec<Vec<Point>> {
+    let direction = |a: Point, b: Point| {
+        let (dx, dy) = ((b.0 - a.0) * pixels_per_unit.0, (b.1 - a.1) * pixels_per_unit.1);
+        let length = dx.hypot(dy);
+        (length > 0.0).then(|| (dx / length, dy / length))
+    };
+    let mut strokes = Vec::new();
+    let mut current: Vec<Point> = Vec::new();
+    let mut incoming: Option<(f64, f64)> = None;
+    for &p in points {
+        if let Some(&last) = current.last() {
+            if let Some(outgoing) = direction(last, p) {
+                if incoming.is_some_and(|d| d.0 * outgoing.0 + d.1 * outgoing.1 < SHARP_TURN_COSINE) {
+                    strokes.push(std::mem::replace(&mut current, vec![last]));
+                }
+                incoming = Some(outgoing);
+            }
+        }
+        current.push(p);
+    }
+    if !current.is_empty() {
+        strokes.push(current);
+    }
+    strokes
 }
 
 /// A linear plotters coordinate in plot coordinates whose tick positions are the ones computed
@@ -1555,5 +1653,50 @@ mod tests {
             .panel(Panel::new("").line("a", &[0.0, 1.0], &[0.0, 1.0]))
             .save_png(missing_dir)
             .is_err());
+    }
+
+    #[test]
+    fn a_line_that_turns_back_sharply_is_drawn_as_two_strokes_meeting_at_the_turn() {
+        let spike = [(0.0, 1.0), (1.0, 1.0), (1.05, -3.0), (1.1, 1.0), (2.0, 1.0)];
+        let strokes = split_at_sharp_turns(&spike, (10.0, 100.0));
+        assert_eq!(strokes, vec![spike[..3].to_vec(), spike[2..].to_vec()]);
+        let gentle = [(0.0, 0.0), (1.0, 1.0), (2.0, 1.5), (3.0, 1.0)];
+        assert_eq!(split_at_sharp_turns(&gentle, (10.0, 10.0)), vec![gentle.to_vec()]);
+    }
+
+    #[test]
+    fn a_noisy_line_on_a_log_axis_leaves_nothing_below_the_plot_area() {
+        // 70 s of a pointing error at 100 Hz that keeps dipping to the 0.001 arcsec floor and
+        // straight back, as the Req. 5 errors do: with mitred joins such dips drew spikes
+        // through the x axis into the tick labels.
+        let t: Vec<f64> = (0..7000).map(|k| 0.01 * k as f64).collect();
+        let mut state: u64 = 1;
+        let y: Vec<f64> = t
+            .iter()
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let uniform = (state >> 11) as f64 / (1u64 << 53) as f64;
+                10f64.powf(-3.0 + 2.5 * uniform)
+            })
+            .collect();
+        let figure = Figure::new(1100, 600).panel(
+            Panel::new("Req. 5 pointing error on the sky")
+                .x_label("time (s)")
+                .y_label("pointing error (arcsec)")
+                .log_y()
+                .y_range(7e-4, 2e4)
+                .line("noisy", &t, &y),
+        );
+        let pixels = figure.render_rgb().unwrap();
+        let (width, height) = figure.size();
+        // Below the x axis (the last X_LABEL_AREA + MARGIN rows hold tick labels and the axis
+        // title in black and grey) no pixel has the series' colour.
+        let colour = PALETTE[0];
+        let below_axis = (height - X_LABEL_AREA - MARGIN + 4)..height;
+        let painted = below_axis
+            .flat_map(|row| (0..width).map(move |column| ((row * width + column) * 3) as usize))
+            .filter(|&i| pixels[i] == colour.r && pixels[i + 1] == colour.g && pixels[i + 2] == colour.b)
+            .count();
+        assert_eq!(painted, 0);
     }
 }

@@ -8,8 +8,7 @@
 //! holds. Azimuth must stay inside the cable wrap.
 
 use std::cell::Cell;
-use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Azimuth travel of the cable wrap, deg.
 pub const CABLE_WRAP_DEG: (f64, f64) = (-185.0, 275.0);
@@ -33,16 +32,30 @@ pub struct Command {
     pub elevation_rate_deg_per_s: f64,
 }
 
-#[derive(Debug, Clone, PartialEq)]
-pub struct CommandError(pub String);
-
-impl fmt::Display for CommandError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
+/// Why a command table was refused: each message names the row (or file and line) and value.
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    #[error("the command table is empty")]
+    Empty,
+    #[error("command row {row}: values must be finite, got {point:?}")]
+    NotFinite { row: usize, point: CommandPoint },
+    #[error("command row {row}: azimuth {azimuth_deg} deg is outside the cable wrap [{}, {}] deg; choose the wrap side before commanding", CABLE_WRAP_DEG.0, CABLE_WRAP_DEG.1)]
+    OutsideCableWrap { row: usize, azimuth_deg: f64 },
+    #[error("command row {row}: elevation {elevation_deg} deg is outside the travel [{}, {}] deg", ELEVATION_TRAVEL_DEG.0, ELEVATION_TRAVEL_DEG.1)]
+    OutsideTravel { row: usize, elevation_deg: f64 },
+    #[error("command row {row}: time {time_s} s goes backwards")]
+    TimeGoesBackwards { row: usize, time_s: f64 },
+    #[error("cannot read {}", path.display())]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("{}", path.display())]
+    Csv { path: PathBuf, source: csv::Error },
+    #[error("{}:{line}: expected the header `time_s,azimuth_deg,elevation_deg`, found `{found}`", path.display())]
+    Header { path: PathBuf, line: u64, found: String },
+    #[error("{}:{line}: expected 3 cells, found {cells}", path.display())]
+    CellCount { path: PathBuf, line: u64, cells: usize },
+    #[error("{}:{line}: {column} `{cell}` is not a number", path.display())]
+    NotANumber { path: PathBuf, line: u64, column: &'static str, cell: String },
 }
-
-impl std::error::Error for CommandError {}
 
 /// A validated command table, split into continuous segments at jumps.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,27 +85,21 @@ impl CommandTable {
     /// the cable wrap, elevation in travel; an error names the row.
     pub fn new(points: Vec<CommandPoint>) -> Result<Self, CommandError> {
         if points.is_empty() {
-            return Err(CommandError("the command table is empty".into()));
+            return Err(CommandError::Empty);
         }
         for (i, p) in points.iter().enumerate() {
             let row = i + 1;
             if !(p.time_s.is_finite() && p.azimuth_deg.is_finite() && p.elevation_deg.is_finite()) {
-                return Err(CommandError(format!("command row {row}: values must be finite, got {p:?}")));
+                return Err(CommandError::NotFinite { row, point: *p });
             }
             if !(CABLE_WRAP_DEG.0..=CABLE_WRAP_DEG.1).contains(&p.azimuth_deg) {
-                return Err(CommandError(format!(
-                    "command row {row}: azimuth {} deg is outside the cable wrap [{}, {}] deg; choose the wrap side before commanding",
-                    p.azimuth_deg, CABLE_WRAP_DEG.0, CABLE_WRAP_DEG.1
-                )));
+                return Err(CommandError::OutsideCableWrap { row, azimuth_deg: p.azimuth_deg });
             }
             if !(ELEVATION_TRAVEL_DEG.0..=ELEVATION_TRAVEL_DEG.1).contains(&p.elevation_deg) {
-                return Err(CommandError(format!(
-                    "command row {row}: elevation {} deg is outside the travel [{}, {}] deg",
-                    p.elevation_deg, ELEVATION_TRAVEL_DEG.0, ELEVATION_TRAVEL_DEG.1
-                )));
+                return Err(CommandError::OutsideTravel { row, elevation_deg: p.elevation_deg });
             }
             if i > 0 && p.time_s < points[i - 1].time_s {
-                return Err(CommandError(format!("command row {row}: time {} s goes backwards", p.time_s)));
+                return Err(CommandError::TimeGoesBackwards { row, time_s: p.time_s });
             }
         }
         let mut segments: Vec<Vec<CommandPoint>> = vec![Vec::new()];
@@ -108,40 +115,42 @@ impl CommandTable {
     }
 
     /// Reads a CSV table with columns `time_s,azimuth_deg,elevation_deg` (a header row first;
-    /// `#` comment lines allowed).
+    /// `#` comment lines and blank lines allowed; cells may be padded with spaces).
     pub fn from_csv(path: &Path) -> Result<Self, CommandError> {
-        let text = std::fs::read_to_string(path).map_err(|e| CommandError(format!("{}: {e}", path.display())))?;
+        let file = std::fs::File::open(path).map_err(|source| CommandError::Read { path: path.into(), source })?;
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .comment(Some(b'#'))
+            .from_reader(file);
         let mut points = Vec::new();
         let mut header_seen = false;
-        for (i, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || line.starts_with('#') {
+        for record in reader.records() {
+            let record = record.map_err(|source| CommandError::Csv { path: path.into(), source })?;
+            let line = record.position().map_or(0, |p| p.line());
+            // An indented comment or a line of spaces: the csv reader only knows comments that
+            // start the line and empty lines.
+            if record.get(0).is_some_and(|c| c.starts_with('#')) || record.iter().all(str::is_empty) {
                 continue;
             }
             if !header_seen {
-                let columns: Vec<&str> = line.split(',').map(str::trim).collect();
-                if columns != ["time_s", "azimuth_deg", "elevation_deg"] {
-                    return Err(CommandError(format!(
-                        "{}:{}: expected the header `time_s,azimuth_deg,elevation_deg`, found `{line}`",
-                        path.display(),
-                        i + 1
-                    )));
+                if record.iter().collect::<Vec<_>>() != ["time_s", "azimuth_deg", "elevation_deg"] {
+                    let found = record.iter().collect::<Vec<_>>().join(",");
+                    return Err(CommandError::Header { path: path.into(), line, found });
                 }
                 header_seen = true;
                 continue;
             }
-            let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-            if cells.len() != 3 {
-                return Err(CommandError(format!(
-                    "{}:{}: expected 3 cells, found {}",
-                    path.display(),
-                    i + 1,
-                    cells.len()
-                )));
+            if record.len() != 3 {
+                return Err(CommandError::CellCount { path: path.into(), line, cells: record.len() });
             }
-            let parse = |k: usize, name: &str| {
-                cells[k].parse::<f64>().map_err(|_| {
-                    CommandError(format!("{}:{}: {name} `{}` is not a number", path.display(), i + 1, cells[k]))
+            let parse = |k: usize, column: &'static str| {
+                record[k].parse::<f64>().map_err(|_| CommandError::NotANumber {
+                    path: path.into(),
+                    line,
+                    column,
+                    cell: record[k].to_string(),
                 })
             };
             points.push(CommandPoint {
@@ -158,13 +167,20 @@ impl CommandTable {
         self.segments.iter().flatten().copied().collect()
     }
 
-    /// Writes the table as the CSV that [`CommandTable::from_csv`] reads, with every digit.
+    /// Writes the table as the CSV that [`CommandTable::from_csv`] reads, with every digit
+    /// (`{:e}`: the shortest text that reads back to the same number).
     pub fn to_csv(&self) -> String {
-        let mut out = String::from("time_s,azimuth_deg,elevation_deg\n");
-        for p in self.points() {
-            out.push_str(&format!("{:e},{:e},{:e}\n", p.time_s, p.azimuth_deg, p.elevation_deg));
-        }
-        out
+        let mut writer = csv::Writer::from_writer(Vec::new());
+        let mut write = || -> Result<(), csv::Error> {
+            writer.write_record(["time_s", "azimuth_deg", "elevation_deg"])?;
+            for p in self.points() {
+                writer.write_record([p.time_s, p.azimuth_deg, p.elevation_deg].map(|x| format!("{x:e}")))?;
+            }
+            writer.flush()?;
+            Ok(())
+        };
+        write().expect("writing CSV into memory cannot fail");
+        String::from_utf8(writer.into_inner().expect("flushed above")).expect("the CSV is ASCII")
     }
 
     /// The first and last time stamps.
@@ -316,11 +332,51 @@ mod tests {
     #[test]
     fn commands_outside_the_cable_wrap_or_travel_are_rejected_naming_the_row() {
         let e = CommandTable::new(vec![point(0.0, 10.0, 45.0), point(1.0, 280.0, 45.0)]).unwrap_err();
-        assert!(e.0.contains("row 2") && e.0.contains("cable wrap"), "{e}");
+        let text = e.to_string();
+        assert!(text.contains("row 2") && text.contains("cable wrap"), "{e}");
         let e = CommandTable::new(vec![point(0.0, 10.0, 10.0)]).unwrap_err();
-        assert!(e.0.contains("travel"), "{e}");
+        assert!(e.to_string().contains("travel"), "{e}");
         let e = CommandTable::new(vec![point(1.0, 10.0, 45.0), point(0.5, 10.0, 45.0)]).unwrap_err();
-        assert!(e.0.contains("backwards"), "{e}");
+        assert!(e.to_string().contains("backwards"), "{e}");
         assert!(CommandTable::new(vec![]).is_err());
+    }
+
+    #[test]
+    fn a_table_written_as_csv_reads_back_identically_with_comments_and_padding() {
+        let table = CommandTable::new(vec![
+            point(0.0, 10.0, 45.0),
+            point(5.0, 10.000_000_000_000_002, 45.0),
+            point(5.0, 14.0, 45.0),
+            point(20.0, 14.0, 45.5),
+        ])
+        .unwrap();
+        let text = format!("# a pointing table\n\n{}", table.to_csv().replace(',', " , "));
+        let path = std::env::temp_dir().join(format!("command-table-{}.csv", std::process::id()));
+        std::fs::write(&path, text).unwrap();
+        let read = CommandTable::from_csv(&path);
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(read.unwrap().points(), table.points());
+    }
+
+    #[test]
+    fn a_malformed_csv_table_is_refused_naming_the_line() {
+        let path = std::env::temp_dir().join(format!("command-table-bad-{}.csv", std::process::id()));
+        let mut errors = Vec::new();
+        for text in [
+            "time,az,el\n0,10,45\n",
+            "time_s,azimuth_deg,elevation_deg\n0,10\n",
+            "time_s,azimuth_deg,elevation_deg\n# comment\n0,10,45\n1,x,45\n",
+        ] {
+            std::fs::write(&path, text).unwrap();
+            errors.push(CommandTable::from_csv(&path).unwrap_err().to_string());
+        }
+        let _ = std::fs::remove_file(&path);
+        assert!(
+            errors[0].ends_with(":1: expected the header `time_s,azimuth_deg,elevation_deg`, found `time,az,el`"),
+            "{}",
+            errors[0]
+        );
+        assert!(errors[1].ends_with(":2: expected 3 cells, found 2"), "{}", errors[1]);
+        assert!(errors[2].ends_with(":4: azimuth_deg `x` is not a number"), "{}", errors[2]);
     }
 }

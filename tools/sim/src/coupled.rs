@@ -130,34 +130,56 @@ impl Trace {
             .collect()
     }
 
-    /// The trace as CSV, every value with all its digits (for comparisons with other masters).
+    /// The columns of [`Trace::to_csv`].
+    pub const CSV_HEADER: [&'static str; 15] = [
+        "time_s",
+        "command_azimuth_deg",
+        "command_elevation_deg",
+        "azimuth_deg",
+        "elevation_deg",
+        "encoder_azimuth_deg",
+        "encoder_elevation_deg",
+        "reference_azimuth_deg",
+        "reference_elevation_deg",
+        "wind_speed_m_s",
+        "wind_torque_azimuth_nm",
+        "wind_torque_elevation_nm",
+        "current_azimuth_1_a",
+        "current_azimuth_2_a",
+        "current_elevation_a",
+    ];
+
+    /// The trace as CSV, every value with all its digits (`{:e}`, the shortest text that reads
+    /// back to the same number), for bit-for-bit comparisons with other masters.
     pub fn to_csv(&self) -> String {
-        let mut out = String::from(
-            "time_s,command_azimuth_deg,command_elevation_deg,azimuth_deg,elevation_deg,encoder_azimuth_deg,encoder_elevation_deg,reference_azimuth_deg,reference_elevation_deg,wind_speed_m_s,wind_torque_azimuth_nm,wind_torque_elevation_nm,current_azimuth_1_a,current_azimuth_2_a,current_elevation_a\n",
-        );
-        for k in 0..self.time_s.len() {
-            let row = [
-                self.time_s[k],
-                self.command_azimuth_deg[k],
-                self.command_elevation_deg[k],
-                self.azimuth_deg[k],
-                self.elevation_deg[k],
-                self.encoder_azimuth_deg[k],
-                self.encoder_elevation_deg[k],
-                self.reference_azimuth_deg[k],
-                self.reference_elevation_deg[k],
-                self.wind_speed_m_s[k],
-                self.wind_torque_azimuth_nm[k],
-                self.wind_torque_elevation_nm[k],
-                self.current_azimuth_a[k][0],
-                self.current_azimuth_a[k][1],
-                self.current_elevation_a[k],
-            ];
-            let cells: Vec<String> = row.iter().map(|x| format!("{x:e}")).collect();
-            out.push_str(&cells.join(","));
-            out.push('\n');
-        }
-        out
+        let mut writer = csv::Writer::from_writer(Vec::new());
+        let mut write = || -> Result<(), csv::Error> {
+            writer.write_record(Self::CSV_HEADER)?;
+            for k in 0..self.time_s.len() {
+                let row = [
+                    self.time_s[k],
+                    self.command_azimuth_deg[k],
+                    self.command_elevation_deg[k],
+                    self.azimuth_deg[k],
+                    self.elevation_deg[k],
+                    self.encoder_azimuth_deg[k],
+                    self.encoder_elevation_deg[k],
+                    self.reference_azimuth_deg[k],
+                    self.reference_elevation_deg[k],
+                    self.wind_speed_m_s[k],
+                    self.wind_torque_azimuth_nm[k],
+                    self.wind_torque_elevation_nm[k],
+                    self.current_azimuth_a[k][0],
+                    self.current_azimuth_a[k][1],
+                    self.current_elevation_a[k],
+                ];
+                writer.write_record(row.map(|x| format!("{x:e}")))?;
+            }
+            writer.flush()?;
+            Ok(())
+        };
+        write().expect("writing CSV into memory cannot fail");
+        String::from_utf8(writer.into_inner().expect("flushed above")).expect("the CSV is ASCII")
     }
 
     fn reserve(&mut self, n: usize) {

@@ -21,6 +21,8 @@ pub const WIND_YAW_DEG: f64 = 130.0;
 pub const JITTER_LIMIT_ARCSEC: f64 = 15.0;
 /// How long the error must stay in the band to count as settled, s.
 pub const SETTLE_HOLD_S: f64 = 10.0;
+/// The sidereal tracking rate of the scenarios, deg/s (on each axis).
+pub const SIDEREAL_RATE_DEG_PER_S: f64 = 0.004;
 /// Length of the jitter window, s.
 pub const JITTER_WINDOW_S: f64 = 10.0;
 
@@ -154,7 +156,7 @@ pub fn requirement_scenarios() -> Vec<Scenario> {
         let seed = 100 + i as i32;
         // Tracking moves up, except near the zenith end of travel where it moves down.
         let up = if el > 80.0 { -1.0 } else { 1.0 };
-        let sidereal = 0.004;
+        let sidereal = SIDEREAL_RATE_DEG_PER_S;
         out.push(Scenario {
             name: format!("track-sidereal-el{el:.0}"),
             requirement: Requirement::TrackingJitter,

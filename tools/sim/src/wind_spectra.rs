@@ -16,13 +16,30 @@ use std::path::Path;
 use std::time::Instant;
 
 use antenna_dsp::{expected_welch_psd, log_band_average, welch_psd, BandSpectrum, Detrend, DspError, WelchConfig};
-use antenna_plot::{Colour, Figure, LegendPosition, Panel, Series, PALETTE};
+use antenna_plot::{Colour, Figure, LegendPosition, Panel, PlotError, Series, PALETTE};
 use fmu_import::{Fmu, ImportError};
 use fmu_wind::analysis::autocovariance_weights;
 use fmu_wind::davenport::Davenport;
 use fmu_wind::prototype::log_grid;
 use fmu_wind::shaping::ShapingFilter;
 use fmu_wind::site::{PAPER_ROUGHNESS, REFERENCE_HEIGHT};
+
+/// Why a spectrum figure could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum WindSpectraError {
+    /// The paper has no filter for this mean speed (only H3 and H10).
+    #[error("the paper's filter at {v_mean} m/s: {message}")]
+    PaperFilter { v_mean: f64, message: String },
+    #[error("cannot create {}", path.display())]
+    CreateFolder { path: std::path::PathBuf, source: std::io::Error },
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
+/// The paper's filter at `v_mean` (3 or 9.5 m/s).
+fn paper_filter(v_mean: f64) -> Result<ShapingFilter, WindSpectraError> {
+    ShapingFilter::paper(v_mean).map_err(|e| WindSpectraError::PaperFilter { v_mean, message: e.to_string() })
+}
 
 /// The band over which Eq. 2 must be followed, rad/s (the 0.001-30 rad/s).
 pub const OMEGA_RANGE_RAD_S: (f64, f64) = (1e-3, 30.0);
@@ -83,8 +100,8 @@ pub struct PaperShape {
 }
 
 /// H3 (`v_mean` = 3) or H10 (`v_mean` = 9.5) against Eq. 2 at the paper's site.
-pub fn paper_shape(v_mean: f64) -> Result<PaperShape, String> {
-    let filter = ShapingFilter::paper(v_mean)?;
+pub fn paper_shape(v_mean: f64) -> Result<PaperShape, WindSpectraError> {
+    let filter = paper_filter(v_mean)?;
     let d = paper_site(v_mean);
     let errors: Vec<f64> = log_grid(PAPER_SHAPE_RANGE_RAD_S.0, PAPER_SHAPE_RANGE_RAD_S.1, 301)
         .iter()
@@ -106,7 +123,7 @@ pub fn paper_shape(v_mean: f64) -> Result<PaperShape, String> {
 /// 0.001-30 rad/s; below, the dB errors of ours and of the paper's shapes (their level offset
 /// over 0.01-10 rad/s removed, and named in the legend) with the +-0.5 dB goal; at the bottom
 /// our errors alone on a scale where they can be read.
-pub fn filter_figure() -> Result<Figure, String> {
+pub fn filter_figure() -> Result<Figure, WindSpectraError> {
     let grid = log_grid(OMEGA_RANGE_RAD_S.0, OMEGA_RANGE_RAD_S.1, 601);
     let mut spectra =
         Panel::new("Gust spectra on Eq. 2's axes (z = 10 m, z0 = 0.4 m): Eq. 2, the paper's filters and ours")
@@ -132,7 +149,7 @@ pub fn filter_figure() -> Result<Figure, String> {
         let paper_colour = PALETTE[2 * i + 1];
         let d = paper_site(v);
         let ours = ShapingFilter::davenport(&d);
-        let paper = ShapingFilter::paper(v)?;
+        let paper = paper_filter(v)?;
         let shape = paper_shape(v)?;
         let eq2: Vec<f64> = grid.iter().map(|&w| d.psd_at_omega(w)).collect();
         let ours_psd: Vec<f64> = grid.iter().map(|&w| ours.psd_at_omega(w)).collect();
@@ -334,11 +351,12 @@ pub fn psd_figure(comparisons: &[PsdComparison]) -> Figure {
 }
 
 /// Writes `figure` to `path`, creating the folder.
-pub fn save(figure: &Figure, path: &Path) -> Result<(), String> {
+pub fn save(figure: &Figure, path: &Path) -> Result<(), WindSpectraError> {
     if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
+        std::fs::create_dir_all(parent)
+            .map_err(|source| WindSpectraError::CreateFolder { path: parent.to_path_buf(), source })?;
     }
-    figure.save_png(path).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    Ok(figure.save_png(path)?)
 }
 
 #[cfg(test)]

@@ -1,61 +1,66 @@
 //! Runs the seed paper's frequency-domain identification (Figs. 6 and 8) on the packaged plant
 //! FMUs and writes the Bode figures for the README, measured H1 against the corrected Eq. 1:
-//! `docs/figures/plant-bode-azimuth-15deg.png`, `docs/figures/plant-bode-elevation-15deg.png`
-//! and the summary `docs/figures/plant-bode.md`.
+//! `plant-bode-azimuth-15deg.png`, `plant-bode-elevation-15deg.png` and the summary
+//! `plant-bode.md`, into `docs/figures/` or the folder given.
 //!
-//! Usage: `cargo run --release -p antenna-cli --bin plant-bode [-- <output folder>]`, after
-//! packaging (`cargo run --release -p xtask --bin package`). The excitation is seeded,
-//! so the figures are reproducible for a given build.
+//! Package the FMUs first (`cargo xtask package`). The excitation is seeded, so the figures
+//! are reproducible for a given build.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use antenna_sim::plant_identification::{
-    identify, markdown_summary, Axis, IdentificationConfig, FIGURE_MAX_FREQUENCY_HZ,
+use anyhow::{bail, Context};
+use clap::Parser;
+
+use antenna_sim::frequency_response::plant::{
+    identify, markdown_summary, IdentificationConfig, FIGURE_MAX_FREQUENCY_HZ,
 };
+use antenna_sim::frequency_response::Axis;
+
+/// Identifies the plant FMUs' frequency responses (the seed paper's Figs. 6 and 8) and writes
+/// the Bode figures and their summary.
+#[derive(Parser)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
+struct Cli {
+    /// Folder for the figures and plant-bode.md [default: docs/figures].
+    #[arg(value_name = "OUTPUT FOLDER")]
+    output: Option<PathBuf>,
+}
 
 fn main() -> ExitCode {
-    let output = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
-    if let Err(e) = std::fs::create_dir_all(&output) {
-        eprintln!("cannot create {}: {e}", output.display());
-        return ExitCode::FAILURE;
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("plant-bode: error: {e:#}");
+            ExitCode::from(2)
+        }
     }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
+    std::fs::create_dir_all(&output).with_context(|| format!("cannot create {}", output.display()))?;
     let mut results = Vec::new();
-    for axis in [Axis::Azimuth, Axis::Elevation] {
+    for axis in Axis::BOTH {
         let fmu = antenna_fmus::fmu_path(axis.model_identifier());
         if !fmu.is_file() {
-            eprintln!(
-                "{} is missing: package the FMUs first (cargo run --release -p xtask --bin package)",
-                fmu.display()
-            );
-            return ExitCode::FAILURE;
+            bail!("{} is missing: package the FMUs first (cargo xtask package)", fmu.display());
         }
         let config = IdentificationConfig::paper(axis);
-        let result = match identify(&fmu, &config) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("{} identification failed: {e}", axis.name());
-                return ExitCode::FAILURE;
-            }
-        };
+        let result = identify(&fmu, &config).with_context(|| format!("{} identification failed", axis.name()))?;
         if !result.linear_regime_held() {
-            eprintln!(
+            bail!(
                 "{}: the experiment left the linear regime (smallest motor speed {:.3} rad/s, {} flank changes); the figure would not show Eq. 1",
                 axis.name(),
                 result.min_motor_speed_rad_per_s,
                 result.flank_changes
             );
-            return ExitCode::FAILURE;
         }
         let name = format!("plant-bode-{}-{}deg.png", axis.name(), config.elevation_deg);
         let path = output.join(&name);
-        if let Err(e) = result.figure(FIGURE_MAX_FREQUENCY_HZ).save_png(&path) {
-            eprintln!("cannot write {}: {e}", path.display());
-            return ExitCode::FAILURE;
-        }
+        result.figure(FIGURE_MAX_FREQUENCY_HZ).save_png(&path)?;
         let s = result.summary();
         println!(
             "{}: trough {:.3} Hz measured, {:.3} Hz analytic ({:+.2} %); max magnitude error {:.2} dB at {:.1} Hz ({:.2} dB from bin 5) over {} bins with coherence > 0.9; simulation {:.2} s, analysis {:.2} s; wrote {}",
@@ -75,10 +80,8 @@ fn main() -> ExitCode {
     }
     let table: Vec<_> = results.iter().map(|(r, name)| (r, name.as_str())).collect();
     let summary = output.join("plant-bode.md");
-    if let Err(e) = std::fs::write(&summary, markdown_summary(&table)) {
-        eprintln!("cannot write {}: {e}", summary.display());
-        return ExitCode::FAILURE;
-    }
+    std::fs::write(&summary, markdown_summary(&table))
+        .with_context(|| format!("cannot write {}", summary.display()))?;
     println!("wrote {}", summary.display());
-    ExitCode::SUCCESS
+    Ok(())
 }

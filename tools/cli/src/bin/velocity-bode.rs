@@ -1,46 +1,57 @@
 //! Identifies the closed velocity loop of each axis like the seed paper's Figs. 7 and 9 (the
 //! controller FMU in velocity mode on the plant FMU, white-noise velocity command on a constant
 //! speed, H1 and coherence) and draws it against the analytic closed loop:
-//! `docs/figures/velocity-loop-bode-azimuth-15deg.png` and
-//! `docs/figures/velocity-loop-bode-elevation-15deg.png`. Prints the -3 dB bandwidths, measured
-//! and analytic (the paper: 10-15 Hz), and the largest magnitude and phase differences.
+//! `velocity-loop-bode-azimuth-15deg.png` and `velocity-loop-bode-elevation-15deg.png`, into
+//! `docs/figures/` or the folder given. Prints the -3 dB bandwidths, measured and analytic (the
+//! paper: 10-15 Hz), and the largest magnitude and phase differences.
 //!
-//! Usage: `cargo run --release -p antenna-cli --bin velocity-bode [-- <output folder>]`, after
-//! packaging (`cargo run --release -p xtask --bin package`). The excitation is seeded,
-//! so the figures are reproducible for a given build.
+//! Package the FMUs first (`cargo xtask package`). The excitation is seeded, so the figures
+//! are reproducible for a given build.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use antenna_sim::bode::{identify_velocity_loop, Axis, VelocityBodeConfig};
+use anyhow::{bail, Context};
+use clap::Parser;
+
+use antenna_sim::frequency_response::velocity_loop::{identify_velocity_loop, VelocityBodeConfig};
+use antenna_sim::frequency_response::{Axis, MeasuredResponse};
 
 /// Upper end of the figures, Hz: past the drive's anti-resonance (19-22 Hz) and resonance, as
 /// the paper's figures.
 const FIGURE_MAX_FREQUENCY_HZ: f64 = 100.0;
 
+/// Identifies the closed velocity loop of each axis on the controller and plant FMUs (the seed
+/// paper's Figs. 7 and 9) and writes the Bode figures.
+#[derive(Parser)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
+struct Cli {
+    /// Folder for the figures [default: docs/figures].
+    #[arg(value_name = "OUTPUT FOLDER")]
+    output: Option<PathBuf>,
+}
+
 fn main() -> ExitCode {
-    let output = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
-    if let Err(e) = std::fs::create_dir_all(&output) {
-        eprintln!("cannot create {}: {e}", output.display());
-        return ExitCode::FAILURE;
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("velocity-bode: error: {e:#}");
+            ExitCode::from(2)
+        }
     }
-    for axis in [Axis::Azimuth, Axis::Elevation] {
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
+    std::fs::create_dir_all(&output).with_context(|| format!("cannot create {}", output.display()))?;
+    for axis in Axis::BOTH {
         let config = VelocityBodeConfig::paper(axis);
-        let result = match identify_velocity_loop(&antenna_fmus::fmu_directory(), &config) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!(
-                    "{}: {e} (package the FMUs first: cargo run --release -p xtask --bin package)",
-                    axis.name()
-                );
-                return ExitCode::FAILURE;
-            }
-        };
+        let result = identify_velocity_loop(&antenna_fmus::fmu_directory(), &config)
+            .with_context(|| format!("{} (package the FMUs first: cargo xtask package)", axis.name()))?;
         if !result.linear_regime_held() {
-            eprintln!(
+            bail!(
                 "{}: the run left the linear regime (smallest motor speed {:.3} rad/s, largest torque {:.2} N m against the bias fade start {:.2}, {} flank changes)",
                 axis.name(),
                 result.min_motor_speed_rad_per_s,
@@ -48,13 +59,9 @@ fn main() -> ExitCode {
                 result.bias_fade_start_nm,
                 result.flank_changes
             );
-            return ExitCode::FAILURE;
         }
         let path = output.join(format!("velocity-loop-bode-{}-{}deg.png", axis.name(), config.elevation_deg));
-        if let Err(e) = result.figure(FIGURE_MAX_FREQUENCY_HZ).save_png(&path) {
-            eprintln!("cannot write {}: {e}", path.display());
-            return ExitCode::FAILURE;
-        }
+        result.figure(FIGURE_MAX_FREQUENCY_HZ).save_png(&path)?;
         let bins = result.coherent_bins(0.9, FIGURE_MAX_FREQUENCY_HZ);
         let (db, at) = result.max_magnitude_error_db(&bins);
         let show = |b: Option<f64>| b.map_or("none".to_string(), |b| format!("{b:.2} Hz"));
@@ -78,5 +85,5 @@ fn main() -> ExitCode {
             path.display()
         );
     }
-    ExitCode::SUCCESS
+    Ok(())
 }

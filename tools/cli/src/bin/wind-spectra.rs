@@ -7,13 +7,15 @@
 //! * the largest error of our filter against Eq. 2 over 0.001-30 rad/s at 0.5-25 m/s, and how
 //!   the paper's filters compare.
 //!
-//! Usage: `cargo run --release -p antenna-cli --bin wind-spectra [-- <output folder>]`, after
-//! packaging (`cargo run --release -p xtask --bin package`). The records are seeded, so
-//! the figures are reproducible for a given build.
+//! The figures go into `docs/figures/` or the folder given. Package the FMUs first (`cargo
+//! xtask package`). The records are seeded, so the figures are reproducible for a given build.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
+
+use anyhow::Context;
+use clap::Parser;
 
 use antenna_sim::wind_spectra::{
     filter_error, filter_figure, generate_through_fmu, paper_shape, psd_comparison, psd_figure, save, ERROR_SPEEDS_M_S,
@@ -31,7 +33,30 @@ const SEGMENT_S: f64 = 600.0;
 /// the same pattern of slow eddies on a stretched time axis.
 const RECORDS: [(f64, i32); 2] = [(3.0, 1), (9.5, 2)];
 
-fn run(output: &std::path::Path) -> Result<(), String> {
+/// Draws the wind unit's spectra (the filters against Eq. 2, and 2 h records generated through
+/// Wind.fmu) and prints the numbers behind them.
+#[derive(Parser)]
+// `about` is left to this doc comment: the crate description is that of all the commands.
+#[command(version, long_about = None)]
+struct Cli {
+    /// Folder for the figures [default: docs/figures].
+    #[arg(value_name = "OUTPUT FOLDER")]
+    output: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
+    match run(&output) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("wind-spectra: error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(output: &Path) -> anyhow::Result<()> {
     println!(
         "Our Davenport filter against Eq. 2 over {}-{} rad/s (z = 10 m, z0 = 0.4 m; 4001 log-spaced points):",
         OMEGA_RANGE_RAD_S.0, OMEGA_RANGE_RAD_S.1
@@ -58,18 +83,14 @@ fn run(output: &std::path::Path) -> Result<(), String> {
     println!("wrote {}\n", filters.display());
 
     let path = antenna_fmus::fmu_path("Wind");
-    let fmu = Fmu::open(&path).map_err(|e| {
-        format!(
-            "cannot open {}: {e} (package the FMUs first: cargo run --release -p xtask --bin package)",
-            path.display()
-        )
-    })?;
+    let fmu = Fmu::open(&path)
+        .with_context(|| format!("cannot open {} (package the FMUs first: cargo xtask package)", path.display()))?;
     let mut comparisons = Vec::new();
     for (v, seed) in RECORDS {
         let record =
-            generate_through_fmu(&fmu, v, seed, STEP_S, DURATION_S).map_err(|e| format!("Wind.fmu at {v} m/s: {e}"))?;
+            generate_through_fmu(&fmu, v, seed, STEP_S, DURATION_S).with_context(|| format!("Wind.fmu at {v} m/s"))?;
         let started = Instant::now();
-        let c = psd_comparison(&record, SEGMENT_S, 0.95).map_err(|e| e.to_string())?;
+        let c = psd_comparison(&record, SEGMENT_S, 0.95).with_context(|| format!("the spectrum at {v} m/s"))?;
         println!(
             "{v} m/s: {} steps of {} s through Wind.fmu in {:.2} s (sigma {:.4} m/s); record variance {:.4} x 6 kappa v^2 (1 sigma {:.1} % for 2 h); \
              {} of {} bands miss Eq. 2's expected estimate with their 95 % interval; analysis {:.2} s",
@@ -89,18 +110,4 @@ fn run(output: &std::path::Path) -> Result<(), String> {
     save(&psd_figure(&comparisons), &psd)?;
     println!("wrote {}", psd.display());
     Ok(())
-}
-
-fn main() -> ExitCode {
-    let output = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
-    match run(&output) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("wind-spectra: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }

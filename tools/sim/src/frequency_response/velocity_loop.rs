@@ -31,45 +31,17 @@ use fmu_controller::linear::{bandwidth_hz, VelocityLoopModel, C64};
 use fmu_controller::{
     AzimuthController, AzimuthControllerParams, ControlMode, ElevationController, ElevationControllerParams,
 };
+use fmu_import::{Fmu, Instance};
 use fmu_plant::analytic::current_loop_response;
 use fmu_plant::{AzimuthParams, ElevationParams};
-use fmu_import::{Fmu, ImportError, Instance};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use antenna_dsp::{transfer_function_h1, Complex64, Detrend, ResponseComparison, WelchConfig};
+use antenna_dsp::{Complex64, ResponseComparison};
 use antenna_plot::{measured_against_model, Figure, Panel};
 
-/// Which axis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Axis {
-    Azimuth,
-    Elevation,
-}
-
-impl Axis {
-    pub fn name(self) -> &'static str {
-        match self {
-            Axis::Azimuth => "azimuth",
-            Axis::Elevation => "elevation",
-        }
-    }
-
-    fn plant(self) -> &'static str {
-        match self {
-            Axis::Azimuth => "AzimuthPlant",
-            Axis::Elevation => "ElevationPlant",
-        }
-    }
-
-    fn controller(self) -> &'static str {
-        match self {
-            Axis::Azimuth => "AzimuthController",
-            Axis::Elevation => "ElevationController",
-        }
-    }
-}
+use super::{read_real, welch_h1, Axis, FlankWatch, IdentificationError, MeasuredResponse};
 
 /// The experiment; [`VelocityBodeConfig::paper`] gives the settings of the figures and tests.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -154,30 +126,6 @@ pub struct VelocityBode {
     pub analysis_wall_s: f64,
 }
 
-/// Why an identification could not run.
-#[derive(Debug, Clone)]
-pub struct BodeError(pub String);
-
-impl std::fmt::Display for BodeError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for BodeError {}
-
-impl From<ImportError> for BodeError {
-    fn from(e: ImportError) -> Self {
-        BodeError(e.to_string())
-    }
-}
-
-fn get(fmu: &Fmu, instance: &mut Instance, name: &str) -> Result<f64, BodeError> {
-    let mut value = [f64::NAN];
-    instance.get_real(&[fmu.description.vr(name)?], &mut value)?;
-    Ok(value[0])
-}
-
 /// The analytic velocity-loop model of the library controller with the parameters the FMU
 /// reports, refusing to go on if the FMU's loop parameters differ from the library defaults the
 /// model is built from (the model would describe another controller).
@@ -187,7 +135,7 @@ fn analytic_model(
     instance: &mut Instance,
     step_s: f64,
     elevation_deg: f64,
-) -> Result<VelocityLoopModel, BodeError> {
+) -> Result<VelocityLoopModel, IdentificationError> {
     let (cascade, own): (_, Vec<(&str, f64)>) = match axis {
         Axis::Azimuth => {
             let p = AzimuthControllerParams::default();
@@ -222,9 +170,9 @@ fn analytic_model(
     ];
     expected.extend(own);
     for (name, value) in expected {
-        let reported = get(fmu, instance, name)?;
+        let reported = read_real(fmu, instance, name)?;
         if reported != value {
-            return Err(BodeError(format!(
+            return Err(IdentificationError::ModelMismatch(format!(
                 "the controller FMU's {name} is {reported}, the library default the analytic model uses is {value}"
             )));
         }
@@ -232,7 +180,7 @@ fn analytic_model(
     let mut integrator = [false];
     instance.get_boolean(&[fmu.description.vr("velocity_loop.integrator")?], &mut integrator)?;
     if integrator[0] != v.integrator_enabled {
-        return Err(BodeError(
+        return Err(IdentificationError::ModelMismatch(
             "the controller FMU's velocity integrator setting differs from the library default".into(),
         ));
     }
@@ -242,7 +190,7 @@ fn analytic_model(
         value[0]
     };
     if i64::from(delay) != i64::from(cascade.sampling.delay_samples) {
-        return Err(BodeError(format!(
+        return Err(IdentificationError::ModelMismatch(format!(
             "the controller FMU's delay is {delay} samples, the library's {}",
             cascade.sampling.delay_samples
         )));
@@ -251,12 +199,14 @@ fn analytic_model(
         Axis::Azimuth => {
             let mut p = AzimuthControllerParams::default();
             p.cascade.sampling.sample_time_s = step_s;
-            Ok(AzimuthController::new(p).map_err(BodeError)?.velocity_loop_model())
+            Ok(AzimuthController::new(p).map_err(IdentificationError::Controller)?.velocity_loop_model())
         }
         Axis::Elevation => {
             let mut p = ElevationControllerParams::default();
             p.cascade.sampling.sample_time_s = step_s;
-            Ok(ElevationController::new(p).map_err(BodeError)?.velocity_loop_model_at(elevation_deg))
+            Ok(ElevationController::new(p)
+                .map_err(IdentificationError::Controller)?
+                .velocity_loop_model_at(elevation_deg))
         }
     }
 }
@@ -292,45 +242,124 @@ pub fn sampled_bandwidth_hz(frequency_hz: &[f64], magnitude: &[f64]) -> Option<f
 }
 
 /// Runs the experiment on the packaged FMUs in `fmu_directory`.
-pub fn identify_velocity_loop(fmu_directory: &Path, config: &VelocityBodeConfig) -> Result<VelocityBode, BodeError> {
+pub fn identify_velocity_loop(
+    fmu_directory: &Path,
+    config: &VelocityBodeConfig,
+) -> Result<VelocityBode, IdentificationError> {
     let started = std::time::Instant::now();
     let axis = config.axis;
-    let plant_fmu = Fmu::open(fmu_directory.join(format!("{}.fmu", axis.plant())))?;
-    let controller_fmu = Fmu::open(fmu_directory.join(format!("{}.fmu", axis.controller())))?;
-    let (pd, cd) = (&plant_fmu.description, &controller_fmu.description);
-    let h = config.step_s;
+    let plant_fmu = Fmu::open(fmu_directory.join(format!("{}.fmu", axis.model_identifier())))?;
+    let controller_fmu = Fmu::open(fmu_directory.join(format!("{}.fmu", axis.controller_model_identifier())))?;
     let start_position = match axis {
         Axis::Azimuth => 0.0,
         Axis::Elevation => config.elevation_deg,
     };
+    let mut plant = initialised_plant(&plant_fmu, config, start_position)?;
+    let mut controller = initialised_controller(&controller_fmu, config, start_position)?;
+    let bias_fade_start_nm = match axis {
+        Axis::Azimuth => read_real(&controller_fmu, &mut controller, "torque_bias.fade_start")?,
+        Axis::Elevation => f64::INFINITY,
+    };
+    let record = record(&plant_fmu, &mut plant, &controller_fmu, &mut controller, config)?;
+    let model_elevation_deg = record.elevation_sum / record.input.len() as f64;
+    let h = config.step_s;
+    let model = analytic_model(axis, &controller_fmu, &mut controller, h, model_elevation_deg)?;
+    let simulation_wall_s = started.elapsed().as_secs_f64();
 
-    let mut plant = plant_fmu.instantiate(&format!("{}-plant", axis.name()), false)?;
+    let analysis_started = std::time::Instant::now();
+    let estimate = welch_h1(&record.input, &record.output, h, config.segment_s)?;
+    let frequency_hz = estimate.frequency_hz;
+    let closed = |omega: f64| model.closed_loop(omega, plant_motor_speed_per_torque(axis, model_elevation_deg, omega));
+    let analytic: Vec<Complex64> = frequency_hz.iter().map(|&f| closed(TAU * f)).collect();
+    let measured_bandwidth_hz =
+        sampled_bandwidth_hz(&frequency_hz, &estimate.measured.iter().map(|h| h.norm()).collect::<Vec<_>>());
+    let sample_rate = 1.0 / h;
+    let analytic_bandwidth_hz = bandwidth_hz(closed, frequency_hz[0], 0.4 * sample_rate, 4000);
+    Ok(VelocityBode {
+        config: *config,
+        measured: estimate.measured,
+        coherence: estimate.coherence,
+        frequency_hz,
+        analytic,
+        model_elevation_deg,
+        measured_bandwidth_hz,
+        analytic_bandwidth_hz,
+        min_motor_speed_rad_per_s: record.min_motor_speed,
+        max_torque_nm: record.max_torque,
+        bias_fade_start_nm,
+        flank_changes: record.flank_changes,
+        segments: estimate.segments,
+        simulation_wall_s,
+        analysis_wall_s: analysis_started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The plant instance at rest at `start_position` (and, in azimuth, at the experiment's
+/// elevation).
+fn initialised_plant(
+    fmu: &Fmu,
+    config: &VelocityBodeConfig,
+    start_position: f64,
+) -> Result<Instance, IdentificationError> {
+    let pd = &fmu.description;
+    let mut plant = fmu.instantiate(&format!("{}-plant", config.axis.name()), false)?;
     plant.setup_experiment(0.0, None)?;
     plant.enter_initialization_mode()?;
     plant.set_real(&[pd.vr("initial_position")?], &[start_position])?;
-    if axis == Axis::Azimuth {
+    if config.axis == Axis::Azimuth {
         plant.set_real(&[pd.vr("elevation")?], &[config.elevation_deg])?;
     }
     plant.exit_initialization_mode()?;
+    Ok(plant)
+}
 
-    let mut controller = controller_fmu.instantiate(&format!("{}-controller", axis.name()), false)?;
+/// The controller instance in velocity mode with the parameters the module header explains.
+fn initialised_controller(
+    fmu: &Fmu,
+    config: &VelocityBodeConfig,
+    start_position: f64,
+) -> Result<Instance, IdentificationError> {
+    let cd = &fmu.description;
+    let mut controller = fmu.instantiate(&format!("{}-controller", config.axis.name()), false)?;
     controller.setup_experiment(0.0, None)?;
     controller.enter_initialization_mode()?;
     controller.set_real(
         &cd.vrs(&["sampling.sample_time", "position_loop.max_acceleration", "command.position", "measured.position"])?,
-        &[h, 1e6, start_position, start_position],
+        &[config.step_s, 1e6, start_position, start_position],
     )?;
     controller.set_boolean(&[cd.vr("feedforward.acceleration")?], &[false])?;
-    if axis == Axis::Elevation {
+    if config.axis == Axis::Elevation {
         controller.set_boolean(&[cd.vr("friction_feedforward.enabled")?], &[false])?;
     }
     controller.set_integer(&[cd.vr("mode")?], &[ControlMode::Velocity.index()])?;
     controller.exit_initialization_mode()?;
-    let bias_fade_start_nm = match axis {
-        Axis::Azimuth => get(&controller_fmu, &mut controller, "torque_bias.fade_start")?,
-        Axis::Elevation => f64::INFINITY,
-    };
+    Ok(controller)
+}
 
+/// What the run recorded after the settling time.
+struct Record {
+    /// The velocity command, deg/s.
+    input: Vec<f64>,
+    /// The measured axis velocity (motor speed over the ratio), deg/s.
+    output: Vec<f64>,
+    min_motor_speed: f64,
+    max_torque: f64,
+    /// Sum of the elevation over the record, for the model's elevation.
+    elevation_sum: f64,
+    flank_changes: usize,
+}
+
+/// Couples the two instances step by step with the seeded command, through the settling time
+/// and the record, and keeps the record with the linear-regime checks.
+fn record(
+    plant_fmu: &Fmu,
+    plant: &mut Instance,
+    controller_fmu: &Fmu,
+    controller: &mut Instance,
+    config: &VelocityBodeConfig,
+) -> Result<Record, IdentificationError> {
+    let axis = config.axis;
+    let (pd, cd) = (&plant_fmu.description, &controller_fmu.description);
     // Ports: plant outputs (encoder, motor speeds, ratio) -> controller inputs; controller
     // currents -> plant.
     let (plant_out, plant_in, ctrl_in, ctrl_out) = match axis {
@@ -348,27 +377,25 @@ pub fn identify_velocity_loop(fmu_directory: &Path, config: &VelocityBodeConfig)
         ),
     };
     let azimuth_ratio = match axis {
-        Axis::Azimuth => get(&plant_fmu, &mut plant, "gear.ratio")?,
+        Axis::Azimuth => read_real(plant_fmu, plant, "gear.ratio")?,
         Axis::Elevation => f64::NAN,
     };
-    let flank_vrs = match axis {
-        Axis::Azimuth => pd.vrs(&["pinion1.flank", "pinion2.flank"])?,
-        Axis::Elevation => Vec::new(),
-    };
+    let mut flanks = FlankWatch::new(plant_fmu, axis)?;
 
+    let h = config.step_s;
     let settle_steps = (config.settle_s / h).round() as usize;
     let record_steps = (config.record_s / h).round() as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
-    let mut input = Vec::with_capacity(record_steps);
-    let mut output = Vec::with_capacity(record_steps);
+    let mut record = Record {
+        input: Vec::with_capacity(record_steps),
+        output: Vec::with_capacity(record_steps),
+        min_motor_speed: f64::INFINITY,
+        max_torque: 0.0,
+        elevation_sum: 0.0,
+        flank_changes: 0,
+    };
     let mut plant_values = vec![0.0; plant_out.len()];
     let mut ctrl_values = vec![0.0; ctrl_out.len()];
-    let mut flanks = vec![0i32; flank_vrs.len()];
-    let mut first_flanks: Option<Vec<i32>> = None;
-    let mut flank_changes = 0;
-    let mut min_motor_speed = f64::INFINITY;
-    let mut max_torque: f64 = 0.0;
-    let mut elevation_sum = 0.0;
     for k in 0..settle_steps + record_steps {
         let t = k as f64 * h;
         plant.get_real(&plant_out, &mut plant_values)?;
@@ -389,70 +416,25 @@ pub fn identify_velocity_loop(fmu_directory: &Path, config: &VelocityBodeConfig)
         if k >= settle_steps {
             // The output at t_k with the command the controller samples at t_k: the pair of the
             // sampled closed loop, whose delay and hold the analytic model contains.
-            input.push(command);
-            output.push((motor_speed / ratio).to_degrees());
+            record.input.push(command);
+            record.output.push((motor_speed / ratio).to_degrees());
             let speeds = match axis {
                 Axis::Azimuth => vec![plant_values[1], plant_values[2]],
                 Axis::Elevation => vec![plant_values[1]],
             };
-            min_motor_speed = speeds.into_iter().fold(min_motor_speed, f64::min);
-            max_torque = max_torque.max(torque.abs());
-            elevation_sum += match axis {
+            record.min_motor_speed = speeds.into_iter().fold(record.min_motor_speed, f64::min);
+            record.max_torque = record.max_torque.max(torque.abs());
+            record.elevation_sum += match axis {
                 Axis::Azimuth => config.elevation_deg,
                 Axis::Elevation => plant_values[0],
             };
-            if !flank_vrs.is_empty() {
-                plant.get_integer(&flank_vrs, &mut flanks)?;
-                match &first_flanks {
-                    None => first_flanks = Some(flanks.clone()),
-                    Some(first) if *first != flanks => {
-                        flank_changes += 1;
-                        first_flanks = Some(flanks.clone());
-                    }
-                    Some(_) => {}
-                }
-            }
+            flanks.sample(plant)?;
         }
         plant.do_step(t, h)?;
         controller.do_step(t, h)?;
     }
-    let model_elevation_deg = elevation_sum / record_steps as f64;
-    let model = analytic_model(axis, &controller_fmu, &mut controller, h, model_elevation_deg)?;
-    let simulation_wall_s = started.elapsed().as_secs_f64();
-
-    let analysis_started = std::time::Instant::now();
-    let sample_rate = 1.0 / h;
-    // Linear detrending: the elevation ratio, and with it the motor speed's offset, drifts
-    // slowly as the dish rises.
-    let welch = WelchConfig::from_duration(config.segment_s, sample_rate).with_detrend(Detrend::Linear);
-    let estimate = transfer_function_h1(&input, &output, sample_rate, &welch)
-        .map_err(|e| BodeError(format!("Welch estimate: {e}")))?;
-    let bins: Vec<usize> = (1..estimate.frequency_hz.len()).collect();
-    let frequency_hz: Vec<f64> = bins.iter().map(|&i| estimate.frequency_hz[i]).collect();
-    let measured: Vec<Complex64> = bins.iter().map(|&i| estimate.h1[i]).collect();
-    let coherence: Vec<f64> = bins.iter().map(|&i| estimate.coherence[i]).collect();
-    let closed = |omega: f64| model.closed_loop(omega, plant_motor_speed_per_torque(axis, model_elevation_deg, omega));
-    let analytic: Vec<Complex64> = frequency_hz.iter().map(|&f| closed(TAU * f)).collect();
-    let measured_bandwidth_hz =
-        sampled_bandwidth_hz(&frequency_hz, &measured.iter().map(|h| h.norm()).collect::<Vec<_>>());
-    let analytic_bandwidth_hz = bandwidth_hz(closed, frequency_hz[0], 0.4 * sample_rate, 4000);
-    Ok(VelocityBode {
-        config: *config,
-        frequency_hz,
-        measured,
-        coherence,
-        analytic,
-        model_elevation_deg,
-        measured_bandwidth_hz,
-        analytic_bandwidth_hz,
-        min_motor_speed_rad_per_s: min_motor_speed,
-        max_torque_nm: max_torque,
-        bias_fade_start_nm,
-        flank_changes,
-        segments: estimate.segments,
-        simulation_wall_s,
-        analysis_wall_s: analysis_started.elapsed().as_secs_f64(),
-    })
+    record.flank_changes = flanks.changes;
+    Ok(record)
 }
 
 impl VelocityBode {
@@ -460,31 +442,6 @@ impl VelocityBode {
     /// changed flank, the torque stayed below the bias's fade start.
     pub fn linear_regime_held(&self) -> bool {
         self.min_motor_speed_rad_per_s > 0.0 && self.flank_changes == 0 && self.max_torque_nm < self.bias_fade_start_nm
-    }
-
-    /// The estimate beside the analytic loop, bin by bin.
-    pub fn comparison(&self) -> ResponseComparison<'_> {
-        ResponseComparison {
-            frequency_hz: &self.frequency_hz,
-            measured: &self.measured,
-            analytic: &self.analytic,
-            coherence: &self.coherence,
-        }
-    }
-
-    /// Bins with coherence above `threshold` up to `max_frequency_hz`.
-    pub fn coherent_bins(&self, threshold: f64, max_frequency_hz: f64) -> Vec<usize> {
-        self.comparison().coherent_bins(threshold, max_frequency_hz)
-    }
-
-    /// Largest |20 log10 |measured / analytic||, dB, with its frequency, over `bins`.
-    pub fn max_magnitude_error_db(&self, bins: &[usize]) -> (f64, f64) {
-        self.comparison().max_magnitude_error_db(bins)
-    }
-
-    /// Largest |phase(measured / analytic)|, deg, over `bins`.
-    pub fn max_phase_error_deg(&self, bins: &[usize]) -> f64 {
-        self.comparison().max_phase_error_deg(bins)
     }
 
     /// Magnitude (dB), phase and coherence from the first bin to `max_frequency_hz`, measured
@@ -518,6 +475,18 @@ impl VelocityBode {
                 magnitude
             },
         )
+    }
+}
+
+impl MeasuredResponse for VelocityBode {
+    /// The estimate beside the analytic loop, bin by bin.
+    fn comparison(&self) -> ResponseComparison<'_> {
+        ResponseComparison {
+            frequency_hz: &self.frequency_hz,
+            measured: &self.measured,
+            analytic: &self.analytic,
+            coherence: &self.coherence,
+        }
     }
 }
 

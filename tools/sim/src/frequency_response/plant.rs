@@ -26,37 +26,16 @@
 use std::f64::consts::TAU;
 use std::path::Path;
 
+use fmu_import::{Fmu, Instance};
 use fmu_plant::analytic::{current_loop_response, TwoMassParameters, C64};
-use fmu_import::{Fmu, ImportError, Instance};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use antenna_dsp::{transfer_function_h1, Complex64, Detrend, ResponseComparison, WelchConfig};
+use antenna_dsp::{Complex64, ResponseComparison};
 use antenna_plot::{measured_against_model, Figure, Panel};
 
-/// Which plant FMU to identify.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Axis {
-    Azimuth,
-    Elevation,
-}
-
-impl Axis {
-    pub fn model_identifier(self) -> &'static str {
-        match self {
-            Axis::Azimuth => "AzimuthPlant",
-            Axis::Elevation => "ElevationPlant",
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Axis::Azimuth => "azimuth",
-            Axis::Elevation => "elevation",
-        }
-    }
-}
+use super::{read_real, welch_h1, Axis, FlankWatch, IdentificationError, MeasuredResponse};
 
 /// The experiment. [`IdentificationConfig::paper`] gives the settings of the figures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -171,6 +150,18 @@ pub struct Identification {
     pub analysis_wall_s: f64,
 }
 
+impl MeasuredResponse for Identification {
+    /// The estimate beside the corrected Eq. 1, bin by bin.
+    fn comparison(&self) -> ResponseComparison<'_> {
+        ResponseComparison {
+            frequency_hz: &self.frequency_hz,
+            measured: &self.measured,
+            analytic: &self.analytic,
+            coherence: &self.coherence,
+        }
+    }
+}
+
 /// The anti-resonance trough of a frequency response.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Trough {
@@ -252,32 +243,6 @@ impl Identification {
     fn search_band(&self) -> (f64, f64) {
         let f = self.undamped_anti_resonance_hz();
         (0.7 * f, 1.3 * f)
-    }
-
-    /// The estimate beside the corrected Eq. 1, bin by bin.
-    pub fn comparison(&self) -> ResponseComparison<'_> {
-        ResponseComparison {
-            frequency_hz: &self.frequency_hz,
-            measured: &self.measured,
-            analytic: &self.analytic,
-            coherence: &self.coherence,
-        }
-    }
-
-    /// Bins where the coherence exceeds `threshold`, below `max_frequency_hz`.
-    pub fn coherent_bins(&self, threshold: f64, max_frequency_hz: f64) -> Vec<usize> {
-        self.comparison().coherent_bins(threshold, max_frequency_hz)
-    }
-
-    /// Largest |20 log10 |measured/analytic|| over the given bins, dB, with its frequency.
-    pub fn max_magnitude_error_db(&self, bins: &[usize]) -> (f64, f64) {
-        self.comparison().max_magnitude_error_db(bins)
-    }
-
-    /// Largest phase difference measured - analytic over the given bins, deg (wrapped to
-    /// +/-180).
-    pub fn max_phase_error_deg(&self, bins: &[usize]) -> f64 {
-        self.comparison().max_phase_error_deg(bins)
     }
 
     /// Normalised random error of |H1| (one standard deviation) at a bin, Bendat & Piersol
@@ -364,31 +329,6 @@ pub fn held_response(
     total
 }
 
-/// Why an identification could not be run.
-#[derive(Debug, Clone)]
-pub struct IdentificationError(pub String);
-
-impl std::fmt::Display for IdentificationError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for IdentificationError {}
-
-impl From<ImportError> for IdentificationError {
-    fn from(e: ImportError) -> Self {
-        IdentificationError(e.to_string())
-    }
-}
-
-fn real(instance: &mut Instance, fmu: &Fmu, name: &str) -> Result<f64, IdentificationError> {
-    let vr = fmu.description.vr(name)?;
-    let mut value = [f64::NAN];
-    instance.get_real(&[vr], &mut value)?;
-    Ok(value[0])
-}
-
 /// Reads the reflected two-mass parameters, the torque per common ampere and the current-loop
 /// bandwidth back from an initialised plant instance.
 fn reference_parameters(
@@ -396,7 +336,7 @@ fn reference_parameters(
     instance: &mut Instance,
     fmu: &Fmu,
 ) -> Result<(TwoMassParameters, f64, f64, f64), IdentificationError> {
-    let mut r = |name: &str| real(instance, fmu, name);
+    let mut r = |name: &str| read_real(fmu, instance, name);
     match axis {
         Axis::Azimuth => {
             // The reference doubles one motor (the paper's "double each motor parameter"), which
@@ -406,13 +346,13 @@ fn reference_parameters(
             {
                 let (a, b) = (r(&format!("motor1.{name}"))?, r(&format!("motor2.{name}"))?);
                 if a != b {
-                    return Err(IdentificationError(format!("motor1.{name} = {a} and motor2.{name} = {b} differ: the doubled two-mass reference needs identical drives")));
+                    return Err(IdentificationError::ModelMismatch(format!("motor1.{name} = {a} and motor2.{name} = {b} differ: the doubled two-mass reference needs identical drives")));
                 }
             }
             let (k1, k2, c1, c2) =
                 (r("pinion1.stiffness")?, r("pinion2.stiffness")?, r("pinion1.damping")?, r("pinion2.damping")?);
             if k1 != k2 || c1 != c2 {
-                return Err(IdentificationError(
+                return Err(IdentificationError::ModelMismatch(
                     "the two pinion paths differ: the doubled two-mass reference needs identical paths".into(),
                 ));
             }
@@ -452,6 +392,42 @@ fn reference_parameters(
 pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identification, IdentificationError> {
     let started = std::time::Instant::now();
     let fmu = Fmu::open(fmu_path)?;
+    let mut instance = initialised_plant(&fmu, config)?;
+    let (two_mass, torque_per_amp, bandwidth_hz, reported_anti_resonance_hz) =
+        reference_parameters(config.axis, &mut instance, &fmu)?;
+    let record = record(&fmu, &mut instance, config)?;
+    let simulation_wall_s = started.elapsed().as_secs_f64();
+
+    let analysis_started = std::time::Instant::now();
+    let h = config.step_s;
+    let estimate = welch_h1(&record.input, &record.output, h, config.segment_s)?;
+    let analytic =
+        estimate.frequency_hz.iter().map(|&f| held_response(&two_mass, torque_per_amp, bandwidth_hz, f, h)).collect();
+    let record_steps = record.input.len() as f64;
+    Ok(Identification {
+        config: *config,
+        measured: estimate.measured,
+        coherence: estimate.coherence,
+        frequency_hz: estimate.frequency_hz,
+        analytic,
+        dof: estimate.dof,
+        segments: estimate.segments,
+        two_mass,
+        torque_per_amp,
+        current_loop_bandwidth_hz: bandwidth_hz,
+        reported_anti_resonance_hz,
+        min_motor_speed_rad_per_s: record.min_motor_speed,
+        mean_motor_speed_rad_per_s: record.speed_sum / record_steps,
+        mean_axis_speed_deg_per_s: record.axis_speed_sum / record_steps,
+        flank_changes: record.flank_changes,
+        simulation_wall_s,
+        analysis_wall_s: analysis_started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The plant instance set up for the experiment: at its elevation (the azimuth plant's input;
+/// the elevation plant's geometry frozen there) and start position, linear if asked.
+fn initialised_plant(fmu: &Fmu, config: &IdentificationConfig) -> Result<Instance, IdentificationError> {
     let md = &fmu.description;
     let mut instance = fmu.instantiate(&format!("{}-identification", config.axis.name()), false)?;
     instance.setup_experiment(0.0, None)?;
@@ -477,33 +453,48 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
         }
     }
     instance.exit_initialization_mode()?;
-    let (two_mass, torque_per_amp, bandwidth_hz, reported_anti_resonance_hz) =
-        reference_parameters(config.axis, &mut instance, &fmu)?;
+    Ok(instance)
+}
 
-    let (input_vrs, speed_vrs, flank_vrs, axis_speed_vr) = match config.axis {
+/// What the run recorded after the settling time.
+struct Record {
+    /// The common current command, A.
+    input: Vec<f64>,
+    /// The measured motor speed (motor 1) with sensor noise, rad/s.
+    output: Vec<f64>,
+    min_motor_speed: f64,
+    speed_sum: f64,
+    axis_speed_sum: f64,
+    flank_changes: usize,
+}
+
+/// Drives the plant with the seeded excitation, from rest through the settling time and the
+/// record, and keeps the record with the linear-regime checks.
+fn record(fmu: &Fmu, instance: &mut Instance, config: &IdentificationConfig) -> Result<Record, IdentificationError> {
+    let md = &fmu.description;
+    let (input_vrs, speed_vrs, axis_speed_vr) = match config.axis {
         Axis::Azimuth => (
             md.vrs(&["motor1.current_command", "motor2.current_command"])?,
             md.vrs(&["motor1.speed", "motor2.speed"])?,
-            md.vrs(&["pinion1.flank", "pinion2.flank"])?,
             md.vr("axis.speed")?,
         ),
-        Axis::Elevation => {
-            (md.vrs(&["motor.current_command"])?, md.vrs(&["motor.speed"])?, Vec::new(), md.vr("axis.speed")?)
-        }
+        Axis::Elevation => (md.vrs(&["motor.current_command"])?, md.vrs(&["motor.speed"])?, md.vr("axis.speed")?),
     };
+    let mut flanks = FlankWatch::new(fmu, config.axis)?;
     let h = config.step_s;
     let settle_steps = (config.settle_s / h).round() as usize;
     let record_steps = (config.record_s / h).round() as usize;
     let mut excitation_rng = ChaCha8Rng::seed_from_u64(config.seed);
     let mut sensor_rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x5EED_5E25_0000_0001);
-    let mut input = Vec::with_capacity(record_steps);
-    let mut output = Vec::with_capacity(record_steps);
+    let mut record = Record {
+        input: Vec::with_capacity(record_steps),
+        output: Vec::with_capacity(record_steps),
+        min_motor_speed: f64::INFINITY,
+        speed_sum: 0.0,
+        axis_speed_sum: 0.0,
+        flank_changes: 0,
+    };
     let mut speeds = vec![0.0; speed_vrs.len()];
-    let mut flanks = vec![0i32; flank_vrs.len()];
-    let mut first_flanks: Option<Vec<i32>> = None;
-    let mut flank_changes = 0;
-    let mut min_motor_speed = f64::INFINITY;
-    let (mut speed_sum, mut axis_speed_sum) = (0.0, 0.0);
     let mut axis_speed = [0.0];
     for k in 0..settle_steps + record_steps {
         let t = k as f64 * h;
@@ -514,23 +505,13 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
         let common = config.offset_current_a + config.noise_current_a * noise;
         let sensor: f64 = StandardNormal.sample(&mut sensor_rng);
         if k >= settle_steps {
-            input.push(common);
-            output.push(speeds[0] + config.sensor_noise_rad_per_s * sensor);
-            min_motor_speed = speeds.iter().copied().fold(min_motor_speed, f64::min);
-            speed_sum += speeds[0];
+            record.input.push(common);
+            record.output.push(speeds[0] + config.sensor_noise_rad_per_s * sensor);
+            record.min_motor_speed = speeds.iter().copied().fold(record.min_motor_speed, f64::min);
+            record.speed_sum += speeds[0];
             instance.get_real(&[axis_speed_vr], &mut axis_speed)?;
-            axis_speed_sum += axis_speed[0];
-            if !flank_vrs.is_empty() {
-                instance.get_integer(&flank_vrs, &mut flanks)?;
-                match &first_flanks {
-                    None => first_flanks = Some(flanks.clone()),
-                    Some(first) if *first != flanks => {
-                        flank_changes += 1;
-                        first_flanks = Some(flanks.clone());
-                    }
-                    Some(_) => {}
-                }
-            }
+            record.axis_speed_sum += axis_speed[0];
+            flanks.sample(instance)?;
         }
         let commands: Vec<f64> = match config.axis {
             Axis::Azimuth => vec![common + config.bias_current_a, common - config.bias_current_a],
@@ -539,37 +520,8 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
         instance.set_real(&input_vrs, &commands)?;
         instance.do_step(t, h)?;
     }
-    let simulation_wall_s = started.elapsed().as_secs_f64();
-
-    let analysis_started = std::time::Instant::now();
-    let sample_rate = 1.0 / h;
-    // Linear detrending: the axis is still accelerating slowly towards the speed where viscous
-    // friction balances the offset, a ramp that would leak into the lowest bins.
-    let welch = WelchConfig::from_duration(config.segment_s, sample_rate).with_detrend(Detrend::Linear);
-    let estimate = transfer_function_h1(&input, &output, sample_rate, &welch)
-        .map_err(|e| IdentificationError(format!("Welch estimate: {e}")))?;
-    let bins: Vec<usize> = (1..estimate.frequency_hz.len()).collect();
-    let frequency_hz: Vec<f64> = bins.iter().map(|&i| estimate.frequency_hz[i]).collect();
-    let analytic = frequency_hz.iter().map(|&f| held_response(&two_mass, torque_per_amp, bandwidth_hz, f, h)).collect();
-    Ok(Identification {
-        config: *config,
-        measured: bins.iter().map(|&i| estimate.h1[i]).collect(),
-        coherence: bins.iter().map(|&i| estimate.coherence[i]).collect(),
-        frequency_hz,
-        analytic,
-        dof: estimate.dof,
-        segments: estimate.segments,
-        two_mass,
-        torque_per_amp,
-        current_loop_bandwidth_hz: bandwidth_hz,
-        reported_anti_resonance_hz,
-        min_motor_speed_rad_per_s: min_motor_speed,
-        mean_motor_speed_rad_per_s: speed_sum / record_steps as f64,
-        mean_axis_speed_deg_per_s: axis_speed_sum / record_steps as f64,
-        flank_changes,
-        simulation_wall_s,
-        analysis_wall_s: analysis_started.elapsed().as_secs_f64(),
-    })
+    record.flank_changes = flanks.changes;
+    Ok(record)
 }
 
 /// The figures of merit of one identification, as the summary and the test state them.

@@ -1,0 +1,120 @@
+//! The project's build tasks as one command, `cargo xtask <task>` (the alias is in
+//! `.cargo/config.toml`): `package` builds and packages the FMUs into `target/fmu/`,
+//! `package-into` into another folder, `codegen` regenerates or checks `modelDescription/`.
+//!
+//! Exit codes: 0 done; 1 a check that ran and failed (stale generated files, packages that
+//! differ between two builds); 2 bad usage or a task that could not be carried out.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    task: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// Build the FMUs' shared libraries and write every .fmu into target/fmu/ (or $MEERKAT_FMU_DIR).
+    Package {
+        /// Also build from a copy of the sources at another path and check that every .fmu is
+        /// byte-identical.
+        #[arg(long)]
+        reproducibility_check: bool,
+    },
+    /// Build the shared libraries in $CARGO_TARGET_DIR (or target/) and write every .fmu into DIR.
+    PackageInto {
+        /// The folder to write the .fmu files into.
+        dir: PathBuf,
+    },
+    /// Regenerate modelDescription/*.xml from the variable tables.
+    Codegen {
+        /// Only check: list the stale files and exit 1 if there are any, writing nothing.
+        #[arg(long)]
+        check: bool,
+    },
+}
+
+/// A task that ran to its end: either all was well, or a check found something.
+enum Outcome {
+    Done,
+    CheckFailed,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(Outcome::Done) => ExitCode::SUCCESS,
+        Ok(Outcome::CheckFailed) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("xtask: error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<Outcome> {
+    match cli.task {
+        Task::Package { reproducibility_check } => package(reproducibility_check),
+        Task::PackageInto { dir } => {
+            let target = std::env::var("CARGO_TARGET_DIR")
+                .map(PathBuf::from)
+                .unwrap_or_else(|_| antenna_fmus::workspace_root().join("target"));
+            xtask::build_libraries(&target)?;
+            for path in xtask::package_all(&target, &dir)? {
+                println!("{}", path.display());
+            }
+            Ok(Outcome::Done)
+        }
+        Task::Codegen { check } => codegen(check),
+    }
+}
+
+fn package(reproducibility_check: bool) -> anyhow::Result<Outcome> {
+    let stale = xtask::codegen(true)?;
+    if !stale.is_empty() {
+        eprintln!("xtask: stale generated files (run `cargo xtask codegen`):");
+        for s in stale {
+            eprintln!("  {s}");
+        }
+        return Ok(Outcome::CheckFailed);
+    }
+    let written = xtask::build_and_package().context("packaging failed")?;
+    for path in &written {
+        let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        println!("{} ({} bytes)", path.display(), size);
+    }
+    if reproducibility_check {
+        let differing = xtask::reproducibility_differences(&written).context("reproducibility check")?;
+        if !differing.is_empty() {
+            eprintln!("xtask: not reproducible: {} differ between the two builds", differing.join(", "));
+            return Ok(Outcome::CheckFailed);
+        }
+        println!("reproducible: a build from another checkout path gives byte-identical .fmu files");
+    }
+    Ok(Outcome::Done)
+}
+
+fn codegen(check: bool) -> anyhow::Result<Outcome> {
+    let stale = xtask::codegen(check)?;
+    if stale.is_empty() {
+        println!("modelDescription/ is up to date");
+        Ok(Outcome::Done)
+    } else if check {
+        eprintln!("xtask: stale generated files (run `cargo xtask codegen`):");
+        for s in stale {
+            eprintln!("  {s}");
+        }
+        Ok(Outcome::CheckFailed)
+    } else {
+        for s in stale {
+            println!("wrote {s}");
+        }
+        Ok(Outcome::Done)
+    }
+}
