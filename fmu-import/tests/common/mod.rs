@@ -2,7 +2,7 @@
 //! ready to step, and the functions the importer keeps no pointer to (model exchange,
 //! derivatives), looked up with `dlsym` in the library the importer loaded.
 //!
-//! The FMUs are the ones `cargo run --release -p xtask --bin package` writes to
+//! The FMUs are the ones `cargo xtask package` writes to
 //! `target/fmu/`, or those in the folder named by `MEERKAT_FMU_DIR` (as for the tools and the
 //! other integration tests); every `.fmu` there is tested, since all share this runtime.
 
@@ -20,7 +20,7 @@ pub fn packaged_fmus() -> Vec<Fmu> {
         Some(dir) => PathBuf::from(dir),
         None => Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace").join("target").join("fmu"),
     };
-    let hint = "package the FMUs first (cargo run --release -p xtask --bin package)";
+    let hint = "package the FMUs first (cargo xtask package)";
     let mut paths: Vec<PathBuf> = std::fs::read_dir(&directory)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}; {hint}", directory.display()))
         .filter_map(|e| e.ok().map(|e| e.path()))

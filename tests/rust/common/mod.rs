@@ -10,7 +10,7 @@ use fmu_import::{Fmu, ImportError, Instance};
 /// The two plant FMUs the plant tests run on.
 pub const PLANTS: [&str; 2] = ["AzimuthPlant", "ElevationPlant"];
 
-const PACKAGE_HINT: &str = "package the FMUs first (cargo run --release -p xtask --bin package)";
+const PACKAGE_HINT: &str = "package the FMUs first (cargo xtask package)";
 
 /// The packaged FMU with this model identifier. The test command packages before testing; a
 /// missing file is a failure with instructions, never a silent skip.

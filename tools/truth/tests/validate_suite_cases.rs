@@ -12,7 +12,7 @@
 //! anti-resonance of the frequency response, where the paper saw its stiffness error, is
 //! checked as well.
 //!
-//! The FMU must be packaged first (`cargo run --release -p xtask --bin package`).
+//! The FMU must be packaged first (`cargo xtask package`).
 
 use antenna_truth::scoring::{score, CaseResult};
 use antenna_truth::suite::{generate_case, SuiteConfig};

@@ -8,7 +8,7 @@
 //! the data or the results).
 //!
 //! The plant FMU defaults to target/fmu/AzimuthPlant.fmu (package it first with
-//! `cargo run --release -p xtask --bin package`).
+//! `cargo xtask package`).
 
 use antenna_truth::scoring;
 use antenna_truth::suite::{self, SuiteConfig};
