@@ -47,9 +47,9 @@ pub use spectral::{
     TransferEstimate, WelchConfig,
 };
 pub use stats::{
-    kurtosis_excess, least_squares, linear_regression, max_moving_average, max_moving_rms, mean, moving_average,
-    moving_rms, nrmse_fit_percent, rms, sample_variance, skewness, std_dev, variance, weighted_linear_regression,
-    window_samples, LeastSquaresFit, LineFit, WindowExtreme,
+    fit_percent_from_model, fit_percent_from_residual, kurtosis_excess, linear_regression, max_moving_average,
+    max_moving_rms, mean, moving_average, moving_rms, rms, sample_variance, skewness, std_dev, variance,
+    weighted_least_squares, weighted_linear_regression, window_samples, LineFit, WindowExtreme,
 };
 pub use window::Window;
 
