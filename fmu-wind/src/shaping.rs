@@ -225,8 +225,7 @@ impl ShapingFilter {
     /// `(A, B B' / 2)`.
     pub fn stationary_covariance(&self) -> DMatrix<f64> {
         let w = self.b() * self.b().transpose() * NOISE_INTENSITY;
-        lti::lyapunov_continuous(&self.a(), &w)
-            .expect("a stable modal A has a unique Lyapunov solution")
+        lti::lyapunov_continuous(&self.a(), &w).expect("a stable modal A has a unique Lyapunov solution")
     }
 
     /// The exact stationary output variance `C P C'`, in (m/s)^2.

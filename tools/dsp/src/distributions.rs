@@ -225,6 +225,13 @@ impl ChiSquaredInterval {
         })
     }
 
+    /// The same interval seen from the true spectrum, `(low, high)`: with probability
+    /// `confidence` an estimate lies within `[low S, high S]` of the true S. These are
+    /// `(1 / upper, 1 / lower)`, the bounds a test of an estimate against a known spectrum uses.
+    pub fn estimate_factors(&self) -> (f64, f64) {
+        (1.0 / self.upper, 1.0 / self.lower)
+    }
+
     /// The interval in decibels below and above the estimate, (negative, positive).
     pub fn decibels(&self) -> (f64, f64) {
         (10.0 * self.lower.log10(), 10.0 * self.upper.log10())

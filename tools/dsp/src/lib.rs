@@ -22,6 +22,7 @@ pub mod comparison;
 pub mod correlation;
 pub mod distributions;
 pub mod expectation;
+pub mod lpsd;
 pub mod spectral;
 pub mod stats;
 pub mod window;
@@ -41,6 +42,7 @@ pub use distributions::{
     ChiSquaredInterval,
 };
 pub use expectation::expected_welch_psd;
+pub use lpsd::{expected_lpsd, lpsd, lpsd_segment_len, FrequencyEstimate};
 pub use rustfft::num_complex::Complex64;
 pub use spectral::{
     coherence, transfer_function_h1, unwrap_phase_deg, welch_csd, welch_psd, CrossSpectrum, Detrend, Spectrum,
