@@ -55,12 +55,11 @@ pub use stats::{
 };
 pub use window::Window;
 
-use std::fmt;
-
 /// Why a signal-processing function could not produce a result.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DspError {
     /// The input had fewer samples than the operation needs.
+    #[error("input too short: {got} samples, at least {needed} needed")]
     TooShort {
         /// Samples required.
         needed: usize,
@@ -68,6 +67,7 @@ pub enum DspError {
         got: usize,
     },
     /// Two inputs that must be sample-aligned have different lengths.
+    #[error("inputs differ in length: {first} and {second} samples")]
     LengthMismatch {
         /// Length of the first input.
         first: usize,
@@ -75,13 +75,16 @@ pub enum DspError {
         second: usize,
     },
     /// A sample is NaN or infinite.
+    #[error("sample {index} is not finite")]
     NonFinite {
         /// Index of the first offending sample.
         index: usize,
     },
     /// The input is constant, so a normalised quantity is undefined.
+    #[error("input has zero variance")]
     ZeroVariance,
     /// A parameter is outside its valid range.
+    #[error("invalid {name}: {reason}")]
     InvalidParameter {
         /// Name of the parameter.
         name: &'static str,
@@ -95,24 +98,6 @@ impl DspError {
         DspError::InvalidParameter { name, reason: reason.into() }
     }
 }
-
-impl fmt::Display for DspError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            DspError::TooShort { needed, got } => {
-                write!(f, "input too short: {got} samples, at least {needed} needed")
-            }
-            DspError::LengthMismatch { first, second } => {
-                write!(f, "inputs differ in length: {first} and {second} samples")
-            }
-            DspError::NonFinite { index } => write!(f, "sample {index} is not finite"),
-            DspError::ZeroVariance => write!(f, "input has zero variance"),
-            DspError::InvalidParameter { name, reason } => write!(f, "invalid {name}: {reason}"),
-        }
-    }
-}
-
-impl std::error::Error for DspError {}
 
 /// Returns the index of the first non-finite sample, so estimators can refuse NaN input
 /// instead of silently returning a NaN spectrum.

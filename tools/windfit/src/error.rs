@@ -27,6 +27,14 @@ pub enum WindFitError {
         /// The columns the header has.
         available: Vec<String>,
     },
+    /// The CSV reader could not read a line (for instance an unterminated quote).
+    #[error("line {line}: {message}")]
+    Malformed {
+        /// 1-based line number in the file.
+        line: usize,
+        /// The reader's message.
+        message: String,
+    },
     /// A data line has a different number of cells from the header.
     #[error("line {line}: {found} cells, but the header has {expected}")]
     RowLength {

@@ -32,10 +32,38 @@ impl WindRecord {
     }
 }
 
-/// Splits a CSV line into trimmed cells with surrounding double quotes removed. Wind records
-/// are plain numeric tables, so quoted commas are not supported.
-pub(crate) fn split_cells(line: &str) -> Vec<String> {
-    line.split(',').map(|cell| cell.trim().trim_matches('"').trim().to_string()).collect()
+/// A cell as the record means it: surrounding blanks and double quotes removed, so a header
+/// written `"time_s", "speed"` names the columns `time_s` and `speed`.
+fn clean_cell(cell: &str) -> String {
+    cell.trim().trim_matches('"').trim().to_string()
+}
+
+/// True for a row that holds no data: blank, or a comment whose `#` follows blanks (the CSV
+/// reader skips a `#` only at the very start of a line).
+fn is_blank_or_comment(row: &csv::StringRecord) -> bool {
+    match row.get(0) {
+        None => true,
+        Some(first) => (row.len() == 1 && first.trim().is_empty()) || first.trim_start().starts_with('#'),
+    }
+}
+
+/// The rows of `text` that hold data, each with its 1-based line number in the text.
+fn data_rows(text: &str) -> Result<Vec<(usize, Vec<String>)>, WindFitError> {
+    let mut reader =
+        csv::ReaderBuilder::new().has_headers(false).flexible(true).comment(Some(b'#')).from_reader(text.as_bytes());
+    let mut rows = Vec::new();
+    for row in reader.records() {
+        let row = row.map_err(|error| WindFitError::Malformed {
+            line: error.position().map_or(0, |p| p.line() as usize),
+            message: error.to_string(),
+        })?;
+        if is_blank_or_comment(&row) {
+            continue;
+        }
+        let line = row.position().map_or(0, |p| p.line() as usize);
+        rows.push((line, row.iter().map(clean_cell).collect()));
+    }
+    Ok(rows)
 }
 
 pub(crate) fn parse_cell(text: &str, line: usize, column: &str) -> Result<f64, WindFitError> {
@@ -64,12 +92,8 @@ pub fn parse_wind_csv(
     speed_column: &str,
 ) -> Result<WindRecord, WindFitError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l)).filter(|(_, l)| {
-        let trimmed = l.trim();
-        !trimmed.is_empty() && !trimmed.starts_with('#')
-    });
-    let (_, header_line) = lines.next().ok_or(WindFitError::NoHeader)?;
-    let header = split_cells(header_line);
+    let mut rows = data_rows(text)?.into_iter();
+    let (_, header) = rows.next().ok_or(WindFitError::NoHeader)?;
     let find = |name: &str| {
         header
             .iter()
@@ -82,8 +106,7 @@ pub fn parse_wind_csv(
     let mut time_s = Vec::new();
     let mut speed_m_s = Vec::new();
     let mut line_numbers = Vec::new();
-    for (line, content) in lines {
-        let cells = split_cells(content);
+    for (line, cells) in rows {
         if cells.len() != header.len() {
             return Err(WindFitError::RowLength { line, expected: header.len(), found: cells.len() });
         }
@@ -147,6 +170,16 @@ mod tests {
         let other = parse_wind_csv(GOOD_CSV, "test", DEFAULT_TIME_COLUMN, "u_x_m_s").unwrap();
         assert_eq!(other.speed_m_s[3], 1.3);
         assert!((other.duration_s() - 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn quoted_commas_and_indented_comments_do_not_break_the_columns() {
+        let text =
+            "time_s,note,horizontal_speed_m_s\n  # indented comment\n0.0,\"calm, dry\",2.0\n0.5,x,2.1\n1.0,y,2.2\n";
+        let record = parse_wind_csv(text, "test", DEFAULT_TIME_COLUMN, DEFAULT_SPEED_COLUMN).unwrap();
+        assert_eq!(record.speed_m_s, vec![2.0, 2.1, 2.2]);
+        let error = parse_wind_csv(&text.replace("0.5,x", "0.5,z"), "t", DEFAULT_TIME_COLUMN, "nope").unwrap_err();
+        assert!(matches!(error, WindFitError::MissingColumn { .. }));
     }
 
     fn parse(text: &str) -> WindFitError {
