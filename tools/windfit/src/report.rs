@@ -34,17 +34,37 @@ pub fn gust_summary_csv(analysis: &WindAnalysis) -> String {
     csv
 }
 
-/// The report as Markdown. `files` lists the files written beside it (may be empty).
+/// The report as Markdown, one section per question the record answers. `files` lists the
+/// files written beside it (may be empty).
 pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], files: &[PathBuf]) -> String {
-    let s = &analysis.statistics;
-    let c = &analysis.config;
-    let slope = &analysis.slope;
-    let level = &analysis.level;
-    let implied = &analysis.implied;
-    let id = &analysis.identifiability;
-    let percent = 100.0 * c.confidence;
-    let height = c.effective_height_m();
     let mut r = String::new();
+    title_section(&mut r, analysis);
+    record_statistics_section(&mut r, analysis);
+    spectrum_section(&mut r, analysis);
+    inertial_subrange_section(&mut r, analysis);
+    implied_davenport_section(&mut r, analysis);
+    identifiability_section(&mut r, analysis);
+    gust_statistics_section(&mut r, analysis);
+    averaging_periods_section(&mut r, analysis);
+    if !overlays.is_empty() {
+        let _ = writeln!(r, "\n## Overlays\n");
+        for overlay in overlays {
+            let _ = writeln!(r, "- {} ({} points)", overlay.name, overlay.frequency_hz.len());
+        }
+    }
+    if !files.is_empty() {
+        let _ = writeln!(r, "\n## Files\n");
+        for file in files {
+            let _ = writeln!(r, "- `{}`", file.display());
+        }
+    }
+    r
+}
+
+/// The title and where the record comes from.
+fn title_section(r: &mut String, analysis: &WindAnalysis) {
+    let c = &analysis.config;
+    let height = c.effective_height_m();
     let _ = writeln!(r, "# Measured wind: {} ({})\n", file_name(&analysis.source), analysis.column);
     let _ = writeln!(
         r,
@@ -58,7 +78,12 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
         },
         c.reference_z0_m
     );
+}
 
+/// The record's moments, gust and peak factor.
+fn record_statistics_section(r: &mut String, analysis: &WindAnalysis) {
+    let s = &analysis.statistics;
+    let c = &analysis.config;
     let _ = writeln!(r, "## Record statistics\n");
     let _ = writeln!(r, "| quantity | value |\n| --- | --- |");
     let _ =
@@ -82,7 +107,12 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
         c.gust_window_s, s.gust_window_std_m_s, s.observed_peak_factor
     );
     let _ = writeln!(r, "| skewness, excess kurtosis | {:.2}, {:.2} |\n", s.skewness, s.kurtosis_excess);
+}
 
+/// How the spectrum was estimated and what one bin and one band are worth.
+fn spectrum_section(r: &mut String, analysis: &WindAnalysis) {
+    let s = &analysis.statistics;
+    let c = &analysis.config;
     let spectrum = &analysis.spectrum;
     let _ = writeln!(r, "## Spectrum\n");
     let _ = writeln!(
@@ -102,7 +132,14 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
         1.0 + 2.0 * spectrum.bin_correlation.iter().skip(1).sum::<f64>(),
         spectrum.window.name()
     );
+}
 
+/// The slope and level of the inertial subrange and the verdict on -5/3.
+fn inertial_subrange_section(r: &mut String, analysis: &WindAnalysis) {
+    let c = &analysis.config;
+    let slope = &analysis.slope;
+    let level = &analysis.level;
+    let percent = 100.0 * analysis.config.confidence;
     let _ = writeln!(r, "## Inertial subrange\n");
     let automatic = if c.fit_band_hz.is_none() {
         " (automatic: from v_m / (z - d), where the inertial subrange starts, to fs/8, below aliasing)"
@@ -152,7 +189,16 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
             local.band_hz.0, local.band_hz.1, local.slope, local.std_error
         );
     }
+}
 
+/// The kappa and z0 that the level implies, and whether Eq. 2's shape fits the variance.
+fn implied_davenport_section(r: &mut String, analysis: &WindAnalysis) {
+    let s = &analysis.statistics;
+    let c = &analysis.config;
+    let slope = &analysis.slope;
+    let implied = &analysis.implied;
+    let percent = 100.0 * analysis.config.confidence;
+    let height = analysis.config.effective_height_m();
     let _ = writeln!(r, "\n## What the high-frequency level implies for Eq. 2\n");
     let _ = writeln!(r, "Eq. 2 tends to S(n) = 4 kappa v_m^(8/3) L^(-2/3) n^(-5/3) (L = 1200 m) for x = L n / v_m >> 1 (x > {:.0} over the fit range), so the level fixes kappa given v_m:\n",
         DAVENPORT_LENGTH_M * slope.band_hz.0 / s.mean_m_s);
@@ -176,7 +222,12 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
             "within the uncertainty, so Eq. 2's shape is consistent with the record's split of variance."
         }
     );
+}
 
+/// Why the Davenport peak is (or is not) identifiable from this record.
+fn identifiability_section(r: &mut String, analysis: &WindAnalysis) {
+    let s = &analysis.statistics;
+    let id = &analysis.identifiability;
     let _ = writeln!(r, "## What the record cannot identify\n");
     let _ = writeln!(r, "- Davenport peak of S(n): x² = 3/5, n = sqrt(3/5) v_m / L = **{:.3} mHz** (period {:.0} s). Peak of n S(n) (per log frequency): x² = 3, n = sqrt(3) v_m / L = {:.3} mHz (period {:.0} s).",
         1e3 * id.peak_hz, 1.0 / id.peak_hz, 1e3 * id.premultiplied_peak_hz, 1.0 / id.premultiplied_peak_hz);
@@ -200,7 +251,12 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
             What the record does identify is the inertial-subrange slope and level (above) and the gust statistics (below).", id.record_needed_s / 3600.0)
         }
     );
+}
 
+/// The measured gust statistics against each spectrum's expectation.
+fn gust_statistics_section(r: &mut String, analysis: &WindAnalysis) {
+    let s = &analysis.statistics;
+    let c = &analysis.config;
     let _ = writeln!(r, "\n## Gust statistics against Eq. 2\n");
     let _ = writeln!(r, "Expected statistics of a {:.0} s Gaussian record with the same mean ({:.3} m/s), from each spectrum: the record's own mean removes eddies slower than the record, \
         the {} s average filters the rest, and the expected largest average is v_m + g sigma with Davenport's peak factor g.\n", s.duration_s, s.mean_m_s, c.gust_window_s);
@@ -229,7 +285,11 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
     let _ = writeln!(r, "\nA single record's largest gust scatters about its expectation (the peak factor's standard deviation is about pi / sqrt(6) / sqrt(2 ln(nu T)), {:.2} here), \
         and a skewed record (skewness {:.2}) has larger upward gusts than the Gaussian theory allows.\n",
         analysis.predictions.last().map(|p| std::f64::consts::PI / 6f64.sqrt() / (2.0 * (p.crossing_rate_hz * s.duration_s).max(std::f64::consts::E).ln()).sqrt()).unwrap_or(f64::NAN), s.skewness);
+}
 
+/// Turbulence intensity and gust factor per averaging period.
+fn averaging_periods_section(r: &mut String, analysis: &WindAnalysis) {
+    let c = &analysis.config;
     let _ = writeln!(r, "## Turbulence intensity and gust factor by averaging period\n");
     let _ = writeln!(r, "Non-overlapping blocks; the gust is the largest {} s average within a block, the gust factor is gust / block mean. \
         Expected gust factors use the record's overall mean speed.\n", c.gust_window_s);
@@ -252,17 +312,4 @@ pub fn report_markdown(analysis: &WindAnalysis, overlays: &[ComparisonCurve], fi
             p.predicted_gust_factor_measured
         );
     }
-    if !overlays.is_empty() {
-        let _ = writeln!(r, "\n## Overlays\n");
-        for overlay in overlays {
-            let _ = writeln!(r, "- {} ({} points)", overlay.name, overlay.frequency_hz.len());
-        }
-    }
-    if !files.is_empty() {
-        let _ = writeln!(r, "\n## Files\n");
-        for file in files {
-            let _ = writeln!(r, "- `{}`", file.display());
-        }
-    }
-    r
 }
