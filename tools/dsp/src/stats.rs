@@ -72,7 +72,7 @@ fn moving_sums(x: &[f64], window: usize) -> Vec<f64> {
     for t in window..x.len() {
         sum += x[t] - x[t - window];
         // Re-sum exactly now and then so the running update cannot drift.
-        if (t - window + 1) % 4096 == 0 {
+        if (t - window + 1).is_multiple_of(4096) {
             sum = x[t + 1 - window..=t].iter().sum();
         }
         sums.push(sum);
