@@ -181,7 +181,7 @@ pub fn run(options: &WindfitArgs) -> Result<String, WindFitError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tests::synthetic_record;
+    use crate::test_records::synthetic_record;
     use crate::KOLMOGOROV_SLOPE;
 
     fn parse(list: &[&str]) -> Result<WindfitArgs, clap::Error> {

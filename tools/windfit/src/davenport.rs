@@ -78,3 +78,41 @@ impl DavenportSpectrum {
         4.0 * self.kappa * self.v_mean_m_s.powf(8.0 / 3.0) / DAVENPORT_LENGTH_M.powf(2.0 / 3.0)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::figures::log_grid;
+
+    #[test]
+    fn davenport_closed_forms_match_numerical_integration_and_maxima() {
+        let model = DavenportSpectrum::from_roughness(3.0, 10.0, 0.4);
+        // PHYSICS-NOTES item 4: kappa = 0.01544 and sigma = 0.304 v_m for z = 10 m, z0 = 0.4 m.
+        assert!((model.kappa - 0.01544).abs() < 5e-6, "kappa {}", model.kappa);
+        assert!(((model.variance().sqrt() / 3.0) - 0.304).abs() < 5e-4);
+        // Integral of the PSD over a log grid (trapezoid in ln n).
+        let grid = log_grid(1e-7, 1e5, 2000);
+        let integral = |upper: f64| -> f64 {
+            grid.windows(2)
+                .filter(|w| w[1] <= upper)
+                .map(|w| 0.5 * (model.psd(w[0]) * w[0] + model.psd(w[1]) * w[1]) * (w[1] / w[0]).ln())
+                .sum()
+        };
+        assert!((integral(1e5) / model.variance() - 1.0).abs() < 1e-3);
+        let n = grid.iter().copied().find(|n| *n >= 0.01).unwrap();
+        assert!((integral(n) / model.variance_below(n) - 1.0).abs() < 2e-3);
+        // The stated peaks are the maxima of S(n) and n S(n) on a dense grid.
+        let argmax = |f: &dyn Fn(f64) -> f64| grid.iter().copied().max_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap();
+        let peak = argmax(&|n| model.psd(n));
+        let premultiplied = argmax(&|n| n * model.psd(n));
+        assert!((peak / model.peak_frequency_hz() - 1.0).abs() < 0.01);
+        assert!((premultiplied / model.premultiplied_peak_frequency_hz() - 1.0).abs() < 0.01);
+        // The inertial asymptote and its inverse.
+        let far = 100.0;
+        assert!((model.psd(far) * far.powf(5.0 / 3.0) / model.inertial_level() - 1.0).abs() < 1e-4);
+        let back = DavenportSpectrum::from_inertial_level(3.0, model.inertial_level());
+        assert!((back.kappa / model.kappa - 1.0).abs() < 1e-12);
+        assert!((DavenportSpectrum::roughness_for_kappa(10.0, model.kappa) - 0.4).abs() < 1e-12);
+    }
+}

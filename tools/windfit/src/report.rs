@@ -313,3 +313,46 @@ fn averaging_periods_section(r: &mut String, analysis: &WindAnalysis) {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_records::*;
+    use crate::*;
+    use antenna_dsp::standard_normal_quantile;
+
+    #[test]
+    fn measured_record_matches_its_readme_and_the_report_states_the_slope_verdict_it_computed() {
+        let Some(path) = shared_wind_record() else {
+            return;
+        };
+        let record = read_wind_csv(&path, DEFAULT_TIME_COLUMN, DEFAULT_SPEED_COLUMN).unwrap();
+        assert_eq!(record.speed_m_s.len(), 36_000);
+        assert!((record.sample_rate_hz - 20.0).abs() < 1e-9);
+        let analysis = analyse(&record, &WindFitConfig::new(7.11)).unwrap();
+        let s = &analysis.statistics;
+        // The data README: "mean horizontal speed 1.80 m/s, standard deviation 0.93 m/s".
+        assert_eq!(format!("{:.2}", s.mean_m_s), "1.80");
+        assert_eq!(format!("{:.2}", s.std_m_s), "0.93");
+
+        let slope = &analysis.slope;
+        assert!(slope.slope_std_error > 0.0 && slope.slope_std_error < 0.2, "{slope:?}");
+        let z = standard_normal_quantile(0.975);
+        assert_eq!(
+            slope.consistent_with_kolmogorov,
+            (slope.slope - KOLMOGOROV_SLOPE).abs() <= z * slope.slope_std_error
+        );
+        let report = report_markdown(&analysis, &[], &[]);
+        if slope.consistent_with_kolmogorov {
+            assert!(report.contains("consistent with -5/3") && !report.contains("not consistent"));
+        } else {
+            assert!(report.contains("**not consistent with -5/3**"), "an inconsistent slope must be reported as such");
+        }
+        // Davenport's peak (1.16 mHz at 1.8 m/s) lies below three Welch bins of 600 s: the
+        // report must say the peak, and so a full Davenport fit, is not identifiable.
+        assert!(!analysis.identifiability.peak_identifiable);
+        assert!(report.contains("The spectral peak is not identifiable"));
+        // The high-frequency level gives a kappa whose z0 lies below the instrument.
+        assert!(analysis.implied.z0_m > 0.0 && analysis.implied.z0_m < 7.11);
+    }
+}

@@ -217,3 +217,64 @@ pub(crate) fn identifiability(statistics: &RecordStatistics, spectrum: &Spectrum
         peak_identifiable: 3.0 * lowest_welch_hz <= peak_hz,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_records::*;
+    use crate::*;
+
+    #[test]
+    fn synthetic_power_law_slope_and_level_are_recovered_within_their_stated_uncertainty() {
+        // Over many records the fitted slope and level must fall within 1.96 standard errors
+        // of the truth about 95 % of the time: the uncertainty is neither too small nor
+        // uselessly large. The spectrum flattens below 0.01 Hz (a finite variance, like real
+        // wind) and is a -5/3 power law with level A well inside the fit range.
+        let level = 0.02;
+        let psd = move |f: f64| level * (f * f + 1e-4).powf(-5.0 / 6.0);
+        let mut config = WindFitConfig::new(10.0);
+        config.fit_band_hz = Some((0.25, 2.5));
+        let (mut slope_inside, mut level_inside, mut slope_z_squares) = (0, 0, 0.0);
+        let seeds = 40;
+        for seed in 0..seeds {
+            let record = synthetic_record(psd, 4.0, 1800.0, 20.0, 1000 + seed);
+            let analysis = analyse(&record, &config).unwrap();
+            let z = (analysis.slope.slope - KOLMOGOROV_SLOPE) / analysis.slope.slope_std_error;
+            slope_z_squares += z * z;
+            slope_inside += usize::from(z.abs() <= 1.96);
+            let level_z = (analysis.level.level / level).ln() / analysis.level.level_relative_error;
+            level_inside += usize::from(level_z.abs() <= 1.96);
+            assert_eq!(analysis.slope.consistent_with_kolmogorov, z.abs() <= 1.96);
+        }
+        assert!(slope_inside >= 34, "slope within 1.96 sigma in {slope_inside} of {seeds} records");
+        assert!(level_inside >= 34, "level within 1.96 sigma in {level_inside} of {seeds} records");
+        let rms_z = (slope_z_squares / seeds as f64).sqrt();
+        assert!(rms_z > 0.5, "slope errors are {rms_z} standard errors on average: the uncertainty is overstated");
+    }
+
+    #[test]
+    fn a_slope_steeper_than_kolmogorov_is_reported_as_inconsistent() {
+        let mut config = WindFitConfig::new(10.0);
+        config.fit_band_hz = Some((0.25, 2.5));
+        let record = synthetic_record(|f| 0.02 * f.powf(-2.2), 4.0, 1800.0, 20.0, 7);
+        let analysis = analyse(&record, &config).unwrap();
+        assert!((analysis.slope.slope + 2.2).abs() < 3.0 * analysis.slope.slope_std_error, "{:?}", analysis.slope);
+        assert!(!analysis.slope.consistent_with_kolmogorov);
+        assert!(report_markdown(&analysis, &[], &[]).contains("steeper by"));
+    }
+
+    #[test]
+    fn kappa_and_z0_are_recovered_from_a_davenport_record() {
+        let truth = DavenportSpectrum::from_roughness(10.0, 10.0, 0.05);
+        let mut config = WindFitConfig::new(10.0);
+        config.fit_band_hz = Some((0.25, 2.5));
+        let record = synthetic_record(|n| truth.psd(n), truth.v_mean_m_s, 1800.0, 20.0, 11);
+        let analysis = analyse(&record, &config).unwrap();
+        let (low, high) = analysis.implied.kappa_interval;
+        assert!(low < truth.kappa && truth.kappa < high, "kappa {} not in {low}..{high}", truth.kappa);
+        let (z0_low, z0_high) = analysis.implied.z0_interval_m;
+        assert!(z0_low < 0.05 && 0.05 < z0_high, "z0 interval {z0_low}..{z0_high}");
+        // At 10 m/s the record spans 15 peak periods and resolves the peak.
+        assert!(analysis.identifiability.peak_identifiable);
+    }
+}

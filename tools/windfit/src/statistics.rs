@@ -308,3 +308,56 @@ pub(crate) fn period_summaries(
     }
     summaries
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_records::*;
+    use crate::*;
+    use antenna_dsp::{self as dsp, moving_average};
+
+    #[test]
+    fn gust_prediction_matches_simulated_davenport_records() {
+        // Expected record variance, 3-s-average variance and peak factor against the average
+        // over simulated records. The simulated records have no power above their Nyquist
+        // frequency, so the prediction integrates to there. Tolerances are three standard
+        // errors of the simulated average, plus 5 % for the peak-factor formula, which is an
+        // asymptotic approximation.
+        let model = DavenportSpectrum::from_roughness(10.0, 10.0, 0.05);
+        let period = 600.0;
+        let fs = 10.0;
+        let prediction = predict_gust("", &|n| model.psd(n), 10.0, period, 3.0, 0.5 * fs);
+        let (mut variance, mut gust_variance, mut peak) = (Vec::new(), Vec::new(), Vec::new());
+        for seed in 0..100 {
+            let record = synthetic_record(|n| model.psd(n), 10.0, period, fs, 500 + seed);
+            let averaged = moving_average(&record.speed_m_s, 30);
+            let mean = dsp::mean(&record.speed_m_s);
+            variance.push(dsp::variance(&record.speed_m_s));
+            gust_variance.push(dsp::variance(&averaged));
+            peak.push((averaged.iter().copied().fold(f64::MIN, f64::max) - mean) / prediction.gust_window_sigma_m_s);
+        }
+        let check = |values: &[f64], expected: f64, model_tolerance: f64, what: &str| {
+            let mean = dsp::mean(values);
+            let standard_error = dsp::sample_variance(values).sqrt() / (values.len() as f64).sqrt();
+            assert!(
+                (mean - expected).abs() < 3.0 * standard_error + model_tolerance * expected,
+                "{what}: simulated {mean} +- {standard_error}, predicted {expected}"
+            );
+        };
+        check(&variance, prediction.sigma_m_s.powi(2), 0.0, "record variance");
+        check(&gust_variance, prediction.gust_window_sigma_m_s.powi(2), 0.0, "3-s average variance");
+        check(&peak, prediction.peak_factor, 0.05, "peak factor");
+    }
+
+    #[test]
+    fn averaging_period_summary_covers_whole_blocks() {
+        let record = synthetic_record(|f| 0.02 * f.powf(KOLMOGOROV_SLOPE), 5.0, 1800.0, 20.0, 3);
+        let analysis = analyse(&record, &WindFitConfig::new(10.0)).unwrap();
+        let counts: Vec<(f64, usize)> = analysis.periods.iter().map(|p| (p.period_s, p.blocks.len())).collect();
+        assert_eq!(counts, vec![(60.0, 30), (300.0, 6), (600.0, 3), (1800.0, 1)]);
+        let whole = &analysis.periods[3].blocks[0];
+        assert!((whole.gust_m_s - analysis.statistics.gust_m_s).abs() < 1e-12);
+        let csv = gust_summary_csv(&analysis);
+        assert_eq!(csv.lines().count(), 1 + 30 + 6 + 3 + 1);
+    }
+}
