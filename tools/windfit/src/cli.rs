@@ -26,6 +26,9 @@ use std::path::{Path, PathBuf};
     version,
     about,
     long_about = None,
+    // A negative number is a value to check, not an unknown flag: `--segment-s -5` is an
+    // invalid setting with its reason, as the analysis states it.
+    allow_negative_numbers = true,
     after_help = "example (from the repository root):\n  cargo run --release -p antenna-cli --bin windfit -- \\\n      ../shared/data/sonic-anemometer-20hz/wind_20hz.csv --height-m 7.11"
 )]
 pub struct WindfitArgs {
@@ -233,9 +236,12 @@ mod tests {
         assert_eq!(seeded(&["--generator-seed", "42"]).unwrap().generator_seed(), Some(42));
         assert_eq!(seeded(&["--no-generator"]).unwrap().generator_seed(), None);
         assert!(seeded(&["--generator-seed", "-3"]).is_err());
-        // Settings clap accepts but the analysis cannot use are invalid settings.
+        // Settings clap accepts but the analysis cannot use are invalid settings, negative
+        // numbers included.
         let bad = seeded(&["--reference-z0-m", "20"]).unwrap().config().unwrap_err();
         assert!(matches!(bad, WindFitError::InvalidConfig(_)), "{bad:?}");
+        let negative = seeded(&["--segment-s", "-5"]).unwrap().config().unwrap_err();
+        assert!(matches!(negative, WindFitError::InvalidConfig(_)), "{negative:?}");
     }
 
     #[test]
