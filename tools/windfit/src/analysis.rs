@@ -6,23 +6,14 @@ use crate::config::WindFitConfig;
 use crate::davenport::DavenportSpectrum;
 use crate::error::WindFitError;
 use crate::record::WindRecord;
-use crate::spectrum_fit::fit_level;
-use crate::spectrum_fit::fit_slope;
-use crate::spectrum_fit::identifiability;
-use crate::spectrum_fit::local_slopes;
-use crate::spectrum_fit::Identifiability;
-use crate::spectrum_fit::ImpliedDavenport;
-use crate::spectrum_fit::LevelFit;
-use crate::spectrum_fit::LocalSlope;
-use crate::spectrum_fit::SlopeFit;
-use crate::statistics::davenport_record_variance_per_kappa;
-use crate::statistics::interpolate_log_log;
-use crate::statistics::period_summaries;
-use crate::statistics::predict_gust;
-use crate::statistics::record_statistics;
-use crate::statistics::GustPrediction;
-use crate::statistics::PeriodSummary;
-use crate::statistics::RecordStatistics;
+use crate::spectrum_fit::{
+    fit_level, fit_slope, identifiability, local_slopes, Identifiability, ImpliedDavenport, LevelFit, LocalSlope,
+    SlopeFit,
+};
+use crate::statistics::{
+    davenport_record_variance_per_kappa, interpolate_log_log, period_summaries, predict_gust, record_statistics,
+    GustPrediction, PeriodSummary, RecordStatistics,
+};
 use antenna_dsp::{self, log_band_average, standard_normal_quantile, welch_psd, BandSpectrum, Spectrum, WelchConfig};
 
 /// Everything the analysis found.

@@ -2,15 +2,13 @@
 //! filter for the fitted kappa and a generated record analysed like the measured one, with the
 //! Markdown section that compares them.
 
-use crate::analysis::analyse;
-use crate::analysis::WindAnalysis;
+use crate::analysis::{analyse, WindAnalysis};
 use crate::config::WindFitConfig;
 use crate::davenport::DavenportSpectrum;
 use crate::error::WindFitError;
 use crate::figures::log_grid;
 use crate::record::WindRecord;
-use crate::statistics::predict_gust;
-use crate::statistics::GustPrediction;
+use crate::statistics::{predict_gust, GustPrediction};
 use antenna_dsp::{self, log_band_average, welch_psd, WelchConfig};
 use std::fmt::Write as _;
 

@@ -66,7 +66,8 @@ fn data_rows(text: &str) -> Result<Vec<(usize, Vec<String>)>, WindFitError> {
     Ok(rows)
 }
 
-pub(crate) fn parse_cell(text: &str, line: usize, column: &str) -> Result<f64, WindFitError> {
+/// A cell as a finite number, or the error that names its line and column.
+fn parse_cell(text: &str, line: usize, column: &str) -> Result<f64, WindFitError> {
     let value: f64 = text.parse().map_err(|_| WindFitError::NonNumeric {
         line,
         column: column.to_string(),

@@ -106,7 +106,7 @@ pub struct LocalSlope {
 /// log10 of the band PSDs with the chi-squared log bias removed, and their standard deviations.
 /// E[ln(chi2_nu / nu)] = psi(nu/2) - ln(nu/2) and Var = psi'(nu/2), so bands with few degrees
 /// of freedom neither drag the fit down nor count as much as the well-averaged ones.
-pub(crate) fn log_band_values(bands: &BandSpectrum, selected: &[usize]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+fn log_band_values(bands: &BandSpectrum, selected: &[usize]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let ln10 = std::f64::consts::LN_10;
     let mut x = Vec::new();
     let mut y = Vec::new();
@@ -121,7 +121,7 @@ pub(crate) fn log_band_values(bands: &BandSpectrum, selected: &[usize]) -> (Vec<
     (x, y, sigma)
 }
 
-pub(crate) fn bands_in(bands: &BandSpectrum, (low, high): (f64, f64)) -> Vec<usize> {
+fn bands_in(bands: &BandSpectrum, (low, high): (f64, f64)) -> Vec<usize> {
     (0..bands.len()).filter(|&i| bands.frequency_hz[i] >= low && bands.frequency_hz[i] <= high).collect()
 }
 
