@@ -10,7 +10,8 @@
 //! Usage: `cargo run --release -p fmu-wind --example wind_data [output directory]`
 //! (default: `fmu-wind/data`).
 
-use fmu_wind::analysis::{expected_welch_psd, psd_interval, record, sample_variance_std, welch_psd};
+use antenna_dsp::{expected_lpsd, lpsd, ChiSquaredInterval};
+use fmu_wind::analysis::{record, sample_variance_std, sampled_autocovariance};
 use fmu_wind::davenport::Davenport;
 use fmu_wind::gust::GustGenerator;
 use fmu_wind::prototype::log_grid;
@@ -97,21 +98,22 @@ fn main() -> std::io::Result<()> {
     let (step, bins) = (0.01, 8.0);
     for (d, f) in [(&d3, &ours3), (&d95, &ours95)] {
         let r = record(f, 2024, step, 7200.0);
-        for e in welch_psd(&r, step, &log_grid(0.005, 4.7, 40), bins) {
-            let (lo, hi) = psd_interval(e.dof, 0.95);
+        for e in lpsd(&r, 1.0 / step, &log_grid(0.005, 4.7, 40), bins) {
+            let (lo, hi) =
+                ChiSquaredInterval::new(e.dof, 0.95).expect("a Welch estimate has positive dof").estimate_factors();
             writeln!(
                 csv,
                 "{},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.1},{:.6e},{:.6e},{:.6e}",
                 d.v_mean,
-                e.frequency,
-                2.0 * PI * e.frequency,
+                e.frequency_hz,
+                2.0 * PI * e.frequency_hz,
                 e.psd,
                 e.psd / hi,
                 e.psd / lo,
                 e.dof,
-                expected_welch_psd(f, step, e.frequency, bins),
-                f.psd_one_sided_per_hz(e.frequency),
-                d.psd_one_sided_per_hz(e.frequency)
+                expected_lpsd(sampled_autocovariance(f, step), 1.0 / step, e.frequency_hz, bins),
+                f.psd_one_sided_per_hz(e.frequency_hz),
+                d.psd_one_sided_per_hz(e.frequency_hz)
             )
             .unwrap();
         }

@@ -12,7 +12,8 @@
 //! * [`torque`]: azimuth and elevation torques, quadratic or linearised, split into mean and
 //!   gust parts.
 //! * [`site`]: site constants (air density, roughness lengths for the requirement scenarios).
-//! * [`analysis`]: spectral estimates and finite-record statistics for the tests and examples.
+//! * [`analysis`]: autocovariance and finite-record statistics for the tests, the examples and
+//!   the wind-spectra tool (spectral estimates come from `antenna_dsp`).
 //!
 //! See `docs/wind-model.md` for the conventions, the design and its measured accuracy.
 

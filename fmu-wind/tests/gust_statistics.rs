@@ -4,15 +4,24 @@
 //! The 2 h, many-seed versions are in `long_statistics.rs` (run in release, ignored without
 //! optimisation).
 
-use fmu_wind::analysis::{
-    expected_welch_psd, independent_correlation_std, psd_interval, record, sample_variance_std, welch_psd,
-};
+use antenna_dsp::{expected_lpsd, lpsd, ChiSquaredInterval};
+use fmu_wind::analysis::{independent_correlation_std, record, sample_variance_std, sampled_autocovariance};
 use fmu_wind::davenport::Davenport;
 use fmu_wind::prototype::log_grid;
 use fmu_wind::shaping::ShapingFilter;
 
 fn davenport_filter(v: f64) -> ShapingFilter {
     ShapingFilter::davenport(&Davenport::new(v, 10.0, 0.4).unwrap())
+}
+
+/// The exact expectation of the estimate at `frequency` of a record of `filter` at `step`.
+fn expected_estimate(filter: &ShapingFilter, step: f64, frequency: f64, cycles: f64) -> f64 {
+    expected_lpsd(sampled_autocovariance(filter, step), 1.0 / step, frequency, cycles)
+}
+
+/// The range of estimate / true spectrum that holds with probability `confidence`.
+fn estimate_range(dof: f64, confidence: f64) -> (f64, f64) {
+    ChiSquaredInterval::new(dof, confidence).unwrap().estimate_factors()
 }
 
 /// Mean of the per-seed sample variances (about the known zero mean).
@@ -48,7 +57,7 @@ fn sample_variance_over_seeds_matches_davenport_within_the_record_interval() {
     let mean = variances.iter().sum::<f64>() / m;
     let spread = variances.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (m - 1.0);
     let predicted = sample_variance_std(&filter, duration).powi(2);
-    let (lo, hi) = psd_interval(m - 1.0, 0.999);
+    let (lo, hi) = estimate_range(m - 1.0, 0.999);
     assert!(spread / predicted > lo && spread / predicted < hi, "spread ratio {}", spread / predicted);
 }
 
@@ -57,13 +66,13 @@ fn psd_of_a_record_matches_its_exact_expectation_within_the_confidence_band() {
     let (v, duration, step, bins) = (9.5, 3600.0, 0.1, 8.0);
     let filter = davenport_filter(v);
     let samples = record(&filter, 11, step, duration);
-    let estimates = welch_psd(&samples, step, &log_grid(0.005, 2.0, 16), bins);
+    let estimates = lpsd(&samples, 1.0 / step, &log_grid(0.005, 2.0, 16), bins);
     assert!(estimates.len() >= 14);
     let outside = estimates
         .iter()
         .filter(|e| {
-            let expected = expected_welch_psd(&filter, step, e.frequency, bins);
-            let (lo, hi) = psd_interval(e.dof, 0.99);
+            let expected = expected_estimate(&filter, step, e.frequency_hz, bins);
+            let (lo, hi) = estimate_range(e.dof, 0.99);
             let ratio = e.psd / expected;
             ratio < lo || ratio > hi
         })
@@ -82,12 +91,26 @@ fn statistics_do_not_depend_on_the_communication_step() {
         assert_variance_consistent(&filter, &variances, duration, 4.0, &format!("step {step}"));
         // The spectrum of one record at a few frequencies below the 100 ms Nyquist frequency.
         let samples = record(&filter, 200, step, duration);
-        for e in welch_psd(&samples, step, &[0.05, 0.2, 1.0], 8.0) {
-            let expected = expected_welch_psd(&filter, step, e.frequency, 8.0);
-            let (lo, hi) = psd_interval(e.dof, 0.999);
+        for e in lpsd(&samples, 1.0 / step, &[0.05, 0.2, 1.0], 8.0) {
+            let expected = expected_estimate(&filter, step, e.frequency_hz, 8.0);
+            let (lo, hi) = estimate_range(e.dof, 0.999);
             let ratio = e.psd / expected;
-            assert!(ratio > lo && ratio < hi, "step {step}, f = {}: ratio {ratio} outside [{lo}, {hi}]", e.frequency);
+            assert!(
+                ratio > lo && ratio < hi,
+                "step {step}, f = {}: ratio {ratio} outside [{lo}, {hi}]",
+                e.frequency_hz
+            );
         }
+    }
+}
+
+#[test]
+fn expected_estimate_is_close_to_the_true_spectrum_away_from_nyquist() {
+    let f = davenport_filter(9.5);
+    for freq in [0.01, 0.1, 1.0] {
+        let expected = expected_estimate(&f, 0.01, freq, 16.0);
+        let truth = f.psd_one_sided_per_hz(freq);
+        assert!((expected / truth - 1.0).abs() < 0.03, "f = {freq}: {expected} vs {truth}");
     }
 }
 

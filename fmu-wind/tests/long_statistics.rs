@@ -4,12 +4,23 @@
 //! so there they are ignored (run them with `cargo test -p fmu-wind --test long_statistics --
 //! --ignored` if you must).
 
-use fmu_wind::analysis::{expected_welch_psd, psd_interval, record, sample_variance_std, welch_psd};
+use antenna_dsp::{expected_lpsd, lpsd, ChiSquaredInterval};
+use fmu_wind::analysis::{record, sample_variance_std, sampled_autocovariance};
 use fmu_wind::davenport::Davenport;
 use fmu_wind::prototype::log_grid;
 use fmu_wind::shaping::ShapingFilter;
 
 const TWO_HOURS: f64 = 7200.0;
+
+/// The exact expectation of the estimate at `frequency` of a record of `filter` at `step`.
+fn expected_estimate(filter: &ShapingFilter, step: f64, frequency: f64, cycles: f64) -> f64 {
+    expected_lpsd(sampled_autocovariance(filter, step), 1.0 / step, frequency, cycles)
+}
+
+/// The range of estimate / true spectrum that holds with probability `confidence`.
+fn estimate_range(dof: f64, confidence: f64) -> (f64, f64) {
+    ChiSquaredInterval::new(dof, confidence).unwrap().estimate_factors()
+}
 
 #[test]
 #[cfg_attr(
@@ -51,6 +62,8 @@ fn two_hour_records_at_1_10_and_100_ms_have_the_same_variance_and_spectrum() {
     let filter = ShapingFilter::davenport(&d);
     let frequencies = log_grid(0.005, 2.0, 16);
     for step in [0.001, 0.01, 0.1] {
+        // The expectation depends on the frequency only: computed once for all seeds.
+        let expected: Vec<f64> = frequencies.iter().map(|&f| expected_estimate(&filter, step, f, 8.0)).collect();
         let seeds = 4;
         let mut mean_var = 0.0;
         let mut outside = 0;
@@ -58,9 +71,10 @@ fn two_hour_records_at_1_10_and_100_ms_have_the_same_variance_and_spectrum() {
         for seed in 0..seeds {
             let r = record(&filter, 7000 + seed, step, TWO_HOURS);
             mean_var += r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64 / seeds as f64;
-            for e in welch_psd(&r, step, &frequencies, 8.0) {
-                let (lo, hi) = psd_interval(e.dof, 0.99);
-                let ratio = e.psd / expected_welch_psd(&filter, step, e.frequency, 8.0);
+            for e in lpsd(&r, 1.0 / step, &frequencies, 8.0) {
+                let (lo, hi) = estimate_range(e.dof, 0.99);
+                let index = frequencies.iter().position(|&f| f == e.frequency_hz).unwrap();
+                let ratio = e.psd / expected[index];
                 outside += usize::from(ratio < lo || ratio > hi);
                 total += 1;
             }
@@ -86,14 +100,14 @@ fn two_hour_welch_spectra_follow_eq2_within_their_confidence_band() {
         let filter = ShapingFilter::davenport(&d);
         let step = 0.01;
         let r = record(&filter, 9000, step, TWO_HOURS);
-        let estimates = welch_psd(&r, step, &log_grid(0.005, 4.5, 24), bins);
+        let estimates = lpsd(&r, 1.0 / step, &log_grid(0.005, 4.5, 24), bins);
         let outside = estimates
             .iter()
             .filter(|e| {
-                let (lo, hi) = psd_interval(e.dof, 0.99);
-                let window_bias =
-                    expected_welch_psd(&filter, step, e.frequency, bins) / filter.psd_one_sided_per_hz(e.frequency);
-                let ratio = e.psd / (window_bias * d.psd_one_sided_per_hz(e.frequency));
+                let (lo, hi) = estimate_range(e.dof, 0.99);
+                let window_bias = expected_estimate(&filter, step, e.frequency_hz, bins)
+                    / filter.psd_one_sided_per_hz(e.frequency_hz);
+                let ratio = e.psd / (window_bias * d.psd_one_sided_per_hz(e.frequency_hz));
                 ratio < lo / design_tolerance || ratio > hi * design_tolerance
             })
             .count();

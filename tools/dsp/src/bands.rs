@@ -67,7 +67,7 @@ pub fn log_band_average(spectrum: &Spectrum, bands_per_decade: f64) -> Result<Ba
     if !(bands_per_decade > 0.0 && bands_per_decade.is_finite()) {
         return Err(DspError::invalid("bands_per_decade", format!("must be positive, got {bands_per_decade}")));
     }
-    let last_interior = spectrum.psd.len().saturating_sub(if spectrum.segment_len % 2 == 0 { 1 } else { 0 });
+    let last_interior = spectrum.psd.len().saturating_sub(if spectrum.segment_len.is_multiple_of(2) { 1 } else { 0 });
     let mut result = BandSpectrum {
         frequency_hz: Vec::new(),
         lower_edge_hz: Vec::new(),

@@ -76,7 +76,7 @@ pub fn expected_welch_psd(
 /// `c(m) = sum_t w_t w_(t+m)` for `m = 0..len-1`, through a zero-padded FFT (the direct sum
 /// is quadratic in the segment length, which reaches 10^5 samples for 10-minute segments at
 /// millisecond steps).
-fn window_lag_products(window: &[f64]) -> Vec<f64> {
+pub(crate) fn window_lag_products(window: &[f64]) -> Vec<f64> {
     let len = window.len();
     let padded = 2 * len;
     let mut planner = FftPlanner::<f64>::new();

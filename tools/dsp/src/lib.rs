@@ -22,6 +22,7 @@ pub mod comparison;
 pub mod correlation;
 pub mod distributions;
 pub mod expectation;
+pub mod lpsd;
 pub mod spectral;
 pub mod stats;
 pub mod window;
@@ -41,24 +42,24 @@ pub use distributions::{
     ChiSquaredInterval,
 };
 pub use expectation::expected_welch_psd;
+pub use lpsd::{expected_lpsd, lpsd, lpsd_segment_len, FrequencyEstimate};
 pub use rustfft::num_complex::Complex64;
 pub use spectral::{
     coherence, transfer_function_h1, unwrap_phase_deg, welch_csd, welch_psd, CrossSpectrum, Detrend, Spectrum,
     TransferEstimate, WelchConfig,
 };
 pub use stats::{
-    kurtosis_excess, least_squares, linear_regression, max_moving_average, max_moving_rms, mean, moving_average,
-    moving_rms, nrmse_fit_percent, rms, sample_variance, skewness, std_dev, variance, weighted_linear_regression,
-    window_samples, LeastSquaresFit, LineFit, WindowExtreme,
+    fit_percent_from_model, fit_percent_from_residual, kurtosis_excess, linear_regression, max_moving_average,
+    max_moving_rms, mean, moving_average, moving_rms, rms, sample_variance, skewness, std_dev, variance,
+    weighted_least_squares, weighted_linear_regression, window_samples, LineFit, WindowExtreme,
 };
 pub use window::Window;
 
-use std::fmt;
-
 /// Why a signal-processing function could not produce a result.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DspError {
     /// The input had fewer samples than the operation needs.
+    #[error("input too short: {got} samples, at least {needed} needed")]
     TooShort {
         /// Samples required.
         needed: usize,
@@ -66,6 +67,7 @@ pub enum DspError {
         got: usize,
     },
     /// Two inputs that must be sample-aligned have different lengths.
+    #[error("inputs differ in length: {first} and {second} samples")]
     LengthMismatch {
         /// Length of the first input.
         first: usize,
@@ -73,13 +75,16 @@ pub enum DspError {
         second: usize,
     },
     /// A sample is NaN or infinite.
+    #[error("sample {index} is not finite")]
     NonFinite {
         /// Index of the first offending sample.
         index: usize,
     },
     /// The input is constant, so a normalised quantity is undefined.
+    #[error("input has zero variance")]
     ZeroVariance,
     /// A parameter is outside its valid range.
+    #[error("invalid {name}: {reason}")]
     InvalidParameter {
         /// Name of the parameter.
         name: &'static str,
@@ -93,24 +98,6 @@ impl DspError {
         DspError::InvalidParameter { name, reason: reason.into() }
     }
 }
-
-impl fmt::Display for DspError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            DspError::TooShort { needed, got } => {
-                write!(f, "input too short: {got} samples, at least {needed} needed")
-            }
-            DspError::LengthMismatch { first, second } => {
-                write!(f, "inputs differ in length: {first} and {second} samples")
-            }
-            DspError::NonFinite { index } => write!(f, "sample {index} is not finite"),
-            DspError::ZeroVariance => write!(f, "input has zero variance"),
-            DspError::InvalidParameter { name, reason } => write!(f, "invalid {name}: {reason}"),
-        }
-    }
-}
-
-impl std::error::Error for DspError {}
 
 /// Returns the index of the first non-finite sample, so estimators can refuse NaN input
 /// instead of silently returning a NaN spectrum.

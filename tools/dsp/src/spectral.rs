@@ -199,7 +199,7 @@ impl Spectrum {
 
     /// Degrees of freedom of bin `index`: DC and Nyquist bins are real-valued and have half.
     pub fn dof_at(&self, index: usize) -> f64 {
-        let nyquist = self.segment_len % 2 == 0 && index == self.segment_len / 2;
+        let nyquist = self.segment_len.is_multiple_of(2) && index == self.segment_len / 2;
         if index == 0 || nyquist {
             0.5 * self.dof
         } else {
@@ -354,7 +354,7 @@ impl SegmentTransformer {
     /// Factor turning |X_k|^2 summed over `segments` into a one-sided density per Hz.
     fn density_scale(&self, bin: usize, segments: usize, sample_rate_hz: f64) -> f64 {
         let len = self.config.segment_len;
-        let one_sided = if bin == 0 || (len % 2 == 0 && bin == len / 2) { 1.0 } else { 2.0 };
+        let one_sided = if bin == 0 || (len.is_multiple_of(2) && bin == len / 2) { 1.0 } else { 2.0 };
         one_sided / (sample_rate_hz * self.window_power * segments as f64)
     }
 }

@@ -1,6 +1,7 @@
 //! Basic statistics of a record: moments, moving averages and RMS (gusts, worst windows),
-//! straight-line and general least-squares fits with their uncertainties, and the NRMSE fit
-//! percentage used to compare a model output with a measurement.
+//! straight-line fits with their uncertainties, the weighted linear least-squares solver every
+//! identification uses, and the NRMSE fit percentage that compares a model output (or its
+//! residual) with a measurement.
 //!
 //! Reductions of an empty slice return NaN; windowed functions return an empty result (or
 //! `None`) when the window is empty or longer than the record.
@@ -71,7 +72,7 @@ fn moving_sums(x: &[f64], window: usize) -> Vec<f64> {
     for t in window..x.len() {
         sum += x[t] - x[t - window];
         // Re-sum exactly now and then so the running update cannot drift.
-        if (t - window + 1) % 4096 == 0 {
+        if (t - window + 1).is_multiple_of(4096) {
             sum = x[t + 1 - window..=t].iter().sum();
         }
         sums.push(sum);
@@ -116,10 +117,12 @@ pub fn max_moving_rms(x: &[f64], window: usize) -> Option<WindowExtreme> {
     max_of(&moving_rms(x, window))
 }
 
-/// NRMSE fit in percent, 100 (1 - ||y - y_model|| / ||y - mean(y)||): 100 is a perfect fit,
-/// 0 is no better than the measured mean, and it is negative for worse. NaN if the lengths
-/// differ or the measurement is constant.
-pub fn nrmse_fit_percent(measured: &[f64], model: &[f64]) -> f64 {
+/// NRMSE fit in percent of a model output against the measurement it models,
+/// 100 (1 - ||measured - model|| / ||measured - mean(measured)||): 100 is a perfect fit, 0 is no
+/// better than the measured mean, and it is negative for worse. NaN if the lengths differ or
+/// the measurement is constant. For a residual instead of a model output, use
+/// [`fit_percent_from_residual`].
+pub fn fit_percent_from_model(measured: &[f64], model: &[f64]) -> f64 {
     if measured.len() != model.len() || measured.is_empty() {
         return f64::NAN;
     }
@@ -130,6 +133,19 @@ pub fn nrmse_fit_percent(measured: &[f64], model: &[f64]) -> f64 {
         return f64::NAN;
     }
     100.0 * (1.0 - (error / spread).sqrt())
+}
+
+/// NRMSE fit in percent of a residual (measured minus model) against the measurement it is the
+/// misfit of: 100 (1 - ||residual|| / ||measured - mean(measured)||), the same figure as
+/// [`fit_percent_from_model`] for the model `measured - residual`.
+///
+/// The model is formed and the misfit taken from it, as the validation tool has always done,
+/// rather than summing the squared residual directly: `measured - (measured - residual)` is not
+/// always `residual` to the last bit, and the published validation figures come from this
+/// round trip.
+pub fn fit_percent_from_residual(measured: &[f64], residual: &[f64]) -> f64 {
+    let model: Vec<f64> = measured.iter().zip(residual).map(|(m, r)| m - r).collect();
+    fit_percent_from_model(measured, &model)
 }
 
 /// A fitted straight line y = intercept + slope x with its uncertainties.
@@ -250,59 +266,82 @@ pub fn weighted_linear_regression(x: &[f64], y: &[f64], sigma_y: &[f64]) -> Resu
     })
 }
 
-/// Result of a general linear least-squares fit y ~ A p.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LeastSquaresFit {
-    /// Fitted parameters p.
-    pub parameters: Vec<f64>,
-    /// Covariance of the parameters, s^2 (A^T A)^-1 with s^2 = RSS / (n - p).
-    pub covariance: DMatrix<f64>,
-    /// Root mean square of the residuals.
-    pub residual_rms: f64,
+/// Solves a small weighted least-squares problem `min sum w_i (y_i - X_i b)^2` through the
+/// normal equations with columns scaled to unit norm and a pseudo-inverse, so collinear
+/// columns give a finite (minimum-norm) answer instead of a failure. Returns the coefficients
+/// and the inverse of the weighted normal matrix (the covariance when the weights are
+/// 1/variance).
+///
+/// `columns` holds one regressor per entry, each as long as `y` and `weights`. Columns that are
+/// zero over long stretches (hat functions of a slowly varying nuisance) are summed only where
+/// they are not, which gives the same sums at a fraction of the cost.
+pub fn weighted_least_squares(columns: &[Vec<f64>], y: &[f64], weights: &[f64]) -> (Vec<f64>, DMatrix<f64>) {
+    let k = columns.len();
+    if k == 0 {
+        return (Vec::new(), DMatrix::zeros(0, 0));
+    }
+    let mut gram = DMatrix::<f64>::zeros(k, k);
+    let mut rhs = DVector::<f64>::zeros(k);
+    // Each column's runs of non-zero values: a column that is zero over most rows (a hat
+    // function of a slowly varying nuisance) costs only where it is not, the same sums.
+    let runs: Vec<Vec<(usize, usize)>> = columns.iter().map(|c| non_zero_runs(c)).collect();
+    for a in 0..k {
+        for b in a..k {
+            let mut s = 0.0;
+            let (mut i, mut j) = (0, 0);
+            while i < runs[a].len() && j < runs[b].len() {
+                let (start, end) = (runs[a][i].0.max(runs[b][j].0), runs[a][i].1.min(runs[b][j].1));
+                if start < end {
+                    s += columns[a][start..end]
+                        .iter()
+                        .zip(&columns[b][start..end])
+                        .zip(&weights[start..end])
+                        .map(|((x, z), w)| w * x * z)
+                        .sum::<f64>();
+                }
+                if runs[a][i].1 <= runs[b][j].1 {
+                    i += 1;
+                } else {
+                    j += 1;
+                }
+            }
+            gram[(a, b)] = s;
+            gram[(b, a)] = s;
+        }
+        rhs[a] = runs[a]
+            .iter()
+            .map(|&(start, end)| {
+                columns[a][start..end]
+                    .iter()
+                    .zip(&y[start..end])
+                    .zip(&weights[start..end])
+                    .map(|((x, v), w)| w * x * v)
+                    .sum::<f64>()
+            })
+            .sum();
+    }
+    let scale: Vec<f64> = (0..k).map(|a| if gram[(a, a)] > 0.0 { 1.0 / gram[(a, a)].sqrt() } else { 0.0 }).collect();
+    let scaled = DMatrix::from_fn(k, k, |a, b| gram[(a, b)] * scale[a] * scale[b]);
+    let svd = scaled.svd(true, true);
+    let inverse_scaled = svd.pseudo_inverse(1e-10).unwrap_or_else(|_| DMatrix::zeros(k, k));
+    let inverse = DMatrix::from_fn(k, k, |a, b| inverse_scaled[(a, b)] * scale[a] * scale[b]);
+    let beta = &inverse * rhs;
+    (beta.iter().copied().collect(), inverse)
 }
 
-impl LeastSquaresFit {
-    /// Standard errors of the parameters (square roots of the covariance diagonal).
-    pub fn std_errors(&self) -> Vec<f64> {
-        (0..self.parameters.len()).map(|i| self.covariance[(i, i)].max(0.0).sqrt()).collect()
+/// The half-open index ranges where `x` is not zero, runs of zeros shorter than 64 samples
+/// bridged (they cost less to sum than to skip).
+fn non_zero_runs(x: &[f64]) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (i, v) in x.iter().enumerate() {
+        if *v != 0.0 {
+            match runs.last_mut() {
+                Some(last) if i - last.1 < 64 => last.1 = i + 1,
+                _ => runs.push((i, i + 1)),
+            }
+        }
     }
-}
-
-/// Solves the linear least-squares problem `design * p ~ y` by SVD (robust to poorly scaled
-/// columns) and returns the parameters with their covariance from the residual scatter.
-/// `design` has one row per observation and one column per parameter.
-pub fn least_squares(design: &DMatrix<f64>, y: &[f64]) -> Result<LeastSquaresFit, DspError> {
-    let (rows, columns) = design.shape();
-    if rows != y.len() {
-        return Err(DspError::LengthMismatch { first: rows, second: y.len() });
-    }
-    if rows <= columns {
-        return Err(DspError::TooShort { needed: columns + 1, got: rows });
-    }
-    super::check_finite(design.as_slice())?;
-    super::check_finite(y)?;
-    let svd = design.clone().svd(true, true);
-    let largest = svd.singular_values.max();
-    let tolerance = largest * rows.max(columns) as f64 * f64::EPSILON;
-    if svd.singular_values.iter().any(|&s| s <= tolerance) {
-        return Err(DspError::invalid(
-            "design",
-            "columns are linearly dependent, so the parameters are not identifiable",
-        ));
-    }
-    let observations = DVector::from_column_slice(y);
-    let parameters = svd.solve(&observations, tolerance).map_err(|e| DspError::invalid("design", e.to_string()))?;
-    let residuals = &observations - design * &parameters;
-    let rss = residuals.norm_squared();
-    let s2 = rss / (rows - columns) as f64;
-    let normal_inverse = (design.transpose() * design)
-        .try_inverse()
-        .ok_or_else(|| DspError::invalid("design", "normal matrix is singular"))?;
-    Ok(LeastSquaresFit {
-        parameters: parameters.iter().copied().collect(),
-        covariance: normal_inverse * s2,
-        residual_rms: (rss / rows as f64).sqrt(),
-    })
+    runs
 }
 
 #[cfg(test)]
@@ -362,13 +401,24 @@ mod tests {
     }
 
     #[test]
-    fn nrmse_fit_is_100_for_perfect_and_0_for_the_mean() {
+    fn fit_percent_is_100_for_a_perfect_model_and_0_for_the_mean() {
         let y = [1.0, 3.0, 2.0, 5.0];
-        assert!((nrmse_fit_percent(&y, &y) - 100.0).abs() < 1e-12);
-        assert!(nrmse_fit_percent(&y, &[2.75; 4]).abs() < 1e-12);
+        assert!((fit_percent_from_model(&y, &y) - 100.0).abs() < 1e-12);
+        assert!(fit_percent_from_model(&y, &[2.75; 4]).abs() < 1e-12);
         let half: Vec<f64> = y.iter().map(|v| 2.75 + 0.5 * (v - 2.75)).collect();
-        assert!((nrmse_fit_percent(&y, &half) - 50.0).abs() < 1e-12);
-        assert!(nrmse_fit_percent(&y, &[1.0]).is_nan());
+        assert!((fit_percent_from_model(&y, &half) - 50.0).abs() < 1e-12);
+        assert!(fit_percent_from_model(&y, &[1.0]).is_nan());
+    }
+
+    #[test]
+    fn fit_percent_from_a_residual_is_100_for_zero_and_0_for_the_deviation_from_the_mean() {
+        let y = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(fit_percent_from_residual(&y, &[0.0; 4]), 100.0);
+        assert!((fit_percent_from_residual(&y, &[-1.5, -0.5, 0.5, 1.5])).abs() < 1e-12);
+        // The residual of a model is measured minus model: both forms give the same figure.
+        let model = [1.5, 1.5, 3.5, 3.5];
+        let residual: Vec<f64> = y.iter().zip(&model).map(|(a, b)| a - b).collect();
+        assert_eq!(fit_percent_from_residual(&y, &residual), fit_percent_from_model(&y, &model));
     }
 
     #[test]
@@ -399,17 +449,43 @@ mod tests {
     }
 
     #[test]
-    fn least_squares_fits_a_quadratic_and_rejects_dependent_columns() {
+    fn least_squares_fits_a_quadratic_within_its_covariance() {
         let x: Vec<f64> = (0..50).map(|i| i as f64 / 10.0).collect();
         let noise = white_noise(50, 0.01, 34);
         let y: Vec<f64> = x.iter().zip(&noise).map(|(a, e)| 1.0 - 2.0 * a + 0.5 * a * a + e).collect();
-        let design = DMatrix::from_fn(50, 3, |r, c| x[r].powi(c as i32));
-        let fit = least_squares(&design, &y).unwrap();
-        let errors = fit.std_errors();
-        for (p, (estimate, error)) in [1.0, -2.0, 0.5].iter().zip(fit.parameters.iter().zip(&errors)) {
-            assert!((estimate - p).abs() < 4.0 * error, "{estimate} vs {p} +- {error}");
+        let columns: Vec<Vec<f64>> = (0..3).map(|c| x.iter().map(|v| v.powi(c)).collect()).collect();
+        // Weights of 1/sigma^2 make the inverse normal matrix the parameters' covariance.
+        let (parameters, covariance) = weighted_least_squares(&columns, &y, &[1e4; 50]);
+        for (c, (estimate, truth)) in parameters.iter().zip([1.0, -2.0, 0.5]).enumerate() {
+            let error = covariance[(c, c)].sqrt();
+            assert!((estimate - truth).abs() < 4.0 * error, "{estimate} vs {truth} +- {error}");
         }
-        let dependent = DMatrix::from_fn(50, 2, |r, _| x[r]);
-        assert!(least_squares(&dependent, &y).is_err());
+    }
+
+    #[test]
+    fn least_squares_recovers_coefficients_and_survives_collinearity() {
+        let x1: Vec<f64> = (0..100).map(|i| i as f64).collect();
+        let x2: Vec<f64> = (0..100).map(|i| ((i * 7) % 13) as f64).collect();
+        let y: Vec<f64> = x1.iter().zip(&x2).map(|(a, b)| 2.0 * a - 0.5 * b).collect();
+        let w = vec![1.0; 100];
+        let (beta, _) = weighted_least_squares(&[x1.clone(), x2], &y, &w);
+        assert!((beta[0] - 2.0).abs() < 1e-9 && (beta[1] + 0.5).abs() < 1e-9);
+        let (beta, _) = weighted_least_squares(&[x1.clone(), x1.clone()], &x1, &w);
+        assert!((beta[0] + beta[1] - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn least_squares_sums_only_the_non_zero_runs_of_sparse_columns() {
+        // A hat function that is zero outside a short stretch must give the same answer as the
+        // dense sums would.
+        let n = 1000;
+        let hat: Vec<f64> = (0..n)
+            .map(|i| if (300..420).contains(&i) { 1.0 - ((i as f64 - 360.0) / 60.0).abs() } else { 0.0 })
+            .collect();
+        let ramp: Vec<f64> = (0..n).map(|i| i as f64 / n as f64).collect();
+        let y: Vec<f64> = hat.iter().zip(&ramp).map(|(h, r)| 3.0 * h - 2.0 * r).collect();
+        let (beta, _) = weighted_least_squares(&[hat, ramp], &y, &vec![1.0; n]);
+        assert!((beta[0] - 3.0).abs() < 1e-9 && (beta[1] + 2.0).abs() < 1e-9, "{beta:?}");
+        assert_eq!(non_zero_runs(&[0.0, 1.0, 0.0, 2.0, 0.0]), vec![(1, 4)]);
     }
 }

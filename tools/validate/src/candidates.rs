@@ -28,7 +28,7 @@
 
 use super::equation_error::{backlash_sign, ChannelData, EquationData, Structure};
 use super::parameters::{names, ParameterSet};
-use super::signals::weighted_least_squares;
+use antenna_dsp::weighted_least_squares;
 
 /// The longest delay the grid search looks at, in seconds: a few times a drive's current-loop
 /// and sampling delays, and beyond what a velocity loop of a few hertz survives.

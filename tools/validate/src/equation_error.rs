@@ -19,7 +19,8 @@
 //! the sum of the two (the rigid-body total) is the only channel. All torques are axis side.
 
 use super::parameters::{names, ParameterSet};
-use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, weighted_least_squares, SavitzkyGolay};
+use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, SavitzkyGolay};
+use antenna_dsp::weighted_least_squares;
 use crate::measured_log::{MeasuredLog, Signal};
 
 /// Settings of the data conditioning. Defaults are documented in docs/validation.md.

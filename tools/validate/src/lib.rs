@@ -522,7 +522,7 @@ pub fn channel_stats(data: &EquationData, fit: &Fit, log: &MeasuredLog) -> Vec<C
             ChannelStats {
                 name: channel.name.to_string(),
                 rms: antenna_dsp::rms(&used),
-                fit_percent: stats::nrmse_fit_percent(&measured, &used),
+                fit_percent: antenna_dsp::fit_percent_from_residual(&measured, &used),
                 correlation_time: fit.tau[c],
                 whiteness_p,
                 lags_outside,

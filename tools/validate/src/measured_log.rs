@@ -297,7 +297,7 @@ impl MeasuredLog {
                 return None;
             }
             let target: Vec<f64> = integral.iter().zip(load).map(|(q, l)| q - l).collect();
-            let (beta, _) = crate::signals::weighted_least_squares(&columns, &target, &vec![1.0; self.len()]);
+            let (beta, _) = antenna_dsp::weighted_least_squares(&columns, &target, &vec![1.0; self.len()]);
             let (bias, scale_error) = (beta[1], beta[2]);
             let start = beta[0] - bias * time_mean - scale_error * load_mean;
             let values: Vec<f64> = integral

@@ -19,7 +19,7 @@
 use super::candidates::{self, stack, stacked_weights, Column, Instance, Kind, Mode, Reported};
 use super::equation_error::{model_channels, ChannelData, EquationData, Structure};
 use super::parameters::ParameterSet;
-use super::signals::weighted_least_squares;
+use antenna_dsp::weighted_least_squares;
 use super::stats::correlation_time;
 use antenna_dsp::chi_squared_sf;
 

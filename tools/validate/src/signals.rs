@@ -8,7 +8,8 @@
 //! up to their order, so slow motion passes undistorted.
 // TODO(lead): move the generic parts (Savitzky-Golay, noise estimate) to dsp once it lands.
 
-use nalgebra::{DMatrix, DVector};
+use antenna_dsp::weighted_least_squares;
+use nalgebra::DMatrix;
 
 /// Savitzky-Golay coefficients for the smoothed value, first and second derivative at the
 /// window centre, for a polynomial of `order` over `2 half_width + 1` samples spaced `dt`.
@@ -171,80 +172,6 @@ pub fn shift_samples(x: &[f64], shift: f64) -> Vec<f64> {
         .collect()
 }
 
-/// The half-open index ranges where `x` is not zero, runs of zeros shorter than 64 samples
-/// bridged (they cost less to sum than to skip).
-fn non_zero_runs(x: &[f64]) -> Vec<(usize, usize)> {
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    for (i, v) in x.iter().enumerate() {
-        if *v != 0.0 {
-            match runs.last_mut() {
-                Some(last) if i - last.1 < 64 => last.1 = i + 1,
-                _ => runs.push((i, i + 1)),
-            }
-        }
-    }
-    runs
-}
-
-/// Solves a small weighted least-squares problem `min sum w_i (y_i - X_i b)^2` through the
-/// normal equations with columns scaled to unit norm and a pseudo-inverse, so collinear
-/// columns give a finite (minimum-norm) answer instead of a failure. Returns the coefficients
-/// and the inverse of the weighted normal matrix (the covariance when the weights are
-/// 1/variance).
-pub fn weighted_least_squares(columns: &[Vec<f64>], y: &[f64], weights: &[f64]) -> (Vec<f64>, DMatrix<f64>) {
-    let k = columns.len();
-    if k == 0 {
-        return (Vec::new(), DMatrix::zeros(0, 0));
-    }
-    let mut gram = DMatrix::<f64>::zeros(k, k);
-    let mut rhs = DVector::<f64>::zeros(k);
-    // Each column's runs of non-zero values: a column that is zero over most rows (a hat
-    // function of a slowly varying nuisance) costs only where it is not, the same sums.
-    let runs: Vec<Vec<(usize, usize)>> = columns.iter().map(|c| non_zero_runs(c)).collect();
-    for a in 0..k {
-        for b in a..k {
-            let mut s = 0.0;
-            let (mut i, mut j) = (0, 0);
-            while i < runs[a].len() && j < runs[b].len() {
-                let (start, end) = (runs[a][i].0.max(runs[b][j].0), runs[a][i].1.min(runs[b][j].1));
-                if start < end {
-                    s += columns[a][start..end]
-                        .iter()
-                        .zip(&columns[b][start..end])
-                        .zip(&weights[start..end])
-                        .map(|((x, z), w)| w * x * z)
-                        .sum::<f64>();
-                }
-                if runs[a][i].1 <= runs[b][j].1 {
-                    i += 1;
-                } else {
-                    j += 1;
-                }
-            }
-            gram[(a, b)] = s;
-            gram[(b, a)] = s;
-        }
-        rhs[a] = runs[a]
-            .iter()
-            .map(|&(start, end)| {
-                columns[a][start..end]
-                    .iter()
-                    .zip(&y[start..end])
-                    .zip(&weights[start..end])
-                    .map(|((x, v), w)| w * x * v)
-                    .sum::<f64>()
-            })
-            .sum();
-    }
-    let scale: Vec<f64> = (0..k).map(|a| if gram[(a, a)] > 0.0 { 1.0 / gram[(a, a)].sqrt() } else { 0.0 }).collect();
-    let scaled = DMatrix::from_fn(k, k, |a, b| gram[(a, b)] * scale[a] * scale[b]);
-    let svd = scaled.svd(true, true);
-    let inverse_scaled = svd.pseudo_inverse(1e-10).unwrap_or_else(|_| DMatrix::zeros(k, k));
-    let inverse = DMatrix::from_fn(k, k, |a, b| inverse_scaled[(a, b)] * scale[a] * scale[b]);
-    let beta = &inverse * rhs;
-    (beta.iter().copied().collect(), inverse)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -316,20 +243,8 @@ mod tests {
     fn fractional_shift_moves_a_smooth_signal() {
         let x: Vec<f64> = (0..200).map(|i| (i as f64 * 0.05).sin()).collect();
         let shifted = shift_samples(&x, 2.5);
-        for i in 10..190 {
-            assert!((shifted[i] - ((i as f64 + 2.5) * 0.05).sin()).abs() < 1e-4);
+        for (i, value) in shifted.iter().enumerate().take(190).skip(10) {
+            assert!((value - ((i as f64 + 2.5) * 0.05).sin()).abs() < 1e-4);
         }
-    }
-
-    #[test]
-    fn least_squares_recovers_coefficients_and_survives_collinearity() {
-        let x1: Vec<f64> = (0..100).map(|i| i as f64).collect();
-        let x2: Vec<f64> = (0..100).map(|i| ((i * 7) % 13) as f64).collect();
-        let y: Vec<f64> = x1.iter().zip(&x2).map(|(a, b)| 2.0 * a - 0.5 * b).collect();
-        let w = vec![1.0; 100];
-        let (beta, _) = weighted_least_squares(&[x1.clone(), x2], &y, &w);
-        assert!((beta[0] - 2.0).abs() < 1e-9 && (beta[1] + 0.5).abs() < 1e-9);
-        let (beta, _) = weighted_least_squares(&[x1.clone(), x1.clone()], &x1, &w);
-        assert!((beta[0] + beta[1] - 1.0).abs() < 1e-9);
     }
 }

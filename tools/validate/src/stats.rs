@@ -1,15 +1,7 @@
-//! Residual statistics the validate tool needs beyond `antenna_dsp`: the integrated
-//! autocorrelation time (the effective number of independent samples of a coloured residual)
-//! and the NRMSE fit of a residual. Autocorrelation, cross-correlation, the whiteness test,
+//! The residual statistic the validate tool needs beyond `antenna_dsp`: the integrated
+//! autocorrelation time (the effective number of independent samples of a coloured residual).
+//! Autocorrelation, cross-correlation, the whiteness test, the fit percentage of a residual,
 //! Welch spectra and the chi-squared distribution come from `antenna_dsp`.
-
-/// NRMSE fit in percent of a residual against the measured signal it is the misfit of:
-/// 100 (1 - ||residual|| / ||measured - mean(measured)||), as `dsp::nrmse_fit_percent` computes
-/// it for a model; 100 % is a perfect fit, 0 % no better than the mean, negative worse.
-pub fn nrmse_fit_percent(measured: &[f64], residual: &[f64]) -> f64 {
-    let model: Vec<f64> = measured.iter().zip(residual).map(|(m, r)| m - r).collect();
-    antenna_dsp::nrmse_fit_percent(measured, &model)
-}
 
 /// Integrated autocorrelation time tau = 1 + 2 sum rho_k, summed until the autocorrelation
 /// first drops below zero (the initial positive sequence; Geyer 1992). A white residual has
@@ -57,12 +49,5 @@ mod tests {
         let tau = correlation_time(&smoothed);
         assert!((tau - 9.0).abs() < 1.5, "{tau}");
         assert_eq!(correlation_time(&[2.0; 100]), 1.0);
-    }
-
-    #[test]
-    fn nrmse_fit_is_100_for_a_perfect_model_and_0_for_the_mean() {
-        let y = [1.0, 2.0, 3.0, 4.0];
-        assert_eq!(nrmse_fit_percent(&y, &[0.0; 4]), 100.0);
-        assert!((nrmse_fit_percent(&y, &[-1.5, -0.5, 0.5, 1.5])).abs() < 1e-12);
     }
 }

@@ -30,7 +30,8 @@
 
 use super::equation_error::{cogging_torque, static_friction_curve, EquationData, Structure};
 use super::parameters::{names, ParameterSet};
-use super::signals::{shift_samples, weighted_least_squares};
+use super::signals::shift_samples;
+use antenna_dsp::weighted_least_squares;
 use crate::measured_log::{MeasuredLog, Signal};
 
 /// Thresholds of the twist check. Documented in docs/validation.md.

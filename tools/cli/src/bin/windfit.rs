@@ -1,30 +1,23 @@
 //! `windfit`: analyse a measured wind-speed record against the Davenport spectrum (Eq. 2).
 //! A thin front to `antenna_windfit`; run with `--help` for the options.
+//!
+//! Exit codes: 0 the report was written; 2 bad usage or bad input (clap's errors, an unreadable
+//! or malformed record, an invalid setting, a record the analysis cannot use, an output that
+//! cannot be written). The tool checks nothing that could fail, so it never exits 1.
 
-use antenna_windfit::{parse_cli_args, run_cli, USAGE};
+use antenna_windfit::{run, WindfitArgs};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let options = match parse_cli_args(&args) {
-        Ok(Some(options)) => options,
-        Ok(None) => {
-            print!("{USAGE}");
-            return ExitCode::SUCCESS;
-        }
-        Err(error) => {
-            eprintln!("windfit: {error}\n\n{USAGE}");
-            return ExitCode::from(2);
-        }
-    };
-    match run_cli(&options) {
+    let args = WindfitArgs::from_command_line();
+    match run(&args) {
         Ok(report) => {
             print!("{report}");
             ExitCode::SUCCESS
         }
         Err(error) => {
-            eprintln!("windfit: {error}");
-            ExitCode::FAILURE
+            eprintln!("windfit: error: {error}");
+            ExitCode::from(2)
         }
     }
 }
