@@ -98,12 +98,6 @@ fn parse_fit_band(text: &str) -> Result<FitBand, String> {
 }
 
 impl WindfitArgs {
-    /// The options from the process's command line. Exits as clap does: `--help` and
-    /// `--version` print and exit 0, bad usage prints clap's one-line reason and exits 2.
-    pub fn from_command_line() -> Self {
-        Self::parse()
-    }
-
     /// The analysis settings the options ask for, checked.
     pub fn config(&self) -> Result<WindFitConfig, WindFitError> {
         let mut config = WindFitConfig::new(self.height_m);

@@ -5,19 +5,24 @@
 //! or malformed record, an invalid setting, a record the analysis cannot use, an output that
 //! cannot be written). The tool checks nothing that could fail, so it never exits 1.
 
-use antenna_windfit::{run, WindfitArgs};
+use antenna_windfit::WindfitArgs;
+use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let args = WindfitArgs::from_command_line();
+    let args = WindfitArgs::parse();
     match run(&args) {
         Ok(report) => {
             print!("{report}");
             ExitCode::SUCCESS
         }
         Err(error) => {
-            eprintln!("windfit: error: {error}");
+            eprintln!("windfit: error: {error:#}");
             ExitCode::from(2)
         }
     }
+}
+
+fn run(args: &WindfitArgs) -> anyhow::Result<String> {
+    Ok(antenna_windfit::run(args)?)
 }
