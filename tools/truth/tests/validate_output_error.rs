@@ -1,10 +1,10 @@
 //! Tests of `antenna_validate::output_error` against logs of the truth simulation (which depends on
 //! the validation crate, so they live here).
 
+use antenna_truth::{simulate, Effect, TruthConfig};
 use antenna_validate::equation_error::{twist_centres, Structure};
 use antenna_validate::output_error::*;
 use antenna_validate::parameters::{names, ParameterSet};
-use antenna_truth::{simulate, Effect, TruthConfig};
 
 /// RMS (rad) of the measured axis position less the load-side simulation with `params`,
 /// over 1 s windows of a truth log.
@@ -85,8 +85,7 @@ fn drive_pieces_are_cut_at_the_stribeck_growth_time_when_it_is_shorter_than_the_
 #[test]
 fn drive_pieces_tile_each_window_without_gaps_or_tiny_remainders() {
     for (length, piece) in [(400, 150), (400, 100), (400, 400), (37, 10), (400, 1000)] {
-        let plan =
-            WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
+        let plan = WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
         let pieces = plan.drive_pieces();
         let mut next = 0;
         for &(offset, len) in &pieces {
@@ -138,7 +137,6 @@ fn signed_rank_test_is_near_uniform_for_symmetric_noise() {
     // The exact test holds its level (at or just below 5 % for a discrete statistic).
     assert!(rate < 0.06 && rate > 0.03, "false rejection rate {rate}");
 }
-
 
 /// The rigid stand-in whose simulated motor speed turns NaN from the second sample of the
 /// window that starts at `bad_start` (s) on.

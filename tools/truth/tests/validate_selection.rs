@@ -1,11 +1,11 @@
 //! Tests of `antenna_validate::selection` against logs of the truth simulation (which depends on
 //! the validation crate, so they live here).
 
-use antenna_validate::selection::*;
-use antenna_validate::candidates::Kind;
-use antenna_validate::parameters::ParameterSet;
 use antenna_truth::{simulate, Effect, TruthConfig};
+use antenna_validate::candidates::Kind;
 use antenna_validate::equation_error::{prepare, EquationOptions};
+use antenna_validate::parameters::ParameterSet;
+use antenna_validate::selection::*;
 
 fn run(effects: Vec<Effect>, seed: u64) -> (Selection, ParameterSet) {
     let config = TruthConfig { duration: 30.0, effects, seed, ..TruthConfig::default() };
@@ -75,7 +75,6 @@ fn confirmed_candidates_the_chosen_effect_does_not_beat_are_reported_as_equally_
     let first_only = select_judged(&data, &start, &options, &mut EquationOnly);
     assert!(first_only.steps.iter().all(|s| s.equally_consistent.is_empty()));
 }
-
 
 /// A short clean truth log and its starting parameter set.
 fn clean_case() -> (antenna_validate::measured_log::MeasuredLog, ParameterSet) {

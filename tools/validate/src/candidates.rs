@@ -394,8 +394,7 @@ fn stiffness_instance(cx: &Setup) -> Result<Instance, String> {
     let load_k: Vec<f64> = (0..n)
         .map(|i| {
             let load_side =
-                load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset
-                    - disturbance[i];
+                load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance[i];
             -data.twist_scale / (stiffness * stiffness) * (load_side - damping * data.twist_rate[i])
         })
         .collect();
@@ -417,18 +416,14 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, String> {
     let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
     let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
     let hump = |vs: f64| {
-        data.smooth(
-            &data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>(),
-        )
+        data.smooth(&data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>())
     };
     if mode == Mode::Refine {
         let slope = data.smooth(
             &data
                 .motor_vel_inner
                 .iter()
-                .map(|&v| {
-                    amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v)
-                })
+                .map(|&v| amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v))
                 .collect::<Vec<_>>(),
         );
         let mut instance = simple(vec![
@@ -455,13 +450,12 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, String> {
     let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
     let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
     let grid_count = 25;
-    let grid: Vec<f64> =
-        (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
+    let grid: Vec<f64> = (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
     let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
     let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
     let chi2: Vec<f64> = grid
         .iter()
-        .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, &weights))
+        .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, weights))
         .collect();
     let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
     let sigma = profile_sigma(&grid, &chi2, best);
@@ -563,10 +557,8 @@ fn cogging_instance(cx: &Setup) -> Result<Instance, String> {
             return Err("no cogging period to refine".into());
         }
         let (a0, b0) = (amplitude * phase.cos(), amplitude * phase.sin());
-        let sin =
-            data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
-        let cos =
-            data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
+        let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
+        let cos = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
         let slope = data.smooth(
             &data
                 .motor_pos_inner
@@ -595,11 +587,7 @@ fn cogging_instance(cx: &Setup) -> Result<Instance, String> {
     // whole position-periodic torque afresh.
     let existing: Vec<f64> = if amplitude != 0.0 && period > 0.0 {
         data.smooth(
-            &data
-                .motor_pos_inner
-                .iter()
-                .map(|q| amplitude * (two_pi * q / period + phase).sin())
-                .collect::<Vec<_>>(),
+            &data.motor_pos_inner.iter().map(|q| amplitude * (two_pi * q / period + phase).sin()).collect::<Vec<_>>(),
         )
     } else {
         vec![0.0; n]
@@ -607,11 +595,10 @@ fn cogging_instance(cx: &Setup) -> Result<Instance, String> {
     let adjust = torque_only(existing);
     let adjust_stacked = stack(channels, &adjust);
     let adjusted: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
-    let mut instance = cogging(data, channels, &adjusted, &weights, &torque_only, kind)?;
+    let mut instance = cogging(data, channels, &adjusted, weights, &torque_only, kind)?;
     instance.adjust = adjust;
     Ok(instance)
 }
-
 
 /// Cogging: a periodogram over the motor angle, fitted by sine and cosine at each period.
 ///

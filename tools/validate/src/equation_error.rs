@@ -257,8 +257,7 @@ pub fn prepare(
     let raw = raw_inputs(&log, params, &mut notes)?;
     let two_encoders = raw.two_encoders;
 
-    let positions: Vec<&[f64]> =
-        if two_encoders { vec![&raw.motor_pos, &raw.load_pos] } else { vec![&raw.motor_pos] };
+    let positions: Vec<&[f64]> = if two_encoders { vec![&raw.motor_pos, &raw.load_pos] } else { vec![&raw.motor_pos] };
     let torque_sigma = torque_noise_sigma(&raw.torque, &positions);
     let motor_pos_sigma = noise_sigma(&raw.motor_pos);
     let load_pos_sigma = noise_sigma(&raw.load_pos);
@@ -556,9 +555,7 @@ fn slow_twist_basis(
     time: &[f64],
     notes: &mut Vec<String>,
 ) -> Vec<Vec<f64>> {
-    match log
-        .signal(Signal::MotorVel)
-        .filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass)
+    match log.signal(Signal::MotorVel).filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass)
     {
         Some(speed) => {
             let speed_sigma = noise_sigma(speed).max(f64::MIN_POSITIVE);

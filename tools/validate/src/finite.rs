@@ -67,14 +67,17 @@ mod tests {
     #[test]
     fn a_non_finite_sample_is_named_with_its_index() {
         let error = check_signal("motor torque", &[1.0, 2.0, f64::NAN, f64::INFINITY]).unwrap_err();
-        assert!(matches!(&error, NonFinite::Signal { signal, sample: 2, value } if signal == "motor torque" && value.is_nan()));
+        assert!(
+            matches!(&error, NonFinite::Signal { signal, sample: 2, value } if signal == "motor torque" && value.is_nan())
+        );
         assert!(error.to_string().contains("motor torque is NaN at sample 2"), "{error}");
         assert!(check_signal("x", &[0.0, -1e308]).is_ok());
     }
 
     #[test]
     fn an_infinite_result_names_the_quantity_and_where() {
-        let error = check_series("the model side", &[0.0, f64::NEG_INFINITY], |i| format!("at sample {i}")).unwrap_err();
+        let error =
+            check_series("the model side", &[0.0, f64::NEG_INFINITY], |i| format!("at sample {i}")).unwrap_err();
         let text = error.to_string();
         assert!(text.starts_with("the model side is -inf at sample 1"), "{text}");
     }

@@ -13,13 +13,13 @@ pub mod candidates;
 pub mod equation_error;
 pub mod finite;
 pub mod frequency;
+pub mod measured_log;
 pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
 pub mod presliding;
 pub mod refit;
 pub mod report;
-pub mod measured_log;
 pub mod selection;
 pub mod signals;
 pub mod stats;
@@ -303,10 +303,7 @@ pub fn validate_log(
     let integrated = log.with_motor_position_from_speed();
     let log = integrated.as_ref().unwrap_or(log);
     // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
-    let reborrowed = match simulator.as_mut() {
-        Some(s) => Some(&mut **s as &mut dyn PlantSimulator),
-        None => None,
-    };
+    let reborrowed = simulator.as_mut().map(|s| &mut **s as &mut dyn PlantSimulator);
     let mut first = validate_once(log, start, options, reborrowed)?;
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
@@ -520,12 +517,8 @@ fn output_hints(
         let Ok(candidate) = output_error::output_error(simulator, &with, data, out, plan) else {
             continue;
         };
-        let comparison = output_error::compare(
-            after,
-            &candidate,
-            parameter_count(score.kind, data.structure),
-            options.output.alpha,
-        );
+        let comparison =
+            output_error::compare(after, &candidate, parameter_count(score.kind, data.structure), options.output.alpha);
         if comparison.confirmed {
             hints.push(Hint {
                 kind: score.kind,

@@ -515,7 +515,7 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
 /// stiffness) needs none.
 fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> f64 {
     let stiffness = params.value(names::STIFFNESS);
-    if !(stiffness > 0.0) {
+    if stiffness.is_nan() || stiffness <= 0.0 {
         return 0.0;
     }
     let angle = out.state_load_pos[i];

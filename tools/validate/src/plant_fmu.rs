@@ -18,8 +18,8 @@
 
 use super::output_error::{PlantSimulator, SimulatedOutputs, WindowStart};
 use super::parameters::{fmu_parameter_text, FmuConfig, ParameterSet};
-use fmu_plant::fmi::AzVar;
 use fmu_import::{Fmu, Instance};
+use fmu_plant::fmi::AzVar;
 use fmu_runtime::{StateReader, StateWriter, Values};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};

@@ -783,8 +783,7 @@ fn score_candidates(
         let k = instance.parameter_count();
         let n_eff = alternative.effective_samples().max(2.0);
         let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
-        let explained =
-            if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
+        let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
         let effect_to_noise = contribution(instance, own_beta, &current.channels)
             .iter()
             .zip(noise)
@@ -847,8 +846,8 @@ fn choose_confirmed(
         let Some((instance, alternative)) = evaluated.iter().find(|(i, _)| i.kind == kind) else { continue };
         // Starting point for Gauss-Newton: the accepted effects' increments and the new
         // effect's coefficients from the alternative fit.
-        let (_, accepted_instances) = refine_columns(data, &params, &current.channels, &accepted, &weights);
-        let mut offset = baseline_columns(data, &params).len();
+        let (_, accepted_instances) = refine_columns(data, params, &current.channels, accepted, weights);
+        let mut offset = baseline_columns(data, params).len();
         let mut next = params.clone();
         for previous in &accepted_instances {
             let k = previous.columns.len();
@@ -858,10 +857,10 @@ fn choose_confirmed(
         candidates::apply(instance, &alternative.beta[offset..offset + instance.columns.len()], data, &mut next);
         let mut trial = accepted.clone();
         trial.push(kind);
-        let (refined, refined_fit, iterations) = refine(data, next, &trial, &weights, options.max_iterations);
+        let (refined, refined_fit, iterations) = refine(data, next, &trial, weights, options.max_iterations);
         // The refined effect must still be at least the noise: a search can pick a
         // direction that the joint refit then shrinks to nothing.
-        let size = refined_effect_to_noise(data, kind, &refined, &params, &noise);
+        let size = refined_effect_to_noise(data, kind, &refined, params, noise);
         let check = candidates::admissible(&refined, data).and_then(|()| {
             if size >= options.min_effect_to_noise {
                 Ok(())
@@ -870,7 +869,7 @@ fn choose_confirmed(
             }
         });
         match check {
-            Ok(()) => match judge.confirm(kind, &params, &refined) {
+            Ok(()) => match judge.confirm(kind, params, &refined) {
                 Ok(note) => {
                     scores[index].confirmation = Some(note);
                     confirmed.push((index, kind, refined.clone()));
@@ -1011,7 +1010,9 @@ fn swap_retest(
                     .iter()
                     .filter(|x| {
                         x.confirmation.is_some()
-                            || x.not_applicable.as_deref().is_some_and(|r| r.starts_with("significant but not confirmed"))
+                            || x.not_applicable
+                                .as_deref()
+                                .is_some_and(|r| r.starts_with("significant but not confirmed"))
                     })
                     .map(|x| x.kind)
             })
@@ -1130,7 +1131,7 @@ fn search_pair(
                     .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
                     .fold(0.0, f64::max);
                 let p = chi_squared_sf(chi2, instance.parameter_count() as f64);
-                if !(p < level) || size < options.min_effect_to_noise {
+                if p.is_nan() || p >= level || size < options.min_effect_to_noise {
                     ok = false;
                 }
             }
