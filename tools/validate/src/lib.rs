@@ -344,6 +344,9 @@ fn validate_once(
     let searched = match simulator {
         None => equation_only(&data, start, options),
         Some(simulator) => match prepare_output(simulator, log, &data, start, options) {
+            // A simulator that cannot run the starting model leaves the equation error; a NaN
+            // in what it returned is not a reason to go on without it.
+            Err(SimulationError::NonFinite(cause)) => return Err(SimulationError::NonFinite(cause).into()),
             Err(message) => {
                 notes.push(format!(
                     "output error not available ({message}): effects are claimed on the equation error alone"
