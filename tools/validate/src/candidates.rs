@@ -103,6 +103,17 @@ impl Kind {
     }
 }
 
+/// Number of parameters an effect adds, as the output error's information criterion counts
+/// them (the searched ones included; an inertia change is two with two equations).
+pub fn parameter_count(kind: Kind, structure: Structure) -> usize {
+    match kind {
+        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
+        Kind::Cogging => 3,
+        Kind::Inertia if structure == Structure::TwoMass => 2,
+        _ => 1,
+    }
+}
+
 /// One regressor: its values in each residual channel (empty: zero in that channel).
 #[derive(Debug, Clone)]
 pub struct Column {

@@ -26,7 +26,7 @@ pub mod stats;
 pub mod twist;
 
 use crate::measured_log::{MeasuredLog, Signal};
-use candidates::Kind;
+use candidates::{parameter_count, Kind};
 use equation_error::{EquationData, EquationOptions, PrepareError, Structure};
 use finite::NonFinite;
 use output_error::{Comparison, OutputData, OutputError, PlantSimulator, SimulationError, WindowPlan};
@@ -206,16 +206,6 @@ impl Validation {
                 (self.after[a].rms / self.before[a].rms).total_cmp(&(self.after[b].rms / self.before[b].rms))
             })
             .unwrap_or(0)
-    }
-}
-
-/// Number of parameters an effect adds, for the output error's information criterion.
-fn parameter_count(kind: Kind, structure: Structure) -> usize {
-    match kind {
-        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
-        Kind::Cogging => 3,
-        Kind::Inertia if structure == Structure::TwoMass => 2,
-        _ => 1,
     }
 }
 

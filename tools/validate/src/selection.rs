@@ -1044,7 +1044,8 @@ fn swap_retest(
             if candidates::admissible(&refined, data).is_err() {
                 continue;
             }
-            let extra = kind_parameters(alternative, data) as isize - kind_parameters(kind, data) as isize;
+            let extra = candidates::parameter_count(alternative, data.structure) as isize
+                - candidates::parameter_count(kind, data.structure) as isize;
             let incumbent = best.as_ref().map_or(&model.params, |b| &b.1);
             if judge.prefers(incumbent, &refined, extra) {
                 best = Some((alternative, refined, refined_fit));
@@ -1058,16 +1059,6 @@ fn swap_retest(
         }
     }
     swapped
-}
-
-/// Parameters an effect adds (as the output error's information criterion counts them).
-fn kind_parameters(kind: Kind, data: &EquationData) -> usize {
-    match kind {
-        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
-        Kind::Cogging => 3,
-        Kind::Inertia if data.structure == Structure::TwoMass => 2,
-        _ => 1,
-    }
 }
 
 /// The joint test of two candidates, for a step at which no single one was significant and
