@@ -6,12 +6,10 @@
 //! The FMU must be packaged first (`cargo run --release -p xtask --bin package`, which
 //! `tools/test-all.sh` does); a missing FMU is a failure with that instruction.
 
-use antenna_validate::measured_log::{Channel, MeasuredLog, Signal};
 use antenna_truth::TruthPlant;
 use antenna_validate::equation_error::{model_channels, prepare, EquationOptions};
-use antenna_validate::output_error::{
-    output_error, ChannelKind, OutputData, PlantSimulator, WindowPlan, WindowStart,
-};
+use antenna_validate::measured_log::{Channel, MeasuredLog, Signal};
+use antenna_validate::output_error::{output_error, ChannelKind, OutputData, PlantSimulator, WindowPlan, WindowStart};
 use antenna_validate::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use antenna_validate::plant_fmu::{FmuSimulator, PlantFmu};
 

@@ -1,10 +1,10 @@
 //! Tests of `antenna_validate::output_error` against logs of the truth simulation (which depends on
 //! the validation crate, so they live here).
 
+use antenna_truth::{simulate, Effect, TruthConfig};
 use antenna_validate::equation_error::{twist_centres, Structure};
 use antenna_validate::output_error::*;
 use antenna_validate::parameters::{names, ParameterSet};
-use antenna_truth::{simulate, Effect, TruthConfig};
 
 /// RMS (rad) of the measured axis position less the load-side simulation with `params`,
 /// over 1 s windows of a truth log.
@@ -85,8 +85,7 @@ fn drive_pieces_are_cut_at_the_stribeck_growth_time_when_it_is_shorter_than_the_
 #[test]
 fn drive_pieces_tile_each_window_without_gaps_or_tiny_remainders() {
     for (length, piece) in [(400, 150), (400, 100), (400, 400), (37, 10), (400, 1000)] {
-        let plan =
-            WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
+        let plan = WindowPlan::new(length, 10 * length, 2e-3, String::new()).with_drive_length(piece, String::new());
         let pieces = plan.drive_pieces();
         let mut next = 0;
         for &(offset, len) in &pieces {
@@ -139,3 +138,65 @@ fn signed_rank_test_is_near_uniform_for_symmetric_noise() {
     assert!(rate < 0.06 && rate > 0.03, "false rejection rate {rate}");
 }
 
+/// The rigid stand-in whose simulated motor speed turns NaN from the second sample of the
+/// window that starts at `bad_start` (s) on.
+struct NanSpeedAfter {
+    inner: RigidReferenceSimulator,
+    bad_start: f64,
+    window_time: f64,
+}
+
+impl PlantSimulator for NanSpeedAfter {
+    fn configure(
+        &mut self,
+        params: &ParameterSet,
+        config: &antenna_validate::parameters::FmuConfig,
+    ) -> Result<(), String> {
+        self.inner.configure(params, config)
+    }
+
+    fn simulate(
+        &mut self,
+        start: &WindowStart,
+        commands: &[[f64; 2]],
+        disturbance: &[f64],
+        dt: f64,
+    ) -> Result<SimulatedOutputs, String> {
+        let mut outputs = self.inner.simulate(start, commands, disturbance, dt)?;
+        if self.window_time >= self.bad_start {
+            outputs.motor_vel[1] = f64::NAN;
+        }
+        self.window_time += dt * commands.len() as f64;
+        Ok(outputs)
+    }
+}
+
+#[test]
+fn a_nan_in_a_simulated_window_is_an_error_naming_the_channel_and_window() {
+    let config = TruthConfig { duration: 12.0, ..TruthConfig::default() };
+    let log = simulate(&config).log;
+    let mut start = config.plant.starting_parameters();
+    // The rigid stand-in: no compliance, so the total-torque route.
+    start.set(names::STIFFNESS, 0.0);
+    let data = antenna_validate::equation_error::prepare(&log, &start, &Default::default()).unwrap();
+    let out = OutputData::new(&log, &data, &start).unwrap();
+    let plan = WindowPlan::new((1.0 / out.dt) as usize, out.len(), out.dt, "1 s".into());
+    let mut simulator = NanSpeedAfter { inner: RigidReferenceSimulator::default(), bad_start: 3.0, window_time: 0.0 };
+    let error = output_error(&mut simulator, &start, &data, &out, &plan).unwrap_err();
+    let text = error.to_string();
+    assert!(matches!(error, SimulationError::NonFinite(_)), "{error:?}");
+    assert!(text.starts_with("the output error of the motor speed is NaN in the window at"), "{text}");
+}
+
+#[test]
+fn a_nan_from_the_simulator_on_the_starting_model_is_an_error_not_a_fallback_to_the_equation_error() {
+    use antenna_validate::{validate_log, ValidateOptions, ValidationError};
+    let config = TruthConfig { duration: 12.0, ..TruthConfig::default() };
+    let log = simulate(&config).log;
+    let mut start = config.plant.starting_parameters();
+    start.set(names::STIFFNESS, 0.0);
+    let mut simulator = NanSpeedAfter { inner: RigidReferenceSimulator::default(), bad_start: 0.0, window_time: 0.0 };
+    let error = validate_log(&log, &start, &ValidateOptions::default(), Some(&mut simulator)).unwrap_err();
+    assert!(matches!(error, ValidationError::Simulation(SimulationError::NonFinite(_))), "{error:?}");
+    assert!(error.to_string().contains("is NaN in the window at"), "{error}");
+}

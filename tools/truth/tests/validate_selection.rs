@@ -1,11 +1,11 @@
 //! Tests of `antenna_validate::selection` against logs of the truth simulation (which depends on
 //! the validation crate, so they live here).
 
-use antenna_validate::selection::*;
-use antenna_validate::candidates::Kind;
-use antenna_validate::parameters::ParameterSet;
 use antenna_truth::{simulate, Effect, TruthConfig};
+use antenna_validate::candidates::Kind;
 use antenna_validate::equation_error::{prepare, EquationOptions};
+use antenna_validate::parameters::ParameterSet;
+use antenna_validate::selection::*;
 
 fn run(effects: Vec<Effect>, seed: u64) -> (Selection, ParameterSet) {
     let config = TruthConfig { duration: 30.0, effects, seed, ..TruthConfig::default() };
@@ -76,3 +76,72 @@ fn confirmed_candidates_the_chosen_effect_does_not_beat_are_reported_as_equally_
     assert!(first_only.steps.iter().all(|s| s.equally_consistent.is_empty()));
 }
 
+/// A short clean truth log and its starting parameter set.
+fn clean_case() -> (antenna_validate::measured_log::MeasuredLog, ParameterSet) {
+    let config = TruthConfig { duration: 10.0, seed: 5, ..TruthConfig::default() };
+    (simulate(&config).log, config.plant.starting_parameters())
+}
+
+#[test]
+fn a_nan_in_the_log_is_an_error_naming_the_column_and_sample() {
+    use antenna_validate::finite::NonFinite;
+    use antenna_validate::{equation_error::PrepareError, validate_log, ValidateOptions, ValidationError};
+    let (mut log, start) = clean_case();
+    log.channels[1].values[300] = f64::NAN;
+    let column = log.channels[1].column.clone();
+    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    assert!(
+        matches!(&error, ValidationError::Prepare(PrepareError::NonFinite(NonFinite::Signal { signal, sample: 300, .. }))
+            if signal.contains(&column)),
+        "{error:?}"
+    );
+    assert!(error.to_string().contains("is NaN at sample 300"), "{error}");
+}
+
+#[test]
+fn a_nan_parameter_is_an_error_naming_it() {
+    use antenna_validate::finite::NonFinite;
+    use antenna_validate::parameters::names;
+    use antenna_validate::{equation_error::PrepareError, validate_log, ValidateOptions, ValidationError};
+    let (log, mut start) = clean_case();
+    start.set(names::VISCOUS, f64::NAN);
+    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    assert!(
+        matches!(&error, ValidationError::Prepare(PrepareError::NonFinite(NonFinite::Parameter { name, value }))
+            if name == names::VISCOUS && value.is_nan()),
+        "{error:?}"
+    );
+    assert_eq!(error.to_string(), format!("parameter {} is NaN", names::VISCOUS));
+}
+
+#[test]
+fn a_nan_in_the_equation_error_is_an_error_naming_its_cause() {
+    // Finite inputs whose product overflows: the motor inertia referred to the axis (J N^2) is
+    // infinite, and so is the model side of the motor equation. Before, the NaN residual made
+    // every test "not significant" and the run reported "no significant missing effect".
+    use antenna_validate::finite::NonFinite;
+    use antenna_validate::parameters::names;
+    use antenna_validate::{equation_error::PrepareError, validate_log, ValidateOptions, ValidationError};
+    let (log, mut start) = clean_case();
+    start.set(names::MOTOR_INERTIA, 1e307);
+    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    assert!(
+        matches!(&error, ValidationError::Prepare(PrepareError::NonFinite(NonFinite::Result { quantity, location, .. }))
+            if quantity.contains("model side of the motor torque balance") && location.contains("analysed sample")),
+        "{error:?}"
+    );
+}
+
+#[test]
+fn a_residual_that_overflows_is_an_error_not_a_result() {
+    // Every input and every model-side value finite, but the squares of the residual overflow:
+    // the RMS would be infinite, and the report would print it as a result.
+    use antenna_validate::finite::NonFinite;
+    use antenna_validate::parameters::names;
+    use antenna_validate::{validate_log, ValidateOptions, ValidationError};
+    let (log, mut start) = clean_case();
+    start.set(names::UNBALANCE_TORQUE, 1e200);
+    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    assert!(matches!(&error, ValidationError::NonFinite(NonFinite::Result { .. })), "{error:?}");
+    assert!(error.to_string().contains("torque balance"), "{error}");
+}

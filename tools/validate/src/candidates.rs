@@ -103,6 +103,17 @@ impl Kind {
     }
 }
 
+/// Number of parameters an effect adds, as the output error's information criterion counts
+/// them (the searched ones included; an inertia change is two with two equations).
+pub fn parameter_count(kind: Kind, structure: Structure) -> usize {
+    match kind {
+        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
+        Kind::Cogging => 3,
+        Kind::Inertia if structure == Structure::TwoMass => 2,
+        _ => 1,
+    }
+}
+
 /// One regressor: its values in each residual channel (empty: zero in that channel).
 #[derive(Debug, Clone)]
 pub struct Column {
@@ -240,30 +251,24 @@ pub fn instantiate(
     channel_weights: &[f64],
     mode: Mode,
 ) -> Result<Instance, String> {
-    let n = data.len();
-    let count = channels.len();
-    let torque_only = |values: Vec<f64>| -> Vec<Vec<f64>> {
-        let mut v = vec![Vec::new(); count];
-        v[data.torque_channel()] = values;
-        v
-    };
-    let column =
-        |label: &str, unit: &str, channels: Vec<Vec<f64>>| Column { label: label.into(), unit: unit.into(), channels };
-    let simple = |columns: Vec<Column>| Instance {
-        kind,
-        mode,
-        columns,
-        adjust: Vec::new(),
-        searched: Vec::new(),
-        trials: 1.0,
-        extra_parameters: 0,
-    };
-    let weights = stacked_weights(channels, channel_weights);
-    let target = stack(channels, residual);
     let two_mass = data.structure == Structure::TwoMass;
     let stiffness = params.value(names::STIFFNESS);
-    let ratio = if two_mass { data.twist_scale / stiffness } else { 1.0 };
-    let delay = params.value(names::DELAY);
+    let cx = Setup {
+        kind,
+        mode,
+        data,
+        params,
+        channels,
+        n: data.len(),
+        weights: stacked_weights(channels, channel_weights),
+        target: stack(channels, residual),
+        two_mass,
+        stiffness,
+        ratio: if two_mass { data.twist_scale / stiffness } else { 1.0 },
+    };
+    let (n, ratio) = (cx.n, cx.ratio);
+    let torque_only = |values: Vec<f64>| cx.torque_only(values);
+    let simple = |columns: Vec<Column>| cx.simple(columns);
 
     match kind {
         Kind::Coulomb => {
@@ -323,33 +328,7 @@ pub fn instantiate(
                 column("unbalance sin part (A sin phase)", "N m", s),
             ]))
         }
-        Kind::Stiffness => {
-            if !two_mass {
-                return Err("needs two encoders and a stiffness in the parameter set".into());
-            }
-            let load_inertia = params.value(names::LOAD_INERTIA);
-            let damping = params.value(names::DAMPING);
-            let backlash = params.value(names::BACKLASH_WIDTH);
-            let amplitude = params.value(names::UNBALANCE_TORQUE);
-            let phase = params.value(names::UNBALANCE_PHASE);
-            let offset = params.value(names::TORQUE_OFFSET);
-            let signs = if backlash > 0.0 { backlash_sign(data, params) } else { vec![0.0; n] };
-            let disturbance = data.disturbance.clone().unwrap_or_else(|| vec![0.0; n]);
-            let motor_k: Vec<f64> = (0..n).map(|i| data.twist[i] - 0.5 * backlash * signs[i]).collect();
-            let load_k: Vec<f64> = (0..n)
-                .map(|i| {
-                    let load_side =
-                        load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset
-                            - disturbance[i];
-                    -data.twist_scale / (stiffness * stiffness) * (load_side - damping * data.twist_rate[i])
-                })
-                .collect();
-            let load_d: Vec<f64> = data.twist_rate.iter().map(|v| -ratio * v).collect();
-            Ok(simple(vec![
-                column("path.stiffness change", "N m/rad", vec![motor_k, load_k]),
-                column("path.damping change", "N m s/rad", vec![data.twist_rate.clone(), load_d]),
-            ]))
-        }
+        Kind::Stiffness => stiffness_instance(&cx),
         Kind::Backlash => {
             if !two_mass {
                 return Err("needs two encoders and a stiffness in the parameter set".into());
@@ -359,190 +338,277 @@ pub fn instantiate(
             let load: Vec<f64> = signs.iter().map(|s| 0.5 * data.twist_scale * s).collect();
             Ok(simple(vec![column("backlash.width change", "rad", vec![motor, load])]))
         }
-        Kind::Stribeck => {
-            let fc = params.value(names::COULOMB);
-            let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
-            let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
-            let hump = |vs: f64| {
-                data.smooth(
-                    &data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>(),
-                )
-            };
-            if mode == Mode::Refine {
-                let slope = data.smooth(
-                    &data
-                        .motor_vel_inner
-                        .iter()
-                        .map(|&v| {
-                            amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v)
-                        })
-                        .collect::<Vec<_>>(),
-                );
-                let mut instance = simple(vec![
-                    column("Stribeck hump change", "N m", torque_only(hump(current_vs))),
-                    column("friction.stribeck_velocity change", "rad/s", torque_only(slope)),
-                ]);
-                instance.searched = vec![Searched {
-                    name: names::STRIBECK_VELOCITY.into(),
-                    unit: "rad/s".into(),
-                    value: current_vs,
-                    sigma: f64::NAN,
-                    range: (current_vs, current_vs),
-                }];
-                return Ok(instance);
-            }
-            // The new hump replaces the model's: its old contribution goes back into the target.
-            let adjust_torque: Vec<f64> = hump(current_vs).iter().map(|h| amplitude * h).collect();
-            let mut speeds: Vec<f64> =
-                data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
-            if speeds.len() < 10 {
-                return Err("too few moving samples".into());
-            }
-            speeds.sort_by(|a, b| a.total_cmp(b));
-            let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
-            let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
-            let grid_count = 25;
-            let grid: Vec<f64> =
-                (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
-            let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
-            let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
-            let chi2: Vec<f64> = grid
-                .iter()
-                .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, &weights))
-                .collect();
-            let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
-            let sigma = profile_sigma(&grid, &chi2, best);
-            Ok(Instance {
-                kind,
-                mode,
-                columns: vec![column(
-                    "Stribeck hump (friction.static - friction.coulomb)",
-                    "N m",
-                    torque_only(hump(grid[best])),
-                )],
-                adjust: torque_only(adjust_torque),
-                searched: vec![Searched {
-                    name: names::STRIBECK_VELOCITY.into(),
-                    unit: "rad/s".into(),
-                    value: grid[best],
-                    sigma,
-                    range: (low, high),
-                }],
-                // Neighbouring Stribeck velocities a factor 1.3 apart give nearly the same
-                // column; about a third of the grid is independent.
-                trials: (grid_count as f64 / 3.0).max(1.0),
-                extra_parameters: 1,
-            })
-        }
-        Kind::Delay => {
-            // y(t) = T(t - d): a larger delay changes the measured side by -T'(t - d) per
-            // second, so the residual column (minus the derivative of the measured side) is
-            // +T'(t - d).
-            let rate_column = |d: f64| torque_only(data.torque_rate_delayed(d));
-            if mode == Mode::Refine {
-                let mut instance = simple(vec![column("effect.delay change", "s", rate_column(delay))]);
-                instance.searched = vec![Searched {
-                    name: names::DELAY.into(),
-                    unit: "s".into(),
-                    value: delay,
-                    sigma: f64::NAN,
-                    range: (delay, delay),
-                }];
-                return Ok(instance);
-            }
-            // The search covers DELAY_SEARCH_SECONDS whatever the log rate, in tenths of a
-            // sample; the trials below make a longer search (more samples) stricter.
-            let max_steps = ((DELAY_SEARCH_SECONDS / data.dt).round() as usize).max(2);
-            let grid: Vec<f64> = (0..=max_steps * 10).map(|k| k as f64 * 0.1 * data.dt).collect();
-            let base = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
-            let adjust_for =
-                |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };
-            let chi2: Vec<f64> = grid
-                .iter()
-                .map(|&d| {
-                    let adjust = stack(channels, &torque_only(adjust_for(d)));
-                    target.iter().zip(&adjust).zip(&weights).map(|((r, a), w)| w * (r + a).powi(2)).sum()
-                })
-                .collect();
-            let best = (0..grid.len()).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
-            let sigma = profile_sigma(&grid, &chi2, best);
-            Ok(Instance {
-                kind,
-                mode,
-                // A derivative column refines the grid value between grid points.
-                columns: vec![column("effect.delay refinement", "s", rate_column(delay + grid[best]))],
-                adjust: torque_only(adjust_for(grid[best])),
-                searched: vec![Searched {
-                    name: names::DELAY.into(),
-                    unit: "s".into(),
-                    value: grid[best],
-                    sigma,
-                    range: (0.0, grid[grid.len() - 1]),
-                }],
-                // One independent trial per whole sample of delay searched.
-                trials: max_steps as f64,
-                extra_parameters: 0,
-            })
-        }
-        Kind::Cogging => {
-            let amplitude = params.value(names::COGGING_AMPLITUDE);
-            let period = params.value(names::COGGING_PERIOD);
-            let phase = params.value(names::COGGING_PHASE);
-            let two_pi = 2.0 * std::f64::consts::PI;
-            if mode == Mode::Refine {
-                if period <= 0.0 {
-                    return Err("no cogging period to refine".into());
-                }
-                let (a0, b0) = (amplitude * phase.cos(), amplitude * phase.sin());
-                let sin =
-                    data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
-                let cos =
-                    data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
-                let slope = data.smooth(
-                    &data
-                        .motor_pos_inner
-                        .iter()
-                        .map(|q| {
-                            let x = two_pi * q / period;
-                            two_pi * q / (period * period) * (-a0 * x.cos() + b0 * x.sin())
-                        })
-                        .collect::<Vec<_>>(),
-                );
-                let mut instance = simple(vec![
-                    column("cogging sin part change", "N m", torque_only(sin)),
-                    column("cogging cos part change", "N m", torque_only(cos)),
-                    column("effect.cogging_period change", "rad", torque_only(slope)),
-                ]);
-                instance.searched = vec![Searched {
-                    name: names::COGGING_PERIOD.into(),
-                    unit: "rad".into(),
-                    value: period,
-                    sigma: f64::NAN,
-                    range: (period, period),
-                }];
-                return Ok(instance);
-            }
-            // Any cogging already in the model goes back into the target: the search fits the
-            // whole position-periodic torque afresh.
-            let existing: Vec<f64> = if amplitude != 0.0 && period > 0.0 {
-                data.smooth(
-                    &data
-                        .motor_pos_inner
-                        .iter()
-                        .map(|q| amplitude * (two_pi * q / period + phase).sin())
-                        .collect::<Vec<_>>(),
-                )
-            } else {
-                vec![0.0; n]
-            };
-            let adjust = torque_only(existing);
-            let adjust_stacked = stack(channels, &adjust);
-            let adjusted: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
-            let mut instance = cogging(data, channels, &adjusted, &weights, &torque_only, kind)?;
-            instance.adjust = adjust;
-            Ok(instance)
+        Kind::Stribeck => stribeck_instance(&cx),
+        Kind::Delay => delay_instance(&cx),
+        Kind::Cogging => cogging_instance(&cx),
+    }
+}
+
+/// What every candidate's columns are built from: the data, the parameters they are
+/// linearised at, the residual target and its weights.
+struct Setup<'a> {
+    kind: Kind,
+    mode: Mode,
+    data: &'a EquationData,
+    params: &'a ParameterSet,
+    channels: &'a [ChannelData],
+    n: usize,
+    weights: Vec<f64>,
+    target: Vec<f64>,
+    two_mass: bool,
+    stiffness: f64,
+    /// The load equation's unit: the starting stiffness over the current one (1 without it).
+    ratio: f64,
+}
+
+impl Setup<'_> {
+    /// Values in the torque equation only.
+    fn torque_only(&self, values: Vec<f64>) -> Vec<Vec<f64>> {
+        let mut v = vec![Vec::new(); self.channels.len()];
+        v[self.data.torque_channel()] = values;
+        v
+    }
+
+    /// An instance with columns only (no search, no target change).
+    fn simple(&self, columns: Vec<Column>) -> Instance {
+        Instance {
+            kind: self.kind,
+            mode: self.mode,
+            columns,
+            adjust: Vec::new(),
+            searched: Vec::new(),
+            trials: 1.0,
+            extra_parameters: 0,
         }
     }
+}
+
+fn column(label: &str, unit: &str, channels: Vec<Vec<f64>>) -> Column {
+    Column { label: label.into(), unit: unit.into(), channels }
+}
+
+/// Stiffness and damping: their columns in both equations.
+fn stiffness_instance(cx: &Setup) -> Result<Instance, String> {
+    let (data, params, n, stiffness, ratio) = (cx.data, cx.params, cx.n, cx.stiffness, cx.ratio);
+    if !cx.two_mass {
+        return Err("needs two encoders and a stiffness in the parameter set".into());
+    }
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    let damping = params.value(names::DAMPING);
+    let backlash = params.value(names::BACKLASH_WIDTH);
+    let amplitude = params.value(names::UNBALANCE_TORQUE);
+    let phase = params.value(names::UNBALANCE_PHASE);
+    let offset = params.value(names::TORQUE_OFFSET);
+    let signs = if backlash > 0.0 { backlash_sign(data, params) } else { vec![0.0; n] };
+    let disturbance = data.disturbance.clone().unwrap_or_else(|| vec![0.0; n]);
+    let motor_k: Vec<f64> = (0..n).map(|i| data.twist[i] - 0.5 * backlash * signs[i]).collect();
+    let load_k: Vec<f64> = (0..n)
+        .map(|i| {
+            let load_side =
+                load_inertia * data.load_acc[i] + amplitude * (data.angle[i] + phase).cos() + offset - disturbance[i];
+            -data.twist_scale / (stiffness * stiffness) * (load_side - damping * data.twist_rate[i])
+        })
+        .collect();
+    let load_d: Vec<f64> = data.twist_rate.iter().map(|v| -ratio * v).collect();
+    Ok(cx.simple(vec![
+        column("path.stiffness change", "N m/rad", vec![motor_k, load_k]),
+        column("path.damping change", "N m s/rad", vec![data.twist_rate.clone(), load_d]),
+    ]))
+}
+
+/// The Stribeck hump: its level as a column, its velocity by grid search (Search) or as a
+/// Gauss-Newton column (Refine).
+fn stribeck_instance(cx: &Setup) -> Result<Instance, String> {
+    let (kind, mode, data, params, channels) = (cx.kind, cx.mode, cx.data, cx.params, cx.channels);
+    let (weights, target) = (&cx.weights, &cx.target);
+    let torque_only = |values: Vec<f64>| cx.torque_only(values);
+    let simple = |columns: Vec<Column>| cx.simple(columns);
+    let fc = params.value(names::COULOMB);
+    let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
+    let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
+    let hump = |vs: f64| {
+        data.smooth(&data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>())
+    };
+    if mode == Mode::Refine {
+        let slope = data.smooth(
+            &data
+                .motor_vel_inner
+                .iter()
+                .map(|&v| amplitude * 2.0 * v * v / current_vs.powi(3) * (-(v / current_vs).powi(2)).exp() * sign(v))
+                .collect::<Vec<_>>(),
+        );
+        let mut instance = simple(vec![
+            column("Stribeck hump change", "N m", torque_only(hump(current_vs))),
+            column("friction.stribeck_velocity change", "rad/s", torque_only(slope)),
+        ]);
+        instance.searched = vec![Searched {
+            name: names::STRIBECK_VELOCITY.into(),
+            unit: "rad/s".into(),
+            value: current_vs,
+            sigma: f64::NAN,
+            range: (current_vs, current_vs),
+        }];
+        return Ok(instance);
+    }
+    // The new hump replaces the model's: its old contribution goes back into the target.
+    let adjust_torque: Vec<f64> = hump(current_vs).iter().map(|h| amplitude * h).collect();
+    let mut speeds: Vec<f64> =
+        data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
+    if speeds.len() < 10 {
+        return Err("too few moving samples".into());
+    }
+    speeds.sort_by(|a, b| a.total_cmp(b));
+    let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
+    let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
+    let grid_count = 25;
+    let grid: Vec<f64> = (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
+    let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
+    let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
+    let chi2: Vec<f64> = grid
+        .iter()
+        .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, weights))
+        .collect();
+    let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
+    let sigma = profile_sigma(&grid, &chi2, best);
+    Ok(Instance {
+        kind,
+        mode,
+        columns: vec![column(
+            "Stribeck hump (friction.static - friction.coulomb)",
+            "N m",
+            torque_only(hump(grid[best])),
+        )],
+        adjust: torque_only(adjust_torque),
+        searched: vec![Searched {
+            name: names::STRIBECK_VELOCITY.into(),
+            unit: "rad/s".into(),
+            value: grid[best],
+            sigma,
+            range: (low, high),
+        }],
+        // Neighbouring Stribeck velocities a factor 1.3 apart give nearly the same
+        // column; about a third of the grid is independent.
+        trials: (grid_count as f64 / 3.0).max(1.0),
+        extra_parameters: 1,
+    })
+}
+
+/// The delay of the applied torque: by grid search in tenths of a sample (Search), or as the
+/// torque-rate column (Refine).
+fn delay_instance(cx: &Setup) -> Result<Instance, String> {
+    let (kind, mode, data, channels) = (cx.kind, cx.mode, cx.data, cx.channels);
+    let (weights, target) = (&cx.weights, &cx.target);
+    let delay = cx.params.value(names::DELAY);
+    let torque_only = |values: Vec<f64>| cx.torque_only(values);
+    let simple = |columns: Vec<Column>| cx.simple(columns);
+    // y(t) = T(t - d): a larger delay changes the measured side by -T'(t - d) per
+    // second, so the residual column (minus the derivative of the measured side) is
+    // +T'(t - d).
+    let rate_column = |d: f64| torque_only(data.torque_rate_delayed(d));
+    if mode == Mode::Refine {
+        let mut instance = simple(vec![column("effect.delay change", "s", rate_column(delay))]);
+        instance.searched = vec![Searched {
+            name: names::DELAY.into(),
+            unit: "s".into(),
+            value: delay,
+            sigma: f64::NAN,
+            range: (delay, delay),
+        }];
+        return Ok(instance);
+    }
+    // The search covers DELAY_SEARCH_SECONDS whatever the log rate, in tenths of a
+    // sample; the trials below make a longer search (more samples) stricter.
+    let max_steps = ((DELAY_SEARCH_SECONDS / data.dt).round() as usize).max(2);
+    let grid: Vec<f64> = (0..=max_steps * 10).map(|k| k as f64 * 0.1 * data.dt).collect();
+    let base = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
+    let adjust_for =
+        |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };
+    let chi2: Vec<f64> = grid
+        .iter()
+        .map(|&d| {
+            let adjust = stack(channels, &torque_only(adjust_for(d)));
+            target.iter().zip(&adjust).zip(weights).map(|((r, a), w)| w * (r + a).powi(2)).sum()
+        })
+        .collect();
+    let best = (0..grid.len()).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
+    let sigma = profile_sigma(&grid, &chi2, best);
+    Ok(Instance {
+        kind,
+        mode,
+        // A derivative column refines the grid value between grid points.
+        columns: vec![column("effect.delay refinement", "s", rate_column(delay + grid[best]))],
+        adjust: torque_only(adjust_for(grid[best])),
+        searched: vec![Searched {
+            name: names::DELAY.into(),
+            unit: "s".into(),
+            value: grid[best],
+            sigma,
+            range: (0.0, grid[grid.len() - 1]),
+        }],
+        // One independent trial per whole sample of delay searched.
+        trials: max_steps as f64,
+        extra_parameters: 0,
+    })
+}
+
+/// The position-periodic (cogging) torque: its period by search ([`cogging`]), or its sin, cos
+/// and period columns at the current parameters (Refine).
+fn cogging_instance(cx: &Setup) -> Result<Instance, String> {
+    let (kind, mode, data, params, channels, n) = (cx.kind, cx.mode, cx.data, cx.params, cx.channels, cx.n);
+    let weights = &cx.weights;
+    let target = &cx.target;
+    let torque_only = |values: Vec<f64>| cx.torque_only(values);
+    let simple = |columns: Vec<Column>| cx.simple(columns);
+    let amplitude = params.value(names::COGGING_AMPLITUDE);
+    let period = params.value(names::COGGING_PERIOD);
+    let phase = params.value(names::COGGING_PHASE);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    if mode == Mode::Refine {
+        if period <= 0.0 {
+            return Err("no cogging period to refine".into());
+        }
+        let (a0, b0) = (amplitude * phase.cos(), amplitude * phase.sin());
+        let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
+        let cos = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).cos()).collect::<Vec<_>>());
+        let slope = data.smooth(
+            &data
+                .motor_pos_inner
+                .iter()
+                .map(|q| {
+                    let x = two_pi * q / period;
+                    two_pi * q / (period * period) * (-a0 * x.cos() + b0 * x.sin())
+                })
+                .collect::<Vec<_>>(),
+        );
+        let mut instance = simple(vec![
+            column("cogging sin part change", "N m", torque_only(sin)),
+            column("cogging cos part change", "N m", torque_only(cos)),
+            column("effect.cogging_period change", "rad", torque_only(slope)),
+        ]);
+        instance.searched = vec![Searched {
+            name: names::COGGING_PERIOD.into(),
+            unit: "rad".into(),
+            value: period,
+            sigma: f64::NAN,
+            range: (period, period),
+        }];
+        return Ok(instance);
+    }
+    // Any cogging already in the model goes back into the target: the search fits the
+    // whole position-periodic torque afresh.
+    let existing: Vec<f64> = if amplitude != 0.0 && period > 0.0 {
+        data.smooth(
+            &data.motor_pos_inner.iter().map(|q| amplitude * (two_pi * q / period + phase).sin()).collect::<Vec<_>>(),
+        )
+    } else {
+        vec![0.0; n]
+    };
+    let adjust = torque_only(existing);
+    let adjust_stacked = stack(channels, &adjust);
+    let adjusted: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
+    let mut instance = cogging(data, channels, &adjusted, weights, &torque_only, kind)?;
+    instance.adjust = adjust;
+    Ok(instance)
 }
 
 /// Cogging: a periodogram over the motor angle, fitted by sine and cosine at each period.

@@ -21,6 +21,7 @@
 use super::parameters::{names, ParameterSet};
 use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, SavitzkyGolay};
 use antenna_dsp::weighted_least_squares;
+use crate::finite::{check_parameters, check_series, check_signal, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
 
 /// Settings of the data conditioning. Defaults are documented in docs/validation.md.
@@ -227,19 +228,162 @@ pub fn hat_functions(knots: &[f64], time: &[f64]) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// Why a log and a parameter set cannot be conditioned for the equation error.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PrepareError {
+    #[error("the parameter set has no {0}")]
+    MissingParameter(&'static str),
+    #[error("the log has currents, not torques: the parameter set needs {0}")]
+    NeedsTorqueConstant(&'static str),
+    #[error("the log has no position output")]
+    NoPosition,
+    #[error("the log is too short: {samples} samples for a filter of {filter} samples")]
+    TooShort { samples: usize, filter: usize },
+    #[error(transparent)]
+    NonFinite(#[from] NonFinite),
+}
+
 /// Builds the conditioned data and the starting model's residual channels.
-pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptions) -> Result<EquationData, String> {
+pub fn prepare(
+    log: &MeasuredLog,
+    params: &ParameterSet,
+    options: &EquationOptions,
+) -> Result<EquationData, PrepareError> {
+    check_log(log)?;
+    check_parameters(params)?;
     let mut notes = Vec::new();
     let log = uniform(log, &mut notes);
     let n = log.len();
     let dt = log.sample_interval();
-    let gear =
-        params.get(names::GEAR_RATIO).ok_or_else(|| format!("the parameter set has no {}", names::GEAR_RATIO))?;
+    let raw = raw_inputs(&log, params, &mut notes)?;
+    let two_encoders = raw.two_encoders;
+
+    let positions: Vec<&[f64]> = if two_encoders { vec![&raw.motor_pos, &raw.load_pos] } else { vec![&raw.motor_pos] };
+    let torque_sigma = torque_noise_sigma(&raw.torque, &positions);
+    let motor_pos_sigma = noise_sigma(&raw.motor_pos);
+    let load_pos_sigma = noise_sigma(&raw.load_pos);
+    let noise = SensorNoise { torque: torque_sigma, motor_pos: motor_pos_sigma, load_pos: load_pos_sigma };
+
+    let stiffness = params.value(names::STIFFNESS);
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    let kernel_sigma = smoothing_sigma(params, raw.gear, two_encoders, &noise, dt, options, &mut notes);
+    let smoother = gaussian_kernel(kernel_sigma);
+    let half_width = smoother.len() / 2;
+    if n < 8 * half_width + 16 {
+        return Err(PrepareError::TooShort { samples: n, filter: smoother.len() });
+    }
+    let cutoff_hz = 0.1325 / (kernel_sigma * dt);
+    let h = half_width;
+    let motion = filtered_motion(&log, &raw, &smoother, dt);
+    let first_sample = 2 * h;
+    let time = log.time[first_sample..n - first_sample].to_vec();
+
+    let speed_noise = motor_pos_sigma * SavitzkyGolay::gain(&convolve(&smoother, &FIRST_STENCIL)) / dt;
+    let mut stick_speed = options.stick_noise_multiple * speed_noise;
+    if let Some(vs) = params.get(names::STRIBECK_VELOCITY) {
+        if params.value(names::STATIC) > params.value(names::COULOMB) {
+            stick_speed = stick_speed.max(options.stick_stribeck_fraction * vs);
+        }
+    }
+
+    let structure = if !two_encoders {
+        Structure::Rigid
+    } else if stiffness > 0.0 && load_inertia > 0.0 {
+        Structure::TwoMass
+    } else {
+        notes.push(format!(
+            "{} or {} is not set: only the total torque equation is used, so stiffness and backlash cannot be checked",
+            names::STIFFNESS,
+            names::LOAD_INERTIA
+        ));
+        Structure::TotalTwoEncoders
+    };
+    let slow_twist_hats = slow_twist_basis(&log, structure, load_pos_sigma, dt, &time, &mut notes);
+
+    let mut data = EquationData {
+        structure,
+        dt,
+        half_width: h,
+        cutoff_hz,
+        gear_ratio: raw.gear,
+        time,
+        torque: motion.torque,
+        torque_inner: motion.torque_inner,
+        motor_pos: motion.motor_pos,
+        motor_vel: motion.motor_vel,
+        motor_acc: motion.motor_acc,
+        load_pos: motion.load_pos,
+        load_vel: motion.load_vel,
+        load_acc: motion.load_acc,
+        twist: motion.twist,
+        twist_rate: motion.twist_rate,
+        angle: Vec::new(),
+        angle_is_elevation: motion.angle_is_elevation,
+        disturbance: motion.disturbance,
+        motor_pos_inner: motion.motor_pos_inner,
+        motor_vel_inner: motion.motor_vel_inner,
+        twist_inner: motion.twist_inner,
+        angle_inner: motion.angle_inner,
+        smoother,
+        torque_sigma,
+        motor_pos_sigma,
+        load_pos_sigma,
+        stick_speed,
+        twist_scale: if structure == Structure::TwoMass { stiffness } else { 1.0 },
+        slow_twist_hats,
+        first_sample,
+        channels: Vec::new(),
+        notes,
+    };
+    data.angle = data.smooth(&data.angle_inner);
+    data.channels = model_channels(&data, params);
+    check_channels(&data, &data.channels)?;
+    Ok(data)
+}
+
+/// Checks every logged signal (the time first) for NaN and infinity.
+pub fn check_log(log: &MeasuredLog) -> Result<(), NonFinite> {
+    check_signal("time", &log.time)?;
+    for channel in &log.channels {
+        check_signal(&format!("column '{}'", channel.column), &channel.values)?;
+    }
+    Ok(())
+}
+
+/// Checks both sides of residual channels on conditioned data: with a finite log and finite
+/// parameters, a non-finite value here is an overflow (a parameter out of range).
+pub fn check_channels(data: &EquationData, channels: &[ChannelData]) -> Result<(), NonFinite> {
+    let at = |i: usize| match data.time.get(i) {
+        Some(t) => format!("at analysed sample {i} (t = {t:.4} s)"),
+        None => format!("at analysed sample {i}"),
+    };
+    for channel in channels {
+        check_series(&format!("the measured side of the {}", channel.name), &channel.measured, at)?;
+        check_series(&format!("the model side of the {}", channel.name), &channel.predicted, at)?;
+    }
+    Ok(())
+}
+
+/// The log's inputs of the equations: the axis-side measured torque and the raw positions (one
+/// encoder stands in for the other when the log has only one).
+struct RawInputs {
+    gear: f64,
+    torque: Vec<f64>,
+    motor_pos: Vec<f64>,
+    load_pos: Vec<f64>,
+    two_encoders: bool,
+}
+
+fn raw_inputs(log: &MeasuredLog, params: &ParameterSet, notes: &mut Vec<String>) -> Result<RawInputs, PrepareError> {
+    let gear = params.get(names::GEAR_RATIO).ok_or(PrepareError::MissingParameter(names::GEAR_RATIO))?;
     let torque_constant = params.value(names::TORQUE_CONSTANT);
     if log.torque_from_current() && params.get(names::TORQUE_CONSTANT).is_none() {
-        return Err(format!("the log has currents, not torques: the parameter set needs {}", names::TORQUE_CONSTANT));
+        return Err(PrepareError::NeedsTorqueConstant(names::TORQUE_CONSTANT));
     }
-    let torque_raw: Vec<f64> = log.total_motor_torque(torque_constant).iter().map(|t| t * gear).collect();
+    let torque: Vec<f64> = log.total_motor_torque(torque_constant).iter().map(|t| t * gear).collect();
+    check_series("the axis-side measured torque (logged torque times the gear ratio)", &torque, |i| {
+        format!("at sample {i}")
+    })?;
 
     let motor_pos_raw = log.signal(Signal::MotorPos).map(<[f64]>::to_vec);
     let load_pos_raw = log.signal(Signal::LoadPos).map(<[f64]>::to_vec);
@@ -248,7 +392,7 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     {
         notes.push("logged speeds are not used: speeds come from the positions through a zero-phase filter, since a drive's own speed filter may lag".into());
     }
-    let (motor_pos_raw, load_pos_raw, two_encoders) = match (motor_pos_raw, load_pos_raw) {
+    let (motor_pos, load_pos, two_encoders) = match (motor_pos_raw, load_pos_raw) {
         (Some(m), Some(l)) => (m, l, true),
         (Some(m), None) => {
             notes.push(
@@ -262,14 +406,28 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
             );
             (l.clone(), l, false)
         }
-        (None, None) => return Err("the log has no position output".into()),
+        (None, None) => return Err(PrepareError::NoPosition),
     };
+    Ok(RawInputs { gear, torque, motor_pos, load_pos, two_encoders })
+}
 
-    let positions: Vec<&[f64]> = if two_encoders { vec![&motor_pos_raw, &load_pos_raw] } else { vec![&motor_pos_raw] };
-    let torque_sigma = torque_noise_sigma(&torque_raw, &positions);
-    let motor_pos_sigma = noise_sigma(&motor_pos_raw);
-    let load_pos_sigma = noise_sigma(&load_pos_raw);
+/// Model-free sensor noise estimates: torque (axis N m) and encoders (rad).
+struct SensorNoise {
+    torque: f64,
+    motor_pos: f64,
+    load_pos: f64,
+}
 
+/// The standard deviation (samples) of the Gaussian smoothing kernel.
+fn smoothing_sigma(
+    params: &ParameterSet,
+    gear: f64,
+    two_encoders: bool,
+    noise: &SensorNoise,
+    dt: f64,
+    options: &EquationOptions,
+    notes: &mut Vec<String>,
+) -> f64 {
     let motor_inertia = params.value(names::MOTOR_INERTIA) * gear * gear;
     let load_inertia = params.value(names::LOAD_INERTIA);
     // The smoothing: a Gaussian kernel, the narrowest (in steps of a quarter sample) whose
@@ -282,10 +440,10 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     let mut trial = (options.min_half_width as f64 / 4.0).max(0.75);
     while trial <= max_sigma {
         let kernel = gaussian_kernel(trial);
-        let torque_noise = torque_sigma * SavitzkyGolay::gain(&kernel);
+        let torque_noise = noise.torque * SavitzkyGolay::gain(&kernel);
         let acc_gain = SavitzkyGolay::gain(&convolve(&kernel, &SECOND_STENCIL)) / (dt * dt);
-        let motor_noise = motor_inertia * motor_pos_sigma * acc_gain;
-        let load_noise = if two_encoders { load_inertia * load_pos_sigma * acc_gain } else { 0.0 };
+        let motor_noise = motor_inertia * noise.motor_pos * acc_gain;
+        let load_noise = if two_encoders { load_inertia * noise.load_pos * acc_gain } else { 0.0 };
         if motor_noise.max(load_noise) <= torque_noise {
             kernel_sigma = trial;
             break;
@@ -309,16 +467,33 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
             ));
         }
     }
-    let smoother = gaussian_kernel(kernel_sigma);
-    let half_width = smoother.len() / 2;
-    if n < 8 * half_width + 16 {
-        return Err(format!("the log is too short: {n} samples for a filter of {} samples", smoother.len()));
-    }
-    let cutoff_hz = 0.1325 / (kernel_sigma * dt);
-    let h = half_width;
+    kernel_sigma
+}
 
-    // Inner region: samples h..n-h of the log (one filter pass). Analysed region: 2h..n-2h.
-    let inner = |x: &[f64]| SavitzkyGolay::apply(&smoother, x);
+/// The smoothed signals and their derivatives: "inner" copies on the log samples h..n-h (one
+/// filter pass), the others on the analysed region 2h..n-2h.
+struct FilteredMotion {
+    torque_inner: Vec<f64>,
+    torque: Vec<f64>,
+    motor_pos: Vec<f64>,
+    motor_vel: Vec<f64>,
+    motor_acc: Vec<f64>,
+    load_pos: Vec<f64>,
+    load_vel: Vec<f64>,
+    load_acc: Vec<f64>,
+    twist: Vec<f64>,
+    twist_rate: Vec<f64>,
+    angle_is_elevation: bool,
+    disturbance: Option<Vec<f64>>,
+    motor_pos_inner: Vec<f64>,
+    motor_vel_inner: Vec<f64>,
+    twist_inner: Vec<f64>,
+    angle_inner: Vec<f64>,
+}
+
+fn filtered_motion(log: &MeasuredLog, raw: &RawInputs, smoother: &[f64], dt: f64) -> FilteredMotion {
+    let h = smoother.len() / 2;
+    let inner = |x: &[f64]| SavitzkyGolay::apply(smoother, x);
     let cut = |x: Vec<f64>| x[h..x.len() - h].to_vec();
 
     // Speeds and accelerations: the smoothed positions differentiated by five-point central
@@ -326,9 +501,9 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     // passband, so the motion terms see exactly the smoothing the torque sees; a separate
     // Savitzky-Golay derivative filter would smooth differently near the cut-off, and the
     // difference would show up as an inertia or stiffness error.
-    let torque_inner = inner(&torque_raw);
-    let motor_pos_inner = inner(&motor_pos_raw);
-    let load_pos_inner = inner(&load_pos_raw);
+    let torque_inner = inner(&raw.torque);
+    let motor_pos_inner = inner(&raw.motor_pos);
+    let load_pos_inner = inner(&raw.load_pos);
     let motor_vel_inner = central_first(&motor_pos_inner, dt);
     let load_vel_inner = central_first(&load_pos_inner, dt);
     let motor_acc_inner = central_second(&motor_pos_inner, dt);
@@ -340,8 +515,6 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     let angle_inner = load_pos_inner.clone();
     let disturbance = log.signal(Signal::DisturbanceTorque).map(|d| cut(inner(d)));
 
-    let first_sample = 2 * h;
-    let time = log.time[first_sample..n - first_sample].to_vec();
     let torque = cut(torque_inner.clone());
     let motor_pos = cut(motor_pos_inner.clone());
     let motor_vel = cut(motor_vel_inner.clone());
@@ -351,35 +524,39 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
     let load_acc = cut(load_acc_inner);
     let twist: Vec<f64> = motor_pos.iter().zip(&load_pos).map(|(m, l)| m - l).collect();
     let twist_rate: Vec<f64> = motor_vel.iter().zip(&load_vel).map(|(m, l)| m - l).collect();
-
-    let speed_noise = motor_pos_sigma * SavitzkyGolay::gain(&convolve(&smoother, &FIRST_STENCIL)) / dt;
-    let mut stick_speed = options.stick_noise_multiple * speed_noise;
-    if let Some(vs) = params.get(names::STRIBECK_VELOCITY) {
-        if params.value(names::STATIC) > params.value(names::COULOMB) {
-            stick_speed = stick_speed.max(options.stick_stribeck_fraction * vs);
-        }
+    FilteredMotion {
+        torque_inner,
+        torque,
+        motor_pos,
+        motor_vel,
+        motor_acc,
+        load_pos,
+        load_vel,
+        load_acc,
+        twist,
+        twist_rate,
+        angle_is_elevation,
+        disturbance,
+        motor_pos_inner,
+        motor_vel_inner,
+        twist_inner,
+        angle_inner,
     }
+}
 
-    let structure = if !two_encoders {
-        Structure::Rigid
-    } else if stiffness > 0.0 && load_inertia > 0.0 {
-        Structure::TwoMass
-    } else {
-        notes.push(format!(
-            "{} or {} is not set: only the total torque equation is used, so stiffness and backlash cannot be checked",
-            names::STIFFNESS,
-            names::LOAD_INERTIA
-        ));
-        Structure::TotalTwoEncoders
-    };
-
-    // A motor position integrated from a speed signal drifts as a random walk of the speed
-    // noise; its twist is trusted over the time T in which that walk stays within the load
-    // encoder's noise, sigma_v sqrt(dt T) = sigma_l, and the twist offset becomes a piecewise
-    // linear function with knots T apart (0.5 to 10 s).
-    let slow_twist_hats = match log
-        .signal(Signal::MotorVel)
-        .filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass)
+/// A motor position integrated from a speed signal drifts as a random walk of the speed
+/// noise; its twist is trusted over the time T in which that walk stays within the load
+/// encoder's noise, sigma_v sqrt(dt T) = sigma_l, and the twist offset becomes a piecewise
+/// linear function with knots T apart (0.5 to 10 s). Returns its hat functions, or none.
+fn slow_twist_basis(
+    log: &MeasuredLog,
+    structure: Structure,
+    load_pos_sigma: f64,
+    dt: f64,
+    time: &[f64],
+    notes: &mut Vec<String>,
+) -> Vec<Vec<f64>> {
+    match log.signal(Signal::MotorVel).filter(|_| log.motor_position_is_integrated() && structure == Structure::TwoMass)
     {
         Some(speed) => {
             let speed_sigma = noise_sigma(speed).max(f64::MIN_POSITIVE);
@@ -393,49 +570,10 @@ pub fn prepare(log: &MeasuredLog, params: &ParameterSet, options: &EquationOptio
                 count + 1
             ));
             let knots: Vec<f64> = (0..=count).map(|j| t0 + (t1 - t0) * j as f64 / count as f64).collect();
-            hat_functions(&knots, &time)
+            hat_functions(&knots, time)
         }
         None => Vec::new(),
-    };
-
-    let mut data = EquationData {
-        structure,
-        dt,
-        half_width: h,
-        cutoff_hz,
-        gear_ratio: gear,
-        time,
-        torque,
-        torque_inner,
-        motor_pos,
-        motor_vel,
-        motor_acc,
-        load_pos,
-        load_vel,
-        load_acc,
-        twist,
-        twist_rate,
-        angle: Vec::new(),
-        angle_is_elevation,
-        disturbance,
-        motor_pos_inner,
-        motor_vel_inner,
-        twist_inner,
-        angle_inner,
-        smoother,
-        torque_sigma,
-        motor_pos_sigma,
-        load_pos_sigma,
-        stick_speed,
-        twist_scale: if structure == Structure::TwoMass { stiffness } else { 1.0 },
-        slow_twist_hats,
-        first_sample,
-        channels: Vec::new(),
-        notes,
-    };
-    data.angle = data.smooth(&data.angle_inner);
-    data.channels = model_channels(&data, params);
-    Ok(data)
+    }
 }
 
 /// The residual channels of a parameter set on conditioned data: measured side and model side.

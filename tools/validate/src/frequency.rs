@@ -71,11 +71,16 @@ pub fn response_error(
 ) -> (f64, usize) {
     let (mut sum, mut weights, mut bins) = (0.0, 0.0, 0usize);
     for k in 0..frequency.len() {
-        if frequency[k] < band.0 || frequency[k] > band.1 || coherence[k] <= threshold || !(coherence[k] < 1.0) {
+        if frequency[k] < band.0
+            || frequency[k] > band.1
+            || coherence[k] <= threshold
+            || coherence[k].is_nan()
+            || coherence[k] >= 1.0
+        {
             continue;
         }
         let magnitude = measured[k].norm_sqr();
-        if !(magnitude > 0.0) {
+        if magnitude.is_nan() || magnitude <= 0.0 {
             continue;
         }
         let weight = coherence[k] / (1.0 - coherence[k]);

@@ -11,23 +11,25 @@
 
 pub mod candidates;
 pub mod equation_error;
+pub mod finite;
 pub mod frequency;
+pub mod measured_log;
 pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
 pub mod presliding;
 pub mod refit;
 pub mod report;
-pub mod measured_log;
 pub mod selection;
 pub mod signals;
 pub mod stats;
 pub mod twist;
 
 use crate::measured_log::{MeasuredLog, Signal};
-use candidates::Kind;
-use equation_error::{EquationData, EquationOptions, Structure};
-use output_error::{Comparison, OutputData, OutputError, PlantSimulator, WindowPlan};
+use candidates::{parameter_count, Kind};
+use equation_error::{EquationData, EquationOptions, PrepareError, Structure};
+use finite::NonFinite;
+use output_error::{Comparison, OutputData, OutputError, PlantSimulator, SimulationError, WindowPlan};
 use parameters::{FmuConfig, ParameterSet};
 use selection::{Fit, Selection, SelectionOptions};
 
@@ -74,6 +76,18 @@ pub struct ValidateOptions {
     pub selection: SelectionOptions,
     pub output: OutputOptions,
     pub twist: twist::TwistOptions,
+}
+
+/// Why a log could not be validated. Never a result with NaN in it: a non-finite value in the
+/// log, the parameters or anything computed from them stops the validation with its cause.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ValidationError {
+    #[error(transparent)]
+    Prepare(#[from] PrepareError),
+    #[error("the output error of the corrected model: {0}")]
+    Simulation(#[from] SimulationError),
+    #[error(transparent)]
+    NonFinite(#[from] NonFinite),
 }
 
 /// Statistics of one residual channel, as a control engineer reads them.
@@ -195,16 +209,6 @@ impl Validation {
     }
 }
 
-/// Number of parameters an effect adds, for the output error's information criterion.
-fn parameter_count(kind: Kind, structure: Structure) -> usize {
-    match kind {
-        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
-        Kind::Cogging => 3,
-        Kind::Inertia if structure == Structure::TwoMass => 2,
-        _ => 1,
-    }
-}
-
 /// The output error as the judge of the search: an effect is claimed only if the plant FMU
 /// with it predicts the measured motion significantly better over the windows than without it
 /// ([`output_error::compare`]), and a lower-ranked candidate replaces the equation error's
@@ -220,7 +224,7 @@ struct OutputJudge<'a> {
 }
 
 impl OutputJudge<'_> {
-    fn error_of(&mut self, params: &ParameterSet) -> Result<OutputError, String> {
+    fn error_of(&mut self, params: &ParameterSet) -> Result<OutputError, SimulationError> {
         if let Some((_, e)) = self.cache.iter().find(|(p, _)| p == params) {
             return Ok(e.clone());
         }
@@ -259,6 +263,16 @@ pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptio
     validate_with(log, start, options, None)
 }
 
+/// [`validate_log`] with its error as text, for callers that chain it with other text errors.
+pub fn validate_with(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    simulator: Option<&mut dyn PlantSimulator>,
+) -> Result<Validation, String> {
+    validate_log(log, start, options, simulator).map_err(|e| e.to_string())
+}
+
 /// Validates a measured log against a starting parameter set. With a simulator (the plant
 /// FMU), every effect must also be confirmed by the windowed output error, and the output
 /// error before and after is reported; if the simulator cannot run the starting model, the
@@ -267,22 +281,19 @@ pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptio
 /// With two encoders, the twist is checked after the search ([`twist`]): a significant timing
 /// skew between the encoders is corrected in the data (the load encoder shifted back) and the
 /// log validated once more, so the effects are found on consistent data.
-pub fn validate_with(
+pub fn validate_log(
     log: &MeasuredLog,
     start: &ParameterSet,
     options: &ValidateOptions,
     mut simulator: Option<&mut dyn PlantSimulator>,
-) -> Result<Validation, String> {
+) -> Result<Validation, ValidationError> {
     // A motor speed sensor without a motor encoder: the motor position is its integral, whose
     // slow drift is a nuisance of every fit (equation_error's slow-twist knots) and which every
     // parameter set's own twist centre follows in the output error.
     let integrated = log.with_motor_position_from_speed();
     let log = integrated.as_ref().unwrap_or(log);
     // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
-    let reborrowed = match simulator.as_mut() {
-        Some(s) => Some(&mut **s as &mut dyn PlantSimulator),
-        None => None,
-    };
+    let reborrowed = simulator.as_mut().map(|s| &mut **s as &mut dyn PlantSimulator);
     let mut first = validate_once(log, start, options, reborrowed)?;
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
@@ -302,172 +313,43 @@ pub fn validate_with(
     Ok(second)
 }
 
-/// One pass of [`validate_with`] on a log as it is.
+/// What the search found, with the output-error side when a simulator judged it.
+struct Searched {
+    selection: Selection,
+    output: Option<OutputReport>,
+    frequency: Option<frequency::FrequencyResponse>,
+    hints: Vec<Hint>,
+}
+
+/// One pass of [`validate_log`] on a log as it is.
 fn validate_once(
     log: &MeasuredLog,
     start: &ParameterSet,
     options: &ValidateOptions,
     simulator: Option<&mut dyn PlantSimulator>,
-) -> Result<Validation, String> {
+) -> Result<Validation, ValidationError> {
     let data = equation_error::prepare(log, start, &options.equation)?;
     let mut notes = log.notes.clone();
     notes.extend(data.notes.iter().cloned());
-    let mut output = None;
-    let mut frequency = None;
-    let mut hints = Vec::new();
-    let selection = match simulator {
-        None => selection::select(&data, start, &options.selection),
-        Some(simulator) => {
-            let prepared = OutputData::new(log, &data, start).and_then(|out| {
-                let mut plan = match options.output.window_seconds {
-                    Some(seconds) => WindowPlan::new(
-                        (seconds / out.dt).round() as usize + 1,
-                        out.len(),
-                        out.dt,
-                        format!("fixed at {seconds} s"),
-                    ),
-                    None => output_error::choose_window(
-                        &out,
-                        options.output.window_correlation,
-                        options.output.minimum_windows,
-                    ),
-                };
-                let drive = match options.output.drive_window_seconds {
-                    Some(seconds) => Some(((seconds / out.dt).round() as usize + 1, format!("fixed at {seconds} s"))),
-                    None => output_error::drive_window(start, out.dt),
-                };
-                if let (Some((length, reason)), Structure::TwoMass) = (drive, data.structure) {
-                    plan = plan.with_drive_length(length, reason);
-                }
-                let before = output_error::output_error(simulator, start, &data, &out, &plan)?;
-                Ok((out, plan, before))
-            });
-            match prepared {
-                Err(message) => {
-                    notes.push(format!(
-                        "output error not available ({message}): effects are claimed on the equation error alone"
-                    ));
-                    selection::select(&data, start, &options.selection)
-                }
-                Ok((out, plan, before)) => {
-                    // The friction-form calibration: the presliding compliance of the friction,
-                    // fitted once on the output error and used in the "before" and "after"
-                    // models alike (presliding.rs). The starting model's own error is kept
-                    // for the report.
-                    let calibration = if options.output.presliding {
-                        presliding::calibrate(simulator, &data, &out, &plan, start, &before, options.output.alpha)
-                    } else {
-                        None
-                    };
-                    let (calibrated, before, starting) = match &calibration {
-                        Some(c) if c.kept => {
-                            (presliding::with_displacement(start, c.displacement), c.error.clone(), Some(before))
-                        }
-                        _ => (start.clone(), before, None),
-                    };
-                    let start = &calibrated;
-                    let mut judge = OutputJudge {
-                        simulator: &mut *simulator,
-                        data: &data,
-                        out: &out,
-                        plan: &plan,
-                        cache: vec![(start.clone(), before.clone())],
-                        confirmations: Vec::new(),
-                        alpha: options.output.alpha,
-                    };
-                    let mut selection = selection::select_judged(&data, start, &options.selection, &mut judge);
-                    let OutputJudge { cache, confirmations, .. } = judge;
-                    let structure = data.structure;
-                    let mut after = match cache.iter().find(|(p, _)| *p == selection.corrected) {
-                        Some((_, e)) => e.clone(),
-                        None => output_error::output_error(simulator, &selection.corrected, &data, &out, &plan)?,
-                    };
-                    // The found effects' parameters refitted on the output error: the model is
-                    // used as a simulation, so its parameters end where it predicts best. The
-                    // equation error is then reported at those parameters as they are.
-                    let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
-                    let refitted = if options.output.refit {
-                        refit::refit(simulator, &data, &out, &plan, start, &kinds, &selection.corrected, &after)
-                    } else {
-                        None
-                    };
-                    if let Some(r) = &refitted {
-                        let weights = selection.after.channel_weights();
-                        let (_, found) = selection::final_fit(&data, start, &r.params, &kinds, &weights);
-                        selection.after = selection::fit_fixed(&data, &r.params, &weights);
-                        selection.found = found;
-                        selection.corrected = r.params.clone();
-                        after = r.error.clone();
-                    }
-                    let overall = output_error::compare(
-                        &before,
-                        &after,
-                        selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(),
-                        options.output.alpha,
-                    );
-                    // Hints: effects the equation-error test did not find significant (but at
-                    // least the noise in size) that the output error alone would confirm on top
-                    // of the corrected model. Not claimed: the equation error's test failed,
-                    // typically for want of independent samples in a short or slow log.
-                    if let Some(last) = selection.steps.last() {
-                        let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
-                        for score in &last.scores {
-                            if score.not_applicable.is_some()
-                                || score.significant
-                                || accepted.contains(&score.kind)
-                                || score.effect_to_noise < options.selection.min_effect_to_noise
-                            {
-                                continue;
-                            }
-                            let Ok(with) = selection::fit_candidate(
-                                &data,
-                                &selection.corrected,
-                                &accepted,
-                                score.kind,
-                                &options.selection,
-                            ) else {
-                                continue;
-                            };
-                            let Ok(candidate) = output_error::output_error(simulator, &with, &data, &out, &plan) else {
-                                continue;
-                            };
-                            let comparison = output_error::compare(
-                                &after,
-                                &candidate,
-                                parameter_count(score.kind, structure),
-                                options.output.alpha,
-                            );
-                            if comparison.confirmed {
-                                hints.push(Hint {
-                                    kind: score.kind,
-                                    equation_p: score.p_value,
-                                    threshold: last.threshold,
-                                    comparison,
-                                    parameters: with,
-                                });
-                            }
-                        }
-                    }
-                    frequency = frequency::compare(&data, &out, start, &selection.corrected);
-                    output = Some(OutputReport {
-                        config: out.config,
-                        plan,
-                        state_half_width: out.state_half_width,
-                        before,
-                        after,
-                        confirmations,
-                        overall,
-                        refit: refitted,
-                        calibration,
-                        starting,
-                    });
-                    selection
-                }
+    let searched = match simulator {
+        None => equation_only(&data, start, options),
+        Some(simulator) => match prepare_output(simulator, log, &data, start, options) {
+            // A simulator that cannot run the starting model leaves the equation error; a NaN
+            // in what it returned is not a reason to go on without it.
+            Err(SimulationError::NonFinite(cause)) => return Err(SimulationError::NonFinite(cause).into()),
+            Err(message) => {
+                notes.push(format!(
+                    "output error not available ({message}): effects are claimed on the equation error alone"
+                ));
+                equation_only(&data, start, options)
             }
-        }
+            Ok(prepared) => search_with_output_error(simulator, &data, start, options, prepared)?,
+        },
     };
+    let Searched { selection, output, frequency, hints } = searched;
     let before = channel_stats(&data, &selection.before, log);
     let after = channel_stats(&data, &selection.after, log);
+    check_results(&selection, &before, &after, output.as_ref())?;
     Ok(Validation {
         data,
         selection,
@@ -481,6 +363,204 @@ fn validate_once(
         hints,
         notes,
     })
+}
+
+/// The search on the equation error alone.
+fn equation_only(data: &EquationData, start: &ParameterSet, options: &ValidateOptions) -> Searched {
+    Searched {
+        selection: selection::select(data, start, &options.selection),
+        output: None,
+        frequency: None,
+        hints: Vec::new(),
+    }
+}
+
+/// The output-error data, the window plan and the starting model's output error.
+fn prepare_output(
+    simulator: &mut dyn PlantSimulator,
+    log: &MeasuredLog,
+    data: &EquationData,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+) -> Result<(OutputData, WindowPlan, OutputError), SimulationError> {
+    let out = OutputData::new(log, data, start)?;
+    let mut plan = match options.output.window_seconds {
+        Some(seconds) => {
+            WindowPlan::new((seconds / out.dt).round() as usize + 1, out.len(), out.dt, format!("fixed at {seconds} s"))
+        }
+        None => output_error::choose_window(&out, options.output.window_correlation, options.output.minimum_windows),
+    };
+    let drive = match options.output.drive_window_seconds {
+        Some(seconds) => Some(((seconds / out.dt).round() as usize + 1, format!("fixed at {seconds} s"))),
+        None => output_error::drive_window(start, out.dt),
+    };
+    if let (Some((length, reason)), Structure::TwoMass) = (drive, data.structure) {
+        plan = plan.with_drive_length(length, reason);
+    }
+    let before = output_error::output_error(simulator, start, data, &out, &plan)?;
+    Ok((out, plan, before))
+}
+
+/// The search judged by the output error, the refit of the found effects on it, and the
+/// effects the output error alone would confirm (hints).
+fn search_with_output_error(
+    simulator: &mut dyn PlantSimulator,
+    data: &EquationData,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+    (out, plan, before): (OutputData, WindowPlan, OutputError),
+) -> Result<Searched, ValidationError> {
+    // The friction-form calibration: the presliding compliance of the friction, fitted once on
+    // the output error and used in the "before" and "after" models alike (presliding.rs). The
+    // starting model's own error is kept for the report.
+    let calibration = if options.output.presliding {
+        presliding::calibrate(simulator, data, &out, &plan, start, &before, options.output.alpha)
+    } else {
+        None
+    };
+    let (calibrated, before, starting) = match &calibration {
+        Some(c) if c.kept => (presliding::with_displacement(start, c.displacement), c.error.clone(), Some(before)),
+        _ => (start.clone(), before, None),
+    };
+    let start = &calibrated;
+    let mut judge = OutputJudge {
+        simulator: &mut *simulator,
+        data,
+        out: &out,
+        plan: &plan,
+        cache: vec![(start.clone(), before.clone())],
+        confirmations: Vec::new(),
+        alpha: options.output.alpha,
+    };
+    let mut selection = selection::select_judged(data, start, &options.selection, &mut judge);
+    let OutputJudge { cache, confirmations, .. } = judge;
+    let structure = data.structure;
+    let mut after = match cache.iter().find(|(p, _)| *p == selection.corrected) {
+        Some((_, e)) => e.clone(),
+        None => output_error::output_error(simulator, &selection.corrected, data, &out, &plan)?,
+    };
+    // The found effects' parameters refitted on the output error: the model is used as a
+    // simulation, so its parameters end where it predicts best. The equation error is then
+    // reported at those parameters as they are.
+    let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+    let refitted = if options.output.refit {
+        refit::refit(simulator, data, &out, &plan, start, &kinds, &selection.corrected, &after)
+    } else {
+        None
+    };
+    if let Some(r) = &refitted {
+        let weights = selection.after.channel_weights();
+        let (_, found) = selection::final_fit(data, start, &r.params, &kinds, &weights);
+        selection.after = selection::fit_fixed(data, &r.params, &weights);
+        selection.found = found;
+        selection.corrected = r.params.clone();
+        after = r.error.clone();
+    }
+    let overall = output_error::compare(
+        &before,
+        &after,
+        selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(),
+        options.output.alpha,
+    );
+    let hints = output_hints(simulator, data, &out, &plan, &selection, &after, options);
+    let frequency = frequency::compare(data, &out, start, &selection.corrected);
+    let output = Some(OutputReport {
+        config: out.config,
+        plan,
+        state_half_width: out.state_half_width,
+        before,
+        after,
+        confirmations,
+        overall,
+        refit: refitted,
+        calibration,
+        starting,
+    });
+    Ok(Searched { selection, output, frequency, hints })
+}
+
+/// Hints: effects the equation-error test did not find significant (but at least the noise in
+/// size) that the output error alone would confirm on top of the corrected model. Not claimed:
+/// the equation error's test failed, typically for want of independent samples in a short or
+/// slow log.
+fn output_hints(
+    simulator: &mut dyn PlantSimulator,
+    data: &EquationData,
+    out: &OutputData,
+    plan: &WindowPlan,
+    selection: &Selection,
+    after: &OutputError,
+    options: &ValidateOptions,
+) -> Vec<Hint> {
+    let mut hints = Vec::new();
+    let Some(last) = selection.steps.last() else { return hints };
+    let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+    for score in &last.scores {
+        if score.not_applicable.is_some()
+            || score.significant
+            || accepted.contains(&score.kind)
+            || score.effect_to_noise < options.selection.min_effect_to_noise
+        {
+            continue;
+        }
+        let Ok(with) = selection::fit_candidate(data, &selection.corrected, &accepted, score.kind, &options.selection)
+        else {
+            continue;
+        };
+        let Ok(candidate) = output_error::output_error(simulator, &with, data, out, plan) else {
+            continue;
+        };
+        let comparison =
+            output_error::compare(after, &candidate, parameter_count(score.kind, data.structure), options.output.alpha);
+        if comparison.confirmed {
+            hints.push(Hint {
+                kind: score.kind,
+                equation_p: score.p_value,
+                threshold: last.threshold,
+                comparison,
+                parameters: with,
+            });
+        }
+    }
+    hints
+}
+
+/// The results a report states must be numbers: the corrected parameters, the equation
+/// error's RMS before and after, every applicable candidate's test statistic, and the output
+/// error's RMS of every channel before and after.
+fn check_results(
+    selection: &Selection,
+    before: &[ChannelStats],
+    after: &[ChannelStats],
+    output: Option<&OutputReport>,
+) -> Result<(), NonFinite> {
+    finite::check_parameters(&selection.corrected)?;
+    for (label, stats) in [("of the starting model", before), ("of the corrected model", after)] {
+        for channel in stats {
+            finite::check_value(&format!("the RMS of the {} residual", channel.name), channel.rms, label)?;
+        }
+    }
+    for (index, step) in selection.steps.iter().enumerate() {
+        for score in step.scores.iter().filter(|s| s.not_applicable.is_none()) {
+            finite::check_value(
+                &format!("the equation-error test statistic of {}", score.kind.name()),
+                score.likelihood_ratio,
+                &format!("at search step {}", index + 1),
+            )?;
+        }
+    }
+    if let Some(o) = output {
+        for (label, error) in [("of the starting model", &o.before), ("of the corrected model", &o.after)] {
+            for channel in &error.channels {
+                finite::check_value(
+                    &format!("the output error's RMS of the {}", channel.kind.name()),
+                    channel.rms,
+                    label,
+                )?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Residual statistics of a fit, per channel.

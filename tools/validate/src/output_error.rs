@@ -16,7 +16,26 @@
 use super::equation_error::{twist_centres, EquationData, Structure};
 use super::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use super::signals::SavitzkyGolay;
+use crate::finite::{check_series, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
+
+/// Why the output error of a parameter set could not be computed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimulationError {
+    #[error("the log has no current or torque")]
+    NoCommand,
+    #[error("the log has no position output")]
+    NoPosition,
+    /// The simulator refused the parameter set or a window (its own message).
+    #[error("{0}")]
+    Simulator(String),
+    /// The simulation of a window (or of a drive-path piece) stopped short or left the finite
+    /// numbers.
+    #[error("the simulation of the {what} at {time:.3} s failed")]
+    Window { what: &'static str, time: f64 },
+    #[error(transparent)]
+    NonFinite(#[from] NonFinite),
+}
 
 /// The measured state a window starts from (axis side, SI) and the command history the
 /// plant's delay line needs.
@@ -128,7 +147,7 @@ pub struct OutputData {
 impl OutputData {
     /// Builds the output-error data from the (uniform) log, the conditioned data and the
     /// starting parameters (whose fastest mechanical mode sets the state estimator).
-    pub fn new(log: &MeasuredLog, data: &EquationData, start: &ParameterSet) -> Result<OutputData, String> {
+    pub fn new(log: &MeasuredLog, data: &EquationData, start: &ParameterSet) -> Result<OutputData, SimulationError> {
         let mut notes = Vec::new();
         let log = super::equation_error::uniform(log, &mut notes);
         let n = log.len();
@@ -139,7 +158,7 @@ impl OutputData {
             (torques, FmuInput::Torque)
         };
         if columns.is_empty() {
-            return Err("the log has no current or torque".into());
+            return Err(SimulationError::NoCommand);
         }
         let drive = if columns.len() == 2 { FmuDrive::TwoMotors } else { FmuDrive::Mirrored };
         let commands: Vec<[f64; 2]> = (0..n)
@@ -162,7 +181,7 @@ impl OutputData {
             (Some(m), Some(l)) => (m.to_vec(), l.to_vec()),
             (Some(m), None) => (m.to_vec(), m.to_vec()),
             (None, Some(l)) => (l.to_vec(), l.to_vec()),
-            (None, None) => return Err("the log has no position output".into()),
+            (None, None) => return Err(SimulationError::NoPosition),
         };
         // The window's initial state: Savitzky-Golay (order 4) positions and speeds over the
         // longest window that spans at most a quarter period of the model's fastest mechanical
@@ -179,7 +198,8 @@ impl OutputData {
         };
         let gear = start.value(names::GEAR_RATIO);
         let total = log.total_motor_torque(start.value(names::TORQUE_CONSTANT));
-        let axis_torque = (0..data.len()).map(|i| gear * total[data.first_sample + i]).collect();
+        let axis_torque: Vec<f64> = (0..data.len()).map(|i| gear * total[data.first_sample + i]).collect();
+        check_series("the axis-side logged torque", &axis_torque, |i| format!("at analysed sample {i}"))?;
         let state_load_pos = estimate(&load_pos, &sg.smooth);
         let state_load_vel = estimate(&load_pos, &sg.first);
         let state_motor_pos = estimate(&motor_pos, &sg.smooth);
@@ -495,7 +515,7 @@ fn window_start(out: &OutputData, i: usize, params: &ParameterSet, centre: f64) 
 /// stiffness) needs none.
 fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> f64 {
     let stiffness = params.value(names::STIFFNESS);
-    if !(stiffness > 0.0) {
+    if stiffness.is_nan() || stiffness <= 0.0 {
         return 0.0;
     }
     let angle = out.state_load_pos[i];
@@ -515,8 +535,8 @@ pub fn output_error(
     data: &EquationData,
     out: &OutputData,
     plan: &WindowPlan,
-) -> Result<OutputError, String> {
-    simulator.configure(params, &out.config)?;
+) -> Result<OutputError, SimulationError> {
+    simulator.configure(params, &out.config).map_err(SimulationError::Simulator)?;
     let centres = if out.structure == Structure::TwoMass { twist_centres(data, params) } else { vec![0.0; data.len()] };
     let mut kinds = out.channels();
     let load_side = out.structure == Structure::TwoMass && out.two_encoders;
@@ -533,10 +553,11 @@ pub fn output_error(
         let k0 = out.first_sample + i0;
         let start = window_start(out, i0, params, centres[i0]);
         let steps = length - 1;
-        let sim =
-            simulator.simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)?;
+        let sim = simulator
+            .simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)
+            .map_err(SimulationError::Simulator)?;
         if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
-            return Err(format!("the simulation of the window at {:.3} s failed", out.time[i0]));
+            return Err(SimulationError::Window { what: "window", time: out.time[i0] });
         }
         // The drive-path channel on its shorter pieces, each restarted from the measured state
         // (the window's own simulation when the pieces are the window).
@@ -546,16 +567,18 @@ pub fn output_error(
                 for (offset, piece) in plan.drive_pieces() {
                     let (i, k) = (i0 + offset, k0 + offset);
                     let piece_start = window_start(out, i, params, centres[i]);
-                    let piece_sim = simulator.simulate(
-                        &piece_start,
-                        &out.held[k..k + piece - 1],
-                        &out.disturbance_held[k..k + piece - 1],
-                        out.dt,
-                    )?;
+                    let piece_sim = simulator
+                        .simulate(
+                            &piece_start,
+                            &out.held[k..k + piece - 1],
+                            &out.disturbance_held[k..k + piece - 1],
+                            out.dt,
+                        )
+                        .map_err(SimulationError::Simulator)?;
                     if piece_sim.len() != piece
                         || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite())
                     {
-                        return Err(format!("the simulation of the drive-path piece at {:.3} s failed", out.time[i]));
+                        return Err(SimulationError::Window { what: "drive-path piece", time: out.time[i] });
                     }
                     twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
                 }
@@ -586,7 +609,13 @@ pub fn output_error(
                 .unzip();
             let mean = m.iter().sum::<f64>() / length as f64;
             spread[c] += m.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
-            window_sse[c].push(m.iter().zip(&s).map(|(a, b)| (a - b).powi(2)).sum());
+            let sse: f64 = m.iter().zip(&s).map(|(a, b)| (a - b).powi(2)).sum();
+            crate::finite::check_value(
+                &format!("the output error of the {}", kind.name()),
+                sse,
+                &format!("in the window at {:.3} s", out.time[i0]),
+            )?;
+            window_sse[c].push(sse);
             measured[c].extend(m);
             simulated[c].extend(s);
         }

@@ -69,7 +69,8 @@ pub fn calibrate(
     before: &OutputError,
     alpha: f64,
 ) -> Option<Calibration> {
-    if !(params_breakaway(start) > 0.0) {
+    let breakaway = params_breakaway(start);
+    if breakaway.is_nan() || breakaway <= 0.0 {
         return None;
     }
     let mut evaluations = Vec::new();

@@ -135,7 +135,7 @@ pub fn refit(
     let mut current = params.clone();
     let mut r = residual(error, &scale);
     let initial = cost(&r);
-    if !(initial > 0.0) {
+    if initial.is_nan() || initial <= 0.0 {
         return None;
     }
     let mut best_error = error.clone();

@@ -598,352 +598,30 @@ pub fn select_judged(
     let unit = vec![1.0; channel_count];
     let first = fit(&data.channels, &baseline_columns(data, start), &[], &unit);
     let before = fit(&data.channels, &baseline_columns(data, start), &[], &first.channel_weights());
-    let mut current = before.clone();
-    let mut params = start.clone();
-    let mut accepted: Vec<Kind> = Vec::new();
+    let mut model = Model { params: start.clone(), current: before.clone(), accepted: Vec::new(), pairs: Vec::new() };
     let mut steps = Vec::new();
     let noise = channel_noise(data);
-    // Effects taken as a pair: each was claimed only jointly with the other.
-    let mut pairs: Vec<(Kind, Kind)> = Vec::new();
 
-    while accepted.len() < options.max_effects {
-        let weights = current.channel_weights();
-        let (accepted_columns, _) = refine_columns(data, &params, &current.channels, &accepted, &weights);
-        let mut scores = Vec::new();
-        let mut evaluated: Vec<(Instance, Fit)> = Vec::new();
-        for &kind in &options.candidates {
-            if accepted.contains(&kind) {
-                continue;
-            }
-            let instance = match candidates::instantiate(
-                kind,
-                data,
-                &params,
-                &current.channels,
-                &current.residual,
-                &weights,
-                Mode::Search,
-            ) {
-                Ok(instance) => instance,
-                Err(reason) => {
-                    scores.push(Score {
-                        kind,
-                        not_applicable: Some(reason),
-                        likelihood_ratio: 0.0,
-                        parameters: 0,
-                        p_value: 1.0,
-                        trials: 0.0,
-                        bic_gain: f64::NEG_INFINITY,
-                        rank: f64::NEG_INFINITY,
-                        significant: false,
-                        explained_fraction: 0.0,
-                        effect_to_noise: 0.0,
-                        searched: Vec::new(),
-                        confirmation: None,
-                    });
-                    continue;
-                }
-            };
-            evaluated.push((instance, current.clone()));
+    while model.accepted.len() < options.max_effects {
+        let step = forward_step(data, &mut model, &noise, options, judge);
+        let done = step.chosen.is_none();
+        steps.push(step);
+        if done {
+            break;
         }
-        for (instance, slot) in evaluated.iter_mut() {
-            let instance = &*instance;
-            let kind = instance.kind;
-            let mut columns = accepted_columns.clone();
-            columns.extend(instance.columns.iter().cloned());
-            let adjust = add_adjust(&[], &instance.adjust, channel_count);
-            let alternative = fit(&current.channels, &columns, &adjust, &weights);
-            let own_beta = &alternative.beta[accepted_columns.len()..];
-            let effect = effect_vector(instance, own_beta, &current.channels);
-            let lr = robust_chi2(
-                &current.channels,
-                &accepted_columns,
-                &effect,
-                &alternative.residual,
-                &alternative.residual,
-                &weights,
-                &alternative.tau,
-            );
-            let k = instance.parameter_count();
-            let n_eff = alternative.effective_samples().max(2.0);
-            let weighted = |f: &Fit| f.rss.iter().zip(&weights).map(|(r, w)| r * w).sum::<f64>();
-            let explained =
-                if weighted(&current) > 0.0 { 1.0 - weighted(&alternative) / weighted(&current) } else { 0.0 };
-            let effect_to_noise = contribution(instance, own_beta, &current.channels)
-                .iter()
-                .zip(&noise)
-                .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
-                .fold(0.0, f64::max);
-            scores.push(Score {
-                kind,
-                not_applicable: None,
-                likelihood_ratio: lr,
-                parameters: k,
-                p_value: chi_squared_sf(lr, k as f64),
-                trials: instance.trials,
-                bic_gain: lr - k as f64 * n_eff.ln(),
-                rank: explained - k as f64 * n_eff.ln() / n_eff,
-                significant: false,
-                explained_fraction: explained,
-                effect_to_noise,
-                searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
-                confirmation: None,
-            });
-            *slot = alternative;
-        }
-        scores.sort_by_key(|s| options.candidates.iter().position(|k| *k == s.kind));
-        let total_trials: f64 = scores.iter().map(|s| s.trials).sum::<f64>().max(1.0);
-        let threshold = options.alpha / total_trials;
-        for score in &mut scores {
-            score.significant = score.not_applicable.is_none()
-                && score.p_value < threshold
-                && score.bic_gain > 0.0
-                && score.effect_to_noise >= options.min_effect_to_noise;
-        }
-        // Take the significant candidates best first (equation-error rank). Each whose refined
-        // parameters are physically admissible is put to the judge; the best-ranked confirmed
-        // one is added, unless the judge finds a lower-ranked confirmed one predicts
-        // significantly better (the equation error sees the form of an effect sharply, the
-        // simulation its consequence).
-        let mut order: Vec<usize> = (0..scores.len()).filter(|&i| scores[i].significant).collect();
-        order.sort_by(|&a, &b| scores[b].rank.total_cmp(&scores[a].rank));
-        let mut chosen: Option<(usize, Kind, ParameterSet, Fit, usize)> = None;
-        let mut confirmed: Vec<(usize, Kind, ParameterSet)> = Vec::new();
-        for index in order {
-            let kind = scores[index].kind;
-            let Some((instance, alternative)) = evaluated.iter().find(|(i, _)| i.kind == kind) else { continue };
-            // Starting point for Gauss-Newton: the accepted effects' increments and the new
-            // effect's coefficients from the alternative fit.
-            let (_, accepted_instances) = refine_columns(data, &params, &current.channels, &accepted, &weights);
-            let mut offset = baseline_columns(data, &params).len();
-            let mut next = params.clone();
-            for previous in &accepted_instances {
-                let k = previous.columns.len();
-                candidates::apply(previous, &alternative.beta[offset..offset + k], data, &mut next);
-                offset += k;
-            }
-            candidates::apply(instance, &alternative.beta[offset..offset + instance.columns.len()], data, &mut next);
-            let mut trial = accepted.clone();
-            trial.push(kind);
-            let (refined, refined_fit, iterations) = refine(data, next, &trial, &weights, options.max_iterations);
-            // The refined effect must still be at least the noise: a search can pick a
-            // direction that the joint refit then shrinks to nothing.
-            let size = refined_effect_to_noise(data, kind, &refined, &params, &noise);
-            let check = candidates::admissible(&refined, data).and_then(|()| {
-                if size >= options.min_effect_to_noise {
-                    Ok(())
-                } else {
-                    Err(format!("after refitting it is only {size:.2} times the noise"))
-                }
-            });
-            match check {
-                Ok(()) => match judge.confirm(kind, &params, &refined) {
-                    Ok(note) => {
-                        scores[index].confirmation = Some(note);
-                        confirmed.push((index, kind, refined.clone()));
-                        let replace = match &chosen {
-                            None => true,
-                            Some((_, _, incumbent, _, _)) => {
-                                let extra = scores[index].parameters as isize
-                                    - chosen.as_ref().map_or(0, |c| scores[c.0].parameters as isize);
-                                judge.prefers(incumbent, &refined, extra)
-                            }
-                        };
-                        if replace {
-                            chosen = Some((index, kind, refined, refined_fit, iterations));
-                        }
-                        if !judge.compares() {
-                            break;
-                        }
-                    }
-                    Err(reason) => {
-                        scores[index].significant = false;
-                        scores[index].not_applicable = Some(format!("significant but not confirmed: {reason}"));
-                    }
-                },
-                Err(reason) => {
-                    scores[index].significant = false;
-                    scores[index].not_applicable = Some(format!("significant but not admissible: {reason}"));
-                }
-            }
-        }
-        // The confirmed alternatives the chosen effect does not beat significantly.
-        let equally_consistent: Vec<Kind> = match &chosen {
-            Some((chosen_index, chosen_kind, chosen_params, _, _)) => confirmed
-                .iter()
-                .filter(|(_, kind, _)| kind != chosen_kind)
-                .filter(|(index, _, other)| {
-                    let extra = scores[*chosen_index].parameters as isize - scores[*index].parameters as isize;
-                    !judge.prefers(other, chosen_params, extra)
-                })
-                .map(|(_, kind, _)| *kind)
-                .collect(),
-            None => Vec::new(),
-        };
-        let chosen = chosen.map(|(_, kind, refined, fit, iterations)| (kind, refined, fit, iterations));
-        let Some((kind, refined, refined_fit, iterations)) = chosen else {
-            // No single effect: two large missing effects can hide each other, each counting
-            // as noise in the other's test. Pairs are tested jointly before giving up, when a
-            // judge that compares models (the output error) confirms each member.
-            let pair = if judge.compares() && accepted.len() + 2 <= options.max_effects {
-                search_pair(data, &params, &current, &accepted, &evaluated, &weights, &noise, threshold, options, judge)
-            } else {
-                None
-            };
-            let Some((a, b, refined, refined_fit, iterations)) = pair else {
-                steps.push(Step {
-                    scores,
-                    chosen: None,
-                    paired: None,
-                    threshold,
-                    iterations: 0,
-                    equally_consistent: Vec::new(),
-                });
-                break;
-            };
-            accepted.push(a);
-            accepted.push(b);
-            pairs.push((a, b));
-            steps.push(Step {
-                scores,
-                chosen: Some(a),
-                paired: Some(b),
-                threshold,
-                iterations,
-                equally_consistent: Vec::new(),
-            });
-            params = refined;
-            current = refined_fit;
-            continue;
-        };
-        accepted.push(kind);
-        steps.push(Step { scores, chosen: Some(kind), paired: None, threshold, iterations, equally_consistent });
-        params = refined;
-        current = refined_fit;
     }
 
-    // Backward check: with several effects, each must still earn its place in the final
-    // model. An effect found early can be a compensation for effects found later (a
-    // torque-constant change standing in for Coulomb friction and an unbalance together);
-    // it is removed when the model without it (the others refitted) passes the confirmation
-    // as well as with it, i.e. the confirmation of the effect against that model fails.
-    let mut removed = Vec::new();
-    while accepted.len() >= 2 {
-        let mut dropped = None;
-        for index in 0..accepted.len() {
-            let kind = accepted[index];
-            let others: Vec<Kind> = accepted.iter().copied().filter(|k| *k != kind).collect();
-            let weights = current.channel_weights();
-            let (without, without_fit, _) =
-                refine(data, without_effect(kind, &params, start), &others, &weights, options.max_iterations);
-            if candidates::admissible(&without, data).is_err() {
-                continue;
-            }
-            if let Err(reason) = judge.confirm(kind, &without, &params) {
-                dropped = Some((index, without, without_fit, reason));
-                break;
-            }
-        }
-        let Some((index, without, without_fit, reason)) = dropped else { break };
-        removed.push((accepted.remove(index), reason));
-        params = without;
-        current = without_fit;
-    }
-
-    // A pair's members were claimed only jointly: when the backward check removed one, the
-    // other goes too (a Coulomb change and a viscous change that compensate each other pass
-    // jointly on friction with dynamics, and either alone is what the single test rejected).
-    for &(a, b) in &pairs {
-        for (gone, partner) in [(a, b), (b, a)] {
-            if accepted.contains(&gone) || !accepted.contains(&partner) {
-                continue;
-            }
-            let others: Vec<Kind> = accepted.iter().copied().filter(|k| *k != partner).collect();
-            let weights = current.channel_weights();
-            let (without, without_fit, _) =
-                refine(data, without_effect(partner, &params, start), &others, &weights, options.max_iterations);
-            accepted.retain(|k| *k != partner);
-            removed.push((
-                partner,
-                format!("claimed only jointly with {}, which the backward check removed", gone.name()),
-            ));
-            params = without;
-            current = without_fit;
-        }
-    }
+    let mut removed = backward_check(data, start, &mut model, options, judge);
+    removed.extend(drop_lone_pair_members(data, start, &mut model, options));
 
     // With every effect removed again the model is the starting one, exactly (the resets of
     // a friction level are differences that need not round back).
-    if accepted.is_empty() {
-        params = start.clone();
-        current = before.clone();
+    if model.accepted.is_empty() {
+        model.params = start.clone();
+        model.current = before.clone();
     }
 
-    // Swap re-test: an effect chosen early was judged against a model that still lacked the
-    // effects found later (or held a compensation the backward check has since removed). Each
-    // accepted effect is compared once more with every alternative that was significant and
-    // confirmed at some step, in the final model: the alternative replaces it when the model
-    // with it (the others refitted) predicts significantly better. An offset and an unbalance
-    // over a short angle range are the typical case: nearly collinear in the equations, told
-    // apart only by what they do to the simulated motion.
-    let mut swapped = Vec::new();
-    if judge.compares() && !accepted.is_empty() {
-        let alternatives: Vec<Kind> = {
-            let mut kinds: Vec<Kind> = steps
-                .iter()
-                .flat_map(|s| {
-                    s.scores
-                        .iter()
-                        .filter(|x| {
-                            x.confirmation.is_some()
-                                || x.not_applicable
-                                    .as_deref()
-                                    .is_some_and(|r| r.starts_with("significant but not confirmed"))
-                        })
-                        .map(|x| x.kind)
-                })
-                .collect();
-            kinds.sort_by_key(|k| Kind::ALL.iter().position(|x| x == k));
-            kinds.dedup();
-            kinds
-        };
-        for index in 0..accepted.len() {
-            let kind = accepted[index];
-            let mut best: Option<(Kind, ParameterSet, Fit)> = None;
-            for &alternative in &alternatives {
-                if accepted.contains(&alternative) {
-                    continue;
-                }
-                let mut trial: Vec<Kind> = accepted.clone();
-                trial[index] = alternative;
-                let weights = current.channel_weights();
-                let Ok(seeded) = fit_candidate(
-                    data,
-                    &without_effect(kind, &params, start),
-                    &trial[..index].iter().chain(&trial[index + 1..]).copied().collect::<Vec<_>>(),
-                    alternative,
-                    options,
-                ) else {
-                    continue;
-                };
-                let (refined, refined_fit, _) = refine(data, seeded, &trial, &weights, options.max_iterations);
-                if candidates::admissible(&refined, data).is_err() {
-                    continue;
-                }
-                let extra = kind_parameters(alternative, data) as isize - kind_parameters(kind, data) as isize;
-                let incumbent = best.as_ref().map_or(&params, |b| &b.1);
-                if judge.prefers(incumbent, &refined, extra) {
-                    best = Some((alternative, refined, refined_fit));
-                }
-            }
-            if let Some((alternative, refined, refined_fit)) = best {
-                swapped.push((kind, alternative));
-                accepted[index] = alternative;
-                params = refined;
-                current = refined_fit;
-            }
-        }
-    }
+    let swapped = swap_retest(data, start, &mut model, &steps, options, judge);
     for (from, to) in &swapped {
         removed.push((
             *from,
@@ -953,6 +631,7 @@ pub fn select_judged(
 
     // A last fit with weights from the final residual, so the covariance reflects the final
     // residual level.
+    let Model { params, mut current, accepted, .. } = model;
     let mut found = Vec::new();
     if !accepted.is_empty() {
         (current, found) = final_fit(data, start, &params, &accepted, &current.channel_weights());
@@ -960,14 +639,426 @@ pub fn select_judged(
     Selection { before, after: current, steps, found, corrected: params, removed }
 }
 
-/// Parameters an effect adds (as the output error's information criterion counts them).
-fn kind_parameters(kind: Kind, data: &EquationData) -> usize {
-    match kind {
-        Kind::Stribeck | Kind::Stiffness | Kind::Unbalance => 2,
-        Kind::Cogging => 3,
-        Kind::Inertia if data.structure == Structure::TwoMass => 2,
-        _ => 1,
+/// The model as the search builds it: parameters, their fit, the effects accepted so far, and
+/// the effects taken as a pair (each was claimed only jointly with the other).
+struct Model {
+    params: ParameterSet,
+    current: Fit,
+    accepted: Vec<Kind>,
+    pairs: Vec<(Kind, Kind)>,
+}
+
+/// One step of the forward search: score every candidate, put the significant ones to the
+/// judge best first, and add the chosen effect (or, when no single one passes, a pair) to the
+/// model. A step that chooses nothing ends the search.
+fn forward_step(
+    data: &EquationData,
+    model: &mut Model,
+    noise: &[f64],
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Step {
+    let weights = model.current.channel_weights();
+    let (mut scores, evaluated, threshold) = score_candidates(data, model, &weights, noise, options);
+    let (chosen, equally_consistent) =
+        choose_confirmed(data, model, &mut scores, &evaluated, &weights, noise, options, judge);
+    let Some((kind, refined, refined_fit, iterations)) = chosen else {
+        // No single effect: two large missing effects can hide each other, each counting
+        // as noise in the other's test. Pairs are tested jointly before giving up, when a
+        // judge that compares models (the output error) confirms each member.
+        let pair = if judge.compares() && model.accepted.len() + 2 <= options.max_effects {
+            search_pair(
+                data,
+                &model.params,
+                &model.current,
+                &model.accepted,
+                &evaluated,
+                &weights,
+                noise,
+                threshold,
+                options,
+                judge,
+            )
+        } else {
+            None
+        };
+        let Some((a, b, refined, refined_fit, iterations)) = pair else {
+            return Step {
+                scores,
+                chosen: None,
+                paired: None,
+                threshold,
+                iterations: 0,
+                equally_consistent: Vec::new(),
+            };
+        };
+        model.accepted.push(a);
+        model.accepted.push(b);
+        model.pairs.push((a, b));
+        model.params = refined;
+        model.current = refined_fit;
+        return Step {
+            scores,
+            chosen: Some(a),
+            paired: Some(b),
+            threshold,
+            iterations,
+            equally_consistent: Vec::new(),
+        };
+    };
+    model.accepted.push(kind);
+    model.params = refined;
+    model.current = refined_fit;
+    Step { scores, chosen: Some(kind), paired: None, threshold, iterations, equally_consistent }
+}
+
+/// Every candidate not yet accepted, fitted jointly with the accepted effects and tested:
+/// the scores (in the order of `options.candidates`, each marked significant or not), the
+/// instantiated candidates with their alternative fits, and the step's p-value threshold.
+fn score_candidates(
+    data: &EquationData,
+    model: &Model,
+    weights: &[f64],
+    noise: &[f64],
+    options: &SelectionOptions,
+) -> (Vec<Score>, Vec<(Instance, Fit)>, f64) {
+    let channel_count = data.channels.len();
+    let current = &model.current;
+    let (accepted_columns, _) = refine_columns(data, &model.params, &current.channels, &model.accepted, weights);
+    let mut scores = Vec::new();
+    let mut evaluated: Vec<(Instance, Fit)> = Vec::new();
+    for &kind in &options.candidates {
+        if model.accepted.contains(&kind) {
+            continue;
+        }
+        let instance = match candidates::instantiate(
+            kind,
+            data,
+            &model.params,
+            &current.channels,
+            &current.residual,
+            weights,
+            Mode::Search,
+        ) {
+            Ok(instance) => instance,
+            Err(reason) => {
+                scores.push(Score {
+                    kind,
+                    not_applicable: Some(reason),
+                    likelihood_ratio: 0.0,
+                    parameters: 0,
+                    p_value: 1.0,
+                    trials: 0.0,
+                    bic_gain: f64::NEG_INFINITY,
+                    rank: f64::NEG_INFINITY,
+                    significant: false,
+                    explained_fraction: 0.0,
+                    effect_to_noise: 0.0,
+                    searched: Vec::new(),
+                    confirmation: None,
+                });
+                continue;
+            }
+        };
+        evaluated.push((instance, current.clone()));
     }
+    for (instance, slot) in evaluated.iter_mut() {
+        let instance = &*instance;
+        let kind = instance.kind;
+        let mut columns = accepted_columns.clone();
+        columns.extend(instance.columns.iter().cloned());
+        let adjust = add_adjust(&[], &instance.adjust, channel_count);
+        let alternative = fit(&current.channels, &columns, &adjust, weights);
+        let own_beta = &alternative.beta[accepted_columns.len()..];
+        let effect = effect_vector(instance, own_beta, &current.channels);
+        let lr = robust_chi2(
+            &current.channels,
+            &accepted_columns,
+            &effect,
+            &alternative.residual,
+            &alternative.residual,
+            weights,
+            &alternative.tau,
+        );
+        let k = instance.parameter_count();
+        let n_eff = alternative.effective_samples().max(2.0);
+        let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
+        let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
+        let effect_to_noise = contribution(instance, own_beta, &current.channels)
+            .iter()
+            .zip(noise)
+            .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
+            .fold(0.0, f64::max);
+        scores.push(Score {
+            kind,
+            not_applicable: None,
+            likelihood_ratio: lr,
+            parameters: k,
+            p_value: chi_squared_sf(lr, k as f64),
+            trials: instance.trials,
+            bic_gain: lr - k as f64 * n_eff.ln(),
+            rank: explained - k as f64 * n_eff.ln() / n_eff,
+            significant: false,
+            explained_fraction: explained,
+            effect_to_noise,
+            searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
+            confirmation: None,
+        });
+        *slot = alternative;
+    }
+    scores.sort_by_key(|s| options.candidates.iter().position(|k| *k == s.kind));
+    let total_trials: f64 = scores.iter().map(|s| s.trials).sum::<f64>().max(1.0);
+    let threshold = options.alpha / total_trials;
+    for score in &mut scores {
+        score.significant = score.not_applicable.is_none()
+            && score.p_value < threshold
+            && score.bic_gain > 0.0
+            && score.effect_to_noise >= options.min_effect_to_noise;
+    }
+    (scores, evaluated, threshold)
+}
+
+/// The judge's choice among the significant candidates, taken best first (equation-error
+/// rank): each whose refined parameters are physically admissible is put to the judge; the
+/// best-ranked confirmed one is chosen (with its refined parameters, fit and Gauss-Newton
+/// iterations), unless the judge finds a lower-ranked confirmed one predicts significantly
+/// better (the equation error sees the form of an effect sharply, the simulation its
+/// consequence). Also returns the confirmed alternatives the chosen effect does not beat.
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::type_complexity)]
+fn choose_confirmed(
+    data: &EquationData,
+    model: &Model,
+    scores: &mut [Score],
+    evaluated: &[(Instance, Fit)],
+    weights: &[f64],
+    noise: &[f64],
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> (Option<(Kind, ParameterSet, Fit, usize)>, Vec<Kind>) {
+    let (params, current, accepted) = (&model.params, &model.current, &model.accepted);
+    let mut order: Vec<usize> = (0..scores.len()).filter(|&i| scores[i].significant).collect();
+    order.sort_by(|&a, &b| scores[b].rank.total_cmp(&scores[a].rank));
+    let mut chosen: Option<(usize, Kind, ParameterSet, Fit, usize)> = None;
+    let mut confirmed: Vec<(usize, Kind, ParameterSet)> = Vec::new();
+    for index in order {
+        let kind = scores[index].kind;
+        let Some((instance, alternative)) = evaluated.iter().find(|(i, _)| i.kind == kind) else { continue };
+        // Starting point for Gauss-Newton: the accepted effects' increments and the new
+        // effect's coefficients from the alternative fit.
+        let (_, accepted_instances) = refine_columns(data, params, &current.channels, accepted, weights);
+        let mut offset = baseline_columns(data, params).len();
+        let mut next = params.clone();
+        for previous in &accepted_instances {
+            let k = previous.columns.len();
+            candidates::apply(previous, &alternative.beta[offset..offset + k], data, &mut next);
+            offset += k;
+        }
+        candidates::apply(instance, &alternative.beta[offset..offset + instance.columns.len()], data, &mut next);
+        let mut trial = accepted.clone();
+        trial.push(kind);
+        let (refined, refined_fit, iterations) = refine(data, next, &trial, weights, options.max_iterations);
+        // The refined effect must still be at least the noise: a search can pick a
+        // direction that the joint refit then shrinks to nothing.
+        let size = refined_effect_to_noise(data, kind, &refined, params, noise);
+        let check = candidates::admissible(&refined, data).and_then(|()| {
+            if size >= options.min_effect_to_noise {
+                Ok(())
+            } else {
+                Err(format!("after refitting it is only {size:.2} times the noise"))
+            }
+        });
+        match check {
+            Ok(()) => match judge.confirm(kind, params, &refined) {
+                Ok(note) => {
+                    scores[index].confirmation = Some(note);
+                    confirmed.push((index, kind, refined.clone()));
+                    let replace = match &chosen {
+                        None => true,
+                        Some((_, _, incumbent, _, _)) => {
+                            let extra = scores[index].parameters as isize
+                                - chosen.as_ref().map_or(0, |c| scores[c.0].parameters as isize);
+                            judge.prefers(incumbent, &refined, extra)
+                        }
+                    };
+                    if replace {
+                        chosen = Some((index, kind, refined, refined_fit, iterations));
+                    }
+                    if !judge.compares() {
+                        break;
+                    }
+                }
+                Err(reason) => {
+                    scores[index].significant = false;
+                    scores[index].not_applicable = Some(format!("significant but not confirmed: {reason}"));
+                }
+            },
+            Err(reason) => {
+                scores[index].significant = false;
+                scores[index].not_applicable = Some(format!("significant but not admissible: {reason}"));
+            }
+        }
+    }
+    // The confirmed alternatives the chosen effect does not beat significantly.
+    let equally_consistent: Vec<Kind> = match &chosen {
+        Some((chosen_index, chosen_kind, chosen_params, _, _)) => confirmed
+            .iter()
+            .filter(|(_, kind, _)| kind != chosen_kind)
+            .filter(|(index, _, other)| {
+                let extra = scores[*chosen_index].parameters as isize - scores[*index].parameters as isize;
+                !judge.prefers(other, chosen_params, extra)
+            })
+            .map(|(_, kind, _)| *kind)
+            .collect(),
+        None => Vec::new(),
+    };
+    (chosen.map(|(_, kind, refined, fit, iterations)| (kind, refined, fit, iterations)), equally_consistent)
+}
+
+/// Backward check: with several effects, each must still earn its place in the final model.
+/// An effect found early can be a compensation for effects found later (a torque-constant
+/// change standing in for Coulomb friction and an unbalance together); it is removed when the
+/// model without it (the others refitted) passes the confirmation as well as with it, i.e. the
+/// confirmation of the effect against that model fails. Returns the removed effects.
+fn backward_check(
+    data: &EquationData,
+    start: &ParameterSet,
+    model: &mut Model,
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Vec<(Kind, String)> {
+    let mut removed = Vec::new();
+    while model.accepted.len() >= 2 {
+        let mut dropped = None;
+        for index in 0..model.accepted.len() {
+            let kind = model.accepted[index];
+            let others: Vec<Kind> = model.accepted.iter().copied().filter(|k| *k != kind).collect();
+            let weights = model.current.channel_weights();
+            let (without, without_fit, _) =
+                refine(data, without_effect(kind, &model.params, start), &others, &weights, options.max_iterations);
+            if candidates::admissible(&without, data).is_err() {
+                continue;
+            }
+            if let Err(reason) = judge.confirm(kind, &without, &model.params) {
+                dropped = Some((index, without, without_fit, reason));
+                break;
+            }
+        }
+        let Some((index, without, without_fit, reason)) = dropped else { break };
+        removed.push((model.accepted.remove(index), reason));
+        model.params = without;
+        model.current = without_fit;
+    }
+    removed
+}
+
+/// A pair's members were claimed only jointly: when the backward check removed one, the other
+/// goes too (a Coulomb change and a viscous change that compensate each other pass jointly on
+/// friction with dynamics, and either alone is what the single test rejected).
+fn drop_lone_pair_members(
+    data: &EquationData,
+    start: &ParameterSet,
+    model: &mut Model,
+    options: &SelectionOptions,
+) -> Vec<(Kind, String)> {
+    let mut removed = Vec::new();
+    for (a, b) in model.pairs.clone() {
+        for (gone, partner) in [(a, b), (b, a)] {
+            if model.accepted.contains(&gone) || !model.accepted.contains(&partner) {
+                continue;
+            }
+            let others: Vec<Kind> = model.accepted.iter().copied().filter(|k| *k != partner).collect();
+            let weights = model.current.channel_weights();
+            let (without, without_fit, _) =
+                refine(data, without_effect(partner, &model.params, start), &others, &weights, options.max_iterations);
+            model.accepted.retain(|k| *k != partner);
+            removed.push((
+                partner,
+                format!("claimed only jointly with {}, which the backward check removed", gone.name()),
+            ));
+            model.params = without;
+            model.current = without_fit;
+        }
+    }
+    removed
+}
+
+/// Swap re-test: an effect chosen early was judged against a model that still lacked the
+/// effects found later (or held a compensation the backward check has since removed). Each
+/// accepted effect is compared once more with every alternative that was significant and
+/// confirmed at some step, in the final model: the alternative replaces it when the model
+/// with it (the others refitted) predicts significantly better. An offset and an unbalance
+/// over a short angle range are the typical case: nearly collinear in the equations, told
+/// apart only by what they do to the simulated motion. Returns the swaps (from, to).
+fn swap_retest(
+    data: &EquationData,
+    start: &ParameterSet,
+    model: &mut Model,
+    steps: &[Step],
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Vec<(Kind, Kind)> {
+    let mut swapped = Vec::new();
+    if !judge.compares() || model.accepted.is_empty() {
+        return swapped;
+    }
+    let alternatives: Vec<Kind> = {
+        let mut kinds: Vec<Kind> = steps
+            .iter()
+            .flat_map(|s| {
+                s.scores
+                    .iter()
+                    .filter(|x| {
+                        x.confirmation.is_some()
+                            || x.not_applicable
+                                .as_deref()
+                                .is_some_and(|r| r.starts_with("significant but not confirmed"))
+                    })
+                    .map(|x| x.kind)
+            })
+            .collect();
+        kinds.sort_by_key(|k| Kind::ALL.iter().position(|x| x == k));
+        kinds.dedup();
+        kinds
+    };
+    for index in 0..model.accepted.len() {
+        let kind = model.accepted[index];
+        let mut best: Option<(Kind, ParameterSet, Fit)> = None;
+        for &alternative in &alternatives {
+            if model.accepted.contains(&alternative) {
+                continue;
+            }
+            let mut trial: Vec<Kind> = model.accepted.clone();
+            trial[index] = alternative;
+            let weights = model.current.channel_weights();
+            let Ok(seeded) = fit_candidate(
+                data,
+                &without_effect(kind, &model.params, start),
+                &trial[..index].iter().chain(&trial[index + 1..]).copied().collect::<Vec<_>>(),
+                alternative,
+                options,
+            ) else {
+                continue;
+            };
+            let (refined, refined_fit, _) = refine(data, seeded, &trial, &weights, options.max_iterations);
+            if candidates::admissible(&refined, data).is_err() {
+                continue;
+            }
+            let extra = candidates::parameter_count(alternative, data.structure) as isize
+                - candidates::parameter_count(kind, data.structure) as isize;
+            let incumbent = best.as_ref().map_or(&model.params, |b| &b.1);
+            if judge.prefers(incumbent, &refined, extra) {
+                best = Some((alternative, refined, refined_fit));
+            }
+        }
+        if let Some((alternative, refined, refined_fit)) = best {
+            swapped.push((kind, alternative));
+            model.accepted[index] = alternative;
+            model.params = refined;
+            model.current = refined_fit;
+        }
+    }
+    swapped
 }
 
 /// The joint test of two candidates, for a step at which no single one was significant and
@@ -1031,7 +1122,7 @@ fn search_pair(
                     .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
                     .fold(0.0, f64::max);
                 let p = chi_squared_sf(chi2, instance.parameter_count() as f64);
-                if !(p < level) || size < options.min_effect_to_noise {
+                if p.is_nan() || p >= level || size < options.min_effect_to_noise {
                     ok = false;
                 }
             }

@@ -145,32 +145,7 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
         return None;
     }
     let n = data.len();
-    let shaft = motor_side_shaft_torque(data, params);
-    // The model's own twist: the path deflection under the shaft torque for a two-mass set,
-    // nothing for a rigid one.
-    let (model_twist, backlash, two_mass) = if data.structure == Structure::TwoMass {
-        let stiffness = params.value(names::STIFFNESS);
-        let damping = params.value(names::DAMPING);
-        let twist: Vec<f64> = (0..n).map(|i| (shaft[i] - damping * data.twist_rate[i]) / stiffness).collect();
-        (twist, params.value(names::BACKLASH_WIDTH), true)
-    } else {
-        (vec![0.0; n], 0.0, false)
-    };
-    let width = (0.02 * antenna_dsp::rms(&shaft)).max(data.torque_sigma).max(f64::MIN_POSITIVE);
-    // Half the smoothed sign of the shaft torque: its coefficient is the lost-motion width b.
-    let contact: Vec<f64> = shaft.iter().map(|t| 0.5 * (t / width).tanh()).collect();
-    let target: Vec<f64> = (0..n).map(|i| data.twist[i] - model_twist[i] - backlash * contact[i]).collect();
-    // A smooth function of the axis angle (Legendre polynomials of order 1-3 over the angle
-    // range): the gear's transmission error and the encoders' eccentricity, which no torque
-    // explains. Without it their slow drift would stand in the residual, lengthen its
-    // correlation time and hide the terms above.
-    let (low, high) = data.load_pos.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &q| (a.min(q), b.max(q)));
-    let span = (high - low).max(f64::MIN_POSITIVE);
-    let x: Vec<f64> = data.load_pos.iter().map(|q| 2.0 * (q - low) / span - 1.0).collect();
-    let mut columns = vec![vec![1.0; n], data.load_vel.clone(), shaft.clone(), contact];
-    columns.push(x.clone());
-    columns.push(x.iter().map(|x| 1.5 * x * x - 0.5).collect());
-    columns.push(x.iter().map(|x| 2.5 * x * x * x - 1.5 * x).collect());
+    let TwistRegression { target, columns, two_mass } = twist_regression(data, params);
     // (name, unit, columns) per term; the constant (encoder offsets) is a nuisance.
     let groups: [(&'static str, &'static str, std::ops::Range<usize>); 4] = [
         ("encoder timing skew (load encoder behind motor encoder)", "s", 1..2),
@@ -238,16 +213,7 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
         terms[2].significant = false;
     }
     let rms_before = centred_rms(&target);
-    // After: the constant and the significant terms, refitted together.
-    let mut chosen: Vec<Vec<f64>> = vec![columns[0].clone()];
-    for (term, (_, _, range)) in terms.iter().zip(&groups) {
-        if term.significant {
-            chosen.extend(range.clone().map(|k| columns[k].clone()));
-        }
-    }
-    let (refit, _) = weighted_least_squares(&chosen, &target, &weights);
-    let fitted: Vec<f64> = (0..n).map(|i| chosen.iter().zip(&refit).map(|(c, b)| b * c[i]).sum::<f64>()).collect();
-    let rms_after = (target.iter().zip(&fitted).map(|(t, f)| (t - f).powi(2)).sum::<f64>() / n as f64).sqrt();
+    let (fitted, rms_after) = refit_significant(&columns, &terms, &groups, &target, &weights);
     let mean_target = target.iter().sum::<f64>() / n as f64;
     Some(TwistAnalysis {
         structure: data.structure,
@@ -261,6 +227,68 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
         before: target.iter().map(|t| t - mean_target).collect(),
         fitted: fitted.iter().map(|f| f - mean_target).collect(),
     })
+}
+
+/// The twist the model does not explain, and the columns that regress it: a constant (encoder
+/// offsets), the axis speed (a timing skew between the encoders), the shaft torque (a
+/// compliance), the contact sign (lost motion) and three Legendre polynomials of the angle.
+struct TwistRegression {
+    target: Vec<f64>,
+    columns: Vec<Vec<f64>>,
+    two_mass: bool,
+}
+
+fn twist_regression(data: &EquationData, params: &ParameterSet) -> TwistRegression {
+    let n = data.len();
+    let shaft = motor_side_shaft_torque(data, params);
+    // The model's own twist: the path deflection under the shaft torque for a two-mass set,
+    // nothing for a rigid one.
+    let (model_twist, backlash, two_mass) = if data.structure == Structure::TwoMass {
+        let stiffness = params.value(names::STIFFNESS);
+        let damping = params.value(names::DAMPING);
+        let twist: Vec<f64> = (0..n).map(|i| (shaft[i] - damping * data.twist_rate[i]) / stiffness).collect();
+        (twist, params.value(names::BACKLASH_WIDTH), true)
+    } else {
+        (vec![0.0; n], 0.0, false)
+    };
+    let width = (0.02 * antenna_dsp::rms(&shaft)).max(data.torque_sigma).max(f64::MIN_POSITIVE);
+    // Half the smoothed sign of the shaft torque: its coefficient is the lost-motion width b.
+    let contact: Vec<f64> = shaft.iter().map(|t| 0.5 * (t / width).tanh()).collect();
+    let target: Vec<f64> = (0..n).map(|i| data.twist[i] - model_twist[i] - backlash * contact[i]).collect();
+    // A smooth function of the axis angle (Legendre polynomials of order 1-3 over the angle
+    // range): the gear's transmission error and the encoders' eccentricity, which no torque
+    // explains. Without it their slow drift would stand in the residual, lengthen its
+    // correlation time and hide the terms above.
+    let (low, high) = data.load_pos.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &q| (a.min(q), b.max(q)));
+    let span = (high - low).max(f64::MIN_POSITIVE);
+    let x: Vec<f64> = data.load_pos.iter().map(|q| 2.0 * (q - low) / span - 1.0).collect();
+    let mut columns = vec![vec![1.0; n], data.load_vel.clone(), shaft.clone(), contact];
+    columns.push(x.clone());
+    columns.push(x.iter().map(|x| 1.5 * x * x - 0.5).collect());
+    columns.push(x.iter().map(|x| 2.5 * x * x * x - 1.5 * x).collect());
+    TwistRegression { target, columns, two_mass }
+}
+
+/// After: the constant and the significant terms, refitted together; the fit and its RMS
+/// misfit.
+fn refit_significant(
+    columns: &[Vec<f64>],
+    terms: &[TwistTerm],
+    groups: &[(&'static str, &'static str, std::ops::Range<usize>)],
+    target: &[f64],
+    weights: &[f64],
+) -> (Vec<f64>, f64) {
+    let n = target.len();
+    let mut chosen: Vec<Vec<f64>> = vec![columns[0].clone()];
+    for (term, (_, _, range)) in terms.iter().zip(groups) {
+        if term.significant {
+            chosen.extend(range.clone().map(|k| columns[k].clone()));
+        }
+    }
+    let (refit, _) = weighted_least_squares(&chosen, target, weights);
+    let fitted: Vec<f64> = (0..n).map(|i| chosen.iter().zip(&refit).map(|(c, b)| b * c[i]).sum::<f64>()).collect();
+    let rms_after = (target.iter().zip(&fitted).map(|(t, f)| (t - f).powi(2)).sum::<f64>() / n as f64).sqrt();
+    (fitted, rms_after)
 }
 
 /// The log with its load encoder read `skew` seconds earlier (the value logged `skew` later),
