@@ -77,8 +77,10 @@ fn documented_layers() -> BTreeMap<String, Option<BTreeSet<String>>> {
 #[test]
 fn every_crate_depends_only_on_the_workspace_crates_architecture_md_allows() {
     let layers = documented_layers();
-    let packages: BTreeMap<String, (String, BTreeSet<String>)> =
-        members().into_iter().map(|m| (package_and_dependencies(&m).0, (m.clone(), package_and_dependencies(&m).1))).collect();
+    let packages: BTreeMap<String, (String, BTreeSet<String>)> = members()
+        .into_iter()
+        .map(|m| (package_and_dependencies(&m).0, (m.clone(), package_and_dependencies(&m).1)))
+        .collect();
     let workspace_crates: BTreeSet<&String> = packages.keys().collect();
     let mut violations = Vec::new();
     for (name, (member, dependencies)) in &packages {

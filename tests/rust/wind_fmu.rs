@@ -22,11 +22,11 @@ use std::f64::consts::PI;
 use std::io::Read;
 use std::time::Instant;
 
-use antenna_tests::{fmu_path, open, real, reals, set_reals};
 use antenna_dsp::{
     chi_squared_quantile, expected_welch_psd, log_band_average, standard_normal_quantile, welch_psd, whiteness_bound,
     BandSpectrum, ChiSquaredInterval, Detrend, WelchConfig,
 };
+use antenna_tests::{fmu_path, open, real, reals, set_reals};
 use fmi2_ffi::Status;
 use fmu_import::{Fmu, ImportError, Instance};
 use fmu_wind::analysis::{autocovariance_weights, sample_variance_std};
@@ -849,12 +849,12 @@ fn shipped_coefficients() -> Vec<(f64, f64, f64, f64)> {
     let mut archive = zip::ZipArchive::new(file).unwrap();
     let mut text = String::new();
     archive.by_name("resources/wind_coefficients.csv").unwrap().read_to_string(&mut text).unwrap();
-    text.lines()
-        .filter(|l| !l.starts_with('#') && !l.starts_with("yaw_deg") && !l.trim().is_empty())
-        .map(|l| {
-            let f: Vec<f64> = l.split(',').map(|c| c.trim().parse().unwrap()).collect();
-            (f[0], f[1], f[2], f[3])
-        })
+    csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes())
+        .deserialize::<(f64, f64, f64, f64)>()
+        .map(|row| row.expect("a row of four numbers"))
         .collect()
 }
 

@@ -33,7 +33,10 @@ pub fn all_fmus() -> Vec<FmuSpec> {
 
 /// The workspace root (the folder with the top-level Cargo.toml).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().expect("tools/fmus lives two folders below the workspace root")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .expect("tools/fmus lives two folders below the workspace root")
 }
 
 /// The documented folder the packaged `.fmu` files are written to: `target/fmu/`, or the
@@ -55,4 +58,3 @@ pub fn fmu_path(model_identifier: &str) -> PathBuf {
 pub fn model_description_directory() -> PathBuf {
     workspace_root().join("modelDescription")
 }
-

@@ -236,7 +236,7 @@ pub fn run_case(
     let clock = std::time::Instant::now();
     let result = MeasuredLog::read(path)
         .map_err(|e| e.to_string())
-        .and_then(|log| validate_with(&log, start, options, simulator));
+        .and_then(|log| validate_with(&log, start, options, simulator).map_err(|e| e.to_string()));
     let seconds = clock.elapsed().as_secs_f64();
     Ok(match result {
         Ok(validation) => score(&truth, &validation, start, seconds),

@@ -3,7 +3,7 @@
 //! produced, the written parameter file is loaded back, and a handful of generated suite
 //! cases are validated end to end against the criteria.
 //!
-//! The FMU must be packaged first (`cargo run --release -p xtask --bin package`, which
+//! The FMU must be packaged first (`cargo xtask package`, which
 //! `tools/test-all.sh` does); a missing FMU is a failure with that instruction.
 
 use antenna_truth::TruthPlant;

@@ -190,13 +190,13 @@ fn a_nan_in_a_simulated_window_is_an_error_naming_the_channel_and_window() {
 
 #[test]
 fn a_nan_from_the_simulator_on_the_starting_model_is_an_error_not_a_fallback_to_the_equation_error() {
-    use antenna_validate::{validate_log, ValidateOptions, ValidationError};
+    use antenna_validate::{validate_with, ValidateOptions, ValidationError};
     let config = TruthConfig { duration: 12.0, ..TruthConfig::default() };
     let log = simulate(&config).log;
     let mut start = config.plant.starting_parameters();
     start.set(names::STIFFNESS, 0.0);
     let mut simulator = NanSpeedAfter { inner: RigidReferenceSimulator::default(), bad_start: 0.0, window_time: 0.0 };
-    let error = validate_log(&log, &start, &ValidateOptions::default(), Some(&mut simulator)).unwrap_err();
+    let error = validate_with(&log, &start, &ValidateOptions::default(), Some(&mut simulator)).unwrap_err();
     assert!(matches!(error, ValidationError::Simulation(SimulationError::NonFinite(_))), "{error:?}");
     assert!(error.to_string().contains("is NaN in the window at"), "{error}");
 }

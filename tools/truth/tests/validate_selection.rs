@@ -85,11 +85,11 @@ fn clean_case() -> (antenna_validate::measured_log::MeasuredLog, ParameterSet) {
 #[test]
 fn a_nan_in_the_log_is_an_error_naming_the_column_and_sample() {
     use antenna_validate::finite::NonFinite;
-    use antenna_validate::{equation_error::PrepareError, validate_log, ValidateOptions, ValidationError};
+    use antenna_validate::{equation_error::PrepareError, validate_with, ValidateOptions, ValidationError};
     let (mut log, start) = clean_case();
     log.channels[1].values[300] = f64::NAN;
     let column = log.channels[1].column.clone();
-    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    let error = validate_with(&log, &start, &ValidateOptions::default(), None).unwrap_err();
     assert!(
         matches!(&error, ValidationError::Prepare(PrepareError::NonFinite(NonFinite::Signal { signal, sample: 300, .. }))
             if signal.contains(&column)),
@@ -102,10 +102,10 @@ fn a_nan_in_the_log_is_an_error_naming_the_column_and_sample() {
 fn a_nan_parameter_is_an_error_naming_it() {
     use antenna_validate::finite::NonFinite;
     use antenna_validate::parameters::names;
-    use antenna_validate::{equation_error::PrepareError, validate_log, ValidateOptions, ValidationError};
+    use antenna_validate::{equation_error::PrepareError, validate_with, ValidateOptions, ValidationError};
     let (log, mut start) = clean_case();
     start.set(names::VISCOUS, f64::NAN);
-    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    let error = validate_with(&log, &start, &ValidateOptions::default(), None).unwrap_err();
     assert!(
         matches!(&error, ValidationError::Prepare(PrepareError::NonFinite(NonFinite::Parameter { name, value }))
             if name == names::VISCOUS && value.is_nan()),
@@ -121,10 +121,10 @@ fn a_nan_in_the_equation_error_is_an_error_naming_its_cause() {
     // every test "not significant" and the run reported "no significant missing effect".
     use antenna_validate::finite::NonFinite;
     use antenna_validate::parameters::names;
-    use antenna_validate::{equation_error::PrepareError, validate_log, ValidateOptions, ValidationError};
+    use antenna_validate::{equation_error::PrepareError, validate_with, ValidateOptions, ValidationError};
     let (log, mut start) = clean_case();
     start.set(names::MOTOR_INERTIA, 1e307);
-    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    let error = validate_with(&log, &start, &ValidateOptions::default(), None).unwrap_err();
     assert!(
         matches!(&error, ValidationError::Prepare(PrepareError::NonFinite(NonFinite::Result { quantity, location, .. }))
             if quantity.contains("model side of the motor torque balance") && location.contains("analysed sample")),
@@ -138,10 +138,10 @@ fn a_residual_that_overflows_is_an_error_not_a_result() {
     // the RMS would be infinite, and the report would print it as a result.
     use antenna_validate::finite::NonFinite;
     use antenna_validate::parameters::names;
-    use antenna_validate::{validate_log, ValidateOptions, ValidationError};
+    use antenna_validate::{validate_with, ValidateOptions, ValidationError};
     let (log, mut start) = clean_case();
     start.set(names::UNBALANCE_TORQUE, 1e200);
-    let error = validate_log(&log, &start, &ValidateOptions::default(), None).unwrap_err();
+    let error = validate_with(&log, &start, &ValidateOptions::default(), None).unwrap_err();
     assert!(matches!(&error, ValidationError::NonFinite(NonFinite::Result { .. })), "{error:?}");
     assert!(error.to_string().contains("torque balance"), "{error}");
 }

@@ -20,9 +20,9 @@
 
 use super::parameters::{names, ParameterSet};
 use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, SavitzkyGolay};
-use antenna_dsp::weighted_least_squares;
 use crate::finite::{check_parameters, check_series, check_signal, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
+use antenna_dsp::weighted_least_squares;
 
 /// Settings of the data conditioning. Defaults are documented in docs/validation.md.
 #[derive(Debug, Clone)]

@@ -259,18 +259,12 @@ impl selection::Judge for OutputJudge<'_> {
 
 /// Validates a measured log against a starting parameter set with the equation-error route
 /// only (no simulator).
-pub fn validate(log: &MeasuredLog, start: &ParameterSet, options: &ValidateOptions) -> Result<Validation, String> {
-    validate_with(log, start, options, None)
-}
-
-/// [`validate_log`] with its error as text, for callers that chain it with other text errors.
-pub fn validate_with(
+pub fn validate(
     log: &MeasuredLog,
     start: &ParameterSet,
     options: &ValidateOptions,
-    simulator: Option<&mut dyn PlantSimulator>,
-) -> Result<Validation, String> {
-    validate_log(log, start, options, simulator).map_err(|e| e.to_string())
+) -> Result<Validation, ValidationError> {
+    validate_with(log, start, options, None)
 }
 
 /// Validates a measured log against a starting parameter set. With a simulator (the plant
@@ -281,7 +275,7 @@ pub fn validate_with(
 /// With two encoders, the twist is checked after the search ([`twist`]): a significant timing
 /// skew between the encoders is corrected in the data (the load encoder shifted back) and the
 /// log validated once more, so the effects are found on consistent data.
-pub fn validate_log(
+pub fn validate_with(
     log: &MeasuredLog,
     start: &ParameterSet,
     options: &ValidateOptions,
@@ -321,7 +315,7 @@ struct Searched {
     hints: Vec<Hint>,
 }
 
-/// One pass of [`validate_log`] on a log as it is.
+/// One pass of [`validate_with`] on a log as it is.
 fn validate_once(
     log: &MeasuredLog,
     start: &ParameterSet,

@@ -37,17 +37,14 @@ pub struct PlantFmu {
 }
 
 impl PlantFmu {
-    /// Where `cargo run --release -p xtask --bin package` writes the azimuth plant.
+    /// Where `cargo xtask package` writes the azimuth plant.
     pub fn default_path() -> PathBuf {
         antenna_fmus::fmu_path("AzimuthPlant")
     }
 
     pub fn open(path: &Path) -> Result<PlantFmu, String> {
         if !path.is_file() {
-            return Err(format!(
-                "{} is missing: package the FMUs first (cargo run --release -p xtask --bin package)",
-                path.display()
-            ));
+            return Err(format!("{} is missing: package the FMUs first (cargo xtask package)", path.display()));
         }
         let fmu = Fmu::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
         if fmu.description.model_identifier != "AzimuthPlant" {

@@ -19,9 +19,9 @@
 use super::candidates::{self, stack, stacked_weights, Column, Instance, Kind, Mode, Reported};
 use super::equation_error::{model_channels, ChannelData, EquationData, Structure};
 use super::parameters::ParameterSet;
-use antenna_dsp::weighted_least_squares;
 use super::stats::correlation_time;
 use antenna_dsp::chi_squared_sf;
+use antenna_dsp::weighted_least_squares;
 
 /// Settings of the search.
 #[derive(Debug, Clone)]

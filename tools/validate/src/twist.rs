@@ -31,8 +31,8 @@
 use super::equation_error::{cogging_torque, static_friction_curve, EquationData, Structure};
 use super::parameters::{names, ParameterSet};
 use super::signals::shift_samples;
-use antenna_dsp::weighted_least_squares;
 use crate::measured_log::{MeasuredLog, Signal};
+use antenna_dsp::weighted_least_squares;
 
 /// Thresholds of the twist check. Documented in docs/validation.md.
 #[derive(Debug, Clone)]

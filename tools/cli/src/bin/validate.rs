@@ -421,12 +421,8 @@ fn floor(seed: u64, settings: &Settings) -> anyhow::Result<()> {
         let log = simulate(&config).log;
         let mut options = settings.options.clone();
         options.selection.max_effects = 0;
-        let v = text(validate::validate_with(
-            &log,
-            &start,
-            &options,
-            simulator.as_mut().map(|s| s as &mut dyn PlantSimulator),
-        ))?;
+        let v =
+            validate::validate_with(&log, &start, &options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
         let arcsec = 180.0 * 3600.0 / std::f64::consts::PI;
         use validate::output_error::ChannelKind;
         let rms_of = |kind: ChannelKind| {
@@ -460,12 +456,12 @@ fn run_one(log_path: &Path, params_path: &Path, settings: &Settings) -> anyhow::
     let log = MeasuredLog::read(log_path).with_context(|| format!("{}", log_path.display()))?;
     let start = ParameterSet::read(params_path)?;
     let mut simulator = text(settings.fmu.as_deref().map(FmuSimulator::open).transpose())?;
-    let validation = text(validate::validate_with(
+    let validation = validate::validate_with(
         &log,
         &start,
         &settings.options,
         simulator.as_mut().map(|s| s as &mut dyn PlantSimulator),
-    ))?;
+    )?;
     Ok(validation)
 }
 
