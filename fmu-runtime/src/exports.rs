@@ -3,7 +3,7 @@
 //! [`crate::export_fmi2!`] expands, in a model crate, into `#[no_mangle] unsafe extern "C"`
 //! functions that forward here. Every function: catches panics; checks the instance pointer (after the
 //! `n == 0` short-cut where the standard has one); checks that the call is legal in the
-//! instance's phase (table in [`crate::instance::legal`]); checks every argument before
+//! instance's phase (table in [`crate::phase::legal`]); checks every argument before
 //! anything changes; and reports failures through the master's logger with fmi2Error. An error
 //! moves the instance to the `Error` phase, from which the standard allows getters, status
 //! queries, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance. The exception are the functions
@@ -21,11 +21,9 @@ use std::path::PathBuf;
 use std::sync::Once;
 
 use crate::ffi::*;
-use crate::instance::{
-    legal, DynModel, Instance, ModelSlot, Phase, SavedState, CAT_CALLS, CAT_DISCARD, CAT_ERROR, CAT_EVENTS,
-    CAT_WARNING, INSTANCE_MAGIC, LOG_CATEGORIES, STATE_MAGIC,
-};
+use crate::instance::{DynModel, Instance, ModelSlot, SavedState, INSTANCE_MAGIC, STATE_MAGIC};
 use crate::model::{Context, Model, ModelInfo, Notes};
+use crate::phase::{legal, Phase, CAT_CALLS, CAT_DISCARD, CAT_ERROR, CAT_EVENTS, CAT_WARNING, LOG_CATEGORIES};
 use crate::variables::SetPhase;
 
 /// One model a shared library can instantiate, chosen by GUID in fmi2Instantiate.
@@ -417,7 +415,7 @@ pub unsafe fn instantiate(
         let mut categories = [on; LOG_CATEGORIES.len()];
         // Errors and warnings are reported even without debug logging: a master needs to know
         // why a call failed. A master can still switch them off with fmi2SetDebugLogging.
-        for always in [CAT_WARNING, CAT_DISCARD, CAT_ERROR, crate::instance::CAT_FATAL] {
+        for always in [CAT_WARNING, CAT_DISCARD, CAT_ERROR, crate::phase::CAT_FATAL] {
             categories[always] = true;
         }
         categories[CAT_CALLS] = false;

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
-use crate::state::StateError;
+use crate::state_error::StateError;
 use crate::variables::{Values, VariableSet};
 
 /// The `<DefaultExperiment>` of the model description.

@@ -17,8 +17,9 @@
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use crate::instance::Phase;
 use crate::model::Model;
+use crate::phase::Phase;
+pub use crate::state_error::StateError;
 use crate::variables::Values;
 
 /// The first bytes of every state of this project.
@@ -27,26 +28,6 @@ pub const STATE_TAG: [u8; 8] = *b"MKATSTAT";
 /// The version of the state layout; a state of another version is refused. Version 1 was the
 /// hand-written field-by-field format before the states became serde types.
 pub const STATE_FORMAT_VERSION: u32 = 2;
-
-/// Why bytes could not be read back as a state of this model.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum StateError {
-    #[error("not an FMU state of this project (its first bytes are not the state tag)")]
-    NotAState,
-    #[error("state format version {found} is not supported (this FMU reads version {STATE_FORMAT_VERSION})")]
-    Version { found: u32 },
-    #[error("state belongs to model '{found_identifier}' {found_guid}, not to '{identifier}' {guid}")]
-    OtherModel { found_identifier: String, found_guid: String, identifier: String, guid: String },
-    #[error("state is truncated or corrupt in its {part}: {cause}")]
-    Corrupt { part: &'static str, cause: postcard::Error },
-    #[error("{0} unexpected trailing bytes in state")]
-    TrailingBytes(usize),
-    #[error("state could not be written: {0}")]
-    Encode(postcard::Error),
-    /// The bytes decoded, but do not fit the model (a length, a mode or a parameter disagrees).
-    #[error("{0}")]
-    Invalid(String),
-}
 
 /// What a state says about the instance around the model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -116,7 +97,7 @@ pub(crate) fn decode<M: Model>(bytes: &[u8], identifier: &str, guid: &str) -> Re
     }
     let (tag, rest) = take::<FormatTag>(bytes, "format tag")?;
     if tag.version != STATE_FORMAT_VERSION {
-        return Err(StateError::Version { found: tag.version });
+        return Err(StateError::Version { found: tag.version, supported: STATE_FORMAT_VERSION });
     }
     let (header, rest) = take::<StateHeader>(rest, "header")?;
     if header.model_identifier != identifier || header.guid != guid {

@@ -5,8 +5,8 @@ use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use sha2::{Digest, Sha256};
 
-use crate::instance::LOG_CATEGORIES;
 use crate::model::{Model, ModelInfo};
+use crate::phase::LOG_CATEGORIES;
 use crate::units;
 use crate::variables::{Causality, Kind, Var, VariableSet};
 

@@ -219,3 +219,64 @@ fn the_model_crates_never_print() {
     }
     assert!(violations.is_empty(), "printing in model code:\n{}", violations.join("\n"));
 }
+
+/// The sibling modules a top-level module of a crate refers to (`crate::name`, or `super::name`
+/// from a file directly in `src/`), outside its tests and comments.
+fn module_references(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let mut files = Vec::new();
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = std::fs::read_dir(dir) else { return };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                walk(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    walk(src, &mut files);
+    let top_level = |path: &Path| -> Option<String> {
+        let relative = path.strip_prefix(src).ok()?;
+        let first = relative.components().next()?.as_os_str().to_string_lossy().trim_end_matches(".rs").to_string();
+        (!["lib", "main", "bin"].contains(&first.as_str())).then_some(first)
+    };
+    let names: BTreeSet<String> = files.iter().filter_map(|p| top_level(p)).collect();
+    let mut references: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for path in &files {
+        let Some(module) = top_level(path) else { continue };
+        let directly_in_src = path.parent() == Some(src);
+        let code: String = code_outside_tests(&read(path)).into_iter().map(|(_, l)| l + "\n").collect();
+        let mut found = BTreeSet::new();
+        for prefix in ["crate::", "super::"] {
+            if prefix == "super::" && !directly_in_src {
+                continue;
+            }
+            for piece in code.split(prefix).skip(1) {
+                let name: String = piece.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                if names.contains(&name) && name != module {
+                    found.insert(name);
+                }
+            }
+        }
+        references.entry(module).or_default().extend(found);
+    }
+    references
+}
+
+#[test]
+fn no_two_modules_of_a_crate_depend_on_each_other() {
+    let mut cycles = Vec::new();
+    for member in members() {
+        let src = workspace_root().join(&member).join("src");
+        let references = module_references(&src);
+        for (module, uses) in &references {
+            for other in uses {
+                if module < other && references.get(other).is_some_and(|back| back.contains(module)) {
+                    cycles.push(format!("{member}: {module} <-> {other}"));
+                }
+            }
+        }
+    }
+    assert!(cycles.is_empty(), "modules that use each other:\n{}", cycles.join("\n"));
+}

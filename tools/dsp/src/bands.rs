@@ -6,9 +6,9 @@
 //! evenly spaced points whose confidence improves with frequency, and the number of bins per
 //! band (and the correlation between neighbouring bins) says by how much.
 
-use super::distributions::ChiSquaredInterval;
-use super::spectral::Spectrum;
-use super::DspError;
+use crate::distributions::ChiSquaredInterval;
+use crate::error::DspError;
+use crate::spectral::Spectrum;
 
 /// A spectrum averaged over bands of equal width in log frequency.
 ///
@@ -114,7 +114,7 @@ mod tests {
     use super::*;
     use crate::spectral::{welch_psd, WelchConfig};
     use crate::test_signals::white_noise;
-    use crate::Window;
+    use crate::window::Window;
 
     #[test]
     fn bands_are_aligned_to_decades_and_count_their_bins() {

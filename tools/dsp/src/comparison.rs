@@ -2,7 +2,7 @@
 //! us trust, and how far apart measurement and model are there. Shared by the plant
 //! identification (Figs. 6 and 8) and the closed velocity loop (Figs. 7 and 9).
 
-use super::Complex64;
+use rustfft::num_complex::Complex64;
 
 /// Borrowed views of an H1 estimate, its coherence and the model at the same bins.
 #[derive(Debug, Clone, Copy)]

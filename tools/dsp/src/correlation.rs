@@ -5,8 +5,8 @@
 //! samples N - k. It has lower variance, it is a positive semi-definite sequence, and it is
 //! the one the +-1.96/sqrt(N) whiteness bounds and the Ljung-Box statistic are derived for.
 
-use super::distributions::{chi_squared_sf, standard_normal_quantile};
-use super::{check_finite, DspError};
+use crate::distributions::{chi_squared_sf, standard_normal_quantile};
+use crate::error::{check_finite, DspError};
 use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 

@@ -21,7 +21,7 @@
 //! normal quantile by at most 2.2e-15 between 0.0005 and 0.9995 (the former route through the
 //! chi-squared quantile lost 7.7e-7 at p = 1e-12 to the cancellation in 2p - 1).
 
-use super::DspError;
+use crate::error::DspError;
 use statrs::distribution::{ContinuousCDF, Normal};
 use statrs::function::gamma::{gamma_lr, gamma_ur, ln_gamma};
 

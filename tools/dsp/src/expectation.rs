@@ -12,17 +12,17 @@
 //! which is `2 Re A_k - a_0` with `A` the length-`L` DFT of `a_m = R(m) c(m)`, `m = 0..L-1`
 //! (`c` vanishes beyond `L - 1`). Sampling enters through `R(m)`, so aliasing is included.
 
-use super::spectral::{Detrend, Spectrum, WelchConfig, BIN_CORRELATION_OFFSETS};
-use super::DspError;
+use crate::error::DspError;
+use crate::spectral::{Detrend, Spectrum, WelchConfig, BIN_CORRELATION_OFFSETS};
 use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 
-/// The exact expected value of [`super::welch_psd`] with `config` applied to `record_len`
+/// The exact expected value of [`crate::spectral::welch_psd`] with `config` applied to `record_len`
 /// samples at `sample_rate_hz` of a zero-mean stationary process with autocovariance
 /// `autocovariance(m)` at a lag of `m` samples.
 ///
 /// Returned as a [`Spectrum`] with the same bins, degrees of freedom and bin correlation as the
-/// estimate would have, so that [`super::log_band_average`] turns it into the expected band
+/// estimate would have, so that [`crate::bands::log_band_average`] turns it into the expected band
 /// averages (the mean of a band is the mean of its bins' expectations).
 ///
 /// Only `Detrend::None` is supported: removing each segment's mean makes the estimate a
@@ -34,7 +34,7 @@ pub fn expected_welch_psd(
     sample_rate_hz: f64,
     config: &WelchConfig,
 ) -> Result<Spectrum, DspError> {
-    super::check_sample_rate(sample_rate_hz)?;
+    crate::error::check_sample_rate(sample_rate_hz)?;
     if config.detrend != Detrend::None {
         return Err(DspError::invalid(
             "detrend",

@@ -10,7 +10,7 @@
 //! Conventions are those of the crate: one-sided densities per Hz, Hann windows normalised by
 //! their power, 50 % overlap.
 
-use super::window::Window;
+use crate::window::Window;
 use std::f64::consts::PI;
 
 /// The Hann correlation between neighbouring 50 %-overlapped segments (Welch 1967), which sets
@@ -97,7 +97,7 @@ pub fn expected_lpsd(
 ) -> f64 {
     let len = lpsd_segment_len(frequency_hz, sample_rate_hz, cycles);
     let window = Window::Hann.coefficients(len);
-    let lag_products = super::expectation::window_lag_products(&window);
+    let lag_products = crate::expectation::window_lag_products(&window);
     let theta = 2.0 * PI * frequency_hz / sample_rate_hz;
     let sum: f64 = (1..len).map(|m| autocovariance(m) * lag_products[m] * (theta * m as f64).cos()).sum();
     2.0 * (autocovariance(0) * lag_products[0] + 2.0 * sum) / (sample_rate_hz * lag_products[0])
@@ -151,7 +151,8 @@ mod tests {
         let outside = estimates
             .iter()
             .filter(|e| {
-                let (low, high) = crate::ChiSquaredInterval::new(e.dof, 0.99).unwrap().estimate_factors();
+                let (low, high) =
+                    crate::distributions::ChiSquaredInterval::new(e.dof, 0.99).unwrap().estimate_factors();
                 !(low..=high).contains(&(e.psd / level))
             })
             .count();

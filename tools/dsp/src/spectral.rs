@@ -6,9 +6,9 @@
 //! and windowed, and the segment periodograms are averaged. Samples after the last whole
 //! segment are not used. The PSD is one-sided and per Hz; see the [module conventions](super).
 
-use super::distributions::ChiSquaredInterval;
-use super::window::Window;
-use super::{check_finite, check_sample_rate, DspError};
+use crate::distributions::ChiSquaredInterval;
+use crate::error::{check_finite, check_sample_rate, DspError};
+use crate::window::Window;
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use std::f64::consts::PI;

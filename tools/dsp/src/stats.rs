@@ -6,7 +6,7 @@
 //! Reductions of an empty slice return NaN; windowed functions return an empty result (or
 //! `None`) when the window is empty or longer than the record.
 
-use super::DspError;
+use crate::error::DspError;
 use nalgebra::{DMatrix, DVector};
 
 /// Arithmetic mean.
@@ -191,8 +191,8 @@ fn check_line_input(x: &[f64], y: &[f64]) -> Result<(), DspError> {
     if x.len() < 3 {
         return Err(DspError::TooShort { needed: 3, got: x.len() });
     }
-    super::check_finite(x)?;
-    super::check_finite(y)
+    crate::error::check_finite(x)?;
+    crate::error::check_finite(y)
 }
 
 /// Ordinary least-squares straight line. The standard errors come from the residual scatter

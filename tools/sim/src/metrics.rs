@@ -1,8 +1,14 @@
 //! The figures the requirements are judged by, computed from a coupled run's trace.
 
 use super::coupled::Trace;
-use super::scenario::{JITTER_LIMIT_ARCSEC, JITTER_WINDOW_S, SETTLE_HOLD_S};
 use antenna_dsp as dsp;
+
+/// Pointing-error limit of Req. 1, arcsec RMS, also the settling band.
+pub const JITTER_LIMIT_ARCSEC: f64 = 15.0;
+/// How long the error must stay in the band to count as settled, s.
+pub const SETTLE_HOLD_S: f64 = 10.0;
+/// Length of the jitter window, s.
+pub const JITTER_WINDOW_S: f64 = 10.0;
 
 /// Worst RMS pointing error over sliding windows of `JITTER_WINDOW_S`, from `from_s` on.
 pub fn worst_window_jitter_arcsec(trace: &Trace, from_s: f64) -> Option<(f64, f64)> {

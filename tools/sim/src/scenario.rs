@@ -11,20 +11,15 @@ use fmu_wind::site::{SCENARIO_ROUGHNESS_NORMAL, SCENARIO_ROUGHNESS_OPTIMAL};
 
 use super::command::{CommandPoint, CommandTable};
 use super::coupled::WindCondition;
-use super::metrics::Settling;
+// The requirement's thresholds are the metrics' own; scenarios and reports name them from here too.
+pub use super::metrics::{Settling, JITTER_LIMIT_ARCSEC, JITTER_WINDOW_S, SETTLE_HOLD_S};
 
 /// Interval of the pointing-model table, s.
 pub const TABLE_INTERVAL_S: f64 = 0.1;
 /// Yaw of the wind relative to the antenna's azimuth, deg.
 pub const WIND_YAW_DEG: f64 = 130.0;
-/// Pointing-error limit of Req. 1, arcsec RMS, also the settling band.
-pub const JITTER_LIMIT_ARCSEC: f64 = 15.0;
-/// How long the error must stay in the band to count as settled, s.
-pub const SETTLE_HOLD_S: f64 = 10.0;
 /// The sidereal tracking rate of the scenarios, deg/s (on each axis).
 pub const SIDEREAL_RATE_DEG_PER_S: f64 = 0.004;
-/// Length of the jitter window, s.
-pub const JITTER_WINDOW_S: f64 = 10.0;
 
 /// The requirements of the seed paper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -7,8 +7,8 @@ use crate::error::WindFitError;
 use crate::figures::{spectrum_figure, time_series_figure};
 use crate::generator::{compare_generator, generator_markdown, ComparisonCurve};
 use crate::record::read_wind_csv;
+use crate::record::{DEFAULT_SPEED_COLUMN, DEFAULT_TIME_COLUMN};
 use crate::report::{file_name, gust_summary_csv, report_markdown};
-use crate::{DEFAULT_SPEED_COLUMN, DEFAULT_TIME_COLUMN};
 use clap::Parser;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -178,8 +178,8 @@ pub fn run(options: &WindfitArgs) -> Result<String, WindFitError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spectrum_fit::KOLMOGOROV_SLOPE;
     use crate::test_records::synthetic_record;
-    use crate::KOLMOGOROV_SLOPE;
 
     fn parse(list: &[&str]) -> Result<WindfitArgs, clap::Error> {
         WindfitArgs::try_parse_from(std::iter::once("windfit").chain(list.iter().copied()))

@@ -1,8 +1,10 @@
 //! The settings of the analysis, their defaults and their checks.
 
 use crate::error::WindFitError;
-use crate::PAPER_Z0_M;
 use antenna_dsp::{self, window_samples};
+
+/// The seed paper's roughness length for the MeerKAT site (sparse shrubs), m.
+pub const PAPER_Z0_M: f64 = 0.4;
 
 /// Settings of the analysis.
 #[derive(Debug, Clone, PartialEq)]

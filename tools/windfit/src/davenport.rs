@@ -1,7 +1,8 @@
 //! The Davenport spectrum of the paper's Eq. 2 in the form the fits need (parametrised by
 //! kappa), with its closed-form variance, peaks and inertial-subrange level.
 
-use crate::DAVENPORT_LENGTH_M;
+/// Davenport's length scale in Eq. 2 (x = L n / v_m), m.
+pub const DAVENPORT_LENGTH_M: f64 = 1200.0;
 
 /// The Davenport spectrum of the paper's Eq. 2, one-sided per Hz:
 /// S(n) = 4 kappa v_m^2 x^2 / (n (1 + x^2)^(4/3)), x = L n / v_m, L = 1200 m.
@@ -83,7 +84,7 @@ impl DavenportSpectrum {
 mod tests {
     use super::*;
 
-    use crate::figures::log_grid;
+    use crate::generator::log_grid;
 
     #[test]
     fn davenport_closed_forms_match_numerical_integration_and_maxima() {

@@ -4,19 +4,12 @@
 use crate::analysis::WindAnalysis;
 use crate::davenport::DavenportSpectrum;
 use crate::error::WindFitError;
-use crate::generator::ComparisonCurve;
+use crate::generator::{log_grid, ComparisonCurve};
 use crate::record::WindRecord;
 use crate::report::file_name;
-use crate::KOLMOGOROV_SLOPE;
+use crate::spectrum_fit::KOLMOGOROV_SLOPE;
 use antenna_dsp::{self, moving_average, window_samples};
 use antenna_plot::{Colour, Figure, LegendPosition, Panel, Series};
-
-/// Log-spaced frequencies from `low` to `high`, `per_decade` per decade.
-pub(crate) fn log_grid(low: f64, high: f64, per_decade: usize) -> Vec<f64> {
-    let decades = (high / low).log10();
-    let count = (decades * per_decade as f64).ceil().max(1.0) as usize;
-    (0..=count).map(|i| low * 10f64.powf(decades * i as f64 / count as f64)).collect()
-}
 
 /// Draws the measured PSD (raw Welch bins, band averages with their confidence band), Eq. 2
 /// for the fitted kappa and for the reference z0, the fitted slope and the -5/3 line, with

@@ -6,7 +6,6 @@ use crate::analysis::{analyse, WindAnalysis};
 use crate::config::WindFitConfig;
 use crate::davenport::DavenportSpectrum;
 use crate::error::WindFitError;
-use crate::figures::log_grid;
 use crate::record::WindRecord;
 use crate::statistics::{predict_gust, GustPrediction};
 use antenna_dsp::{self, log_band_average, welch_psd, WelchConfig};
@@ -228,6 +227,13 @@ pub fn generator_markdown(analysis: &WindAnalysis, comparison: &GeneratorCompari
         (s.std_m_s / d.sigma() - 1.0) / comparison.std_scatter
     );
     r
+}
+
+/// Log-spaced frequencies from `low` to `high`, `per_decade` per decade.
+pub(crate) fn log_grid(low: f64, high: f64, per_decade: usize) -> Vec<f64> {
+    let decades = (high / low).log10();
+    let count = (decades * per_decade as f64).ceil().max(1.0) as usize;
+    (0..=count).map(|i| low * 10f64.powf(decades * i as f64 / count as f64)).collect()
 }
 
 #[cfg(test)]

@@ -41,36 +41,21 @@ pub mod statistics;
 
 pub use analysis::{analyse, WindAnalysis};
 pub use cli::{run, WindfitArgs};
-pub use config::WindFitConfig;
-pub use davenport::DavenportSpectrum;
+pub use config::{WindFitConfig, PAPER_Z0_M};
+pub use davenport::{DavenportSpectrum, DAVENPORT_LENGTH_M};
 pub use error::WindFitError;
 pub use figures::{spectrum_figure, time_series_figure};
 pub use generator::{compare_generator, generator_markdown, ComparisonCurve, GeneratorComparison};
-pub use record::{parse_wind_csv, read_wind_csv, WindRecord};
+pub use record::{parse_wind_csv, read_wind_csv, WindRecord, DEFAULT_SPEED_COLUMN, DEFAULT_TIME_COLUMN};
 pub use report::{gust_summary_csv, report_markdown};
-pub use spectrum_fit::{Identifiability, ImpliedDavenport, LevelFit, LocalSlope, SlopeFit};
+pub use spectrum_fit::{Identifiability, ImpliedDavenport, LevelFit, LocalSlope, SlopeFit, KOLMOGOROV_SLOPE};
 pub use statistics::{predict_gust, BlockStatistics, GustPrediction, PeriodSummary, RecordStatistics};
-
-/// Column read by default: the horizontal wind speed.
-pub const DEFAULT_SPEED_COLUMN: &str = "horizontal_speed_m_s";
-
-/// Time column read by default, in seconds.
-pub const DEFAULT_TIME_COLUMN: &str = "time_s";
-
-/// Davenport's length scale in Eq. 2 (x = L n / v_m), m.
-pub const DAVENPORT_LENGTH_M: f64 = 1200.0;
-
-/// The seed paper's roughness length for the MeerKAT site (sparse shrubs), m.
-pub const PAPER_Z0_M: f64 = 0.4;
-
-/// The Kolmogorov inertial-subrange slope of a velocity spectrum.
-pub const KOLMOGOROV_SLOPE: f64 = -5.0 / 3.0;
 
 #[cfg(test)]
 pub(crate) mod test_records {
     //! Records for the tests of every module: synthetic ones with a known spectrum, and the
     //! measured one when the shared data folder is present.
-    use crate::WindRecord;
+    use crate::record::WindRecord;
     use antenna_dsp::test_signals::process_with_psd;
     use std::path::{Path, PathBuf};
 

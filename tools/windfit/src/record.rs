@@ -4,6 +4,12 @@
 use crate::error::WindFitError;
 use std::path::Path;
 
+/// Column read by default: the horizontal wind speed.
+pub const DEFAULT_SPEED_COLUMN: &str = "horizontal_speed_m_s";
+
+/// Time column read by default, in seconds.
+pub const DEFAULT_TIME_COLUMN: &str = "time_s";
+
 /// A uniformly sampled wind-speed record.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WindRecord {
@@ -157,7 +163,6 @@ pub fn read_wind_csv(path: &Path, time_column: &str, speed_column: &str) -> Resu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{DEFAULT_SPEED_COLUMN, DEFAULT_TIME_COLUMN};
 
     const GOOD_CSV: &str =
         "time_s,u_x_m_s,horizontal_speed_m_s\n0.00,1.0,2.0\n0.05,1.1,2.1\n0.10,1.2,2.2\n0.15,1.3,2.3\n";

@@ -3,8 +3,9 @@
 
 use crate::analysis::WindAnalysis;
 use crate::davenport::DavenportSpectrum;
+use crate::davenport::DAVENPORT_LENGTH_M;
 use crate::generator::ComparisonCurve;
-use crate::{DAVENPORT_LENGTH_M, KOLMOGOROV_SLOPE};
+use crate::spectrum_fit::KOLMOGOROV_SLOPE;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -3,12 +3,15 @@
 //! spectrum identify of the Davenport peak.
 
 use crate::davenport::DavenportSpectrum;
+use crate::davenport::DAVENPORT_LENGTH_M;
 use crate::error::WindFitError;
 use crate::statistics::RecordStatistics;
-use crate::{DAVENPORT_LENGTH_M, KOLMOGOROV_SLOPE};
 use antenna_dsp::{
     self, digamma, standard_normal_quantile, trigamma, weighted_linear_regression, BandSpectrum, Spectrum,
 };
+
+/// The Kolmogorov inertial-subrange slope of a velocity spectrum.
+pub const KOLMOGOROV_SLOPE: f64 = -5.0 / 3.0;
 
 /// A straight-line fit of log10 PSD against log10 frequency over bands.
 #[derive(Debug, Clone, PartialEq)]
