@@ -108,8 +108,7 @@ fn a_graduation_harmonic_alone_appears_at_its_angle_period_with_its_amplitude_an
 
 #[test]
 fn eccentricity_alone_is_a_once_per_revolution_sinusoid() {
-    let mut params = AzimuthParams::default();
-    params.encoder_bits = 0;
+    let mut params = AzimuthParams { encoder_bits: 0, ..AzimuthParams::default() };
     params.sensors.encoder.eccentricity =
         PeriodicError { amplitude_arcsec: 2.0, cycles_per_turn: 1.0, phase_deg: 30.0 };
     let samples = error_over_a_turn(params, 3600);
@@ -123,8 +122,7 @@ fn eccentricity_alone_is_a_once_per_revolution_sinusoid() {
 #[test]
 fn interpolation_error_repeats_with_the_signal_period() {
     // 32768 signal periods per turn: one period is 39.55 arcsec. Sample two periods finely.
-    let mut params = AzimuthParams::default();
-    params.encoder_bits = 0;
+    let mut params = AzimuthParams { encoder_bits: 0, ..AzimuthParams::default() };
     params.sensors.encoder.interpolation[0].amplitude_arcsec = 0.4;
     let period = std::f64::consts::TAU / 32768.0;
     let mut plant = AzimuthPlant::new(params).unwrap();
@@ -145,8 +143,7 @@ fn interpolation_error_repeats_with_the_signal_period() {
 
 /// Mean encoder error over a slow sweep of many counts, arcsec, with a count of `bits`.
 fn mean_error_over_a_sweep(bits: u32, mode: CountMode) -> f64 {
-    let mut params = AzimuthParams::default();
-    params.encoder_bits = bits;
+    let mut params = AzimuthParams { encoder_bits: bits, ..AzimuthParams::default() };
     params.sensors.encoder.count_mode = mode;
     let samples = error_over_a_turn(params, 100_003);
     samples.iter().map(|s| s.1).sum::<f64>() / samples.len() as f64
@@ -165,8 +162,7 @@ fn rounding_has_zero_mean_error_where_truncation_has_minus_half_a_count() {
 /// The encoder error and the motor 1 speed signal of an azimuth plant at rest, with noise, read
 /// at every communication point of a run of `h`-second steps over `duration` seconds.
 fn noise_at_rest(seed: u64, h: f64, duration: f64) -> Vec<(f64, f64, f64)> {
-    let mut params = AzimuthParams::default();
-    params.encoder_bits = 0;
+    let mut params = AzimuthParams { encoder_bits: 0, ..AzimuthParams::default() };
     params.sensors.encoder.noise_rms_arcsec = 0.5;
     params.sensors.motor_speed_noise_rms_rad_per_s = [0.05, 0.05];
     params.sensors.seed = seed;
