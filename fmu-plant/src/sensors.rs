@@ -300,6 +300,9 @@ pub(crate) const ELEVATION_STREAMS: u64 = 0x200;
 pub(crate) struct Sensors<const P: usize> {
     params: SensorParams<P>,
     bits: u32,
+    /// True when the reading is the counted true angle: then nothing is added to it, so the
+    /// reading is bit for bit that of the plant before the sensor model.
+    exact_encoder: bool,
     clock: SampleClock,
     encoder_noise: NoiseChannel,
     speed_noise: [NoiseChannel; P],
@@ -317,6 +320,7 @@ impl<const P: usize> Sensors<P> {
         let mut sensors = Self {
             params,
             bits,
+            exact_encoder: params.encoder.is_exact(),
             clock: SampleClock::default(),
             encoder_noise,
             speed_noise,
@@ -361,8 +365,11 @@ impl<const P: usize> Sensors<P> {
     /// The encoder reading of a true axis angle, rad.
     pub fn encoder_reading_rad(&self, angle_rad: f64) -> f64 {
         let e = &self.params.encoder;
-        let sensed =
-            if e.is_exact() { angle_rad } else { angle_rad + e.periodic_error_rad(angle_rad) + self.encoder_noise_rad };
+        let sensed = if self.exact_encoder {
+            angle_rad
+        } else {
+            angle_rad + e.periodic_error_rad(angle_rad) + self.encoder_noise_rad
+        };
         count(sensed, self.bits, e.count_mode)
     }
 
