@@ -11,6 +11,7 @@
 use fmu_runtime::state::StateError;
 
 use crate::drivetrain::DriveState;
+use crate::sensors::{SampleClock, SensorParams, Sensors, ARCSEC, AZIMUTH_STREAMS};
 use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
@@ -65,6 +66,8 @@ pub struct AzimuthParams {
     pub periodic_torque: PeriodicTorqueParams,
     /// Resolution of the axis encoder, bits per turn; 0 means unquantised.
     pub encoder_bits: u32,
+    /// Encoder errors and speed-signal noise (ideal by default).
+    pub sensors: SensorParams<2>,
     /// Numerical scheme settings.
     pub numerics: NumericsParams,
 }
@@ -99,6 +102,7 @@ impl Default for AzimuthParams {
             torque_offset_nm: 0.0,
             periodic_torque: PeriodicTorqueParams::NONE,
             encoder_bits: 25,
+            sensors: SensorParams::default(),
             numerics: NumericsParams::default(),
         }
     }
@@ -117,6 +121,7 @@ impl AzimuthParams {
             torque_offset_nm: 0.0,
             periodic_torque: PeriodicTorqueParams::NONE,
             encoder_bits: 0,
+            sensors: SensorParams::default(),
             ..d
         }
     }
@@ -168,6 +173,7 @@ impl AzimuthParams {
         if self.encoder_bits > 48 {
             errors.push(format!("encoder_bits ({}) must be at most 48", self.encoder_bits));
         }
+        self.sensors.validate(&mut errors);
         self.numerics.validate(&mut errors);
         into_result("azimuth", errors)
     }
@@ -269,14 +275,18 @@ pub struct AzimuthInputs {
 /// What a telescope engineer reads from the azimuth axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AzimuthOutputs {
-    /// Axis encoder reading: the true angle rounded down to whole encoder counts, deg.
-    /// Unwrapped (the travel, -185 to +275 deg, exceeds a turn).
+    /// Axis encoder reading, deg: the true angle with the encoder's errors, counted to whole
+    /// encoder counts (rounded down by default). Unwrapped (the travel, -185 to +275 deg,
+    /// exceeds a turn).
     pub encoder_position_deg: f64,
+    /// Encoder reading minus true angle, arcsec.
+    pub encoder_error_arcsec: f64,
     /// True axis angle, deg.
     pub axis_position_deg: f64,
     /// Axis (load) speed, deg/s.
     pub axis_speed_deg_per_s: f64,
-    /// Motor shaft speeds, rad/s.
+    /// Motor shaft speed signals, rad/s: the true speeds plus the speed-signal noise (none by
+    /// default).
     pub motor_speed_rad_per_s: [f64; 2],
     /// Motor currents (output of the current loops), A.
     pub motor_current_a: [f64; 2],
@@ -294,6 +304,7 @@ pub struct AzimuthOutputs {
 pub struct AzimuthPlant {
     params: AzimuthParams,
     core: DriveCore<PATHS, STATES, INPUTS>,
+    sensors: Sensors<PATHS>,
 }
 
 impl AzimuthPlant {
@@ -305,7 +316,8 @@ impl AzimuthPlant {
         // The load inertia J_head + I_cross cos^2 + I_boresight sin^2 is extreme at 0 and at
         // 90 deg, so the drive is fastest in one of those cells.
         core.check_rates("azimuth", [0.0, 90.0].map(|el| params.cell_model(params.cell_of(el))))?;
-        Ok(Self { params, core })
+        let sensors = Sensors::new(params.sensors, params.encoder_bits, AZIMUTH_STREAMS);
+        Ok(Self { params, core, sensors })
     }
 
     pub fn params(&self) -> &AzimuthParams {
@@ -320,6 +332,7 @@ impl AzimuthPlant {
             return Err(format!("initial azimuth angle ({axis_angle_rad}) must be finite"));
         }
         self.core.set_at_rest(axis_angle_rad * self.params.gear_ratio);
+        self.sensors.set_clock(SampleClock::default());
         Ok(())
     }
 
@@ -354,6 +367,7 @@ impl AzimuthPlant {
             self.core.rollback(checkpoint, |cell| params.cell_model(cell));
             return Err(non_finite_step_message("azimuth", self.core.time(), h, &cause));
         }
+        self.sensors.advance(h);
         Ok(())
     }
 
@@ -367,11 +381,13 @@ impl AzimuthPlant {
         let n = self.params.gear_ratio;
         let axis_angle = self.core.load_angle() / n;
         let mesh = self.core.mesh();
+        let encoder = self.sensors.encoder_reading_rad(axis_angle);
         AzimuthOutputs {
-            encoder_position_deg: quantise(axis_angle, self.params.encoder_bits).to_degrees(),
+            encoder_position_deg: encoder.to_degrees(),
+            encoder_error_arcsec: (encoder - axis_angle) / ARCSEC,
             axis_position_deg: axis_angle.to_degrees(),
             axis_speed_deg_per_s: (x[LOAD_SPEED] / n).to_degrees(),
-            motor_speed_rad_per_s: [0, 1].map(|k| x[motor_speed_index(k)]),
+            motor_speed_rad_per_s: [0, 1].map(|k| self.sensors.motor_speed_signal(k, x[motor_speed_index(k)])),
             motor_current_a: [0, 1].map(|k| x[current_index(k)]),
             motor_torque_nm: [0, 1].map(|k| self.core.model().torque_per_amp[k] * x[current_index(k)]),
             pinion_torque_nm: [0, 1].map(|k| self.core.path_torque(k) * n),
@@ -405,16 +421,18 @@ impl AzimuthPlant {
 
     /// Everything that affects the future (not the caches), bitwise.
     pub fn save_state(&self) -> DriveState {
-        self.core.saved_state()
+        DriveState { sensor_clock: self.sensors.clock(), ..self.core.saved_state() }
     }
 
     /// Restores a state written by [`save_state`](Self::save_state) of a plant with the same
     /// parameters.
     pub fn load_state(&mut self, state: DriveState) -> Result<(), StateError> {
         let mut core = self.core.clone();
+        let clock = state.sensor_clock;
         let cell = core.restore(state)?;
         core.set_cell(cell, self.params.cell_model(cell));
         self.core = core;
+        self.sensors.set_clock(clock);
         Ok(())
     }
 
@@ -430,15 +448,6 @@ pub(crate) fn non_finite_step_message(axis: &str, time: f64, h: f64, cause: &str
         "the {axis} step of {h} s from t = {time} s produced a non-finite state (NaN or infinity) and was undone: \
          the plant is as it was before the step. Likely cause: {cause}"
     )
-}
-
-/// An angle rounded down to whole counts of a `bits`-bit-per-turn encoder; 0 bits is exact.
-pub(crate) fn quantise(angle_rad: f64, bits: u32) -> f64 {
-    if bits == 0 {
-        return angle_rad;
-    }
-    let count = std::f64::consts::TAU / (1u64 << bits) as f64;
-    floor(angle_rad / count) * count
 }
 
 /// `x.floor()`, the same result for every `f64`, without the library call. The baseline

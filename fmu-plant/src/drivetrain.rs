@@ -42,6 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::cache::{BoundedCache, DiscretisationKey};
 use crate::delay::DelayLine;
 use crate::params::FrictionParams;
+use crate::sensors::SampleClock;
 
 /// Fastest rate of the linear dynamics a plant accepts, 1/s.
 ///
@@ -1128,6 +1129,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             x: self.x.as_slice().to_vec(),
             load_angle_low: self.load_angle_low,
             load_motion: self.load_motion,
+            sensor_clock: SampleClock::default(),
             paths: (0..P)
                 .map(|k| PathState {
                     motor_motion: self.motor_motion[k],
@@ -1143,7 +1145,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// returns the cell index; the caller must install that cell's model with
     /// [`set_cell`](Self::set_cell) before stepping. On error nothing changes.
     pub fn restore(&mut self, state: DriveState) -> Result<i64, StateError> {
-        let DriveState { time, cell, x, load_angle_low, load_motion, paths } = state;
+        let DriveState { time, cell, x, load_angle_low, load_motion, paths, sensor_clock: _ } = state;
         if x.len() != S || paths.len() != P {
             return Err(StateError::Invalid(format!(
                 "the drive state has {} states and {} paths, this drive {S} and {P}",
@@ -1193,6 +1195,10 @@ pub struct DriveState {
     pub load_angle_low: f64,
     pub load_motion: Motion,
     pub paths: Vec<PathState>,
+    /// The sensors' sample clock (`sensors.rs`): not the drive's physics, but kept with it so
+    /// that a restored state replays the same noise samples. The drive core writes a fresh
+    /// clock; the plants put in their own.
+    pub sensor_clock: SampleClock,
 }
 
 /// One path's part of a [`DriveState`].

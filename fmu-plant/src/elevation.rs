@@ -25,7 +25,7 @@ use crate::drivetrain::DriveState;
 use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
-use crate::azimuth::{non_finite_step_message, quantise};
+use crate::azimuth::non_finite_step_message;
 use crate::drivetrain::{
     current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics,
     LOAD_ANGLE, LOAD_SPEED,
@@ -34,6 +34,7 @@ use crate::params::{
     finite, finite_non_negative, finite_positive, into_result, CoggingParams, FrictionParams, MotorParams,
     NumericsParams, PeriodicTorqueParams,
 };
+use crate::sensors::{SampleClock, SensorParams, Sensors, ARCSEC, ELEVATION_STREAMS};
 
 const PATHS: usize = 1;
 const STATES: usize = 2 + 4 * PATHS;
@@ -208,6 +209,8 @@ pub struct ElevationParams {
     pub frozen_geometry_elevation_deg: f64,
     /// Resolution of the axis encoder, bits per turn; 0 means unquantised.
     pub encoder_bits: u32,
+    /// Encoder errors and speed-signal noise (ideal by default).
+    pub sensors: SensorParams<1>,
     /// Numerical scheme settings.
     pub numerics: NumericsParams,
 }
@@ -256,6 +259,7 @@ impl Default for ElevationParams {
             geometry_frozen: false,
             frozen_geometry_elevation_deg: 15.0,
             encoder_bits: 25,
+            sensors: SensorParams::default(),
             numerics: NumericsParams::default(),
         }
     }
@@ -280,6 +284,7 @@ impl ElevationParams {
             geometry_frozen: true,
             frozen_geometry_elevation_deg: 15.0,
             encoder_bits: 0,
+            sensors: SensorParams::default(),
             ..d
         }
     }
@@ -302,6 +307,7 @@ impl ElevationParams {
         if self.encoder_bits > 48 {
             errors.push(format!("encoder_bits ({}) must be at most 48", self.encoder_bits));
         }
+        self.sensors.validate(&mut errors);
         self.numerics.validate(&mut errors);
         let travel_ok = self.travel_min_deg.is_finite()
             && self.travel_max_deg.is_finite()
@@ -547,13 +553,17 @@ pub struct ElevationInputs {
 /// What a telescope engineer reads from the elevation axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ElevationOutputs {
-    /// Axis encoder reading: the true angle rounded down to whole encoder counts, deg.
+    /// Axis encoder reading, deg: the true angle with the encoder's errors, counted to whole
+    /// encoder counts (rounded down by default).
     pub encoder_position_deg: f64,
+    /// Encoder reading minus true angle, arcsec.
+    pub encoder_error_arcsec: f64,
     /// True elevation angle, deg.
     pub axis_position_deg: f64,
     /// Axis (dish) speed, deg/s.
     pub axis_speed_deg_per_s: f64,
-    /// Motor shaft speed, rad/s.
+    /// Motor shaft speed signal, rad/s: the true speed plus the speed-signal noise (none by
+    /// default).
     pub motor_speed_rad_per_s: f64,
     /// Motor current (output of the current loop), A.
     pub motor_current_a: f64,
@@ -582,6 +592,7 @@ pub struct ElevationPlant {
     /// ratio at it, which the next step and the outputs both need.
     angle_rad: f64,
     ratio: f64,
+    sensors: Sensors<PATHS>,
 }
 
 impl ElevationPlant {
@@ -598,7 +609,9 @@ impl ElevationPlant {
         // given the bound's seven decades of headroom over the defaults.
         let (low, high) = (params.travel_min_deg, params.travel_max_deg);
         core.check_rates("elevation", [low, 0.5 * (low + high), high].map(|el| params.cell_model(params.cell_of(el))))?;
-        let mut plant = Self { params, kinematics: Kinematics::new(&params), core, angle_rad: 0.0, ratio: 1.0 };
+        let sensors = Sensors::new(params.sensors, params.encoder_bits, ELEVATION_STREAMS);
+        let mut plant =
+            Self { params, kinematics: Kinematics::new(&params), core, angle_rad: 0.0, ratio: 1.0, sensors };
         plant.set_initial_state(Self::STOW_ELEVATION_DEG.to_radians())?;
         Ok(plant)
     }
@@ -617,6 +630,7 @@ impl ElevationPlant {
         self.core.set_cell(cell, self.params.cell_model(cell));
         self.core.set_at_rest(self.kinematics.position_of(axis_angle_rad));
         self.update_derived();
+        self.sensors.set_clock(SampleClock::default());
         Ok(())
     }
 
@@ -669,6 +683,7 @@ impl ElevationPlant {
             self.update_derived();
             return Err(non_finite_step_message("elevation", self.core.time(), h, &cause));
         }
+        self.sensors.advance(h);
         Ok(())
     }
 
@@ -684,11 +699,13 @@ impl ElevationPlant {
         let model = self.core.model();
         let (angle, ratio) = (self.angle_rad, self.ratio);
         let screw_force = self.core.path_torque(0) * self.params.jackscrew.motor_rad_per_m();
+        let encoder = self.sensors.encoder_reading_rad(angle);
         ElevationOutputs {
-            encoder_position_deg: quantise(angle, self.params.encoder_bits).to_degrees(),
+            encoder_position_deg: encoder.to_degrees(),
+            encoder_error_arcsec: (encoder - angle) / ARCSEC,
             axis_position_deg: angle.to_degrees(),
             axis_speed_deg_per_s: (x[LOAD_SPEED] / ratio).to_degrees(),
-            motor_speed_rad_per_s: x[motor_speed_index(0)],
+            motor_speed_rad_per_s: self.sensors.motor_speed_signal(0, x[motor_speed_index(0)]),
             motor_current_a: x[current_index(0)],
             motor_torque_nm: model.torque_per_amp[0] * x[current_index(0)],
             drive_torque_nm: self.core.path_torque(0) * ratio,
@@ -724,17 +741,19 @@ impl ElevationPlant {
 
     /// Everything that affects the future (not the caches), bitwise.
     pub fn save_state(&self) -> DriveState {
-        self.core.saved_state()
+        DriveState { sensor_clock: self.sensors.clock(), ..self.core.saved_state() }
     }
 
     /// Restores a state written by [`save_state`](Self::save_state) of a plant with the same
     /// parameters.
     pub fn load_state(&mut self, state: DriveState) -> Result<(), StateError> {
         let mut core = self.core.clone();
+        let clock = state.sensor_clock;
         let cell = core.restore(state)?;
         core.set_cell(cell, self.params.cell_model(cell));
         self.core = core;
         self.update_derived();
+        self.sensors.set_clock(clock);
         Ok(())
     }
 }

@@ -13,6 +13,8 @@
 //!   transmission ratio depend on elevation.
 //! * [`params`]: parameter types shared by both axes (motors, friction, periodic torques,
 //!   numerics).
+//! * [`sensors`]: the encoder between the true load angle and its reading (graduation,
+//!   interpolation and eccentricity errors, noise, counting) and the motor speed signals.
 //!
 //! The integrator (module `drivetrain`) is hybrid and piecewise linear: within a discrete mode
 //! (which bodies stick, which pinions are in contact) one step is one exact zero-order-hold
@@ -31,10 +33,12 @@ mod delay;
 mod drivetrain;
 pub mod elevation;
 pub mod params;
+pub mod sensors;
 
 pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
 pub use drivetrain::{DriveState, Mesh, Motion, NumericsStatistics, PathState};
 pub use elevation::{ElevationInputs, ElevationOutputs, ElevationParams, ElevationPlant, JackscrewParams};
 pub use params::{CoggingParams, FrictionParams, MotorParams, NumericsParams, PeriodicTorqueParams};
+pub use sensors::{CountMode, EncoderErrors, PeriodicError, SampleClock, SensorParams};
 
 pub mod fmi;

@@ -3,8 +3,9 @@
 Every .fmu in target/fmu/ must pass `fmpy validate` and run under `simulate_fmu`; the plant
 FMUs must reproduce their linear configuration (both ways of choosing it); every FMU (plants,
 controllers, wind) must refuse misuse with fmi2Error and a logged message without crashing; the
-plants must restore and transfer FMU states bitwise, and
-never write to stdout or stderr. The Rust integration tests in tests/rust/ check the same FMUs
+plants must restore and transfer FMU states bitwise, their sensor noise must follow its seed
+and not the communication step, a rounding encoder count must have zero mean error, and they
+must never write to stdout or stderr. The Rust integration tests in tests/rust/ check the same FMUs
 against the analytic solution of Eq. 1; these tests make sure a foreign master sees the same.
 """
 
@@ -292,6 +293,63 @@ def test_a_serialized_state_continues_identically_in_another_instance(packaged, 
     for fmu, s in ((original, state), (other, restored)):
         fmu.freeFMUstate(s)
         fmu.freeInstance()
+
+
+# --- Sensors --------------------------------------------------------------------------------
+
+
+def speed_output(model_identifier):
+    return "motor.speed" if model_identifier == "ElevationPlant" else "motor1.speed"
+
+
+def noise_record(model_identifier, seed, step):
+    """Encoder error and motor speed signal of a plant at rest with noise on, from simulate_fmu
+    with communication steps of `step` seconds over 2 s."""
+    speed = speed_output(model_identifier)
+    start_values = {"encoder.noise_rms": 0.5, f"{speed}_noise_rms": 0.05, "sensors.seed": seed, "encoder.bits": 0}
+    return simulate_fmu(str(plant_path(model_identifier)), stop_time=2.0, step_size=step, output_interval=step, start_values=start_values, output=["axis.encoder_error", speed])
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_sensor_noise_under_fmpy_has_its_rms_follows_its_seed_and_not_the_communication_step(model_identifier):
+    speed = speed_output(model_identifier)
+    millisecond = noise_record(model_identifier, 3, 1e-3)
+    n = len(millisecond)
+    # Relative standard error of a sample RMS: 1/sqrt(2 n); the bound is four of them.
+    bound = 4.0 / math.sqrt(2.0 * n)
+    rms = math.sqrt(np.mean(millisecond["axis.encoder_error"] ** 2))
+    speed_rms = math.sqrt(np.mean(millisecond[speed] ** 2))
+    assert abs(rms / 0.5 - 1.0) < bound, rms
+    assert abs(speed_rms / 0.05 - 1.0) < bound, speed_rms
+    assert np.array_equal(millisecond["axis.encoder_error"], noise_record(model_identifier, 3, 1e-3)["axis.encoder_error"])
+    assert np.all(millisecond["axis.encoder_error"] != noise_record(model_identifier, 4, 1e-3)["axis.encoder_error"])
+    # The same samples at the common instants for 0.5 ms and 2 ms steps: the noise is drawn per
+    # sensor sample period, not per communication step.
+    half = noise_record(model_identifier, 3, 0.5e-3)[::2]
+    double = noise_record(model_identifier, 3, 2e-3)
+    assert np.allclose(half["time"], millisecond["time"], rtol=0, atol=1e-9)
+    assert np.allclose(half["axis.encoder_error"], millisecond["axis.encoder_error"], rtol=0, atol=1e-9)
+    assert np.array_equal(half[speed], millisecond[speed])
+    assert np.allclose(double["axis.encoder_error"], millisecond["axis.encoder_error"][::2], rtol=0, atol=1e-9)
+    assert np.array_equal(double[speed], millisecond[speed][::2])
+
+
+@pytest.mark.parametrize("model_identifier", PLANTS)
+def test_a_rounding_count_has_zero_mean_error_where_truncation_has_minus_half_a_count(model_identifier):
+    # A 14-bit encoder (79 arcsec counts) on an axis driven through many counts.
+    count_arcsec = 360.0 * 3600.0 / 2**14
+    means = {}
+    description = read_model_description(str(plant_path(model_identifier)))
+    count_mode = next(t for t in description.typeDefinitions if t.name == "EncoderCountMode")
+    for mode in ("truncate", "round"):
+        # fmpy takes an enumeration's start value as the item's integer value.
+        value = next(int(item.value) for item in count_mode.items if item.name == mode)
+        result = simulate_fmu(str(plant_path(model_identifier)), stop_time=2.0, output_interval=1e-3, input=step_input(model_identifier, 8.0, at=0.01, stop=2.0), start_values={"encoder.bits": 14, "encoder.count_mode": value}, output=["axis.encoder_error", "axis.position"])
+        travelled = (result["axis.position"].max() - result["axis.position"].min()) * 3600.0 / count_arcsec
+        assert travelled > 50, f"{model_identifier} moved only {travelled} counts"
+        means[mode] = float(np.mean(result["axis.encoder_error"])) / count_arcsec
+    assert abs(means["truncate"] + 0.5) < 0.05, means
+    assert abs(means["round"]) < 0.05, means
 
 
 # --- Silence --------------------------------------------------------------------------------

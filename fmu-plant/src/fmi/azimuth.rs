@@ -6,8 +6,9 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_CURRENT_LOOP_BANDWIDTH,
-    MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MIN_MOTOR_INERTIA, TINY,
+    load_parameter_file, model_info, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
+    MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MAX_SPEED_NOISE,
+    MIN_MOTOR_INERTIA, TINY,
 };
 use crate::params::PeriodicTorqueParams;
 use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant};
@@ -29,12 +30,12 @@ declare_variables! {
             .description("Elevation angle of the dish, which sets the load inertia about the azimuth axis."),
         // Outputs.
         EncoderPosition = Var::real("axis.encoder_position", "deg").output()
-            .description("Azimuth encoder reading, quantised to encoder.bits per turn."),
+            .description("Azimuth encoder reading: the true angle plus the encoder errors (encoder.*), counted to encoder.bits per turn as encoder.count_mode says."),
         AxisPosition = Var::real("axis.position", "deg").output()
             .description("True azimuth angle of the load (not quantised)."),
         AxisSpeed = Var::real("axis.speed", "deg/s").output().description("Azimuth speed of the load."),
-        Motor1Speed = Var::real("motor1.speed", "rad/s").output().description("Speed of motor 1 at its shaft."),
-        Motor2Speed = Var::real("motor2.speed", "rad/s").output().description("Speed of motor 2 at its shaft."),
+        Motor1Speed = Var::real("motor1.speed", "rad/s").output().description("Speed signal of motor 1 at its shaft: the true speed plus motor1.speed_noise_rms noise (none by default)."),
+        Motor2Speed = Var::real("motor2.speed", "rad/s").output().description("Speed signal of motor 2 at its shaft: the true speed plus motor2.speed_noise_rms noise (none by default)."),
         Motor1Current = Var::real("motor1.current", "A").output().description("Current of motor 1 (output of its current loop)."),
         Motor2Current = Var::real("motor2.current", "A").output().description("Current of motor 2 (output of its current loop)."),
         Motor1Torque = Var::real("motor1.torque", "N.m").output().description("Electromagnetic torque of motor 1, K_phi times its current."),
@@ -153,7 +154,7 @@ declare_variables! {
         InitialPosition = Var::real("initial_position", "deg").parameter().start(0.0).min(-185.0).max(275.0)
             .description("Azimuth at which the axis starts, at rest, pinions centred in their backlash."),
         Linear = Var::boolean("linear_configuration").parameter().start_boolean(false)
-            .description("If true, the plant is exactly the paper's linear Eq. 1 model: Coulomb/static friction, backlash, saturation, delay, cogging, extra torques and quantisation are all ignored."),
+            .description("If true, the plant is exactly the paper's linear Eq. 1 model: Coulomb/static friction, backlash, saturation, delay, cogging, extra torques, quantisation and all sensor errors are ignored."),
         ParameterFile = Var::string("parameter_file").parameter().start_string("")
             .description("A parameter file (name = value lines) applied when this is set; relative paths are looked up in the FMU's resources folder (for example linear.params)."),
         GridCell = Var::real("numerics.parameter_grid_cell", "deg").parameter().start(0.25).min(1e-6).max(10.0)
@@ -175,6 +176,52 @@ declare_variables! {
             .description("Presliding (bristle) stiffness of motor 2's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
         M2PreslidingDamping = Var::real("motor2.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
             .description("Damping of motor 2's presliding spring (used only with a presliding stiffness)."),
+        // Sensors (appended: existing value references keep their numbers). Every default is the
+        // ideal encoder and noise-free speed signals, which reproduce the plant before the sensor model.
+        EncoderError = Var::real("axis.encoder_error", "arcsec").output().description(T::ENCODER_ERROR),
+        EncoderCountMode = Var::enumeration("encoder.count_mode", &COUNT_MODE).parameter().start_integer(1)
+            .description("How the encoder counts: truncate (round down, as before the sensor model) or round to the nearest count."),
+        Graduation1Amplitude = Var::real("encoder.graduation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::GRADUATION_AMPLITUDE),
+        Graduation1Harmonic = Var::integer("encoder.graduation_error1_harmonic").parameter().start_integer(2).range_integer(1, 100_000_000)
+            .description(T::GRADUATION_HARMONIC),
+        Graduation1Phase = Var::real("encoder.graduation_error1_phase", "deg").parameter().start(0.0)
+            .description(T::GRADUATION_PHASE),
+        Graduation2Amplitude = Var::real("encoder.graduation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::GRADUATION_AMPLITUDE),
+        Graduation2Harmonic = Var::integer("encoder.graduation_error2_harmonic").parameter().start_integer(3).range_integer(1, 100_000_000)
+            .description(T::GRADUATION_HARMONIC),
+        Graduation2Phase = Var::real("encoder.graduation_error2_phase", "deg").parameter().start(0.0)
+            .description(T::GRADUATION_PHASE),
+        Graduation3Amplitude = Var::real("encoder.graduation_error3_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::GRADUATION_AMPLITUDE),
+        Graduation3Harmonic = Var::integer("encoder.graduation_error3_harmonic").parameter().start_integer(4).range_integer(1, 100_000_000)
+            .description(T::GRADUATION_HARMONIC),
+        Graduation3Phase = Var::real("encoder.graduation_error3_phase", "deg").parameter().start(0.0)
+            .description(T::GRADUATION_PHASE),
+        LineCount = Var::integer("encoder.line_count").parameter().start_integer(32768).range_integer(1, 100_000_000)
+            .description(T::LINE_COUNT),
+        Interpolation1Amplitude = Var::real("encoder.interpolation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::INTERPOLATION1_AMPLITUDE),
+        Interpolation1Phase = Var::real("encoder.interpolation_error1_phase", "deg").parameter().start(0.0)
+            .description(T::INTERPOLATION_PHASE),
+        Interpolation2Amplitude = Var::real("encoder.interpolation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::INTERPOLATION2_AMPLITUDE),
+        Interpolation2Phase = Var::real("encoder.interpolation_error2_phase", "deg").parameter().start(0.0)
+            .description(T::INTERPOLATION_PHASE),
+        EccentricityAmplitude = Var::real("encoder.eccentricity_error_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::ECCENTRICITY_AMPLITUDE),
+        EccentricityPhase = Var::real("encoder.eccentricity_error_phase", "deg").parameter().start(0.0)
+            .description(T::ECCENTRICITY_PHASE),
+        EncoderNoise = Var::real("encoder.noise_rms", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::ENCODER_NOISE),
+        M1SpeedNoise = Var::real("motor1.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
+            .description(T::SPEED_NOISE),
+        M2SpeedNoise = Var::real("motor2.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
+            .description(T::SPEED_NOISE),
+        SensorSeed = Var::integer("sensors.seed").parameter().start_integer(1).description(T::SEED),
+        SensorSamplePeriod = Var::real("sensors.sample_period", "s").parameter().start(1e-3).min(1e-6).max(1.0)
+            .description(T::SAMPLE_PERIOD),
     }
 }
 
@@ -231,6 +278,25 @@ const NUMERICS: NumericsVars<AzVar> = NumericsVars {
     cache_capacity: AzVar::CacheCapacity,
 };
 
+const SENSORS: SensorVars<AzVar, 2> = SensorVars {
+    count_mode: AzVar::EncoderCountMode,
+    graduation: [
+        (AzVar::Graduation1Amplitude, AzVar::Graduation1Harmonic, AzVar::Graduation1Phase),
+        (AzVar::Graduation2Amplitude, AzVar::Graduation2Harmonic, AzVar::Graduation2Phase),
+        (AzVar::Graduation3Amplitude, AzVar::Graduation3Harmonic, AzVar::Graduation3Phase),
+    ],
+    line_count: AzVar::LineCount,
+    interpolation: [
+        (AzVar::Interpolation1Amplitude, AzVar::Interpolation1Phase),
+        (AzVar::Interpolation2Amplitude, AzVar::Interpolation2Phase),
+    ],
+    eccentricity: (AzVar::EccentricityAmplitude, AzVar::EccentricityPhase),
+    encoder_noise: AzVar::EncoderNoise,
+    speed_noise: [AzVar::M1SpeedNoise, AzVar::M2SpeedNoise],
+    seed: AzVar::SensorSeed,
+    sample_period: AzVar::SensorSamplePeriod,
+};
+
 /// The plant parameters the variable values describe.
 pub fn azimuth_params(v: &Values<AzVar>) -> AzimuthParams {
     let params = AzimuthParams {
@@ -251,6 +317,7 @@ pub fn azimuth_params(v: &Values<AzVar>) -> AzimuthParams {
             phase_deg: v.real(AzVar::PeriodicPhase),
         },
         encoder_bits: v.integer(AzVar::EncoderBits) as u32,
+        sensors: SENSORS.read(v),
         numerics: NUMERICS.read(v),
     };
     if v.boolean(AzVar::Linear) {
@@ -280,6 +347,7 @@ impl AzimuthPlantModel {
     fn write_outputs(plant: &AzimuthPlant, v: &mut Values<AzVar>) {
         let o = plant.outputs();
         v.set_real(AzVar::EncoderPosition, o.encoder_position_deg);
+        v.set_real(AzVar::EncoderError, o.encoder_error_arcsec);
         v.set_real(AzVar::AxisPosition, o.axis_position_deg);
         v.set_real(AzVar::AxisSpeed, o.axis_speed_deg_per_s);
         v.set_real(AzVar::Motor1Speed, o.motor_speed_rad_per_s[0]);

@@ -1,9 +1,10 @@
 //! Pieces shared by the two plant FMUs: motor and friction parameter groups read from the
-//! variable values, the parameter-file hook and the model information.
+//! variable values, the sensor parameters, the parameter-file hook and the model information.
 
-use fmu_runtime::{Context, DefaultExperiment, ModelInfo, Values, VariableSet};
+use fmu_runtime::{Context, DefaultExperiment, EnumerationType, ModelInfo, Values, VariableSet};
 
 use crate::params::{CoggingParams, FrictionParams, MotorParams, NumericsParams};
+use crate::sensors::{seed_from_fmi_integer, CountMode, EncoderErrors, PeriodicError, SensorParams};
 
 // Declared bounds. FMI 2.0 bounds are inclusive, so a parameter that must be positive cannot
 // declare min = 0 (which the plant would then refuse): it declares the bound below. Upper
@@ -163,5 +164,87 @@ pub fn model_info(identifier: &'static str, description: &'static str) -> ModelI
         author: "MeerKAT antenna positioner reference model contributors",
         version: env!("CARGO_PKG_VERSION"),
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+    }
+}
+
+/// How the encoder counts (`encoder.count_mode`).
+pub static COUNT_MODE: EnumerationType = EnumerationType {
+    name: "EncoderCountMode",
+    description: "How the encoder turns an angle into whole counts.",
+    items: &[
+        (
+            "truncate",
+            "Round down to whole counts: mean error minus half a count (the behaviour before the sensor model).",
+        ),
+        ("round", "Round to the nearest count: mean error zero."),
+    ],
+};
+
+/// Descriptions shared by the two plants' sensor variables (one text, two tables).
+pub mod sensor_text {
+    pub const ENCODER_ERROR: &str =
+        "Encoder reading minus true axis angle: the sum of the encoder's errors and its count, for an error budget.";
+    pub const GRADUATION_AMPLITUDE: &str = "Amplitude of one harmonic of the graduation error A sin(n theta + phi) of the encoder ring (theta the true axis angle); 0 is off. Heidenhain ring encoders: graduation accuracy +/-1.5 to +/-1.9 arcsec (docs/plant-model.md, Sensors).";
+    pub const GRADUATION_HARMONIC: &str = "Harmonic number n of this graduation error, cycles per turn: its period is 360 deg / n (n = encoder.line_count for an error at the line spacing).";
+    pub const GRADUATION_PHASE: &str = "Phase phi of this graduation error at axis angle 0.";
+    pub const LINE_COUNT: &str =
+        "Signal periods (lines) of the encoder per turn: the interpolation error repeats every 360 deg / this.";
+    pub const INTERPOLATION1_AMPLITUDE: &str = "Amplitude of the interpolation error at the signal period (360 deg / encoder.line_count), from signal offsets; 0 is off. Heidenhain: about 1 % of the signal period.";
+    pub const INTERPOLATION2_AMPLITUDE: &str = "Amplitude of the interpolation error at half the signal period, from amplitude and phase mismatch of the two signals; 0 is off.";
+    pub const INTERPOLATION_PHASE: &str =
+        "Phase of this interpolation error at axis angle 0, in degrees of its own cycle.";
+    pub const ECCENTRICITY_AMPLITUDE: &str = "Amplitude of the once-per-revolution error of a graduation mounted off the axis by e: 412 e/D arcsec with e in um and the graduation diameter D in mm (single read head); 0 is off.";
+    pub const ECCENTRICITY_PHASE: &str = "Phase of the eccentricity error at axis angle 0.";
+    pub const ENCODER_NOISE: &str = "RMS of the encoder's white reading noise, one Gaussian sample per sensors.sample_period (held in between), reproducible from sensors.seed; 0 is off.";
+    pub const SPEED_NOISE: &str = "RMS of the white noise on this motor's speed signal (the speed output the controller reads), at the motor, one Gaussian sample per sensors.sample_period, reproducible from sensors.seed; 0 is off.";
+    pub const SEED: &str = "Seed of the sensors' noise sequences: the same seed gives the same noise whatever the communication step size.";
+    pub const SAMPLE_PERIOD: &str = "Sample period of the sensors' noise: each sample is held this long, independent of the communication step (default: the controller's 1 ms).";
+}
+
+/// Largest encoder error amplitude or noise RMS, arcsec: one degree, far beyond any working
+/// angle encoder.
+pub const MAX_ENCODER_ERROR_ARCSEC: f64 = 3600.0;
+
+/// Largest speed-signal noise RMS, rad/s at the motor (about 10^4 rpm).
+pub const MAX_SPEED_NOISE: f64 = 1000.0;
+
+/// The value references of an axis's sensor parameters (`P` motors).
+pub struct SensorVars<V, const P: usize> {
+    pub count_mode: V,
+    /// Amplitude, harmonic number and phase of each graduation harmonic.
+    pub graduation: [(V, V, V); 3],
+    pub line_count: V,
+    /// Amplitude and phase of the interpolation error at the signal period and at half of it.
+    pub interpolation: [(V, V); 2],
+    pub eccentricity: (V, V),
+    pub encoder_noise: V,
+    pub speed_noise: [V; P],
+    pub seed: V,
+    pub sample_period: V,
+}
+
+impl<V: VariableSet, const P: usize> SensorVars<V, P> {
+    pub fn read(&self, v: &Values<V>) -> SensorParams<P> {
+        let periodic = |amplitude: V, cycles: f64, phase: V| PeriodicError {
+            amplitude_arcsec: v.real(amplitude),
+            cycles_per_turn: cycles,
+            phase_deg: v.real(phase),
+        };
+        let lines = f64::from(v.integer(self.line_count));
+        SensorParams {
+            encoder: EncoderErrors {
+                count_mode: CountMode::from_index(v.integer(self.count_mode)).unwrap_or_default(),
+                graduation: self.graduation.map(|(a, n, p)| periodic(a, f64::from(v.integer(n)), p)),
+                interpolation: [0, 1].map(|k| {
+                    let (a, p) = self.interpolation[k];
+                    periodic(a, (k + 1) as f64 * lines, p)
+                }),
+                eccentricity: periodic(self.eccentricity.0, 1.0, self.eccentricity.1),
+                noise_rms_arcsec: v.real(self.encoder_noise),
+            },
+            motor_speed_noise_rms_rad_per_s: self.speed_noise.map(|n| v.real(n)),
+            seed: seed_from_fmi_integer(v.integer(self.seed)),
+            sample_period_s: v.real(self.sample_period),
+        }
     }
 }

@@ -6,10 +6,12 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, FrictionVars, MotorVars, NumericsVars, MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS,
-    MAX_CURRENT_LOOP_BANDWIDTH, MIN_MOTOR_INERTIA, TINY,
+    load_parameter_file, model_info, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
+    MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE,
+    MIN_MOTOR_INERTIA, TINY,
 };
 use crate::params::{FrictionParams, PeriodicTorqueParams};
+use crate::sensors::SensorParams;
 use crate::{ElevationInputs, ElevationParams, ElevationPlant, JackscrewParams};
 
 declare_variables! {
@@ -23,10 +25,10 @@ declare_variables! {
             .description("External torque about the elevation axis (wind); positive raises the dish."),
         // Outputs.
         EncoderPosition = Var::real("axis.encoder_position", "deg").output()
-            .description("Elevation encoder reading (on the pivot), quantised to encoder.bits per turn."),
+            .description("Elevation encoder reading (on the pivot): the true angle plus the encoder errors (encoder.*), counted to encoder.bits per turn as encoder.count_mode says."),
         AxisPosition = Var::real("axis.position", "deg").output().description("True elevation angle of the dish."),
         AxisSpeed = Var::real("axis.speed", "deg/s").output().description("Elevation speed of the dish."),
-        MotorSpeed = Var::real("motor.speed", "rad/s").output().description("Speed of the elevation motor at its shaft."),
+        MotorSpeed = Var::real("motor.speed", "rad/s").output().description("Speed signal of the elevation motor at its shaft: the true speed plus motor.speed_noise_rms noise (none by default)."),
         MotorCurrent = Var::real("motor.current", "A").output().description("Motor current (output of the current loop)."),
         MotorTorque = Var::real("motor.torque", "N.m").output().description("Electromagnetic motor torque, K_phi times the current."),
         DriveTorque = Var::real("drive.torque", "N.m").output().description("Torque the jackscrew puts on the dish about the elevation axis."),
@@ -136,7 +138,7 @@ declare_variables! {
         InitialPosition = Var::real("initial_position", "deg").parameter().start(45.0).min(0.0).max(100.0)
             .description("Elevation at which the axis starts, at rest."),
         Linear = Var::boolean("linear_configuration").parameter().start_boolean(false)
-            .description("If true, the plant is exactly the paper's linear Eq. 1 model at geometry.frozen_elevation: friction (except B_M), backlash, saturation, delay, cogging, extra torques and quantisation are ignored."),
+            .description("If true, the plant is exactly the paper's linear Eq. 1 model at geometry.frozen_elevation: friction (except B_M), backlash, saturation, delay, cogging, extra torques and quantisation and all sensor errors are ignored."),
         ParameterFile = Var::string("parameter_file").parameter().start_string("")
             .description("A parameter file (name = value lines) applied when this is set; relative paths are looked up in the FMU's resources folder (for example linear.params)."),
         GridCell = Var::real("numerics.parameter_grid_cell", "deg").parameter().start(0.25).min(1e-6).max(10.0)
@@ -149,6 +151,50 @@ declare_variables! {
             .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
         CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 100000)
             .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
+        // Sensors (appended: existing value references keep their numbers). Every default is the
+        // ideal encoder and noise-free speed signals, which reproduce the plant before the sensor model.
+        EncoderError = Var::real("axis.encoder_error", "arcsec").output().description(T::ENCODER_ERROR),
+        EncoderCountMode = Var::enumeration("encoder.count_mode", &COUNT_MODE).parameter().start_integer(1)
+            .description("How the encoder counts: truncate (round down, as before the sensor model) or round to the nearest count."),
+        Graduation1Amplitude = Var::real("encoder.graduation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::GRADUATION_AMPLITUDE),
+        Graduation1Harmonic = Var::integer("encoder.graduation_error1_harmonic").parameter().start_integer(2).range_integer(1, 100_000_000)
+            .description(T::GRADUATION_HARMONIC),
+        Graduation1Phase = Var::real("encoder.graduation_error1_phase", "deg").parameter().start(0.0)
+            .description(T::GRADUATION_PHASE),
+        Graduation2Amplitude = Var::real("encoder.graduation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::GRADUATION_AMPLITUDE),
+        Graduation2Harmonic = Var::integer("encoder.graduation_error2_harmonic").parameter().start_integer(3).range_integer(1, 100_000_000)
+            .description(T::GRADUATION_HARMONIC),
+        Graduation2Phase = Var::real("encoder.graduation_error2_phase", "deg").parameter().start(0.0)
+            .description(T::GRADUATION_PHASE),
+        Graduation3Amplitude = Var::real("encoder.graduation_error3_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::GRADUATION_AMPLITUDE),
+        Graduation3Harmonic = Var::integer("encoder.graduation_error3_harmonic").parameter().start_integer(4).range_integer(1, 100_000_000)
+            .description(T::GRADUATION_HARMONIC),
+        Graduation3Phase = Var::real("encoder.graduation_error3_phase", "deg").parameter().start(0.0)
+            .description(T::GRADUATION_PHASE),
+        LineCount = Var::integer("encoder.line_count").parameter().start_integer(32768).range_integer(1, 100_000_000)
+            .description(T::LINE_COUNT),
+        Interpolation1Amplitude = Var::real("encoder.interpolation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::INTERPOLATION1_AMPLITUDE),
+        Interpolation1Phase = Var::real("encoder.interpolation_error1_phase", "deg").parameter().start(0.0)
+            .description(T::INTERPOLATION_PHASE),
+        Interpolation2Amplitude = Var::real("encoder.interpolation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::INTERPOLATION2_AMPLITUDE),
+        Interpolation2Phase = Var::real("encoder.interpolation_error2_phase", "deg").parameter().start(0.0)
+            .description(T::INTERPOLATION_PHASE),
+        EccentricityAmplitude = Var::real("encoder.eccentricity_error_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::ECCENTRICITY_AMPLITUDE),
+        EccentricityPhase = Var::real("encoder.eccentricity_error_phase", "deg").parameter().start(0.0)
+            .description(T::ECCENTRICITY_PHASE),
+        EncoderNoise = Var::real("encoder.noise_rms", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
+            .description(T::ENCODER_NOISE),
+        MSpeedNoise = Var::real("motor.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
+            .description(T::SPEED_NOISE),
+        SensorSeed = Var::integer("sensors.seed").parameter().start_integer(1).description(T::SEED),
+        SensorSamplePeriod = Var::real("sensors.sample_period", "s").parameter().start(1e-3).min(1e-6).max(1.0)
+            .description(T::SAMPLE_PERIOD),
     }
 }
 
@@ -193,6 +239,25 @@ const NUMERICS: NumericsVars<ElVar> = NumericsVars {
     cache_capacity: ElVar::CacheCapacity,
 };
 
+const SENSORS: SensorVars<ElVar, 1> = SensorVars {
+    count_mode: ElVar::EncoderCountMode,
+    graduation: [
+        (ElVar::Graduation1Amplitude, ElVar::Graduation1Harmonic, ElVar::Graduation1Phase),
+        (ElVar::Graduation2Amplitude, ElVar::Graduation2Harmonic, ElVar::Graduation2Phase),
+        (ElVar::Graduation3Amplitude, ElVar::Graduation3Harmonic, ElVar::Graduation3Phase),
+    ],
+    line_count: ElVar::LineCount,
+    interpolation: [
+        (ElVar::Interpolation1Amplitude, ElVar::Interpolation1Phase),
+        (ElVar::Interpolation2Amplitude, ElVar::Interpolation2Phase),
+    ],
+    eccentricity: (ElVar::EccentricityAmplitude, ElVar::EccentricityPhase),
+    encoder_noise: ElVar::EncoderNoise,
+    speed_noise: [ElVar::MSpeedNoise],
+    seed: ElVar::SensorSeed,
+    sample_period: ElVar::SensorSamplePeriod,
+};
+
 /// The plant parameters the variable values describe.
 pub fn elevation_params(v: &Values<ElVar>) -> ElevationParams {
     let linear = v.boolean(ElVar::Linear);
@@ -229,6 +294,7 @@ pub fn elevation_params(v: &Values<ElVar>) -> ElevationParams {
         geometry_frozen: v.boolean(ElVar::GeometryFrozen),
         frozen_geometry_elevation_deg: v.real(ElVar::FrozenElevation),
         encoder_bits: v.integer(ElVar::EncoderBits) as u32,
+        sensors: SENSORS.read(v),
         numerics: NUMERICS.read(v),
     };
     if linear {
@@ -244,6 +310,7 @@ pub fn elevation_params(v: &Values<ElVar>) -> ElevationParams {
         params.periodic_torque = PeriodicTorqueParams::NONE;
         params.geometry_frozen = true;
         params.encoder_bits = 0;
+        params.sensors = SensorParams::default();
     }
     params
 }
@@ -257,6 +324,7 @@ impl ElevationPlantModel {
     fn write_outputs(plant: &ElevationPlant, v: &mut Values<ElVar>) {
         let o = plant.outputs();
         v.set_real(ElVar::EncoderPosition, o.encoder_position_deg);
+        v.set_real(ElVar::EncoderError, o.encoder_error_arcsec);
         v.set_real(ElVar::AxisPosition, o.axis_position_deg);
         v.set_real(ElVar::AxisSpeed, o.axis_speed_deg_per_s);
         v.set_real(ElVar::MotorSpeed, o.motor_speed_rad_per_s);

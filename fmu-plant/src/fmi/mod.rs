@@ -13,11 +13,12 @@ pub use elevation::{ElVar, ElevationPlantModel};
 use fmu_runtime::package::{default_parameter_file, FmuSpec};
 
 /// Files shipped in each plant FMU's `resources/` folder: the default parameter set (generated
-/// from the variable table) and the linear Eq. 1 configuration.
+/// from the variable table), the linear Eq. 1 configuration and the realistic sensors.
 fn azimuth_resources() -> Vec<(String, Vec<u8>)> {
     vec![
         ("defaults.params".into(), default_parameter_file::<AzimuthPlantModel>().into_bytes()),
         ("linear.params".into(), LINEAR_PARAMS.as_bytes().to_vec()),
+        ("realistic_sensors.params".into(), realistic_sensors(&["motor1", "motor2"]).into_bytes()),
     ]
 }
 
@@ -25,10 +26,51 @@ fn elevation_resources() -> Vec<(String, Vec<u8>)> {
     vec![
         ("defaults.params".into(), default_parameter_file::<ElevationPlantModel>().into_bytes()),
         ("linear.params".into(), LINEAR_PARAMS.as_bytes().to_vec()),
+        ("realistic_sensors.params".into(), realistic_sensors(&["motor"]).into_bytes()),
     ]
 }
 
 const LINEAR_PARAMS: &str = "# The paper's linear Eq. 1 configuration: friction (except the viscous B_M), backlash,\n# saturation, delay, cogging, extra torques and encoder quantisation are ignored; the elevation\n# geometry is frozen at geometry.frozen_elevation.\nlinear_configuration = true\n";
+
+/// The encoder part of `realistic_sensors.params`: a Heidenhain-class ring encoder read by one
+/// head. docs/plant-model.md (section "Sensors") gives each value's source or marks it an
+/// estimate, with its range.
+const REALISTIC_ENCODER: &str = "\
+# Realistic sensors: a Heidenhain-class modular (ring) angle encoder with one read head, and the
+# servo amplifier's motor speed signal. Sourced: graduation accuracy +/-1.5 arcsec (ECA 4000
+# class), interpolation error about 1 % of the signal period, eccentricity 412 e/D arcsec.
+# Estimates: the split of the graduation error over harmonics, all phases, the line count, the
+# reading noise and the speed-signal noise. Ranges in docs/plant-model.md, section Sensors.
+encoder.count_mode = \"round\"              # the pointing model's zero offset absorbs a truncating count's half count
+encoder.graduation_error1_amplitude = 0.8   # arcsec; the three amplitudes add up to the +/-1.5 arcsec class
+encoder.graduation_error1_harmonic = 2
+encoder.graduation_error1_phase = 40        # deg, estimate
+encoder.graduation_error2_amplitude = 0.45  # arcsec
+encoder.graduation_error2_harmonic = 3
+encoder.graduation_error2_phase = 110       # deg, estimate
+encoder.graduation_error3_amplitude = 0.25  # arcsec
+encoder.graduation_error3_harmonic = 4
+encoder.graduation_error3_phase = 250       # deg, estimate
+encoder.line_count = 32768                  # signal period 39.6 arcsec (estimate: RCN 8000 / ring class)
+encoder.interpolation_error1_amplitude = 0.3  # arcsec; with the next, 1 % of the signal period (0.4 arcsec)
+encoder.interpolation_error1_phase = 0
+encoder.interpolation_error2_amplitude = 0.1  # arcsec
+encoder.interpolation_error2_phase = 90
+encoder.eccentricity_error_amplitude = 2.0  # arcsec: e = 2.4 um on a D = 500 mm ring (412 e/D)
+encoder.eccentricity_error_phase = 30       # deg, estimate
+encoder.noise_rms = 0.02                    # arcsec, estimate (0.005-0.1)
+";
+
+/// `realistic_sensors.params` for an axis whose motors are named `motors`.
+fn realistic_sensors(motors: &[&str]) -> String {
+    let mut text = REALISTIC_ENCODER.to_string();
+    for motor in motors {
+        text.push_str(&format!(
+            "{motor}.speed_noise_rms = 0.052          # rad/s = 0.5 rpm at the motor, estimate (0.05-5 rpm)\n"
+        ));
+    }
+    text
+}
 
 /// The FMUs this crate ships.
 pub fn fmus() -> Vec<FmuSpec> {
