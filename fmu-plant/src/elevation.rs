@@ -371,7 +371,7 @@ impl ElevationParams {
             return 0;
         }
         let clamped = elevation_deg.clamp(self.travel_min_deg, self.travel_max_deg);
-        crate::azimuth::floor(clamped / self.numerics.parameter_grid_cell_deg) as i64
+        crate::floor::floor(clamped / self.numerics.parameter_grid_cell_deg) as i64
     }
 
     /// The elevation whose parameters a cell uses.

@@ -32,6 +32,7 @@ mod cache;
 mod delay;
 mod drivetrain;
 pub mod elevation;
+mod floor;
 pub mod params;
 pub mod sensors;
 

@@ -36,7 +36,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::azimuth::floor;
+use crate::floor::floor;
 
 /// One arcsecond in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
