@@ -20,19 +20,19 @@ pub const DEFAULT_MODES: &str = include_str!("../resources/structure_modes.param
 /// Its file name in the resources folder.
 pub const DEFAULT_MODES_FILE: &str = "structure_modes.params";
 
-/// The loads a mode can take, in the order of [`Mode::participation`].
-pub const LOADS: [&str; 3] = ["azimuth_torque", "elevation_torque", "dish_force"];
-
-/// The fields every mode needs, with their units, in file order.
-pub const FIELDS: [(&str, &str); 8] = [
-    ("frequency", "Hz"),
-    ("damping", "1"),
-    ("stiffness", "N.m per unit of the modal coordinate"),
-    ("azimuth_torque", "modal load per N.m"),
-    ("elevation_torque", "modal load per N.m"),
-    ("dish_force", "modal load per N (m)"),
-    ("beam_azimuth", "rad of on-sky azimuth offset per unit of the modal coordinate"),
-    ("beam_elevation", "rad of elevation offset per unit of the modal coordinate"),
+/// The fields every mode needs, in file order: frequency (Hz), damping ratio (1), modal
+/// stiffness (N m per unit of the modal coordinate), the participations of the azimuth torque,
+/// the elevation torque (modal load per N m) and the dish force (per N), and the beam offsets
+/// (rad, on-sky azimuth and elevation) per unit of the modal coordinate.
+pub const FIELDS: [&str; 8] = [
+    "frequency",
+    "damping",
+    "stiffness",
+    "azimuth_torque",
+    "elevation_torque",
+    "dish_force",
+    "beam_azimuth",
+    "beam_elevation",
 ];
 
 /// A modes file with more modes is refused: the FMU discretises each mode on every new step
@@ -85,8 +85,8 @@ pub enum ModesError {
     NotANumber { origin: String, line: usize, name: String, value: String },
     #[error("{origin}: no modes (expected lines such as `mode1.frequency = 6.0`)")]
     Empty { origin: String },
-    #[error("{origin}: {count} modes, more than the {max} a modes file may hold")]
-    TooMany { origin: String, count: usize, max: usize },
+    #[error("{origin}:{line}: mode {mode} is beyond the {max} modes a modes file may hold")]
+    TooMany { origin: String, line: usize, mode: usize, max: usize },
     #[error(
         "{origin}: mode {mode} is missing (modes are numbered 1, 2, ... without gaps; the file has mode {highest})"
     )]
@@ -98,7 +98,7 @@ pub enum ModesError {
 }
 
 fn field_list() -> String {
-    FIELDS.iter().map(|(name, _)| *name).collect::<Vec<_>>().join(", ")
+    FIELDS.join(", ")
 }
 
 /// Splits `mode<k>.<field>` into the mode number and the field's index in [`FIELDS`].
@@ -108,7 +108,7 @@ fn mode_field(name: &str) -> Option<(usize, usize)> {
         return None;
     }
     let mode: usize = mode.parse().ok()?;
-    let field = FIELDS.iter().position(|(f, _)| *f == field)?;
+    let field = FIELDS.iter().position(|f| *f == field)?;
     Some((mode, field))
 }
 
@@ -128,7 +128,7 @@ pub fn parse_modes(text: &str, origin: &str) -> Result<Vec<Mode>, ModesError> {
         };
         let (mode, field) = mode_field(&a.name).ok_or_else(unknown)?;
         if mode > MAX_MODES {
-            return Err(ModesError::TooMany { origin: origin.into(), count: mode, max: MAX_MODES });
+            return Err(ModesError::TooMany { origin: origin.into(), line: a.line, mode, max: MAX_MODES });
         }
         let ParameterValue::Number(value) = a.value else {
             return Err(ModesError::NotANumber {
@@ -159,14 +159,14 @@ fn mode_from_fields(origin: &str, mode: usize, fields: &[Slot; 8], highest: usiz
         let (value, _) = slot.ok_or_else(|| ModesError::MissingField {
             origin: origin.into(),
             mode,
-            field: FIELDS[i].0,
+            field: FIELDS[i],
             fields: field_list(),
         })?;
         values[i] = value;
     }
     let invalid = |i: usize, reason| {
         let (value, line) = fields[i].expect("checked above");
-        ModesError::Invalid { origin: origin.into(), line, mode, field: FIELDS[i].0, value, reason }
+        ModesError::Invalid { origin: origin.into(), line, mode, field: FIELDS[i], value, reason }
     };
     if values[0] <= 0.0 {
         return Err(invalid(0, "the frequency must be positive"));
@@ -283,7 +283,7 @@ mod tests {
             (with_line("mode2.beam_elevation = 0", "mode2.beam_elevation = 1"), "does not move the beam"),
             (String::from("mode0.frequency = 1"), "`mode0.frequency` is not a mode field"),
             (String::from("mode01.frequency = 1"), "is not a mode field"),
-            (String::from("mode5000.frequency = 1"), "more than the 1000"),
+            (String::from("mode5000.frequency = 1"), "mode 5000 is beyond the 1000 modes"),
         ];
         for (text, needle) in cases {
             let error = parse_modes(&text, "f.params").unwrap_err().to_string();
