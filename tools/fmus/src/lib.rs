@@ -13,6 +13,7 @@ pub fn fmus() -> Vec<FmuSpec> {
     specs.extend(fmu_plant::fmi::fmus());
     specs.extend(fmu_wind::fmi::fmus());
     specs.extend(fmu_controller::fmi::fmus());
+    specs.extend(fmu_structure::fmi::fmus());
     specs
 }
 
@@ -22,6 +23,7 @@ pub fn package_of(library_name: &str) -> &'static str {
         "fmu_plant_ffi" => "fmu-plant-cdylib",
         "fmu_wind_ffi" => "fmu-wind-cdylib",
         "fmu_controller_ffi" => "fmu-controller-cdylib",
+        "fmu_structure_ffi" => "fmu-structure-cdylib",
         other => panic!("no cargo package known for library {other}"),
     }
 }

@@ -1,0 +1,183 @@
+//! The structure as an FMI 2.0 co-simulation FMU (`Structure`): loads on the structure in,
+//! beam pointing offsets relative to the encoder-measured axes out.
+
+use std::path::PathBuf;
+
+use fmu_runtime::package::{default_parameter_file, FmuSpec};
+use fmu_runtime::{declare_variables, Context, DefaultExperiment, Model, ModelInfo, Notes, StateError, Values};
+use serde::{Deserialize, Serialize};
+
+use crate::dynamics::{ModalState, ModalStructure, ARCSEC_PER_RAD};
+use crate::modes::{parse_modes, read_modes, Mode, DEFAULT_MODES, DEFAULT_MODES_FILE};
+
+const LOAD_INPUTS: &[u32] =
+    &[StructureVar::AzTorque as u32, StructureVar::ElTorque as u32, StructureVar::DishForce as u32];
+
+declare_variables! {
+    /// Variables of the structure FMU. Loads in SI, beam offsets in arcseconds.
+    pub enum StructureVar {
+        AzTorque = Var::real("torque.azimuth", "N.m").input().start(0.0)
+            .description("Load torque on the structure about the azimuth axis (the wind's yawing moment; with a drive-excited mode, also the drive's pinion reaction); positive drives positive azimuth."),
+        ElTorque = Var::real("torque.elevation", "N.m").input().start(0.0)
+            .description("Load torque on the structure about the elevation axis (the wind's pitching moment; with a drive-excited mode, also the jackscrew reaction); positive raises the dish."),
+        DishForce = Var::real("force.dish", "N").input().start(0.0)
+            .description("Wind force on the dish (drag along the wind). The default modes take no force (their dish_force participation is zero); modes from a finite-element model may."),
+        BeamAz = Var::real("beam.azimuth_offset", "arcsec").output()
+            .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of beam_azimuth times the modal coordinate."),
+        BeamEl = Var::real("beam.elevation_offset", "arcsec").output()
+            .description("Beam pointing offset in elevation relative to the encoder-measured axis: the sum over the modes of beam_elevation times the modal coordinate."),
+        BeamAzStatic = Var::real("beam.azimuth_offset_static", "arcsec").output().depends_on(LOAD_INPUTS)
+            .description("Quasi-static part of beam.azimuth_offset: where it settles under the current loads held for ever (static compliance times load)."),
+        BeamElStatic = Var::real("beam.elevation_offset_static", "arcsec").output().depends_on(LOAD_INPUTS)
+            .description("Quasi-static part of beam.elevation_offset: where it settles under the current loads held for ever (static compliance times load)."),
+        ModesFile = Var::string("modes_file").parameter().start_string(DEFAULT_MODES_FILE)
+            .description("Modes file (name = value lines: mode<k>.frequency, damping, stiffness, azimuth_torque, elevation_torque, dish_force, beam_azimuth, beam_elevation; docs/structure-model.md); relative paths are looked up in the resources folder. The shipped structure_modes.params holds one estimated 6 Hz mode per axis."),
+        ModeCount = Var::integer("mode_count").calculated_parameter()
+            .description("Number of modes read from modes_file."),
+    }
+}
+
+/// The structure FMU.
+pub struct StructureModel {
+    /// Where the instance runs: a restored state reads the modes file again from it.
+    context: Context,
+    structure: Option<ModalStructure>,
+}
+
+impl StructureModel {
+    fn loads(values: &Values<StructureVar>) -> [f64; 3] {
+        [values.real(StructureVar::AzTorque), values.real(StructureVar::ElTorque), values.real(StructureVar::DishForce)]
+    }
+
+    /// The modes named by `modes_file`: relative names are looked up in the resources folder;
+    /// the shipped default is also built in, so the FMU works without one.
+    fn modes(values: &Values<StructureVar>, context: &Context) -> Result<Vec<Mode>, String> {
+        let name = values.string(StructureVar::ModesFile);
+        let builtin = || parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).map_err(|e| e.to_string());
+        if name.is_empty() {
+            return builtin();
+        }
+        let path = PathBuf::from(name);
+        let path = match (&context.resource_dir, path.is_absolute()) {
+            (Some(dir), false) => dir.join(path),
+            (None, false) if name == DEFAULT_MODES_FILE => return builtin(),
+            _ => path,
+        };
+        read_modes(&path).map_err(|e| e.to_string())
+    }
+
+    fn write_offsets(&self, values: &mut Values<StructureVar>) {
+        let Some(structure) = &self.structure else { return };
+        let [az, el] = structure.beam_offset();
+        values.set_real(StructureVar::BeamAz, az * ARCSEC_PER_RAD);
+        values.set_real(StructureVar::BeamEl, el * ARCSEC_PER_RAD);
+    }
+}
+
+impl Model for StructureModel {
+    type Var = StructureVar;
+
+    fn info() -> ModelInfo {
+        ModelInfo {
+            model_identifier: "Structure",
+            model_name: "Structure",
+            description: "Modal model of the antenna structure between the drives' load side (the encoders) and the RF beam: loads (torques about the axes, wind force on the dish) in, beam pointing offsets relative to the encoder-measured axes out. Modes (frequency, damping, modal stiffness, participation factors) from a replaceable file; exact zero-order hold, so results do not depend on the communication step for piecewise-constant loads.",
+            author: "MeerKAT antenna positioner reference model contributors",
+            version: env!("CARGO_PKG_VERSION"),
+            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+        }
+    }
+
+    fn new(_values: &Values<StructureVar>, context: &Context) -> Result<Self, String> {
+        Ok(StructureModel { context: context.clone(), structure: None })
+    }
+
+    /// The structure starts at rest in the static deflection under the loads it has at the end
+    /// of initialisation, so that a run with a mean wind does not begin with a ringing mode.
+    fn initialize(
+        &mut self,
+        values: &mut Values<StructureVar>,
+        context: &Context,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
+        let modes = Self::modes(values, context)?;
+        let count = i32::try_from(modes.len()).map_err(|_| "too many modes".to_string())?;
+        self.structure = Some(ModalStructure::at_rest(modes, &Self::loads(values)));
+        values.set_integer(StructureVar::ModeCount, count);
+        self.write_offsets(values);
+        self.update_feedthrough(values);
+        Ok(())
+    }
+
+    fn do_step(
+        &mut self,
+        values: &mut Values<StructureVar>,
+        _time: f64,
+        step: f64,
+        _notes: &mut Notes,
+    ) -> Result<(), String> {
+        let structure = self.structure.as_mut().ok_or("the structure model is not initialised")?;
+        structure.step(&Self::loads(values), step)?;
+        self.write_offsets(values);
+        Ok(())
+    }
+
+    fn update_feedthrough(&mut self, values: &mut Values<StructureVar>) {
+        let Some(structure) = &self.structure else { return };
+        let [az, el] = structure.static_offset(&Self::loads(values));
+        values.set_real(StructureVar::BeamAzStatic, az * ARCSEC_PER_RAD);
+        values.set_real(StructureVar::BeamElStatic, el * ARCSEC_PER_RAD);
+    }
+
+    /// A new modes file is read at once, so that a bad one is refused by the call that names it.
+    fn string_changed(
+        &mut self,
+        var: StructureVar,
+        values: &mut Values<StructureVar>,
+        context: &Context,
+    ) -> Result<(), String> {
+        if var == StructureVar::ModesFile {
+            Self::modes(values, context)?;
+        }
+        Ok(())
+    }
+
+    type State = StructureState;
+
+    fn save_state(&self) -> StructureState {
+        match &self.structure {
+            None => StructureState::NotInitialized,
+            Some(structure) => StructureState::Initialized(structure.save_state()),
+        }
+    }
+
+    fn load_state(&mut self, state: StructureState, values: &Values<StructureVar>) -> Result<(), StateError> {
+        let StructureState::Initialized(saved) = state else {
+            self.structure = None;
+            return Ok(());
+        };
+        let modes = Self::modes(values, &self.context).map_err(StateError::Invalid)?;
+        let mut structure = ModalStructure::at_rest(modes, &Self::loads(values));
+        structure.load_state(saved).map_err(StateError::Invalid)?;
+        self.structure = Some(structure);
+        Ok(())
+    }
+}
+
+/// The structure model's part of an FMU state.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum StructureState {
+    NotInitialized,
+    /// Every mode's coordinate and velocity.
+    Initialized(ModalState),
+}
+
+/// The FMUs this crate ships: `Structure`, with its default modes file and parameters.
+pub fn fmus() -> Vec<FmuSpec> {
+    vec![FmuSpec::of::<StructureModel>("fmu_structure_ffi", || {
+        vec![
+            ("defaults.params".into(), default_parameter_file::<StructureModel>().into_bytes()),
+            (DEFAULT_MODES_FILE.into(), DEFAULT_MODES.as_bytes().to_vec()),
+        ]
+    })]
+}

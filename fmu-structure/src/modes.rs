@@ -1,0 +1,299 @@
+//! The modes file: the structure's modes with their frequency, damping, modal stiffness and
+//! participation factors, in the project's `name = value` format (read by
+//! `fmu_runtime::params`), and the static compliance they imply.
+//!
+//! A mode `k` with coordinate `q_k` obeys
+//! `(1 / w_k^2) q_k'' + (2 zeta_k / w_k) q_k' + q_k = (p_az T_az + p_el T_el + p_F F) / K_k`
+//! with `w_k = 2 pi f_k`, and moves the beam by `b_az q_k` (on-sky azimuth) and `b_el q_k`
+//! (elevation). The scale of `q_k` is free (a finite-element export with mass-normalised mode
+//! shapes gives `K_k = w_k^2` and the mode-shape values as `p` and `b`); the static compliance
+//! from a load to a beam offset, `b p / K` summed over the modes, does not depend on it.
+
+use std::path::Path;
+
+use fmu_runtime::params::{self, ParameterValue};
+
+/// The modes file shipped in the FMU's resources, also built in so that the FMU works without
+/// a resources folder.
+pub const DEFAULT_MODES: &str = include_str!("../resources/structure_modes.params");
+
+/// Its file name in the resources folder.
+pub const DEFAULT_MODES_FILE: &str = "structure_modes.params";
+
+/// The fields every mode needs, in file order: frequency (Hz), damping ratio (1), modal
+/// stiffness (N m per unit of the modal coordinate), the participations of the azimuth torque,
+/// the elevation torque (modal load per N m) and the dish force (per N), and the beam offsets
+/// (rad, on-sky azimuth and elevation) per unit of the modal coordinate.
+pub const FIELDS: [&str; 8] = [
+    "frequency",
+    "damping",
+    "stiffness",
+    "azimuth_torque",
+    "elevation_torque",
+    "dish_force",
+    "beam_azimuth",
+    "beam_elevation",
+];
+
+/// A modes file with more modes is refused: the FMU discretises each mode on every new step
+/// size, and thousands of modes would be an error in the file, not a structure.
+pub const MAX_MODES: usize = 1000;
+
+/// One structural mode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mode {
+    /// Undamped natural frequency, Hz.
+    pub frequency_hz: f64,
+    /// Damping ratio (fraction of critical).
+    pub damping_ratio: f64,
+    /// Modal stiffness K: the load on the modal coordinate per unit of it.
+    pub stiffness: f64,
+    /// Modal load per unit of azimuth torque (N m), elevation torque (N m) and dish force (N).
+    pub participation: [f64; 3],
+    /// Beam offset (rad) per unit of the modal coordinate: on-sky azimuth, elevation.
+    pub beam: [f64; 2],
+}
+
+impl Mode {
+    /// Angular frequency, rad/s.
+    pub fn omega(&self) -> f64 {
+        2.0 * std::f64::consts::PI * self.frequency_hz
+    }
+
+    /// The modal load (in units of the modal coordinate times K) for the given loads.
+    pub fn modal_load(&self, loads: &[f64; 3]) -> f64 {
+        self.participation.iter().zip(loads).map(|(p, u)| p * u).sum()
+    }
+
+    /// The static deflection of the modal coordinate under constant loads.
+    pub fn static_coordinate(&self, loads: &[f64; 3]) -> f64 {
+        self.modal_load(loads) / self.stiffness
+    }
+}
+
+/// What is wrong with a modes file; every message names the file and, where there is one, the
+/// line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModesError {
+    #[error("cannot read modes file {path}: {reason}")]
+    Unreadable { path: String, reason: String },
+    #[error("{0}")]
+    Syntax(String),
+    #[error("{origin}:{line}: `{name}` is not a mode field: expected mode<k>.<field> with k = 1, 2, ... and field one of {fields}")]
+    UnknownName { origin: String, line: usize, name: String, fields: String },
+    #[error("{origin}:{line}: `{name}` needs a number, the file gives {value}")]
+    NotANumber { origin: String, line: usize, name: String, value: String },
+    #[error("{origin}: no modes (expected lines such as `mode1.frequency = 6.0`)")]
+    Empty { origin: String },
+    #[error("{origin}:{line}: mode {mode} is beyond the {max} modes a modes file may hold")]
+    TooMany { origin: String, line: usize, mode: usize, max: usize },
+    #[error(
+        "{origin}: mode {mode} is missing (modes are numbered 1, 2, ... without gaps; the file has mode {highest})"
+    )]
+    Gap { origin: String, mode: usize, highest: usize },
+    #[error("{origin}: mode{mode}.{field} is missing (every mode needs {fields})")]
+    MissingField { origin: String, mode: usize, field: &'static str, fields: String },
+    #[error("{origin}:{line}: mode{mode}.{field} = {value}: {reason}")]
+    Invalid { origin: String, line: usize, mode: usize, field: &'static str, value: f64, reason: &'static str },
+}
+
+fn field_list() -> String {
+    FIELDS.join(", ")
+}
+
+/// Splits `mode<k>.<field>` into the mode number and the field's index in [`FIELDS`].
+fn mode_field(name: &str) -> Option<(usize, usize)> {
+    let (mode, field) = name.strip_prefix("mode")?.split_once('.')?;
+    if mode.is_empty() || !mode.bytes().all(|b| b.is_ascii_digit()) || mode.starts_with('0') {
+        return None;
+    }
+    let mode: usize = mode.parse().ok()?;
+    let field = FIELDS.iter().position(|f| *f == field)?;
+    Some((mode, field))
+}
+
+/// A value as read: the number and its line.
+type Slot = Option<(f64, usize)>;
+
+/// Reads a modes file's text; `origin` names it in the errors.
+pub fn parse_modes(text: &str, origin: &str) -> Result<Vec<Mode>, ModesError> {
+    let assignments = params::parse(text, origin).map_err(ModesError::Syntax)?;
+    let mut slots: Vec<[Slot; 8]> = Vec::new();
+    for a in &assignments {
+        let unknown = || ModesError::UnknownName {
+            origin: origin.into(),
+            line: a.line,
+            name: a.name.clone(),
+            fields: field_list(),
+        };
+        let (mode, field) = mode_field(&a.name).ok_or_else(unknown)?;
+        if mode > MAX_MODES {
+            return Err(ModesError::TooMany { origin: origin.into(), line: a.line, mode, max: MAX_MODES });
+        }
+        let ParameterValue::Number(value) = a.value else {
+            return Err(ModesError::NotANumber {
+                origin: origin.into(),
+                line: a.line,
+                name: a.name.clone(),
+                value: a.value.to_string(),
+            });
+        };
+        if slots.len() < mode {
+            slots.resize(mode, [None; 8]);
+        }
+        slots[mode - 1][field] = Some((value, a.line));
+    }
+    if slots.is_empty() {
+        return Err(ModesError::Empty { origin: origin.into() });
+    }
+    slots.iter().enumerate().map(|(index, fields)| mode_from_fields(origin, index + 1, fields, slots.len())).collect()
+}
+
+/// Checks one mode's fields and builds it.
+fn mode_from_fields(origin: &str, mode: usize, fields: &[Slot; 8], highest: usize) -> Result<Mode, ModesError> {
+    if fields.iter().all(Option::is_none) {
+        return Err(ModesError::Gap { origin: origin.into(), mode, highest });
+    }
+    let mut values = [0.0; 8];
+    for (i, slot) in fields.iter().enumerate() {
+        let (value, _) = slot.ok_or_else(|| ModesError::MissingField {
+            origin: origin.into(),
+            mode,
+            field: FIELDS[i],
+            fields: field_list(),
+        })?;
+        values[i] = value;
+    }
+    let invalid = |i: usize, reason| {
+        let (value, line) = fields[i].expect("checked above");
+        ModesError::Invalid { origin: origin.into(), line, mode, field: FIELDS[i], value, reason }
+    };
+    if values[0] <= 0.0 {
+        return Err(invalid(0, "the frequency must be positive"));
+    }
+    if values[1] < 0.0 {
+        return Err(invalid(1, "the damping ratio must not be negative"));
+    }
+    if values[2] <= 0.0 {
+        return Err(invalid(2, "the modal stiffness must be positive"));
+    }
+    if values[3..6].iter().all(|p| *p == 0.0) {
+        return Err(invalid(
+            3,
+            "the mode takes no load (azimuth_torque, elevation_torque and dish_force are all zero)",
+        ));
+    }
+    if values[6..8].iter().all(|b| *b == 0.0) {
+        return Err(invalid(6, "the mode does not move the beam (beam_azimuth and beam_elevation are both zero)"));
+    }
+    Ok(Mode {
+        frequency_hz: values[0],
+        damping_ratio: values[1],
+        stiffness: values[2],
+        participation: [values[3], values[4], values[5]],
+        beam: [values[6], values[7]],
+    })
+}
+
+/// Reads a modes file from disk.
+pub fn read_modes(path: &Path) -> Result<Vec<Mode>, ModesError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| ModesError::Unreadable { path: path.display().to_string(), reason: e.to_string() })?;
+    parse_modes(&text, &path.display().to_string())
+}
+
+/// The static compliance of a set of modes: beam offset (rad; on-sky azimuth, elevation) per
+/// unit of each load (azimuth torque N m, elevation torque N m, dish force N).
+pub fn static_compliance(modes: &[Mode]) -> [[f64; 3]; 2] {
+    let mut compliance = [[0.0; 3]; 2];
+    for mode in modes {
+        for (row, b) in compliance.iter_mut().zip(mode.beam) {
+            for (entry, p) in row.iter_mut().zip(mode.participation) {
+                *entry += b * p / mode.stiffness;
+            }
+        }
+    }
+    compliance
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_file_has_one_six_hertz_mode_per_axis_with_stiffness_4e8() {
+        let modes = parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).unwrap();
+        assert_eq!(modes.len(), 2);
+        for mode in &modes {
+            assert_eq!((mode.frequency_hz, mode.damping_ratio, mode.stiffness), (6.0, 0.015, 4e8));
+        }
+        let c = static_compliance(&modes);
+        assert_eq!(c, [[2.5e-9, 0.0, 0.0], [0.0, 2.5e-9, 0.0]]);
+    }
+
+    #[test]
+    fn static_compliance_is_beam_times_participation_over_stiffness_whatever_the_modal_scale() {
+        let mode = Mode {
+            frequency_hz: 4.0,
+            damping_ratio: 0.01,
+            stiffness: 2e8,
+            participation: [0.5, -0.25, 3.0],
+            beam: [2.0, 1.0],
+        };
+        // The same mode with its coordinate scaled by s: K / s^2, p / s, b / s.
+        let s = 7.5;
+        let scaled = Mode {
+            stiffness: mode.stiffness / (s * s),
+            participation: mode.participation.map(|p| p / s),
+            beam: mode.beam.map(|b| b / s),
+            ..mode.clone()
+        };
+        let (a, b) = (static_compliance(&[mode]), static_compliance(&[scaled]));
+        assert!((a[0][2] - 2.0 * 3.0 / 2e8).abs() < 1e-22);
+        for (ra, rb) in a.iter().zip(&b) {
+            for (x, y) in ra.iter().zip(rb) {
+                assert!((x - y).abs() <= 1e-15 * x.abs().max(1e-30), "{x} against {y}");
+            }
+        }
+    }
+
+    fn with_line(line: &str, replaced: &str) -> String {
+        DEFAULT_MODES.replace(replaced, line)
+    }
+
+    #[test]
+    fn bad_files_are_errors_naming_the_file_line_and_cause() {
+        let line = 1 + DEFAULT_MODES.lines().position(|l| l.starts_with("mode1.frequency")).unwrap();
+        let at_line = |rest: &str| format!("f.params:{line}: {rest}");
+        let negative = at_line("mode1.frequency = -6: the frequency must be positive");
+        let not_a_number = at_line("mode1.frequency: `six` is not a number");
+        let cases = [
+            (with_line("mode1.frequency = -6.0", "mode1.frequency = 6.0"), negative.as_str()),
+            (
+                with_line("mode2.damping = -0.1", "mode2.damping = 0.015"),
+                "mode2.damping = -0.1: the damping ratio must not be negative",
+            ),
+            (with_line("mode1.stiffnes = 4e8", "mode1.stiffness = 4e8"), "`mode1.stiffnes` is not a mode field"),
+            (with_line("mode1.frequency = \"six\"", "mode1.frequency = 6.0"), "needs a number"),
+            (with_line("mode1.frequency = six", "mode1.frequency = 6.0"), not_a_number.as_str()),
+            (with_line("mode4.frequency = 6.0", "mode1.frequency = 6.0"), "mode1.frequency is missing"),
+            (DEFAULT_MODES.replace("mode2.", "mode3."), "mode 2 is missing"),
+            (String::from("# nothing\n"), "f.params: no modes"),
+            (with_line("mode1.azimuth_torque = 0", "mode1.azimuth_torque = 1"), "takes no load"),
+            (with_line("mode2.beam_elevation = 0", "mode2.beam_elevation = 1"), "does not move the beam"),
+            (String::from("mode0.frequency = 1"), "`mode0.frequency` is not a mode field"),
+            (String::from("mode01.frequency = 1"), "is not a mode field"),
+            (String::from("mode5000.frequency = 1"), "mode 5000 is beyond the 1000 modes"),
+        ];
+        for (text, needle) in cases {
+            let error = parse_modes(&text, "f.params").unwrap_err().to_string();
+            assert!(error.contains(needle), "expected {needle:?} in {error:?}");
+        }
+    }
+
+    #[test]
+    fn a_missing_file_is_an_error_naming_it() {
+        let error = read_modes(Path::new("/nonexistent/modes.params")).unwrap_err().to_string();
+        assert!(error.starts_with("cannot read modes file /nonexistent/modes.params"), "{error}");
+    }
+}

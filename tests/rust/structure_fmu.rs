@@ -1,0 +1,352 @@
+//! The packaged structure FMU (`Structure.fmu`) through the C ABI, as a master sees it: a
+//! constant load deflects the beam by load times the static compliance of the FMU's own modes
+//! file (read here from the archive and summed by hand, not by the model crate); each mode
+//! shows in the frequency response from load torque to beam offset, estimated from a white-noise
+//! run, at its documented frequency; results do not depend on the communication step for
+//! piecewise-constant loads; a bad modes file is an fmi2Error that names the file and the
+//! cause; an FMU state replays the run bit for bit.
+//!
+//! Figures for docs/structure-model.md: `cargo test --release -p antenna-tests --test
+//! structure_fmu -- --nocapture`.
+
+use std::io::Read;
+use std::path::PathBuf;
+
+use antenna_dsp::{transfer_function_h1, WelchConfig};
+use antenna_tests::{expect_error, fmu_path, open, output_bits, reals, set_reals, test_signal};
+use fmu_import::{Fmu, Instance};
+use fmu_runtime::params::{self, ParameterValue};
+
+const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+const LOADS: [&str; 3] = ["torque.azimuth", "torque.elevation", "force.dish"];
+const OFFSETS: [&str; 2] = ["beam.azimuth_offset", "beam.elevation_offset"];
+
+/// One mode as the modes file documents it (docs/structure-model.md), read here independently
+/// of the model crate.
+#[derive(Debug, Clone)]
+struct Mode {
+    frequency_hz: f64,
+    damping_ratio: f64,
+    stiffness: f64,
+    participation: [f64; 3],
+    beam: [f64; 2],
+}
+
+/// Reads a modes file with the project's parameter parser: `mode<k>.<field> = value`.
+fn parse_modes(text: &str) -> Vec<Mode> {
+    let mut modes: Vec<Mode> = Vec::new();
+    for a in params::parse(text, "modes").unwrap() {
+        let ParameterValue::Number(value) = a.value else { panic!("{} is not a number", a.name) };
+        let (mode, field) = a.name.strip_prefix("mode").and_then(|n| n.split_once('.')).unwrap();
+        let index: usize = mode.parse::<usize>().unwrap() - 1;
+        while modes.len() <= index {
+            modes.push(Mode {
+                frequency_hz: f64::NAN,
+                damping_ratio: f64::NAN,
+                stiffness: f64::NAN,
+                participation: [f64::NAN; 3],
+                beam: [f64::NAN; 2],
+            });
+        }
+        let m = &mut modes[index];
+        match field {
+            "frequency" => m.frequency_hz = value,
+            "damping" => m.damping_ratio = value,
+            "stiffness" => m.stiffness = value,
+            "azimuth_torque" => m.participation[0] = value,
+            "elevation_torque" => m.participation[1] = value,
+            "dish_force" => m.participation[2] = value,
+            "beam_azimuth" => m.beam[0] = value,
+            "beam_elevation" => m.beam[1] = value,
+            other => panic!("unknown field {other}"),
+        }
+    }
+    modes
+}
+
+/// The modes file shipped in the packaged FMU's resources.
+fn shipped_modes() -> Vec<Mode> {
+    let file = std::fs::File::open(fmu_path("Structure")).unwrap();
+    let mut archive = zip::ZipArchive::new(file).unwrap();
+    let mut text = String::new();
+    archive.by_name("resources/structure_modes.params").unwrap().read_to_string(&mut text).unwrap();
+    parse_modes(&text)
+}
+
+/// The static beam offset (arcsec; azimuth, elevation) under constant loads: the sum over the
+/// modes of beam x participation / stiffness, times the load.
+fn static_offset(modes: &[Mode], loads: &[f64; 3]) -> [f64; 2] {
+    let mut offset = [0.0; 2];
+    for m in modes {
+        let q: f64 = m.participation.iter().zip(loads).map(|(p, u)| p * u).sum::<f64>() / m.stiffness;
+        for (o, b) in offset.iter_mut().zip(m.beam) {
+            *o += b * q * ARCSEC_PER_RAD;
+        }
+    }
+    offset
+}
+
+/// A folder of its own for the modes files a test writes.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("structure-fmu-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// An initialised instance, optionally with another modes file.
+fn structure(fmu: &Fmu, name: &str, modes_file: Option<&str>) -> Instance {
+    let mut instance = fmu.instantiate(name, false).unwrap();
+    instance.setup_experiment(0.0, None).unwrap();
+    if let Some(file) = modes_file {
+        instance.set_string(&[fmu.description.vr("modes_file").unwrap()], &[file]).unwrap();
+    }
+    instance.enter_initialization_mode().unwrap();
+    instance.exit_initialization_mode().unwrap();
+    instance
+}
+
+/// Runs `steps` steps of `step` seconds from `start` with the loads `loads(time)` set before
+/// each; returns the beam offsets after every step.
+fn run(
+    fmu: &Fmu,
+    instance: &mut Instance,
+    start: f64,
+    step: f64,
+    steps: usize,
+    loads: impl Fn(f64) -> [f64; 3],
+) -> Vec<[f64; 2]> {
+    let load_vrs = fmu.description.vrs(&LOADS).unwrap();
+    let offset_vrs = fmu.description.vrs(&OFFSETS).unwrap();
+    let mut out = Vec::with_capacity(steps);
+    let mut offset = [0.0; 2];
+    for k in 0..steps {
+        let t = start + k as f64 * step;
+        instance.set_real(&load_vrs, &loads(t)).unwrap();
+        instance.do_step(t, step).unwrap();
+        instance.get_real(&offset_vrs, &mut offset).unwrap();
+        out.push(offset);
+    }
+    out
+}
+
+/// A modes file of three coupled modes, each taking several loads and moving both beam axes.
+const COUPLED_MODES: &str = "\
+mode1.frequency = 4.5\nmode1.damping = 0.02\nmode1.stiffness = 3e8\nmode1.azimuth_torque = 1\nmode1.elevation_torque = 0.2\nmode1.dish_force = 0\nmode1.beam_azimuth = 1\nmode1.beam_elevation = 0.1\n\
+mode2.frequency = 7.0\nmode2.damping = 0.01\nmode2.stiffness = 6e8\nmode2.azimuth_torque = -0.3\nmode2.elevation_torque = 1\nmode2.dish_force = 2.5\nmode2.beam_azimuth = 0.05\nmode2.beam_elevation = 1\n\
+mode3.frequency = 11.0\nmode3.damping = 0.005\nmode3.stiffness = 1\nmode3.azimuth_torque = 1e-5\nmode3.elevation_torque = 2e-5\nmode3.dish_force = 4e-5\nmode3.beam_azimuth = 3e-5\nmode3.beam_elevation = -2e-5\n";
+
+#[test]
+fn a_constant_load_deflects_the_beam_by_load_times_the_compliance_of_its_own_modes() {
+    let fmu = open("Structure");
+    let dir = scratch("static");
+    let coupled = dir.join("coupled.params");
+    std::fs::write(&coupled, COUPLED_MODES).unwrap();
+    let loads = [1.05e4, -8.0e3, 6.0e3];
+    for (label, file, modes) in [
+        ("shipped modes", None, shipped_modes()),
+        ("three coupled modes", Some(coupled.to_str().unwrap()), parse_modes(COUPLED_MODES)),
+    ] {
+        let mut instance = structure(&fmu, label, file);
+        // From rest, unloaded, a step load held for 40 s: the transient of the slowest-decaying
+        // mode (11 Hz at 0.5 % in the coupled set) falls to exp(-zeta w 40 s) = exp(-13.8) =
+        // 1e-6 of the step by the end.
+        let offsets = run(&fmu, &mut instance, 0.0, 1e-3, 40_000, |_| loads);
+        let end = offsets[offsets.len() - 1];
+        let expected = static_offset(&modes, &loads);
+        for axis in 0..2 {
+            let error = (end[axis] - expected[axis]).abs() / expected[axis].abs();
+            println!(
+                "{label}: axis {axis}: {:.6} arcsec, load x compliance {:.6} arcsec, error {:.2e}",
+                end[axis], expected[axis], error
+            );
+            assert!(error < 0.01, "{label}: axis {axis}: {} arcsec against {}", end[axis], expected[axis]);
+        }
+        let quasi_static =
+            reals(&fmu, &mut instance, &["beam.azimuth_offset_static", "beam.elevation_offset_static"]).unwrap();
+        for axis in 0..2 {
+            assert!(
+                (quasi_static[axis] / expected[axis] - 1.0).abs() < 1e-9,
+                "{label}: static output {quasi_static:?}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    let shipped = static_offset(&shipped_modes(), &[1.05e4, 1.05e4, 0.0]);
+    println!("shipped modes: 10.5 kN m (the largest mean wind torque at 9.8 m/s) gives {shipped:.2?} arcsec");
+}
+
+#[test]
+fn the_static_outputs_follow_the_loads_without_a_step_and_a_loaded_start_is_at_rest() {
+    let fmu = open("Structure");
+    let modes = shipped_modes();
+    let mut instance = fmu.instantiate("loaded", false).unwrap();
+    instance.initialize(0.0, &[(fmu.description.vr("torque.azimuth").unwrap(), 2e4)]).unwrap();
+    let at_start = reals(&fmu, &mut instance, &OFFSETS).unwrap();
+    let expected = static_offset(&modes, &[2e4, 0.0, 0.0]);
+    assert!((at_start[0] / expected[0] - 1.0).abs() < 1e-12, "{at_start:?} against {expected:?}");
+    let held = run(&fmu, &mut instance, 0.0, 1e-3, 100, |_| [2e4, 0.0, 0.0]);
+    assert!((held[99][0] / expected[0] - 1.0).abs() < 1e-12, "a loaded start rings: {:?}", held[99]);
+    set_reals(&fmu, &mut instance, &[("torque.elevation", -3e4)]);
+    let quasi_static =
+        reals(&fmu, &mut instance, &["beam.azimuth_offset_static", "beam.elevation_offset_static"]).unwrap();
+    let expected = static_offset(&modes, &[2e4, -3e4, 0.0]);
+    assert!((quasi_static[1] / expected[1] - 1.0).abs() < 1e-12, "{quasi_static:?} against {expected:?}");
+}
+
+/// The frequency of the largest |H1| between `low` and `high` Hz, refined by a parabola through
+/// the peak bin and its neighbours (on the log magnitude).
+fn peak_frequency(frequency_hz: &[f64], magnitude: &[f64], low: f64, high: f64) -> f64 {
+    let (k, _) = frequency_hz
+        .iter()
+        .zip(magnitude)
+        .enumerate()
+        .filter(|(_, (f, _))| **f >= low && **f <= high)
+        .max_by(|a, b| a.1 .1.total_cmp(b.1 .1))
+        .unwrap();
+    let (a, b, c) = (magnitude[k - 1].ln(), magnitude[k].ln(), magnitude[k + 1].ln());
+    let shift = 0.5 * (a - c) / (a - 2.0 * b + c);
+    frequency_hz[k] + shift * (frequency_hz[k + 1] - frequency_hz[k])
+}
+
+#[test]
+fn each_mode_shows_in_the_frf_from_load_torque_to_beam_offset_at_its_documented_frequency() {
+    let fmu = open("Structure");
+    let modes = shipped_modes();
+    let step = 2e-3;
+    let steps = 600_000;
+    let mut instance = structure(&fmu, "frf", None);
+    // Independent white torques on the two axes, constant over each step.
+    let torque = |t: f64, seed: u64| 1e4 * test_signal((t / step).round() as u64, seed);
+    let offsets = run(&fmu, &mut instance, 0.0, step, steps, |t| [torque(t, 1), torque(t, 2), 0.0]);
+    let config = WelchConfig::new(1 << 15);
+    for (axis, mode) in modes.iter().enumerate() {
+        let input: Vec<f64> = (0..steps).map(|k| torque(k as f64 * step, axis as u64 + 1)).collect();
+        let output: Vec<f64> = offsets.iter().map(|o| o[axis]).collect();
+        let estimate = transfer_function_h1(&input, &output, 1.0 / step, &config).unwrap();
+        let magnitude: Vec<f64> = estimate.h1.iter().map(|h| h.norm()).collect();
+        let peak = peak_frequency(&estimate.frequency_hz, &magnitude, 0.5, 50.0);
+        let error = peak / mode.frequency_hz - 1.0;
+        println!(
+            "axis {axis}: FRF peak {peak:.4} Hz, documented {} Hz (damping {}), error {:.3} % (resolution {:.4} Hz)",
+            mode.frequency_hz,
+            mode.damping_ratio,
+            100.0 * error,
+            estimate.frequency_hz[1]
+        );
+        assert!(error.abs() < 0.02, "axis {axis}: peak at {peak} Hz, documented {} Hz", mode.frequency_hz);
+        // Below the mode the FRF tends to the static compliance.
+        let low = estimate.frequency_hz.iter().position(|f| *f >= 0.5).unwrap();
+        let compliance = static_offset(&modes, &[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]][axis])[axis];
+        assert!(
+            (magnitude[low] / compliance - 1.0).abs() < 0.05,
+            "axis {axis}: |H(0.5 Hz)| {} against {compliance}",
+            magnitude[low]
+        );
+    }
+}
+
+#[test]
+fn results_do_not_depend_on_the_communication_step_for_piecewise_constant_loads() {
+    let fmu = open("Structure");
+    let hold = 5e-3;
+    let duration = 10.0;
+    let loads = |t: f64| {
+        let k = (t / hold + 1e-6).floor() as u64;
+        [1e4 * test_signal(k, 11), 1e4 * test_signal(k, 12), 5e3 * test_signal(k, 13)]
+    };
+    let dir = scratch("steps");
+    let coupled = dir.join("coupled.params");
+    std::fs::write(&coupled, COUPLED_MODES).unwrap();
+    for file in [None, Some(coupled.to_str().unwrap())] {
+        let mut records = Vec::new();
+        for step in [1e-3, 0.25e-3, 5e-3] {
+            let mut instance = structure(&fmu, "steps", file);
+            let every = (hold / step).round() as usize;
+            let offsets = run(&fmu, &mut instance, 0.0, step, (duration / step).round() as usize, loads);
+            records.push(offsets.into_iter().skip(every - 1).step_by(every).collect::<Vec<_>>());
+        }
+        for axis in 0..2 {
+            let reference: Vec<f64> = records[0].iter().map(|o| o[axis]).collect();
+            let range = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (other, step) in records[1..].iter().zip(["0.25 ms", "5 ms"]) {
+                assert_eq!(other.len(), reference.len());
+                let worst = other.iter().zip(&reference).map(|(o, r)| (o[axis] - r).abs()).fold(0.0, f64::max);
+                println!(
+                    "{}: axis {axis}: {step} against 1 ms: largest difference {worst:.2e} arcsec, {:.1e} of the largest offset {range:.3} arcsec",
+                    if file.is_some() { "coupled modes" } else { "shipped modes" },
+                    worst / range
+                );
+                assert!(worst <= 1e-9 * range, "axis {axis}: {step} differs from 1 ms by {worst} arcsec");
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_bad_modes_file_is_an_fmi2_error_naming_the_file_and_the_cause() {
+    let fmu = open("Structure");
+    let dir = scratch("bad");
+    let good = COUPLED_MODES;
+    let cases = [
+        (
+            "negative_frequency",
+            good.replace("mode2.frequency = 7.0", "mode2.frequency = -7.0"),
+            "the frequency must be positive",
+        ),
+        ("typo", good.replace("mode1.stiffness", "mode1.stifness"), "`mode1.stifness` is not a mode field"),
+        ("missing_field", good.replace("mode3.damping = 0.005\n", ""), "mode3.damping is missing"),
+        ("gap", good.replace("mode2.", "mode4."), "mode 2 is missing"),
+        ("not_a_number", good.replace("mode1.damping = 0.02", "mode1.damping = low"), "`low` is not a number"),
+        ("empty", String::from("# no modes\n"), "no modes"),
+    ];
+    for (name, text, cause) in cases {
+        let path = dir.join(format!("{name}.params"));
+        std::fs::write(&path, text).unwrap();
+        let mut instance = fmu.instantiate(name, false).unwrap();
+        instance.setup_experiment(0.0, None).unwrap();
+        let result = instance.set_string(&[fmu.description.vr("modes_file").unwrap()], &[path.to_str().unwrap()]);
+        let messages = expect_error(result, &instance, name).join("\n");
+        println!("{name}: {messages}");
+        assert!(messages.contains(path.to_str().unwrap()), "{name}: the message does not name the file: {messages}");
+        assert!(messages.contains(cause), "{name}: expected {cause:?} in {messages}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    let mut instance = fmu.instantiate("missing", false).unwrap();
+    instance.setup_experiment(0.0, None).unwrap();
+    let result = instance.set_string(&[fmu.description.vr("modes_file").unwrap()], &["no_such_modes.params"]);
+    let messages = expect_error(result, &instance, "missing").join("\n");
+    assert!(messages.contains("cannot read modes file") && messages.contains("no_such_modes.params"), "{messages}");
+}
+
+#[test]
+fn a_restored_fmu_state_replays_the_run_bitwise() {
+    let fmu = open("Structure");
+    let loads = |t: f64| [1e4 * test_signal((t * 100.0) as u64, 21), 1e4 * test_signal((t * 100.0) as u64, 22), 0.0];
+    let mut original = structure(&fmu, "original", None);
+    run(&fmu, &mut original, 0.0, 1e-3, 777, loads);
+    let start = 0.777;
+    let at_save = output_bits(&fmu, &mut original);
+    let state = original.get_state().unwrap();
+    // Mixed step sizes: the discretisation cache is not state and must not matter.
+    let schedule = |instance: &mut Instance| {
+        let mut t = start;
+        let mut out = Vec::new();
+        for k in 0..3000 {
+            let h = [1e-3, 0.25e-3, 5e-3][k % 3];
+            out.extend(run(&fmu, instance, t, h, 1, loads).into_iter().map(|o| o.map(f64::to_bits)));
+            t += h;
+        }
+        out
+    };
+    let first = schedule(&mut original);
+    original.set_state(&state).unwrap();
+    assert_eq!(output_bits(&fmu, &mut original), at_save, "the restored outputs differ");
+    assert!(schedule(&mut original) == first, "the run after fmi2SetFMUstate differs");
+    let bytes = original.serialize_state(&state).unwrap();
+    let mut fresh = fmu.instantiate("fresh", false).unwrap();
+    let restored = fresh.deserialize_state(&bytes).unwrap();
+    fresh.set_state(&restored).unwrap();
+    assert_eq!(fresh.serialize_state(&restored).unwrap(), bytes, "deserialize then serialize is not the identity");
+    assert!(schedule(&mut fresh) == first, "a deserialized state continues differently");
+}
