@@ -116,23 +116,26 @@ fn every_crate_opts_into_the_workspace_lints() {
     assert!(missing.is_empty(), "no `[lints] workspace = true` in: {missing:?}");
 }
 
-/// Every `.rs` file under the members' `src/` folders.
-fn source_files() -> Vec<(String, PathBuf)> {
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-        let Ok(entries) = std::fs::read_dir(dir) else { return };
-        for entry in entries.flatten() {
-            let path = entry.path();
-            if path.is_dir() {
-                walk(&path, out);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                out.push(path);
-            }
+/// Every `.rs` file below `dir`.
+fn rust_files_below(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else { return out };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            out.extend(rust_files_below(&path));
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
         }
     }
+    out
+}
+
+/// Every `.rs` file under the members' `src/` folders.
+fn source_files() -> Vec<(String, PathBuf)> {
     let mut files = Vec::new();
     for member in members() {
-        let mut found = Vec::new();
-        walk(&workspace_root().join(&member).join("src"), &mut found);
+        let found = rust_files_below(&workspace_root().join(&member).join("src"));
         files.extend(found.into_iter().map(|p| (member.clone(), p)));
     }
     files.sort();
@@ -223,19 +226,7 @@ fn the_model_crates_never_print() {
 /// The sibling modules a top-level module of a crate refers to (`crate::name`, or `super::name`
 /// from a file directly in `src/`), outside its tests and comments.
 fn module_references(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
-    let mut files = Vec::new();
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-        let Ok(entries) = std::fs::read_dir(dir) else { return };
-        for entry in entries.flatten() {
-            let path = entry.path();
-            if path.is_dir() {
-                walk(&path, out);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                out.push(path);
-            }
-        }
-    }
-    walk(src, &mut files);
+    let files = rust_files_below(src);
     let top_level = |path: &Path| -> Option<String> {
         let relative = path.strip_prefix(src).ok()?;
         let first = relative.components().next()?.as_os_str().to_string_lossy().trim_end_matches(".rs").to_string();
