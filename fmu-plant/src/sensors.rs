@@ -32,6 +32,7 @@
 //! All errors default to zero and the count to truncation, which reproduces the readings of
 //! the plant before this model bit for bit: the ideal encoder path does not add zeros.
 
+use fmu_runtime::seed::seed_key;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 use serde::{Deserialize, Serialize};
@@ -223,28 +224,6 @@ impl SampleClock {
             self.since_sample_s = total;
         }
     }
-}
-
-/// The 32-byte ChaCha key for a `u64` seed: four SplitMix64 outputs started at `seed`, little
-/// endian (the expansion `fmu-wind` documents, written out here so that the plant does not
-/// depend on the wind crate).
-fn seed_key(seed: u64) -> [u8; 32] {
-    let mut state = seed;
-    let mut key = [0u8; 32];
-    for chunk in key.chunks_exact_mut(8) {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        chunk.copy_from_slice(&z.to_le_bytes());
-    }
-    key
-}
-
-/// The `u64` seed of an FMI `Integer` seed parameter: its two's-complement bits, zero-extended.
-pub fn seed_from_fmi_integer(seed: i32) -> u64 {
-    u64::from(seed as u32)
 }
 
 /// One white Gaussian noise channel with random access by sample index.

@@ -12,6 +12,7 @@ pub mod model;
 pub mod package;
 pub mod params;
 pub mod phase;
+pub mod seed;
 pub mod state;
 pub mod state_error;
 pub mod units;

@@ -9,9 +9,10 @@ use fmu_runtime::{
 
 use crate::coefficients::{CoefficientTable, DEFAULT_TABLE_CSV};
 use crate::davenport::Davenport;
-use crate::gust::{seed_from_fmi_integer, GustGenerator, GustState};
+use crate::gust::{GustGenerator, GustState};
 use crate::shaping::ShapingFilter;
 use crate::torque::{normalised_gust, TorqueForm, WindTorqueModel};
+use fmu_runtime::seed::seed_from_fmi_integer;
 use serde::{Deserialize, Serialize};
 
 static SPECTRUM: EnumerationType = EnumerationType {

@@ -30,12 +30,13 @@
 //!
 //! # Random numbers and state
 //!
-//! `rand_chacha::ChaCha12Rng`, keyed by [`seed_key`], stream 0, drives
+//! `rand_chacha::ChaCha12Rng`, keyed by [`seed_key`](fmu_runtime::seed::seed_key), stream 0, drives
 //! `rand_distr::StandardNormal`. The generator's whole future is fixed by the filter state and
 //! the ChaCha key, stream and word position; [`GustGenerator::save_state`] writes exactly those,
 //! so a restored state replays the same gusts bit for bit.
 
 use crate::shaping::{ShapingFilter, NOISE_INTENSITY};
+use fmu_runtime::seed::seed_key;
 use fmu_runtime::state::StateError;
 use nalgebra::DMatrix;
 use rand::SeedableRng;
@@ -47,31 +48,6 @@ use serde::{Deserialize, Serialize};
 const CACHE_CAPACITY: usize = 8;
 /// Pivots below this fraction of the largest diagonal end the pivoted Cholesky factorisation.
 const PIVOT_TOLERANCE: f64 = 1e-14;
-
-/// The 32-byte ChaCha key for a `u64` seed.
-///
-/// Four successive outputs of SplitMix64 (Steele, Lea and Flood 2014) started at `seed`,
-/// each written little-endian: a fixed, documented expansion that does not depend on any
-/// crate's `seed_from_u64`, and maps distinct seeds to unrelated keys.
-pub fn seed_key(seed: u64) -> [u8; 32] {
-    let mut state = seed;
-    let mut key = [0u8; 32];
-    for chunk in key.chunks_exact_mut(8) {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        chunk.copy_from_slice(&z.to_le_bytes());
-    }
-    key
-}
-
-/// The `u64` seed for an FMI `Integer` seed parameter: its two's-complement bits, zero-extended
-/// (so -1 becomes 4294967295, and every `i32` gives a distinct seed).
-pub fn seed_from_fmi_integer(seed: i32) -> u64 {
-    u64::from(seed as u32)
-}
 
 /// One cached discretisation: the modal decay factors and the noise factor for a step size.
 #[derive(Debug, Clone)]
@@ -457,13 +433,6 @@ mod tests {
             g.step(k as f64 * 1e-3);
         }
         assert!(g.cache.len() <= CACHE_CAPACITY);
-    }
-
-    #[test]
-    fn seed_keys_differ_for_neighbouring_seeds_and_fmi_integers_map_one_to_one() {
-        assert_ne!(seed_key(0), seed_key(1));
-        assert_eq!(seed_from_fmi_integer(-1), u64::from(u32::MAX));
-        assert_ne!(seed_from_fmi_integer(-1), seed_from_fmi_integer(1));
     }
 
     #[test]

@@ -4,7 +4,8 @@
 use fmu_runtime::{Context, DefaultExperiment, EnumerationType, ModelInfo, Values, VariableSet};
 
 use crate::params::{CoggingParams, FrictionParams, MotorParams, NumericsParams};
-use crate::sensors::{seed_from_fmi_integer, CountMode, EncoderErrors, PeriodicError, SensorParams};
+use crate::sensors::{CountMode, EncoderErrors, PeriodicError, SensorParams};
+use fmu_runtime::seed::seed_from_fmi_integer;
 
 // Declared bounds. FMI 2.0 bounds are inclusive, so a parameter that must be positive cannot
 // declare min = 0 (which the plant would then refuse): it declares the bound below. Upper
