@@ -216,9 +216,61 @@ pub fn static_compliance(modes: &[Mode]) -> [[f64; 3]; 2] {
     compliance
 }
 
+impl Mode {
+    /// The value of one field (a name of [`FIELDS`]).
+    pub fn field(&self, field: &str) -> Option<f64> {
+        Some(match FIELDS.iter().position(|f| *f == field)? {
+            0 => self.frequency_hz,
+            1 => self.damping_ratio,
+            2 => self.stiffness,
+            i @ 3..=5 => self.participation[i - 3],
+            i => self.beam[i - 6],
+        })
+    }
+
+    /// Sets one field (a name of [`FIELDS`]); `false` if there is no such field.
+    pub fn set_field(&mut self, field: &str, value: f64) -> bool {
+        let Some(index) = FIELDS.iter().position(|f| *f == field) else { return false };
+        match index {
+            0 => self.frequency_hz = value,
+            1 => self.damping_ratio = value,
+            2 => self.stiffness = value,
+            i @ 3..=5 => self.participation[i - 3] = value,
+            i => self.beam[i - 6] = value,
+        }
+        true
+    }
+}
+
+/// A modes file holding `modes`, every value with all its digits, which [`parse_modes`] reads
+/// back to the same modes (so that a master can hand a varied set to the FMU).
+pub fn write_modes(modes: &[Mode], heading: &str) -> String {
+    let mut text = String::new();
+    for line in heading.lines() {
+        text.push_str(&format!("# {line}\n"));
+    }
+    for (k, mode) in modes.iter().enumerate() {
+        for field in FIELDS {
+            let value = mode.field(field).expect("FIELDS names every field");
+            text.push_str(&format!("mode{}.{field} = {value:e}\n", k + 1));
+        }
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn written_modes_read_back_to_the_same_modes() {
+        let mut modes = parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).unwrap();
+        assert!(modes[1].set_field("frequency", 1.0 / 3.0));
+        assert!(!modes[1].set_field("mass", 1.0));
+        let text = write_modes(&modes, "varied\nfor a test");
+        assert!(text.starts_with("# varied\n# for a test\n"));
+        assert_eq!(parse_modes(&text, "written").unwrap(), modes);
+    }
 
     #[test]
     fn the_default_file_has_one_six_hertz_mode_per_axis_with_stiffness_4e8() {

@@ -3,6 +3,8 @@
 //! descriptions live. Build tasks, the coupled master, the validation tool and the tests all
 //! find the FMUs through here.
 
+pub mod parameters;
+
 use std::path::{Path, PathBuf};
 
 use fmu_runtime::package::FmuSpec;

@@ -1,16 +1,22 @@
-//! The coupled antenna: two plants, two controllers and the wind unit, loaded from their
-//! packaged `.fmu` files through the C ABI and stepped together by a fixed-step master.
+//! The coupled antenna: two plants, two controllers, the wind unit and (unless the paper's rigid
+//! configuration is asked for) the structure, loaded from their packaged `.fmu` files through
+//! the C ABI and stepped together by a fixed-step master.
 //!
 //! Connections, all exchanged at every communication point `t_k` (Jacobi: every unit steps from
 //! the values at `t_k`; there is no algebraic loop, because only the wind unit has direct
-//! feedthrough and its inputs come from the plants' states):
+//! feedthrough and its inputs come from the plants' states; the structure's quasi-static
+//! outputs follow the wind loads set at the same point, which come from the plants' states):
 //!
 //! ```text
 //! command table ──► controllers ──current commands──► plants ──encoders, motor speeds──► controllers
 //!                                     wind ◄── true pointing (az, el) ── plants
 //!                                     wind ──torques about the axes──► plants (load.disturbance_torque)
+//!                                     wind ──the same torques, drag force──► structure ──beam offsets──► pointing
 //!                         elevation plant ──true elevation──► azimuth plant (load inertia)
 //! ```
+//!
+//! The beam points where the load-side axes point plus the structure's offsets; the pointing
+//! error the requirements judge is the command minus the beam.
 
 use std::path::Path;
 
@@ -47,7 +53,9 @@ impl WindCondition {
         WindCondition { mean_speed_m_s: 0.0, roughness_length_m: 0.026, direction_deg: 0.0, seed: 1 };
 }
 
-/// Everything a coupled run needs besides the command table.
+/// Everything a coupled run needs besides the command table. `AntennaConfig::default()` is the
+/// realistic antenna of `docs/parameters.csv`'s default column; [`crate::configuration`] builds
+/// the paper's configuration and any point of a sweep.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AntennaConfig {
     /// Communication step, s. The controllers keep their own sample time (1 ms by default, a
@@ -59,10 +67,19 @@ pub struct AntennaConfig {
     pub elevation_plant: Overrides,
     pub azimuth_controller: Overrides,
     pub elevation_controller: Overrides,
+    /// Parameters of the wind unit besides the wind condition (admittance, coefficients).
+    pub wind_unit: Overrides,
+    /// Multiplies the wind unit's loads before they reach the plants and the structure (a
+    /// torque-coefficient scale: the shipped coefficient table is a stand-in).
+    pub wind_load_scale: f64,
+    /// The structure between encoders and beam with its parameter overrides (`modes_file`), or
+    /// `None` for the paper's rigid antenna, whose beam is the load-side axes.
+    pub structure: Option<Overrides>,
 }
 
-impl Default for AntennaConfig {
-    fn default() -> Self {
+impl AntennaConfig {
+    /// The paper's drive-only model with nothing applied: the FMUs' start values, no structure.
+    pub fn bare() -> Self {
         AntennaConfig {
             step_s: 1e-3,
             wind: WindCondition::CALM,
@@ -70,17 +87,43 @@ impl Default for AntennaConfig {
             elevation_plant: Vec::new(),
             azimuth_controller: Vec::new(),
             elevation_controller: Vec::new(),
+            wind_unit: Vec::new(),
+            wind_load_scale: 1.0,
+            structure: None,
         }
+    }
+
+    /// Every override of the run, as `<model identifier>.<variable> = value` pairs, for another
+    /// master to apply (the trace export).
+    pub fn all_overrides(&self) -> Vec<(&'static str, &Overrides)> {
+        let mut all = vec![
+            ("AzimuthPlant", &self.azimuth_plant),
+            ("ElevationPlant", &self.elevation_plant),
+            ("AzimuthController", &self.azimuth_controller),
+            ("ElevationController", &self.elevation_controller),
+            ("Wind", &self.wind_unit),
+        ];
+        if let Some(structure) = &self.structure {
+            all.push(("Structure", structure));
+        }
+        all
     }
 }
 
-/// The five packaged FMUs.
+impl Default for AntennaConfig {
+    fn default() -> Self {
+        crate::configuration::Configuration::Realistic.antenna_config()
+    }
+}
+
+/// The six packaged FMUs.
 pub struct FmuSet {
     pub azimuth_plant: Fmu,
     pub elevation_plant: Fmu,
     pub azimuth_controller: Fmu,
     pub elevation_controller: Fmu,
     pub wind: Fmu,
+    pub structure: Fmu,
 }
 
 impl FmuSet {
@@ -93,6 +136,7 @@ impl FmuSet {
             azimuth_controller: open("AzimuthController")?,
             elevation_controller: open("ElevationController")?,
             wind: open("Wind")?,
+            structure: open("Structure")?,
         })
     }
 }
@@ -114,24 +158,70 @@ pub struct Trace {
     pub wind_torque_elevation_nm: Vec<f64>,
     pub current_azimuth_a: Vec<[f64; 2]>,
     pub current_elevation_a: Vec<f64>,
+    /// The structure's beam offsets relative to the load-side axes, arcsec on the sky
+    /// (cross-elevation, elevation); zero without a structure.
+    pub beam_offset_arcsec: Vec<[f64; 2]>,
+    /// Their quasi-static part (compliance times the loads), arcsec.
+    pub beam_offset_static_arcsec: Vec<[f64; 2]>,
+}
+
+/// On-sky pointing error vectors (cross-elevation, elevation), arcsec, of one run, split into
+/// the parts a pointing error budget names. They add up to the beam's error exactly.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ErrorParts {
+    /// Command minus the encoder reading: what the servo leaves.
+    pub servo: Vec<[f64; 2]>,
+    /// Encoder reading minus the true load-side axis: the encoder's errors and its count.
+    pub encoder: Vec<[f64; 2]>,
+    /// Minus the structure's quasi-static beam offset.
+    pub structure_static: Vec<[f64; 2]>,
+    /// Minus the rest of the structure's beam offset (its modes ringing).
+    pub structure_dynamic: Vec<[f64; 2]>,
 }
 
 impl Trace {
-    /// Pointing error on the sky, arcsec: `sqrt((d_az cos el)^2 + d_el^2)` of command minus
-    /// true position.
+    /// Pointing error of the beam on the sky, arcsec: `sqrt(cross^2 + d_el^2)` with
+    /// `cross = d_az cos el - beam azimuth offset`, `d_el` likewise, where `d` is the command
+    /// minus the true load-side axis position. Without a structure the offsets are zero and this
+    /// is the paper's command minus true position.
     pub fn pointing_error_arcsec(&self) -> Vec<f64> {
         (0..self.time_s.len())
             .map(|k| {
                 let d_az = self.command_azimuth_deg[k] - self.azimuth_deg[k];
                 let d_el = self.command_elevation_deg[k] - self.elevation_deg[k];
-                let cross = d_az * self.elevation_deg[k].to_radians().cos();
+                let [offset_az, offset_el] = self.beam_offset_arcsec.get(k).copied().unwrap_or_default();
+                let cross = d_az * self.elevation_deg[k].to_radians().cos() - offset_az / 3600.0;
+                let d_el = d_el - offset_el / 3600.0;
                 (cross * cross + d_el * d_el).sqrt() * 3600.0
             })
             .collect()
     }
 
+    /// The beam's error split into servo, encoder and structure parts (on-sky vectors, arcsec).
+    pub fn error_parts(&self) -> ErrorParts {
+        let n = self.time_s.len();
+        let mut parts = ErrorParts::default();
+        for k in 0..n {
+            let cos_el = self.elevation_deg[k].to_radians().cos();
+            let sky = |az_deg: f64, el_deg: f64| [az_deg * cos_el * 3600.0, el_deg * 3600.0];
+            parts.servo.push(sky(
+                self.command_azimuth_deg[k] - self.encoder_azimuth_deg[k],
+                self.command_elevation_deg[k] - self.encoder_elevation_deg[k],
+            ));
+            parts.encoder.push(sky(
+                self.encoder_azimuth_deg[k] - self.azimuth_deg[k],
+                self.encoder_elevation_deg[k] - self.elevation_deg[k],
+            ));
+            let [total_az, total_el] = self.beam_offset_arcsec.get(k).copied().unwrap_or_default();
+            let [static_az, static_el] = self.beam_offset_static_arcsec.get(k).copied().unwrap_or_default();
+            parts.structure_static.push([-static_az, -static_el]);
+            parts.structure_dynamic.push([static_az - total_az, static_el - total_el]);
+        }
+        parts
+    }
+
     /// The columns of [`Trace::to_csv`].
-    pub const CSV_HEADER: [&'static str; 15] = [
+    pub const CSV_HEADER: [&'static str; 19] = [
         "time_s",
         "command_azimuth_deg",
         "command_elevation_deg",
@@ -147,6 +237,10 @@ impl Trace {
         "current_azimuth_1_a",
         "current_azimuth_2_a",
         "current_elevation_a",
+        "beam_azimuth_offset_arcsec",
+        "beam_elevation_offset_arcsec",
+        "beam_azimuth_offset_static_arcsec",
+        "beam_elevation_offset_static_arcsec",
     ];
 
     /// The trace as CSV, every value with all its digits (`{:e}`, the shortest text that reads
@@ -172,6 +266,10 @@ impl Trace {
                     self.current_azimuth_a[k][0],
                     self.current_azimuth_a[k][1],
                     self.current_elevation_a[k],
+                    self.beam_offset_arcsec[k][0],
+                    self.beam_offset_arcsec[k][1],
+                    self.beam_offset_static_arcsec[k][0],
+                    self.beam_offset_static_arcsec[k][1],
                 ];
                 writer.write_record(row.map(|x| format!("{x:e}")))?;
             }
@@ -201,6 +299,8 @@ impl Trace {
             v.reserve(n);
         }
         self.current_azimuth_a.reserve(n);
+        self.beam_offset_arcsec.reserve(n);
+        self.beam_offset_static_arcsec.reserve(n);
     }
 }
 
@@ -233,6 +333,10 @@ struct Ports {
     el_ctrl_out: [u32; 2],
     wind_in: [u32; 2],
     wind_out: [u32; 3],
+    /// The wind's drag force on the dish, if the wind unit provides one.
+    wind_drag: Option<u32>,
+    structure_in: [u32; 3],
+    structure_out: [u32; 4],
 }
 
 impl Ports {
@@ -249,6 +353,7 @@ impl Ports {
         let ac = &fmus.azimuth_controller.description;
         let ec = &fmus.elevation_controller.description;
         let w = &fmus.wind.description;
+        let s = &fmus.structure.description;
         Ok(Ports {
             az_plant_out: vrs(
                 ap,
@@ -282,22 +387,36 @@ impl Ports {
             el_ctrl_out: vrs(ec, ["motor.current_command", "status.reference_position"])?,
             wind_in: vrs(w, ["antenna.azimuth", "antenna.elevation"])?,
             wind_out: vrs(w, ["torque.azimuth", "torque.elevation", "wind.speed"])?,
+            wind_drag: w.vr("force.drag").ok(),
+            structure_in: vrs(s, ["torque.azimuth", "torque.elevation", "force.dish"])?,
+            structure_out: vrs(
+                s,
+                [
+                    "beam.azimuth_offset",
+                    "beam.elevation_offset",
+                    "beam.azimuth_offset_static",
+                    "beam.elevation_offset_static",
+                ],
+            )?,
         })
     }
 }
 
-/// The five instances of one antenna, initialised and ready to step.
+/// The instances of one antenna, initialised and ready to step.
 pub struct CoupledAntenna {
     pub azimuth_plant: Instance,
     pub elevation_plant: Instance,
     pub azimuth_controller: Instance,
     pub elevation_controller: Instance,
     pub wind: Instance,
+    /// `None` for the paper's rigid antenna.
+    pub structure: Option<Instance>,
     ports: Ports,
     step_s: f64,
     start_time_s: f64,
     steps_done: u64,
-    /// 1, or 0 for a calm day (the wind unit cannot be set to zero speed).
+    /// The configuration's load scale, or 0 for a calm day (the wind unit cannot be set to
+    /// zero speed).
     wind_scale: f64,
 }
 
@@ -329,7 +448,7 @@ impl CoupledAntenna {
         el_ctrl_overrides.extend(config.elevation_controller.iter().cloned());
         let w = &config.wind;
         let wind_spectrum = if w.mean_speed_m_s > 0.0 { 1 } else { 3 };
-        let wind_overrides: Overrides = vec![
+        let mut wind_overrides: Overrides = vec![
             ("wind.mean_speed".into(), ParameterValue::Real(w.mean_speed_m_s.max(0.5))),
             ("wind.roughness_length".into(), ParameterValue::Real(w.roughness_length_m)),
             ("wind.direction".into(), ParameterValue::Real(w.direction_deg)),
@@ -338,6 +457,7 @@ impl CoupledAntenna {
             ("antenna.azimuth".into(), ParameterValue::Real(start.azimuth_deg)),
             ("antenna.elevation".into(), ParameterValue::Real(start.elevation_deg)),
         ];
+        wind_overrides.extend(config.wind_unit.iter().cloned());
         let start_time = table.time_span().0;
         let make = |fmu: &Fmu, name: &str, overrides: &Overrides| -> Result<Instance, ImportError> {
             let mut instance = fmu.instantiate(name, false)?;
@@ -353,15 +473,26 @@ impl CoupledAntenna {
             azimuth_controller: make(&fmus.azimuth_controller, "azimuth_controller", &az_ctrl_overrides)?,
             elevation_controller: make(&fmus.elevation_controller, "elevation_controller", &el_ctrl_overrides)?,
             wind: make(&fmus.wind, "wind", &wind_overrides)?,
+            structure: None,
             ports,
             step_s: config.step_s,
             start_time_s: start_time,
             steps_done: 0,
-            wind_scale: 1.0,
+            wind_scale: config.wind_load_scale,
         };
         // The wind unit's gust is meaningless without wind: zero torques in that case.
         if w.mean_speed_m_s <= 0.0 {
             antenna.wind_scale = 0.0;
+        }
+        if let Some(structure_overrides) = &config.structure {
+            // The structure starts at rest in its static deflection under the loads at the
+            // start, so that a run in a mean wind does not begin with ringing modes.
+            let loads = antenna.wind_loads()?;
+            let mut overrides = structure_overrides.clone();
+            for (name, value) in ["torque.azimuth", "torque.elevation", "force.dish"].iter().zip(loads) {
+                overrides.push((name.to_string(), ParameterValue::Real(value)));
+            }
+            antenna.structure = Some(make(&fmus.structure, "structure", &overrides)?);
         }
         Ok(antenna)
     }
@@ -370,6 +501,18 @@ impl CoupledAntenna {
     pub fn time_s(&self) -> f64 {
         // Counted in steps, not accumulated, so long runs do not drift.
         self.start_time_s + self.steps_done as f64 * self.step_s
+    }
+
+    /// The wind's loads on the antenna now (torque about azimuth, about elevation, N m; drag on
+    /// the dish, N), scaled as the configuration says.
+    fn wind_loads(&mut self) -> Result<[f64; 3], ImportError> {
+        let mut wind = [0.0; 3];
+        self.wind.get_real(&self.ports.wind_out, &mut wind)?;
+        let mut drag = [0.0];
+        if let Some(vr) = self.ports.wind_drag {
+            self.wind.get_real(&[vr], &mut drag)?;
+        }
+        Ok([self.wind_scale * wind[0], self.wind_scale * wind[1], self.wind_scale * drag[0]])
     }
 
     /// Exchanges values at the current communication point, records them, and steps every
@@ -390,6 +533,15 @@ impl CoupledAntenna {
         self.wind.get_real(&p.wind_out, &mut wind)?;
         let torque_az = self.wind_scale * wind[0];
         let torque_el = self.wind_scale * wind[1];
+        let mut beam = [0.0; 4];
+        if let Some(structure) = &mut self.structure {
+            let mut drag = [0.0];
+            if let Some(vr) = p.wind_drag {
+                self.wind.get_real(&[vr], &mut drag)?;
+            }
+            structure.set_real(&p.structure_in, &[torque_az, torque_el, self.wind_scale * drag[0]])?;
+            structure.get_real(&p.structure_out, &mut beam)?;
+        }
 
         self.azimuth_controller
             .set_real(&p.az_ctrl_in, &[command.azimuth_deg, command.azimuth_rate_deg_per_s, az[0], az[2], az[3]])?;
@@ -418,6 +570,8 @@ impl CoupledAntenna {
             trace.wind_torque_elevation_nm.push(torque_el);
             trace.current_azimuth_a.push([az[4], az[5]]);
             trace.current_elevation_a.push(el[3]);
+            trace.beam_offset_arcsec.push([beam[0], beam[1]]);
+            trace.beam_offset_static_arcsec.push([beam[2], beam[3]]);
         }
 
         self.azimuth_plant.do_step(t, h)?;
@@ -425,6 +579,9 @@ impl CoupledAntenna {
         self.azimuth_controller.do_step(t, h)?;
         self.elevation_controller.do_step(t, h)?;
         self.wind.do_step(t, h)?;
+        if let Some(structure) = &mut self.structure {
+            structure.do_step(t, h)?;
+        }
         self.steps_done += 1;
         Ok(())
     }

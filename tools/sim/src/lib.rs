@@ -4,6 +4,7 @@
 //! wind unit's spectra (`wind_spectra`).
 
 pub mod command;
+pub mod configuration;
 pub mod coupled;
 pub mod frequency_response;
 pub mod metrics;
@@ -12,4 +13,5 @@ pub mod scenario;
 pub mod wind_spectra;
 
 pub use command::{Command, CommandPoint, CommandTable};
+pub use configuration::{AntennaSetup, Configuration, ScenarioSettings};
 pub use coupled::{AntennaConfig, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace, WindCondition};

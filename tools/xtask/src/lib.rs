@@ -96,7 +96,7 @@ pub fn build_and_package() -> Result<Vec<PathBuf>, XtaskError> {
     package_all(&target, &fmu_directory())
 }
 
-/// Writes `modelDescription/<id>.xml` for every FMU, or with `check` only lists those whose
+/// Writes `modelDescription/<id>.xml` for every FMU and `docs/parameters.md`, or with `check` only lists those whose
 /// committed file differs from what the code generates now.
 pub fn codegen(check: bool) -> Result<Vec<String>, XtaskError> {
     let directory = model_description_directory();
@@ -116,6 +116,16 @@ pub fn codegen(check: bool) -> Result<Vec<String>, XtaskError> {
                     .map_err(|source| XtaskError::Write { path: directory.clone(), source })?;
                 std::fs::write(&path, generated).map_err(|source| XtaskError::Write { path: path.clone(), source })?;
             }
+        }
+    }
+    // The human table of the uncertain parameters is generated from their one CSV.
+    let table_path = antenna_fmus::workspace_root().join("docs").join("parameters.md");
+    let table = antenna_fmus::parameters::render_markdown(&antenna_fmus::parameters::parameters());
+    if std::fs::read_to_string(&table_path).unwrap_or_default() != table {
+        stale.push(table_path.display().to_string());
+        if !check {
+            std::fs::write(&table_path, table)
+                .map_err(|source| XtaskError::Write { path: table_path.clone(), source })?;
         }
     }
     // A file for an FMU that no longer exists is stale too.

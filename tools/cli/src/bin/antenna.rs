@@ -3,8 +3,11 @@
 //! and normal wind) and prints the requirement table; writes it as markdown and CSV with plots
 //! of the pointing error into `out/antenna/`.
 //!
-//! `--trace <dir>` also writes, per scenario, its command table, its configuration (wind and
-//! step, `name = value` lines) and its full trace as CSV, which the fmpy master
+//! `--config paper` runs the seed paper's drive-only model (no structure, ideal sensors, a
+//! coherent gust) instead of the realistic antenna of docs/parameters.csv.
+//!
+//! `--trace <dir>` also writes, per scenario, its command table, its configuration (wind, step
+//! and every parameter override, `name = value` lines) and its full trace as CSV, which the fmpy master
 //! (tests/python/coupled_master.py) reads to run the same scenario. `--commands <file.csv>`
 //! runs a pointing table of your own instead of the requirement scenarios, judged by the
 //! Req. 1 jitter. A failed requirement is a finding of the report, not an error: the exit code
@@ -20,12 +23,13 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use antenna_sim::command::CommandTable;
+use antenna_sim::coupled::ParameterValue;
 use antenna_sim::coupled::WindCondition;
 use antenna_sim::report::{csv, markdown, plot, run_scenario, Outcome};
 use antenna_sim::scenario::{
     normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
 };
-use antenna_sim::{AntennaConfig, FmuSet};
+use antenna_sim::{AntennaConfig, Configuration, FmuSet};
 
 /// Runs the coupled antenna FMUs through the requirement scenarios (Req. 1-5) and writes the
 /// requirement report.
@@ -56,6 +60,28 @@ struct Cli {
     /// The wind's seed for --commands.
     #[arg(long, default_value_t = 1, requires = "commands")]
     seed: i32,
+    /// Which antenna: the realistic one (docs/parameters.csv's defaults: structure between
+    /// encoders and beam, encoder errors, friction at sidereal rates) or the paper's model.
+    #[arg(long, value_enum, default_value_t = ConfigurationName::Realistic)]
+    config: ConfigurationName,
+}
+
+/// The antenna configurations of docs/parameters.csv.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ConfigurationName {
+    /// The realistic antenna (the default column).
+    Realistic,
+    /// The seed paper's drive-only model (the paper column): reproduces its report.
+    Paper,
+}
+
+impl ConfigurationName {
+    fn configuration(self) -> Configuration {
+        match self {
+            ConfigurationName::Realistic => Configuration::Realistic,
+            ConfigurationName::Paper => Configuration::Paper,
+        }
+    }
 }
 
 /// The wind conditions a pointing table of one's own can run in.
@@ -82,10 +108,15 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     let out_dir = cli.out.clone().unwrap_or_else(|| antenna_fmus::workspace_root().join("out").join("antenna"));
-    let scenarios = match &cli.commands {
+    let configuration = cli.config.configuration();
+    let settings = configuration.scenario_settings();
+    let scenarios: Vec<Scenario> = match &cli.commands {
         Some(path) => vec![user_scenario(path, cli.wind, cli.seed)?],
         None => selected_scenarios(cli.only.as_deref())?,
-    };
+    }
+    .iter()
+    .map(|s| settings.apply(s))
+    .collect();
     if !cli.no_build {
         eprintln!("building and packaging the FMUs ...");
         xtask::build_and_package().context("packaging failed")?;
@@ -93,7 +124,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
     let started = Instant::now();
-    let outcomes = run_all(&fmus, &scenarios, cli.trace.as_deref())?;
+    let outcomes = run_all(&fmus, &configuration.antenna_config(), &scenarios, cli.trace.as_deref())?;
     let total_sim: f64 = scenarios.iter().map(|s| s.end_s).sum();
     write_report(&outcomes, &out_dir, total_sim, started.elapsed().as_secs_f64())
 }
@@ -112,7 +143,12 @@ fn selected_scenarios(only: Option<&str>) -> anyhow::Result<Vec<Scenario>> {
 
 /// Runs the scenarios in parallel (each on its own FMU instances, so the results do not depend
 /// on the thread count), in input order, with one progress bar over the simulated time.
-fn run_all(fmus: &FmuSet, scenarios: &[Scenario], trace_dir: Option<&Path>) -> anyhow::Result<Vec<Outcome>> {
+fn run_all(
+    fmus: &FmuSet,
+    config: &AntennaConfig,
+    scenarios: &[Scenario],
+    trace_dir: Option<&Path>,
+) -> anyhow::Result<Vec<Outcome>> {
     let total_ms: u64 = scenarios.iter().map(|s| (s.end_s * 1e3).round() as u64).sum();
     let bar = ProgressBar::new(total_ms).with_style(
         ProgressStyle::with_template("[{bar:30}] {percent:>3} %  {elapsed} elapsed, {eta} left")
@@ -131,9 +167,10 @@ fn run_all(fmus: &FmuSet, scenarios: &[Scenario], trace_dir: Option<&Path>) -> a
                 bar.inc(done_ms.saturating_sub(reported_ms));
                 reported_ms = reported_ms.max(done_ms);
             };
-            let outcome = run_scenario(fmus, &AntennaConfig::default(), &scenario, &mut progress)?;
+            let outcome = run_scenario(fmus, config, &scenario, &mut progress)?;
             if let Some(dir) = trace_dir {
-                write_trace(dir, &outcome).with_context(|| format!("cannot write the trace into {}", dir.display()))?;
+                write_trace(dir, config, &outcome)
+                    .with_context(|| format!("cannot write the trace into {}", dir.display()))?;
             }
             Ok(outcome)
         })
@@ -201,17 +238,33 @@ fn user_scenario(path: &Path, wind: Wind, seed: i32) -> anyhow::Result<Scenario>
 }
 
 /// Writes what another master needs to rerun a scenario, and the trace to compare with.
-fn write_trace(dir: &Path, outcome: &Outcome) -> std::io::Result<()> {
+fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let s = &outcome.scenario;
-    let config = AntennaConfig::default();
     std::fs::write(dir.join(format!("{}.commands.csv", s.name)), s.table.to_csv())?;
-    std::fs::write(
-        dir.join(format!("{}.config", s.name)),
-        format!(
-            "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\n",
-            config.step_s, s.end_s, s.wind.mean_speed_m_s, s.wind.roughness_length_m, s.wind.direction_deg, s.wind.seed
-        ),
-    )?;
+    let mut text = format!(
+        "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\nwind_load_scale = {:e}\nstructure = {}\n",
+        config.step_s,
+        s.end_s,
+        s.wind.mean_speed_m_s,
+        s.wind.roughness_length_m,
+        s.wind.direction_deg,
+        s.wind.seed,
+        config.wind_load_scale,
+        config.structure.is_some(),
+    );
+    // Every parameter override as `<model identifier>.<variable> = value`.
+    for (unit, overrides) in config.all_overrides() {
+        for (name, value) in overrides {
+            let value = match value {
+                ParameterValue::Real(x) => format!("{x:e}"),
+                ParameterValue::Integer(i) => i.to_string(),
+                ParameterValue::Boolean(b) => b.to_string(),
+                ParameterValue::Text(t) => format!("\"{t}\""),
+            };
+            text.push_str(&format!("{unit}.{name} = {value}\n"));
+        }
+    }
+    std::fs::write(dir.join(format!("{}.config", s.name)), text)?;
     std::fs::write(dir.join(format!("{}.trace.csv", s.name)), outcome.trace.to_csv())
 }

@@ -1,0 +1,292 @@
+//! The antenna configurations the master runs, built from the one parameter table
+//! (`docs/parameters.csv`, read through `antenna_fmus::parameters`): the `paper` configuration
+//! (the seed paper's drive-only model: the FMUs' start values, a coherent gust, no structure),
+//! the `realistic` default (every parameter at its default: structure, sensors, friction at
+//! sidereal rates, aerodynamic admittance), and any point of a sweep.
+
+use std::path::Path;
+
+use antenna_fmus::parameters::{parameters, Scale, Target, UncertainParameter};
+use fmu_structure::modes::{parse_modes, write_modes, DEFAULT_MODES, DEFAULT_MODES_FILE};
+
+use super::coupled::{AntennaConfig, Overrides, ParameterValue};
+use super::scenario::{Scenario, WIND_YAW_DEG};
+
+/// A named configuration of the whole antenna.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Configuration {
+    /// The paper's model: reproduces the report of the drive-only model.
+    Paper,
+    /// The realistic antenna: the default.
+    Realistic,
+}
+
+impl Configuration {
+    /// Every parameter of the table with its value in this configuration (`None` where the
+    /// paper's model lacks the part).
+    pub fn values(self) -> Vec<(UncertainParameter, Option<f64>)> {
+        parameters()
+            .into_iter()
+            .map(|p| {
+                // Both configurations keep each scenario's own gust seed; a sweep draws one.
+                let keeps_scenario_seed =
+                    p.targets.iter().any(|t| matches!(t, Target::Scenario { name } if name == "wind.seed"));
+                let value = match self {
+                    _ if keeps_scenario_seed => None,
+                    Configuration::Paper => p.paper,
+                    Configuration::Realistic => Some(p.default),
+                };
+                (p, value)
+            })
+            .collect()
+    }
+
+    /// The coupled master's configuration (the wind condition is the scenario's).
+    pub fn antenna_config(self) -> AntennaConfig {
+        let point = self.values();
+        let setup = AntennaSetup::from_values(&point, None).expect("the committed table's values are consistent");
+        setup.config
+    }
+
+    /// The settings the master applies to a scenario's wind.
+    pub fn scenario_settings(self) -> ScenarioSettings {
+        let point = self.values();
+        AntennaSetup::from_values(&point, None).expect("the committed table's values are consistent").scenario
+    }
+}
+
+/// How a point of the table changes a requirement scenario's wind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScenarioSettings {
+    /// Multiplies the condition's mean wind speed.
+    pub mean_speed_factor: f64,
+    /// Where the wind comes from relative to the antenna's azimuth at the start, deg.
+    pub yaw_deg: f64,
+    /// Multiplies the condition's roughness length.
+    pub roughness_factor: f64,
+    /// Replaces the scenario's gust seed.
+    pub seed: Option<i32>,
+}
+
+impl Default for ScenarioSettings {
+    fn default() -> Self {
+        ScenarioSettings { mean_speed_factor: 1.0, yaw_deg: WIND_YAW_DEG, roughness_factor: 1.0, seed: None }
+    }
+}
+
+impl ScenarioSettings {
+    /// The scenario with these settings applied to its wind. The defaults leave it unchanged,
+    /// to the bit.
+    pub fn apply(&self, scenario: &Scenario) -> Scenario {
+        let mut scenario = scenario.clone();
+        let wind = &mut scenario.wind;
+        if wind.mean_speed_m_s > 0.0 {
+            let azimuth = wind.direction_deg - WIND_YAW_DEG;
+            wind.mean_speed_m_s *= self.mean_speed_factor;
+            wind.roughness_length_m *= self.roughness_factor;
+            if self.yaw_deg != WIND_YAW_DEG {
+                wind.direction_deg = azimuth + self.yaw_deg;
+            }
+            if let Some(seed) = self.seed {
+                wind.seed = seed;
+            }
+        }
+        scenario
+    }
+}
+
+/// A point of the table turned into what the master needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AntennaSetup {
+    pub config: AntennaConfig,
+    pub scenario: ScenarioSettings,
+}
+
+/// Why a point of the table cannot be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    #[error("{parameter}: target `{target}` is unknown to the master")]
+    UnknownTarget { parameter: String, target: String },
+    #[error("{parameter}: `{field}` is not a field of mode {mode} of the shipped modes")]
+    UnknownModeField { parameter: String, mode: String, field: String },
+    #[error("the structure's modes differ from the shipped ones, and no folder was given to write them to")]
+    NoFolderForModes,
+    #[error("cannot write the modes file {path}")]
+    WriteModes { path: String, source: std::io::Error },
+}
+
+impl AntennaSetup {
+    /// The configuration for `values` (a value for each parameter, `None` where the part is
+    /// absent, as the paper's structure). A structure whose modes differ from the shipped file
+    /// is written as `structure_modes.params` into `modes_folder`.
+    pub fn from_values(
+        values: &[(UncertainParameter, Option<f64>)],
+        modes_folder: Option<&Path>,
+    ) -> Result<AntennaSetup, SetupError> {
+        let mut config = AntennaConfig::bare();
+        let mut scenario = ScenarioSettings::default();
+        let shipped = parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).expect("the shipped modes file is valid");
+        let mut modes = shipped.clone();
+        let mut structure_present = false;
+        for (parameter, value) in values {
+            let Some(value) = *value else { continue };
+            for target in &parameter.targets {
+                match target {
+                    Target::Variable { model_identifier, name } => {
+                        let overrides =
+                            unit_overrides(&mut config, model_identifier).ok_or_else(|| SetupError::UnknownTarget {
+                                parameter: parameter.name.clone(),
+                                target: format!("{model_identifier}:{name}"),
+                            })?;
+                        let value = match parameter.scale {
+                            Scale::Integer => ParameterValue::Integer(value as i32),
+                            Scale::Linear | Scale::Log => ParameterValue::Real(value),
+                        };
+                        overrides.push((name.clone(), value));
+                    }
+                    Target::StructureMode { field } => {
+                        structure_present = true;
+                        set_mode_field(&mut modes, &parameter.name, field, value)?;
+                    }
+                    Target::Scenario { name } => {
+                        apply_scenario_setting(&mut config, &mut scenario, &parameter.name, name, value)?
+                    }
+                }
+            }
+        }
+        if structure_present {
+            config.structure = Some(structure_overrides(&modes, &shipped, modes_folder)?);
+        }
+        Ok(AntennaSetup { config, scenario })
+    }
+}
+
+fn unit_overrides<'a>(config: &'a mut AntennaConfig, model_identifier: &str) -> Option<&'a mut Overrides> {
+    Some(match model_identifier {
+        "AzimuthPlant" => &mut config.azimuth_plant,
+        "ElevationPlant" => &mut config.elevation_plant,
+        "AzimuthController" => &mut config.azimuth_controller,
+        "ElevationController" => &mut config.elevation_controller,
+        "Wind" => &mut config.wind_unit,
+        _ => return None,
+    })
+}
+
+fn set_mode_field(
+    modes: &mut [fmu_structure::modes::Mode],
+    parameter: &str,
+    field: &str,
+    value: f64,
+) -> Result<(), SetupError> {
+    let unknown = || SetupError::UnknownModeField {
+        parameter: parameter.to_string(),
+        mode: field.split('.').next().unwrap_or("").to_string(),
+        field: field.to_string(),
+    };
+    let (mode, name) = field.strip_prefix("mode").and_then(|f| f.split_once('.')).ok_or_else(unknown)?;
+    let index: usize = mode.parse().map_err(|_| unknown())?;
+    let mode = modes.get_mut(index.wrapping_sub(1)).ok_or_else(unknown)?;
+    if mode.set_field(name, value) {
+        Ok(())
+    } else {
+        Err(unknown())
+    }
+}
+
+fn apply_scenario_setting(
+    config: &mut AntennaConfig,
+    scenario: &mut ScenarioSettings,
+    parameter: &str,
+    name: &str,
+    value: f64,
+) -> Result<(), SetupError> {
+    match name {
+        "wind.mean_speed_factor" => scenario.mean_speed_factor = value,
+        "wind.yaw" => scenario.yaw_deg = value,
+        "wind.roughness_factor" => scenario.roughness_factor = value,
+        "wind.torque_coefficient_scale" => config.wind_load_scale = value,
+        "wind.seed" => scenario.seed = Some(value as i32),
+        _ => {
+            return Err(SetupError::UnknownTarget {
+                parameter: parameter.to_string(),
+                target: format!("scenario:{name}"),
+            })
+        }
+    }
+    Ok(())
+}
+
+/// The structure's overrides: none for the shipped modes, else a written modes file.
+fn structure_overrides(
+    modes: &[fmu_structure::modes::Mode],
+    shipped: &[fmu_structure::modes::Mode],
+    folder: Option<&Path>,
+) -> Result<Overrides, SetupError> {
+    if modes == shipped {
+        return Ok(Vec::new());
+    }
+    let folder = folder.ok_or(SetupError::NoFolderForModes)?;
+    let path = folder.join("structure_modes.params");
+    let text =
+        write_modes(modes, "Structure modes of one point of docs/parameters.csv, written by the coupled master.");
+    std::fs::write(&path, text)
+        .map_err(|source| SetupError::WriteModes { path: path.display().to_string(), source })?;
+    Ok(vec![("modes_file".to_string(), ParameterValue::Text(path.display().to_string()))])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::requirement_scenarios;
+
+    #[test]
+    fn the_paper_configuration_sets_nothing_but_the_papers_values_and_has_no_structure() {
+        let config = Configuration::Paper.antenna_config();
+        assert_eq!(config.structure, None);
+        assert_eq!(config.wind_load_scale, 1.0);
+        let settings = Configuration::Paper.scenario_settings();
+        for scenario in requirement_scenarios() {
+            let applied = settings.apply(&scenario);
+            assert_eq!(applied.wind, scenario.wind, "{}", scenario.name);
+        }
+    }
+
+    #[test]
+    fn the_realistic_configuration_couples_the_shipped_structure_and_keeps_the_scenario_winds() {
+        let config = Configuration::Realistic.antenna_config();
+        assert_eq!(config.structure, Some(Vec::new()), "the default modes are the shipped file's");
+        assert!(config.azimuth_plant.iter().any(|(name, _)| name == "encoder.eccentricity_error_amplitude"));
+        let settings = Configuration::Realistic.scenario_settings();
+        for scenario in requirement_scenarios() {
+            assert_eq!(settings.apply(&scenario).wind, scenario.wind, "{}", scenario.name);
+        }
+    }
+
+    #[test]
+    fn a_varied_structure_is_written_to_a_modes_file_that_reads_back() {
+        let mut values = Configuration::Realistic.values();
+        let frequency = values.iter_mut().find(|(p, _)| p.name == "structure.azimuth_mode_frequency").unwrap();
+        frequency.1 = Some(4.5);
+        assert!(matches!(AntennaSetup::from_values(&values, None), Err(SetupError::NoFolderForModes)));
+        let folder = std::env::temp_dir().join(format!("antenna-sim-modes-{}", std::process::id()));
+        std::fs::create_dir_all(&folder).unwrap();
+        let setup = AntennaSetup::from_values(&values, Some(&folder)).unwrap();
+        let Some(overrides) = setup.config.structure else { panic!("no structure") };
+        let ParameterValue::Text(path) = &overrides[0].1 else { panic!("{overrides:?}") };
+        let modes = fmu_structure::modes::read_modes(Path::new(path)).unwrap();
+        assert_eq!(modes[0].frequency_hz, 4.5);
+        assert_eq!(modes[1].frequency_hz, 6.0);
+        std::fs::remove_dir_all(&folder).unwrap();
+    }
+
+    #[test]
+    fn scenario_settings_move_the_wind_as_the_table_says() {
+        let scenario = requirement_scenarios().into_iter().find(|s| s.wind.mean_speed_m_s > 5.0).unwrap();
+        let settings = ScenarioSettings { mean_speed_factor: 0.5, yaw_deg: 10.0, roughness_factor: 2.0, seed: Some(9) };
+        let applied = settings.apply(&scenario);
+        assert_eq!(applied.wind.mean_speed_m_s, 0.5 * scenario.wind.mean_speed_m_s);
+        assert_eq!(applied.wind.roughness_length_m, 2.0 * scenario.wind.roughness_length_m);
+        assert!((applied.wind.direction_deg - (scenario.wind.direction_deg - WIND_YAW_DEG + 10.0)).abs() < 1e-12);
+        assert_eq!(applied.wind.seed, 9);
+    }
+}
