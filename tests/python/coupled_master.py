@@ -87,14 +87,30 @@ class CommandTable:
         return position, rate
 
 
+UNITS = ("AzimuthPlant", "ElevationPlant", "AzimuthController", "ElevationController", "Wind", "Structure")
+
+
 def read_config(path):
-    config = {}
+    """The scenario's settings (numbers), and its parameter overrides per FMU: lines
+    `<model identifier>.<variable> = value` (numbers, true/false, or "text")."""
+    config = {"overrides": {unit: [] for unit in UNITS}, "structure": False, "wind_load_scale": 1.0}
     with open(path) as f:
         for line in f:
-            line = line.split("#")[0].strip()
-            if line:
-                key, value = (x.strip() for x in line.split("=", 1))
-                config[key] = float(value)
+            line = line.strip()
+            if not line or line.startswith("#"):
+                continue
+            key, value = (x.strip() for x in line.split("=", 1))
+            if value.startswith('"') and value.endswith('"'):
+                value = value[1:-1]
+            elif value in ("true", "false"):
+                value = value == "true"
+            else:
+                value = float(value)
+            unit, _, name = key.partition(".")
+            if unit in UNITS:
+                config["overrides"][unit].append((name, value))
+            else:
+                config[key] = value
     return config
 
 
@@ -159,13 +175,17 @@ class CoupledAntenna:
         self.start_time = start_time
         self.steps_done = 0
         mean = config["wind.mean_speed"]
-        self.wind_scale = 1.0 if mean > 0.0 else 0.0
-        self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time, [("initial_position", az0), ("elevation", el0)])
-        self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time, [("initial_position", el0)])
+        self.wind_scale = config.get("wind_load_scale", 1.0) if mean > 0.0 else 0.0
+        extra = config.get("overrides", {})
+        more = lambda unit: list(extra.get(unit, []))
+        self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time,
+                             [("initial_position", az0), ("elevation", el0)] + more("AzimuthPlant"))
+        self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time,
+                             [("initial_position", el0)] + more("ElevationPlant"))
         self.az_ctrl = Unit("AzimuthController", "azimuth_controller", start_time,
-                            [("command.position", az0), ("measured.position", az0)])
+                            [("command.position", az0), ("measured.position", az0)] + more("AzimuthController"))
         self.el_ctrl = Unit("ElevationController", "elevation_controller", start_time,
-                            [("command.position", el0), ("measured.position", el0)])
+                            [("command.position", el0), ("measured.position", el0)] + more("ElevationController"))
         self.wind = Unit("Wind", "wind", start_time, [
             ("wind.mean_speed", max(mean, 0.5)),
             ("wind.roughness_length", config["wind.roughness_length"]),
@@ -174,7 +194,7 @@ class CoupledAntenna:
             ("spectrum", 1 if mean > 0.0 else 3),
             ("antenna.azimuth", az0),
             ("antenna.elevation", el0),
-        ])
+        ] + more("Wind"))
         self.az_plant_out = self.az_plant.port(["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current"])
         self.az_plant_in = self.az_plant.port(["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"])
         self.el_plant_out = self.el_plant.port(["axis.encoder_position", "axis.position", "motor.speed", "motor.current"])
@@ -185,7 +205,23 @@ class CoupledAntenna:
         self.el_ctrl_out = self.el_ctrl.port(["motor.current_command", "status.reference_position"])
         self.wind_in = self.wind.port(["antenna.azimuth", "antenna.elevation"])
         self.wind_out = self.wind.port(["torque.azimuth", "torque.elevation", "wind.speed"])
+        self.wind_drag = self.wind.port(["force.drag"]) if "force.drag" in self.wind.variables else None
         self.units = [self.az_plant, self.el_plant, self.az_ctrl, self.el_ctrl, self.wind]
+        self.structure = None
+        if config.get("structure", False):
+            # The structure starts at rest in its static deflection under the loads at the start.
+            loads = self.wind_loads()
+            self.structure = Unit("Structure", "structure", start_time, more("Structure") + list(
+                zip(("torque.azimuth", "torque.elevation", "force.dish"), loads)))
+            self.structure_in = self.structure.port(["torque.azimuth", "torque.elevation", "force.dish"])
+            self.structure_out = self.structure.port(["beam.azimuth_offset", "beam.elevation_offset",
+                                                      "beam.azimuth_offset_static", "beam.elevation_offset_static"])
+            self.units.append(self.structure)
+
+    def wind_loads(self):
+        wind = self.wind.get(self.wind_out)
+        drag = self.wind.get(self.wind_drag)[0] if self.wind_drag else 0.0
+        return [self.wind_scale * wind[0], self.wind_scale * wind[1], self.wind_scale * drag]
 
     def time(self):
         return self.start_time + self.steps_done * self.step_s
@@ -202,6 +238,13 @@ class CoupledAntenna:
         wind = self.wind.get(self.wind_out)
         torque_az = self.wind_scale * wind[0]
         torque_el = self.wind_scale * wind[1]
+        beam = (0.0, 0.0, 0.0, 0.0)
+        if self.structure is not None:
+            drag = self.wind.get(self.wind_drag)[0] if self.wind_drag else 0.0
+            s_in = self.structure_in[1]
+            s_in[0], s_in[1], s_in[2] = torque_az, torque_el, self.wind_scale * drag
+            self.structure.set(self.structure_in)
+            beam = tuple(self.structure.get(self.structure_out))
         a_in = self.az_ctrl_in[1]
         a_in[0], a_in[1], a_in[2], a_in[3], a_in[4] = caz, caz_rate, az[0], az[2], az[3]
         self.az_ctrl.set(self.az_ctrl_in)
@@ -218,7 +261,7 @@ class CoupledAntenna:
         self.el_plant.set(self.el_plant_in)
         if trace is not None:
             trace.append((t, caz, cel, az[1], el[1], az[0], el[0], az_ctrl[2], el_ctrl[1],
-                          wind[2] if self.wind_scale > 0.0 else 0.0, torque_az, torque_el, az[4], az[5], el[3]))
+                          wind[2] if self.wind_scale > 0.0 else 0.0, torque_az, torque_el, az[4], az[5], el[3]) + beam)
         for unit in self.units:
             unit.do_step_raw(unit.component, t, h, 1)
         self.steps_done += 1
@@ -230,7 +273,9 @@ class CoupledAntenna:
 
 COLUMNS = ("time_s,command_azimuth_deg,command_elevation_deg,azimuth_deg,elevation_deg,encoder_azimuth_deg,"
            "encoder_elevation_deg,reference_azimuth_deg,reference_elevation_deg,wind_speed_m_s,wind_torque_azimuth_nm,"
-           "wind_torque_elevation_nm,current_azimuth_1_a,current_azimuth_2_a,current_elevation_a")
+           "wind_torque_elevation_nm,current_azimuth_1_a,current_azimuth_2_a,current_elevation_a,"
+           "beam_azimuth_offset_arcsec,beam_elevation_offset_arcsec,beam_azimuth_offset_static_arcsec,"
+           "beam_elevation_offset_static_arcsec")
 
 
 def run(config, table, end_s):
