@@ -221,6 +221,14 @@ pub struct AntiLimitCycleParams {
     pub hold_entry_error_deg: f64,
     /// ... and run again once the error exceeds this, deg. Larger than the entry level.
     pub hold_release_error_deg: f64,
+    /// ... or once the measured position has moved by more than this since the hold began,
+    /// deg: a held axis that moves is not stuck but pushed (by wind), and needs its
+    /// integrators. Above the encoder's reading noise and count.
+    pub hold_motion_band_deg: f64,
+    /// The axis must have been at rest this long before the hold engages, s: friction sticks an
+    /// axis for good, while a wind-driven axis only passes through zero speed (and a noisy
+    /// speed signal only dips below the rest speed for a sample).
+    pub rest_time_s: f64,
     /// The axis counts as at rest below this measured axis speed, deg/s.
     pub rest_speed_deg_per_s: f64,
     /// The command counts as stationary while not profiling and while the reference
@@ -234,6 +242,8 @@ impl Default for AntiLimitCycleParams {
             enabled: true,
             hold_entry_error_deg: 2.0 * ARCSEC_DEG,
             hold_release_error_deg: 4.0 * ARCSEC_DEG,
+            hold_motion_band_deg: 0.5 * ARCSEC_DEG,
+            rest_time_s: 0.25,
             rest_speed_deg_per_s: 1.0e-5,
             stationary_velocity_deg_per_s: 5.0e-4,
         }
@@ -359,6 +369,8 @@ impl CascadeParams {
         let a = &self.anti_limit_cycle;
         positive("anti_limit_cycle.hold_entry_error_deg", a.hold_entry_error_deg, errors);
         positive("anti_limit_cycle.hold_release_error_deg", a.hold_release_error_deg, errors);
+        positive("anti_limit_cycle.hold_motion_band_deg", a.hold_motion_band_deg, errors);
+        non_negative("anti_limit_cycle.rest_time_s", a.rest_time_s, errors);
         if a.hold_release_error_deg <= a.hold_entry_error_deg {
             errors.push(format!(
                 "anti_limit_cycle.hold_release_error_deg ({}) must exceed hold_entry_error_deg ({}): \

@@ -11,6 +11,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::params::{AntiLimitCycleParams, PositionLoopParams};
 
+/// A change of the held reference larger than this ends the anti-limit-cycle hold, rad: 1e-3
+/// arcsec, a fortieth of a 25-bit encoder count, and 1e8 times the rounding noise of a constant
+/// command formed by interpolation.
+pub const REFERENCE_CHANGE_RAD: f64 = 1e-3 / 3600.0 * std::f64::consts::PI / 180.0;
+
 /// What the position loop hands to the velocity loop, axis units.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PositionLoopOutput {
@@ -33,6 +38,9 @@ struct Settings {
     anti_limit_cycle: bool,
     hold_entry: f64,
     hold_release: f64,
+    hold_motion_band: f64,
+    /// Samples at rest needed before the hold engages.
+    rest_samples: u64,
 }
 
 /// See the module documentation.
@@ -46,6 +54,10 @@ pub struct PositionLoop {
     holding: bool,
     /// The reference position when the hold began, rad.
     held_reference: f64,
+    /// The measured position when the hold began, rad.
+    held_measured: f64,
+    /// Consecutive samples the axis has been at rest.
+    samples_at_rest: u64,
 }
 
 impl PositionLoop {
@@ -62,8 +74,18 @@ impl PositionLoop {
             anti_limit_cycle: anti_limit_cycle.enabled,
             hold_entry: anti_limit_cycle.hold_entry_error_deg.to_radians(),
             hold_release: anti_limit_cycle.hold_release_error_deg.to_radians(),
+            hold_motion_band: anti_limit_cycle.hold_motion_band_deg.to_radians(),
+            rest_samples: (anti_limit_cycle.rest_time_s / sample_time_s).round().max(1.0) as u64,
         };
-        Self { settings, integral: 0.0, previous_velocity_reference: 0.0, holding: false, held_reference: 0.0 }
+        Self {
+            settings,
+            integral: 0.0,
+            previous_velocity_reference: 0.0,
+            holding: false,
+            held_reference: 0.0,
+            held_measured: 0.0,
+            samples_at_rest: 0,
+        }
     }
 
     /// Proportional gain, 1/s.
@@ -109,15 +131,23 @@ impl PositionLoop {
     ) -> PositionLoopOutput {
         let s = self.settings;
         let error = reference - measured;
+        self.samples_at_rest = if at_rest { self.samples_at_rest.saturating_add(1) } else { 0 };
         if s.anti_limit_cycle && stationary {
             if self.holding {
-                // A new command, however small, ends the hold: the operator wants to move.
-                self.holding = error.abs() <= s.hold_release && reference == self.held_reference;
-            } else if at_rest && error.abs() < s.hold_entry {
+                // A new command ends the hold: the operator wants to move. "New" means moved by
+                // more than REFERENCE_CHANGE_RAD, far below any encoder count, so that rounding
+                // in how a master forms a constant command cannot end (and re-arm) the hold.
+                // An axis that moves while held is pushed (by wind), not stuck: it needs its
+                // integrators back, before the error reaches the release level.
+                self.holding = error.abs() <= s.hold_release
+                    && (reference - self.held_reference).abs() <= REFERENCE_CHANGE_RAD
+                    && (measured - self.held_measured).abs() <= s.hold_motion_band;
+            } else if self.samples_at_rest >= s.rest_samples && error.abs() < s.hold_entry {
                 // Only an axis that has actually stuck near the target is held: while it still
                 // moves, the integrators help it converge.
                 self.holding = true;
                 self.held_reference = reference;
+                self.held_measured = measured;
             }
         } else {
             self.holding = false;
@@ -158,15 +188,26 @@ impl PositionLoop {
             previous_velocity_reference: self.previous_velocity_reference,
             holding: self.holding,
             held_reference: self.held_reference,
+            held_measured: self.held_measured,
+            samples_at_rest: self.samples_at_rest,
         }
     }
 
     pub(crate) fn restore(&mut self, state: PositionLoopState) {
-        let PositionLoopState { integral, previous_velocity_reference, holding, held_reference } = state;
+        let PositionLoopState {
+            integral,
+            previous_velocity_reference,
+            holding,
+            held_reference,
+            held_measured,
+            samples_at_rest,
+        } = state;
         self.integral = integral;
         self.previous_velocity_reference = previous_velocity_reference;
         self.holding = holding;
         self.held_reference = held_reference;
+        self.held_measured = held_measured;
+        self.samples_at_rest = samples_at_rest;
     }
 }
 
@@ -177,6 +218,8 @@ pub struct PositionLoopState {
     pub previous_velocity_reference: f64,
     pub holding: bool,
     pub held_reference: f64,
+    pub held_measured: f64,
+    pub samples_at_rest: u64,
 }
 
 #[cfg(test)]
@@ -189,7 +232,8 @@ mod tests {
     fn loop_with(integrator: bool, alc: bool) -> PositionLoop {
         let p = AzimuthControllerParams::default().cascade;
         let pl = PositionLoopParams { integrator_enabled: integrator, ..p.position_loop };
-        let a = AntiLimitCycleParams { enabled: alc, ..p.anti_limit_cycle };
+        // One sample at rest is enough here; the rest time has its own test.
+        let a = AntiLimitCycleParams { enabled: alc, rest_time_s: 0.0, ..p.anti_limit_cycle };
         PositionLoop::new(&pl, &a, TS)
     }
 
@@ -236,8 +280,28 @@ mod tests {
     }
 
     #[test]
+    fn hold_waits_until_the_axis_has_been_at_rest_for_the_rest_time() {
+        let p = AzimuthControllerParams::default().cascade;
+        let mut l = PositionLoop::new(&p.position_loop, &p.anti_limit_cycle, TS);
+        let samples = (p.anti_limit_cycle.rest_time_s / TS).round() as usize;
+        // A speed signal that dips below the rest speed now and then (noise, or an axis the
+        // wind swings through zero speed) never engages the hold.
+        for k in 0..10 * samples {
+            assert!(!l.update(0.0, 0.0, 0.0, true, k % 50 != 0, true).holding, "sample {k}");
+        }
+        assert!(!l.update(0.0, 0.0, 0.0, true, false, true).holding);
+        for _ in 1..samples {
+            assert!(!l.update(0.0, 0.0, 0.0, true, true, true).holding);
+        }
+        assert!(l.update(0.0, 0.0, 0.0, true, true, true).holding, "stuck for the rest time: held");
+    }
+
+    #[test]
     fn hold_needs_a_stuck_axis_has_hysteresis_and_only_acts_on_a_stationary_command() {
-        let mut l = loop_with(false, true);
+        // The hysteresis alone: a motion band wider than the release level.
+        let p = AzimuthControllerParams::default().cascade;
+        let wide = AntiLimitCycleParams { hold_motion_band_deg: 1.0, rest_time_s: 0.0, ..p.anti_limit_cycle };
+        let mut l = PositionLoop::new(&p.position_loop, &wide, TS);
         let entry = (2.0 * ARCSEC_DEG).to_radians();
         let release = (4.0 * ARCSEC_DEG).to_radians();
         assert!(!l.update(0.0, -(0.9 * entry), 0.0, false, true, true).holding, "moving command: no hold");
@@ -252,7 +316,16 @@ mod tests {
         assert!(!l.update(0.0, -(1.01 * entry), 0.0, true, true, true).holding, "must come back below entry first");
         assert!(!l.update(0.0, 0.0, 0.0, false, true, true).holding, "a moving command ends the hold");
         assert!(l.update(0.0, 0.0, 0.0, true, true, true).holding);
-        assert!(!l.update(1e-9, 0.0, 0.0, true, true, true).holding, "a new command ends the hold");
+        assert!(l.update(1e-15, 0.0, 0.0, true, true, true).holding, "rounding noise is not a new command");
+        // The motion band: a held axis that is pushed away is released before the error
+        // reaches the release level.
+        let mut l = loop_with(false, true);
+        assert!(l.update(0.0, 0.0, 0.0, true, true, true).holding);
+        let band = AzimuthControllerParams::default().cascade.anti_limit_cycle.hold_motion_band_deg.to_radians();
+        assert!(l.update(1e-15, -(0.9 * band), 0.0, true, false, true).holding, "moved within the band: still held");
+        assert!(!l.update(1e-15, -(1.1 * band), 0.0, true, false, true).holding, "pushed beyond the band: released");
+        assert!(l.update(1e-15, -(1.1 * band), 0.0, true, true, true).holding, "stuck again: held again");
+        assert!(!l.update(1e-8, 0.0, 0.0, true, true, true).holding, "a new command ends the hold");
         let mut off = loop_with(false, false);
         assert!(!off.update(0.0, 0.0, 0.0, true, true, true).holding, "switched off: never holds");
     }

@@ -82,8 +82,10 @@ class CommandTable:
         m0, m1 = slope(i) * h, slope(i + 1) * h
         s2 = s * s
         s3 = s2 * s
-        position = (2.0 * s3 - 3.0 * s2 + 1.0) * y0 + (s3 - 2.0 * s2 + s) * m0 + (-2.0 * s3 + 3.0 * s2) * y1 + (s3 - s2) * m1
-        rate = ((6.0 * s2 - 6.0 * s) * y0 + (3.0 * s2 - 4.0 * s + 1.0) * m0 + (-6.0 * s2 + 6.0 * s) * y1 + (3.0 * s2 - 2.0 * s) * m1) / h
+        # y0 plus the change, as the Rust master: exactly constant on a constant stretch.
+        change = y1 - y0
+        position = y0 + (-2.0 * s3 + 3.0 * s2) * change + (s3 - 2.0 * s2 + s) * m0 + (s3 - s2) * m1
+        rate = ((-6.0 * s2 + 6.0 * s) * change + (3.0 * s2 - 4.0 * s + 1.0) * m0 + (3.0 * s2 - 2.0 * s) * m1) / h
         return position, rate
 
 

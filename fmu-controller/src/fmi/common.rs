@@ -55,6 +55,8 @@ pub struct CascadeVars<V> {
     pub anti_limit_cycle: V,
     pub hold_entry: V,
     pub hold_release: V,
+    pub hold_motion_band: V,
+    pub rest_time: V,
 }
 
 impl<V: VariableSet> CascadeVars<V> {
@@ -90,6 +92,8 @@ impl<V: VariableSet> CascadeVars<V> {
         c.anti_limit_cycle.enabled = v.boolean(self.anti_limit_cycle);
         c.anti_limit_cycle.hold_entry_error_deg = v.real(self.hold_entry) * ARCSEC_DEG;
         c.anti_limit_cycle.hold_release_error_deg = v.real(self.hold_release) * ARCSEC_DEG;
+        c.anti_limit_cycle.hold_motion_band_deg = v.real(self.hold_motion_band) * ARCSEC_DEG;
+        c.anti_limit_cycle.rest_time_s = v.real(self.rest_time);
         c
     }
 }

@@ -97,6 +97,10 @@ macro_rules! controller_variables {
                     .description("The hold engages at rest within this position error."),
                 HoldRelease = Var::real("anti_limit_cycle.hold_release_error", "arcsec").parameter().start(4.0).min(0.0)
                     .description("The hold releases beyond this position error (hysteresis)."),
+                HoldMotionBand = Var::real("anti_limit_cycle.hold_motion_band", "arcsec").parameter().start(0.5).min(0.0)
+                    .description("The hold also releases once the measured position has moved by more than this since the hold began: a held axis that moves is pushed (by wind), not stuck, and needs its integrators. Estimate: 25 times a realistic encoder's reading noise (0.02 arcsec), 13 counts of a 25-bit encoder."),
+                RestTime = Var::real("anti_limit_cycle.rest_time", "s").parameter().start(0.25).min(0.0).max(60.0)
+                    .description("The axis must have been at rest this long before the hold engages: friction sticks an axis for good, while a wind-driven axis only passes through zero speed and a noisy speed signal dips below the rest speed for single samples. Estimate, range 0.05-1 s."),
                 $($own)*
             }
         }
@@ -131,6 +135,8 @@ macro_rules! controller_variables {
                 anti_limit_cycle: $name::AntiLimitCycle,
                 hold_entry: $name::HoldEntry,
                 hold_release: $name::HoldRelease,
+                hold_motion_band: $name::HoldMotionBand,
+                rest_time: $name::RestTime,
             };
 
             pub const STATUS: $crate::fmi::common::StatusVars<$name> = $crate::fmi::common::StatusVars {

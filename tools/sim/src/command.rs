@@ -275,24 +275,36 @@ fn hermite_knots(points: &[CommandPoint], i: usize, value: impl Fn(&CommandPoint
 
 /// The cubic Hermite curve with knots `[y0, y1, m0, m1]` on `[t0, t1]` at `t`: (value,
 /// derivative).
+///
+/// Written as `y0` plus the change, so that a constant stretch of the table (`y0 == y1`, zero
+/// slopes) gives exactly `y0` and a rate of exactly zero: the textbook form
+/// `h00 y0 + h01 y1 + ...` leaves rounding noise of about 1e-15 deg there, and a controller that
+/// asks whether the command has changed (the anti-limit-cycle hold) would see a moving command.
 fn hermite(&[y0, y1, m0, m1]: &[f64; 4], t0: f64, t1: f64, t: f64) -> (f64, f64) {
     let h = t1 - t0;
     let s = (t - t0) / h;
     let s2 = s * s;
     let s3 = s2 * s;
-    let position =
-        (2.0 * s3 - 3.0 * s2 + 1.0) * y0 + (s3 - 2.0 * s2 + s) * m0 + (-2.0 * s3 + 3.0 * s2) * y1 + (s3 - s2) * m1;
-    let rate = ((6.0 * s2 - 6.0 * s) * y0
-        + (3.0 * s2 - 4.0 * s + 1.0) * m0
-        + (-6.0 * s2 + 6.0 * s) * y1
-        + (3.0 * s2 - 2.0 * s) * m1)
-        / h;
+    let change = y1 - y0;
+    let position = y0 + (-2.0 * s3 + 3.0 * s2) * change + (s3 - 2.0 * s2 + s) * m0 + (s3 - s2) * m1;
+    let rate = ((-6.0 * s2 + 6.0 * s) * change + (3.0 * s2 - 4.0 * s + 1.0) * m0 + (3.0 * s2 - 2.0 * s) * m1) / h;
     (position, rate)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_constant_stretch_of_the_table_is_exactly_constant() {
+        let p = |t: f64, az: f64| CommandPoint { time_s: t, azimuth_deg: az, elevation_deg: 45.123456789 };
+        let table = CommandTable::new((0..50).map(|k| p(0.1 * k as f64, 30.0 + 1e-7 / 3.0)).collect()).unwrap();
+        for k in 0..4900 {
+            let c = table.at(1e-3 * k as f64 + 1e-4 / 3.0);
+            assert_eq!((c.azimuth_deg, c.elevation_deg), (30.0 + 1e-7 / 3.0, 45.123456789), "at sample {k}");
+            assert_eq!((c.azimuth_rate_deg_per_s, c.elevation_rate_deg_per_s), (0.0, 0.0), "at sample {k}");
+        }
+    }
 
     fn point(t: f64, az: f64, el: f64) -> CommandPoint {
         CommandPoint { time_s: t, azimuth_deg: az, elevation_deg: el }
