@@ -133,7 +133,7 @@ fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, String> {
         "integer" => Scale::Integer,
         other => return Err(format!("{name}: scale `{other}` is not linear, log or integer")),
     };
-    if !(low < high) {
+    if low >= high {
         return Err(format!("{name}: the range [{low}, {high}] is empty"));
     }
     if !(low..=high).contains(&default) {
