@@ -3,6 +3,7 @@
 //! identified on the FMUs as in the seed paper's Figs. 6-9 (`frequency_response`); and the
 //! wind unit's spectra (`wind_spectra`).
 
+pub mod budget;
 pub mod command;
 pub mod configuration;
 pub mod coupled;
@@ -14,4 +15,4 @@ pub mod wind_spectra;
 
 pub use command::{Command, CommandPoint, CommandTable};
 pub use configuration::{AntennaSetup, Configuration, ScenarioSettings};
-pub use coupled::{AntennaConfig, CoupledAntenna, FmuSet, Overrides, ParameterValue, Trace, WindCondition};
+pub use coupled::{AntennaConfig, CoupledAntenna, ErrorParts, FmuSet, Overrides, ParameterValue, Trace, WindCondition};

@@ -5,7 +5,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use super::coupled::{AntennaConfig, CoupledAntenna, FmuSet, Trace};
+use super::budget::{beam_error_spectra, budget, peak_frequency_hz, plot_beam_spectrum, Budget};
+use super::coupled::{AntennaConfig, CoupledAntenna, FmuSet, ParameterValue, Trace, WindCondition};
 use super::metrics::{settling, worst_window_jitter_arcsec, Settling};
 use super::scenario::{Analysis, Requirement, Scenario, JITTER_LIMIT_ARCSEC, JITTER_WINDOW_S};
 use antenna_plot::{Colour, Figure, Panel, PlotError, Series, PALETTE};
@@ -13,9 +14,9 @@ use fmu_import::ImportError;
 
 /// How the figures are defined and what the model leaves out, printed under the table and
 /// written into the report (one paragraph a line).
-pub const DEFINITIONS: &str = "Jitter = worst RMS of the on-sky pointing error sqrt((d_az cos el)^2 + d_el^2) (command minus true axis position) over sliding 10 s windows.
+pub const DEFINITIONS: &str = "Jitter = worst RMS of the beam's on-sky pointing error sqrt(cross^2 + d_el^2) over sliding 10 s windows, where cross = (command - axis azimuth) cos el - beam azimuth offset and d_el = command - axis elevation - beam elevation offset: the axes' true (load-side) positions plus the structure's deflection between the encoders and the RF beam (none in the paper configuration).
 Settling = until the pointing error stays within 15 arcsec for the next 10 s. Judged from the command for Req. 3 and 4 (the step must return and settle within the limit) and from the end of the slew at maximum speed (the last instant the profiled reference moves at 99 % of its top speed) for Req. 2. The issue's own figure, from the moment the profiled command reaches the target, is the column 'after profile arrival': it is near zero whenever the loops follow the profile within the band, which the peak following error shows.
-What the figures leave out: the model is rigid beyond the drive's two-mass compliance (no dish or yoke modes), has no encoder errors besides quantisation and no structural deformation under wind, so the jitter margins are those of the servo, not of the beam.";
+What the figures leave out: the structure takes the wind's moments (not the reaction to the axes' accelerations, a transient of slews and steps); the wind is one gust record over the dish with an aerodynamic admittance where the wind unit applies one; the azimuth drive stiffness does not vary over travel; thermal and gravity deformation, the pointing model and atmospheric refraction are outside the servo model.";
 
 /// The judged figure of one scenario.
 #[derive(Debug, Clone)]
@@ -30,6 +31,9 @@ pub struct Outcome {
     pub trace: Trace,
     /// Wall-clock time of the run, s.
     pub wall_s: f64,
+    /// The pointing error budget over the judged window (jitter scenarios run through
+    /// [`run_with_budget`]).
+    pub budget: Option<Budget>,
 }
 
 /// Why a scenario could not be run or its report not written.
@@ -78,7 +82,157 @@ pub fn run_scenario(
         worst_window_start_s: window,
         trace,
         wall_s,
+        budget: None,
     })
+}
+
+/// Runs one scenario and, for a jitter scenario, its pointing error budget over the judged
+/// window, with the same scenario in calm air for the wind's share of the servo error.
+pub fn run_with_budget(
+    fmus: &FmuSet,
+    config: &AntennaConfig,
+    scenario: &Scenario,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Outcome, ReportError> {
+    let mut outcome = run_scenario(fmus, config, scenario, progress)?;
+    if let Some(start) = outcome.worst_window_start_s {
+        let calm = if scenario.wind.mean_speed_m_s > 0.0 {
+            let calm_scenario = Scenario { wind: WindCondition::CALM, ..scenario.clone() };
+            Some(run_scenario(fmus, config, &calm_scenario, &mut |_| {})?.trace)
+        } else {
+            None
+        };
+        outcome.budget = Some(budget(&outcome.trace, start, calm.as_ref()));
+    }
+    Ok(outcome)
+}
+
+/// The judged figure of a jitter scenario over several gust records.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeedSpread {
+    pub scenario: String,
+    pub requirement: Requirement,
+    pub seeds: Vec<i32>,
+    pub figures: Vec<f64>,
+}
+
+impl SeedSpread {
+    pub fn median(&self) -> f64 {
+        let mut sorted = self.figures.clone();
+        sorted.sort_by(f64::total_cmp);
+        let n = sorted.len();
+        if n % 2 == 1 {
+            sorted[n / 2]
+        } else {
+            0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+        }
+    }
+
+    pub fn worst(&self) -> f64 {
+        self.figures.iter().copied().fold(f64::NAN, f64::max)
+    }
+}
+
+/// The seeds a jitter scenario is repeated with: its own and `count - 1` more.
+pub fn spread_seeds(scenario: &Scenario, count: usize) -> Vec<i32> {
+    (0..count as i32).map(|k| scenario.wind.seed + 1000 * k).collect()
+}
+
+/// The seed-spread table as markdown.
+pub fn seed_spread_markdown(spreads: &[SeedSpread]) -> String {
+    let mut out = String::from("| Req. | scenario | seeds | median (arcsec RMS) | worst (arcsec RMS) | limit | all pass |\n|---|---|---|---|---|---|---|\n");
+    for s in spreads {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {:.3} | {:.3} | < {} | {} |",
+            s.requirement.label(),
+            s.scenario,
+            s.seeds.len(),
+            s.median(),
+            s.worst(),
+            s.requirement.limit(),
+            if s.figures.iter().all(|&f| f < s.requirement.limit()) { "yes" } else { "NO" }
+        );
+    }
+    out
+}
+
+/// The pointing error budget table as markdown, one row per jitter scenario.
+pub fn budget_markdown(outcomes: &[Outcome]) -> String {
+    let mut out = String::from(
+        "| Req. | scenario | servo (arcsec) | of which wind | encoder | structure static | structure dynamic | RSS of the parts | budget total | simulated total | budget / simulated |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for o in outcomes {
+        let Some(b) = &o.budget else { continue };
+        let wind = b.servo_wind_arcsec().map_or("-".to_string(), |w| format!("{w:.3}"));
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.3} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} |",
+            o.scenario.requirement.label(),
+            o.scenario.name,
+            b.servo_arcsec,
+            wind,
+            b.encoder_arcsec,
+            b.structure_static_arcsec,
+            b.structure_dynamic_arcsec,
+            b.rss_arcsec,
+            b.combined_arcsec,
+            b.total_arcsec,
+            b.combined_arcsec / b.total_arcsec,
+        );
+    }
+    out
+}
+
+/// The structural modes of a configuration, named for a figure: (label, frequency Hz, which
+/// on-sky axis the mode moves most: 0 cross-elevation, 1 elevation).
+pub fn structural_modes(config: &AntennaConfig) -> Vec<(String, f64, usize)> {
+    use fmu_structure::modes::{parse_modes, read_modes, DEFAULT_MODES, DEFAULT_MODES_FILE};
+    let Some(overrides) = &config.structure else { return Vec::new() };
+    let file = overrides.iter().find_map(|(name, value)| match value {
+        ParameterValue::Text(path) if name == "modes_file" => Some(path.clone()),
+        _ => None,
+    });
+    let modes = match file {
+        Some(path) => read_modes(Path::new(&path)).unwrap_or_default(),
+        None => parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).unwrap_or_default(),
+    };
+    modes
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let axis = usize::from(m.beam[1].abs() > m.beam[0].abs());
+            let name = format!("mode {} ({}), {} Hz", k + 1, ["cross-el", "el"][axis], m.frequency_hz);
+            (name, m.frequency_hz, axis)
+        })
+        .collect()
+}
+
+/// Writes the beam error spectrum of `outcome` with the structural modes marked, and returns
+/// each mode's measured spectral peak (label, documented Hz, peak Hz).
+pub fn beam_spectrum_figure(
+    outcome: &Outcome,
+    config: &AntennaConfig,
+    path: &Path,
+) -> Result<Vec<(String, f64, f64)>, ReportError> {
+    let modes = structural_modes(config);
+    let from = match outcome.scenario.analysis {
+        Analysis::Jitter { from_s } => from_s,
+        Analysis::Settling { jump_s, .. } => jump_s,
+    };
+    let Some(spectra) = beam_error_spectra(&outcome.trace, from) else { return Ok(Vec::new()) };
+    let marks: Vec<(String, f64)> = modes.iter().map(|(name, f, _)| (name.clone(), *f)).collect();
+    let title = format!("Beam pointing error spectrum, {} (structural modes marked)", outcome.scenario.name);
+    plot_beam_spectrum(&title, &spectra, &marks, path)?;
+    let (f, cross, elevation) = &spectra;
+    Ok(modes
+        .into_iter()
+        .filter_map(|(name, frequency, axis)| {
+            let psd = if axis == 0 { cross } else { elevation };
+            let peak = peak_frequency_hz(f, psd, 0.8 * frequency, 1.2 * frequency)?;
+            Some((name, frequency, peak))
+        })
+        .collect())
 }
 
 fn figure_text(o: &Outcome) -> String {
