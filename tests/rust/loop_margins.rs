@@ -1,0 +1,126 @@
+//! The velocity and position loops' stability margins over the plants the antenna may be: the
+//! default controller gains against the drive stiffness and load inertia at the ends of their
+//! ranges in docs/parameters.csv (the paper's 30 % azimuth and 20 % elevation stiffness spread
+//! included), at 15, 45 and 88 deg. The controller is designed on the nominal plant and does
+//! not know which one it drives, as on the real antenna.
+//!
+//! `cargo test --release -p antenna-tests --test loop_margins -- --nocapture` prints the table
+//! docs/controller.md section 7 shows.
+
+use antenna_fmus::parameters::{parameters, UncertainParameter};
+use fmu_controller::linear::{bandwidth_hz, margins, AxisPlantResponse, Margins, C64};
+use fmu_controller::{AzimuthController, AzimuthControllerParams, ElevationController, ElevationControllerParams};
+use fmu_plant::analytic::current_loop_response;
+use fmu_plant::{AzimuthParams, ElevationParams};
+
+const ELEVATIONS: [f64; 3] = [15.0, 45.0, 88.0];
+
+fn row(name: &str) -> UncertainParameter {
+    parameters().into_iter().find(|p| p.name == name).unwrap_or_else(|| panic!("{name} is not in docs/parameters.csv"))
+}
+
+/// The ends of a parameter's range as factors of its default.
+fn spread(names: &[&str]) -> [f64; 2] {
+    let rows: Vec<UncertainParameter> = names.iter().map(|n| row(n)).collect();
+    let default: f64 = rows.iter().map(|r| r.default).sum();
+    [rows.iter().map(|r| r.low).sum::<f64>() / default, rows.iter().map(|r| r.high).sum::<f64>() / default]
+}
+
+/// The plant's two-mass model at `el` with its stiffness and load inertia scaled.
+fn response(axis: &str, el: f64, stiffness: f64, inertia: f64, omega: f64) -> AxisPlantResponse {
+    let s = C64::new(0.0, omega);
+    let (mut model, current, ratio) = if axis == "azimuth" {
+        let p = AzimuthParams::default();
+        (p.two_mass_at(el), current_loop_response(s, p.motors[0].current_loop_bandwidth_hz), p.gear_ratio)
+    } else {
+        let p = ElevationParams::default();
+        (p.two_mass_at(el), current_loop_response(s, p.motor.current_loop_bandwidth_hz), p.ratio_at(el))
+    };
+    model.shaft_stiffness *= stiffness;
+    model.load_inertia *= inertia;
+    AxisPlantResponse {
+        motor_speed_per_torque: current * model.motor_speed_per_torque(s),
+        axis_angle_per_torque: current * model.load_position_per_torque(s) / ratio,
+    }
+}
+
+struct LoopFigures {
+    velocity: Margins,
+    velocity_bandwidth_hz: f64,
+    position: Margins,
+}
+
+fn figures(axis: &str, el: f64, stiffness: f64, inertia: f64) -> LoopFigures {
+    let az = AzimuthController::new(AzimuthControllerParams::default()).unwrap();
+    let elc = ElevationController::new(ElevationControllerParams::default()).unwrap();
+    let (velocity, position) = if axis == "azimuth" {
+        (az.velocity_loop_model(), az.position_loop_model())
+    } else {
+        (elc.velocity_loop_model_at(el), elc.position_loop_model_at(el))
+    };
+    let p = |w: f64| response(axis, el, stiffness, inertia, w);
+    LoopFigures {
+        velocity: margins(|w| velocity.open_loop(w, p(w).motor_speed_per_torque), 0.05, 499.0, 20_000),
+        velocity_bandwidth_hz: bandwidth_hz(
+            |w| velocity.closed_loop(w, p(w).motor_speed_per_torque),
+            0.05,
+            499.0,
+            20_000,
+        )
+        .unwrap_or(f64::NAN),
+        position: margins(|w| position.open_loop(w, &p(w)), 0.005, 100.0, 20_000),
+    }
+}
+
+#[test]
+fn the_default_gains_keep_their_margins_over_the_documented_stiffness_and_inertia_ranges() {
+    let cases = [
+        ("azimuth", spread(&["azimuth.pinion_stiffness"]), {
+            spread(&[
+                "azimuth.turning_head_inertia",
+                "azimuth.elevation_structure_cross_inertia",
+                "azimuth.elevation_structure_boresight_inertia",
+            ])
+        }),
+        ("elevation", spread(&["elevation.jackscrew_axial_rigidity"]), spread(&["elevation.load_inertia"])),
+    ];
+    println!("| axis | elevation (deg) | stiffness x | load inertia x | velocity loop bandwidth (Hz) | velocity PM (deg) | velocity GM (dB) | modulus margin | position PM (deg) | position GM (dB) |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut worst: Option<(f64, String)> = None;
+    for (axis, stiffness_range, inertia_range) in cases {
+        for el in ELEVATIONS {
+            for stiffness in [stiffness_range[0], 1.0, stiffness_range[1]] {
+                for inertia in [inertia_range[0], 1.0, inertia_range[1]] {
+                    let f = figures(axis, el, stiffness, inertia);
+                    println!(
+                        "| {axis} | {el:.0} | {stiffness:.2} | {inertia:.2} | {:.2} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} |",
+                        f.velocity_bandwidth_hz,
+                        f.velocity.phase_margin_deg,
+                        f.velocity.gain_margin_db,
+                        f.velocity.modulus_margin,
+                        f.position.phase_margin_deg,
+                        f.position.gain_margin_db,
+                    );
+                    let case = format!("{axis} at {el} deg, stiffness x{stiffness:.2}, inertia x{inertia:.2}");
+                    // A servo engineer's floor for a plant that is known only within a range:
+                    // 35 deg and 6 dB on each loop, a sensitivity peak below 2 (6 dB).
+                    assert!(f.velocity.phase_margin_deg >= 35.0, "{case}: {:?}", f.velocity);
+                    assert!(f.velocity.gain_margin_db >= 6.0, "{case}: {:?}", f.velocity);
+                    assert!(f.velocity.modulus_margin >= 0.5, "{case}: {:?}", f.velocity);
+                    assert!(f.position.phase_margin_deg >= 35.0, "{case}: {:?}", f.position);
+                    assert!(f.position.gain_margin_db >= 6.0, "{case}: {:?}", f.position);
+                    if worst.as_ref().is_none_or(|(m, _)| f.velocity.modulus_margin < *m) {
+                        worst = Some((f.velocity.modulus_margin, case));
+                    }
+                }
+            }
+        }
+    }
+    let (modulus, case) = worst.expect("cases ran");
+    println!("smallest velocity-loop modulus margin: {modulus:.2} ({case})");
+    // The spread is real: the ends of the ranges move the margins (the test would pass
+    // vacuously if the scaled plant were the nominal one).
+    let nominal = figures("azimuth", 45.0, 1.0, 1.0).velocity.modulus_margin;
+    let soft = figures("azimuth", 45.0, 0.7, 1.0).velocity.modulus_margin;
+    assert!((nominal - soft).abs() > 1e-3, "stiffness x0.7 changed nothing: {nominal} vs {soft}");
+}
