@@ -71,6 +71,12 @@ pub struct AzimuthParams {
     pub sensors: SensorParams<2>,
     /// Numerical scheme settings.
     pub numerics: NumericsParams,
+    /// Relative change of both paths' stiffness over the elevation travel, linear in elevation:
+    /// the stiffness at `el` is the path stiffness times
+    /// `1 + v (el - 51.5 deg) / 73 deg`, so it spans `1 - v/2` at 15 deg to `1 + v/2` at 88 deg.
+    /// The paper measured anti-resonance mismatches that imply up to 30 % over the travel, with
+    /// sign and shape unknown; 0 (the paper's single K_s) by default.
+    pub stiffness_variation_over_elevation: f64,
 }
 
 impl Default for AzimuthParams {
@@ -105,6 +111,7 @@ impl Default for AzimuthParams {
             encoder_bits: 25,
             sensors: SensorParams::default(),
             numerics: NumericsParams::default(),
+            stiffness_variation_over_elevation: 0.0,
         }
     }
 }
@@ -134,6 +141,14 @@ impl AzimuthParams {
         for k in 0..PATHS {
             self.motors[k].validate(&format!("motors[{k}]"), &mut errors);
             finite_positive(&format!("path_stiffness_nm_per_rad[{k}]"), self.path_stiffness_nm_per_rad[k], &mut errors);
+            // The stiffness must stay positive over the whole travel, 0 to 92 deg and beyond.
+            let variation = self.stiffness_variation_over_elevation;
+            if k == 0 && (variation.is_nan() || variation.abs() > 0.9) {
+                errors.push(format!(
+                    "stiffness_variation_over_elevation = {}: must lie within -0.9 and 0.9",
+                    self.stiffness_variation_over_elevation
+                ));
+            }
             finite_non_negative(
                 &format!("path_damping_nm_s_per_rad[{k}]"),
                 self.path_damping_nm_s_per_rad[k],
@@ -194,13 +209,28 @@ impl AzimuthParams {
     pub fn two_mass_at(&self, elevation_deg: f64) -> TwoMassParameters {
         let n2 = self.gear_ratio * self.gear_ratio;
         let m = &self.motors[0];
+        let stiffness = self.path_stiffness_at(elevation_deg);
         TwoMassParameters {
             motor_inertia: 2.0 * m.inertia_kg_m2,
             motor_friction: 2.0 * m.viscous_friction_nm_s_per_rad,
-            shaft_stiffness: (self.path_stiffness_nm_per_rad[0] + self.path_stiffness_nm_per_rad[1]) / n2,
+            shaft_stiffness: (stiffness[0] + stiffness[1]) / n2,
             cross_coupled_damping: (self.path_damping_nm_s_per_rad[0] + self.path_damping_nm_s_per_rad[1]) / n2,
             load_inertia: self.axis_inertia_kg_m2(elevation_deg) / n2,
         }
+    }
+
+    /// Both paths' stiffness at an elevation, N m/rad (see
+    /// `stiffness_variation_over_elevation`).
+    pub fn path_stiffness_at(&self, elevation_deg: f64) -> [f64; 2] {
+        let factor = 1.0 + self.stiffness_variation_over_elevation * (elevation_deg - 51.5) / 73.0;
+        self.path_stiffness_nm_per_rad.map(|k| k * factor)
+    }
+
+    /// The elevation at which the plant's dynamics evaluate the elevation-dependent parameters
+    /// (load inertia, stiffness) when the elevation input is `elevation_deg`: the centre of its
+    /// parameter-grid cell.
+    pub fn frozen_elevation_deg(&self, elevation_deg: f64) -> f64 {
+        self.cell_centre_deg(self.cell_of(elevation_deg))
     }
 
     /// Undamped anti-resonance `sqrt(K_s/J_L)` at an elevation, Hz.
@@ -226,7 +256,7 @@ impl AzimuthParams {
             motor_viscous: self.motors.map(|m| m.viscous_friction_nm_s_per_rad),
             torque_per_amp: self.motors.map(|m| m.effective_torque_constant()),
             current_loop_rad_per_s: self.motors.map(|m| std::f64::consts::TAU * m.current_loop_bandwidth_hz),
-            stiffness: self.path_stiffness_nm_per_rad.map(|k| k / n2),
+            stiffness: self.path_stiffness_at(self.cell_centre_deg(cell)).map(|k| k / n2),
             damping: self.path_damping_nm_s_per_rad.map(|c| c / n2),
             presliding_stiffness: self.motors.map(|m| {
                 if m.friction.is_present() {
@@ -562,6 +592,25 @@ mod tests {
             max_relative_difference(&two.2, &one.2),
             max_relative_difference(&two.3, &one.3),
         ]
+    }
+
+    #[test]
+    fn the_stiffness_varies_linearly_over_the_travel_and_the_dynamics_follow_it() {
+        let p = AzimuthParams { stiffness_variation_over_elevation: 0.3, ..AzimuthParams::default() };
+        let nominal = AzimuthParams::default();
+        let ratio = |el: f64| p.path_stiffness_at(el)[0] / nominal.path_stiffness_nm_per_rad[0];
+        assert!((ratio(15.0) - 0.85).abs() < 1e-12 && (ratio(88.0) - 1.15).abs() < 1e-12);
+        assert!((ratio(51.5) - 1.0).abs() < 1e-12);
+        // The anti-resonance moves with the square root of the stiffness.
+        let f = |q: &AzimuthParams, el: f64| q.anti_resonance_hz(el);
+        assert!((f(&p, 88.0) / f(&nominal, 88.0) - 1.15f64.sqrt()).abs() < 1e-12);
+        // The drive's cell model takes the stiffness at the cell centre.
+        let cell = p.cell_of(88.0);
+        let model = p.cell_model(cell);
+        let expected = p.path_stiffness_at(p.cell_centre_deg(cell))[0] / (p.gear_ratio * p.gear_ratio);
+        assert_eq!(model.stiffness[0], expected);
+        let bad = AzimuthParams { stiffness_variation_over_elevation: 1.5, ..AzimuthParams::default() };
+        assert!(bad.validate().unwrap_err().contains("stiffness_variation_over_elevation"));
     }
 
     #[test]

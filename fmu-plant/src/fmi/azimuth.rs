@@ -47,9 +47,9 @@ declare_variables! {
         Pinion2Flank = Var::integer("pinion2.flank").output()
             .description("Flank of pinion 2 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
         LoadInertia = Var::real("load.inertia", "kg.m2").output().depends_on(&[AzVar::Elevation as u32])
-            .description("Inertia about the azimuth axis at the current elevation input."),
+            .description("Inertia about the azimuth axis that the dynamics use at the current elevation input: its value at the centre of the input's parameter-grid cell (numerics.parameter_grid_cell)."),
         AntiResonance = Var::real("drive.anti_resonance_frequency", "Hz").output().depends_on(&[AzVar::Elevation as u32])
-            .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive at the current elevation input."),
+            .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive that the dynamics use at the current elevation input: stiffness and inertia at the centre of the input's parameter-grid cell."),
         // Gearing and paths.
         GearRatio = Var::real("gear.ratio", "1").parameter().start(9000.0).min(1.0)
             .description("Gear ratio of each drive, motor rad per axis rad (gearbox times bull gear over pinion)."),
@@ -222,6 +222,8 @@ declare_variables! {
         SensorSeed = Var::integer("sensors.seed").parameter().start_integer(1).description(T::SEED),
         SensorSamplePeriod = Var::real("sensors.sample_period", "s").parameter().start(1e-3).min(1e-6).max(1.0)
             .description(T::SAMPLE_PERIOD),
+        StiffnessVariation = Var::real("pinion.stiffness_variation", "1").parameter().start(0.0).min(-0.9).max(0.9)
+            .description("Relative change of both paths' stiffness over the elevation travel, linear in elevation: the stiffness at el is pinion<k>.stiffness times 1 + v (el - 51.5 deg) / 73 deg (1 - v/2 at 15 deg, 1 + v/2 at 88 deg). The paper measured anti-resonance mismatches implying up to 30 % over the travel (sign and shape unknown); 0, the paper's single K_s, by default."),
     }
 }
 
@@ -319,6 +321,7 @@ pub fn azimuth_params(v: &Values<AzVar>) -> AzimuthParams {
         encoder_bits: v.integer(AzVar::EncoderBits) as u32,
         sensors: SENSORS.read(v),
         numerics: NUMERICS.read(v),
+        stiffness_variation_over_elevation: v.real(AzVar::StiffnessVariation),
     };
     if v.boolean(AzVar::Linear) {
         let mut linear = AzimuthParams::linear();
@@ -326,6 +329,7 @@ pub fn azimuth_params(v: &Values<AzVar>) -> AzimuthParams {
         linear.gear_ratio = params.gear_ratio;
         linear.motors = params.motors.map(|m| m.linearised());
         linear.path_stiffness_nm_per_rad = params.path_stiffness_nm_per_rad;
+        linear.stiffness_variation_over_elevation = params.stiffness_variation_over_elevation;
         linear.path_damping_nm_s_per_rad = params.path_damping_nm_s_per_rad;
         linear.turning_head_inertia_kg_m2 = params.turning_head_inertia_kg_m2;
         linear.elevation_structure_cross_inertia_kg_m2 = params.elevation_structure_cross_inertia_kg_m2;
@@ -370,8 +374,10 @@ impl AzimuthPlantModel {
         }
         let Some(plant) = &self.plant else { return };
         let params = plant.params();
-        v.set_real(AzVar::LoadInertia, params.axis_inertia_kg_m2(elevation));
-        v.set_real(AzVar::AntiResonance, params.anti_resonance_hz(elevation));
+        // What the dynamics use: the values at the centre of the elevation's parameter cell.
+        let frozen = params.frozen_elevation_deg(elevation);
+        v.set_real(AzVar::LoadInertia, params.axis_inertia_kg_m2(frozen));
+        v.set_real(AzVar::AntiResonance, params.anti_resonance_hz(frozen));
         self.feedthrough_elevation = Some(elevation.to_bits());
     }
 
