@@ -92,6 +92,9 @@ const VICKERY_POLES: [f64; 7] = [
     2.64262300063443e4,
 ];
 
+/// The stored fit's largest dB error over [`AdmittanceSpec::default`]'s band (0.0599), rounded up.
+pub const VICKERY_MAX_ERROR_DB: f64 = 0.06;
+
 impl AdmittancePrototype {
     /// `10 log10 |G(j 2 pi x)|^2`.
     pub fn magnitude_squared_db(&self, x: f64) -> f64 {
@@ -389,6 +392,3 @@ mod tests {
         assert!(AdmittanceFilter::vickery(9.8, f64::INFINITY).is_err());
     }
 }
-
-/// The stored fit's largest dB error over [`AdmittanceSpec::default`]'s band, rounded up.
-pub const VICKERY_MAX_ERROR_DB: f64 = 0.06;

@@ -807,7 +807,7 @@ mod tests {
         }
         let saved = g.save_state();
         let steps = [0.01, 0.1, 0.001, 0.01, 0.05];
-        let mut run = |g: &mut GustGenerator| -> Vec<(u64, u64)> {
+        let run = |g: &mut GustGenerator| -> Vec<(u64, u64)> {
             (0..500).map(|k| (g.step(steps[k % steps.len()]).to_bits(), g.load_gust().to_bits())).collect()
         };
         let first = run(&mut g);

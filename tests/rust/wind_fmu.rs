@@ -1147,9 +1147,27 @@ fn coherent_and_admitted_torques(step: f64, duration: f64, seed: i32) -> (Vec<f6
     (coherent, admitted)
 }
 
+/// The ratio of the admitted to the coherent spectrum as a record sampled every `step` sees it
+/// at `f` Hz: both spectra folded by aliasing (40 aliases on each side), with the point gust's
+/// exact spectrum `|H|^2` from the physics crate and `chi^2` written out here. Without the
+/// folding the ratio at 0.1 s steps would read up to 0.4 dB low near 1 Hz: the coherent record
+/// there holds about 5 % of aliased power from around 10 Hz, the admitted one almost none.
+fn aliased_chi_squared(filter: &ShapingFilter, f: f64, step: f64) -> f64 {
+    let rate = 1.0 / step;
+    let (mut admitted, mut coherent) = (0.0, 0.0);
+    for k in -40i32..=40 {
+        let fk = (f + k as f64 * rate).abs();
+        let point = filter.magnitude_squared(2.0 * PI * fk);
+        coherent += point;
+        admitted += point * vickery_chi_squared(fk, 9.8, DEFAULT_DIAMETER);
+    }
+    admitted / coherent
+}
+
 /// Largest dB difference, over the bands where `chi^2` is above -20 dB and below a fifth of the
-/// Nyquist frequency, between the Welch ratio admitted / coherent and `chi^2` averaged over
-/// each band with the coherent spectrum's weights (what the ratio of band averages estimates).
+/// Nyquist frequency, between the Welch ratio admitted / coherent and `chi^2` (aliased as the
+/// sampled records see it) averaged over each band with the coherent spectrum's weights (what
+/// the ratio of band averages estimates).
 fn worst_ratio_error_db(step: f64, duration: f64, segment_s: f64, seed: i32) -> (f64, usize) {
     let (coherent, admitted) = coherent_and_admitted_torques(step, duration, seed);
     let config = WelchConfig::from_duration(segment_s, 1.0 / step).with_detrend(Detrend::None);
@@ -1157,6 +1175,7 @@ fn worst_ratio_error_db(step: f64, duration: f64, segment_s: f64, seed: i32) -> 
     let s_adm = welch_psd(&admitted, 1.0 / step, &config).unwrap();
     let (b_coh, b_adm) = (log_band_average(&s_coh, 10.0).unwrap(), log_band_average(&s_adm, 10.0).unwrap());
     let nyquist = 0.5 / step;
+    let filter = ShapingFilter::davenport(&Davenport::new(9.8, 10.0, 0.0105).unwrap());
     let (mut worst, mut bands) = (0.0f64, 0);
     for i in 0..b_coh.len() {
         let (lo, hi, f) = (b_coh.lower_edge_hz[i], b_coh.upper_edge_hz[i], b_coh.frequency_hz[i]);
@@ -1166,7 +1185,7 @@ fn worst_ratio_error_db(step: f64, duration: f64, segment_s: f64, seed: i32) -> 
         let (mut weighted, mut total) = (0.0, 0.0);
         for (fk, pk) in s_coh.frequency_hz.iter().zip(&s_coh.psd) {
             if *fk >= lo && *fk <= hi {
-                weighted += pk * vickery_chi_squared(*fk, 9.8, DEFAULT_DIAMETER);
+                weighted += pk * aliased_chi_squared(&filter, *fk, step);
                 total += pk;
             }
         }
@@ -1178,9 +1197,9 @@ fn worst_ratio_error_db(step: f64, duration: f64, segment_s: f64, seed: i32) -> 
     (worst, bands)
 }
 
-/// The ratio's tolerance: the fit's 0.06 dB plus the estimator's scatter of a ratio of two
-/// spectra of one realisation (the admittance stage's own noise is small), measured below.
-const RATIO_TOLERANCE_DB: f64 = 0.5;
+/// The ratio's tolerance: the fit's 0.06 dB plus the scatter of a ratio of two spectra of one
+/// realisation (0.06-0.12 dB measured, docs/wind-fmu-tests.md).
+const RATIO_TOLERANCE_DB: f64 = 0.3;
 
 #[test]
 fn vickery_torque_spectrum_over_the_coherent_one_follows_chi_squared() {
