@@ -91,8 +91,8 @@ declare_variables! {
             .description("Standard deviation of the gust, sqrt(6 kappa) v_m (Davenport) or that of the paper's filter."),
         Intensity = Var::real("wind.turbulence_intensity", "1").calculated_parameter()
             .description("Turbulence intensity sigma / v_m."),
-        Admittance = Var::integer("wind.admittance").parameter().start_integer(1).range_integer(0, 1)
-            .description("Aerodynamic admittance of the loads: 0 = coherent (chi = 1, the point gust acts on the whole dish: the seed paper's model), 1 = Vickery, chi^2(n) = 1 / [1 + (2 n sqrt(A) / U)^(4/3)]^2 (Holmes, Wind Loading of Structures), fitted within 0.06 dB. Applies to the torques and forces, not to wind.speed and wind.gust."),
+        Admittance = Var::integer("wind.admittance").parameter().start_integer(1).range_integer(0, 2)
+            .description("Aerodynamic admittance of the loads: 0 = coherent (chi = 1, the point gust acts on the whole dish: the seed paper's model), 1 = Vickery, chi^2(n) = 1 / [1 + (2 n sqrt(A) / U)^(4/3)]^2 (Holmes, Wind Loading of Structures), fitted within 0.06 dB, 2 = Davenport's size factor for the square of equal area, chi^2 = J^2(xi)^2, J^2(xi) = 2/xi - 2 (1 - e^-xi) / xi^2, xi = C n sqrt(A) / U (C = wind.coherence_decay), fitted within 0.055 dB. Applies to the torques and forces, not to wind.speed and wind.gust."),
         DragCoefficient = Var::real("dish.drag_coefficient", "1").parameter().start(1.3).min(0.0).max(2.5)
             .description("Face-on drag coefficient C_D0 of the dish; drag coefficient C_D0 |cos(el) cos(yaw)|. Estimate: 1.3, range 1.1-1.6 (about 1.2-1.4 for a solid parabolic dish, weak sources; docs/wind-model.md)."),
         LiftCoefficient = Var::real("dish.lift_coefficient", "1").parameter().start(0.3).min(0.0).max(1.5)
@@ -113,6 +113,8 @@ declare_variables! {
             .description("Drag coefficient C_D = C_D0 |cos(el) cos(yaw)| at the current pointing (estimate, docs/wind-model.md)."),
         CLift = Var::real("coefficient.lift", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
             .description("Vertical lift coefficient C_L = -C_L0 sin(2 el) cos(yaw) at the current pointing (estimate, docs/wind-model.md)."),
+        CoherenceDecay = Var::real("wind.coherence_decay", "1").parameter().start(8.0).min(1.0).max(20.0)
+            .description("Decay constant C of the gust's exponential coherence exp(-C n r / U), used by wind.admittance = 2 only. Estimate: 8, range 7-10 (docs/research/antenna-parameters-survey.md, section 4)."),
     }
 }
 
@@ -145,6 +147,7 @@ impl WindModel {
         let diameter = values.real(WindVar::Diameter);
         let admittance = match values.integer(WindVar::Admittance) {
             0 => None,
+            2 => Some(AdmittanceFilter::davenport_size(v_mean, diameter, values.real(WindVar::CoherenceDecay))?),
             _ => Some(AdmittanceFilter::vickery(v_mean, diameter)?),
         };
         let generator = filter.map(|f| GustGenerator::with_admittance(f, admittance, seed));

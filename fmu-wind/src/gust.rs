@@ -775,26 +775,38 @@ mod tests {
     #[test]
     fn load_gust_variance_is_the_integral_of_the_admitted_spectrum_and_the_same_at_every_step() {
         for v in [3.0, 9.5, 20.0] {
-            let g = admitted(v, 7);
-            let continuous = g.load_stationary_variance();
-            // Trapezoid rule in ln n over 1e-7..1e4 Hz of |H|^2 |G|^2 (one-sided, per hertz).
-            let adm = g.admittance().unwrap();
-            let points = 200_000;
-            let (lo, hi) = (1e-7f64.ln(), 1e4f64.ln());
-            let dl = (hi - lo) / points as f64;
-            let integral: f64 = (0..=points)
-                .map(|k| {
-                    let n = (lo + k as f64 * dl).exp();
-                    let weight = if k == 0 || k == points { 0.5 } else { 1.0 };
-                    weight * n * g.filter.magnitude_squared(2.0 * std::f64::consts::PI * n) * adm.magnitude_squared(n)
-                })
-                .sum::<f64>()
-                * dl;
-            assert!((integral / continuous - 1.0).abs() < 1e-4, "v = {v}: integral {integral}, Lyapunov {continuous}");
-            assert!(continuous < g.filter.stationary_variance());
-            for h in [1e-3, 1e-2, 1e-1, 1.0] {
-                let ratio = g.load_discrete_stationary_variance(h) / continuous;
-                assert!((ratio - 1.0).abs() < 1e-6, "v = {v}, h = {h}: ratio {ratio}");
+            let filter = ShapingFilter::davenport(&Davenport::new(v, 10.0, 0.4).unwrap());
+            let stages =
+                [AdmittanceFilter::vickery(v, 13.5).unwrap(), AdmittanceFilter::davenport_size(v, 13.5, 8.0).unwrap()];
+            for stage in stages {
+                let g = GustGenerator::with_admittance(filter.clone(), Some(stage), 7);
+                let continuous = g.load_stationary_variance();
+                // Trapezoid rule in ln n over 1e-7..1e4 Hz of |H|^2 |G|^2 (one-sided, per hertz).
+                let adm = g.admittance().unwrap();
+                let points = 200_000;
+                let (lo, hi) = (1e-7f64.ln(), 1e4f64.ln());
+                let dl = (hi - lo) / points as f64;
+                let integral: f64 = (0..=points)
+                    .map(|k| {
+                        let n = (lo + k as f64 * dl).exp();
+                        let weight = if k == 0 || k == points { 0.5 } else { 1.0 };
+                        weight
+                            * n
+                            * g.filter.magnitude_squared(2.0 * std::f64::consts::PI * n)
+                            * adm.magnitude_squared(n)
+                    })
+                    .sum::<f64>()
+                    * dl;
+                let order = adm.order();
+                assert!(
+                    (integral / continuous - 1.0).abs() < 1e-4,
+                    "v = {v}, order {order}: integral {integral}, Lyapunov {continuous}"
+                );
+                assert!(continuous < g.filter.stationary_variance());
+                for h in [1e-3, 1e-2, 1e-1, 1.0] {
+                    let ratio = g.load_discrete_stationary_variance(h) / continuous;
+                    assert!((ratio - 1.0).abs() < 1e-6, "v = {v}, order {order}, h = {h}: ratio {ratio}");
+                }
             }
         }
     }
