@@ -349,6 +349,12 @@ impl AdmittanceFilter {
         if prototype.poles.len() <= prototype.zeros.len() {
             return Err("an admittance prototype must have more poles than zeros".into());
         }
+        if prototype.poles.len() > MAX_ORDER {
+            return Err(format!(
+                "an admittance prototype may have at most {MAX_ORDER} poles, got {}",
+                prototype.poles.len()
+            ));
+        }
         let scale = v_mean / length;
         let rates: Vec<f64> = prototype.poles.iter().map(|p| p * scale).collect();
         let zeros: Vec<f64> = prototype.zeros.iter().map(|z| z * scale).collect();
@@ -408,6 +414,10 @@ impl AdmittanceFilter {
         n_hz / self.scale
     }
 }
+
+/// The largest order of an admittance filter (the gust generator's step keeps its state in a
+/// fixed array of this length).
+pub const MAX_ORDER: usize = 16;
 
 /// `sqrt(A)` of a dish of diameter `diameter`, `A = pi D^2 / 4`.
 fn aperture_root(diameter: f64) -> f64 {

@@ -368,3 +368,35 @@ pub fn fmus() -> Vec<FmuSpec> {
         ]
     })]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_that_would_not_be_finite_is_refused_with_its_name_and_the_parameters() {
+        let mut values = Values::<WindVar>::at_start();
+        assert!(WindModel::check_outputs_finite(&values).is_ok());
+        values.set_real(WindVar::Drag, f64::INFINITY);
+        let error = WindModel::check_outputs_finite(&values).unwrap_err();
+        assert!(error.contains("'force.drag' would be inf") && error.contains("D = 13.5 m"), "{error}");
+        values.set_real(WindVar::Drag, 0.0);
+        values.set_real(WindVar::LoadGust, f64::NAN);
+        assert!(WindModel::check_outputs_finite(&values).unwrap_err().contains("wind.load_gust"));
+    }
+
+    #[test]
+    fn the_admittance_parameter_selects_the_law_and_coherent_leaves_no_stage() {
+        let context = Context::default();
+        let mut values = Values::<WindVar>::at_start();
+        let orders: Vec<Option<usize>> = [0, 1, 2]
+            .into_iter()
+            .map(|law| {
+                values.set_integer(WindVar::Admittance, law);
+                let (generator, _, _) = WindModel::build(&values, &context).unwrap();
+                generator.unwrap().admittance().map(|a| a.order())
+            })
+            .collect();
+        assert_eq!(orders, [None, Some(7), Some(4)]);
+    }
+}

@@ -49,6 +49,11 @@ use serde::{Deserialize, Serialize};
 const CACHE_CAPACITY: usize = 8;
 /// Pivots below this fraction of the largest diagonal end the pivoted Cholesky factorisation.
 const PIVOT_TOLERANCE: f64 = 1e-14;
+/// The same for the admittance stage's own noise (the second block of
+/// [`pivoted_cholesky_in_blocks`]): its conditional variances below 1e-10 of the stage's largest
+/// noise variance are dropped, which changes the load gust's variance by less than 1e-9 (the
+/// tests hold it to 1e-6) and saves a normal per step for each.
+const STAGE_PIVOT_TOLERANCE: f64 = 1e-10;
 
 /// One cached discretisation: the modal decay factors and the noise factor for a step size.
 #[derive(Debug, Clone)]
@@ -69,14 +74,15 @@ struct Discretisation {
 
 /// One step of the admittance stage `y` (driven by the gust), from the exact discretisation of
 /// the joint system `(x, y)`: `y <- coupling x + decay y + shared xi + own eta`, where `xi` are
-/// the normals the gust's own step draws and `eta` the stage's own (stream 1). All matrices
-/// row-major with `m` rows.
+/// the normals the gust's own step draws and `eta` the stage's own (stream 1).
+///
+/// The four matrices are stored side by side as one `m x (n + m + rank + own_rank)` matrix,
+/// column after column, applied to the stacked sources `[x; y; xi; eta]`: each column adds to
+/// all `m` rows at once, so the rows accumulate independently (and in vector registers) where
+/// row-by-row dot products would wait on one long chain of additions each.
 #[derive(Debug, Clone)]
 struct LoadDiscretisation {
-    coupling: Vec<f64>,
-    decay: Vec<f64>,
-    shared: Vec<f64>,
-    own: Vec<f64>,
+    columns: Vec<f64>,
     own_rank: usize,
 }
 
@@ -87,7 +93,8 @@ struct LoadStage {
     state: Vec<f64>,
     /// ChaCha12 with the gust's key on stream 1: the stage's own normals never shift the gust's.
     rng: ChaCha12Rng,
-    scratch: Vec<f64>,
+    /// The stage's own normals of one step.
+    eta: Vec<f64>,
     gust: f64,
 }
 
@@ -99,18 +106,20 @@ impl LoadStage {
     /// `y <- coupling x + decay y + shared xi + own eta` with `x` the gust state before the step.
     fn advance(&mut self, step: &LoadDiscretisation, x: &[f64], xi: &[f64]) {
         let m = self.state.len();
-        let eta: Vec<f64> = (0..step.own_rank).map(|_| StandardNormal.sample(&mut self.rng)).collect();
-        let row_dot = |matrix: &[f64], j: usize, v: &[f64]| -> f64 {
-            let width = v.len();
-            matrix[j * width..(j + 1) * width].iter().zip(v).map(|(a, b)| a * b).sum::<f64>()
-        };
-        for j in 0..m {
-            self.scratch[j] = row_dot(&step.coupling, j, x)
-                + row_dot(&step.decay, j, &self.state)
-                + row_dot(&step.shared, j, xi)
-                + row_dot(&step.own, j, &eta);
+        for eta in &mut self.eta[..step.own_rank] {
+            *eta = StandardNormal.sample(&mut self.rng);
         }
-        self.state.copy_from_slice(&self.scratch);
+        let sources = [x, &self.state, xi, &self.eta[..step.own_rank]];
+        debug_assert_eq!(step.columns.len(), m * sources.iter().map(|s| s.len()).sum::<usize>());
+        let mut y = [0.0; MAX_STAGE_ORDER];
+        match m {
+            // The orders of the stored fits: with the length known, the accumulators stay in
+            // registers.
+            7 => accumulate::<7>(&mut y, &step.columns, sources),
+            4 => accumulate::<4>(&mut y, &step.columns, sources),
+            _ => accumulate_any(&mut y[..m], &step.columns, sources),
+        }
+        self.state.copy_from_slice(&y[..m]);
         self.gust = self.output();
     }
 }
@@ -432,6 +441,7 @@ fn pivoted_cholesky_in_blocks(q: &DMatrix<f64>, first: usize) -> (Vec<f64>, usiz
         let mut order: Vec<usize> = block.collect();
         let tail: Vec<usize> = tail.collect();
         let largest = order.iter().map(|&i| q[(i, i)]).fold(0.0, f64::max);
+        let tolerance = if index == 0 { PIVOT_TOLERANCE } else { STAGE_PIVOT_TOLERANCE };
         for k in 0..order.len() {
             // Bring the largest remaining diagonal to position k.
             let (offset, pivot) = order[k..]
@@ -439,7 +449,7 @@ fn pivoted_cholesky_in_blocks(q: &DMatrix<f64>, first: usize) -> (Vec<f64>, usiz
                 .map(|&i| a[(i, i)])
                 .enumerate()
                 .fold((0, f64::NEG_INFINITY), |best, (j, d)| if d > best.1 { (j, d) } else { best });
-            if pivot.is_nan() || pivot <= PIVOT_TOLERANCE * largest {
+            if pivot.is_nan() || pivot <= tolerance * largest {
                 break;
             }
             order.swap(k, k + offset);
@@ -529,7 +539,8 @@ fn load_discretisation(
     split_load_factor(&ad, &factor, n, m, rank_first, rank_rest)
 }
 
-/// Cuts the joint `Ad` and noise factor into the stage's row-major pieces.
+/// The stage's columns from the joint `Ad` (its `y` rows) and noise factor (its `y` rows, the
+/// gust's columns then the stage's own), in the order of the sources `[x; y; xi; eta]`.
 fn split_load_factor(
     ad: &DMatrix<f64>,
     factor: &[f64],
@@ -539,13 +550,42 @@ fn split_load_factor(
     rank_rest: usize,
 ) -> LoadDiscretisation {
     let rank = rank_first + rank_rest;
-    let rows = |j: usize| n + j;
-    LoadDiscretisation {
-        coupling: (0..m).flat_map(|j| (0..n).map(move |i| ad[(rows(j), i)])).collect(),
-        decay: (0..m).flat_map(|j| (0..m).map(move |l| ad[(rows(j), n + l)])).collect(),
-        shared: (0..m).flat_map(|j| (0..rank_first).map(move |k| factor[rows(j) * rank + k])).collect(),
-        own: (0..m).flat_map(|j| (rank_first..rank).map(move |k| factor[rows(j) * rank + k])).collect(),
-        own_rank: rank_rest,
+    let dynamics = (0..n + m).flat_map(|k| (0..m).map(move |j| ad[(n + j, k)]));
+    let noise = (0..rank).flat_map(|k| (0..m).map(move |j| factor[(n + j) * rank + k]));
+    LoadDiscretisation { columns: dynamics.chain(noise).collect(), own_rank: rank_rest }
+}
+
+/// The largest admittance stage order the step handles (the stored fits have 7 and 4).
+const MAX_STAGE_ORDER: usize = crate::admittance::MAX_ORDER;
+
+/// `y = sum_k column_k source_k` over the stacked sources, for a stage of order `M`: each column
+/// adds to all rows at once, in the same order as [`accumulate_any`].
+// An index loop over two arrays of one fixed length says this more plainly than a zip.
+#[allow(clippy::needless_range_loop)]
+fn accumulate<const M: usize>(y: &mut [f64; MAX_STAGE_ORDER], columns: &[f64], sources: [&[f64]; 4]) {
+    let mut acc = [0.0; M];
+    let mut offset = 0;
+    for segment in sources {
+        let block = &columns[offset..offset + M * segment.len()];
+        offset += block.len();
+        for (column, &source) in block.chunks_exact(M).zip(segment) {
+            let Ok(column) = <&[f64; M]>::try_from(column) else { unreachable!("chunks of M") };
+            for j in 0..M {
+                acc[j] += column[j] * source;
+            }
+        }
+    }
+    y[..M].copy_from_slice(&acc);
+}
+
+/// [`accumulate`] for any order.
+fn accumulate_any(y: &mut [f64], columns: &[f64], sources: [&[f64]; 4]) {
+    y.fill(0.0);
+    let m = y.len();
+    for (column, &source) in columns.chunks_exact(m).zip(sources.iter().flat_map(|s| s.iter())) {
+        for (a, c) in y.iter_mut().zip(column) {
+            *a += c * source;
+        }
     }
 }
 
@@ -588,7 +628,7 @@ impl LoadStage {
         let pieces = split_load_factor(&DMatrix::zeros(n + m, n + m), &factor, n, m, rank_first, rank_rest);
         let mut rng = ChaCha12Rng::from_seed(seed_key(seed));
         rng.set_stream(LOAD_STREAM);
-        let mut stage = Self { filter, state: vec![0.0; m], rng, scratch: vec![0.0; m], gust: 0.0 };
+        let mut stage = Self { filter, state: vec![0.0; m], rng, eta: vec![0.0; m], gust: 0.0 };
         stage.advance(&pieces, &vec![0.0; n], xi);
         stage
     }
