@@ -5,13 +5,15 @@
 use fmu_runtime::package::{default_parameter_file, FmuSpec};
 use fmu_runtime::{
     declare_variables, Context, DefaultExperiment, EnumerationType, Model, ModelInfo, Notes, StateError, Values,
+    VariableSet,
 };
 
+use crate::admittance::AdmittanceFilter;
 use crate::coefficients::{CoefficientTable, DEFAULT_TABLE_CSV};
 use crate::davenport::Davenport;
 use crate::gust::{GustGenerator, GustState};
 use crate::shaping::ShapingFilter;
-use crate::torque::{normalised_gust, TorqueForm, WindTorqueModel};
+use crate::torque::{normalised_gust, ForceCoefficients, TorqueForm, WindTorqueModel};
 use fmu_runtime::seed::seed_from_fmi_integer;
 use serde::{Deserialize, Serialize};
 
@@ -37,8 +39,8 @@ static TORQUE_FORM: EnumerationType = EnumerationType {
 declare_variables! {
     /// Variables of the wind FMU. Torques are about the axes (axis side), in N m.
     pub enum WindVar {
-        Azimuth = Var::real("antenna.azimuth", "deg").input().start(0.0)
-            .description("Azimuth the antenna points at (the yaw angle to the wind is wind.direction minus this)."),
+        Azimuth = Var::real("antenna.azimuth", "deg").input().start(0.0).min(-360.0).max(360.0)
+            .description("Azimuth the antenna points at (the yaw angle to the wind is wind.direction minus this); one turn either way covers MeerKAT's -185 to +275 deg travel."),
         Elevation = Var::real("antenna.elevation", "deg").input().start(45.0).min(-10.0).max(120.0)
             .description("Elevation the antenna points at."),
         Speed = Var::real("wind.speed", "m/s").output().description("Wind speed v = v_m + v_t."),
@@ -64,18 +66,18 @@ declare_variables! {
         Yaw = Var::real("wind.yaw", "deg").output().depends_on(&[WindVar::Azimuth as u32])
             .description("Wind direction minus antenna azimuth, wrapped to (-180, 180]."),
         MeanSpeed = Var::real("wind.mean_speed", "m/s").parameter().start(3.0).min(0.5).max(25.0)
-            .description("Mean wind speed v_m at the reference height."),
-        Direction = Var::real("wind.direction", "deg").parameter().tunable().start(0.0)
+            .description("Mean wind speed v_m at the reference height (0.5-25 m/s: the band the Davenport filter is fitted for; MeerKAT points in winds to 69 km/h, 19 m/s)."),
+        Direction = Var::real("wind.direction", "deg").parameter().tunable().start(0.0).min(-360.0).max(360.0)
             .description("Direction the wind comes from, degrees from north, clockwise."),
-        Height = Var::real("wind.reference_height", "m").parameter().start(10.0).min(0.1)
-            .description("Height z at which v_m and the spectrum are defined (the site anemometer is at 10 m)."),
-        Roughness = Var::real("wind.roughness_length", "m").parameter().start(0.4).min(1e-5)
-            .description("Roughness length z0. The paper's 0.4 m gives about 30 % turbulence; the requirement scenarios use 0.026 m (optimal) and 0.0105 m (normal), which reproduce the specification's gust factors (docs/wind-model.md)."),
-        Density = Var::real("air.density", "kg/m3").parameter().start(1.075).min(0.1).max(2.0)
-            .description("Air density; 1.075 kg/m3 is the standard atmosphere at MeerKAT's 1,087 m at 15 C (1.005 at 35 C, 1.155 at -5 C)."),
-        Diameter = Var::real("dish.diameter", "m").parameter().start(13.5).min(0.1)
-            .description("Dish diameter D; the reference area is pi D^2 / 4."),
-        Seed = Var::integer("seed").parameter().start_integer(1)
+        Height = Var::real("wind.reference_height", "m").parameter().start(10.0).min(1.0).max(200.0)
+            .description("Height z at which v_m and the spectrum are defined (the site anemometer is at 10 m; 1-200 m, the range of the logarithmic profile over a surface layer); must exceed z0."),
+        Roughness = Var::real("wind.roughness_length", "m").parameter().start(0.4).min(1e-5).max(2.0)
+            .description("Roughness length z0 (1e-5 m, ice or calm sea, to 2 m, city centres). The paper's 0.4 m gives about 30 % turbulence; the requirement scenarios use 0.026 m (optimal) and 0.0105 m (normal), which reproduce the specification's gust factors (docs/wind-model.md)."),
+        Density = Var::real("air.density", "kg/m3").parameter().start(1.075).min(0.6).max(1.5)
+            .description("Air density; 1.075 kg/m3 is the standard atmosphere at MeerKAT's 1,087 m at 15 C (1.005 at 35 C, 1.155 at -5 C). 0.6-1.5 kg/m3 spans sites from 5,000 m (ALMA) to cold sea level."),
+        Diameter = Var::real("dish.diameter", "m").parameter().start(13.5).min(1.0).max(100.0)
+            .description("Dish diameter D (1-100 m); the reference area is A = pi D^2 / 4, and sqrt(A) sets the admittance's frequency scale."),
+        Seed = Var::integer("seed").parameter().start_integer(1).range_integer(i32::MIN, i32::MAX)
             .description("Seed of the gust generator: the same seed gives the same record."),
         Spectrum = Var::enumeration("spectrum", &SPECTRUM).parameter().start_integer(1)
             .description("Gust spectrum: davenport (default), paper (H3/H10), off."),
@@ -89,6 +91,30 @@ declare_variables! {
             .description("Standard deviation of the gust, sqrt(6 kappa) v_m (Davenport) or that of the paper's filter."),
         Intensity = Var::real("wind.turbulence_intensity", "1").calculated_parameter()
             .description("Turbulence intensity sigma / v_m."),
+        Admittance = Var::integer("wind.admittance").parameter().start_integer(1).range_integer(0, 2)
+            .description("Aerodynamic admittance of the loads: 0 = coherent (chi = 1, the point gust acts on the whole dish: the seed paper's model), 1 = Vickery, chi^2(n) = 1 / [1 + (2 n sqrt(A) / U)^(4/3)]^2 (Holmes, Wind Loading of Structures), fitted within 0.06 dB, 2 = Davenport's size factor for the square of equal area, chi^2 = J^2(xi)^2, J^2(xi) = 2/xi - 2 (1 - e^-xi) / xi^2, xi = C n sqrt(A) / U (C = wind.coherence_decay), fitted within 0.055 dB. Applies to the torques and forces, not to wind.speed and wind.gust."),
+        DragCoefficient = Var::real("dish.drag_coefficient", "1").parameter().start(1.3).min(0.0).max(2.5)
+            .description("Face-on drag coefficient C_D0 of the dish; drag coefficient C_D0 |cos(el) cos(yaw)|. Estimate: 1.3, range 1.1-1.6 (about 1.2-1.4 for a solid parabolic dish, weak sources; docs/wind-model.md)."),
+        LiftCoefficient = Var::real("dish.lift_coefficient", "1").parameter().start(0.3).min(0.0).max(1.5)
+            .description("Largest lift (cross-flow) coefficient C_L0 of the dish; vertical lift coefficient -C_L0 sin(2 el) cos(yaw). Estimate: 0.3, range 0.1-0.6 (docs/wind-model.md)."),
+        LoadGust = Var::real("wind.load_gust", "m/s").output()
+            .description("The gust that drives the torques and forces: wind.gust through the aerodynamic admittance (equal to wind.gust when wind.admittance = 0)."),
+        LoadSigma = Var::real("wind.load_sigma", "m/s").calculated_parameter()
+            .description("Standard deviation of wind.load_gust (exact, from the joint covariance of gust and admittance filter); equal to wind.sigma when coherent."),
+        Drag = Var::real("force.drag", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Wind drag on the dish along the flow (positive downwind): C_D 0.5 rho A v|v| with v = v_m + wind.load_gust."),
+        DragMean = Var::real("force.drag_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Mean part of the drag, C_D 0.5 rho A v_m^2."),
+        Lift = Var::real("force.lift", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Wind lift on the dish, the vertical force (positive up): C_L 0.5 rho A v|v| with v = v_m + wind.load_gust."),
+        LiftMean = Var::real("force.lift_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Mean part of the lift, C_L 0.5 rho A v_m^2."),
+        CDrag = Var::real("coefficient.drag", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Drag coefficient C_D = C_D0 |cos(el) cos(yaw)| at the current pointing (estimate, docs/wind-model.md)."),
+        CLift = Var::real("coefficient.lift", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Vertical lift coefficient C_L = -C_L0 sin(2 el) cos(yaw) at the current pointing (estimate, docs/wind-model.md)."),
+        CoherenceDecay = Var::real("wind.coherence_decay", "1").parameter().start(8.0).min(1.0).max(20.0)
+            .description("Decay constant C of the gust's exponential coherence exp(-C n r / U), used by wind.admittance = 2 only. Estimate: 8, range 7-10 (docs/research/antenna-parameters-survey.md, section 4)."),
     }
 }
 
@@ -118,10 +144,20 @@ impl WindModel {
             _ => Some(ShapingFilter::davenport(&davenport)),
         };
         let seed = seed_from_fmi_integer(values.integer(WindVar::Seed));
-        let generator = filter.map(|f| GustGenerator::new(f, seed));
+        let diameter = values.real(WindVar::Diameter);
+        let admittance = match values.integer(WindVar::Admittance) {
+            0 => None,
+            2 => Some(AdmittanceFilter::davenport_size(v_mean, diameter, values.real(WindVar::CoherenceDecay))?),
+            _ => Some(AdmittanceFilter::vickery(v_mean, diameter)?),
+        };
+        let generator = filter.map(|f| GustGenerator::with_admittance(f, admittance, seed));
         let table = Self::coefficients(values.string(WindVar::CoefficientFile), context)?;
         let form = if values.integer(WindVar::Form) == 2 { TorqueForm::Linearised } else { TorqueForm::Quadratic };
-        let torque = WindTorqueModel::new(table, values.real(WindVar::Density), values.real(WindVar::Diameter), form)?;
+        let forces = ForceCoefficients {
+            drag_face_on: values.real(WindVar::DragCoefficient),
+            lift_max: values.real(WindVar::LiftCoefficient),
+        };
+        let torque = WindTorqueModel::new(table, values.real(WindVar::Density), diameter, form)?.with_forces(forces)?;
         Ok((generator, torque, davenport.kappa()))
     }
 
@@ -149,20 +185,54 @@ impl WindModel {
         values.set_real(WindVar::Speed, v_mean + gust);
         values.set_real(WindVar::Gust, gust);
         values.set_real(WindVar::NormalisedGust, normalised_gust(gust, self.kappa, v_mean));
+        values.set_real(WindVar::LoadGust, self.load_gust());
+    }
+
+    /// The gust the loads see (the admitted gust, or the gust itself when coherent), m/s.
+    fn load_gust(&self) -> f64 {
+        self.generator.as_ref().map_or(0.0, GustGenerator::load_gust)
+    }
+
+    /// An error naming the first output that is not finite, if any: the FMU never hands one out.
+    fn check_outputs_finite(values: &Values<WindVar>) -> Result<(), String> {
+        let outputs = [
+            WindVar::Speed,
+            WindVar::Gust,
+            WindVar::NormalisedGust,
+            WindVar::LoadGust,
+            WindVar::AzTorque,
+            WindVar::ElTorque,
+            WindVar::Drag,
+            WindVar::Lift,
+        ];
+        match outputs.iter().find(|v| !values.real(**v).is_finite()) {
+            Some(v) => Err(format!(
+                "'{}' would be {} (v_m = {} m/s, D = {} m, rho = {} kg/m3): the step is refused",
+                v.var().name,
+                values.real(*v),
+                values.real(WindVar::MeanSpeed),
+                values.real(WindVar::Diameter),
+                values.real(WindVar::Density)
+            )),
+            None => Ok(()),
+        }
     }
 
     /// The outputs that also depend on the pointing inputs (direct feedthrough).
     fn write_torques(&self, values: &mut Values<WindVar>) {
         let Some(torque) = &self.torque else { return };
         let v_mean = values.real(WindVar::MeanSpeed);
-        let gust = self.generator.as_ref().map_or(0.0, |g| g.gust());
-        let t = torque.torques(
-            v_mean,
-            gust,
-            values.real(WindVar::Direction),
-            values.real(WindVar::Azimuth),
-            values.real(WindVar::Elevation),
-        );
+        let gust = self.load_gust();
+        let (direction, azimuth, elevation) =
+            (values.real(WindVar::Direction), values.real(WindVar::Azimuth), values.real(WindVar::Elevation));
+        let t = torque.torques(v_mean, gust, direction, azimuth, elevation);
+        let f = torque.forces(v_mean, gust, direction, azimuth, elevation);
+        values.set_real(WindVar::Drag, f.drag());
+        values.set_real(WindVar::DragMean, f.drag_mean);
+        values.set_real(WindVar::Lift, f.lift());
+        values.set_real(WindVar::LiftMean, f.lift_mean);
+        values.set_real(WindVar::CDrag, f.c_drag);
+        values.set_real(WindVar::CLift, f.c_lift);
         values.set_real(WindVar::AzTorque, t.azimuth());
         values.set_real(WindVar::AzTorqueMean, t.azimuth_mean);
         values.set_real(WindVar::AzTorqueGust, t.azimuth_gust);
@@ -182,7 +252,7 @@ impl Model for WindModel {
         ModelInfo {
             model_identifier: "Wind",
             model_name: "Wind",
-            description: "Davenport wind gusts for any mean speed (Eq. 2 of the seed paper, or its H3/H10 filters) and the yawing and pitching torques they put on a 13.5 m dish, following the antenna's pointing. Step-size independent and reproducible from a seed.",
+            description: "Davenport wind gusts for any mean speed (Eq. 2 of the seed paper, or its H3/H10 filters) and the yawing and pitching torques, drag and lift they put on a 13.5 m dish through an aerodynamic admittance (Vickery, or coherent as in the paper), following the antenna's pointing. Step-size independent and reproducible from a seed.",
             author: "MeerKAT antenna positioner reference model contributors",
             version: env!("CARGO_PKG_VERSION"),
             default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 600.0, step_size: 0.01 },
@@ -205,12 +275,20 @@ impl Model for WindModel {
         values.set_real(WindVar::Kappa, kappa);
         values.set_real(WindVar::Sigma, sigma);
         values.set_real(WindVar::Intensity, sigma / v_mean);
+        let load_sigma = generator.as_ref().map_or(0.0, |g| {
+            if g.admittance().is_some() {
+                g.load_stationary_variance().sqrt()
+            } else {
+                sigma
+            }
+        });
+        values.set_real(WindVar::LoadSigma, load_sigma);
         self.generator = generator;
         self.torque = Some(torque);
         self.kappa = kappa;
         self.write_gust(values);
         self.write_torques(values);
-        Ok(())
+        Self::check_outputs_finite(values)
     }
 
     fn do_step(
@@ -230,7 +308,10 @@ impl Model for WindModel {
         // next get: the master usually sets the new pointing first, and computing them here
         // too would be wasted work.
         self.write_gust(values);
-        Ok(())
+        // The gusts are finite for every parameter the ranges admit; this guards the rest
+        // (the loads are finite multiples of them). A refused step leaves an error the master
+        // sees as fmi2Error with this cause.
+        Self::check_outputs_finite(values)
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<WindVar>) {
@@ -286,4 +367,36 @@ pub fn fmus() -> Vec<FmuSpec> {
             ("wind_coefficients.csv".into(), DEFAULT_TABLE_CSV.as_bytes().to_vec()),
         ]
     })]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_that_would_not_be_finite_is_refused_with_its_name_and_the_parameters() {
+        let mut values = Values::<WindVar>::at_start();
+        assert!(WindModel::check_outputs_finite(&values).is_ok());
+        values.set_real(WindVar::Drag, f64::INFINITY);
+        let error = WindModel::check_outputs_finite(&values).unwrap_err();
+        assert!(error.contains("'force.drag' would be inf") && error.contains("D = 13.5 m"), "{error}");
+        values.set_real(WindVar::Drag, 0.0);
+        values.set_real(WindVar::LoadGust, f64::NAN);
+        assert!(WindModel::check_outputs_finite(&values).unwrap_err().contains("wind.load_gust"));
+    }
+
+    #[test]
+    fn the_admittance_parameter_selects_the_law_and_coherent_leaves_no_stage() {
+        let context = Context::default();
+        let mut values = Values::<WindVar>::at_start();
+        let orders: Vec<Option<usize>> = [0, 1, 2]
+            .into_iter()
+            .map(|law| {
+                values.set_integer(WindVar::Admittance, law);
+                let (generator, _, _) = WindModel::build(&values, &context).unwrap();
+                generator.unwrap().admittance().map(|a| a.order())
+            })
+            .collect();
+        assert_eq!(orders, [None, Some(7), Some(4)]);
+    }
 }

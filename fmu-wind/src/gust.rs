@@ -35,6 +35,7 @@
 //! the ChaCha key, stream and word position; [`GustGenerator::save_state`] writes exactly those,
 //! so a restored state replays the same gusts bit for bit.
 
+use crate::admittance::AdmittanceFilter;
 use crate::shaping::{ShapingFilter, NOISE_INTENSITY};
 use fmu_runtime::seed::seed_key;
 use fmu_runtime::state::StateError;
@@ -48,6 +49,11 @@ use serde::{Deserialize, Serialize};
 const CACHE_CAPACITY: usize = 8;
 /// Pivots below this fraction of the largest diagonal end the pivoted Cholesky factorisation.
 const PIVOT_TOLERANCE: f64 = 1e-14;
+/// The same for the admittance stage's own noise (the second block of
+/// [`pivoted_cholesky_in_blocks`]): its conditional variances below 1e-10 of the stage's largest
+/// noise variance are dropped, which changes the load gust's variance by less than 1e-9 (the
+/// tests hold it to 1e-6) and saves a normal per step for each.
+const STAGE_PIVOT_TOLERANCE: f64 = 1e-10;
 
 /// One cached discretisation: the modal decay factors and the noise factor for a step size.
 #[derive(Debug, Clone)]
@@ -61,7 +67,61 @@ struct Discretisation {
     /// dot product gives.
     columns: Vec<f64>,
     rank: usize,
+    /// The admittance stage's part of the step, when the generator has one.
+    load: Option<LoadDiscretisation>,
     last_used: u64,
+}
+
+/// One step of the admittance stage `y` (driven by the gust), from the exact discretisation of
+/// the joint system `(x, y)`: `y <- coupling x + decay y + shared xi + own eta`, where `xi` are
+/// the normals the gust's own step draws and `eta` the stage's own (stream 1).
+///
+/// The four matrices are stored side by side as one `m x (n + m + rank + own_rank)` matrix,
+/// column after column, applied to the stacked sources `[x; y; xi; eta]`: each column adds to
+/// all `m` rows at once, so the rows accumulate independently (and in vector registers) where
+/// row-by-row dot products would wait on one long chain of additions each.
+#[derive(Debug, Clone)]
+struct LoadDiscretisation {
+    columns: Vec<f64>,
+    own_rank: usize,
+}
+
+/// The admittance stage: the load gust `u_a = sum a_j y_j` (see [`crate::admittance`]).
+#[derive(Debug, Clone)]
+struct LoadStage {
+    filter: AdmittanceFilter,
+    state: Vec<f64>,
+    /// ChaCha12 with the gust's key on stream 1: the stage's own normals never shift the gust's.
+    rng: ChaCha12Rng,
+    /// The stage's own normals of one step.
+    eta: Vec<f64>,
+    gust: f64,
+}
+
+impl LoadStage {
+    fn output(&self) -> f64 {
+        self.state.iter().zip(self.filter.residues()).map(|(y, a)| y * a).sum()
+    }
+
+    /// `y <- coupling x + decay y + shared xi + own eta` with `x` the gust state before the step.
+    fn advance(&mut self, step: &LoadDiscretisation, x: &[f64], xi: &[f64]) {
+        let m = self.state.len();
+        for eta in &mut self.eta[..step.own_rank] {
+            *eta = StandardNormal.sample(&mut self.rng);
+        }
+        let sources = [x, &self.state, xi, &self.eta[..step.own_rank]];
+        debug_assert_eq!(step.columns.len(), m * sources.iter().map(|s| s.len()).sum::<usize>());
+        let mut y = [0.0; MAX_STAGE_ORDER];
+        match m {
+            // The orders of the stored fits: with the length known, the accumulators stay in
+            // registers.
+            7 => accumulate::<7>(&mut y, &step.columns, sources),
+            4 => accumulate::<4>(&mut y, &step.columns, sources),
+            _ => accumulate_any(&mut y[..m], &step.columns, sources),
+        }
+        self.state.copy_from_slice(&y[..m]);
+        self.gust = self.output();
+    }
 }
 
 /// Generates the along-wind gust `v_t` (m/s) from a shaping filter and a seed.
@@ -79,16 +139,30 @@ pub struct GustGenerator {
     /// `C x` of the current state, computed whenever the state changes (the FMU reads it
     /// twice a step).
     gust: f64,
+    /// The admittance stage, if the loads see an admitted gust.
+    load: Option<LoadStage>,
 }
 
 impl GustGenerator {
     /// A generator for `filter`, seeded with `seed`, started in the stationary distribution.
     pub fn new(filter: ShapingFilter, seed: u64) -> Self {
+        Self::with_admittance(filter, None, seed)
+    }
+
+    /// A generator whose loads see the gust through `admittance` ([`GustGenerator::load_gust`]).
+    ///
+    /// The gust itself is the same record, bit for bit, as [`GustGenerator::new`] gives for the
+    /// same filter and seed: the admittance stage is sampled jointly with it, conditionally on
+    /// the gust's own random numbers, and draws what else it needs from stream 1 of the same
+    /// ChaCha key.
+    pub fn with_admittance(filter: ShapingFilter, admittance: Option<AdmittanceFilter>, seed: u64) -> Self {
         let n = filter.order();
         let mut rng = ChaCha12Rng::from_seed(seed_key(seed));
-        let (factor, rank) = pivoted_cholesky(&filter.stationary_covariance());
+        let covariance = filter.stationary_covariance();
+        let (factor, rank) = pivoted_cholesky(&covariance);
         let xi: Vec<f64> = (0..rank).map(|_| StandardNormal.sample(&mut rng)).collect();
         let state = (0..n).map(|i| (0..rank).map(|k| factor[i * rank + k] * xi[k]).sum()).collect();
+        let load = admittance.map(|a| LoadStage::stationary(a, &filter, &covariance, &xi, seed));
         let mut generator = Self {
             filter,
             seed,
@@ -99,9 +173,21 @@ impl GustGenerator {
             normals: vec![0.0; n],
             noise: vec![0.0; n],
             gust: 0.0,
+            load,
         };
         generator.gust = generator.output();
         generator
+    }
+
+    /// The gust that drives the loads: the admitted gust, or the gust itself without an
+    /// admittance stage, m/s.
+    pub fn load_gust(&self) -> f64 {
+        self.load.as_ref().map_or(self.gust, |l| l.gust)
+    }
+
+    /// The admittance stage's filter, if there is one.
+    pub fn admittance(&self) -> Option<&AdmittanceFilter> {
+        self.load.as_ref().map(|l| &l.filter)
     }
 
     pub fn filter(&self) -> &ShapingFilter {
@@ -138,6 +224,10 @@ impl GustGenerator {
         for xi in normals.iter_mut() {
             *xi = StandardNormal.sample(&mut self.rng);
         }
+        // The stage needs the gust state before the step.
+        if let (Some(load), Some(step)) = (&mut self.load, &entry.load) {
+            load.advance(step, &self.state, normals);
+        }
         match n {
             // The Davenport filter's order: with the length known to the compiler the loops
             // are unrolled and use both lanes of the vector registers.
@@ -161,7 +251,8 @@ impl GustGenerator {
         let (factor, rank) = pivoted_cholesky(&qd);
         let n = decay.len();
         let columns = (0..rank).flat_map(|k| (0..n).map(move |i| (k, i))).map(|(k, i)| factor[i * rank + k]).collect();
-        let entry = Discretisation { step_bits: bits, decay, columns, rank, last_used: self.clock };
+        let load = self.load.as_ref().map(|l| load_discretisation(&self.filter, &l.filter, h, &qd));
+        let entry = Discretisation { step_bits: bits, decay, columns, rank, load, last_used: self.clock };
         if self.cache.len() < CACHE_CAPACITY {
             self.cache.push(entry);
             self.cache.len() - 1
@@ -200,6 +291,7 @@ impl GustGenerator {
             key: self.rng.get_seed(),
             stream: self.rng.get_stream(),
             word_pos: self.rng.get_word_pos(),
+            load: self.load.as_ref().map(|l| LoadGustState { state: l.state.clone(), word_pos: l.rng.get_word_pos() }),
         }
     }
 
@@ -207,13 +299,29 @@ impl GustGenerator {
     ///
     /// Nothing is changed unless the whole state reads back correctly.
     pub fn load_state(&mut self, saved: GustState) -> Result<(), StateError> {
-        let GustState { seed, filter: state, key, stream, word_pos } = saved;
+        let GustState { seed, filter: state, key, stream, word_pos, load } = saved;
         if state.len() != self.filter.order() {
             return Err(StateError::Invalid(format!(
                 "wind gust state: {} filter states for a filter of order {}",
                 state.len(),
                 self.filter.order()
             )));
+        }
+        let load_order = self.load.as_ref().map(|l| l.state.len());
+        if load.as_ref().map(|l| l.state.len()) != load_order {
+            return Err(StateError::Invalid(format!(
+                "wind gust state: admittance stage of order {:?} for a generator with {:?}",
+                load.as_ref().map(|l| l.state.len()),
+                load_order
+            )));
+        }
+        if let (Some(stage), Some(saved)) = (&mut self.load, load) {
+            let mut rng = ChaCha12Rng::from_seed(key);
+            rng.set_stream(LOAD_STREAM);
+            rng.set_word_pos(saved.word_pos);
+            stage.state = saved.state;
+            stage.rng = rng;
+            stage.gust = stage.output();
         }
         let mut rng = ChaCha12Rng::from_seed(key);
         rng.set_stream(stream);
@@ -236,7 +344,20 @@ pub struct GustState {
     pub key: [u8; 32],
     pub stream: u64,
     pub word_pos: u128,
+    /// The admittance stage, if the generator has one.
+    pub load: Option<LoadGustState>,
 }
+
+/// What an FMU state holds of the admittance stage: its filter state and the word position of
+/// its random stream (the key is the gust's, the stream [`LOAD_STREAM`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoadGustState {
+    pub state: Vec<f64>,
+    pub word_pos: u128,
+}
+
+/// The ChaCha stream of the admittance stage's own normals (the gust uses stream 0).
+pub const LOAD_STREAM: u64 = 1;
 
 /// The order of the Davenport shaping filter (the stored prototype's), for which the step
 /// has a version with fixed-size loops; any other order takes the general one.
@@ -297,35 +418,59 @@ fn modal_discretisation(filter: &ShapingFilter, h: f64) -> (Vec<f64>, DMatrix<f6
 /// diagonal. Negative or tiny pivots from rounding never produce NaN: they end the
 /// factorisation.
 fn pivoted_cholesky(q: &DMatrix<f64>) -> (Vec<f64>, usize) {
+    let (factor, rank, _) = pivoted_cholesky_in_blocks(q, q.nrows());
+    (factor, rank)
+}
+
+/// [`pivoted_cholesky`] of a matrix in two blocks: pivots are first chosen among the first
+/// `first` indices only (the gust's modes), with columns that extend over every row, then among
+/// the rest (the admittance stage) on what is left of it, the Schur complement.
+///
+/// Returns `(L, rank_first, rank_rest)`, `L` row-major `n x (rank_first + rank_rest)`. The
+/// first block's rows and columns are the same numbers, computed by the same operations in the
+/// same order, as [`pivoted_cholesky`] of that block alone gives (tested bit for bit): the
+/// extra rows only read the first block. The second block's columns are zero on the first
+/// block's rows, so `L xi` moves the first block by exactly what it would move it alone, and
+/// the rest by its conditional mean plus independent conditional noise.
+fn pivoted_cholesky_in_blocks(q: &DMatrix<f64>, first: usize) -> (Vec<f64>, usize, usize) {
     let n = q.nrows();
     let mut a = q.clone();
-    let mut order: Vec<usize> = (0..n).collect();
     let mut columns: Vec<Vec<f64>> = Vec::new();
-    let largest = (0..n).map(|i| q[(i, i)]).fold(0.0, f64::max);
-    for k in 0..n {
-        // Bring the largest remaining diagonal to position k.
-        let (offset, pivot) = order[k..]
-            .iter()
-            .map(|&i| a[(i, i)])
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (j, d)| if d > best.1 { (j, d) } else { best });
-        if pivot.is_nan() || pivot <= PIVOT_TOLERANCE * largest {
-            break;
-        }
-        order.swap(k, k + offset);
-        let pk = order[k];
-        let root = pivot.sqrt();
-        let mut column = vec![0.0; n];
-        column[pk] = root;
-        for &i in &order[k + 1..] {
-            column[i] = a[(i, pk)] / root;
-        }
-        for &i in &order[k + 1..] {
-            for &j in &order[k + 1..] {
-                a[(i, j)] -= column[i] * column[j];
+    let mut rank_first = 0;
+    for (index, (block, tail)) in [(0..first, first..n), (first..n, n..n)].into_iter().enumerate() {
+        let mut order: Vec<usize> = block.collect();
+        let tail: Vec<usize> = tail.collect();
+        let largest = order.iter().map(|&i| q[(i, i)]).fold(0.0, f64::max);
+        let tolerance = if index == 0 { PIVOT_TOLERANCE } else { STAGE_PIVOT_TOLERANCE };
+        for k in 0..order.len() {
+            // Bring the largest remaining diagonal to position k.
+            let (offset, pivot) = order[k..]
+                .iter()
+                .map(|&i| a[(i, i)])
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |best, (j, d)| if d > best.1 { (j, d) } else { best });
+            if pivot.is_nan() || pivot <= tolerance * largest {
+                break;
             }
+            order.swap(k, k + offset);
+            let pk = order[k];
+            let root = pivot.sqrt();
+            let mut column = vec![0.0; n];
+            column[pk] = root;
+            let rows: Vec<usize> = order[k + 1..].iter().chain(&tail).copied().collect();
+            for &i in &rows {
+                column[i] = a[(i, pk)] / root;
+            }
+            for &i in &rows {
+                for &j in &rows {
+                    a[(i, j)] -= column[i] * column[j];
+                }
+            }
+            columns.push(column);
         }
-        columns.push(column);
+        if index == 0 {
+            rank_first = columns.len();
+        }
     }
     let rank = columns.len();
     let mut factor = vec![0.0; n * rank];
@@ -334,7 +479,199 @@ fn pivoted_cholesky(q: &DMatrix<f64>) -> (Vec<f64>, usize) {
             factor[i * rank + k] = column[i];
         }
     }
-    (factor, rank)
+    (factor, rank_first, rank - rank_first)
+}
+
+/// The joint system of gust modes and admittance stage: `x' = -p x + 1 w`,
+/// `y' = -q y + 1 (r . x)`; returns `A` (`n + m` square) and the noise column `G`.
+fn joint_system(filter: &ShapingFilter, admittance: &AdmittanceFilter) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, m) = (filter.order(), admittance.order());
+    let mut a = DMatrix::<f64>::zeros(n + m, n + m);
+    for (i, p) in filter.rates().iter().enumerate() {
+        a[(i, i)] = -p;
+    }
+    for (j, q) in admittance.rates().iter().enumerate() {
+        a[(n + j, n + j)] = -q;
+        for (i, r) in filter.residues().iter().enumerate() {
+            a[(n + j, i)] = *r;
+        }
+    }
+    let g = DMatrix::from_fn(n + m, 1, |i, _| if i < n { 1.0 } else { 0.0 });
+    (a, g)
+}
+
+/// The exact discretisation `(Ad, Qd)` of the joint system over `h`: Van Loan's formula
+/// (`lti::van_loan`) over `h / 2^k` with `k` the smallest that brings `|A| h / 2^k` to 0.5 or
+/// less, then `k` doublings `Qd <- Ad Qd Ad' + Qd`, `Ad <- Ad Ad`. The doublings only add
+/// decaying, positive semi-definite pieces, so the fast modes that make Van Loan's block
+/// exponential overflow at long steps (see the module notes) cost nothing in accuracy.
+fn joint_discretisation(a: &DMatrix<f64>, g: &DMatrix<f64>, h: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let norm = a.row_iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
+    let mut small = h;
+    let mut doublings = 0;
+    while norm * small > 0.5 && doublings < 200 {
+        small *= 0.5;
+        doublings += 1;
+    }
+    let q = DMatrix::from_element(1, 1, NOISE_INTENSITY);
+    let (mut ad, mut qd) = lti::van_loan(a, g, &q, small);
+    for _ in 0..doublings {
+        qd = &ad * &qd * ad.transpose() + &qd;
+        ad = &ad * &ad;
+    }
+    (ad, (&qd + qd.transpose()) * 0.5)
+}
+
+/// The admittance stage's step for `h`: the joint discretisation, with the gust block of the
+/// noise covariance replaced by the closed form the gust's own step uses (`qd_gust`), factored
+/// gust block first ([`pivoted_cholesky_in_blocks`]).
+fn load_discretisation(
+    filter: &ShapingFilter,
+    admittance: &AdmittanceFilter,
+    h: f64,
+    qd_gust: &DMatrix<f64>,
+) -> LoadDiscretisation {
+    let (n, m) = (filter.order(), admittance.order());
+    let (a, g) = joint_system(filter, admittance);
+    let (ad, mut qd) = joint_discretisation(&a, &g, h);
+    qd.view_mut((0, 0), (n, n)).copy_from(qd_gust);
+    let (factor, rank_first, rank_rest) = pivoted_cholesky_in_blocks(&qd, n);
+    split_load_factor(&ad, &factor, n, m, rank_first, rank_rest)
+}
+
+/// The stage's columns from the joint `Ad` (its `y` rows) and noise factor (its `y` rows, the
+/// gust's columns then the stage's own), in the order of the sources `[x; y; xi; eta]`.
+fn split_load_factor(
+    ad: &DMatrix<f64>,
+    factor: &[f64],
+    n: usize,
+    m: usize,
+    rank_first: usize,
+    rank_rest: usize,
+) -> LoadDiscretisation {
+    let rank = rank_first + rank_rest;
+    let dynamics = (0..n + m).flat_map(|k| (0..m).map(move |j| ad[(n + j, k)]));
+    let noise = (0..rank).flat_map(|k| (0..m).map(move |j| factor[(n + j) * rank + k]));
+    LoadDiscretisation { columns: dynamics.chain(noise).collect(), own_rank: rank_rest }
+}
+
+/// The largest admittance stage order the step handles (the stored fits have 7 and 4).
+const MAX_STAGE_ORDER: usize = crate::admittance::MAX_ORDER;
+
+/// `y = sum_k column_k source_k` over the stacked sources, for a stage of order `M`: each column
+/// adds to all rows at once, in the same order as [`accumulate_any`].
+// An index loop over two arrays of one fixed length says this more plainly than a zip.
+#[allow(clippy::needless_range_loop)]
+fn accumulate<const M: usize>(y: &mut [f64; MAX_STAGE_ORDER], columns: &[f64], sources: [&[f64]; 4]) {
+    let mut acc = [0.0; M];
+    let mut offset = 0;
+    for segment in sources {
+        let block = &columns[offset..offset + M * segment.len()];
+        offset += block.len();
+        for (column, &source) in block.chunks_exact(M).zip(segment) {
+            let Ok(column) = <&[f64; M]>::try_from(column) else { unreachable!("chunks of M") };
+            for j in 0..M {
+                acc[j] += column[j] * source;
+            }
+        }
+    }
+    y[..M].copy_from_slice(&acc);
+}
+
+/// [`accumulate`] for any order.
+fn accumulate_any(y: &mut [f64], columns: &[f64], sources: [&[f64]; 4]) {
+    y.fill(0.0);
+    let m = y.len();
+    for (column, &source) in columns.chunks_exact(m).zip(sources.iter().flat_map(|s| s.iter())) {
+        for (a, c) in y.iter_mut().zip(column) {
+            *a += c * source;
+        }
+    }
+}
+
+/// The stationary covariance of the joint system in closed form, given the gust block `P`:
+/// with `s_i = cov(v_t, x_i) = sum_k r_k P_ki`, `cov(y_j, x_i) = s_i / (q_j + p_i)` and, with
+/// `t_j = sum_i r_i cov(y_j, x_i)`, `cov(y_j, y_l) = (t_j + t_l) / (q_j + q_l)` (the Lyapunov
+/// equation block by block; every denominator is a sum of two positive rates, so coincident
+/// poles of the two filters are harmless).
+fn joint_stationary_covariance(
+    filter: &ShapingFilter,
+    admittance: &AdmittanceFilter,
+    gust_block: &DMatrix<f64>,
+) -> DMatrix<f64> {
+    let (n, m) = (filter.order(), admittance.order());
+    let (p, r, q) = (filter.rates(), filter.residues(), admittance.rates());
+    let s: Vec<f64> = (0..n).map(|i| (0..n).map(|k| r[k] * gust_block[(k, i)]).sum()).collect();
+    let cross = DMatrix::from_fn(m, n, |j, i| s[i] / (q[j] + p[i]));
+    let t: Vec<f64> = (0..m).map(|j| (0..n).map(|i| cross[(j, i)] * r[i]).sum()).collect();
+    let mut joint = DMatrix::<f64>::zeros(n + m, n + m);
+    joint.view_mut((0, 0), (n, n)).copy_from(gust_block);
+    joint.view_mut((n, 0), (m, n)).copy_from(&cross);
+    joint.view_mut((0, n), (n, m)).copy_from(&cross.transpose());
+    joint.view_mut((n, n), (m, m)).copy_from(&DMatrix::from_fn(m, m, |j, l| (t[j] + t[l]) / (q[j] + q[l])));
+    joint
+}
+
+impl LoadStage {
+    /// The stage drawn from its stationary distribution conditionally on the gust's initial
+    /// state, which the normals `xi` drew.
+    fn stationary(
+        filter: AdmittanceFilter,
+        gust: &ShapingFilter,
+        gust_covariance: &DMatrix<f64>,
+        xi: &[f64],
+        seed: u64,
+    ) -> Self {
+        let (n, m) = (gust.order(), filter.order());
+        let joint = joint_stationary_covariance(gust, &filter, gust_covariance);
+        let (factor, rank_first, rank_rest) = pivoted_cholesky_in_blocks(&joint, n);
+        let pieces = split_load_factor(&DMatrix::zeros(n + m, n + m), &factor, n, m, rank_first, rank_rest);
+        let mut rng = ChaCha12Rng::from_seed(seed_key(seed));
+        rng.set_stream(LOAD_STREAM);
+        let mut stage = Self { filter, state: vec![0.0; m], rng, eta: vec![0.0; m], gust: 0.0 };
+        stage.advance(&pieces, &vec![0.0; n], xi);
+        stage
+    }
+}
+
+impl GustGenerator {
+    /// The exact stationary variance of the load gust (the admitted gust), from the joint
+    /// covariance; the gust's own variance without an admittance stage.
+    pub fn load_stationary_variance(&self) -> f64 {
+        let Some(load) = &self.load else { return self.filter.stationary_variance() };
+        let joint = joint_stationary_covariance(&self.filter, &load.filter, &self.filter.stationary_covariance());
+        self.load_output_variance(&joint)
+    }
+
+    /// The stationary variance of the sampled joint model at step `h` (discrete Lyapunov
+    /// equation with the noise factors the generator draws with): equal to
+    /// [`GustGenerator::load_stationary_variance`] if the discretisation is exact.
+    pub fn load_discrete_stationary_variance(&self, h: f64) -> f64 {
+        let Some(load) = &self.load else { return self.discrete_stationary_variance(h) };
+        let (n, m) = (self.filter.order(), load.filter.order());
+        let (decay, qd_gust) = modal_discretisation(&self.filter, h);
+        let (a, g) = joint_system(&self.filter, &load.filter);
+        let (mut ad, mut qd) = joint_discretisation(&a, &g, h);
+        qd.view_mut((0, 0), (n, n)).copy_from(&qd_gust);
+        for i in 0..n {
+            ad[(i, i)] = decay[i];
+        }
+        let (factor, rank_first, rank_rest) = pivoted_cholesky_in_blocks(&qd, n);
+        let l = DMatrix::from_row_slice(n + m, rank_first + rank_rest, &factor);
+        let p = lti::lyapunov_discrete(&ad, &(&l * l.transpose()))
+            .expect("a stable discrete A has a unique Lyapunov solution");
+        self.load_output_variance(&p)
+    }
+
+    fn load_output_variance(&self, joint: &DMatrix<f64>) -> f64 {
+        let Some(load) = &self.load else { return f64::NAN };
+        let n = self.filter.order();
+        let a = load.filter.residues();
+        (0..a.len())
+            .flat_map(|j| (0..a.len()).map(move |l| (j, l)))
+            .map(|(j, l)| a[j] * joint[(n + j, n + l)] * a[l])
+            .sum()
+    }
 }
 
 #[cfg(test)]
@@ -433,6 +770,104 @@ mod tests {
             g.step(k as f64 * 1e-3);
         }
         assert!(g.cache.len() <= CACHE_CAPACITY);
+    }
+
+    fn admitted(v: f64, seed: u64) -> GustGenerator {
+        let filter = ShapingFilter::davenport(&Davenport::new(v, 10.0, 0.4).unwrap());
+        GustGenerator::with_admittance(filter, Some(AdmittanceFilter::vickery(v, 13.5).unwrap()), seed)
+    }
+
+    #[test]
+    fn block_cholesky_gives_the_gust_block_the_same_bits_as_the_gust_alone() {
+        let g = admitted(9.5, 1);
+        let load = g.load.as_ref().unwrap();
+        let n = g.filter.order();
+        for h in [1e-3, 0.1, 2.0] {
+            let (_, qd_gust) = modal_discretisation(&g.filter, h);
+            let (alone, rank) = pivoted_cholesky(&qd_gust);
+            let (a, noise) = joint_system(&g.filter, &load.filter);
+            let (_, mut qd) = joint_discretisation(&a, &noise, h);
+            qd.view_mut((0, 0), (n, n)).copy_from(&qd_gust);
+            let (joint, rank_first, rank_rest) = pivoted_cholesky_in_blocks(&qd, n);
+            assert_eq!(rank_first, rank, "h = {h}");
+            let width = rank_first + rank_rest;
+            for i in 0..n {
+                for k in 0..width {
+                    let expected = if k < rank { alone[i * rank + k] } else { 0.0 };
+                    assert_eq!(joint[i * width + k].to_bits(), expected.to_bits(), "h = {h}, ({i}, {k})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_admittance_stage_leaves_the_gust_record_bit_for_bit_unchanged() {
+        let (mut plain, mut with_stage) = (generator(9.5, 4), admitted(9.5, 4));
+        assert_eq!(plain.gust().to_bits(), with_stage.gust().to_bits());
+        let steps = [0.01, 0.1, 0.001, 0.05, 1.0];
+        for k in 0..2000 {
+            let h = steps[k % steps.len()];
+            assert_eq!(plain.step(h).to_bits(), with_stage.step(h).to_bits(), "step {k}");
+        }
+        assert_ne!(with_stage.load_gust(), with_stage.gust());
+    }
+
+    #[test]
+    fn load_gust_variance_is_the_integral_of_the_admitted_spectrum_and_the_same_at_every_step() {
+        for v in [3.0, 9.5, 20.0] {
+            let filter = ShapingFilter::davenport(&Davenport::new(v, 10.0, 0.4).unwrap());
+            let stages =
+                [AdmittanceFilter::vickery(v, 13.5).unwrap(), AdmittanceFilter::davenport_size(v, 13.5, 8.0).unwrap()];
+            for stage in stages {
+                let g = GustGenerator::with_admittance(filter.clone(), Some(stage), 7);
+                let continuous = g.load_stationary_variance();
+                // Trapezoid rule in ln n over 1e-7..1e4 Hz of |H|^2 |G|^2 (one-sided, per hertz).
+                let adm = g.admittance().unwrap();
+                let points = 200_000;
+                let (lo, hi) = (1e-7f64.ln(), 1e4f64.ln());
+                let dl = (hi - lo) / points as f64;
+                let integral: f64 = (0..=points)
+                    .map(|k| {
+                        let n = (lo + k as f64 * dl).exp();
+                        let weight = if k == 0 || k == points { 0.5 } else { 1.0 };
+                        weight
+                            * n
+                            * g.filter.magnitude_squared(2.0 * std::f64::consts::PI * n)
+                            * adm.magnitude_squared(n)
+                    })
+                    .sum::<f64>()
+                    * dl;
+                let order = adm.order();
+                assert!(
+                    (integral / continuous - 1.0).abs() < 1e-4,
+                    "v = {v}, order {order}: integral {integral}, Lyapunov {continuous}"
+                );
+                assert!(continuous < g.filter.stationary_variance());
+                for h in [1e-3, 1e-2, 1e-1, 1.0] {
+                    let ratio = g.load_discrete_stationary_variance(h) / continuous;
+                    assert!((ratio - 1.0).abs() < 1e-6, "v = {v}, order {order}, h = {h}: ratio {ratio}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn restoring_a_saved_state_replays_the_same_load_gusts() {
+        let mut g = admitted(9.5, 3);
+        for _ in 0..137 {
+            g.step(0.01);
+        }
+        let saved = g.save_state();
+        let steps = [0.01, 0.1, 0.001, 0.01, 0.05];
+        let run = |g: &mut GustGenerator| -> Vec<(u64, u64)> {
+            (0..500).map(|k| (g.step(steps[k % steps.len()]).to_bits(), g.load_gust().to_bits())).collect()
+        };
+        let first = run(&mut g);
+        let mut restored = admitted(9.5, 999);
+        restored.load_state(saved.clone()).unwrap();
+        assert_eq!(first, run(&mut restored));
+        // A state with a stage does not fit a generator without one.
+        assert!(generator(9.5, 1).load_state(saved).is_err());
     }
 
     #[test]

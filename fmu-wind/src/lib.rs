@@ -19,6 +19,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod admittance;
 pub mod analysis;
 pub mod coefficients;
 pub mod davenport;

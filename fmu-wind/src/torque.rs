@@ -14,6 +14,11 @@
 //!
 //! The coefficients follow the pointing: yaw = wind direction - antenna azimuth, see
 //! [`crate::coefficients`] for the sign conventions.
+//!
+//! The same law gives the forces on the dish ([`DishForces`]): drag along the flow and lift
+//! (vertical), `F = C 0.5 rho A v |v|`, with the angular laws of [`ForceCoefficients`]. The
+//! gust that enters both is the load gust: the point gust through the aerodynamic admittance
+//! ([`crate::admittance`]), or the point gust itself in the coherent configuration.
 
 use crate::coefficients::CoefficientTable;
 use std::f64::consts::PI;
@@ -53,6 +58,71 @@ impl WindTorques {
     }
 }
 
+/// Force coefficients of the dish, an **estimate** (no table with force columns is shipped):
+///
+/// * drag along the flow, `C_D = C_D0 |cos alpha|`,
+/// * lift, the vertical component of the force across the flow, `C_L = -C_L0 sin(2 el) cos(psi)`,
+///
+/// with `cos alpha = cos(el) cos(psi)` the cosine of the angle between the boresight and the
+/// direction the wind comes from (the angle of [`crate::coefficients`]'s reference model). The
+/// lift law is the vertical part of a cross-flow force `C_L0 sin(2 alpha)` in the plane of wind
+/// and boresight: that force points along `-(b - cos(alpha) s) / sin(alpha)` (`b` the boresight,
+/// `s` the horizontal unit vector towards where the wind comes from), the cross-flow part of a
+/// force normal to the aperture that pushes the face away from the wind, and its vertical
+/// component is `sin(el) / sin(alpha)` of it, so `-C_L0 sin(2 alpha) sin(el) / sin(alpha) =
+/// -2 C_L0 cos(alpha) sin(el)`. Front wind on a raised dish pushes it down (negative lift), wind
+/// from behind lifts it. `C_D0 = 1.3` (range 1.1-1.6: "approximately 1.2-1.4 for a solid
+/// parabolic dish", weak vendor sources; JPL Publication 78-16 was not read) and `C_L0 = 0.3`
+/// (0.1-0.6, order of the published lift curves, not verified); docs/wind-model.md.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceCoefficients {
+    /// `C_D0`, the drag coefficient with the wind along the boresight (either face).
+    pub drag_face_on: f64,
+    /// `C_L0`, the largest cross-flow (lift) coefficient, reached at 45 degrees.
+    pub lift_max: f64,
+}
+
+impl Default for ForceCoefficients {
+    fn default() -> Self {
+        Self { drag_face_on: DRAG_COEFFICIENT_FACE_ON, lift_max: LIFT_COEFFICIENT_MAX }
+    }
+}
+
+/// Default `C_D0` (estimate, range 1.1-1.6).
+pub const DRAG_COEFFICIENT_FACE_ON: f64 = 1.3;
+/// Default `C_L0` (estimate, range 0.1-0.6).
+pub const LIFT_COEFFICIENT_MAX: f64 = 0.3;
+
+impl ForceCoefficients {
+    /// `(C_D, C_L)` at yaw `psi` and elevation `el`, degrees.
+    pub fn at(&self, yaw_deg: f64, elevation_deg: f64) -> (f64, f64) {
+        let (psi, el) = (yaw_deg.to_radians(), elevation_deg.to_radians());
+        let cos_alpha = el.cos() * psi.cos();
+        (self.drag_face_on * cos_alpha.abs(), -self.lift_max * (2.0 * el).sin() * psi.cos())
+    }
+}
+
+/// The forces on the dish at one instant, N: drag positive downwind, lift positive up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DishForces {
+    pub drag_mean: f64,
+    pub drag_gust: f64,
+    pub lift_mean: f64,
+    pub lift_gust: f64,
+    pub c_drag: f64,
+    pub c_lift: f64,
+}
+
+impl DishForces {
+    pub fn drag(&self) -> f64 {
+        self.drag_mean + self.drag_gust
+    }
+
+    pub fn lift(&self) -> f64 {
+        self.lift_mean + self.lift_gust
+    }
+}
+
 /// The wind torque model of one antenna.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WindTorqueModel {
@@ -62,6 +132,7 @@ pub struct WindTorqueModel {
     /// Dish diameter `D`, m; the reference area is the aperture circle `pi D^2 / 4`.
     pub dish_diameter: f64,
     pub form: TorqueForm,
+    pub forces: ForceCoefficients,
 }
 
 impl WindTorqueModel {
@@ -78,7 +149,52 @@ impl WindTorqueModel {
         if !(dish_diameter.is_finite() && dish_diameter > 0.0) {
             return Err(format!("dish diameter must be positive and finite, got {dish_diameter} m"));
         }
-        Ok(Self { coefficients, air_density, dish_diameter, form })
+        Ok(Self { coefficients, air_density, dish_diameter, form, forces: ForceCoefficients::default() })
+    }
+
+    /// The same model with these force coefficients (finite, checked).
+    pub fn with_forces(mut self, forces: ForceCoefficients) -> Result<Self, String> {
+        if !(forces.drag_face_on.is_finite() && forces.lift_max.is_finite()) {
+            return Err(format!("force coefficients must be finite, got {forces:?}"));
+        }
+        self.forces = forces;
+        Ok(self)
+    }
+
+    /// `(mean, gust)` parts of `v |v|` (quadratic) or its linearisation, (m/s)^2.
+    fn speed_squared(&self, v_mean: f64, v_gust: f64) -> (f64, f64) {
+        let mean = v_mean * v_mean;
+        let gust = match self.form {
+            TorqueForm::Quadratic => {
+                let v = v_mean + v_gust;
+                v * v.abs() - mean
+            }
+            TorqueForm::Linearised => 2.0 * v_mean * v_gust,
+        };
+        (mean, gust)
+    }
+
+    /// Drag and lift on the dish for the same arguments as [`WindTorqueModel::torques`]:
+    /// `F = C 0.5 rho A v |v|` (or its linearisation), split like the torques.
+    pub fn forces(
+        &self,
+        v_mean: f64,
+        v_gust: f64,
+        wind_direction_deg: f64,
+        azimuth_deg: f64,
+        elevation_deg: f64,
+    ) -> DishForces {
+        let (c_drag, c_lift) = self.forces.at(yaw_deg(wind_direction_deg, azimuth_deg), elevation_deg);
+        let k = 0.5 * self.air_density * self.reference_area();
+        let (mean, gust) = self.speed_squared(v_mean, v_gust);
+        DishForces {
+            drag_mean: c_drag * k * mean,
+            drag_gust: c_drag * k * gust,
+            lift_mean: c_lift * k * mean,
+            lift_gust: c_lift * k * gust,
+            c_drag,
+            c_lift,
+        }
     }
 
     /// The reference area `A = pi D^2 / 4`, m^2.
@@ -240,6 +356,39 @@ mod tests {
         assert!(t.azimuth() * t.azimuth_mean < 0.0, "v = -1 m/s pushes the other way");
         // v = 0.5 - 1.5 = -1 m/s: T = tau k v|v| = -tau k.
         assert!((t.azimuth() + t.tau_az * m.torque_scale()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn steady_drag_face_on_is_q_a_cd_and_lift_follows_its_signs() {
+        // q A C_D by hand at 9.8 m/s: 0.5 * 1.075 * 9.8^2 * (pi 13.5^2 / 4) * 1.3 = 9,605.8 N.
+        let m = model(TorqueForm::Quadratic);
+        let f = m.forces(9.8, 0.0, 40.0, 40.0, 0.0);
+        let q_a = 0.5 * 1.075 * 9.8 * 9.8 * PI * 13.5 * 13.5 / 4.0;
+        assert!((f.drag() - 1.3 * q_a).abs() < 1e-9 * q_a, "{}", f.drag());
+        assert!((f.drag() - 9605.8).abs() < 0.1);
+        assert_eq!(f.lift(), 0.0, "no lift face-on at the horizon");
+        // Front wind on a dish raised to 45 deg: C_D = 1.3 cos 45, pushed down by C_L0.
+        let raised = m.forces(9.8, 0.0, 40.0, 40.0, 45.0);
+        assert!((raised.c_drag - 1.3 * 45f64.to_radians().cos()).abs() < 1e-12);
+        assert!((raised.c_lift + 0.3).abs() < 1e-12 && raised.lift() < 0.0);
+        // Wind from behind lifts it; wind from the side has neither drag nor lift.
+        assert!(m.forces(9.8, 0.0, 220.0, 40.0, 45.0).lift() > 0.0);
+        let side = m.forces(9.8, 0.0, 130.0, 40.0, 30.0);
+        assert!(side.drag().abs() < 1e-9 * q_a && side.lift().abs() < 1e-9 * q_a);
+        // Zenith: edge-on, no drag, no lift.
+        assert!(m.forces(9.8, 0.0, 0.0, 0.0, 90.0).drag().abs() < 1e-9 * q_a);
+    }
+
+    #[test]
+    fn forces_take_the_gust_like_the_torques() {
+        for form in [TorqueForm::Quadratic, TorqueForm::Linearised] {
+            let m = model(form);
+            let (t, f) = (m.torques(9.8, 1.7, 10.0, 0.0, 30.0), m.forces(9.8, 1.7, 10.0, 0.0, 30.0));
+            // The gust-to-mean ratio is the same for every load: one dynamic pressure.
+            let ratio = t.azimuth_gust / t.azimuth_mean;
+            assert!((f.drag_gust / f.drag_mean - ratio).abs() < 1e-12);
+            assert!((f.lift_gust / f.lift_mean - ratio).abs() < 1e-12);
+        }
     }
 
     #[test]
