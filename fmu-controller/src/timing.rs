@@ -24,6 +24,13 @@
 //!
 //! A time within `1e-6 Ts` of a grid point counts as on it, so that a master accumulating
 //! `t += h` in floating point does not lose or duplicate samples.
+//!
+//! Memory does not grow with the step: each output is queued only until it takes effect, and
+//! outputs that take effect within the step are applied as soon as they are computed, so the
+//! queue never holds more than `delay + 1` outputs (at most
+//! [`SamplingParams::MAX_DELAY_SAMPLES`] + 1), whatever the communication step. The work of a
+//! step is one sample per `Ts` in it, which the runtime bounds before the step starts
+//! ([`SampleScheduler::samples_in`]).
 
 use std::collections::VecDeque;
 
@@ -67,7 +74,7 @@ impl<O: Clone> SampleScheduler<O> {
             sample_time: sampling.sample_time_s,
             delay_samples: sampling.delay_samples,
             next_sample: 0,
-            pending: VecDeque::new(),
+            pending: VecDeque::with_capacity(sampling.delay_samples.min(SamplingParams::MAX_DELAY_SAMPLES) as usize + 1),
             applied: idle,
         }
     }
@@ -87,18 +94,41 @@ impl<O: Clone> SampleScheduler<O> {
         &self.applied
     }
 
+    /// How many samples a step of `step` seconds executes at most, for a sample time `ts`:
+    /// the work of a step, which the runtime bounds before the step starts.
+    pub fn samples_in(step: f64, ts: f64) -> f64 {
+        step / ts + 2.0
+    }
+
     /// Executes the samples of the communication step `[time, time + step)` with the given
-    /// inputs and returns the output in force at `time + step`.
-    pub fn do_step<C>(&mut self, controller: &mut C, time: f64, step: f64, inputs: &C::Inputs) -> &O
+    /// inputs and returns the output in force at `time + step`. A scheduler whose next sample
+    /// lies before the step (a state that does not belong to this time) is an error: it would
+    /// have to catch up an unbounded number of samples.
+    pub fn do_step<C>(&mut self, controller: &mut C, time: f64, step: f64, inputs: &C::Inputs) -> Result<&O, String>
     where
         C: SampledController<Outputs = O>,
     {
         let end = time + step;
         let tolerance = 1e-6 * self.sample_time;
+        let next = self.sample_instant(self.next_sample);
+        if next < time - tolerance - 1e-9 * time.abs() - self.sample_time {
+            return Err(format!(
+                "the controller's next sample is at {next} s, before the step that starts at {time} s: the sample clock does not belong to this time"
+            ));
+        }
         while self.sample_instant(self.next_sample) < end - tolerance {
             let out = controller.sample(inputs);
             self.pending.push_back((self.next_sample, out));
             self.next_sample += 1;
+            // Apply what takes effect within the step at once, so that the queue holds only
+            // outputs still waiting for their delay.
+            while let Some((k, _)) = self.pending.front() {
+                if self.sample_instant(k + u64::from(self.delay_samples)) <= end + tolerance {
+                    self.applied = self.pending.pop_front().expect("front exists").1;
+                } else {
+                    break;
+                }
+            }
         }
         while let Some((k, _)) = self.pending.front() {
             if self.sample_instant(k + u64::from(self.delay_samples)) <= end + tolerance {
@@ -107,7 +137,7 @@ impl<O: Clone> SampleScheduler<O> {
                 break;
             }
         }
-        &self.applied
+        Ok(&self.applied)
     }
 
     /// Everything that determines the future outputs: the grid's start, the next sample, the
@@ -125,7 +155,13 @@ impl<O: Clone> SampleScheduler<O> {
     /// given sampling.
     pub fn restored(sampling: &SamplingParams, state: SchedulerState<O>) -> Result<Self, StateError> {
         let SchedulerState { start_time, next_sample, pending, applied } = state;
-        if pending.len() > SamplingParams::MAX_DELAY_SAMPLES as usize + 1 {
+        if !start_time.is_finite() {
+            return Err(StateError::Invalid(format!("the sample clock starts at {start_time} s")));
+        }
+        if pending.iter().any(|(k, _)| *k >= next_sample) {
+            return Err(StateError::Invalid("state holds pending outputs of samples not yet executed".into()));
+        }
+        if pending.len() > sampling.delay_samples as usize + 1 {
             return Err(StateError::Invalid(format!(
                 "state holds {} pending outputs, more than the delay allows",
                 pending.len()
@@ -192,7 +228,7 @@ mod tests {
         let mut t = 0.0;
         let mut out = Vec::new();
         for _ in 0..steps {
-            out.push(s.do_step(&mut c, t, h, &t).sample);
+            out.push(s.do_step(&mut c, t, h, &t).unwrap().sample);
             t += h;
         }
         out
@@ -222,7 +258,7 @@ mod tests {
         let sampling = SamplingParams { sample_time_s: ts, delay_samples: 1 };
         let mut c = Counter { sampling, count: 0 };
         let mut s = SampleScheduler::new(0.0, &sampling, c.idle_outputs());
-        let out = *s.do_step(&mut c, 0.0, 4e-3, &7.0);
+        let out = *s.do_step(&mut c, 0.0, 4e-3, &7.0).unwrap();
         assert_eq!(c.count, 4);
         assert_eq!(out, Out { sample: 3, input: 7.0 });
     }
@@ -239,7 +275,7 @@ mod tests {
         let mut applied = Vec::new();
         for _ in 0..4 {
             let before = c.count;
-            applied.push(s.do_step(&mut c, t, 2.5e-3, &t).sample);
+            applied.push(s.do_step(&mut c, t, 2.5e-3, &t).unwrap().sample);
             counts.push(c.count - before);
             t += 2.5e-3;
         }
@@ -259,17 +295,41 @@ mod tests {
     }
 
     #[test]
+    fn a_long_step_queues_no_more_outputs_than_the_delay() {
+        let sampling = SamplingParams { sample_time_s: 1e-3, delay_samples: 3 };
+        let mut c = Counter { sampling, count: 0 };
+        let mut s = SampleScheduler::new(0.0, &sampling, c.idle_outputs());
+        let capacity = s.pending.capacity();
+        let out = *s.do_step(&mut c, 0.0, 100.0, &1.0).unwrap();
+        assert_eq!(c.count, 100_000);
+        assert_eq!(out.sample, 99_997);
+        // The queue never grew: outputs were applied as they were computed.
+        assert_eq!(s.pending.capacity(), capacity);
+        assert!(s.pending.len() <= 4);
+    }
+
+    #[test]
+    fn a_sample_clock_behind_the_step_is_refused() {
+        let sampling = SamplingParams { sample_time_s: 1e-3, delay_samples: 1 };
+        let mut c = Counter { sampling, count: 0 };
+        let mut s = SampleScheduler::new(-1e6, &sampling, c.idle_outputs());
+        let error = s.do_step(&mut c, 0.0, 1e-3, &1.0).unwrap_err();
+        assert!(error.contains("does not belong to this time"), "{error}");
+        assert_eq!(c.count, 0);
+    }
+
+    #[test]
     fn state_round_trip_resumes_identically() {
         let ts = 1e-3;
         let sampling = SamplingParams { sample_time_s: ts, delay_samples: 2 };
         let mut c = Counter { sampling, count: 0 };
         let mut s = SampleScheduler::new(0.0, &sampling, c.idle_outputs());
-        s.do_step(&mut c, 0.0, 3.5e-3, &1.0);
+        s.do_step(&mut c, 0.0, 3.5e-3, &1.0).unwrap();
         let mut restored = SampleScheduler::restored(&sampling, s.saved_state()).unwrap();
         let mut c2 = Counter { sampling, count: c.count };
         for j in 0..10 {
             let t = 3.5e-3 + j as f64 * 1e-3;
-            assert_eq!(s.do_step(&mut c, t, 1e-3, &2.0), restored.do_step(&mut c2, t, 1e-3, &2.0));
+            assert_eq!(s.do_step(&mut c, t, 1e-3, &2.0).unwrap(), restored.do_step(&mut c2, t, 1e-3, &2.0).unwrap());
         }
     }
 }

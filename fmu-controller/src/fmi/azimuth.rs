@@ -143,8 +143,13 @@ impl Model for AzimuthControllerModel {
         });
         let inputs = Self::inputs(values);
         // Written from the scheduler's own copy: the outputs are a few dozen numbers.
-        Self::write_outputs(scheduler.do_step(controller, time, step, &inputs), values);
+        Self::write_outputs(scheduler.do_step(controller, time, step, &inputs)?, values);
         Ok(())
+    }
+
+    fn step_pieces(values: &Values<AzCtrlVar>, step: f64) -> (f64, &'static str) {
+        let samples = SampleScheduler::<AzimuthOutputs>::samples_in(step, values.real(AzCtrlVar::SampleTime));
+        (samples, "controller samples, one per sampling.sample_time")
     }
 
     type State = ControllerState<AzimuthOutputs>;

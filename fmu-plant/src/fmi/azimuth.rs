@@ -6,7 +6,7 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
+    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
     MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MAX_SPEED_NOISE,
     MIN_MOTOR_INERTIA, TINY,
 };
@@ -425,6 +425,14 @@ impl Model for AzimuthPlantModel {
             }
         }
         Ok(())
+    }
+
+    fn step_pieces(values: &Values<AzVar>, step: f64) -> (f64, &'static str) {
+        let stribeck = [AzVar::BearingStribeck, AzVar::M1Stribeck, AzVar::M2Stribeck].iter().any(|&v| values.real(v) > 0.0);
+        let torques = [AzVar::M1CoggingAmplitude, AzVar::M2CoggingAmplitude, AzVar::PeriodicAmplitude]
+            .iter()
+            .any(|&v| values.real(v) != 0.0);
+        plant_step_pieces(step, values.real(AzVar::EventCheckInterval), values.real(AzVar::NonlinearSubstep), stribeck || torques)
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<AzVar>) {

@@ -151,10 +151,25 @@ pub fn load_parameter_file<M: fmu_runtime::Model>(
             None => path,
         }
     };
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| format!("cannot read parameter file {}: {e}", path.display()))?;
+    let text = fmu_runtime::files::read_regular_file(
+        &path,
+        fmu_runtime::files::MAX_PARAMETER_FILE_BYTES,
+        "parameter file",
+    )?;
     fmu_runtime::params::apply::<M>(&text, &path.display().to_string(), values)?;
     Ok(())
+}
+
+/// The work of a plant step of `step` seconds in pieces (what the drive train cuts a step
+/// into): pieces of at most `numerics.event_check_interval`, and of at most
+/// `numerics.nonlinear_substep` when torques that are not piecewise linear are on (cogging,
+/// periodic or unbalance torques, a Stribeck curve; `needs_substeps`).
+pub fn plant_step_pieces(step: f64, event_check_interval: f64, substep: f64, needs_substeps: bool) -> (f64, &'static str) {
+    if needs_substeps {
+        ((step / substep.min(event_check_interval)).ceil(), "pieces of numerics.nonlinear_substep, with cogging, periodic or unbalance torques or a Stribeck curve on")
+    } else {
+        ((step / event_check_interval).ceil(), "pieces of numerics.event_check_interval")
+    }
 }
 
 pub fn model_info(identifier: &'static str, description: &'static str) -> ModelInfo {

@@ -6,7 +6,7 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
+    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
     MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE,
     MIN_MOTOR_INERTIA, TINY,
 };
@@ -376,6 +376,14 @@ impl Model for ElevationPlantModel {
         plant.step(&inputs, step)?;
         Self::write_outputs(plant, values);
         Ok(())
+    }
+
+    fn step_pieces(values: &Values<ElVar>, step: f64) -> (f64, &'static str) {
+        let stribeck = [ElVar::MStribeck, ElVar::ScrewStribeck, ElVar::PivotStribeck].iter().any(|&v| values.real(v) > 0.0);
+        let torques = [ElVar::MCoggingAmplitude, ElVar::PeriodicAmplitude, ElVar::UnbalanceMoment]
+            .iter()
+            .any(|&v| values.real(v) != 0.0);
+        plant_step_pieces(step, values.real(ElVar::EventCheckInterval), values.real(ElVar::NonlinearSubstep), stribeck || torques)
     }
 
     fn string_changed(&mut self, var: ElVar, values: &mut Values<ElVar>, context: &Context) -> Result<(), String> {
