@@ -106,7 +106,7 @@ impl Access {
     #[inline]
     fn accepts_real(&self, value: f64, phase_index: usize) -> bool {
         let (lo, hi) = self.settable_range[phase_index];
-        lo <= value && value <= hi
+        lo <= value && value <= hi && !is_subnormal(value)
     }
 }
 
@@ -387,13 +387,27 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 }
 
-/// Checks a Real value a master (or a parameter file) wants to set: finite, within the declared
-/// range, and accepted by the model's own check.
+/// Whether a number is subnormal (nonzero and smaller in magnitude than the smallest normal
+/// double, 2.2e-308). No physical quantity of these models is one: a master that sends 4.9e-324
+/// means 0 or has a bug, and dividing by one overflows.
+#[inline]
+pub fn is_subnormal(value: f64) -> bool {
+    value != 0.0 && value.abs() < f64::MIN_POSITIVE
+}
+
+/// Checks a Real value a master (or a parameter file) wants to set: finite, not subnormal,
+/// within the declared range, and accepted by the model's own check.
 pub fn check_real_value<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), String> {
     let decl = var.var();
     let vr = var.vr();
     if !value.is_finite() {
         return Err(format!("'{}' (value reference {vr}) cannot be set to {value}: values must be finite", decl.name));
+    }
+    if is_subnormal(value) {
+        return Err(format!(
+            "'{}' (value reference {vr}) cannot be set to {value:e}: subnormal numbers are refused (give 0 or a normal number)",
+            decl.name
+        ));
     }
     if let Kind::Real { min, max, unit, .. } = decl.kind {
         if let Some(lo) = min {
