@@ -74,7 +74,9 @@ impl<O: Clone> SampleScheduler<O> {
             sample_time: sampling.sample_time_s,
             delay_samples: sampling.delay_samples,
             next_sample: 0,
-            pending: VecDeque::with_capacity(sampling.delay_samples.min(SamplingParams::MAX_DELAY_SAMPLES) as usize + 1),
+            pending: VecDeque::with_capacity(
+                sampling.delay_samples.min(SamplingParams::MAX_DELAY_SAMPLES) as usize + 1,
+            ),
             applied: idle,
         }
     }

@@ -207,9 +207,9 @@ pub fn fmi_boolean(value: fmi2Boolean, what: &str) -> Result<bool, String> {
     match value {
         0 => Ok(false),
         1 => Ok(true),
-        other => Err(format!(
-            "{what} = {other} is not an fmi2Boolean: only fmi2False (0) and fmi2True (1) are accepted"
-        )),
+        other => {
+            Err(format!("{what} = {other} is not an fmi2Boolean: only fmi2False (0) and fmi2True (1) are accepted"))
+        }
     }
 }
 
@@ -302,8 +302,13 @@ pub unsafe fn set_debug_logging(
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let names = unsafe { slice(categories, n, "categories") }?;
         if names.is_empty() {
+            // All categories: debug logging on or off. The messages of failed calls (warnings,
+            // discards, errors) are not debug logging and stay on, so that every fmi2Error
+            // comes with its reason; a master that does not want them names their category.
             instance.logging_on = on;
-            instance.categories = [on; LOG_CATEGORIES.len()];
+            for (index, enabled) in instance.categories.iter_mut().enumerate() {
+                *enabled = on || [CAT_WARNING, CAT_DISCARD, CAT_ERROR, crate::phase::CAT_FATAL].contains(&index);
+            }
             return Ok(Status::Ok);
         }
         let mut indices = Vec::with_capacity(names.len());

@@ -41,7 +41,10 @@ pub fn read_regular_file(path: &Path, max_bytes: u64, what: &str) -> Result<Stri
         ));
     }
     if metadata.len() > max_bytes {
-        return Err(format!("{what} {shown} has {} bytes, more than the {max_bytes} bytes an FMU reads", metadata.len()));
+        return Err(format!(
+            "{what} {shown} has {} bytes, more than the {max_bytes} bytes an FMU reads",
+            metadata.len()
+        ));
     }
     read_bounded(file, max_bytes).map_err(|e| format!("cannot read {what} {shown}: {e}"))
 }
@@ -82,7 +85,9 @@ mod tests {
 
     #[test]
     fn devices_and_directories_are_refused_at_once() {
-        for (path, kind) in [("/dev/zero", "character device"), ("/dev/null", "character device"), ("/tmp", "directory")] {
+        for (path, kind) in
+            [("/dev/zero", "character device"), ("/dev/null", "character device"), ("/tmp", "directory")]
+        {
             let error = read_regular_file(Path::new(path), 1024, "test file").unwrap_err();
             assert!(error.contains(kind) && error.contains("not a regular file"), "{path}: {error}");
         }

@@ -164,7 +164,7 @@ impl<M: Model> ModelSlot<M> {
         check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)
     }
 
-    /// Puts back the values and the model as they were before a step.
+    /// Puts back the values and the model as they were before a step (or an initialisation).
     #[cold]
     fn undo_step(&mut self, model_before: M::State, context: &Context) -> Result<(), String> {
         let mut model = M::new(&self.before_step, context)?;
@@ -326,15 +326,18 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String> {
-        self.model.initialize(&mut self.values, context, notes)?;
-        match self.values.first_non_finite_real() {
-            None => Ok(()),
-            Some(index) => Err(format!(
-                "initialisation gives {} = {}: the parameters do not describe a model that can run",
-                M::Var::TABLE[index].name,
-                self.values.real_at(index)
-            )),
+        // As a step: kept to be undone, so that a failed initialisation leaves no NaN behind
+        // (a state taken afterwards must be one that can be restored).
+        self.before_step.copy_from(&self.values);
+        let model_before = self.model.save_state();
+        if let Err(e) = self.model.initialize(&mut self.values, context, notes) {
+            self.undo_step(model_before, context)?;
+            return Err(e);
         }
+        let Some(index) = self.values.first_non_finite_real() else { return Ok(()) };
+        let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
+        self.undo_step(model_before, context)?;
+        Err(format!("initialisation gives {name} = {value}: the parameters do not describe a model that can run"))
     }
 
     fn update_feedthrough(&mut self) {

@@ -158,7 +158,11 @@ pub(crate) fn decode<M: Model>(bytes: &[u8], identifier: &str, guid: &str) -> Re
 /// a state can be taken in.
 fn check_header(header: &StateHeader) -> Result<(), StateError> {
     let invalid = |why: String| Err(StateError::Invalid(format!("state header: {why}")));
-    let times = [("time", header.time), ("start_time", header.start_time), ("last_successful_time", header.last_successful_time)];
+    let times = [
+        ("time", header.time),
+        ("start_time", header.start_time),
+        ("last_successful_time", header.last_successful_time),
+    ];
     for (name, value) in times.into_iter().chain(header.stop_time.map(|t| ("stop_time", t))) {
         if !value.is_finite() {
             return invalid(format!("{name} = {value} is not finite"));

@@ -3,7 +3,10 @@
 use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
 use super::common::{model_info, ControllerState};
-use super::common::{MAX_AXIS_INERTIA, MAX_AXIS_SPEED_DEG_PER_S, MAX_CURRENT, MAX_GEAR_RATIO, MAX_MOTOR_INERTIA, MAX_MOTOR_SPEED, MAX_MOTOR_TORQUE, MAX_TORQUE_CONSTANT, MIN_MOTOR_INERTIA, TINY};
+use super::common::{
+    MAX_AXIS_INERTIA, MAX_AXIS_SPEED_DEG_PER_S, MAX_CURRENT, MAX_GEAR_RATIO, MAX_MOTOR_INERTIA, MAX_MOTOR_SPEED,
+    MAX_MOTOR_TORQUE, MAX_TORQUE_CONSTANT, MIN_MOTOR_INERTIA, TINY,
+};
 use crate::params::{CascadeParams, ElevationControllerParams};
 use crate::timing::SampleScheduler;
 use crate::{ElevationController, ElevationInputs, ElevationOutputs, SampledController};

@@ -6,11 +6,15 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
-    MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MAX_SPEED_NOISE,
-    MIN_MOTOR_INERTIA, TINY,
+    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
+    SensorVars, COUNT_MODE, MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_PATH_DAMPING, MAX_PATH_STIFFNESS,
+    MAX_SPEED_NOISE, MIN_MOTOR_INERTIA, TINY,
 };
-use super::common::{MAX_BACKLASH_ARCSEC, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_LOAD_INERTIA, MAX_LOAD_TORQUE, MAX_MOTOR_FRICTION, MAX_MOTOR_INERTIA, MAX_MOTOR_VISCOUS, MAX_PERIOD_DEG, MAX_PHASE_DEG, MAX_STRIBECK_VELOCITY, MAX_TORQUE_CONSTANT, MAX_TORQUE_CONSTANT_SCALE};
+use super::common::{
+    MAX_BACKLASH_ARCSEC, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_LOAD_INERTIA,
+    MAX_LOAD_TORQUE, MAX_MOTOR_FRICTION, MAX_MOTOR_INERTIA, MAX_MOTOR_VISCOUS, MAX_PERIOD_DEG, MAX_PHASE_DEG,
+    MAX_STRIBECK_VELOCITY, MAX_TORQUE_CONSTANT, MAX_TORQUE_CONSTANT_SCALE,
+};
 use crate::params::PeriodicTorqueParams;
 use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant};
 
@@ -429,11 +433,17 @@ impl Model for AzimuthPlantModel {
     }
 
     fn step_pieces(values: &Values<AzVar>, step: f64) -> (f64, &'static str) {
-        let stribeck = [AzVar::BearingStribeck, AzVar::M1Stribeck, AzVar::M2Stribeck].iter().any(|&v| values.real(v) > 0.0);
+        let stribeck =
+            [AzVar::BearingStribeck, AzVar::M1Stribeck, AzVar::M2Stribeck].iter().any(|&v| values.real(v) > 0.0);
         let torques = [AzVar::M1CoggingAmplitude, AzVar::M2CoggingAmplitude, AzVar::PeriodicAmplitude]
             .iter()
             .any(|&v| values.real(v) != 0.0);
-        plant_step_pieces(step, values.real(AzVar::EventCheckInterval), values.real(AzVar::NonlinearSubstep), stribeck || torques)
+        plant_step_pieces(
+            step,
+            values.real(AzVar::EventCheckInterval),
+            values.real(AzVar::NonlinearSubstep),
+            stribeck || torques,
+        )
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<AzVar>) {

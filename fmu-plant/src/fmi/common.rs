@@ -210,11 +210,8 @@ pub fn load_parameter_file<M: fmu_runtime::Model>(
             None => path,
         }
     };
-    let text = fmu_runtime::files::read_regular_file(
-        &path,
-        fmu_runtime::files::MAX_PARAMETER_FILE_BYTES,
-        "parameter file",
-    )?;
+    let text =
+        fmu_runtime::files::read_regular_file(&path, fmu_runtime::files::MAX_PARAMETER_FILE_BYTES, "parameter file")?;
     fmu_runtime::params::apply::<M>(&text, &path.display().to_string(), values)?;
     Ok(())
 }
@@ -223,9 +220,17 @@ pub fn load_parameter_file<M: fmu_runtime::Model>(
 /// into): pieces of at most `numerics.event_check_interval`, and of at most
 /// `numerics.nonlinear_substep` when torques that are not piecewise linear are on (cogging,
 /// periodic or unbalance torques, a Stribeck curve; `needs_substeps`).
-pub fn plant_step_pieces(step: f64, event_check_interval: f64, substep: f64, needs_substeps: bool) -> (f64, &'static str) {
+pub fn plant_step_pieces(
+    step: f64,
+    event_check_interval: f64,
+    substep: f64,
+    needs_substeps: bool,
+) -> (f64, &'static str) {
     if needs_substeps {
-        ((step / substep.min(event_check_interval)).ceil(), "pieces of numerics.nonlinear_substep, with cogging, periodic or unbalance torques or a Stribeck curve on")
+        (
+            (step / substep.min(event_check_interval)).ceil(),
+            "pieces of numerics.nonlinear_substep, with cogging, periodic or unbalance torques or a Stribeck curve on",
+        )
     } else {
         ((step / event_check_interval).ceil(), "pieces of numerics.event_check_interval")
     }

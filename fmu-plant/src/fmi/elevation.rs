@@ -6,11 +6,16 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
-    MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE,
-    MIN_MOTOR_INERTIA, TINY,
+    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
+    SensorVars, COUNT_MODE, MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH,
+    MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE, MIN_MOTOR_INERTIA, TINY,
 };
-use super::common::{MAX_AXIAL_BACKLASH, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_GEOMETRY_LENGTH, MAX_LOAD_INERTIA, MAX_LOAD_TORQUE, MAX_MOTOR_FRICTION, MAX_MOTOR_INERTIA, MAX_MOTOR_VISCOUS, MAX_PATH_DAMPING, MAX_PERIOD_DEG, MAX_PHASE_DEG, MAX_SCREW_LEAD, MAX_STRIBECK_VELOCITY, MAX_TORQUE_CONSTANT, MAX_TORQUE_CONSTANT_SCALE};
+use super::common::{
+    MAX_AXIAL_BACKLASH, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_GEOMETRY_LENGTH,
+    MAX_LOAD_INERTIA, MAX_LOAD_TORQUE, MAX_MOTOR_FRICTION, MAX_MOTOR_INERTIA, MAX_MOTOR_VISCOUS, MAX_PATH_DAMPING,
+    MAX_PERIOD_DEG, MAX_PHASE_DEG, MAX_SCREW_LEAD, MAX_STRIBECK_VELOCITY, MAX_TORQUE_CONSTANT,
+    MAX_TORQUE_CONSTANT_SCALE,
+};
 use crate::params::{FrictionParams, PeriodicTorqueParams};
 use crate::sensors::SensorParams;
 use crate::{ElevationInputs, ElevationParams, ElevationPlant, JackscrewParams};
@@ -380,11 +385,17 @@ impl Model for ElevationPlantModel {
     }
 
     fn step_pieces(values: &Values<ElVar>, step: f64) -> (f64, &'static str) {
-        let stribeck = [ElVar::MStribeck, ElVar::ScrewStribeck, ElVar::PivotStribeck].iter().any(|&v| values.real(v) > 0.0);
+        let stribeck =
+            [ElVar::MStribeck, ElVar::ScrewStribeck, ElVar::PivotStribeck].iter().any(|&v| values.real(v) > 0.0);
         let torques = [ElVar::MCoggingAmplitude, ElVar::PeriodicAmplitude, ElVar::UnbalanceMoment]
             .iter()
             .any(|&v| values.real(v) != 0.0);
-        plant_step_pieces(step, values.real(ElVar::EventCheckInterval), values.real(ElVar::NonlinearSubstep), stribeck || torques)
+        plant_step_pieces(
+            step,
+            values.real(ElVar::EventCheckInterval),
+            values.real(ElVar::NonlinearSubstep),
+            stribeck || torques,
+        )
     }
 
     fn string_changed(&mut self, var: ElVar, values: &mut Values<ElVar>, context: &Context) -> Result<(), String> {

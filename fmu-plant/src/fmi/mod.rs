@@ -160,7 +160,10 @@ mod tests {
             // The mirror of the rule above: a sliding friction at its maximum needs a breakaway
             // friction at least as large.
             let static_ = V::by_name(&format!("{body}.static_friction")).expect("the partner exists");
-            assert!(static_.var().description.contains("at least the sliding friction"), "{name}: the joint rule is not described");
+            assert!(
+                static_.var().description.contains("at least the sliding friction"),
+                "{name}: the joint rule is not described"
+            );
             values.set_real(static_, values.real(static_).max(bound));
             None
         } else if let Some(path) = name.strip_suffix(".damping").filter(|p| p.starts_with("pinion")) {
