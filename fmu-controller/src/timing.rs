@@ -24,6 +24,13 @@
 //!
 //! A time within `1e-6 Ts` of a grid point counts as on it, so that a master accumulating
 //! `t += h` in floating point does not lose or duplicate samples.
+//!
+//! Memory does not grow with the step: each output is queued only until it takes effect, and
+//! outputs that take effect within the step are applied as soon as they are computed, so the
+//! queue never holds more than `delay + 1` outputs (at most
+//! [`SamplingParams::MAX_DELAY_SAMPLES`] + 1), whatever the communication step. The work of a
+//! step is one sample per `Ts` in it, which the runtime bounds before the step starts
+//! ([`SampleScheduler::samples_in`]).
 
 use std::collections::VecDeque;
 
@@ -67,7 +74,9 @@ impl<O: Clone> SampleScheduler<O> {
             sample_time: sampling.sample_time_s,
             delay_samples: sampling.delay_samples,
             next_sample: 0,
-            pending: VecDeque::new(),
+            pending: VecDeque::with_capacity(
+                sampling.delay_samples.min(SamplingParams::MAX_DELAY_SAMPLES) as usize + 1,
+            ),
             applied: idle,
         }
     }
@@ -87,8 +96,28 @@ impl<O: Clone> SampleScheduler<O> {
         &self.applied
     }
 
+    /// How many samples a step of `step` seconds executes at most, for a sample time `ts`:
+    /// the work of a step, which the runtime bounds before the step starts.
+    pub fn samples_in(step: f64, ts: f64) -> f64 {
+        step / ts + 2.0
+    }
+
+    /// Whether the sample clock belongs to a step that starts at `time`: a scheduler whose next
+    /// sample lies before it (restored from a state of another time) would have to catch up an
+    /// unbounded number of samples, so the FMU refuses the step.
+    pub fn check_clock(&self, time: f64) -> Result<(), String> {
+        let next = self.sample_instant(self.next_sample);
+        let slack = 1e-6 * self.sample_time + 1e-9 * time.abs() + self.sample_time;
+        if next < time - slack {
+            return Err(format!(
+                "the controller's next sample is at {next} s, before the step that starts at {time} s: the sample clock does not belong to this time"
+            ));
+        }
+        Ok(())
+    }
+
     /// Executes the samples of the communication step `[time, time + step)` with the given
-    /// inputs and returns the output in force at `time + step`.
+    /// inputs and returns the output in force at `time + step` (after [`Self::check_clock`]).
     pub fn do_step<C>(&mut self, controller: &mut C, time: f64, step: f64, inputs: &C::Inputs) -> &O
     where
         C: SampledController<Outputs = O>,
@@ -99,6 +128,15 @@ impl<O: Clone> SampleScheduler<O> {
             let out = controller.sample(inputs);
             self.pending.push_back((self.next_sample, out));
             self.next_sample += 1;
+            // Apply what takes effect within the step at once, so that the queue holds only
+            // outputs still waiting for their delay.
+            while let Some((k, _)) = self.pending.front() {
+                if self.sample_instant(k + u64::from(self.delay_samples)) <= end + tolerance {
+                    self.applied = self.pending.pop_front().expect("front exists").1;
+                } else {
+                    break;
+                }
+            }
         }
         while let Some((k, _)) = self.pending.front() {
             if self.sample_instant(k + u64::from(self.delay_samples)) <= end + tolerance {
@@ -125,7 +163,13 @@ impl<O: Clone> SampleScheduler<O> {
     /// given sampling.
     pub fn restored(sampling: &SamplingParams, state: SchedulerState<O>) -> Result<Self, StateError> {
         let SchedulerState { start_time, next_sample, pending, applied } = state;
-        if pending.len() > SamplingParams::MAX_DELAY_SAMPLES as usize + 1 {
+        if !start_time.is_finite() {
+            return Err(StateError::Invalid(format!("the sample clock starts at {start_time} s")));
+        }
+        if pending.iter().any(|(k, _)| *k >= next_sample) {
+            return Err(StateError::Invalid("state holds pending outputs of samples not yet executed".into()));
+        }
+        if pending.len() > sampling.delay_samples as usize + 1 {
             return Err(StateError::Invalid(format!(
                 "state holds {} pending outputs, more than the delay allows",
                 pending.len()
@@ -256,6 +300,30 @@ mod tests {
         assert_eq!(got, vec![-1, -1, -1, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3]);
         let immediate = applied_indices(1e-3, 0, 0.25e-3, 8);
         assert_eq!(immediate, vec![0, 0, 0, 0, 1, 1, 1, 1]);
+    }
+
+    #[test]
+    fn a_long_step_queues_no_more_outputs_than_the_delay() {
+        let sampling = SamplingParams { sample_time_s: 1e-3, delay_samples: 3 };
+        let mut c = Counter { sampling, count: 0 };
+        let mut s = SampleScheduler::new(0.0, &sampling, c.idle_outputs());
+        let capacity = s.pending.capacity();
+        let out = *s.do_step(&mut c, 0.0, 100.0, &1.0);
+        assert_eq!(c.count, 100_000);
+        assert_eq!(out.sample, 99_997);
+        // The queue never grew: outputs were applied as they were computed.
+        assert_eq!(s.pending.capacity(), capacity);
+        assert!(s.pending.len() <= 4);
+    }
+
+    #[test]
+    fn a_sample_clock_behind_the_step_is_refused() {
+        let sampling = SamplingParams { sample_time_s: 1e-3, delay_samples: 1 };
+        let mut c = Counter { sampling, count: 0 };
+        let s = SampleScheduler::new(-1e6, &sampling, c.idle_outputs());
+        let error = s.check_clock(0.0).unwrap_err();
+        assert!(error.contains("does not belong to this time"), "{error}");
+        assert!(SampleScheduler::new(0.0, &sampling, c.idle_outputs()).check_clock(0.0).is_ok());
     }
 
     #[test]

@@ -932,6 +932,73 @@ impl Instance {
         self.check("fmi2SetBoolean", raw, start)
     }
 
+    /// fmi2SetBoolean with the raw fmi2Boolean values, any integer (a robustness driver passes
+    /// values other than fmi2False and fmi2True on purpose).
+    pub fn set_boolean_raw(&mut self, vrs: &[u32], values: &[fmi2Boolean]) -> Result<Status, ImportError> {
+        assert_eq!(vrs.len(), values.len(), "one value per value reference");
+        let start = self.log.len();
+        // SAFETY: as for get_real.
+        let raw =
+            unsafe { (self.library.functions.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        self.check("fmi2SetBoolean", raw, start)
+    }
+
+    /// fmi2SetupExperiment with every argument as the caller gives it, the flags raw.
+    pub fn setup_experiment_raw(
+        &mut self,
+        tolerance_defined: fmi2Boolean,
+        tolerance: f64,
+        start_time: f64,
+        stop_time_defined: fmi2Boolean,
+        stop_time: f64,
+    ) -> Result<Status, ImportError> {
+        let start = self.log.len();
+        // SAFETY: valid component; the other arguments are plain values.
+        let raw = unsafe {
+            (self.library.functions.setup_experiment)(
+                self.component,
+                tolerance_defined,
+                tolerance,
+                start_time,
+                stop_time_defined,
+                stop_time,
+            )
+        };
+        self.check("fmi2SetupExperiment", raw, start)
+    }
+
+    /// fmi2DoStep with a raw noSetFMUStatePriorToCurrentPoint flag.
+    pub fn do_step_raw(
+        &mut self,
+        current_time: f64,
+        step: f64,
+        no_set_prior: fmi2Boolean,
+    ) -> Result<Status, ImportError> {
+        let start = self.log.len();
+        // SAFETY: valid component; the other arguments are plain values.
+        let raw = unsafe { (self.library.functions.do_step)(self.component, current_time, step, no_set_prior) };
+        self.check("fmi2DoStep", raw, start)
+    }
+
+    /// fmi2SetDebugLogging for all categories with a raw loggingOn flag.
+    pub fn set_debug_logging_raw(&mut self, logging_on: fmi2Boolean) -> Result<Status, ImportError> {
+        let start = self.log.len();
+        // SAFETY: valid component; no categories (n = 0, the pointer is not read).
+        let raw =
+            unsafe { (self.library.functions.set_debug_logging)(self.component, logging_on, 0, std::ptr::null()) };
+        self.check("fmi2SetDebugLogging", raw, start)
+    }
+
+    /// fmi2EnterEventMode, a model-exchange function a co-simulation FMU must refuse.
+    pub fn enter_event_mode(&mut self) -> Result<Status, ImportError> {
+        self.simple("fmi2EnterEventMode", self.library.functions.enter_event_mode)
+    }
+
+    /// How many messages the FMU has logged so far.
+    pub fn log_len(&self) -> usize {
+        self.log.len()
+    }
+
     pub fn get_string(&mut self, vrs: &[u32]) -> Result<Vec<String>, ImportError> {
         let mut pointers: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
         let start = self.log.len();

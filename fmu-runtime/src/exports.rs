@@ -198,6 +198,21 @@ unsafe fn copy_string(pointer: fmi2String, what: &str) -> Result<String, String>
     c.to_str().map(str::to_string).map_err(|_| format!("{what} is not valid UTF-8"))
 }
 
+/// The one rule for `fmi2Boolean` arguments, the same in every call that takes one
+/// (fmi2Instantiate, fmi2SetDebugLogging, fmi2SetupExperiment, fmi2SetBoolean, fmi2DoStep):
+/// `fmi2False` (0) is false, `fmi2True` (1) is true, and any other value is refused with
+/// fmi2Error, because FMI 2.0 defines only these two and a master that passes 2 or -1 has a bug
+/// that a silent "non-zero is true" would hide.
+pub fn fmi_boolean(value: fmi2Boolean, what: &str) -> Result<bool, String> {
+    match value {
+        0 => Ok(false),
+        1 => Ok(true),
+        other => {
+            Err(format!("{what} = {other} is not an fmi2Boolean: only fmi2False (0) and fmi2True (1) are accepted"))
+        }
+    }
+}
+
 fn set_phase(instance: &Instance) -> Result<SetPhase, String> {
     match instance.phase {
         Phase::Instantiated => Ok(SetPhase::BeforeInitialization),
@@ -283,12 +298,17 @@ pub unsafe fn set_debug_logging(
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SetDebugLogging", legal::SET_DEBUG_LOGGING, |instance| {
-        let on = logging_on != fmi2False;
+        let on = fmi_boolean(logging_on, "loggingOn")?;
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let names = unsafe { slice(categories, n, "categories") }?;
         if names.is_empty() {
+            // All categories: debug logging on or off. The messages of failed calls (warnings,
+            // discards, errors) are not debug logging and stay on, so that every fmi2Error
+            // comes with its reason; a master that does not want them names their category.
             instance.logging_on = on;
-            instance.categories = [on; LOG_CATEGORIES.len()];
+            for (index, enabled) in instance.categories.iter_mut().enumerate() {
+                *enabled = on || [CAT_WARNING, CAT_DISCARD, CAT_ERROR, crate::phase::CAT_FATAL].contains(&index);
+            }
             return Ok(Status::Ok);
         }
         let mut indices = Vec::with_capacity(names.len());
@@ -368,7 +388,7 @@ pub unsafe fn instantiate(
     guid: fmi2String,
     resource_location: fmi2String,
     functions: *const fmi2CallbackFunctions,
-    _visible: fmi2Boolean,
+    visible: fmi2Boolean,
     logging_on: fmi2Boolean,
 ) -> fmi2Component {
     if functions.is_null() {
@@ -409,9 +429,10 @@ pub unsafe fn instantiate(
             let uri = unsafe { copy_string(resource_location, "fmuResourceLocation") }.map_err(fail)?;
             Some(resource_path_from_uri(&uri).map_err(fail)?)
         };
+        fmi_boolean(visible, "visible").map_err(fail)?;
+        let on = fmi_boolean(logging_on, "loggingOn").map_err(fail)?;
         let context = Context { instance_name: name, resource_dir };
         let model = (entry.create)(&context).map_err(fail)?;
-        let on = logging_on != fmi2False;
         let mut categories = [on; LOG_CATEGORIES.len()];
         // Errors and warnings are reported even without debug logging: a master needs to know
         // why a call failed. A master can still switch them off with fmi2SetDebugLogging.
@@ -478,7 +499,7 @@ pub unsafe fn free_instance(c: fmi2Component) {
 /// freed.
 pub unsafe fn setup_experiment(
     c: fmi2Component,
-    _tolerance_defined: fmi2Boolean,
+    tolerance_defined: fmi2Boolean,
     _tolerance: fmi2Real,
     start_time: fmi2Real,
     stop_time_defined: fmi2Boolean,
@@ -487,10 +508,12 @@ pub unsafe fn setup_experiment(
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2SetupExperiment", legal::SETUP_EXPERIMENT, |instance| {
+        fmi_boolean(tolerance_defined, "toleranceDefined")?;
+        let stop_defined = fmi_boolean(stop_time_defined, "stopTimeDefined")?;
         if !start_time.is_finite() {
             return Err(format!("startTime {start_time} is not finite"));
         }
-        let stop = if stop_time_defined != fmi2False {
+        let stop = if stop_defined {
             if !stop_time.is_finite() || stop_time < start_time {
                 return Err(format!("stopTime {stop_time} must be finite and not before startTime {start_time}"));
             }
@@ -763,7 +786,14 @@ pub unsafe fn set_boolean(
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let raw = unsafe { slice(value, n, "value") }?;
         let phase = set_phase(instance)?;
-        let values: Vec<bool> = raw.iter().map(|&b| b != fmi2False).collect();
+        let mut values = Vec::with_capacity(raw.len());
+        for (i, &b) in raw.iter().enumerate() {
+            values.push(match b {
+                0 => false,
+                1 => true,
+                other => return Err(fmi_boolean(other, &format!("value[{i}]")).unwrap_err()),
+            });
+        }
         instance.model.set_boolean(vrs, &values, phase)?;
         mark_changed(instance);
         Ok(Status::Ok)
@@ -998,17 +1028,27 @@ pub const TIME_TOLERANCE: f64 = 1e-9;
 /// so that a master gets an answer in seconds, never a hang; longer runs take several steps.
 pub const MAX_STEP_SIZE: f64 = 86_400.0;
 
+/// The most internal pieces (sub-steps, controller samples; [`Model::step_pieces`]) one
+/// `fmi2DoStep` may take: 10^8, the pieces of a one-day step at the default millisecond, which
+/// cost some 4-7 s in a plant (docs/plant-fmu-tests.md, section 5). A step that would take more,
+/// because its numerics parameters make the pieces short, is refused at once with the count,
+/// so every accepted call answers within seconds (docs/fmu-robustness.md).
+pub const MAX_STEP_PIECES: f64 = 1e8;
+
 /// # Safety
 ///
 /// `c` is NULL or an instance that [`instantiate`] of this library returned and that is not yet
 /// freed.
-pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_set_prior: fmi2Boolean) -> fmi2Status {
+pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_set_prior: fmi2Boolean) -> fmi2Status {
     // SAFETY: `c` is NULL or a live instance of this library, as the caller guarantees.
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2DoStep", legal::DO_STEP, |instance| {
         // One test for the usual call (NaN fails every comparison); the reasons on the cold path.
         if !(step > 0.0 && step <= MAX_STEP_SIZE && current.abs() <= f64::MAX) {
             return Err(step_arguments_error(current, step));
+        }
+        if no_set_prior != fmi2True && no_set_prior != fmi2False {
+            fmi_boolean(no_set_prior, "noSetFMUStatePriorToCurrentPoint")?;
         }
         if (current - instance.time).abs() > TIME_TOLERANCE * instance.time.abs().max(1.0) {
             return Err(format!(
@@ -1024,8 +1064,14 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, _no_s
                 ));
             }
         }
+        let (pieces, what) = instance.model.step_pieces(step);
+        if !(pieces <= MAX_STEP_PIECES) {
+            return Err(format!(
+                "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {MAX_STEP_PIECES:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
+            ));
+        }
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
-        match instance.model.do_step(current, step, &mut notes) {
+        match instance.model.do_step(current, step, &instance.context, &mut notes) {
             Ok(()) => {
                 // Feedthrough outputs are brought up to date lazily, before the next get that
                 // reads one of them.

@@ -663,12 +663,12 @@ fn truncated_corrupt_or_foreign_states_are_refused_with_the_reason_never_a_panic
         assert_eq!(status, fmi2Error, "a state cut at {cut} bytes was accepted");
         assert!(error.contains("serialized state rejected") && !error.contains("panic"), "cut at {cut}: {error}");
     }
-    // A flipped byte may still decode (a number's bits), but it never panics.
+    // A flipped byte anywhere is refused: the checksum sees every single-byte change.
     for i in 0..bytes.len() {
         let mut flipped = bytes.clone();
         flipped[i] ^= 0xA5;
         let (status, error) = deserialize(&flipped);
-        assert!(status == fmi2OK || !error.contains("panic"), "byte {i}: {error}");
+        assert!(status == fmi2Error && !error.contains("panic"), "byte {i}: {error}");
     }
     let mut other_version = bytes.clone();
     other_version[STATE_TAG.len()] = 7;
@@ -681,7 +681,14 @@ fn truncated_corrupt_or_foreign_states_are_refused_with_the_reason_never_a_panic
     assert!(deserialize(&foreign.encode().unwrap()).1.contains("state belongs to model 'OtherModel'"));
     let mut trailing = bytes.clone();
     trailing.push(0);
-    assert!(deserialize(&trailing).1.contains("1 unexpected trailing bytes"));
+    assert!(deserialize(&trailing).1.contains("state is damaged: its checksum"));
+    // Values that pass the checksum are checked one by one: time, ranges, finiteness.
+    let mut nan_time = crate::state::InstanceState::<TestModel>::decode(&bytes).unwrap();
+    nan_time.header.time = f64::NAN;
+    assert!(deserialize(&nan_time.encode().unwrap()).1.contains("time = NaN is not finite"));
+    let mut infinite_value = crate::state::InstanceState::<TestModel>::decode(&bytes).unwrap();
+    infinite_value.values.set_real(TestVar::Output, f64::INFINITY);
+    assert!(deserialize(&infinite_value.encode().unwrap()).1.contains("'y' = inf is not finite"));
 }
 
 /// The serialized bytes of an instance's current state.
@@ -879,4 +886,63 @@ fn the_model_description_is_valid_and_declares_feedthrough() {
     let y = md.variables.iter().position(|v| v.name == "y").unwrap() + 1;
     let deps: Vec<_> = md.output_dependencies.iter().filter(|(i, _)| *i == y).collect();
     assert_eq!(deps[0].1.as_deref(), Some(&[][..]));
+}
+
+#[test]
+fn a_step_that_would_give_infinity_is_undone_and_refused_with_the_variable() {
+    let m = Master::initialized();
+    // y grows by gain u h = 2 * 5e307 * 0.5 per step: it overflows within a few steps.
+    assert_eq!(m.set(U, 5e307), fmi2OK);
+    let mut t = 0.0;
+    let (y, failed_at) = loop {
+        assert!(t < 5.0, "no overflow");
+        let y = m.get(Y);
+        if do_step(m.c, t, 0.5, 0) == fmi2Error {
+            break (y, t);
+        }
+        t += 0.5;
+    };
+    assert!(y.is_finite() && failed_at > 0.0);
+    assert!(m.last_error().contains("would give y = inf") && m.last_error().contains("undone"), "{}", m.last_error());
+    assert_eq!(m.get(Y), y, "the refused step changed the output");
+    assert_eq!(instance_from(m.c).unwrap().time, failed_at, "the refused step moved the time");
+}
+
+#[test]
+fn booleans_other_than_zero_and_one_are_refused_in_every_call() {
+    let m = Master::new();
+    let vr = TestVar::PanicOnStep as u32;
+    assert_eq!(set_boolean(m.c, &vr, 1, &2), fmi2Error);
+    assert!(m.last_error().contains("value[0] = 2 is not an fmi2Boolean"), "{}", m.last_error());
+    let m = Master::new();
+    assert_eq!(setup_experiment(m.c, 0, 0.0, 0.0, -1, 1.0), fmi2Error);
+    assert!(m.last_error().contains("stopTimeDefined = -1"), "{}", m.last_error());
+    let m = Master::new();
+    assert_eq!(set_debug_logging(m.c, 7, 0, null()), fmi2Error);
+    assert!(m.last_error().contains("loggingOn = 7"), "{}", m.last_error());
+    let m = Master::initialized();
+    assert_eq!(do_step(m.c, 0.0, 0.1, 3), fmi2Error);
+    assert!(m.last_error().contains("noSetFMUStatePriorToCurrentPoint = 3"), "{}", m.last_error());
+    for (value, expected) in [(0, fmi2OK), (1, fmi2OK)] {
+        let m = Master::new();
+        assert_eq!(set_boolean(m.c, &vr, 1, &value), expected);
+    }
+}
+
+#[test]
+fn subnormal_values_are_refused_like_non_finite_ones() {
+    let m = Master::new();
+    assert_eq!(m.set(TestVar::Gain as u32, 5e-324), fmi2Error);
+    assert!(m.last_error().contains("subnormal"), "{}", m.last_error());
+    let m = Master::new();
+    assert_eq!(m.set(TestVar::Gain as u32, 0.0), fmi2OK);
+}
+
+#[test]
+fn error_messages_are_logged_after_debug_logging_is_switched_off() {
+    let m = Master::initialized();
+    assert_eq!(set_debug_logging(m.c, 0, 0, null()), fmi2OK);
+    let before = m.errors().len();
+    assert_eq!(do_step(m.c, 0.0, -1.0, 0), fmi2Error);
+    assert_eq!(m.errors().len(), before + 1, "the error was not logged");
 }

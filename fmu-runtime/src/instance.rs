@@ -49,7 +49,11 @@ pub trait DynModel: Send {
     fn has_feedthrough(&self) -> bool;
     /// Whether any of `vrs` is an output with direct feedthrough (unknown references are not).
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool;
-    fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String>;
+    /// The step's work in internal pieces and what sets their length ([`Model::step_pieces`]).
+    fn step_pieces(&self, step: f64) -> (f64, &'static str);
+    /// Advances the model; a step whose values would come out NaN or infinite is undone and
+    /// refused.
+    fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String>;
     /// The bytes of a state: `header`, then the values and the model's state.
     fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError>;
     /// Restores a state of this model (checked by identifier and GUID) and returns its header.
@@ -102,7 +106,7 @@ impl Access {
     #[inline]
     fn accepts_real(&self, value: f64, phase_index: usize) -> bool {
         let (lo, hi) = self.settable_range[phase_index];
-        lo <= value && value <= hi
+        lo <= value && value <= hi && !is_subnormal(value)
     }
 }
 
@@ -115,6 +119,9 @@ pub struct ModelSlot<M: Model> {
     access: Vec<Access>,
     /// Whether any output depends directly on an input (from the table, computed once).
     feedthrough: bool,
+    /// The values before the step in progress, to undo a step whose results are not finite
+    /// (kept between steps so that taking the copy does not allocate).
+    before_step: Values<M::Var>,
 }
 
 impl<M: Model> ModelSlot<M> {
@@ -123,7 +130,8 @@ impl<M: Model> ModelSlot<M> {
         let model = M::new(&values, context)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
-        Ok(ModelSlot { model, values, guid, access, feedthrough })
+        let before_step = values.clone();
+        Ok(ModelSlot { model, values, guid, access, feedthrough, before_step })
     }
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
@@ -154,6 +162,25 @@ impl<M: Model> ModelSlot<M> {
         let (_, decl) = Self::lookup(vr, BaseType::Real)?;
         Self::check_settable(decl, vr, phase)?;
         check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)
+    }
+
+    /// Puts back the values and the model as they were before a step (or an initialisation).
+    #[cold]
+    fn undo_step(&mut self, model_before: M::State, context: &Context) -> Result<(), String> {
+        let mut model = M::new(&self.before_step, context)?;
+        model.load_state(model_before, &self.before_step).map_err(|e| e.to_string())?;
+        self.model = model;
+        self.values.copy_from(&self.before_step);
+        Ok(())
+    }
+
+    /// Why a get was refused: which value is not finite.
+    #[cold]
+    #[inline(never)]
+    fn non_finite_read(&self, vrs: &[u32], out: &[f64]) -> String {
+        let (vr, value) = vrs.iter().zip(out).find(|(_, x)| !x.is_finite()).map(|(&v, &x)| (v, x)).unwrap_or((0, 0.0));
+        let name = M::Var::TABLE.get(vr as usize).map_or("?", |v| v.name);
+        format!("'{name}' (value reference {vr}) would be {value}, which the model cannot give; the inputs or parameters are outside what it can compute")
     }
 
     fn check_settable(var: &Var, vr: u32, phase: SetPhase) -> Result<(), String> {
@@ -202,6 +229,11 @@ impl<M: Model> DynModel for ModelSlot<M> {
         }
         for (slot, &vr) in out.iter_mut().zip(vrs) {
             *slot = self.values.real_at(vr as usize);
+        }
+        // A get never hands out NaN or infinity with fmi2OK: the steps and initialisation are
+        // guarded, and this catches what a feedthrough output computed just now.
+        if out.iter().map(|x| x * 0.0).sum::<f64>() != 0.0 {
+            return Err(self.non_finite_read(vrs, out));
         }
         Ok(refreshed)
     }
@@ -294,7 +326,18 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String> {
-        self.model.initialize(&mut self.values, context, notes)
+        // As a step: kept to be undone, so that a failed initialisation leaves no NaN behind
+        // (a state taken afterwards must be one that can be restored).
+        self.before_step.copy_from(&self.values);
+        let model_before = self.model.save_state();
+        if let Err(e) = self.model.initialize(&mut self.values, context, notes) {
+            self.undo_step(model_before, context)?;
+            return Err(e);
+        }
+        let Some(index) = self.values.first_non_finite_real() else { return Ok(()) };
+        let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
+        self.undo_step(model_before, context)?;
+        Err(format!("initialisation gives {name} = {value}: the parameters do not describe a model that can run"))
     }
 
     fn update_feedthrough(&mut self) {
@@ -309,8 +352,26 @@ impl<M: Model> DynModel for ModelSlot<M> {
         vrs.iter().any(|&vr| self.access.get(vr as usize).is_some_and(|a| a.feedthrough))
     }
 
-    fn do_step(&mut self, time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
-        self.model.do_step(&mut self.values, time, step, notes)
+    fn step_pieces(&self, step: f64) -> (f64, &'static str) {
+        M::step_pieces(&self.values, step)
+    }
+
+    fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String> {
+        // Keep what is needed to undo the step: the values (copied into a kept buffer) and the
+        // model's own state (what an FMU state holds of it).
+        self.before_step.copy_from(&self.values);
+        let model_before = self.model.save_state();
+        if let Err(e) = self.model.do_step(&mut self.values, time, step, notes) {
+            // Models leave their data untouched on an error; undoing makes sure of it.
+            self.undo_step(model_before, context)?;
+            return Err(e);
+        }
+        let Some(index) = self.values.first_non_finite_real() else { return Ok(()) };
+        let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
+        self.undo_step(model_before, context)?;
+        Err(format!(
+            "the step from {time} s by {step} s would give {name} = {value}; it was undone and the instance is as before the step (a parameter or input outside what the model can compute, or a step too long for it)"
+        ))
     }
 
     fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError> {
@@ -329,13 +390,27 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 }
 
-/// Checks a Real value a master (or a parameter file) wants to set: finite, within the declared
-/// range, and accepted by the model's own check.
+/// Whether a number is subnormal (nonzero and smaller in magnitude than the smallest normal
+/// double, 2.2e-308). No physical quantity of these models is one: a master that sends 4.9e-324
+/// means 0 or has a bug, and dividing by one overflows.
+#[inline]
+pub fn is_subnormal(value: f64) -> bool {
+    value != 0.0 && value.abs() < f64::MIN_POSITIVE
+}
+
+/// Checks a Real value a master (or a parameter file) wants to set: finite, not subnormal,
+/// within the declared range, and accepted by the model's own check.
 pub fn check_real_value<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), String> {
     let decl = var.var();
     let vr = var.vr();
     if !value.is_finite() {
         return Err(format!("'{}' (value reference {vr}) cannot be set to {value}: values must be finite", decl.name));
+    }
+    if is_subnormal(value) {
+        return Err(format!(
+            "'{}' (value reference {vr}) cannot be set to {value:e}: subnormal numbers are refused (give 0 or a normal number)",
+            decl.name
+        ));
     }
     if let Kind::Real { min, max, unit, .. } = decl.kind {
         if let Some(lo) = min {

@@ -5,7 +5,9 @@
 //! With the importer (`fmu-import`) this is where C meets Rust, the only crates with `unsafe`.
 //! Model crates implement [`model::Model`] in safe Rust and call [`export_fmi2!`].
 
+pub mod checks;
 pub mod exports;
+pub mod files;
 pub use fmi2_ffi as ffi;
 pub mod instance;
 pub mod model;

@@ -105,6 +105,15 @@ pub trait Model: Sized + Send + 'static {
         notes: &mut Notes,
     ) -> Result<(), String>;
 
+    /// The work of a step of `step` seconds with these values, in the model's internal pieces
+    /// (sub-steps, controller samples), and what sets the length of a piece, so that the runtime
+    /// refuses up front a step that would take longer than [`crate::exports::MAX_STEP_PIECES`]
+    /// pieces instead of keeping the call busy for minutes. Models whose work does not grow
+    /// with the step keep the default (no pieces).
+    fn step_pieces(_values: &Values<Self::Var>, _step: f64) -> (f64, &'static str) {
+        (0.0, "")
+    }
+
     /// Recomputes the outputs that depend directly on inputs (those declared with
     /// `depends_on`) so that a get sees the current inputs as the standard requires. The
     /// runtime calls it before the first get after a set of inputs and after every step of a

@@ -125,6 +125,8 @@ impl std::error::Error for ParseError {}
 /// checked, each name assigned once. The one parser of the format; values are left as text.
 pub fn entries(text: &str) -> Result<Vec<Entry>, ParseError> {
     let mut out: Vec<Entry> = Vec::new();
+    // Names seen so far: a set, so that a long file costs time in proportion to its length.
+    let mut seen = std::collections::HashSet::new();
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let (content, comment) = split_comment(raw);
@@ -139,7 +141,7 @@ pub fn entries(text: &str) -> Result<Vec<Entry>, ParseError> {
         if name.is_empty() || name.contains(char::is_whitespace) {
             return Err(error(ParseErrorKind::InvalidName { name: name.into() }));
         }
-        if out.iter().any(|e| e.name == name) {
+        if !seen.insert(name) {
             return Err(error(ParseErrorKind::Duplicate { name: name.into() }));
         }
         out.push(Entry { name: name.into(), value: value.trim().into(), comment: comment.trim().into(), line });

@@ -10,6 +10,8 @@ pub enum StateError {
     Version { found: u32, supported: u32 },
     #[error("state belongs to model '{found_identifier}' {found_guid}, not to '{identifier}' {guid}")]
     OtherModel { found_identifier: String, found_guid: String, identifier: String, guid: String },
+    #[error("state is damaged: its checksum is {stored:#018x}, its bytes give {computed:#018x}")]
+    Checksum { stored: u64, computed: u64 },
     #[error("state is truncated or corrupt in its {part}: {cause}")]
     Corrupt { part: &'static str, cause: postcard::Error },
     #[error("{0} unexpected trailing bytes in state")]

@@ -426,6 +426,30 @@ impl<V: VariableSet> Values<V> {
         self.strings[var.index()] = value.into();
     }
 
+    /// Makes these values equal to `source` without allocating once the buffers have grown
+    /// (the runtime keeps a copy of the values before every step to undo a failed one).
+    pub(crate) fn copy_from(&mut self, source: &Self) {
+        self.reals.copy_from_slice(&source.reals);
+        self.integers.copy_from_slice(&source.integers);
+        self.booleans.copy_from_slice(&source.booleans);
+        for (string, from) in self.strings.iter_mut().zip(&source.strings) {
+            if string != from {
+                string.clone_from(from);
+            }
+        }
+    }
+
+    /// The first Real variable whose value is NaN or infinite, by index.
+    pub(crate) fn first_non_finite_real(&self) -> Option<usize> {
+        // A sum of zeros stays zero for finite values and becomes NaN otherwise: one pass
+        // without branches over the values in the common case.
+        let probe: f64 = self.reals.iter().map(|x| x * 0.0).sum();
+        if probe == 0.0 {
+            return None;
+        }
+        self.reals.iter().position(|x| !x.is_finite())
+    }
+
     pub(crate) fn real_at(&self, index: usize) -> f64 {
         self.reals[index]
     }

@@ -10,17 +10,25 @@ use serde::{Deserialize, Serialize};
 use crate::dynamics::{ModalState, ModalStructure, ARCSEC_PER_RAD};
 use crate::modes::{parse_modes, read_modes, Mode, DEFAULT_MODES, DEFAULT_MODES_FILE};
 
+/// Largest load torque about an axis, N m (either sign): some hundred times the survival wind
+/// torque of a 13.5 m dish (estimate, order 1e6 N m), as the plants declare it.
+pub const MAX_LOAD_TORQUE: f64 = 1e8;
+
+/// Largest wind force on the dish, N (either sign): some hundred times the survival drag of a
+/// 13.5 m dish (estimate, order 1e6 N).
+pub const MAX_LOAD_FORCE: f64 = 1e8;
+
 const LOAD_INPUTS: &[u32] =
     &[StructureVar::AzTorque as u32, StructureVar::ElTorque as u32, StructureVar::DishForce as u32];
 
 declare_variables! {
     /// Variables of the structure FMU. Loads in SI, beam offsets in arcseconds.
     pub enum StructureVar {
-        AzTorque = Var::real("torque.azimuth", "N.m").input().start(0.0)
+        AzTorque = Var::real("torque.azimuth", "N.m").input().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("Load torque on the structure about the azimuth axis (the wind's yawing moment; with a drive-excited mode, also the drive's pinion reaction); positive drives positive azimuth."),
-        ElTorque = Var::real("torque.elevation", "N.m").input().start(0.0)
+        ElTorque = Var::real("torque.elevation", "N.m").input().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("Load torque on the structure about the elevation axis (the wind's pitching moment; with a drive-excited mode, also the jackscrew reaction); positive raises the dish."),
-        DishForce = Var::real("force.dish", "N").input().start(0.0)
+        DishForce = Var::real("force.dish", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
             .description("Wind force on the dish (drag along the wind). The default modes take no force (their dish_force participation is zero); modes from a finite-element model may."),
         BeamAz = Var::real("beam.azimuth_offset", "arcsec").output()
             .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of beam_azimuth times the modal coordinate."),

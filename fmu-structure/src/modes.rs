@@ -195,10 +195,15 @@ fn mode_from_fields(origin: &str, mode: usize, fields: &[Slot; 8], highest: usiz
     })
 }
 
-/// Reads a modes file from disk.
+/// The largest modes file read, bytes (1 MiB): [`MAX_MODES`] modes of eight fields take about
+/// 400 kB written out with comments.
+pub const MAX_MODES_FILE_BYTES: u64 = 1 << 20;
+
+/// Reads a modes file from disk: only a regular file of at most [`MAX_MODES_FILE_BYTES`]
+/// (`fmu_runtime::files`), so that a FIFO or a device cannot block or flood the FMU.
 pub fn read_modes(path: &Path) -> Result<Vec<Mode>, ModesError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| ModesError::Unreadable { path: path.display().to_string(), reason: e.to_string() })?;
+    let text = fmu_runtime::files::read_regular_file(path, MAX_MODES_FILE_BYTES, "modes file")
+        .map_err(|reason| ModesError::Unreadable { path: path.display().to_string(), reason })?;
     parse_modes(&text, &path.display().to_string())
 }
 

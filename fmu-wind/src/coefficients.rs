@@ -304,11 +304,24 @@ impl CoefficientTable {
         Self::from_csv_str(DEFAULT_TABLE_CSV).expect("the shipped coefficient table is valid (checked by a test)")
     }
 
-    /// Reads a table from a file; see the module documentation for the format.
+    /// Reads a table from a file; see the module documentation for the format. Only a regular
+    /// file of at most 256 KiB with at most 2000 lines is read (`fmu_runtime::files`): the
+    /// shipped table has 7 kB and a few hundred rows, and the splines hold a matrix over the
+    /// yaw knots, so a longer file would be an error or an allocation the FMU cannot make, and
+    /// a FIFO or a device would block or flood the call.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, CoefficientError> {
+        const MAX_FILE_BYTES: u64 = 256 * 1024;
+        const MAX_LINES: usize = 2000;
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CoefficientError::general(format!("cannot read '{}': {e}", path.display())))?;
+        let text = fmu_runtime::files::read_regular_file(path, MAX_FILE_BYTES, "coefficient file")
+            .map_err(CoefficientError::general)?;
+        let lines = text.lines().count();
+        if lines > MAX_LINES {
+            return Err(CoefficientError::general(format!(
+                "coefficient file '{}' has {lines} lines, more than the {MAX_LINES} a table may have",
+                path.display()
+            )));
+        }
         Self::from_csv_str(&text)
     }
 

@@ -3,6 +3,10 @@
 use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
 use super::common::{model_info, ControllerState};
+use super::common::{
+    MAX_AXIS_INERTIA, MAX_CURRENT, MAX_GEAR_RATIO, MAX_LOOP_FREQUENCY, MAX_MOTOR_INERTIA, MAX_MOTOR_SPEED,
+    MAX_MOTOR_TORQUE, MAX_SPEED_GAIN, MAX_TORQUE_CONSTANT, MIN_MOTOR_INERTIA, TINY,
+};
 use crate::params::{AzimuthControllerParams, CascadeParams};
 use crate::timing::SampleScheduler;
 use crate::{AzimuthController, AzimuthInputs, AzimuthOutputs, SampledController};
@@ -10,9 +14,9 @@ use crate::{AzimuthController, AzimuthInputs, AzimuthOutputs, SampledController}
 crate::controller_variables! {
     /// Variables of the azimuth controller FMU.
     pub enum AzCtrlVar (2.0, 1.0) {
-        Motor1Speed = Var::real("measured.motor1_speed", "rad/s").input().start(0.0)
+        Motor1Speed = Var::real("measured.motor1_speed", "rad/s").input().start(0.0).min(-MAX_MOTOR_SPEED).max(MAX_MOTOR_SPEED)
             .description("Speed of motor 1 at its shaft, positive towards positive azimuth."),
-        Motor2Speed = Var::real("measured.motor2_speed", "rad/s").input().start(0.0)
+        Motor2Speed = Var::real("measured.motor2_speed", "rad/s").input().start(0.0).min(-MAX_MOTOR_SPEED).max(MAX_MOTOR_SPEED)
             .description("Speed of motor 2 at its shaft, positive towards positive azimuth."),
         Current1Command = Var::real("motor1.current_command", "A").output()
             .description("Current command to drive 1 (limited to the current limit), applied after the computation delay."),
@@ -22,31 +26,31 @@ crate::controller_variables! {
             .description("Bias torque b(T) added to motor 1 and taken from motor 2."),
         DifferentialTorque = Var::real("differential_loop.torque", "N.m").output()
             .description("Differential speed loop torque added to motor 1 and taken from motor 2."),
-        GearRatio = Var::real("drive.gear_ratio", "1").parameter().start(9000.0).min(0.0)
+        GearRatio = Var::real("drive.gear_ratio", "1").parameter().start(9000.0).min(1.0).max(MAX_GEAR_RATIO)
             .description("Gear ratio the controller assumes, motor rad per axis rad."),
-        MotorInertia = Var::real("drive.motor_inertia", "kg.m2").parameter().start(0.006).min(0.0)
+        MotorInertia = Var::real("drive.motor_inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
             .description("Inertia of one motor with its gearbox input stage, as the controller assumes it."),
-        AxisInertia = Var::real("drive.axis_inertia", "kg.m2").parameter().start(8.5e5).min(0.0)
+        AxisInertia = Var::real("drive.axis_inertia", "kg.m2").parameter().start(8.5e5).min(1.0).max(MAX_AXIS_INERTIA)
             .description("Azimuth inertia the gains are designed for (mid elevation)."),
-        TorqueConstant = Var::real("drive.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+        TorqueConstant = Var::real("drive.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
             .description("Torque constant K_phi the controller assumes."),
-        CurrentLimit = Var::real("drive.current_limit", "A").parameter().start(15.0).min(0.0)
+        CurrentLimit = Var::real("drive.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
             .description("Current limit of each drive."),
         BiasEnabled = Var::boolean("torque_bias.enabled").parameter().start_boolean(true)
             .description("Torque bias between the motors, which keeps each pinion on one flank (off: backlash shows at reversals)."),
-        BiasTorqueParam = Var::real("torque_bias.bias", "N.m").parameter().start(1.8).min(0.0)
+        BiasTorqueParam = Var::real("torque_bias.bias", "N.m").parameter().start(1.8).min(0.0).max(MAX_MOTOR_TORQUE)
             .description("Bias torque at low demand, per motor, at the motor."),
-        BiasFadeStart = Var::real("torque_bias.fade_start", "N.m").parameter().start(3.6).min(0.0)
+        BiasFadeStart = Var::real("torque_bias.fade_start", "N.m").parameter().start(3.6).min(0.0).max(MAX_MOTOR_TORQUE)
             .description("Total torque demand at which the bias starts to fade."),
-        BiasFadeEnd = Var::real("torque_bias.fade_end", "N.m").parameter().start(7.2).min(0.0)
+        BiasFadeEnd = Var::real("torque_bias.fade_end", "N.m").parameter().start(7.2).min(0.0).max(MAX_MOTOR_TORQUE)
             .description("Total torque demand at which the bias has faded to zero (both motors then drive the same way)."),
         DifferentialEnabled = Var::boolean("differential_loop.enabled").parameter().start_boolean(true)
             .description("Superimposed differential speed controller on motor 1 minus motor 2 speed."),
-        DifferentialBandwidth = Var::real("differential_loop.bandwidth", "Hz").parameter().start(15.0).min(0.0)
+        DifferentialBandwidth = Var::real("differential_loop.bandwidth", "Hz").parameter().start(15.0).min(0.0).max(MAX_LOOP_FREQUENCY)
             .description("Bandwidth the differential gain is designed for."),
-        DifferentialGainOverride = Var::real("differential_loop.gain_override", "N.m.s/rad").parameter().start(0.0).min(0.0)
+        DifferentialGainOverride = Var::real("differential_loop.gain_override", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_SPEED_GAIN)
             .description("Differential gain; 0 uses the designed gain."),
-        DifferentialMaxTorque = Var::real("differential_loop.max_torque", "N.m").parameter().start(3.0).min(0.0)
+        DifferentialMaxTorque = Var::real("differential_loop.max_torque", "N.m").parameter().start(3.0).min(0.0).max(MAX_MOTOR_TORQUE)
             .description("Limit of the differential loop's torque."),
     }
 }
@@ -143,8 +147,14 @@ impl Model for AzimuthControllerModel {
         });
         let inputs = Self::inputs(values);
         // Written from the scheduler's own copy: the outputs are a few dozen numbers.
+        scheduler.check_clock(time)?;
         Self::write_outputs(scheduler.do_step(controller, time, step, &inputs), values);
         Ok(())
+    }
+
+    fn step_pieces(values: &Values<AzCtrlVar>, step: f64) -> (f64, &'static str) {
+        let samples = SampleScheduler::<AzimuthOutputs>::samples_in(step, values.real(AzCtrlVar::SampleTime));
+        (samples, "controller samples, one per sampling.sample_time")
     }
 
     type State = ControllerState<AzimuthOutputs>;

@@ -20,6 +20,52 @@ pub struct ControllerState<O> {
 
 const ARCSEC_DEG: f64 = 1.0 / 3600.0;
 
+// Declared bounds of the controllers' inputs and parameters (docs/fmu-robustness.md): each far
+// beyond any drive of a 13-15 m dish, so that no real configuration meets it, and near enough
+// that no value inside it is a denormal or 1e308 stand-in that overflows the arithmetic.
+
+/// Largest position command or measured position, deg (either sign): a hundred turns, beyond
+/// any travel, so that open-loop identification runs that turn the axis still fit.
+pub const MAX_POSITION_DEG: f64 = 36_000.0;
+
+/// Largest commanded or profiled axis speed, deg/s (fifty times the azimuth slew speed).
+pub const MAX_AXIS_SPEED_DEG_PER_S: f64 = 100.0;
+
+/// Largest axis acceleration limit, deg/s^2, and jerk limit, deg/s^3.
+pub const MAX_AXIS_ACCELERATION: f64 = 1e4;
+pub const MAX_AXIS_JERK: f64 = 1e6;
+
+/// Largest measured motor speed, rad/s (about 95,000 rpm).
+pub const MAX_MOTOR_SPEED: f64 = 1e4;
+
+/// Largest current command or limit, A.
+pub const MAX_CURRENT: f64 = 1e4;
+
+/// Largest loop frequency (bandwidths, crossovers, corners, filters), Hz: above the Nyquist
+/// frequency of the fastest sampling.sample_time allowed.
+pub const MAX_LOOP_FREQUENCY: f64 = 1e5;
+
+/// Largest gain override of the position loop, 1/s, and of the speed loops, N m s/rad.
+pub const MAX_POSITION_GAIN: f64 = 1e4;
+pub const MAX_SPEED_GAIN: f64 = 1e6;
+
+/// Largest torque of the bias, differential loop or friction feedforward at a motor, N m.
+pub const MAX_MOTOR_TORQUE: f64 = 1e4;
+
+/// Largest position error band of the anti-limit-cycle hold, arcsec (one degree).
+pub const MAX_HOLD_ERROR_ARCSEC: f64 = 3600.0;
+
+/// Largest gear ratio, motor inertia (kg m^2), axis inertia (kg m^2) and torque constant
+/// (N m/A) the controller may assume: the plants' bounds.
+pub const MAX_GEAR_RATIO: f64 = 1e6;
+pub const MAX_MOTOR_INERTIA: f64 = 10.0;
+pub const MAX_AXIS_INERTIA: f64 = 1e9;
+pub const MAX_TORQUE_CONSTANT: f64 = 100.0;
+
+/// Smallest positive values of quantities that must be positive, as the plants declare them.
+pub const MIN_MOTOR_INERTIA: f64 = 1e-6;
+pub const TINY: f64 = 1e-9;
+
 /// A gain override of 0 means "use the designed gain".
 fn override_or_design(value: f64) -> Option<f64> {
     (value > 0.0).then_some(value)

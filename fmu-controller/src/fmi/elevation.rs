@@ -3,6 +3,10 @@
 use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
 use super::common::{model_info, ControllerState};
+use super::common::{
+    MAX_AXIS_INERTIA, MAX_AXIS_SPEED_DEG_PER_S, MAX_CURRENT, MAX_GEAR_RATIO, MAX_MOTOR_INERTIA, MAX_MOTOR_SPEED,
+    MAX_MOTOR_TORQUE, MAX_TORQUE_CONSTANT, MIN_MOTOR_INERTIA, TINY,
+};
 use crate::params::{CascadeParams, ElevationControllerParams};
 use crate::timing::SampleScheduler;
 use crate::{ElevationController, ElevationInputs, ElevationOutputs, SampledController};
@@ -10,7 +14,7 @@ use crate::{ElevationController, ElevationInputs, ElevationOutputs, SampledContr
 crate::controller_variables! {
     /// Variables of the elevation controller FMU.
     pub enum ElCtrlVar (1.0, 0.5) {
-        MotorSpeed = Var::real("measured.motor_speed", "rad/s").input().start(0.0)
+        MotorSpeed = Var::real("measured.motor_speed", "rad/s").input().start(0.0).min(-MAX_MOTOR_SPEED).max(MAX_MOTOR_SPEED)
             .description("Speed of the elevation motor at its shaft, positive raising the dish."),
         CurrentCommand = Var::real("motor.current_command", "A").output()
             .description("Current command to the elevation drive (limited to the current limit), applied after the computation delay."),
@@ -18,35 +22,35 @@ crate::controller_variables! {
             .description("Direction-dependent friction feedforward torque in use, at the motor."),
         GearRatioInUse = Var::real("drive.gear_ratio", "1").output()
             .description("Jackscrew ratio N(el) the controller uses at the measured elevation (gain scheduling)."),
-        DishRadius = Var::real("drive.dish_attachment_radius", "m").parameter().start(2.0).min(0.0)
+        DishRadius = Var::real("drive.dish_attachment_radius", "m").parameter().start(2.0).min(TINY).max(100.0)
             .description("Jackscrew geometry the controller assumes: pivot to dish attachment."),
-        YokeRadius = Var::real("drive.yoke_attachment_radius", "m").parameter().start(3.6).min(0.0)
+        YokeRadius = Var::real("drive.yoke_attachment_radius", "m").parameter().start(3.6).min(TINY).max(100.0)
             .description("Jackscrew geometry the controller assumes: pivot to yoke trunnion."),
-        AttachmentAngle = Var::real("drive.attachment_angle_at_zero_elevation", "deg").parameter().start(20.0)
+        AttachmentAngle = Var::real("drive.attachment_angle_at_zero_elevation", "deg").parameter().start(20.0).min(-180.0).max(180.0)
             .description("Jackscrew geometry the controller assumes: angle between the attachment radii at 0 deg."),
-        Lead = Var::real("drive.screw_lead", "m").parameter().start(0.02).min(0.0)
+        Lead = Var::real("drive.screw_lead", "m").parameter().start(0.02).min(TINY).max(1.0)
             .description("Screw lead the controller assumes."),
-        GearboxRatio = Var::real("drive.gearbox_ratio", "1").parameter().start(28.0).min(0.0)
+        GearboxRatio = Var::real("drive.gearbox_ratio", "1").parameter().start(28.0).min(0.1).max(MAX_GEAR_RATIO)
             .description("Gearbox ratio between motor and screw the controller assumes."),
-        TravelMin = Var::real("drive.travel_min", "deg").parameter().start(15.0)
+        TravelMin = Var::real("drive.travel_min", "deg").parameter().start(15.0).min(-90.0).max(180.0)
             .description("Lower end of travel (the ratio is held at its end values beyond)."),
-        TravelMax = Var::real("drive.travel_max", "deg").parameter().start(92.0)
+        TravelMax = Var::real("drive.travel_max", "deg").parameter().start(92.0).min(-90.0).max(180.0)
             .description("Upper end of travel."),
-        MotorInertia = Var::real("drive.motor_inertia", "kg.m2").parameter().start(0.002).min(0.0)
+        MotorInertia = Var::real("drive.motor_inertia", "kg.m2").parameter().start(0.002).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
             .description("Motor inertia the controller assumes."),
-        DishInertia = Var::real("drive.dish_inertia", "kg.m2").parameter().start(3.5e5).min(0.0)
+        DishInertia = Var::real("drive.dish_inertia", "kg.m2").parameter().start(3.5e5).min(1.0).max(MAX_AXIS_INERTIA)
             .description("Dish inertia about the elevation axis the controller assumes."),
-        TorqueConstant = Var::real("drive.torque_constant", "N.m/A").parameter().start(0.8).min(0.0)
+        TorqueConstant = Var::real("drive.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
             .description("Torque constant K_phi the controller assumes."),
-        CurrentLimit = Var::real("drive.current_limit", "A").parameter().start(15.0).min(0.0)
+        CurrentLimit = Var::real("drive.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
             .description("Current limit of the drive."),
         FrictionEnabled = Var::boolean("friction_feedforward.enabled").parameter().start_boolean(true)
             .description("Direction-dependent constant friction-torque feedforward that overcomes the jackscrew friction (off: larger error at low speed)."),
-        FrictionRaising = Var::real("friction_feedforward.raising", "N.m").parameter().start(0.4).min(0.0)
+        FrictionRaising = Var::real("friction_feedforward.raising", "N.m").parameter().start(0.4).min(0.0).max(MAX_MOTOR_TORQUE)
             .description("Friction feedforward while raising the dish, at the motor."),
-        FrictionLowering = Var::real("friction_feedforward.lowering", "N.m").parameter().start(0.4).min(0.0)
+        FrictionLowering = Var::real("friction_feedforward.lowering", "N.m").parameter().start(0.4).min(0.0).max(MAX_MOTOR_TORQUE)
             .description("Friction feedforward while lowering the dish, at the motor."),
-        FrictionBand = Var::real("friction_feedforward.velocity_band", "deg/s").parameter().start(0.001).min(0.0)
+        FrictionBand = Var::real("friction_feedforward.velocity_band", "deg/s").parameter().start(0.001).min(0.0).max(MAX_AXIS_SPEED_DEG_PER_S)
             .description("Velocity band over which the feedforward changes sign smoothly."),
     }
 }
@@ -144,8 +148,14 @@ impl Model for ElevationControllerModel {
         });
         let inputs = Self::inputs(values);
         // Written from the scheduler's own copy: the outputs are a few dozen numbers.
+        scheduler.check_clock(time)?;
         Self::write_outputs(scheduler.do_step(controller, time, step, &inputs), values);
         Ok(())
+    }
+
+    fn step_pieces(values: &Values<ElCtrlVar>, step: f64) -> (f64, &'static str) {
+        let samples = SampleScheduler::<ElevationOutputs>::samples_in(step, values.real(ElCtrlVar::SampleTime));
+        (samples, "controller samples, one per sampling.sample_time")
     }
 
     type State = ControllerState<ElevationOutputs>;

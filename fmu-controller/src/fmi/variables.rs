@@ -12,15 +12,15 @@ macro_rules! controller_variables {
             pub enum $name {
                 Mode = Var::enumeration("mode", &$crate::fmi::CONTROL_MODE).input().start_integer(1)
                     .description("Control mode: position (Fig. 3, default), velocity (identification with the position loop open), open_loop_current (velocity controller off)."),
-                PositionCommand = Var::real("command.position", "deg").input().start(0.0)
+                PositionCommand = Var::real("command.position", "deg").input().start(0.0).min(-$crate::fmi::common::MAX_POSITION_DEG).max($crate::fmi::common::MAX_POSITION_DEG)
                     .description("Position command from the pointing model (interpolated by the master)."),
-                CommandVelocity = Var::real("command.velocity", "deg/s").input().start(0.0)
+                CommandVelocity = Var::real("command.velocity", "deg/s").input().start(0.0).min(-$crate::fmi::common::MAX_AXIS_SPEED_DEG_PER_S).max($crate::fmi::common::MAX_AXIS_SPEED_DEG_PER_S)
                     .description("Rate of the position command (derivative of the pointing table); the velocity feedforward while tracking, 0 for a fixed target."),
-                VelocityModeCommand = Var::real("command.velocity_mode", "deg/s").input().start(0.0)
+                VelocityModeCommand = Var::real("command.velocity_mode", "deg/s").input().start(0.0).min(-$crate::fmi::common::MAX_AXIS_SPEED_DEG_PER_S).max($crate::fmi::common::MAX_AXIS_SPEED_DEG_PER_S)
                     .description("Axis speed command in velocity mode."),
-                OpenLoopCurrent = Var::real("command.open_loop_current", "A").input().start(0.0)
+                OpenLoopCurrent = Var::real("command.open_loop_current", "A").input().start(0.0).min(-$crate::fmi::common::MAX_CURRENT).max($crate::fmi::common::MAX_CURRENT)
                     .description("Current command per motor in open_loop_current mode."),
-                MeasuredPosition = Var::real("measured.position", "deg").input().start(0.0)
+                MeasuredPosition = Var::real("measured.position", "deg").input().start(0.0).min(-$crate::fmi::common::MAX_POSITION_DEG).max($crate::fmi::common::MAX_POSITION_DEG)
                     .description("Axis encoder position."),
                 StatusReferencePosition = Var::real("status.reference_position", "deg").output()
                     .description("Reference the position loop follows: the profile during a step, the command while tracking."),
@@ -47,55 +47,55 @@ macro_rules! controller_variables {
                     .description("Computation/transport delay in samples: outputs computed at t_k are applied from t_k + delay Ts."),
                 ProfilerEnabled = Var::boolean("profiler.enabled").parameter().start_boolean(true)
                     .description("Command profiler for position steps (off: steps go straight to the position loop and overshoot)."),
-                ProfilerMaxVelocity = Var::real("profiler.max_velocity", "deg/s").parameter().start($vmax).min(0.0)
+                ProfilerMaxVelocity = Var::real("profiler.max_velocity", "deg/s").parameter().start($vmax).min(0.0).max($crate::fmi::common::MAX_AXIS_SPEED_DEG_PER_S)
                     .description("Speed limit of profiled steps."),
-                ProfilerMaxAcceleration = Var::real("profiler.max_acceleration", "deg/s2").parameter().start($amax).min(0.0)
+                ProfilerMaxAcceleration = Var::real("profiler.max_acceleration", "deg/s2").parameter().start($amax).min(0.0).max($crate::fmi::common::MAX_AXIS_ACCELERATION)
                     .description("Acceleration limit of profiled steps."),
-                ProfilerJerkLimit = Var::real("profiler.jerk_limit", "deg/s3").parameter().start(0.0).min(0.0)
+                ProfilerJerkLimit = Var::real("profiler.jerk_limit", "deg/s3").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_AXIS_JERK)
                     .description("Jerk limit of profiled steps; 0 is off."),
-                ProfilerStepThreshold = Var::real("profiler.step_threshold", "deg").parameter().start(0.002).min(0.0)
+                ProfilerStepThreshold = Var::real("profiler.step_threshold", "deg").parameter().start(0.002).min(0.0).max(360.0)
                     .description("A command jump larger than this (from the reference's prediction) starts a profiled step; smaller changes are tracked."),
                 VelocityFeedforward = Var::boolean("feedforward.velocity").parameter().start_boolean(true)
                     .description("Adds the reference velocity to the position loop's output."),
                 AccelerationFeedforward = Var::boolean("feedforward.acceleration").parameter().start_boolean(true)
                     .description("Adds J_total N a_ref to the torque command."),
-                PositionBandwidth = Var::real("position_loop.bandwidth", "Hz").parameter().start(0.75).min(0.0)
+                PositionBandwidth = Var::real("position_loop.bandwidth", "Hz").parameter().start(0.75).min(0.0).max($crate::fmi::common::MAX_LOOP_FREQUENCY)
                     .description("Closed-loop bandwidth the position gain is designed for (0.5-1 Hz in the paper)."),
-                PositionGainOverride = Var::real("position_loop.gain_override", "1/s").parameter().start(0.0).min(0.0)
+                PositionGainOverride = Var::real("position_loop.gain_override", "1/s").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_POSITION_GAIN)
                     .description("Position gain Kp; 0 uses the gain designed from the bandwidth."),
                 PositionIntegrator = Var::boolean("position_loop.integrator").parameter().start_boolean(false)
                     .description("Adds a small integral action to the position loop."),
-                PositionIntegralCorner = Var::real("position_loop.integral_corner", "Hz").parameter().start(0.05).min(0.0)
+                PositionIntegralCorner = Var::real("position_loop.integral_corner", "Hz").parameter().start(0.05).min(0.0).max($crate::fmi::common::MAX_LOOP_FREQUENCY)
                     .description("Corner frequency of the position integral action."),
-                PositionMaxVelocity = Var::real("position_loop.max_velocity", "deg/s").parameter().start(1.05 * $vmax).min(0.0)
+                PositionMaxVelocity = Var::real("position_loop.max_velocity", "deg/s").parameter().start(1.05 * $vmax).min(0.0).max($crate::fmi::common::MAX_AXIS_SPEED_DEG_PER_S)
                     .description("Limit on the velocity reference."),
-                PositionMaxAcceleration = Var::real("position_loop.max_acceleration", "deg/s2").parameter().start(2.0 * $amax).min(0.0)
+                PositionMaxAcceleration = Var::real("position_loop.max_acceleration", "deg/s2").parameter().start(2.0 * $amax).min(0.0).max($crate::fmi::common::MAX_AXIS_ACCELERATION)
                     .description("Limit on the rate of change of the velocity reference."),
-                VelocityCrossover = Var::real("velocity_loop.crossover", "Hz").parameter().start(10.0).min(0.0)
+                VelocityCrossover = Var::real("velocity_loop.crossover", "Hz").parameter().start(10.0).min(0.0).max($crate::fmi::common::MAX_LOOP_FREQUENCY)
                     .description("Crossover the velocity PI is designed for, Kv = 2 pi f J_total (closed loop about 11-12.5 Hz)."),
-                VelocityIntegralRatio = Var::real("velocity_loop.integral_corner_ratio", "1").parameter().start(5.0).min(0.0)
+                VelocityIntegralRatio = Var::real("velocity_loop.integral_corner_ratio", "1").parameter().start(5.0).min(0.1).max(1e3)
                     .description("Crossover over the PI's integral corner frequency."),
-                VelocityGainOverride = Var::real("velocity_loop.gain_override", "N.m.s/rad").parameter().start(0.0).min(0.0)
+                VelocityGainOverride = Var::real("velocity_loop.gain_override", "N.m.s/rad").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_SPEED_GAIN)
                     .description("Velocity gain Kv at the motor; 0 uses the designed gain."),
-                VelocityIntegralOverride = Var::real("velocity_loop.integral_corner_override", "Hz").parameter().start(0.0).min(0.0)
+                VelocityIntegralOverride = Var::real("velocity_loop.integral_corner_override", "Hz").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_LOOP_FREQUENCY)
                     .description("Integral corner of the velocity PI; 0 uses crossover / ratio."),
                 VelocityIntegrator = Var::boolean("velocity_loop.integrator").parameter().start_boolean(true)
                     .description("Integral action of the velocity loop."),
                 AntiWindup = Var::boolean("velocity_loop.anti_windup").parameter().start_boolean(true)
                     .description("Stops the velocity integrator from winding up while the torque is limited."),
-                SpeedLowPass = Var::real("velocity_loop.speed_low_pass", "Hz").parameter().start(0.0).min(0.0)
+                SpeedLowPass = Var::real("velocity_loop.speed_low_pass", "Hz").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_LOOP_FREQUENCY)
                     .description("First-order low-pass on the measured speed; 0 is off."),
-                NotchFrequency = Var::real("velocity_loop.notch_frequency", "Hz").parameter().start(0.0).min(0.0)
+                NotchFrequency = Var::real("velocity_loop.notch_frequency", "Hz").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_LOOP_FREQUENCY)
                     .description("Notch on the measured speed at the drive resonance; 0 is off."),
-                NotchDamping = Var::real("velocity_loop.notch_damping", "1").parameter().start(0.5).min(0.0)
+                NotchDamping = Var::real("velocity_loop.notch_damping", "1").parameter().start(0.5).min(0.01).max(10.0)
                     .description("Damping of the notch's poles (its width)."),
                 NotchDepth = Var::real("velocity_loop.notch_depth", "1").parameter().start(0.1).min(0.0).max(1.0)
                     .description("Gain of the notch at its frequency."),
                 AntiLimitCycle = Var::boolean("anti_limit_cycle.enabled").parameter().start_boolean(true)
                     .description("Freezes the integrators once the axis has stopped near a stationary target, so stiction cannot make it hunt."),
-                HoldEntry = Var::real("anti_limit_cycle.hold_entry_error", "arcsec").parameter().start(2.0).min(0.0)
+                HoldEntry = Var::real("anti_limit_cycle.hold_entry_error", "arcsec").parameter().start(2.0).min(0.0).max($crate::fmi::common::MAX_HOLD_ERROR_ARCSEC)
                     .description("The hold engages at rest within this position error."),
-                HoldRelease = Var::real("anti_limit_cycle.hold_release_error", "arcsec").parameter().start(4.0).min(0.0)
+                HoldRelease = Var::real("anti_limit_cycle.hold_release_error", "arcsec").parameter().start(4.0).min(0.0).max($crate::fmi::common::MAX_HOLD_ERROR_ARCSEC)
                     .description("The hold releases beyond this position error (hysteresis)."),
                 HoldMotionBand = Var::real("anti_limit_cycle.hold_motion_band", "arcsec").parameter().start(0.5).min(0.0)
                     .description("The hold also releases once the measured position has moved by more than this since the hold began: a held axis that moves is pushed (by wind), not stuck, and needs its integrators. Estimate: 25 times a realistic encoder's reading noise (0.02 arcsec), 13 counts of a 25-bit encoder."),

@@ -43,6 +43,65 @@ pub const MAX_AXIAL_STIFFNESS: f64 = 1e12;
 /// Largest axial damping of the jackscrew, N s/m: 700 times the default.
 pub const MAX_AXIAL_DAMPING: f64 = 1e9;
 
+// Bounds added so that every parameter and input has a declared range that says what is
+// physical (docs/fmu-robustness.md): each is far beyond any drive of a 13-15 m dish, so no real
+// configuration meets it, and near enough that no value inside it is a denormal or 1e308
+// stand-in that would overflow the arithmetic. Each was run at its bound, varied alone from
+// the defaults (the tests of `super`).
+
+/// Largest current command or current limit, A: ten kiloamperes, a hundred times the servo
+/// drives of a radio telescope.
+pub const MAX_CURRENT: f64 = 1e4;
+
+/// Largest external or internal load torque about an axis, N m (disturbance input, torque
+/// offset, periodic and unbalance torques, bearing friction): 1e8 N m, some hundred times the
+/// survival wind torque of a 13.5 m dish (estimate, order 1e6 N m).
+pub const MAX_LOAD_TORQUE: f64 = 1e8;
+
+/// Largest gear or gearbox ratio.
+pub const MAX_GEAR_RATIO: f64 = 1e6;
+
+/// Largest backlash of a pinion, arcsec (one degree).
+pub const MAX_BACKLASH_ARCSEC: f64 = 3600.0;
+
+/// Largest load inertia about an axis, kg m^2: a thousand times the MeerKAT dish's.
+pub const MAX_LOAD_INERTIA: f64 = 1e9;
+
+/// Largest motor inertia, kg m^2: ten times the rotor of the largest servo motors.
+pub const MAX_MOTOR_INERTIA: f64 = 10.0;
+
+/// Largest Stribeck velocity, rad/s.
+pub const MAX_STRIBECK_VELOCITY: f64 = 1e3;
+
+/// Largest viscous friction of a motor, N m s/rad.
+pub const MAX_MOTOR_VISCOUS: f64 = 10.0;
+
+/// Largest friction torque at a motor or screw, N m.
+pub const MAX_MOTOR_FRICTION: f64 = 1e3;
+
+/// Largest torque constant, N m/A, and largest scale of it.
+pub const MAX_TORQUE_CONSTANT: f64 = 100.0;
+pub const MAX_TORQUE_CONSTANT_SCALE: f64 = 10.0;
+
+/// Largest cogging torque amplitude, N m (either sign), and cogging period (per motor turn).
+pub const MAX_COGGING: f64 = 1e3;
+pub const MAX_COGGING_PERIOD: f64 = 1e6;
+
+/// Phases are given within one turn either way, deg.
+pub const MAX_PHASE_DEG: f64 = 360.0;
+
+/// Longest period of a position-periodic load torque, deg (ten turns).
+pub const MAX_PERIOD_DEG: f64 = 3600.0;
+
+/// Largest length of the elevation drive's geometry, m (radii, screw length, nut offset).
+pub const MAX_GEOMETRY_LENGTH: f64 = 100.0;
+
+/// Largest screw lead, m per revolution.
+pub const MAX_SCREW_LEAD: f64 = 1.0;
+
+/// Largest axial free play of the nut, m.
+pub const MAX_AXIAL_BACKLASH: f64 = 0.1;
+
 /// The value references of one motor's parameters.
 pub struct MotorVars<V> {
     pub inertia: V,
@@ -152,9 +211,29 @@ pub fn load_parameter_file<M: fmu_runtime::Model>(
         }
     };
     let text =
-        std::fs::read_to_string(&path).map_err(|e| format!("cannot read parameter file {}: {e}", path.display()))?;
+        fmu_runtime::files::read_regular_file(&path, fmu_runtime::files::MAX_PARAMETER_FILE_BYTES, "parameter file")?;
     fmu_runtime::params::apply::<M>(&text, &path.display().to_string(), values)?;
     Ok(())
+}
+
+/// The work of a plant step of `step` seconds in pieces (what the drive train cuts a step
+/// into): pieces of at most `numerics.event_check_interval`, and of at most
+/// `numerics.nonlinear_substep` when torques that are not piecewise linear are on (cogging,
+/// periodic or unbalance torques, a Stribeck curve; `needs_substeps`).
+pub fn plant_step_pieces(
+    step: f64,
+    event_check_interval: f64,
+    substep: f64,
+    needs_substeps: bool,
+) -> (f64, &'static str) {
+    if needs_substeps {
+        (
+            (step / substep.min(event_check_interval)).ceil(),
+            "pieces of numerics.nonlinear_substep, with cogging, periodic or unbalance torques or a Stribeck curve on",
+        )
+    } else {
+        ((step / event_check_interval).ceil(), "pieces of numerics.event_check_interval")
+    }
 }
 
 pub fn model_info(identifier: &'static str, description: &'static str) -> ModelInfo {

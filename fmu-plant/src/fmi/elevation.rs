@@ -6,9 +6,15 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
-    MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE,
-    MIN_MOTOR_INERTIA, TINY,
+    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
+    SensorVars, COUNT_MODE, MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH,
+    MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE, MIN_MOTOR_INERTIA, TINY,
+};
+use super::common::{
+    MAX_AXIAL_BACKLASH, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_GEOMETRY_LENGTH,
+    MAX_LOAD_INERTIA, MAX_LOAD_TORQUE, MAX_MOTOR_FRICTION, MAX_MOTOR_INERTIA, MAX_MOTOR_VISCOUS, MAX_PATH_DAMPING,
+    MAX_PERIOD_DEG, MAX_PHASE_DEG, MAX_SCREW_LEAD, MAX_STRIBECK_VELOCITY, MAX_TORQUE_CONSTANT,
+    MAX_TORQUE_CONSTANT_SCALE,
 };
 use crate::params::{FrictionParams, PeriodicTorqueParams};
 use crate::sensors::SensorParams;
@@ -19,9 +25,9 @@ declare_variables! {
     /// inertia and load torques are about the elevation axis; jackscrew quantities are axial.
     pub enum ElVar {
         // Inputs.
-        CurrentCommand = Var::real("motor.current_command", "A").input().start(0.0)
+        CurrentCommand = Var::real("motor.current_command", "A").input().start(0.0).min(-MAX_CURRENT).max(MAX_CURRENT)
             .description("Current command to the elevation drive, before its current loop; clamped to motor.current_limit."),
-        DisturbanceTorque = Var::real("load.disturbance_torque", "N.m").input().start(0.0)
+        DisturbanceTorque = Var::real("load.disturbance_torque", "N.m").input().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("External torque about the elevation axis (wind); positive raises the dish."),
         // Outputs.
         EncoderPosition = Var::real("axis.encoder_position", "deg").output()
@@ -38,48 +44,48 @@ declare_variables! {
         AntiResonance = Var::real("drive.anti_resonance_frequency", "Hz").output()
             .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive at the current angle."),
         // Motor.
-        MInertia = Var::real("motor.inertia", "kg.m2").parameter().start(0.002).min(MIN_MOTOR_INERTIA)
+        MInertia = Var::real("motor.inertia", "kg.m2").parameter().start(0.002).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
             .description("Inertia J_M of the motor with its gearbox input stage."),
-        MViscous = Var::real("motor.viscous_friction", "N.m.s/rad").parameter().start(5.0e-4).min(0.0)
+        MViscous = Var::real("motor.viscous_friction", "N.m.s/rad").parameter().start(5.0e-4).min(0.0).max(MAX_MOTOR_VISCOUS)
             .description("Viscous friction B_M of motor and gearbox, at the motor."),
-        MCoulomb = Var::real("motor.coulomb_friction", "N.m").parameter().start(0.15).min(0.0)
+        MCoulomb = Var::real("motor.coulomb_friction", "N.m").parameter().start(0.15).min(0.0).max(MAX_MOTOR_FRICTION)
             .description("Sliding friction of motor and gearbox, at the motor."),
-        MStatic = Var::real("motor.static_friction", "N.m").parameter().start(0.2).min(0.0)
+        MStatic = Var::real("motor.static_friction", "N.m").parameter().start(0.2).min(0.0).max(MAX_MOTOR_FRICTION)
             .description("Breakaway friction of motor and gearbox, at the motor (at least the sliding friction)."),
-        MStribeck = Var::real("motor.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
+        MStribeck = Var::real("motor.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
             .description("Stribeck velocity of the motor friction; 0 switches the Stribeck curve off."),
         MAsymmetry = Var::real("motor.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of the motor friction."),
-        MTorqueConstant = Var::real("motor.torque_constant", "N.m/A").parameter().start(0.8).min(TINY)
+        MTorqueConstant = Var::real("motor.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
             .description("Torque constant K_phi."),
-        MTorqueScale = Var::real("motor.torque_constant_scale", "1").parameter().start(1.0).min(TINY)
+        MTorqueScale = Var::real("motor.torque_constant_scale", "1").parameter().start(1.0).min(TINY).max(MAX_TORQUE_CONSTANT_SCALE)
             .description("Multiplier on the torque constant (a torque-constant error); 1 is nominal."),
-        MCurrentLimit = Var::real("motor.current_limit", "A").parameter().start(15.0).min(TINY)
+        MCurrentLimit = Var::real("motor.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
             .description("Current limit: the command is clamped to +/- this."),
         MBandwidth = Var::real("motor.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
             .description("Closed-loop bandwidth of the current loop (first-order lag)."),
         MDelay = Var::real("motor.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
             .description("Pure time delay on the current command; 0 is off."),
-        MCoggingAmplitude = Var::real("motor.cogging_amplitude", "N.m").parameter().start(0.0)
+        MCoggingAmplitude = Var::real("motor.cogging_amplitude", "N.m").parameter().start(0.0).min(-MAX_COGGING).max(MAX_COGGING)
             .description("Amplitude of the motor's cogging torque; 0 is off."),
-        MCoggingPeriod = Var::real("motor.cogging_period", "1").parameter().start(1.0).min(1e-9)
+        MCoggingPeriod = Var::real("motor.cogging_period", "1").parameter().start(1.0).min(1e-9).max(MAX_COGGING_PERIOD)
             .description("Period of the cogging torque in motor revolutions."),
-        MCoggingPhase = Var::real("motor.cogging_phase", "deg").parameter().start(0.0)
+        MCoggingPhase = Var::real("motor.cogging_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description("Phase of the cogging torque at motor angle 0."),
         // Jackscrew.
-        DishRadius = Var::real("jackscrew.dish_attachment_radius", "m").parameter().start(2.0).min(TINY)
+        DishRadius = Var::real("jackscrew.dish_attachment_radius", "m").parameter().start(2.0).min(TINY).max(MAX_GEOMETRY_LENGTH)
             .description("Distance from the elevation pivot to the actuator's attachment on the dish. With the other geometry parameters it must keep the lever arm and the nut on the screw over the whole travel."),
-        YokeRadius = Var::real("jackscrew.yoke_attachment_radius", "m").parameter().start(3.6).min(TINY)
+        YokeRadius = Var::real("jackscrew.yoke_attachment_radius", "m").parameter().start(3.6).min(TINY).max(MAX_GEOMETRY_LENGTH)
             .description("Distance from the elevation pivot to the actuator's trunnion on the yoke. With the other geometry parameters it must keep the lever arm and the nut on the screw over the whole travel."),
-        AttachmentAngle = Var::real("jackscrew.attachment_angle_at_zero_elevation", "deg").parameter().start(20.0)
+        AttachmentAngle = Var::real("jackscrew.attachment_angle_at_zero_elevation", "deg").parameter().start(20.0).min(-180.0).max(180.0)
             .description("Angle at the pivot between the two attachment radii at 0 deg elevation; it grows one-for-one with elevation."),
-        Lead = Var::real("jackscrew.lead", "m").parameter().start(0.02).min(TINY)
+        Lead = Var::real("jackscrew.lead", "m").parameter().start(0.02).min(TINY).max(MAX_SCREW_LEAD)
             .description("Screw lead: nut travel per screw revolution."),
-        GearboxRatio = Var::real("jackscrew.gearbox_ratio", "1").parameter().start(28.0).min(0.1)
+        GearboxRatio = Var::real("jackscrew.gearbox_ratio", "1").parameter().start(28.0).min(0.1).max(MAX_GEAR_RATIO)
             .description("Gearbox ratio between motor and screw, motor revolutions per screw revolution. At least 0.1: the screw's stiffness and damping reach the motor divided by its square, and near 1e-3 the drive would become faster than the 1e10 1/s its discretisation resolves."),
-        ScrewLength = Var::real("jackscrew.length_between_bearings", "m").parameter().start(3.5).min(TINY)
+        ScrewLength = Var::real("jackscrew.length_between_bearings", "m").parameter().start(3.5).min(TINY).max(MAX_GEOMETRY_LENGTH)
             .description("Length of screw between its two axial bearings. With the other geometry parameters it must keep the nut on the screw over the whole travel."),
-        NutOffset = Var::real("jackscrew.nut_offset", "m").parameter().start(1.57)
+        NutOffset = Var::real("jackscrew.nut_offset", "m").parameter().start(1.57).min(-MAX_GEOMETRY_LENGTH).max(MAX_GEOMETRY_LENGTH)
             .description("Actuator length minus the nut's distance from the first bearing."),
         AxialRigidity = Var::real("jackscrew.axial_rigidity", "N").parameter().start(1.65e9).min(TINY).max(MAX_AXIAL_STIFFNESS)
             .description("Axial rigidity E A of the screw's root section."),
@@ -89,48 +95,48 @@ declare_variables! {
             .description("Axial stiffness of everything in series with the screw (bearings, nut, housing, trunnion)."),
         AxialDamping = Var::real("jackscrew.axial_damping", "N.s/m").parameter().start(1.4e6).min(0.0).max(MAX_AXIAL_DAMPING)
             .description("Axial damping of the drive path. With axial backlash it must be positive, and large enough that the fastest rate stays below 1e10 1/s."),
-        AxialBacklash = Var::real("jackscrew.axial_backlash", "m").parameter().start(0.0).min(0.0)
+        AxialBacklash = Var::real("jackscrew.axial_backlash", "m").parameter().start(0.0).min(0.0).max(MAX_AXIAL_BACKLASH)
             .description("Axial free play of the nut; 0 for the preloaded nut."),
-        ScrewCoulomb = Var::real("jackscrew.coulomb_friction", "N.m").parameter().start(8.0).min(0.0)
+        ScrewCoulomb = Var::real("jackscrew.coulomb_friction", "N.m").parameter().start(8.0).min(0.0).max(MAX_MOTOR_FRICTION)
             .description("Sliding friction of the preloaded nut and screw bearings, at the screw."),
-        ScrewStatic = Var::real("jackscrew.static_friction", "N.m").parameter().start(10.0).min(0.0)
+        ScrewStatic = Var::real("jackscrew.static_friction", "N.m").parameter().start(10.0).min(0.0).max(MAX_MOTOR_FRICTION)
             .description("Breakaway friction of the preloaded nut and screw bearings, at the screw (at least the sliding friction)."),
-        ScrewStribeck = Var::real("jackscrew.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
+        ScrewStribeck = Var::real("jackscrew.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
             .description("Stribeck velocity of the screw friction (screw speed); 0 switches the curve off."),
         ScrewAsymmetry = Var::real("jackscrew.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of the screw friction (raising versus lowering)."),
         // Load.
-        DishInertia = Var::real("load.inertia", "kg.m2").parameter().start(3.5e5).min(1.0)
+        DishInertia = Var::real("load.inertia", "kg.m2").parameter().start(3.5e5).min(1.0).max(MAX_LOAD_INERTIA)
             .description("Inertia of the elevation structure about the elevation axis (constant: the dish is balanced about the pivot). At least 1 kg m2, far below any dish; near 1e-4 kg m2 the drive would become faster than the 1e10 1/s its discretisation resolves."),
-        PivotCoulomb = Var::real("pivot.coulomb_friction", "N.m").parameter().start(500.0).min(0.0)
+        PivotCoulomb = Var::real("pivot.coulomb_friction", "N.m").parameter().start(500.0).min(0.0).max(MAX_LOAD_TORQUE)
             .description("Sliding friction of the elevation pivot bearings, about the axis."),
-        PivotStatic = Var::real("pivot.static_friction", "N.m").parameter().start(650.0).min(0.0)
+        PivotStatic = Var::real("pivot.static_friction", "N.m").parameter().start(650.0).min(0.0).max(MAX_LOAD_TORQUE)
             .description("Breakaway friction of the elevation pivot bearings, about the axis (at least the sliding friction)."),
-        PivotStribeck = Var::real("pivot.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0)
+        PivotStribeck = Var::real("pivot.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
             .description("Stribeck velocity of the pivot friction; 0 switches the curve off."),
         PivotAsymmetry = Var::real("pivot.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
             .description("Direction asymmetry of the pivot friction."),
-        PivotViscous = Var::real("pivot.viscous_friction", "N.m.s/rad").parameter().start(0.0).min(0.0)
+        PivotViscous = Var::real("pivot.viscous_friction", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
             .description("Viscous friction of the pivot bearings about the axis (0 in the paper's model)."),
-        UnbalanceMoment = Var::real("load.unbalance_moment", "N.m").parameter().start(0.0)
+        UnbalanceMoment = Var::real("load.unbalance_moment", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("Gravity unbalance m g r; the torque is -m g r cos(el + phase) (positive: nose-heavy). 0 is balanced, as designed."),
-        UnbalancePhase = Var::real("load.unbalance_phase", "deg").parameter().start(0.0)
+        UnbalancePhase = Var::real("load.unbalance_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description("Phase of the unbalance torque."),
-        TorqueOffset = Var::real("load.torque_offset", "N.m").parameter().start(0.0)
+        TorqueOffset = Var::real("load.torque_offset", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("Constant torque on the load about the axis; 0 is off."),
-        PeriodicAmplitude = Var::real("load.periodic_torque_amplitude", "N.m").parameter().start(0.0)
+        PeriodicAmplitude = Var::real("load.periodic_torque_amplitude", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("Amplitude of a torque on the load that repeats with the elevation angle; 0 is off."),
-        PeriodicPeriod = Var::real("load.periodic_torque_period", "deg").parameter().start(360.0).min(1e-6)
+        PeriodicPeriod = Var::real("load.periodic_torque_period", "deg").parameter().start(360.0).min(1e-6).max(MAX_PERIOD_DEG)
             .description("Period of the position-periodic load torque in axis degrees."),
-        PeriodicPhase = Var::real("load.periodic_torque_phase", "deg").parameter().start(0.0)
+        PeriodicPhase = Var::real("load.periodic_torque_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description("Phase of the position-periodic load torque at elevation 0."),
-        TravelMin = Var::real("travel.min", "deg").parameter().start(15.0)
+        TravelMin = Var::real("travel.min", "deg").parameter().start(15.0).min(-90.0).max(180.0)
             .description("Lower end of travel; angle-dependent parameters are held at their end values beyond it (no end stops are modelled)."),
-        TravelMax = Var::real("travel.max", "deg").parameter().start(92.0)
+        TravelMax = Var::real("travel.max", "deg").parameter().start(92.0).min(-90.0).max(180.0)
             .description("Upper end of travel."),
         GeometryFrozen = Var::boolean("geometry.frozen").parameter().start_boolean(false)
             .description("Freeze ratio, stiffness, reflected inertia and kinematics at geometry.frozen_elevation: the axis is then linear time-invariant."),
-        FrozenElevation = Var::real("geometry.frozen_elevation", "deg").parameter().start(15.0)
+        FrozenElevation = Var::real("geometry.frozen_elevation", "deg").parameter().start(15.0).min(-90.0).max(180.0)
             .description("Elevation at which the geometry is frozen when geometry.frozen (or linear_configuration) is set."),
         // Sensing, configuration and numerics.
         EncoderBits = Var::integer("encoder.bits").parameter().start_integer(25).range_integer(0, 40)
@@ -160,33 +166,33 @@ declare_variables! {
             .description(T::GRADUATION_AMPLITUDE),
         Graduation1Harmonic = Var::integer("encoder.graduation_error1_harmonic").parameter().start_integer(2).range_integer(1, 100_000_000)
             .description(T::GRADUATION_HARMONIC),
-        Graduation1Phase = Var::real("encoder.graduation_error1_phase", "deg").parameter().start(0.0)
+        Graduation1Phase = Var::real("encoder.graduation_error1_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description(T::GRADUATION_PHASE),
         Graduation2Amplitude = Var::real("encoder.graduation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
             .description(T::GRADUATION_AMPLITUDE),
         Graduation2Harmonic = Var::integer("encoder.graduation_error2_harmonic").parameter().start_integer(3).range_integer(1, 100_000_000)
             .description(T::GRADUATION_HARMONIC),
-        Graduation2Phase = Var::real("encoder.graduation_error2_phase", "deg").parameter().start(0.0)
+        Graduation2Phase = Var::real("encoder.graduation_error2_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description(T::GRADUATION_PHASE),
         Graduation3Amplitude = Var::real("encoder.graduation_error3_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
             .description(T::GRADUATION_AMPLITUDE),
         Graduation3Harmonic = Var::integer("encoder.graduation_error3_harmonic").parameter().start_integer(4).range_integer(1, 100_000_000)
             .description(T::GRADUATION_HARMONIC),
-        Graduation3Phase = Var::real("encoder.graduation_error3_phase", "deg").parameter().start(0.0)
+        Graduation3Phase = Var::real("encoder.graduation_error3_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description(T::GRADUATION_PHASE),
         LineCount = Var::integer("encoder.line_count").parameter().start_integer(32768).range_integer(1, 100_000_000)
             .description(T::LINE_COUNT),
         Interpolation1Amplitude = Var::real("encoder.interpolation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
             .description(T::INTERPOLATION1_AMPLITUDE),
-        Interpolation1Phase = Var::real("encoder.interpolation_error1_phase", "deg").parameter().start(0.0)
+        Interpolation1Phase = Var::real("encoder.interpolation_error1_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description(T::INTERPOLATION_PHASE),
         Interpolation2Amplitude = Var::real("encoder.interpolation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
             .description(T::INTERPOLATION2_AMPLITUDE),
-        Interpolation2Phase = Var::real("encoder.interpolation_error2_phase", "deg").parameter().start(0.0)
+        Interpolation2Phase = Var::real("encoder.interpolation_error2_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description(T::INTERPOLATION_PHASE),
         EccentricityAmplitude = Var::real("encoder.eccentricity_error_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
             .description(T::ECCENTRICITY_AMPLITUDE),
-        EccentricityPhase = Var::real("encoder.eccentricity_error_phase", "deg").parameter().start(0.0)
+        EccentricityPhase = Var::real("encoder.eccentricity_error_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
             .description(T::ECCENTRICITY_PHASE),
         EncoderNoise = Var::real("encoder.noise_rms", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
             .description(T::ENCODER_NOISE),
@@ -376,6 +382,20 @@ impl Model for ElevationPlantModel {
         plant.step(&inputs, step)?;
         Self::write_outputs(plant, values);
         Ok(())
+    }
+
+    fn step_pieces(values: &Values<ElVar>, step: f64) -> (f64, &'static str) {
+        let stribeck =
+            [ElVar::MStribeck, ElVar::ScrewStribeck, ElVar::PivotStribeck].iter().any(|&v| values.real(v) > 0.0);
+        let torques = [ElVar::MCoggingAmplitude, ElVar::PeriodicAmplitude, ElVar::UnbalanceMoment]
+            .iter()
+            .any(|&v| values.real(v) != 0.0);
+        plant_step_pieces(
+            step,
+            values.real(ElVar::EventCheckInterval),
+            values.real(ElVar::NonlinearSubstep),
+            stribeck || torques,
+        )
     }
 
     fn string_changed(&mut self, var: ElVar, values: &mut Values<ElVar>, context: &Context) -> Result<(), String> {

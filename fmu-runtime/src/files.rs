@@ -1,0 +1,123 @@
+//! The one way an FMU reads a file a master names (parameter files, the wind's coefficient
+//! table, the structure's modes file): only a regular file, only up to a declared size, into
+//! memory reserved fallibly.
+//!
+//! A master may name anything: a FIFO, whose `open` or `read` would block the call for ever;
+//! `/dev/zero`, which never ends; a file of gigabytes, whose buffer would abort the process
+//! when the allocation fails. An FMU must answer every call and never take its host down, so
+//! the file is opened without blocking, checked to be a regular file by the descriptor it was
+//! opened with (no window between the check and the read), and read up to its limit plus one
+//! byte, so that a file that grows while it is read is refused too.
+
+use std::fs::{File, OpenOptions};
+use std::io::Read;
+use std::os::unix::fs::OpenOptionsExt;
+use std::path::Path;
+
+/// The largest parameter file an FMU reads, bytes (1 MiB): a parameter file holds a few
+/// hundred assignments of a few dozen bytes each, so this is a thousand times the largest
+/// useful one.
+pub const MAX_PARAMETER_FILE_BYTES: u64 = 1 << 20;
+
+/// Opening flag that makes `open` of a FIFO return at once instead of waiting for a writer
+/// (`O_NONBLOCK` of Linux, the one platform the FMUs are built for; the value is fixed by the
+/// kernel's ABI). Regular files ignore it.
+const O_NONBLOCK: i32 = 0o4000;
+
+/// Reads the whole of `path` as UTF-8 text, if it is a regular file of at most `max_bytes`
+/// bytes. `what` names the file in the error ("parameter file", "modes file").
+pub fn read_regular_file(path: &Path, max_bytes: u64, what: &str) -> Result<String, String> {
+    let shown = path.display();
+    let file = OpenOptions::new()
+        .read(true)
+        .custom_flags(O_NONBLOCK)
+        .open(path)
+        .map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
+    let metadata = file.metadata().map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
+    if !metadata.is_file() {
+        return Err(format!(
+            "{what} {shown} is not a regular file ({}); only regular files are read, so that a FIFO or a device cannot block or flood the FMU",
+            describe_file_type(&metadata)
+        ));
+    }
+    if metadata.len() > max_bytes {
+        return Err(format!(
+            "{what} {shown} has {} bytes, more than the {max_bytes} bytes an FMU reads",
+            metadata.len()
+        ));
+    }
+    read_bounded(file, max_bytes).map_err(|e| format!("cannot read {what} {shown}: {e}"))
+}
+
+/// Reads at most `max_bytes` from an open regular file into a buffer reserved fallibly.
+fn read_bounded(file: File, max_bytes: u64) -> Result<String, String> {
+    let mut bytes = Vec::new();
+    let expected = file.metadata().map(|m| m.len()).unwrap_or(0).min(max_bytes);
+    bytes.try_reserve_exact(expected as usize + 1).map_err(|e| format!("cannot reserve {expected} bytes: {e}"))?;
+    file.take(max_bytes + 1).read_to_end(&mut bytes).map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(format!("the file grew beyond {max_bytes} bytes while it was read"));
+    }
+    String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text ({e})"))
+}
+
+fn describe_file_type(metadata: &std::fs::Metadata) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let ty = metadata.file_type();
+    if ty.is_dir() {
+        "a directory"
+    } else if ty.is_fifo() {
+        "a FIFO"
+    } else if ty.is_char_device() {
+        "a character device"
+    } else if ty.is_block_device() {
+        "a block device"
+    } else if ty.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn devices_and_directories_are_refused_at_once() {
+        for (path, kind) in
+            [("/dev/zero", "character device"), ("/dev/null", "character device"), ("/tmp", "directory")]
+        {
+            let error = read_regular_file(Path::new(path), 1024, "test file").unwrap_err();
+            assert!(error.contains(kind) && error.contains("not a regular file"), "{path}: {error}");
+        }
+    }
+
+    #[test]
+    fn a_fifo_is_refused_without_blocking() {
+        let dir = std::env::temp_dir().join(format!("fmu-runtime-fifo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("pipe");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            // No mkfifo on this machine: nothing to check, the device test covers the rule.
+            let _ = std::fs::remove_dir_all(&dir);
+            return;
+        }
+        let started = std::time::Instant::now();
+        let error = read_regular_file(&fifo, 1024, "test file").unwrap_err();
+        assert!(error.contains("FIFO"), "{error}");
+        assert!(started.elapsed().as_secs_f64() < 1.0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn files_beyond_the_limit_are_refused_and_smaller_ones_read() {
+        let path = std::env::temp_dir().join(format!("fmu-runtime-limit-{}", std::process::id()));
+        std::fs::write(&path, "a = 1\n").unwrap();
+        assert_eq!(read_regular_file(&path, 6, "test file").unwrap(), "a = 1\n");
+        let error = read_regular_file(&path, 5, "test file").unwrap_err();
+        assert!(error.contains("more than the 5 bytes"), "{error}");
+        let _ = std::fs::remove_file(&path);
+    }
+}
