@@ -397,7 +397,13 @@ impl<M: Model> DynModel for ModelSlot<M> {
         let InstanceState { header, values, model: state } =
             crate::state::decode::<M>(bytes, M::info().model_identifier, &self.guid)?;
         let mut model = M::new(&values, context).map_err(StateError::Invalid)?;
-        model.load_state(state, &values)?;
+        // A state taken while parameters await initialisation (set after the model last
+        // initialised) holds a model state that the next initialisation replaces, built from
+        // the values: it may not fit them (a parameter the model then refuses), so it is not
+        // loaded, and the restored instance initialises from its values as the saved one would.
+        if !header.needs_initialize {
+            model.load_state(state, &values)?;
+        }
         self.values = values;
         self.model = model;
         self.strings_changed = true;
