@@ -319,7 +319,7 @@ mod tests {
     #[test]
     fn a_sample_clock_behind_the_step_is_refused() {
         let sampling = SamplingParams { sample_time_s: 1e-3, delay_samples: 1 };
-        let mut c = Counter { sampling, count: 0 };
+        let c = Counter { sampling, count: 0 };
         let s = SampleScheduler::new(-1e6, &sampling, c.idle_outputs());
         let error = s.check_clock(0.0).unwrap_err();
         assert!(error.contains("does not belong to this time"), "{error}");

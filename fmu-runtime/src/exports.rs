@@ -1065,7 +1065,8 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
             }
         }
         let (pieces, what) = instance.model.step_pieces(step);
-        if !(pieces <= MAX_STEP_PIECES) {
+        // NaN pieces (a model's arithmetic gone wrong) are refused too.
+        if pieces.is_nan() || pieces > MAX_STEP_PIECES {
             return Err(format!(
                 "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {MAX_STEP_PIECES:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
             ));

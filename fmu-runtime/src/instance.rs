@@ -122,6 +122,8 @@ pub struct ModelSlot<M: Model> {
     /// The values before the step in progress, to undo a step whose results are not finite
     /// (kept between steps so that taking the copy does not allocate).
     before_step: Values<M::Var>,
+    /// Whether a String value changed since `before_step` was last copied whole.
+    strings_changed: bool,
 }
 
 impl<M: Model> ModelSlot<M> {
@@ -131,7 +133,7 @@ impl<M: Model> ModelSlot<M> {
         let access = M::Var::TABLE.iter().map(Access::of).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
         let before_step = values.clone();
-        Ok(ModelSlot { model, values, guid, access, feedthrough, before_step })
+        Ok(ModelSlot { model, values, guid, access, feedthrough, before_step, strings_changed: false })
     }
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
@@ -170,8 +172,19 @@ impl<M: Model> ModelSlot<M> {
         let mut model = M::new(&self.before_step, context)?;
         model.load_state(model_before, &self.before_step).map_err(|e| e.to_string())?;
         self.model = model;
-        self.values.copy_from(&self.before_step);
+        self.values.copy_numbers_from(&self.before_step);
         Ok(())
+    }
+
+    /// Copies the values into `before_step`: numbers always, strings when one changed.
+    #[inline]
+    fn keep_values_before(&mut self) {
+        if self.strings_changed {
+            self.before_step = self.values.clone();
+            self.strings_changed = false;
+        } else {
+            self.before_step.copy_numbers_from(&self.values);
+        }
     }
 
     /// Why a get was refused: which value is not finite.
@@ -314,6 +327,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         // A string may name a file whose contents set further values; work on a copy so that a
         // failure half-way leaves everything as it was.
         let before = self.values.clone();
+        self.strings_changed = true;
         for (&vr, value) in vrs.iter().zip(values) {
             *self.values.string_at_mut(vr as usize) = value;
             let typed = M::Var::from_index(vr as usize).expect("index checked");
@@ -328,7 +342,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String> {
         // As a step: kept to be undone, so that a failed initialisation leaves no NaN behind
         // (a state taken afterwards must be one that can be restored).
-        self.before_step.copy_from(&self.values);
+        self.keep_values_before();
         let model_before = self.model.save_state();
         if let Err(e) = self.model.initialize(&mut self.values, context, notes) {
             self.undo_step(model_before, context)?;
@@ -359,7 +373,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
     fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String> {
         // Keep what is needed to undo the step: the values (copied into a kept buffer) and the
         // model's own state (what an FMU state holds of it).
-        self.before_step.copy_from(&self.values);
+        self.keep_values_before();
         let model_before = self.model.save_state();
         if let Err(e) = self.model.do_step(&mut self.values, time, step, notes) {
             // Models leave their data untouched on an error; undoing makes sure of it.
@@ -383,9 +397,16 @@ impl<M: Model> DynModel for ModelSlot<M> {
         let InstanceState { header, values, model: state } =
             crate::state::decode::<M>(bytes, M::info().model_identifier, &self.guid)?;
         let mut model = M::new(&values, context).map_err(StateError::Invalid)?;
-        model.load_state(state, &values)?;
+        // A state taken while parameters await initialisation (set after the model last
+        // initialised) holds a model state that the next initialisation replaces, built from
+        // the values: it may not fit them (a parameter the model then refuses), so it is not
+        // loaded, and the restored instance initialises from its values as the saved one would.
+        if !header.needs_initialize {
+            model.load_state(state, &values)?;
+        }
         self.values = values;
         self.model = model;
+        self.strings_changed = true;
         Ok(header)
     }
 }

@@ -426,17 +426,14 @@ impl<V: VariableSet> Values<V> {
         self.strings[var.index()] = value.into();
     }
 
-    /// Makes these values equal to `source` without allocating once the buffers have grown
-    /// (the runtime keeps a copy of the values before every step to undo a failed one).
-    pub(crate) fn copy_from(&mut self, source: &Self) {
+    /// Copies the numbers and booleans of `source`, without allocating: the runtime keeps a copy
+    /// of the values before every step to undo a failed one. Strings are not copied: no step
+    /// changes them (they are parameters, set between calls), and comparing them on every
+    /// step would cost more than the step (the caller copies them when they change).
+    pub(crate) fn copy_numbers_from(&mut self, source: &Self) {
         self.reals.copy_from_slice(&source.reals);
         self.integers.copy_from_slice(&source.integers);
         self.booleans.copy_from_slice(&source.booleans);
-        for (string, from) in self.strings.iter_mut().zip(&source.strings) {
-            if string != from {
-                string.clone_from(from);
-            }
-        }
     }
 
     /// The first Real variable whose value is NaN or infinite, by index.

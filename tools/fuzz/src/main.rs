@@ -40,6 +40,9 @@ struct Cli {
     /// Every n-th seed also runs on two threads against the serial run (0: never).
     #[arg(long, default_value_t = 8)]
     threads_every: u64,
+    /// Child runs spent shrinking each failing sequence (0: report the whole sequence).
+    #[arg(long, default_value_t = 200)]
+    shrink_trials: usize,
 }
 
 #[derive(Subcommand)]
@@ -113,7 +116,7 @@ fn campaign(cli: &Cli) -> anyhow::Result<bool> {
         chunk: if cli.valgrind { 25 } else { 500 },
         threads_every: cli.threads_every,
         wrapper,
-        shrink_trials: 200,
+        shrink_trials: cli.shrink_trials,
     };
     let started = Instant::now();
     let summaries = run_campaign(&config)?;
