@@ -17,6 +17,7 @@ import argparse
 import os
 import pathlib
 import re
+import site
 import subprocess
 import sys
 import tempfile
@@ -92,9 +93,10 @@ def run(address, out, sweep_args, antenna, batches=0, workers=None):
     try:
         with Client(address) as client:
             if __name__ != "__main__":
-                # Imported (not run as a script, whose functions travel by value): the workers
-                # get this file, so that they can import the batch function.
-                client.upload_file(__file__)
+                # Imported, not run as a script (whose functions travel by value): the workers
+                # import the batch function from this checkout, at the same path on every worker
+                # (as the antenna binary and the FMUs).
+                client.run(site.addsitedir, str(pathlib.Path(__file__).resolve().parent))
             threads = sum(client.nthreads().values())
             batches = batches or 4 * threads
             started = time.perf_counter()
