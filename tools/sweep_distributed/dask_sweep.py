@@ -92,11 +92,9 @@ def run(address, out, sweep_args, antenna, batches=0, workers=None):
         address = cluster.scheduler_address
     try:
         with Client(address) as client:
-            if __name__ != "__main__":
-                # Imported, not run as a script (whose functions travel by value): the workers
-                # import the batch function from this checkout, at the same path on every worker
-                # (as the antenna binary and the FMUs).
-                client.run(site.addsitedir, str(pathlib.Path(__file__).resolve().parent))
+            # The workers import the batch function from this checkout, at the same path on
+            # every worker (as the antenna binary and the FMUs).
+            client.run(site.addsitedir, str(pathlib.Path(__file__).resolve().parent))
             threads = sum(client.nthreads().values())
             batches = batches or 4 * threads
             started = time.perf_counter()
@@ -147,4 +145,8 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # Run as the module the workers import, so that its functions travel by name.
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+    import dask_sweep
+
+    sys.exit(dask_sweep.main())

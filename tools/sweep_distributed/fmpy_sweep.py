@@ -81,7 +81,7 @@ def points(table, names, samples, seed):
         if not usable:
             raise ValueError(f"{name} sets {' '.join(targets)}, which the fmpy master does not couple")
     cube = latin_hypercube(samples, len(names), seed)
-    return [{name: value_at(table[name], u) for name, u in zip(names, row)} for row in cube]
+    return [{name: value_at(table[name], float(u)) for name, u in zip(names, row)} for row in cube]
 
 
 _PATCH = threading.Lock()
@@ -166,11 +166,9 @@ def run(address, samples, seed, seconds, names=DEFAULT_VARY, out=None, workers=N
         address = cluster.scheduler_address
     try:
         with Client(address) as client:
-            if __name__ != "__main__":
-                # Imported, not run as a script (whose functions travel by value): the workers
-                # import this file, and through it the fmpy master, from this checkout, which
-                # must be at the same path on every worker (as the FMUs).
-                client.run(site.addsitedir, str(pathlib.Path(__file__).resolve().parent))
+            # The workers import this file, and through it the fmpy master, from this checkout,
+            # which must be at the same path on every worker (as the FMUs).
+            client.run(site.addsitedir, str(pathlib.Path(__file__).resolve().parent))
             futures = [client.submit(run_sample, values, seconds, table_rows, fmu_dir, pure=False) for values in sample_values]
             figures = client.gather(futures)
     finally:
@@ -205,4 +203,8 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # Run as the module the workers import, so that its functions travel by name.
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+    import fmpy_sweep
+
+    sys.exit(fmpy_sweep.main())
