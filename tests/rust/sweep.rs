@@ -74,3 +74,28 @@ fn batches_concatenated_give_the_rows_of_the_whole_sweep() {
     }
     assert_eq!(gathered, whole);
 }
+
+#[test]
+fn a_sample_rerun_alone_with_traces_gives_the_figure_of_its_row() {
+    let fmus = fmus();
+    let sweep = small_sweep(Method::Random);
+    let mut rows = Vec::new();
+    run_samples(
+        &sweep,
+        &fmus,
+        0..sweep.len(),
+        2,
+        &mut |row| {
+            rows.push(row);
+            Ok::<(), std::io::Error>(())
+        },
+        &mut |_, _| {},
+    )
+    .unwrap();
+    let folder = std::env::temp_dir().join(format!("antenna-sweep-rerun-{}", std::process::id()));
+    let (_, outcomes) = antenna_sim::sweep::run::run_one_sample(&sweep, &fmus, 4, &folder).unwrap();
+    std::fs::remove_dir_all(&folder).unwrap();
+    assert_eq!(outcomes.len(), 1);
+    assert_eq!(outcomes[0].figure.to_bits(), rows[4].figure.to_bits());
+    assert!(!outcomes[0].trace.time_s.is_empty(), "the rerun keeps its trace");
+}

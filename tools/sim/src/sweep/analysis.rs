@@ -312,7 +312,7 @@ mod tests {
         let falling: Vec<f64> = y.iter().map(|v| -v).collect();
         assert!((spearman(&x, &falling).unwrap() + 1.0).abs() < 1e-12);
         assert_eq!(ranks(&[3.0, 1.0, 3.0, f64::INFINITY]), vec![2.5, 1.0, 2.5, 4.0]);
-        assert_eq!(spearman(&x, &vec![1.0; 20]), None);
+        assert_eq!(spearman(&x, &[1.0; 20]), None);
     }
 
     #[test]

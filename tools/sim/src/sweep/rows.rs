@@ -114,10 +114,7 @@ pub fn read_rows(
         let values = (LEADING_COLUMNS.len()..record.len())
             .map(|i| match record.get(i).unwrap_or("") {
                 "" => Ok(None),
-                text => text
-                    .parse()
-                    .map(Some)
-                    .map_err(|_| bad(format!("{} = `{text}` is not a number", header[i].to_string()))),
+                text => text.parse().map(Some).map_err(|_| bad(format!("{} = `{text}` is not a number", &header[i]))),
             })
             .collect::<Result<Vec<_>, _>>()?;
         let row = Row {
