@@ -300,10 +300,11 @@ fn tornado(label: &str, data: &SweepData, ranking: &[Influence]) -> Figure {
     let shown: Vec<&Influence> = ranking.iter().take(10).collect();
     let mut panel = Panel::new(&format!("{label}: sensitivity (Spearman rank correlation with the figure)"))
         .x_label("Spearman rho")
-        .y_label("rank (legend: parameter)")
-        .x_range(-1.0, 1.0)
+        .y_label("most influential at the top (legend)")
+        // The axis runs on past rho = 1 to leave the legend a place beside the bars.
+        .x_range(-1.0, 2.1)
         .y_range(0.0, shown.len() as f64 + 1.0)
-        .legend(LegendPosition::LowerLeft);
+        .legend(LegendPosition::UpperRight);
     for (i, influence) in shown.iter().enumerate() {
         let y = (shown.len() - i) as f64;
         let rho = influence.spearman;
