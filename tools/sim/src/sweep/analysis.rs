@@ -262,7 +262,16 @@ pub struct Influence {
     pub first_order: Option<f64>,
 }
 
-/// The varied parameters ranked by |Spearman's rho| with the sample's worst figure of
+impl Influence {
+    /// The share of the figure's variation the parameter accounts for alone: the larger of the
+    /// first-order index (any dependence, also one that rises and falls, as a phase's) and
+    /// rho squared (a monotone one; all there is below 50 samples).
+    pub fn score(&self) -> f64 {
+        self.first_order.unwrap_or(0.0).max(self.spearman * self.spearman)
+    }
+}
+
+/// The varied parameters ranked by their [`Influence::score`] on the sample's worst figure of
 /// requirement `r`, largest first.
 pub fn sensitivity(data: &SweepData, r: usize) -> Vec<Influence> {
     let outcomes = data.outcomes(r);
@@ -276,7 +285,7 @@ pub fn sensitivity(data: &SweepData, r: usize) -> Vec<Influence> {
             Some(Influence { parameter: p, spearman: rho, first_order: first_order_index(&x, &y) })
         })
         .collect();
-    ranking.sort_by(|a, b| b.spearman.abs().total_cmp(&a.spearman.abs()));
+    ranking.sort_by(|a, b| b.score().total_cmp(&a.score()));
     ranking
 }
 

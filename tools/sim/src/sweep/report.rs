@@ -117,7 +117,7 @@ pub fn requirement_table(data: &SweepData) -> String {
         "## Pass probability per requirement\n\nA sample meets a requirement when every one of its scenarios of that requirement passes; its figure is the worst of them. Interval: exact (Clopper-Pearson), {:.0} %.\n\n",
         100.0 * CONFIDENCE
     );
-    out.push_str("| Req. | limit | samples | passed | pass probability | 95 % interval | 5 % | median | 95 % | 99 % | worst | most influential parameter (Spearman rho) |\n");
+    out.push_str("| Req. | limit | samples | passed | pass probability | 95 % interval | 5 % | median | 95 % | 99 % | worst | most influential parameter (Spearman rho, first-order index) |\n");
     out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (r, info) in data.requirements.iter().enumerate() {
         let outcomes = data.outcomes(r);
@@ -127,9 +127,10 @@ pub fn requirement_table(data: &SweepData) -> String {
         let mut figures: Vec<f64> = outcomes.iter().map(|(_, o)| o.worst).collect();
         figures.sort_by(f64::total_cmp);
         let q = |p| figure_text(percentile(&figures, p), &info.unit);
-        let top = sensitivity(data, r)
-            .first()
-            .map_or("-".to_string(), |i| format!("`{}` ({:+.2})", data.parameter_names[i.parameter], i.spearman));
+        let top = sensitivity(data, r).first().map_or("-".to_string(), |i| {
+            let first_order = i.first_order.map_or("-".to_string(), |s| format!("{s:.2}"));
+            format!("`{}` ({:+.2}, {first_order})", data.parameter_names[i.parameter], i.spearman)
+        });
         let _ = writeln!(
             out,
             "| {} | < {} {} | {n} | {k} | {} | {} - {} | {} | {} | {} | {} | {} | {top} |",
@@ -202,7 +203,7 @@ fn worst_samples(data: &SweepData, spec: &SweepSpec) -> String {
 }
 
 fn sensitivity_section(data: &SweepData, figures: &[(usize, Vec<String>)]) -> String {
-    let mut out = String::from("## Sensitivity\n\nParameters ranked by the magnitude of Spearman's rank correlation between the parameter and the sample's worst figure (positive: a larger value gives a larger, worse figure). The first-order index is the share of the figure's variance the parameter explains alone (binned estimate from the same sample, bias removed; shown with at least 50 samples and every run settled). Only |rho| above about 2/sqrt(samples) stands out of the noise.\n\n");
+    let mut out = String::from("## Sensitivity\n\nSpearman's rho is the rank correlation between the parameter and the sample's worst figure (positive: a larger value gives a larger, worse figure; only |rho| above about 2/sqrt(samples) stands out of the noise). The first-order index is the share of the figure's variance the parameter explains alone, also where the figure rises and falls with it, as with a phase (binned estimate from the same sample, bias removed; shown with at least 50 samples and every run settled). Parameters are ranked by the larger of the first-order index and rho squared.\n\n");
     for (r, info) in data.requirements.iter().enumerate() {
         let ranking = sensitivity(data, r);
         let _ = writeln!(out, "### {}\n", info.label);
@@ -294,17 +295,18 @@ fn histogram(label: &str, unit: &str, limit: f64, figures: &[f64]) -> Figure {
     Figure::new(1000, 560).panel(panel)
 }
 
-/// The tornado chart: one horizontal bar per parameter, its Spearman rho, the most influential
-/// at the top.
+/// The tornado chart: one horizontal bar per parameter, its Spearman rho, in the ranking's order
+/// (the most influential at the top).
 fn tornado(label: &str, data: &SweepData, ranking: &[Influence]) -> Figure {
     let shown: Vec<&Influence> = ranking.iter().take(10).collect();
-    let mut panel = Panel::new(&format!("{label}: sensitivity (Spearman rank correlation with the figure)"))
-        .x_label("Spearman rho")
-        .y_label("most influential at the top (legend)")
-        // The axis runs on past rho = 1 to leave the legend a place beside the bars.
-        .x_range(-1.0, 2.1)
-        .y_range(0.0, shown.len() as f64 + 1.0)
-        .legend(LegendPosition::UpperRight);
+    let mut panel =
+        Panel::new(&format!("{label}: the most influential parameters and their rank correlation with the figure"))
+            .x_label("Spearman rho")
+            .y_label("most influential at the top (legend)")
+            // The axis runs on past rho = 1 to leave the legend a place beside the bars.
+            .x_range(-1.0, 2.1)
+            .y_range(0.0, shown.len() as f64 + 1.0)
+            .legend(LegendPosition::UpperRight);
     for (i, influence) in shown.iter().enumerate() {
         let y = (shown.len() - i) as f64;
         let rho = influence.spearman;
