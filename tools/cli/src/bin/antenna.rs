@@ -476,7 +476,7 @@ fn sweep_report(sweep: &sweep::Sweep, out_dir: &Path, timing: Option<sweep::repo
     let path = out_dir.join("sweep.csv");
     let file = std::fs::File::open(&path).with_context(|| format!("cannot read {}", path.display()))?;
     let data = sweep::analysis::SweepData::read(std::io::BufReader::new(file), &path.display().to_string())?;
-    let report = sweep::report::write_report(&data, &sweep.spec, timing, out_dir).context("cannot write the report")?;
+    let report = sweep::report::write_report(&data, sweep, timing, out_dir).context("cannot write the report")?;
     println!("{}", sweep::report::requirement_table(&data));
     println!("wrote {}", report.display());
     Ok(())

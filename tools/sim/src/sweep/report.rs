@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use antenna_plot::{Colour, Figure, LegendPosition, Panel, PlotError, Series};
 
 use super::analysis::{clopper_pearson, percentile, sensitivity, Influence, SweepData};
-use super::SweepSpec;
+use super::{Sweep, SweepSpec};
+use antenna_fmus::parameters::Scale;
 
 /// The confidence of the intervals.
 pub const CONFIDENCE: f64 = 0.95;
@@ -28,12 +29,15 @@ pub struct Timing {
 /// Writes `sweep.md` and the figures into `folder`; returns the report's path.
 pub fn write_report(
     data: &SweepData,
-    spec: &SweepSpec,
+    sweep: &Sweep,
     timing: Option<Timing>,
     folder: &Path,
 ) -> Result<PathBuf, ReportWriteError> {
-    let figures = plot_figures(data, folder)?;
-    let text = markdown(data, spec, timing, &figures);
+    // Parameters spread on a log scale are plotted on one.
+    let log_scaled: Vec<&str> =
+        sweep.parameters.iter().filter(|p| p.scale == Scale::Log).map(|p| p.name.as_str()).collect();
+    let figures = plot_figures(data, &log_scaled, folder)?;
+    let text = markdown(data, &sweep.spec, timing, &figures);
     let path = folder.join("sweep.md");
     std::fs::write(&path, text).map_err(|source| ReportWriteError::Write { path: path.clone(), source })?;
     Ok(path)
@@ -239,7 +243,7 @@ const FAIL_COLOUR: Colour = Colour::rgb(0xd6, 0x27, 0x28);
 const LIMIT_COLOUR: Colour = Colour::rgb(0xa0, 0x00, 0x00);
 
 /// Every requirement's figures (file names relative to the folder), by requirement index.
-fn plot_figures(data: &SweepData, folder: &Path) -> Result<Vec<(usize, Vec<String>)>, PlotError> {
+fn plot_figures(data: &SweepData, log_scaled: &[&str], folder: &Path) -> Result<Vec<(usize, Vec<String>)>, PlotError> {
     let mut all = Vec::new();
     for (r, info) in data.requirements.iter().enumerate() {
         let outcomes = data.outcomes(r);
@@ -255,7 +259,8 @@ fn plot_figures(data: &SweepData, folder: &Path) -> Result<Vec<(usize, Vec<Strin
             names.push(format!("tornado-{slug}.png"));
             tornado(&info.label, data, &ranking).save_png(folder.join(&names[1]))?;
             names.push(format!("scatter-{slug}.png"));
-            scatter(&info.label, &info.unit, info.limit, data, r, &ranking).save_png(folder.join(&names[2]))?;
+            let plot = ScatterPlot { label: &info.label, unit: &info.unit, limit: info.limit, log_scaled };
+            plot.figure(data, r, &ranking).save_png(folder.join(&names[2]))?;
         }
         all.push((r, names));
     }
@@ -318,26 +323,40 @@ fn tornado(label: &str, data: &SweepData, ranking: &[Influence]) -> Figure {
 }
 
 /// The figure against each of the two most influential parameters, passes and failures apart.
-fn scatter(label: &str, unit: &str, limit: f64, data: &SweepData, r: usize, ranking: &[Influence]) -> Figure {
-    let outcomes = data.outcomes(r);
-    let mut figure =
-        Figure::new(1000, 900).title(&format!("{label}: the figure against the most influential parameters"));
-    for influence in ranking.iter().take(2) {
-        let name = &data.parameter_names[influence.parameter];
-        let mut panel = Panel::new(&format!("{name} (Spearman rho {:+.2})", influence.spearman))
-            .x_label(name)
-            .y_label(&format!("figure ({unit})"));
-        for (passed, colour, legend) in [(true, PASS_COLOUR, "pass"), (false, FAIL_COLOUR, "FAIL")] {
-            let (x, y): (Vec<f64>, Vec<f64>) = outcomes
-                .iter()
-                .filter(|(_, o)| o.passed == passed && o.worst.is_finite())
-                .map(|(s, o)| (s.values[influence.parameter].unwrap_or(f64::NAN), o.worst))
-                .unzip();
-            if !x.is_empty() {
-                panel = panel.series(Series::new(legend, &x, &y).markers_only().colour(colour));
+struct ScatterPlot<'a> {
+    label: &'a str,
+    unit: &'a str,
+    limit: f64,
+    log_scaled: &'a [&'a str],
+}
+
+impl ScatterPlot<'_> {
+    fn figure(&self, data: &SweepData, r: usize, ranking: &[Influence]) -> Figure {
+        let (unit, limit) = (self.unit, self.limit);
+        let outcomes = data.outcomes(r);
+        let mut figure = Figure::new(1000, 900)
+            .title(&format!("{}: the figure against the most influential parameters", self.label));
+        for influence in ranking.iter().take(2) {
+            let name = &data.parameter_names[influence.parameter];
+            let mut panel = Panel::new(&format!("{name} (Spearman rho {:+.2})", influence.spearman))
+                .x_label(name)
+                .y_label(&format!("figure ({unit})"));
+            if self.log_scaled.contains(&name.as_str()) {
+                panel = panel.log_x();
             }
+            for (passed, colour, legend) in [(true, PASS_COLOUR, "pass"), (false, FAIL_COLOUR, "FAIL")] {
+                let (x, y): (Vec<f64>, Vec<f64>) = outcomes
+                    .iter()
+                    .filter(|(_, o)| o.passed == passed && o.worst.is_finite())
+                    .map(|(s, o)| (s.values[influence.parameter].unwrap_or(f64::NAN), o.worst))
+                    .unzip();
+                if !x.is_empty() {
+                    panel = panel.series(Series::new(legend, &x, &y).markers_only().colour(colour));
+                }
+            }
+            figure =
+                figure.panel(panel.horizontal_line_coloured(&format!("limit {limit} {unit}"), limit, LIMIT_COLOUR));
         }
-        figure = figure.panel(panel.horizontal_line_coloured(&format!("limit {limit} {unit}"), limit, LIMIT_COLOUR));
+        figure
     }
-    figure
 }
