@@ -166,9 +166,12 @@ def run(address, samples, seed, seconds, names=DEFAULT_VARY, out=None, workers=N
         address = cluster.scheduler_address
     try:
         with Client(address) as client:
-            # The workers import this file, and through it the fmpy master, from this checkout,
-            # which must be at the same path on every worker (as the FMUs).
-            client.run(site.addsitedir, str(pathlib.Path(__file__).resolve().parent))
+            # The workers and the scheduler import this file, and through it the fmpy master, from
+            # this checkout, which must be at the same path on every machine (as the FMUs).
+            here = str(pathlib.Path(__file__).resolve().parent)
+            client.run(site.addsitedir, here)
+            # The scheduler unpickles the task graph too.
+            client.run_on_scheduler(site.addsitedir, here)
             futures = [client.submit(run_sample, values, seconds, table_rows, fmu_dir, pure=False) for values in sample_values]
             figures = client.gather(futures)
     finally:
