@@ -157,7 +157,7 @@ impl Sweep {
         let scenarios = select_scenarios(&spec.scenarios)?;
         let sweep = Sweep { spec, parameters, varied, base, plan, scenarios };
         // Every target must be known to the master before hours of runs start.
-        let folder = std::env::temp_dir().join(format!("antenna-sweep-check-{}", std::process::id()));
+        let folder = run::private_folder("check");
         std::fs::create_dir_all(&folder)
             .map_err(|source| SetupError::WriteModes { path: folder.display().to_string(), source })?;
         let checked = AntennaSetup::from_values(&sweep.values(0), Some(&folder));

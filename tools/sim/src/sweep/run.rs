@@ -161,7 +161,7 @@ where
 /// One coupled run of one sample, as a row; its trace is dropped here.
 fn run_task(draw: &Draw, fmus: &FmuSet, sample: u64, scenario: &Scenario) -> Row {
     let values = draw.values(sample);
-    let folder = std::env::temp_dir().join(format!("antenna-sweep-{}-{sample}-{}", std::process::id(), scenario.name));
+    let folder = private_folder(&format!("{sample}-{}", scenario.name));
     let outcome = (|| -> Result<Outcome, String> {
         std::fs::create_dir_all(&folder).map_err(|e| format!("cannot create {}: {e}", folder.display()))?;
         let setup = AntennaSetup::from_values(&values, Some(&folder)).map_err(|e| error_text(&e))?;
@@ -186,6 +186,14 @@ fn run_task(draw: &Draw, fmus: &FmuSet, sample: u64, scenario: &Scenario) -> Row
         error,
         values: values.into_iter().map(|(_, v)| v).collect(),
     }
+}
+
+/// A temporary folder of this run alone: unique within the process (two sweeps may run the same
+/// sample at once, in tests) and across processes.
+pub(super) fn private_folder(label: &str) -> std::path::PathBuf {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let unique = NEXT.fetch_add(1, Ordering::Relaxed);
+    std::env::temp_dir().join(format!("antenna-sweep-{}-{unique}-{label}", std::process::id()))
 }
 
 /// An error with its causes, on one line.
