@@ -10,7 +10,7 @@ use antenna_fmus::parameters::{parameters, Scale, Target, UncertainParameter};
 use fmu_structure::modes::{parse_modes, write_modes, DEFAULT_MODES, DEFAULT_MODES_FILE};
 
 use super::coupled::{AntennaConfig, Overrides, ParameterValue};
-use super::scenario::{Scenario, WIND_YAW_DEG};
+use super::scenario::{wind_direction_deg, Scenario, WIND_YAW_DEG};
 
 /// The plants' sub-step while Stribeck friction is on (`numerics.nonlinear_substep`), s. The
 /// plant holds the Stribeck excess over each sub-step; the fastest friction feedback it holds
@@ -63,6 +63,14 @@ impl Configuration {
     }
 }
 
+/// The realistic antenna (here rather than beside the type, so that the master's module does
+/// not reach back into the configurations built on it).
+impl Default for AntennaConfig {
+    fn default() -> Self {
+        Configuration::Realistic.antenna_config()
+    }
+}
+
 /// How a point of the table changes a requirement scenario's wind.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScenarioSettings {
@@ -89,11 +97,12 @@ impl ScenarioSettings {
         let mut scenario = scenario.clone();
         let wind = &mut scenario.wind;
         if wind.mean_speed_m_s > 0.0 {
+            // The scenarios' wind comes from WIND_YAW_DEG to the right of the start azimuth.
             let azimuth = wind.direction_deg - WIND_YAW_DEG;
             wind.mean_speed_m_s *= self.mean_speed_factor;
             wind.roughness_length_m *= self.roughness_factor;
             if self.yaw_deg != WIND_YAW_DEG {
-                wind.direction_deg = azimuth + self.yaw_deg;
+                wind.direction_deg = wind_direction_deg(azimuth, self.yaw_deg);
             }
             if let Some(seed) = self.seed {
                 wind.seed = seed;
@@ -301,6 +310,9 @@ mod tests {
         assert_eq!(applied.wind.mean_speed_m_s, 0.5 * scenario.wind.mean_speed_m_s);
         assert_eq!(applied.wind.roughness_length_m, 2.0 * scenario.wind.roughness_length_m);
         assert!((applied.wind.direction_deg - (scenario.wind.direction_deg - WIND_YAW_DEG + 10.0)).abs() < 1e-12);
+        // A direction past north wraps into the wind unit's range.
+        let around = ScenarioSettings { yaw_deg: 350.0, ..settings }.apply(&scenario);
+        assert!((0.0..360.0).contains(&around.wind.direction_deg), "{}", around.wind.direction_deg);
         assert_eq!(applied.wind.seed, 9);
     }
 }

@@ -54,8 +54,8 @@ impl WindCondition {
 }
 
 /// Everything a coupled run needs besides the command table. `AntennaConfig::default()` is the
-/// realistic antenna of `docs/parameters.csv`'s default column; [`crate::configuration`] builds
-/// the paper's configuration and any point of a sweep.
+/// realistic antenna of `docs/parameters.csv`'s default column; the configuration module builds
+/// it, the paper's configuration and any point of a sweep.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AntennaConfig {
     /// Communication step, s. The controllers keep their own sample time (1 ms by default, a
@@ -107,12 +107,6 @@ impl AntennaConfig {
             all.push(("Structure", structure));
         }
         all
-    }
-}
-
-impl Default for AntennaConfig {
-    fn default() -> Self {
-        crate::configuration::Configuration::Realistic.antenna_config()
     }
 }
 

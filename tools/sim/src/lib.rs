@@ -11,6 +11,7 @@ pub mod frequency_response;
 pub mod metrics;
 pub mod report;
 pub mod scenario;
+pub mod sweep;
 pub mod wind_spectra;
 
 pub use command::{Command, CommandPoint, CommandTable};

@@ -99,11 +99,17 @@ pub struct Scenario {
     pub analysis: Analysis,
 }
 
+/// Where the wind comes from, deg from north in [0, 360) (the wind unit's range), for an antenna
+/// at `azimuth_deg` and the wind `yaw_deg` to the right of it.
+pub fn wind_direction_deg(azimuth_deg: f64, yaw_deg: f64) -> f64 {
+    (azimuth_deg + yaw_deg).rem_euclid(360.0)
+}
+
 pub fn optimal_wind(azimuth_deg: f64, seed: i32) -> WindCondition {
     WindCondition {
         mean_speed_m_s: 2.9,
         roughness_length_m: SCENARIO_ROUGHNESS_OPTIMAL,
-        direction_deg: azimuth_deg + WIND_YAW_DEG,
+        direction_deg: wind_direction_deg(azimuth_deg, WIND_YAW_DEG),
         seed,
     }
 }
@@ -112,7 +118,7 @@ pub fn normal_wind(azimuth_deg: f64, seed: i32) -> WindCondition {
     WindCondition {
         mean_speed_m_s: 9.8,
         roughness_length_m: SCENARIO_ROUGHNESS_NORMAL,
-        direction_deg: azimuth_deg + WIND_YAW_DEG,
+        direction_deg: wind_direction_deg(azimuth_deg, WIND_YAW_DEG),
         seed,
     }
 }

@@ -12,13 +12,17 @@
 //! runs a pointing table of your own instead of the requirement scenarios, judged by the
 //! Req. 1 jitter. A failed requirement is a finding of the report, not an error: the exit code
 //! is 0 whenever the report was written.
+//!
+//! `antenna sweep ...` draws samples over the ranges of docs/parameters.csv and runs the
+//! requirement scenarios for each, on all cores or on a distributed engine, and writes the rows
+//! and a report (docs/sweeps.md); the work is `antenna_sim::sweep`'s, this file parses and prints.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use clap::{Parser, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
@@ -32,14 +36,17 @@ use antenna_sim::report::{
 use antenna_sim::scenario::{
     normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
 };
+use antenna_sim::sweep;
 use antenna_sim::{AntennaConfig, Configuration, FmuSet};
 
 /// Runs the coupled antenna FMUs through the requirement scenarios (Req. 1-5) and writes the
 /// requirement report.
 #[derive(Parser)]
 // `about` is left to this doc comment: the crate description is that of all the commands.
-#[command(version, long_about = None)]
+#[command(version, long_about = None, args_conflicts_with_subcommands = true)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// Use the FMUs already packaged in target/fmu (or $MEERKAT_FMU_DIR) instead of building and
     /// packaging them first.
     #[arg(long)]
@@ -103,8 +110,12 @@ enum Wind {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match run(cli) {
+    let mut cli = Cli::parse();
+    let result = match cli.command.take() {
+        Some(Command::Sweep(args)) => sweep(*args),
+        None => run(cli),
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("antenna: error: {e:#}");
@@ -384,4 +395,206 @@ fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io
     }
     std::fs::write(dir.join(format!("{}.config", s.name)), text)?;
     std::fs::write(dir.join(format!("{}.trace.csv", s.name)), outcome.trace.to_csv())
+}
+
+/// The subcommands besides the requirement report.
+#[derive(Subcommand)]
+enum Command {
+    /// Draws samples over the parameter ranges of docs/parameters.csv, runs the requirement
+    /// scenarios for each (all cores, or a distributed engine) and writes sweep.csv (one row per
+    /// sample and scenario) and sweep.md (pass probabilities, worst samples, sensitivity).
+    Sweep(Box<SweepArgs>),
+}
+
+/// The options of `antenna sweep`.
+#[derive(Args)]
+struct SweepArgs {
+    /// Samples to draw (for --method grid: points per axis).
+    #[arg(long, default_value_t = 100)]
+    samples: u64,
+    /// The seed every sample's values derive from (with its index).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// How the samples spread over the ranges.
+    #[arg(long, value_enum, default_value_t = MethodName::Lhs)]
+    method: MethodName,
+    /// Run the requirement scenarios whose name contains any of these [default: all 21].
+    #[arg(long, value_name = "NAME PART", num_args = 1..)]
+    scenarios: Vec<String>,
+    /// Vary only these parameters (names, or groups such as `wind`, `encoder`) [default: every row].
+    #[arg(long, value_name = "NAME", num_args = 1.., value_delimiter = ',')]
+    vary: Vec<String>,
+    /// Hold a parameter at a value (repeatable).
+    #[arg(long, value_name = "NAME=VALUE", value_parser = parse_fix)]
+    fix: Vec<(String, f64)>,
+    /// A table in the format of docs/parameters.csv whose rows replace (or add to) the committed ones.
+    #[arg(long, value_name = "FILE.csv")]
+    sweep_file: Option<PathBuf>,
+    /// Worker threads [default: 0 = one per core].
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Folder for sweep.csv, sweep.md and the figures [default: out/sweep].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Use the FMUs already packaged instead of building and packaging them first.
+    #[arg(long)]
+    no_build: bool,
+    /// Run only batch I of N (consecutive samples) into DIR/batch-I-of-N.csv, without a report.
+    #[arg(long, value_name = "I/N", conflicts_with_all = ["only_sample", "report_only", "engine"])]
+    batch: Option<String>,
+    /// Rerun sample K alone with every scenario's trace and plots (into --trace).
+    #[arg(long, value_name = "K", requires = "trace", conflicts_with = "report_only")]
+    only_sample: Option<u64>,
+    /// Folder for the traces of --only-sample.
+    #[arg(long, value_name = "DIR", requires = "only_sample")]
+    trace: Option<PathBuf>,
+    /// Write the report from DIR/sweep.csv without running anything (after a distributed sweep).
+    #[arg(long)]
+    report_only: bool,
+    /// Where the samples run: this machine's cores, or a Dask cluster (through tools/sweep_distributed/).
+    #[arg(long, value_enum, default_value_t = EngineName::Local)]
+    engine: EngineName,
+    /// The engine's scheduler (`tcp://host:8786`), or `local` for a cluster on this machine.
+    #[arg(long, required_if_eq("engine", "dask"))]
+    address: Option<String>,
+    /// Batches for --engine dask [default: 0 = four per worker thread].
+    #[arg(long, default_value_t = 0)]
+    batches: u64,
+}
+
+/// The sampling methods.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum MethodName {
+    /// Latin hypercube.
+    Lhs,
+    /// Owen-scrambled Sobol sequence.
+    Sobol,
+    /// Independent uniform draws.
+    Random,
+    /// A grid over one or two parameters (--vary), --samples points per axis.
+    Grid,
+}
+
+/// Where a sweep runs.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum EngineName {
+    /// All cores of this machine (rayon).
+    Local,
+    /// Dask distributed.
+    Dask,
+}
+
+fn parse_fix(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text.split_once('=').ok_or_else(|| format!("`{text}` is not NAME=VALUE"))?;
+    let value: f64 = value.trim().parse().map_err(|_| format!("`{value}` is not a number"))?;
+    if !value.is_finite() {
+        return Err(format!("`{text}`: the value is not finite"));
+    }
+    Ok((name.trim().to_string(), value))
+}
+
+impl SweepArgs {
+    fn spec(&self) -> sweep::SweepSpec {
+        sweep::SweepSpec {
+            samples: self.samples,
+            seed: self.seed,
+            method: match self.method {
+                MethodName::Lhs => sweep::Method::Lhs,
+                MethodName::Sobol => sweep::Method::Sobol,
+                MethodName::Random => sweep::Method::Random,
+                MethodName::Grid => sweep::Method::Grid,
+            },
+            scenarios: self.scenarios.clone(),
+            vary: self.vary.clone(),
+            fix: self.fix.clone(),
+            sweep_file: self.sweep_file.clone(),
+        }
+    }
+}
+
+/// `antenna sweep`: runs (or hands off, or reports) a sweep.
+fn sweep(args: SweepArgs) -> anyhow::Result<()> {
+    let out_dir = args.out.clone().unwrap_or_else(|| antenna_fmus::workspace_root().join("out").join("sweep"));
+    let sweep = sweep::Sweep::new(args.spec())?;
+    std::fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    if args.report_only {
+        return sweep_report(&sweep, &out_dir, None);
+    }
+    if !args.no_build {
+        eprintln!("building and packaging the FMUs ...");
+        xtask::build_and_package().context("packaging failed")?;
+    }
+    if args.engine == EngineName::Dask {
+        let hand_off = sweep::distributed::HandOff {
+            engine: sweep::distributed::Engine::Dask,
+            address: args.address.clone().unwrap_or_default(),
+            batches: args.batches,
+            out: out_dir,
+            antenna: std::env::current_exe().context("cannot find this program's path")?,
+            python: sweep::distributed::default_python(),
+        };
+        let status = sweep::distributed::hand_off(&sweep.spec, &hand_off)
+            .with_context(|| format!("cannot start {}", hand_off.python.display()))?;
+        if !status.success() {
+            bail!("the distributed driver failed ({status})");
+        }
+        return Ok(());
+    }
+    let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
+        .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
+    if let (Some(sample), Some(trace_dir)) = (args.only_sample, &args.trace) {
+        let (config, outcomes) = sweep::run::run_one_sample(&sweep, &fmus, sample, trace_dir)?;
+        for outcome in &outcomes {
+            write_trace(trace_dir, &config, outcome)
+                .with_context(|| format!("cannot write the trace into {}", trace_dir.display()))?;
+        }
+        let simulated: f64 = outcomes.iter().map(|o| o.scenario.end_s).sum();
+        let wall: f64 = outcomes.iter().map(|o| o.wall_s).sum();
+        return write_report(&outcomes, &[], &config, trace_dir, simulated, wall);
+    }
+    let (samples, file) = match &args.batch {
+        Some(batch) => {
+            let range = sweep.batch(batch)?;
+            (range, out_dir.join(format!("batch-{}.csv", batch.replace('/', "-of-"))))
+        }
+        None => (0..sweep.len(), out_dir.join("sweep.csv")),
+    };
+    let bar = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template("[{bar:30}] {pos}/{len} runs  {elapsed} elapsed, {eta} left")
+            .expect("the template is valid")
+            .progress_chars("#>-"),
+    );
+    let summary = sweep::run::write_rows_file(&sweep, &fmus, samples, args.threads, &file, &mut |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    })?;
+    bar.finish_and_clear();
+    eprintln!(
+        "{} samples, {} runs, {:.0} s simulated in {:.1} s on {} threads ({:.2} samples/s); peak memory {:.0} MB; wrote {}",
+        summary.samples,
+        summary.rows,
+        summary.simulated_s,
+        summary.wall_s,
+        summary.threads,
+        summary.samples as f64 / summary.wall_s,
+        sweep::run::peak_resident_bytes().unwrap_or(0) as f64 / 1e6,
+        file.display()
+    );
+    if args.batch.is_some() {
+        return Ok(());
+    }
+    let timing =
+        sweep::report::Timing { wall_s: summary.wall_s, threads: summary.threads, simulated_s: summary.simulated_s };
+    sweep_report(&sweep, &out_dir, Some(timing))
+}
+
+/// Reads DIR/sweep.csv, writes sweep.md and the figures, prints the pass probabilities.
+fn sweep_report(sweep: &sweep::Sweep, out_dir: &Path, timing: Option<sweep::report::Timing>) -> anyhow::Result<()> {
+    let path = out_dir.join("sweep.csv");
+    let file = std::fs::File::open(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let data = sweep::analysis::SweepData::read(std::io::BufReader::new(file), &path.display().to_string())?;
+    let report = sweep::report::write_report(&data, sweep, timing, out_dir).context("cannot write the report")?;
+    println!("{}", sweep::report::requirement_table(&data));
+    println!("wrote {}", report.display());
+    Ok(())
 }

@@ -2,7 +2,13 @@
 //! second of the Rust master (and, with `--fmpy`, of the fmpy master), and the cost of one
 //! fmi2DoStep of each FMU and of one fmi2GetReal/fmi2SetReal call. Figures go into the README.
 //!
-//! Usage: `cargo run --release -p antenna-cli --bin bench -- [--seconds 300] [--fmpy]`.
+//! With `--sweep N`, also the parameter sweeps: samples per second of `antenna sweep` on one and
+//! on two threads in the same run (and that both give the same rows), the peak memory of a
+//! one-thread sweep process (what one worker of the distributed engine holds), and with
+//! `--distributed` the Dask engine against the local pool for the same sweep.
+//!
+//! Usage: `cargo run --release -p antenna-cli --bin bench -- [--seconds 300] [--fmpy] [--sweep 32
+//! [--sweep-scenarios el45] [--distributed]]`.
 
 use std::process::ExitCode;
 use std::time::Instant;
@@ -11,6 +17,9 @@ use anyhow::{bail, Context};
 use clap::Parser;
 
 use antenna_sim::scenario::{optimal_wind, tracking_table};
+use antenna_sim::sweep::rows::RowWriter;
+use antenna_sim::sweep::run::run_samples;
+use antenna_sim::sweep::{Method, Sweep, SweepSpec};
 use antenna_sim::{AntennaConfig, CoupledAntenna, FmuSet};
 use fmu_import::Fmu;
 
@@ -25,6 +34,18 @@ struct Cli {
     /// Also time the fmpy master (tests/python/coupled_master.py, in .venv).
     #[arg(long)]
     fmpy: bool,
+    /// Also time parameter sweeps of this many samples (Latin hypercube, seed 1).
+    #[arg(long, value_name = "SAMPLES")]
+    sweep: Option<u64>,
+    /// The scenarios of the sweeps (name parts) [default: all 21].
+    #[arg(long, value_name = "NAME PART", num_args = 1.., requires = "sweep")]
+    sweep_scenarios: Vec<String>,
+    /// Also time the sweep on a local Dask cluster (two workers) against the local pool.
+    #[arg(long, requires = "sweep")]
+    distributed: bool,
+    /// Run only the sweep benchmarks.
+    #[arg(long, requires = "sweep")]
+    only_sweep: bool,
 }
 
 /// A finite, positive number of seconds.
@@ -49,10 +70,20 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .context("cannot open the FMUs (package them first: cargo xtask package)")?;
-    coupled(&fmus, cli.seconds)?;
-    single_calls(&fmus)?;
-    if cli.fmpy {
-        fmpy_master(cli.seconds)?;
+    if !cli.only_sweep {
+        coupled(&fmus, cli.seconds)?;
+        single_calls(&fmus)?;
+        if cli.fmpy {
+            fmpy_master(cli.seconds)?;
+        }
+    }
+    if let Some(samples) = cli.sweep {
+        let spec = sweep_spec(samples, &cli.sweep_scenarios);
+        sweep_threads(&fmus, &spec)?;
+        sweep_memory(&spec)?;
+        if cli.distributed {
+            sweep_distributed(&spec)?;
+        }
     }
     Ok(())
 }
@@ -161,4 +192,126 @@ fn get_real_cost(fmu: &Fmu) -> anyhow::Result<f64> {
         instance.get_real(&vrs, &mut out)?;
     }
     Ok(started.elapsed().as_secs_f64() / n as f64 * 1e9)
+}
+
+/// The benchmark's sweep: every parameter of the table over its documented range.
+fn sweep_spec(samples: u64, scenarios: &[String]) -> SweepSpec {
+    SweepSpec {
+        samples,
+        seed: 1,
+        method: Method::Lhs,
+        scenarios: scenarios.to_vec(),
+        vary: Vec::new(),
+        fix: Vec::new(),
+        sweep_file: None,
+    }
+}
+
+/// Samples per second on one and on two threads, measured one after the other in this run, and
+/// whether both gave the same rows.
+fn sweep_threads(fmus: &FmuSet, spec: &SweepSpec) -> anyhow::Result<()> {
+    let sweep = Sweep::new(spec.clone())?;
+    println!(
+        "\n## Sweep: {} samples x {} scenarios, all parameters varied (antenna sweep {})",
+        sweep.len(),
+        sweep.scenarios.len(),
+        spec.command_line()
+    );
+    let mut rates = Vec::new();
+    let mut outputs = Vec::new();
+    for threads in [1, 2] {
+        let mut writer = RowWriter::new(Vec::new(), &sweep.parameters)?;
+        let cpu_before = process_cpu_seconds();
+        let summary =
+            run_samples(&sweep, fmus, 0..sweep.len(), threads, &mut |row| writer.write(&row), &mut |_, _| {})?;
+        let cpu = process_cpu_seconds().zip(cpu_before).map(|(after, before)| after - before);
+        let rate = summary.samples as f64 / summary.wall_s;
+        println!(
+            "{threads} thread(s): {:.1} s wall-clock, {rate:.3} samples/s ({:.0} x real time); CPU {} s per sample",
+            summary.wall_s,
+            summary.simulated_s / summary.wall_s,
+            cpu.map_or("?".to_string(), |c| format!("{:.3}", c / summary.samples as f64))
+        );
+        rates.push(rate);
+        outputs.push(writer.into_inner()?);
+    }
+    println!(
+        "2 threads / 1 thread: {:.2} x; rows identical: {}",
+        rates[1] / rates[0],
+        if outputs[0] == outputs[1] { "yes" } else { "NO" }
+    );
+    if outputs[0] != outputs[1] {
+        bail!("one and two threads gave different rows");
+    }
+    Ok(())
+}
+
+/// The CPU time this process has used, user and system, s (Linux; `None` elsewhere). With the
+/// wall-clock time it tells whether a shared machine gave the threads their cores: the CPU time
+/// per sample is what the work costs, whoever else runs.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The fields after the command name, which is in parentheses and may hold spaces.
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    // The kernel's USER_HZ is 100 on every Linux architecture the project builds for.
+    Some(ticks / 100.0)
+}
+
+/// The `antenna` binary beside this one.
+fn antenna_binary() -> anyhow::Result<std::path::PathBuf> {
+    let path = std::env::current_exe()?.with_file_name("antenna");
+    if !path.is_file() {
+        bail!("{} is missing: cargo build --release -p antenna-cli --bin antenna", path.display());
+    }
+    Ok(path)
+}
+
+/// Runs `antenna sweep <spec> <extra>` and returns its wall-clock time and its stderr.
+fn sweep_process(spec: &SweepSpec, extra: &[&str], out: &std::path::Path) -> anyhow::Result<(f64, String)> {
+    let started = Instant::now();
+    let output = std::process::Command::new(antenna_binary()?)
+        .arg("sweep")
+        .args(spec.to_args())
+        .args(extra)
+        .args(["--no-build", "--out"])
+        .arg(out)
+        .output()?;
+    let wall = started.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    if !output.status.success() {
+        bail!("antenna sweep failed: {stderr}");
+    }
+    Ok((wall, stderr + &String::from_utf8_lossy(&output.stdout)))
+}
+
+/// The peak resident memory of a one-thread sweep process: what each worker of the distributed
+/// engine runs (its batch's rows stream to disk, so it does not grow with the samples).
+fn sweep_memory(spec: &SweepSpec) -> anyhow::Result<()> {
+    let out = std::env::temp_dir().join(format!("antenna-bench-sweep-{}", std::process::id()));
+    let (_, log) = sweep_process(spec, &["--threads", "1", "--batch", "0/1"], &out)?;
+    let _ = std::fs::remove_dir_all(&out);
+    let memory = log.split("peak memory ").nth(1).and_then(|rest| rest.split(' ').next()).unwrap_or("?");
+    println!("peak memory of a one-thread sweep process (one worker's batch): {memory} MB");
+    Ok(())
+}
+
+/// The same sweep through the local pool (two threads) and through a local Dask cluster of two
+/// workers (one thread each), both as processes started from here.
+fn sweep_distributed(spec: &SweepSpec) -> anyhow::Result<()> {
+    let base = std::env::temp_dir().join(format!("antenna-bench-distributed-{}", std::process::id()));
+    let (local, _) = sweep_process(spec, &["--threads", "2"], &base.join("local"))?;
+    let (distributed, log) = sweep_process(spec, &["--engine", "dask", "--address", "local"], &base.join("dask"))?;
+    let same =
+        std::fs::read(base.join("local").join("sweep.csv"))? == std::fs::read(base.join("dask").join("sweep.csv"))?;
+    let _ = std::fs::remove_dir_all(&base);
+    println!(
+        "local pool, 2 threads: {local:.1} s; Dask, local cluster of 2 workers: {distributed:.1} s in all ({:+.1} %), rows identical: {}",
+        100.0 * (distributed / local - 1.0),
+        if same { "yes" } else { "NO" }
+    );
+    if let Some(line) = log.lines().find(|l| l.contains("batches on")) {
+        println!("  the driver: {line}");
+    }
+    Ok(())
 }
