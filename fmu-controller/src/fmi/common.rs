@@ -31,9 +31,11 @@ pub const MAX_POSITION_DEG: f64 = 36_000.0;
 /// Largest commanded or profiled axis speed, deg/s (fifty times the azimuth slew speed).
 pub const MAX_AXIS_SPEED_DEG_PER_S: f64 = 100.0;
 
-/// Largest axis acceleration limit, deg/s^2, and jerk limit, deg/s^3.
-pub const MAX_AXIS_ACCELERATION: f64 = 1e4;
-pub const MAX_AXIS_JERK: f64 = 1e6;
+/// Largest axis acceleration limit, deg/s^2, and jerk limit, deg/s^3: far above any drive,
+/// so that identification runs can switch a limiter off with a value such as 1e6 deg/s^2
+/// (tools/sim, velocity-loop Bode).
+pub const MAX_AXIS_ACCELERATION: f64 = 1e7;
+pub const MAX_AXIS_JERK: f64 = 1e9;
 
 /// Largest measured motor speed, rad/s (about 95,000 rpm).
 pub const MAX_MOTOR_SPEED: f64 = 1e4;

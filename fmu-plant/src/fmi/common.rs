@@ -87,8 +87,9 @@ pub const MAX_TORQUE_CONSTANT_SCALE: f64 = 10.0;
 pub const MAX_COGGING: f64 = 1e3;
 pub const MAX_COGGING_PERIOD: f64 = 1e6;
 
-/// Phases are given within one turn either way, deg.
-pub const MAX_PHASE_DEG: f64 = 360.0;
+/// Largest phase either way, deg: ten turns, so that a phase fitted without wrapping (the
+/// validation tool's) still fits; any phase has an equal one within one turn.
+pub const MAX_PHASE_DEG: f64 = 3600.0;
 
 /// Longest period of a position-periodic load torque, deg (ten turns).
 pub const MAX_PERIOD_DEG: f64 = 3600.0;

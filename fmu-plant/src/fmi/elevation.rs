@@ -155,7 +155,7 @@ declare_variables! {
             .description("Time resolution to which stick/slip events are localised."),
         EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-6).max(1.0)
             .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
-        CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 100000)
+        CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 4096)
             .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
         // Sensors (appended: existing value references keep their numbers). Every default is the
         // ideal encoder and noise-free speed signals, which reproduce the plant before the sensor model.

@@ -447,3 +447,25 @@ fn garbage(rng: &mut Rng) -> Vec<u8> {
     }
     bytes
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::rng::Rng;
+
+    #[test]
+    fn a_seed_gives_the_same_numbers_on_every_run_and_machine() {
+        // The same seed, the same numbers; another seed, others; all in their ranges.
+        let mut a = Rng::new(42);
+        let mut b = Rng::new(42);
+        let first: Vec<u64> = (0..4).map(|_| a.next_u64()).collect();
+        assert_eq!(first, (0..4).map(|_| b.next_u64()).collect::<Vec<_>>());
+        let mut c = Rng::new(43);
+        assert_ne!(first[0], c.next_u64());
+        let mut r = Rng::new(7);
+        for _ in 0..1000 {
+            let x = r.unit();
+            assert!((0.0..1.0).contains(&x));
+            assert!(r.below(3) < 3);
+        }
+    }
+}

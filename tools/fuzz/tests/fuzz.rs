@@ -1,7 +1,7 @@
 //! The fuzzer in the test command: a fixed range of seeds per FMU through the packaged `.fmu`
 //! files (run `cargo xtask package` first), each sequence in a child process of the `fmu-fuzz`
 //! binary, so that an abort or a hang fails the test with its seed and minimal sequence
-//! instead of ending the test run. About 1,500 sequences per FMU, under a minute on two cores.
+//! instead of ending the test run. 3,000 sequences per FMU, about half a minute on two cores.
 
 use std::time::Duration;
 
@@ -10,7 +10,7 @@ use fmu_fuzz::{fmu_path, FMUS};
 
 /// Sequences per FMU in the test command (seeds 0..SEQUENCES; the long campaign of
 /// docs/fmu-robustness.md continues from there).
-const SEQUENCES: u64 = 1500;
+const SEQUENCES: u64 = 3000;
 
 #[test]
 fn random_call_sequences_keep_every_promise_of_every_fmu() {
