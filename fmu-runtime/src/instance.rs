@@ -10,7 +10,7 @@ use crate::ffi::{fmi2CallbackFunctions, Status};
 use crate::model::{Context, Model, Notes};
 use crate::phase::{Phase, CAT_ERROR, LOG_CATEGORIES};
 use crate::state::{InstanceState, StateError, StateHeader};
-use crate::variables::{BaseType, Kind, SetPhase, Values, Var, VariableSet};
+use crate::variables::{BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
 
 /// Guards against a stray or freed pointer being used as an instance.
 pub const INSTANCE_MAGIC: u64 = 0x4D4B_4154_5F46_4D55; // "MKAT_FMU"
@@ -122,6 +122,8 @@ pub struct ModelSlot<M: Model> {
     /// The values before the step in progress, to undo a step whose results are not finite
     /// (kept between steps so that taking the copy does not allocate).
     before_step: Values<M::Var>,
+    /// The variables a step may write: all a step's undo needs to put back.
+    written: WrittenIndices,
     /// Whether a String value changed since `before_step` was last copied whole.
     strings_changed: bool,
 }
@@ -133,7 +135,8 @@ impl<M: Model> ModelSlot<M> {
         let access = M::Var::TABLE.iter().map(Access::of).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
         let before_step = values.clone();
-        Ok(ModelSlot { model, values, guid, access, feedthrough, before_step, strings_changed: false })
+        let written = WrittenIndices::of(M::Var::TABLE);
+        Ok(ModelSlot { model, values, guid, access, feedthrough, before_step, written, strings_changed: false })
     }
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
@@ -173,6 +176,18 @@ impl<M: Model> ModelSlot<M> {
         model.load_state(model_before, &self.before_step).map_err(|e| e.to_string())?;
         self.model = model;
         self.values.copy_numbers_from(&self.before_step);
+        Ok(())
+    }
+
+    /// Puts back what a step wrote and the model as it was before the step. Parameters and
+    /// inputs are the master's and a step does not change them, so the values are then as
+    /// before the step.
+    #[cold]
+    fn undo_written(&mut self, model_before: M::State, context: &Context) -> Result<(), String> {
+        self.values.copy_written_from(&self.before_step, &self.written);
+        let mut model = M::new(&self.values, context)?;
+        model.load_state(model_before, &self.values).map_err(|e| e.to_string())?;
+        self.model = model;
         Ok(())
     }
 
@@ -373,16 +388,18 @@ impl<M: Model> DynModel for ModelSlot<M> {
     fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String> {
         // Keep what is needed to undo the step: the values (copied into a kept buffer) and the
         // model's own state (what an FMU state holds of it).
-        self.keep_values_before();
+        // Only what a step may write is kept and checked (parameters and inputs are checked by
+        // the sets that change them).
+        self.before_step.copy_written_from(&self.values, &self.written);
         let model_before = self.model.save_state();
         if let Err(e) = self.model.do_step(&mut self.values, time, step, notes) {
             // Models leave their data untouched on an error; undoing makes sure of it.
-            self.undo_step(model_before, context)?;
+            self.undo_written(model_before, context)?;
             return Err(e);
         }
-        let Some(index) = self.values.first_non_finite_real() else { return Ok(()) };
+        let Some(index) = self.values.first_non_finite_real_among(&self.written.reals) else { return Ok(()) };
         let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
-        self.undo_step(model_before, context)?;
+        self.undo_written(model_before, context)?;
         Err(format!(
             "the step from {time} s by {step} s would give {name} = {value}; it was undone and the instance is as before the step (a parameter or input outside what the model can compute, or a step too long for it)"
         ))
