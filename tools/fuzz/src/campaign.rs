@@ -15,7 +15,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use crate::runner::{run, Failure, Reached};
+use crate::runner::{run_with, Failure, Reached};
 use crate::sequence::{generate, Call, Limits};
 use crate::target::Target;
 
@@ -29,7 +29,8 @@ pub struct Config {
     /// The seeds of each FMU.
     pub seeds: Range<u64>,
     pub campaign_limits: bool,
-    /// Longest silence of a child within one sequence before it counts as hung.
+    /// Longest silence of a child (it reports every call it makes) before it counts as hung:
+    /// the time one call may take.
     pub timeout: Duration,
     /// Child processes at once.
     pub jobs: usize,
@@ -373,7 +374,13 @@ pub fn child_main(
         if let Some(keep) = &keep {
             calls = keep.iter().filter_map(|&i| calls.get(i).cloned()).collect();
         }
-        let line = match check_sequence(&target, &calls, threads_every > 0 && seed % threads_every == 0) {
+        let heartbeat = |index: usize| {
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "call {seed} {index}");
+            let _ = out.flush();
+        };
+        let threads = threads_every > 0 && seed % threads_every == 0;
+        let line = match check_sequence_with(&target, &calls, threads, &heartbeat) {
             Ok(r) => format!("ok {seed} {} {} {} {} {}", calls.len(), r.ok, r.steps, r.restores, r.refused_states),
             Err(Failure { call, message }) => {
                 let call = call.map_or("-".to_string(), |c| c.to_string());
@@ -389,11 +396,21 @@ pub fn child_main(
 /// Runs a sequence serially and, if asked, on two instances on two threads at once: the three
 /// runs must answer identically.
 pub fn check_sequence(target: &Target, calls: &[Call], threads: bool) -> Result<Reached, Failure> {
-    let (serial, reached) = run(target, calls, "serial")?;
+    check_sequence_with(target, calls, threads, &|_| {})
+}
+
+/// [`check_sequence`] with a report of each call made (see [`run_with`]).
+pub fn check_sequence_with(
+    target: &Target,
+    calls: &[Call],
+    threads: bool,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Reached, Failure> {
+    let (serial, reached) = run_with(target, calls, "serial", progress)?;
     if threads {
         let (a, b) = std::thread::scope(|scope| {
-            let a = scope.spawn(|| run(target, calls, "thread-a"));
-            let b = scope.spawn(|| run(target, calls, "thread-b"));
+            let a = scope.spawn(|| run_with(target, calls, "thread-a", progress));
+            let b = scope.spawn(|| run_with(target, calls, "thread-b", progress));
             (a.join(), b.join())
         });
         for (name, result) in [("a", a), ("b", b)] {

@@ -31,7 +31,7 @@ struct Cli {
     /// Child processes at once.
     #[arg(long, default_value_t = 2)]
     jobs: usize,
-    /// Seconds a sequence may stay silent before it counts as hung.
+    /// Seconds one call may take before the sequence counts as hung.
     #[arg(long, default_value_t = 60)]
     timeout: u64,
     /// Run the sequences under valgrind (memcheck, --error-exitcode) instead.

@@ -77,6 +77,17 @@ fn status_code(result: &Result<Status, ImportError>) -> u64 {
 
 /// Runs `calls` on a fresh instance of `target`.
 pub fn run(target: &Target, calls: &[Call], name: &str) -> Result<(Trace, Reached), Failure> {
+    run_with(target, calls, name, &|_| {})
+}
+
+/// [`run`], telling `progress` the index of each call before it is made (the child process
+/// reports it, so that the parent's timeout applies to each call, not to the whole sequence).
+pub fn run_with(
+    target: &Target,
+    calls: &[Call],
+    name: &str,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(Trace, Reached), Failure> {
     let instance = target
         .fmu
         .instantiate(name, false)
@@ -92,8 +103,10 @@ pub fn run(target: &Target, calls: &[Call], name: &str) -> Result<(Trace, Reache
         reached: Reached::default(),
     };
     for (index, call) in calls.iter().enumerate() {
+        progress(index);
         run.call(call).map_err(|message| Failure { call: Some(index), message })?;
     }
+    progress(calls.len());
     run.reset_equals_fresh().map_err(|message| Failure { call: None, message })?;
     Ok((Trace(run.trace), run.reached))
 }
