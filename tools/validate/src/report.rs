@@ -82,7 +82,16 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
 /// The effects found, with their parameters and what the data cannot tell them from.
 fn effects_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out, "\n## Effects found\n");
-    if v.selection.found.is_empty() {
+    let withdrawn = v.output.as_ref().and_then(|o| o.withdrawn.as_ref());
+    if let Some(w) = withdrawn {
+        let names: Vec<&str> = w.kinds.iter().map(|k| k.name()).collect();
+        let _ = writeln!(
+            out,
+            "**No effect is claimed.** The search had added {}, but {}. The claims are withdrawn and the corrected parameter set is the starting one.\n",
+            names.join(", "),
+            w.reason
+        );
+    } else if v.selection.found.is_empty() {
         let _ = writeln!(out, "No significant missing effect.\n");
     }
     for found in &v.selection.found {

@@ -91,6 +91,10 @@ enum Command {
         /// Where the holdout suites are generated (default target/validation-holdout).
         #[arg(long, value_name = "DIR")]
         suite: Option<PathBuf>,
+        /// Only these holdout suites (comma-separated names); their document is then
+        /// docs/validation-holdout-variants.md, and docs/validation-holdout.md is left as it is.
+        #[arg(long, value_delimiter = ',', value_name = "NAMES")]
+        only: Vec<String>,
         #[command(flatten)]
         threads: ThreadArgs,
         #[command(flatten)]
@@ -250,9 +254,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 score_existing_suite(&dir, &out.unwrap_or_else(|| dir.clone()), &settings)
             }
         }
-        Command::Holdout { suite, threads, fmu, tuning } => {
+        Command::Holdout { suite, only, threads, fmu, tuning } => {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: threads.count() };
-            holdout(&root, &suite.unwrap_or_else(|| root.join("target").join("validation-holdout")), &settings)
+            holdout(&root, &suite.unwrap_or_else(|| root.join("target").join("validation-holdout")), &only, &settings)
         }
         Command::Kuka { kuka, out, fmu, tuning } => {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 };
@@ -358,9 +362,16 @@ fn score_existing_suite(dir: &Path, out: &Path, settings: &Settings) -> anyhow::
 }
 
 /// `validate holdout`: the holdout suites and docs/validation-holdout.md.
-fn holdout(root: &Path, dir: &Path, settings: &Settings) -> anyhow::Result<()> {
+fn holdout(root: &Path, dir: &Path, only: &[String], settings: &Settings) -> anyhow::Result<()> {
+    let known: Vec<&str> = suite::holdout_suites().iter().map(|s| s.0).collect();
+    if let Some(unknown) = only.iter().find(|name| !known.contains(&name.as_str())) {
+        bail!("no holdout suite '{unknown}' (known: {})", known.join(", "));
+    }
     let mut document = String::from(HOLDOUT_HEADER);
     for (name, description, config) in suite::holdout_suites() {
+        if !only.is_empty() && !only.iter().any(|o| o == name) {
+            continue;
+        }
         let sub = dir.join(name);
         let clock = Instant::now();
         text(suite::write_suite_parallel(&sub, &config, settings.threads, &|line| println!("{name} {line}")))?;
@@ -379,7 +390,8 @@ fn holdout(root: &Path, dir: &Path, settings: &Settings) -> anyhow::Result<()> {
             scoring::table_markdown(&results)
         );
     }
-    let path = root.join("docs").join("validation-holdout.md");
+    let file = if only.is_empty() { "validation-holdout.md" } else { "validation-holdout-variants.md" };
+    let path = root.join("docs").join(file);
     std::fs::write(&path, document).with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {}", path.display());
     Ok(())
