@@ -118,6 +118,9 @@ pub struct OutputReport {
     pub plan: WindowPlan,
     /// Half-width (samples) of the state estimator that starts the windows.
     pub state_half_width: usize,
+    /// The load side's state at the window starts is the motor encoder's less the smoothed
+    /// twist (the load encoder does not resolve the twist's motion).
+    pub state_through_motor: bool,
     pub before: OutputError,
     pub after: OutputError,
     /// Every confirmation asked during the search: the effect and the comparison of the model
@@ -512,6 +515,7 @@ fn search_with_output_error(
         config: out.config,
         plan,
         state_half_width: out.state_half_width,
+        state_through_motor: out.state_through_motor,
         before,
         after,
         confirmations,

@@ -220,6 +220,12 @@ fn output_section(out: &mut String, o: &OutputReport) {
         o.plan.reason,
         2 * o.state_half_width + 1
     );
+    if o.state_through_motor {
+        let _ = writeln!(
+            out,
+            "The load encoder does not resolve the twist's motion at the state filter's bandwidth (its noise through the filter exceeds the twist rate's RMS): the load side's state at each window start is the motor encoder's less the smoothed twist.\n"
+        );
+    }
     if o.plan.drive_length < o.plan.length {
         let _ = writeln!(
             out,
