@@ -14,6 +14,7 @@ pub mod equation_error;
 pub mod finite;
 pub mod frequency;
 pub mod measured_log;
+pub mod observability;
 pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
@@ -172,6 +173,10 @@ pub struct Validation {
     pub encoder_skew: Option<f64>,
     /// Effects not claimed that the output error alone would confirm.
     pub hints: Vec<Hint>,
+    /// Candidates that reproduce a found effect over this log ("X or Y: the data cannot
+    /// tell"), and found effects collinear with each other ([`observability`]).
+    pub indistinct: Vec<observability::Indistinct>,
+    pub collinear: Vec<observability::Collinear>,
     pub notes: Vec<String>,
 }
 
@@ -387,6 +392,8 @@ fn validate_once(
         },
     };
     let Searched { selection, output, frequency, hints } = searched;
+    let indistinct = observability::indistinct(&data, start, &selection, &options.selection);
+    let collinear = observability::collinear(&data, start, &selection);
     let before = channel_stats(&data, &selection.before, log);
     let after = channel_stats(&data, &selection.after, log);
     check_results(&selection, &before, &after, output.as_ref())?;
@@ -401,6 +408,8 @@ fn validate_once(
         twist: None,
         encoder_skew: None,
         hints,
+        indistinct,
+        collinear,
         notes,
     })
 }

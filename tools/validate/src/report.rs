@@ -64,6 +64,7 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
         let _ = writeln!(out, "- note: {note}");
     }
     effects_section(&mut out, v);
+    collinear_section(&mut out, v);
     if let Some(t) = &v.twist {
         twist_section(&mut out, t, v.encoder_skew);
     }
@@ -101,6 +102,19 @@ fn effects_section(out: &mut String, v: &Validation) {
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
+        for alternative in v.indistinct.iter().filter(|a| a.found == found.kind) {
+            let _ = writeln!(
+                out,
+                "**{} or {}: the data cannot tell.** Over this log's range of motion {} ({}) reproduces what {} adds to the equations to within {:.1} % (RMS): {}. The law both give over the log is the corrected model's; a log with a wider range of motion (angle, speed) would separate them.\n",
+                found.kind.name(),
+                alternative.alternative.name(),
+                alternative.alternative.name(),
+                alternative.alternative.description(),
+                found.kind.name(),
+                100.0 * alternative.misfit,
+                alternative.changes(&v.selection.corrected, &v.start)
+            );
+        }
         let alike = v.selection.equally_consistent(found.kind);
         if !alike.is_empty() {
             let names: Vec<String> = alike.iter().map(|k| format!("{} ({})", k.name(), k.description())).collect();
@@ -111,6 +125,20 @@ fn effects_section(out: &mut String, v: &Validation) {
                 found.kind.name()
             );
         }
+    }
+}
+
+/// Found effects that are collinear over the log: only their sum is determined.
+fn collinear_section(out: &mut String, v: &Validation) {
+    for pair in &v.collinear {
+        let _ = writeln!(
+            out,
+            "**{} and {} are collinear over this log** (weighted cosine of what they add to the equations {:.3}{}): the data determine only their sum, which is the corrected model's; neither value alone is established.\n",
+            pair.first.name(),
+            pair.second.name(),
+            pair.cosine,
+            if pair.cosine < 0.0 { ": they largely cancel" } else { "" }
+        );
     }
 }
 
