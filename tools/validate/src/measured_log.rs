@@ -895,6 +895,56 @@ mod tests {
     }
 
     #[test]
+    fn a_linear_axis_reads_metres_and_newtons_and_says_it_is_linear() {
+        let text =
+            "time_s,motor_current_A,load_pos_mm,motor_pos_m,load_vel_mm_s,disturbance_torque_kN,wind_speed_m_s\n\
+0,1,1000,1,10,2,5\n0.01,1,1001,1.001,10,2,5\n";
+        let log = parse_str(text).unwrap();
+        assert!(log.is_linear());
+        assert!((log.signal(Signal::LoadPos).unwrap()[1] - 1.001).abs() < 1e-12);
+        assert!((log.signal(Signal::MotorPos).unwrap()[1] - 1.001).abs() < 1e-12);
+        assert!((log.signal(Signal::LoadVel).unwrap()[0] - 0.01).abs() < 1e-15);
+        assert_eq!(log.signal(Signal::DisturbanceTorque).unwrap()[0], 2000.0);
+        // m_s is still the wind's unit, and an angle log is not linear.
+        assert_eq!(log.signal(Signal::WindSpeed).unwrap()[0], 5.0);
+        assert!(!parse_str(GOOD).unwrap().is_linear());
+        // A length is no unit of a current.
+        assert!(error_of("time_s,motor_current_m,load_pos_m\n0,1,0\n1,1,0\n")
+            .to_string()
+            .contains("not a unit of Current"));
+    }
+
+    #[test]
+    fn a_logged_current_command_becomes_the_current_through_the_loop() {
+        let text = "time_s,motor_current_command_A,load_pos_rad\n0,0,0\n0.001,1,0\n0.002,1,0\n0.003,1,0\n";
+        let log = parse_str(text).unwrap();
+        assert!(log.current_is_commanded() && log.signal(Signal::MotorCurrent).is_none());
+        let bandwidth = 100.0;
+        let current = log.with_current_from_command(bandwidth).unwrap();
+        assert!(!current.current_is_commanded());
+        let values = current.signal(Signal::MotorCurrent).unwrap();
+        // The lag's response to a ramp over the first millisecond, then to the held value:
+        // t/T - (tau/T)(1 - exp(-t/tau)), then 1 + (y(T) - 1) exp(-(t - T)/tau).
+        let tau = 1.0 / (2.0 * std::f64::consts::PI * bandwidth);
+        let ramp_end = 1.0 - tau / 0.001 * (1.0 - (-0.001 / tau).exp());
+        let expected: Vec<f64> = (0..4)
+            .map(|k| match k {
+                0 => 0.0,
+                _ => 1.0 + (ramp_end - 1.0) * (-((k - 1) as f64) * 0.001 / tau).exp(),
+            })
+            .collect();
+        for (a, b) in values.iter().zip(&expected) {
+            assert!((a - b).abs() < 1e-12, "{values:?} against {expected:?}");
+        }
+        // Without a bandwidth the command is taken as it is, with a note saying so.
+        let as_is = log.with_current_from_command(0.0).unwrap();
+        assert_eq!(as_is.signal(Signal::MotorCurrent).unwrap(), log.signal(Signal::MotorCurrentCommand).unwrap());
+        assert!(as_is.notes.iter().any(|n| n.contains("no motor.current_loop_bandwidth")));
+        // A log of the measured current is left alone.
+        assert!(parse_str(GOOD).unwrap().with_current_from_command(bandwidth).is_none());
+    }
+
+    #[test]
     fn unknown_columns_are_ignored_with_a_note() {
         let text = "time_s,motor_torque_Nm,load_pos_rad,temperature_C,comment\n0,1,0,20,x\n1,1,0,21,y\n";
         let log = parse_str(text).unwrap();
