@@ -84,6 +84,9 @@ impl ChannelData {
 #[derive(Debug, Clone)]
 pub struct EquationData {
     pub structure: Structure,
+    /// The axis is linear (positions in metres): axis-side values are m, m/s, N, kg, N/m and
+    /// N s/m, an axis of unit radius ([`crate::measured_log::UNITS`]).
+    pub linear: bool,
     pub dt: f64,
     pub half_width: usize,
     /// -3 dB frequency of the smoothing (Hz).
@@ -302,6 +305,7 @@ pub fn prepare(
 
     let mut data = EquationData {
         structure,
+        linear: log.is_linear(),
         dt,
         half_width: h,
         cutoff_hz,

@@ -49,27 +49,37 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     let _ = writeln!(
         out,
         "Equation-error route ({:?}): {} samples analysed at {:.1} Hz, smoothing cut-off {:.1} Hz, \
-         sticking below {:.3e} rad/s left out of the torque equation. Sensor noise estimated from the data: \
-         torque {:.4} N m (axis side), motor encoder {:.3e} rad, load encoder {:.3e} rad.\n",
+         sticking below {:.3e} {} left out of the torque equation. Sensor noise estimated from the data: \
+         torque {:.4} {} (axis side), motor encoder {:.3e} {}, load encoder {:.3e} {}.\n",
         d.structure,
         d.len(),
         1.0 / d.dt,
         d.cutoff_hz,
         d.stick_speed,
+        axis_unit("rad/s", d.linear),
         d.torque_sigma,
+        axis_unit("N m", d.linear),
         d.motor_pos_sigma,
-        d.load_pos_sigma
+        axis_unit("rad", d.linear),
+        d.load_pos_sigma,
+        axis_unit("rad", d.linear)
     );
+    if d.linear {
+        let _ = writeln!(
+            out,
+            "The axis is linear (positions in metres): axis-side values are in m, m/s, N, kg, N/m and N s/m (an axis of unit radius); motor-side values (motor inertia, torque constant) stay rotary. Small positions are printed in mm.\n"
+        );
+    }
     for note in &v.notes {
         let _ = writeln!(out, "- note: {note}");
     }
     effects_section(&mut out, v);
     collinear_section(&mut out, v);
     if let Some(t) = &v.twist {
-        twist_section(&mut out, t, v.encoder_skew);
+        twist_section(&mut out, t, v.encoder_skew, d.linear);
     }
     if let Some(o) = &v.output {
-        output_section(&mut out, o);
+        output_section(&mut out, o, d.linear);
     }
     if let Some(f) = &v.frequency {
         frequency_section(&mut out, f);
@@ -99,6 +109,7 @@ fn effects_section(out: &mut String, v: &Validation) {
         let _ = writeln!(out, "**{}** ({})\n", found.kind.name(), found.kind.description());
         let _ = writeln!(out, "| parameter | value | standard deviation | unit |\n|---|---|---|---|");
         for (name, value, sd, unit) in &found.parameters {
+            let unit = if name.starts_with("motor.") { unit.as_str() } else { axis_unit(unit, v.data.linear) };
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
@@ -173,7 +184,8 @@ fn equation_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out, "## Equation error before and after\n");
     let _ = writeln!(
         out,
-        "Residuals in axis-side N m (divide the torque equation by the gear ratio {} for motor-side N m).\n",
+        "Residuals in axis-side {} (divide the torque equation by the gear ratio {} for motor-side N m).\n",
+        axis_unit("N m", d.linear),
         d.gear_ratio
     );
     let _ = writeln!(out, "| model | channel | RMS | NRMSE fit % | corr. time (samples) | whiteness p | lags outside | largest cross-correlation |");
@@ -225,16 +237,47 @@ fn search_steps_section(out: &mut String, v: &Validation) {
 
 const ARCSEC: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
 
-/// A value in display units: angles in arcsec, speeds in arcsec/s.
-fn display(value: f64, unit: &str) -> (f64, &'static str) {
-    match unit {
-        "rad" => (value * ARCSEC, "arcsec"),
-        "rad/s" => (value * ARCSEC, "arcsec/s"),
-        _ => (value, "N m"),
+/// A value in display units: angles in arcsec, speeds in arcsec/s; on a linear axis
+/// positions in mm, speeds in mm/s, forces in N.
+fn display(value: f64, unit: &str, linear: bool) -> (f64, &'static str) {
+    match (unit, linear) {
+        ("rad", false) => (value * ARCSEC, "arcsec"),
+        ("rad/s", false) => (value * ARCSEC, "arcsec/s"),
+        ("rad", true) => (value * 1e3, "mm"),
+        ("rad/s", true) => (value * 1e3, "mm/s"),
+        (_, false) => (value, "N m"),
+        (_, true) => (value, "N"),
     }
 }
 
-fn output_section(out: &mut String, o: &OutputReport) {
+/// Small axis-side positions for the text: (factor from SI, label).
+fn small_position(linear: bool) -> (f64, &'static str) {
+    if linear {
+        (1e3, "mm")
+    } else {
+        (ARCSEC, "arcsec")
+    }
+}
+
+/// The unit of an axis-side quantity on a linear axis (an axis of unit radius), or as it is on
+/// a rotary one.
+pub fn axis_unit(unit: &str, linear: bool) -> &str {
+    if !linear {
+        return unit;
+    }
+    match unit {
+        "N m" => "N",
+        "N m/rad" => "N/m",
+        "N m s/rad" => "N s/m",
+        "kg m^2" => "kg",
+        "rad" => "m",
+        "rad/s" => "m/s",
+        "rad/(N m)" => "m/N",
+        other => other,
+    }
+}
+
+fn output_section(out: &mut String, o: &OutputReport, linear: bool) {
     let _ = writeln!(out, "## Output error before and after (plant FMU, windowed simulation)\n");
     let _ = writeln!(
         out,
@@ -263,8 +306,8 @@ fn output_section(out: &mut String, o: &OutputReport) {
     }
     let _ = writeln!(out, "| output | scored | RMS before | RMS after | after/before | NRMSE fit before (%) | NRMSE fit after (%) |\n|---|---|---|---|---|---|---|");
     for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
-        let (rb, unit) = display(b.rms, b.kind.unit());
-        let (ra, _) = display(a.rms, a.kind.unit());
+        let (rb, unit) = display(b.rms, b.kind.unit(), linear);
+        let (ra, _) = display(a.rms, a.kind.unit(), linear);
         let _ = writeln!(
             out,
             "| {} | {} | {rb:.4} {unit} | {ra:.4} {unit} | {:.3} | {:.1} | {:.1} |",
@@ -301,9 +344,9 @@ fn output_section(out: &mut String, o: &OutputReport) {
                 .zip(&o.after.channels)
                 .filter(|((s, _), _)| s.scored)
                 .map(|((s, b), a)| {
-                    let (rs, unit) = display(s.rms, s.kind.unit());
-                    let (rb, _) = display(b.rms, b.kind.unit());
-                    let (ra, _) = display(a.rms, a.kind.unit());
+                    let (rs, unit) = display(s.rms, s.kind.unit(), linear);
+                    let (rb, _) = display(b.rms, b.kind.unit(), linear);
+                    let (ra, _) = display(a.rms, a.kind.unit(), linear);
                     format!("{} {rs:.4} -> {rb:.4} -> {ra:.4} {unit}", s.kind.name())
                 })
                 .collect();
@@ -339,7 +382,8 @@ fn output_section(out: &mut String, o: &OutputReport) {
 }
 
 /// One line on what the twist says, for the KUKA summary and the report.
-pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
+pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>, linear: bool) -> String {
+    let (scale, small) = small_position(linear);
     let mut parts = Vec::new();
     let skew = t.skew();
     parts.push(match corrected {
@@ -352,34 +396,37 @@ pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
     });
     if let Some((k, sd)) = t.rigid_stiffness() {
         parts.push(format!(
-            "path compliance: K = {k:.3e} +- {sd:.1e} N m/rad (twist {:.1} arcsec RMS)",
-            t.compliance().rms * ARCSEC
+            "path compliance: K = {k:.3e} +- {sd:.1e} {} (twist {:.1} {small} RMS)",
+            t.compliance().rms * scale,
+            axis_unit("N m/rad", linear)
         ));
     } else if t.structure != Structure::TwoMass {
         parts.push(format!(
-            "no significant path compliance (1/K = {:.2e} +- {:.1e} rad/(N m))",
+            "no significant path compliance (1/K = {:.2e} +- {:.1e} {})",
             t.compliance().value,
-            t.compliance().sd
+            t.compliance().sd,
+            axis_unit("rad/(N m)", linear)
         ));
     }
     let b = t.lost_motion();
     if b.significant && t.structure != Structure::TwoMass {
-        parts.push(format!("lost motion {:.1} +- {:.1} arcsec", b.value * ARCSEC, b.sd * ARCSEC));
+        parts.push(format!("lost motion {:.1} +- {:.1} {small}", b.value * scale, b.sd * scale));
     }
     let position = t.position_dependent();
     if position.significant {
-        parts.push(format!("position-dependent twist (transmission error) {:.1} arcsec RMS", position.rms * ARCSEC));
+        parts.push(format!("position-dependent twist (transmission error) {:.1} {small} RMS", position.rms * scale));
     }
     parts.push(format!(
-        "twist residual {:.1} -> {:.1} arcsec RMS (sensor noise {:.2} arcsec)",
-        t.rms_before * ARCSEC,
-        t.rms_after * ARCSEC,
-        t.noise * ARCSEC
+        "twist residual {:.1} -> {:.1} {small} RMS (sensor noise {:.2} {small})",
+        t.rms_before * scale,
+        t.rms_after * scale,
+        t.noise * scale
     ));
     parts.join("; ")
 }
 
-fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
+fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>, linear: bool) {
+    let (scale, small) = small_position(linear);
     let _ = writeln!(out, "## Two encoders: what the twist says\n");
     let _ = writeln!(
         out,
@@ -388,9 +435,9 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
          (lost motion) and a cubic in the axis angle (transmission error); {} samples, residual correlation time {:.1} samples. {}.\n",
         t.samples,
         t.correlation_time,
-        twist_summary(t, corrected)
+        twist_summary(t, corrected, linear)
     );
-    let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist (arcsec) | significant |\n|---|---|---|---|---|---|");
+    let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist ({small}) | significant |\n|---|---|---|---|---|---|");
     for term in &t.terms {
         let _ = writeln!(
             out,
@@ -398,8 +445,8 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
             term.name,
             term.value,
             term.sd,
-            term.unit,
-            term.rms * ARCSEC,
+            axis_unit(term.unit, linear),
+            term.rms * scale,
             if term.significant { "yes" } else { "no" }
         );
     }
@@ -746,7 +793,7 @@ fn kuka_axis_notes(out: &mut String, axis: usize, v: &Validation, figures: &[Str
         let _ = writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
     }
     if let Some(t) = &v.twist {
-        let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
+        let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew, false));
     }
     for h in &v.hints {
         let _ = writeln!(
