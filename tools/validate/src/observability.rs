@@ -19,6 +19,9 @@ use crate::selection::{self, Selection, SelectionOptions};
 /// on a suite log, which the simulation tells apart at once.)
 pub const REPRODUCTION_TOLERANCE: f64 = 0.03;
 
+/// Gauss-Newton iterations of an alternative's fit.
+pub const STAND_IN_ITERATIONS: usize = 3;
+
 /// Whether `kind` can stand in for another effect over a log at all: a delay (a time shift of
 /// the whole torque) and a cogging torque (periodic in the motor angle at a searched period)
 /// have a structure no other effect shares, and their grid searches are the costly ones
@@ -94,6 +97,12 @@ pub fn indistinct(
 ) -> Vec<Indistinct> {
     let weights = selection.after.channel_weights();
     let found: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+    // A few Gauss-Newton iterations: an alternative that needs more to match the found effect
+    // is no close stand-in (the check stays conservative), and the full refit of every
+    // alternative would double a validation's time.
+    let options =
+        SelectionOptions { max_iterations: options.max_iterations.min(STAND_IN_ITERATIONS), ..options.clone() };
+    let options = &options;
     let mut out = Vec::new();
     for &kind in &found {
         let effect = contribution(data, kind, &selection.corrected, start, &weights);
