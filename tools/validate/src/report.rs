@@ -116,13 +116,14 @@ fn effects_section(out: &mut String, v: &Validation) {
         for alternative in v.indistinct.iter().filter(|a| a.found == found.kind) {
             let _ = writeln!(
                 out,
-                "**{} or {}: the data cannot tell.** Over this log's range of motion {} ({}) reproduces what {} adds to the equations to within {:.1} % (RMS): {}. The law both give over the log is the corrected model's; a log with a wider range of motion (angle, speed) would separate them.\n",
+                "**{} or {}: the data cannot tell.** Over this log's range of motion {} ({}) reproduces what {} adds to the equations to within {:.1} % (RMS; what it leaves has a chi-square of {:.1}, not significant): {}. The law both give over the log is the corrected model's; a log with a wider range of motion (angle, speed) would separate them.\n",
                 found.kind.name(),
                 alternative.alternative.name(),
                 alternative.alternative.name(),
                 alternative.alternative.description(),
                 found.kind.name(),
                 100.0 * alternative.misfit,
+                alternative.chi2,
                 alternative.changes(&v.selection.corrected, &v.start)
             );
         }
