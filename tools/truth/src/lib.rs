@@ -207,6 +207,24 @@ pub struct NoiseConfig {
     /// it does on a real one without backlash (with backlash a real bias also keeps the
     /// pinions on opposite flanks, which the lumped truth does not).
     pub current_bias: f64,
+    /// What the current column holds: the measured current (with the noise above) or the
+    /// current loop's command (rounded to `current_step`, no sensor noise, leading the current
+    /// the motor carries by the current loop).
+    pub current_log: CurrentLog,
+    /// The current noise (A) that effect sizes are measured against when it differs from the
+    /// logged current's own (a noiseless sensor or a logged command have none, and "ten times
+    /// no noise" is no size): `None` is the log's own.
+    pub size_current_sigma: Option<f64>,
+}
+
+/// What a log's current column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CurrentLog {
+    /// The measured current (`motor_current`).
+    Measured,
+    /// The current loop's command (`motor_current_command`): no sensor noise, and the current
+    /// the motor carries lags it by the current loop.
+    Command,
 }
 
 /// The motor-side sensor a log holds.
@@ -250,6 +268,8 @@ impl Default for NoiseConfig {
             motor_sensor: MotorSensor::Encoder,
             motors: 1,
             current_bias: 0.0,
+            current_log: CurrentLog::Measured,
+            size_current_sigma: None,
         }
     }
 }
@@ -259,6 +279,15 @@ impl NoiseConfig {
     pub fn torque_sigma(&self, plant: &TruthPlant) -> f64 {
         let per_motor = self.current_sigma.powi(2) + self.current_step.powi(2) / 12.0;
         plant.gear_ratio * plant.torque_constant * (per_motor * self.motors.max(1) as f64).sqrt()
+    }
+
+    /// The torque noise effect sizes are measured against (axis side, N m): the logged
+    /// torque's own, or the one `size_current_sigma` names.
+    pub fn size_torque_sigma(&self, plant: &TruthPlant) -> f64 {
+        match self.size_current_sigma {
+            Some(sigma) => NoiseConfig { current_sigma: sigma, ..self.clone() }.torque_sigma(plant),
+            None => self.torque_sigma(plant),
+        }
     }
 
     /// Standard deviation of the measured twist (motor minus load encoder), rad.
@@ -290,6 +319,9 @@ pub struct TruthConfig {
     pub injection_sigma: f64,
     pub injection_bandwidth: f64,
     pub seed: u64,
+    /// Log the axis as a linear one (positions in m, speeds in m/s: an axis of unit radius, so
+    /// the numbers are the rotary drive's and only the units differ).
+    pub linear: bool,
 }
 
 impl Default for TruthConfig {
@@ -309,6 +341,7 @@ impl Default for TruthConfig {
             injection_sigma: 800.0,
             injection_bandwidth: 20.0,
             seed: 1,
+            linear: false,
         }
     }
 }
@@ -562,12 +595,14 @@ impl Recorder {
             values,
         };
         let numbered = |k: u32| (motors == 2).then_some(k);
-        let mut channels = vec![
-            channel(Signal::RefPos, None, self.reference),
-            channel(Signal::MotorCurrent, numbered(1), self.current),
-        ];
+        let current_signal = match config.noise.current_log {
+            CurrentLog::Measured => Signal::MotorCurrent,
+            CurrentLog::Command => Signal::MotorCurrentCommand,
+        };
+        let mut channels =
+            vec![channel(Signal::RefPos, None, self.reference), channel(current_signal, numbered(1), self.current)];
         if motors == 2 {
-            channels.push(channel(Signal::MotorCurrent, numbered(2), self.current_2));
+            channels.push(channel(current_signal, numbered(2), self.current_2));
         }
         match config.noise.motor_sensor {
             MotorSensor::Encoder => channels.push(channel(Signal::MotorPos, None, self.motor)),
@@ -677,17 +712,19 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
         if step % log_every == 0 {
             let share = x[5] / motors as f64;
             let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
-            let measured_current = quantise(
-                share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng),
-                config.noise.current_step,
-            );
+            let noisy = share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng);
+            let measured_current = match config.noise.current_log {
+                CurrentLog::Measured => quantise(noisy, config.noise.current_step),
+                CurrentLog::Command => quantise(controller.i_cmd / motors as f64 + bias, config.noise.current_step),
+            };
             record.time.push(t);
             record.current.push(measured_current);
             if motors == 2 {
-                record.current_2.push(quantise(
-                    share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng),
-                    config.noise.current_step,
-                ));
+                let noisy = share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng);
+                record.current_2.push(match config.noise.current_log {
+                    CurrentLog::Measured => quantise(noisy, config.noise.current_step),
+                    CurrentLog::Command => quantise(controller.i_cmd / 2.0 - bias, config.noise.current_step),
+                });
             }
             if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
                 for speeds in record.speeds.iter_mut() {
@@ -746,14 +783,47 @@ fn add(x: &[f64; 6], k: &[f64; 6], h: f64) -> [f64; 6] {
 }
 
 /// The units the generated logs use, like a drive's own logging.
-pub const LOG_UNITS: [(Signal, &str); 6] = [
+pub const LOG_UNITS: [(Signal, &str); 7] = [
     (Signal::Time, "s"),
     (Signal::RefPos, "deg"),
     (Signal::MotorCurrent, "A"),
+    (Signal::MotorCurrentCommand, "A"),
     (Signal::MotorPos, "deg"),
     (Signal::LoadPos, "deg"),
     (Signal::MotorVel, "deg_s"),
 ];
+
+/// The units of a linear axis's logs: metres (an axis of unit radius), as a linear drive logs.
+pub const LINEAR_LOG_UNITS: [(Signal, &str); 7] = [
+    (Signal::Time, "s"),
+    (Signal::RefPos, "mm"),
+    (Signal::MotorCurrent, "A"),
+    (Signal::MotorCurrentCommand, "A"),
+    (Signal::MotorPos, "mm"),
+    (Signal::LoadPos, "mm"),
+    (Signal::MotorVel, "mm_s"),
+];
+
+impl TruthConfig {
+    /// The units this configuration's logs are written in.
+    pub fn log_units(&self) -> &'static [(Signal, &'static str)] {
+        if self.linear {
+            &LINEAR_LOG_UNITS
+        } else {
+            &LOG_UNITS
+        }
+    }
+
+    /// The starting parameter set the model is given: the nominal plant, and the current
+    /// loop's bandwidth when the log holds its command.
+    pub fn starting_parameters(&self) -> ParameterSet {
+        let mut set = self.plant.starting_parameters();
+        if self.noise.current_log == CurrentLog::Command {
+            set.set(names::CURRENT_LOOP_BANDWIDTH, self.current_bandwidth);
+        }
+        set
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -133,8 +133,14 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
                     .selection
                     .equally_consistent(f.kind)
                     .iter()
+                    .chain(validation.indistinct.iter().filter(|a| a.found == f.kind).map(|a| &a.alternative))
                     .map(|k| k.name().to_string())
-                    .collect::<Vec<_>>(),
+                    .fold(Vec::new(), |mut names: Vec<String>, name| {
+                        if !names.contains(&name) {
+                            names.push(name);
+                        }
+                        names
+                    }),
             )
         })
         .filter(|(_, alike)| !alike.is_empty())

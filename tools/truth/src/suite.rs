@@ -7,7 +7,7 @@
 //! the same thing for every effect. Each log gets an opaque name and a sidecar `.truth` file
 //! for scoring; the log itself declares nothing.
 
-use super::{simulate, CleanSignals, Effect, MotorSensor, SpeedSensor, TruthConfig, LOG_UNITS};
+use super::{simulate, CleanSignals, CurrentLog, Effect, MotorSensor, SpeedSensor, TruthConfig};
 use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -85,7 +85,55 @@ pub fn holdout_suites() -> Vec<(&'static str, &'static str, SuiteConfig)> {
         base.noise.motors = motors;
         SuiteConfig { sizes: vec![10.0, 20.0], seeds, clean_seeds, pairs: Vec::new(), base, ..SuiteConfig::default() }
     };
+    let variant = |seeds: Vec<u64>, clean_seeds: Vec<u64>, change: &dyn Fn(&mut TruthConfig)| {
+        let mut base = TruthConfig::default();
+        change(&mut base);
+        SuiteConfig { sizes: vec![10.0, 20.0], seeds, clean_seeds, pairs: Vec::new(), base, ..SuiteConfig::default() }
+    };
+    // Effect sizes of the noiseless-current variants are measured against the main suite's
+    // current noise: "ten times no noise" is no size.
+    let suite_current_sigma = TruthConfig::default().noise.current_sigma;
+    let mut short_stroke = variant(vec![37, 38], (233..=236).collect(), &|base| {
+        base.trajectory.min_position = 40f64.to_radians();
+        base.trajectory.max_position = 46f64.to_radians();
+    });
+    short_stroke.kinds.retain(|k| k != "unbalance");
     vec![
+        (
+            "coarse-load-encoder",
+            "a 22-bit load encoder (0.31 arcsec per count) on a stiffer drive (anti-resonance 18 Hz), whose twist spreads over 0.23 arcsec RMS: the load encoder is coarser than the twist",
+            variant(vec![29, 30], (217..=220).collect(), &|base| {
+                base.noise.load_encoder_counts = 2f64.powi(22);
+                base.plant.set_anti_resonance(18.0);
+            }),
+        ),
+        (
+            "current-command",
+            "the current loop's command logged instead of the current (no sensor noise, rounded to 1 mA, leading the current by the 100 Hz loop; the bandwidth is in the starting set); sizes against the suite's current noise",
+            variant(vec![31, 32], (221..=224).collect(), &|base| {
+                base.noise.current_log = CurrentLog::Command;
+                base.noise.current_sigma = 0.0;
+                base.noise.size_current_sigma = Some(suite_current_sigma);
+            }),
+        ),
+        (
+            "noiseless-current",
+            "a current sensor without noise (rounded to 1 mA); sizes against the suite's current noise",
+            variant(vec![33, 34], (225..=228).collect(), &|base| {
+                base.noise.current_sigma = 0.0;
+                base.noise.size_current_sigma = Some(suite_current_sigma);
+            }),
+        ),
+        (
+            "linear-axis",
+            "the drive logged as a linear axis (positions in mm, an axis of unit radius: the numbers are the rotary drive's)",
+            variant(vec![35, 36], (229..=232).collect(), &|base| base.linear = true),
+        ),
+        (
+            "short-stroke",
+            "no unbalance in the truth and a log that covers a 6 deg stroke (40 to 46 deg), where an offset and an unbalance look alike; every other effect kind",
+            short_stroke,
+        ),
         (
             "speed-sensor",
             "a motor speed signal (noise 2e-6 rad/s, bias 2e-7 rad/s, scale error 0.5 %, axis side) instead of the motor encoder, and two motors' currents in columns of their own, as an antenna's azimuth drive logs them; the suite's drive",
@@ -131,7 +179,7 @@ pub fn sized_effect(
     rng: &mut impl rand::Rng,
 ) -> Result<Effect, String> {
     let plant = &config.plant;
-    let sigma_torque = config.noise.torque_sigma(plant);
+    let sigma_torque = config.noise.size_torque_sigma(plant);
     let sigma_twist = config.noise.twist_sigma(plant);
     let vs = plant.stribeck_velocity;
     let rms = |values: &mut dyn Iterator<Item = f64>| {
@@ -249,12 +297,12 @@ pub fn generate_case(
     if run.log.channels.iter().any(|c| c.values.iter().any(|v| !v.is_finite())) {
         return Err("the closed loop is unstable with this effect (the truth simulation diverged)".into());
     }
-    let text = run.log.to_csv(&LOG_UNITS);
+    let text = run.log.to_csv(config.log_units());
     let truth = CaseTruth {
         log_file: log_file.to_string(),
         seed,
         effects,
-        torque_sigma: config.noise.torque_sigma(&config.plant),
+        torque_sigma: config.noise.size_torque_sigma(&config.plant),
         twist_sigma: config.noise.twist_sigma(&config.plant),
         sample_interval: 1.0 / config.log_rate,
     };
@@ -311,7 +359,7 @@ pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&st
         progress(&format!("{name}: {}", describe(&truth)));
         truths.push(truth);
     }
-    suite.base.plant.starting_parameters().write(
+    suite.base.starting_parameters().write(
         &dir.join("start.params"),
         "Starting parameter set of the generated suite: the truth's nominal plant, no effects.",
     )?;
@@ -370,7 +418,7 @@ pub fn write_suite_parallel(
     });
     bar.finish_and_clear();
     let truths: Vec<CaseTruth> = generated.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().flatten().collect();
-    suite.base.plant.starting_parameters().write(
+    suite.base.starting_parameters().write(
         &dir.join("start.params"),
         "Starting parameter set of the generated suite: the truth's nominal plant, no effects.",
     )?;
@@ -522,12 +570,21 @@ mod tests {
             let other_log = h.log_rate != m.log_rate && h.noise.current_sigma != m.noise.current_sigma;
             let other_drive =
                 h.plant.anti_resonance() != m.plant.anti_resonance() && h.plant.load_inertia != m.plant.load_inertia;
-            let other_sensors = h.noise.motor_sensor != m.noise.motor_sensor;
+            let other_sensors = h.noise.motor_sensor != m.noise.motor_sensor
+                || h.noise.load_encoder_counts != m.noise.load_encoder_counts
+                || h.noise.current_log != m.noise.current_log
+                || h.noise.current_sigma != m.noise.current_sigma
+                || h.linear != m.linear;
+            let other_motion = h.trajectory.max_position - h.trajectory.min_position
+                != m.trajectory.max_position - m.trajectory.min_position;
             assert!(
-                other_log && other_drive || other_sensors,
-                "{name}: the same log rate, noise, drive and sensors as the main suite"
+                other_log && other_drive || other_sensors || other_motion,
+                "{name}: the same log rate, noise, drive, sensors and motion as the main suite"
             );
-            assert_eq!(holdout.kinds.len(), EFFECT_KINDS.len(), "{name}: every effect kind");
+            // Every effect kind, except an unbalance where the suite is about its absence.
+            let expected: Vec<&str> =
+                EFFECT_KINDS.iter().copied().filter(|k| !(other_motion && *k == "unbalance")).collect();
+            assert_eq!(holdout.kinds, expected, "{name}: every effect kind");
         }
     }
 }

@@ -84,6 +84,9 @@ impl ChannelData {
 #[derive(Debug, Clone)]
 pub struct EquationData {
     pub structure: Structure,
+    /// The axis is linear (positions in metres): axis-side values are m, m/s, N, kg, N/m and
+    /// N s/m, an axis of unit radius ([`crate::measured_log::UNITS`]).
+    pub linear: bool,
     pub dt: f64,
     pub half_width: usize,
     /// -3 dB frequency of the smoothing (Hz).
@@ -302,6 +305,7 @@ pub fn prepare(
 
     let mut data = EquationData {
         structure,
+        linear: log.is_linear(),
         dt,
         half_width: h,
         cutoff_hz,
@@ -336,9 +340,45 @@ pub fn prepare(
         notes,
     };
     data.angle = data.smooth(&data.angle_inner);
+    let resolution = resolution_note(&raw, &data);
+    data.notes.push(resolution);
     data.channels = model_channels(&data, params);
     check_channels(&data, &data.channels)?;
     Ok(data)
+}
+
+/// What the log's sensors resolve: the step of each position and of the torque as logged, the
+/// torque's noise floor, and, with two encoders, the twist's spread against the load encoder's
+/// count, with what that rules out.
+fn resolution_note(raw: &RawInputs, data: &EquationData) -> String {
+    use super::signals::{resolution, torque_noise_floor};
+    let (scale, small) = if data.linear { (1e3, "mm") } else { (180.0 * 3600.0 / std::f64::consts::PI, "arcsec") };
+    let torque_unit = if data.linear { "N" } else { "N m" };
+    let load_step = resolution(&raw.load_pos);
+    let mut note = format!(
+        "sensor resolution: load encoder {:.3} {small} per step, motor encoder {:.3e} {small} per step (axis side), torque {:.3e} {torque_unit} per step (axis side); the torque's noise is floored at {:.3e} {torque_unit} (its rounding, or a 16-bit converter over its range)",
+        load_step * scale,
+        resolution(&raw.motor_pos) * scale,
+        resolution(&raw.torque),
+        torque_noise_floor(&raw.torque)
+    );
+    if raw.two_encoders && !data.twist.is_empty() {
+        let mean = data.twist.iter().sum::<f64>() / data.twist.len() as f64;
+        let spread = (data.twist.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / data.twist.len() as f64).sqrt();
+        if load_step > spread {
+            note.push_str(&format!(
+                "; the twist spreads over {:.3} {small} RMS, less than one load-encoder step: a drive-path change (stiffness, lost motion) shows only as far as the motion dithers the count, and the twist cannot carry the output-error criterion for a delay or an inertia change",
+                spread * scale
+            ));
+        } else {
+            note.push_str(&format!(
+                "; the twist spreads over {:.3} {small} RMS, {:.0} load-encoder steps",
+                spread * scale,
+                spread / load_step.max(f64::MIN_POSITIVE)
+            ));
+        }
+    }
+    note
 }
 
 /// Checks every logged signal (the time first) for NaN and infinity.

@@ -14,6 +14,7 @@ pub mod equation_error;
 pub mod finite;
 pub mod frequency;
 pub mod measured_log;
+pub mod observability;
 pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
@@ -118,6 +119,9 @@ pub struct OutputReport {
     pub plan: WindowPlan,
     /// Half-width (samples) of the state estimator that starts the windows.
     pub state_half_width: usize,
+    /// The load side's state at the window starts is the motor encoder's less the smoothed
+    /// twist (the load encoder does not resolve the twist's motion).
+    pub state_through_motor: bool,
     pub before: OutputError,
     pub after: OutputError,
     /// Every confirmation asked during the search: the effect and the comparison of the model
@@ -125,6 +129,9 @@ pub struct OutputReport {
     pub confirmations: Vec<(Kind, Comparison)>,
     /// The corrected model against the starting one.
     pub overall: Comparison,
+    /// When that final comparison showed no improvement, the effects it withdrew and why:
+    /// the corrected model is then the starting one.
+    pub withdrawn: Option<Withdrawal>,
     /// The found effects' parameters refitted on the output error ([`refit`]), when that
     /// lowered its score; the corrected model and "after" are then the refitted ones.
     pub refit: Option<refit::Refit>,
@@ -166,6 +173,10 @@ pub struct Validation {
     pub encoder_skew: Option<f64>,
     /// Effects not claimed that the output error alone would confirm.
     pub hints: Vec<Hint>,
+    /// Candidates that reproduce a found effect over this log ("X or Y: the data cannot
+    /// tell"), and found effects collinear with each other ([`observability`]).
+    pub indistinct: Vec<observability::Indistinct>,
+    pub collinear: Vec<observability::Collinear>,
     pub notes: Vec<String>,
 }
 
@@ -284,11 +295,19 @@ pub fn validate_with(
     // A motor speed sensor without a motor encoder: the motor position is its integral, whose
     // slow drift is a nuisance of every fit (equation_error's slow-twist knots) and which every
     // parameter set's own twist centre follows in the output error.
+    // A logged current command is turned into the current the motors carried first (the
+    // current loop's lag from the parameter set), so that nothing downstream mistakes the lag
+    // for a delay, a torque-constant or an inertia change.
+    let from_command = log.with_current_from_command(start.value(parameters::names::CURRENT_LOOP_BANDWIDTH));
+    let log = from_command.as_ref().unwrap_or(log);
     let integrated = log.with_motor_position_from_speed();
     let log = integrated.as_ref().unwrap_or(log);
+    let (observable, unobservable) = observable_candidates(log, options);
+    let options = &observable;
     // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
     let reborrowed = simulator.as_mut().map(|s| &mut **s as &mut dyn PlantSimulator);
     let mut first = validate_once(log, start, options, reborrowed)?;
+    first.notes.extend(unobservable.iter().cloned());
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
     // position's drift breaks: no skew is acted on then (its report still shows the terms).
@@ -302,9 +321,41 @@ pub fn validate_with(
         skew * 1e3,
         skew / second.data.dt
     ));
+    second.notes.extend(unobservable);
     second.twist = first.twist;
     second.encoder_skew = Some(skew);
     Ok(second)
+}
+
+/// The options with the candidates a log's signals cannot observe taken out, and a note for
+/// each: an effect the data cannot see is not a candidate, or it would be named for whatever
+/// it happens to stand in for.
+///
+/// - A log of torque (not current) has no torque constant in it: a "torque-constant scale" is
+///   then a scale of the logged torque, which only stands in for inertia or friction (0.51 on
+///   a KUKA record).
+/// - A linear axis has no angle: an unbalance periodic in the axis angle does not exist, and a
+///   gravity force on an inclined axis is a constant, the offset (an offset of +370 N and an
+///   "unbalance" of 374.5 N that cancelled on EMPS).
+pub fn observable_candidates(log: &MeasuredLog, options: &ValidateOptions) -> (ValidateOptions, Vec<String>) {
+    let mut options = options.clone();
+    let mut notes = Vec::new();
+    let mut drop = |kind: Kind, why: &str| {
+        if options.selection.candidates.contains(&kind) {
+            options.selection.candidates.retain(|k| *k != kind);
+            notes.push(format!("{} is not a candidate: {why}", kind.name()));
+        }
+    };
+    if !log.torque_from_current() {
+        drop(Kind::TorqueConstant, "the log gives torque, not current, so it holds no torque constant to scale");
+    }
+    if log.is_linear() {
+        drop(
+            Kind::Unbalance,
+            "the axis is linear (positions in metres): a force periodic in an axis angle does not exist, and gravity on an inclined axis is a constant force, the offset",
+        );
+    }
+    (options, notes)
 }
 
 /// What the search found, with the output-error side when a simulator judged it.
@@ -341,6 +392,8 @@ fn validate_once(
         },
     };
     let Searched { selection, output, frequency, hints } = searched;
+    let indistinct = observability::indistinct(&data, start, &selection, &options.selection);
+    let collinear = observability::collinear(&data, start, &selection);
     let before = channel_stats(&data, &selection.before, log);
     let after = channel_stats(&data, &selection.after, log);
     check_results(&selection, &before, &after, output.as_ref())?;
@@ -355,6 +408,8 @@ fn validate_once(
         twist: None,
         encoder_skew: None,
         hints,
+        indistinct,
+        collinear,
         notes,
     })
 }
@@ -456,21 +511,64 @@ fn search_with_output_error(
         selection.found.iter().map(|f| parameter_count(f.kind, structure)).sum(),
         options.output.alpha,
     );
+    // The final verdict: a corrected model that does not predict the log significantly better
+    // than the starting one supports none of the effects it holds, however each step judged
+    // them (a sequence of small wins against ever-changing baselines can end where it began).
+    let withdrawn = withdraw_without_improvement(&mut selection, start, &overall, options.output.alpha);
+    if withdrawn.is_some() {
+        after = before.clone();
+    }
     let hints = output_hints(simulator, data, &out, &plan, &selection, &after, options);
     let frequency = frequency::compare(data, &out, start, &selection.corrected);
     let output = Some(OutputReport {
         config: out.config,
         plan,
         state_half_width: out.state_half_width,
+        state_through_motor: out.state_through_motor,
         before,
         after,
         confirmations,
         overall,
+        withdrawn,
         refit: refitted,
         calibration,
         starting,
     });
     Ok(Searched { selection, output, frequency, hints })
+}
+
+/// Effects withdrawn by the final verdict.
+#[derive(Debug, Clone)]
+pub struct Withdrawal {
+    pub kinds: Vec<Kind>,
+    pub reason: String,
+}
+
+/// The final verdict: when the corrected model does not predict the log better than the
+/// starting one (its score not below 1, or the signed-rank test not significant at `alpha`),
+/// every claim is withdrawn and the corrected model is the starting one.
+pub fn withdraw_without_improvement(
+    selection: &mut Selection,
+    start: &ParameterSet,
+    overall: &Comparison,
+    alpha: f64,
+) -> Option<Withdrawal> {
+    let improved = overall.score_after < overall.score_before && overall.p_value < alpha;
+    if selection.found.is_empty() || improved {
+        return None;
+    }
+    let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+    let reason = format!(
+        "the corrected model does not predict the log better than the starting model ({}): no effect is supported",
+        overall.reason
+    );
+    for kind in &kinds {
+        selection.removed.push((*kind, reason.clone()));
+    }
+    selection.found.clear();
+    selection.corrected = start.clone();
+    selection.after = selection.before.clone();
+    Some(Withdrawal { kinds, reason })
 }
 
 /// Hints: effects the equation-error test did not find significant (but at least the noise in

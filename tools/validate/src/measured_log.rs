@@ -27,6 +27,10 @@ pub enum Signal {
     Time,
     /// Motor current, per motor.
     MotorCurrent,
+    /// Motor current command (what the current loop was asked for, not what the motor
+    /// carried), per motor: turned into the current through the parameter set's current-loop
+    /// bandwidth before the analysis ([`MeasuredLog::with_current_from_command`]).
+    MotorCurrentCommand,
     /// Motor torque (motor side of the gearbox), per motor.
     MotorTorque,
     /// Position command of the axis.
@@ -50,9 +54,10 @@ pub enum Signal {
 impl Signal {
     /// All signals with their column-name stem, the dimension of their unit and whether a motor
     /// number may follow the stem. One table, so the documentation and the parser agree.
-    pub const VOCABULARY: [(Signal, &'static str, Dimension, bool); 11] = [
+    pub const VOCABULARY: [(Signal, &'static str, Dimension, bool); 12] = [
         (Signal::Time, "time", Dimension::Time, false),
         (Signal::MotorCurrent, "motor_current", Dimension::Current, true),
+        (Signal::MotorCurrentCommand, "motor_current_command", Dimension::Current, true),
         (Signal::MotorTorque, "motor_torque", Dimension::Torque, true),
         (Signal::RefPos, "ref_pos", Dimension::Angle, false),
         (Signal::Elevation, "elevation", Dimension::Angle, false),
@@ -80,7 +85,12 @@ impl Signal {
 pub const MAX_GAP_INTERVALS: f64 = 10.0;
 
 /// The accepted unit suffixes: name, dimension, factor to SI (value_SI = factor * value).
-pub const UNITS: [(&str, Dimension, f64); 15] = [
+///
+/// A linear axis (a carriage on a screw or a belt) logs its axis-side positions in metres and
+/// its axis-side forces in newtons: those are read as the angle and torque of an axis of unit
+/// radius, so every equation holds as it is, and [`MeasuredLog::is_linear`] tells the reports
+/// to print m, m/s, N, kg and N s/m. Motor-side torques stay in N m.
+pub const UNITS: [(&str, Dimension, f64); 22] = [
     ("s", Dimension::Time, 1.0),
     ("ms", Dimension::Time, 1e-3),
     ("us", Dimension::Time, 1e-6),
@@ -96,7 +106,17 @@ pub const UNITS: [(&str, Dimension, f64); 15] = [
     ("Nm", Dimension::Torque, 1.0),
     ("kNm", Dimension::Torque, 1e3),
     ("m_s", Dimension::Speed, 1.0),
+    ("m", Dimension::Angle, 1.0),
+    ("mm", Dimension::Angle, 1e-3),
+    ("um", Dimension::Angle, 1e-6),
+    ("m_s", Dimension::AngularVelocity, 1.0),
+    ("mm_s", Dimension::AngularVelocity, 1e-3),
+    ("N", Dimension::Torque, 1.0),
+    ("kN", Dimension::Torque, 1e3),
 ];
+
+/// The unit suffixes of a linear axis's positions and speeds.
+pub const LINEAR_UNITS: [&str; 5] = ["m", "mm", "um", "m_s", "mm_s"];
 
 /// A parse or validation error, naming where it is so the file can be fixed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -332,6 +352,50 @@ impl MeasuredLog {
         self.signals(Signal::MotorTorque).is_empty()
     }
 
+    /// True when the log's axis is linear: its positions are in metres (see [`UNITS`]).
+    pub fn is_linear(&self) -> bool {
+        self.channels
+            .iter()
+            .any(|c| matches!(c.signal, Signal::LoadPos | Signal::MotorPos) && LINEAR_UNITS.contains(&c.unit.as_str()))
+    }
+
+    /// True when the log holds the current command rather than the measured current.
+    pub fn current_is_commanded(&self) -> bool {
+        !self.signals(Signal::MotorCurrentCommand).is_empty() && self.signals(Signal::MotorCurrent).is_empty()
+    }
+
+    /// A log whose current command columns are replaced by the current the motors carried: the
+    /// command through the drive's current loop, a first-order lag of `bandwidth_hz`, exact for
+    /// a command that is linear between samples (the command as it is when the bandwidth is not
+    /// a positive number, with a note). `None` when the log has no command column or
+    /// also logs the measured current (which is then used as it is).
+    ///
+    /// A logged command lags the current by the loop's time constant; left as it is, that lag
+    /// shows as a delay, a torque-constant change or an inertia error in every equation.
+    pub fn with_current_from_command(&self, bandwidth_hz: f64) -> Option<MeasuredLog> {
+        if !self.current_is_commanded() {
+            return None;
+        }
+        let known = bandwidth_hz > 0.0 && bandwidth_hz.is_finite();
+        let tau = if known { 1.0 / (2.0 * std::f64::consts::PI * bandwidth_hz) } else { 0.0 };
+        let mut log = self.clone();
+        for channel in log.channels.iter_mut().filter(|c| c.signal == Signal::MotorCurrentCommand) {
+            if known {
+                channel.values = first_order_lag(&self.time, &channel.values, tau);
+            }
+            channel.signal = Signal::MotorCurrent;
+        }
+        log.notes.push(if known {
+            format!(
+                "the log holds the current command: the current the motors carried is taken as the command through the current loop ({bandwidth_hz} Hz from the parameter set, time constant {:.3} ms); the torque's sensor noise is that of the command's rounding",
+                tau * 1e3
+            )
+        } else {
+            "the log holds the current command, but the parameter set gives no motor.current_loop_bandwidth: the command is taken as the current, and the loop's lag will show as a delay".to_string()
+        });
+        Some(log)
+    }
+
     /// Reads and parses a log file.
     pub fn read(path: &Path) -> Result<MeasuredLog, LogError> {
         let bytes = std::fs::read(path).map_err(|e| {
@@ -474,7 +538,8 @@ fn classify_column(name: &str, line: usize) -> Result<ColumnKind, LogError> {
         {
             return error(LogErrorKind::NotNumbered(stem));
         }
-        return match UNITS.iter().find(|u| u.0 == unit) {
+        let same_dimension = UNITS.iter().find(|u| u.0 == unit && u.1 == dimension);
+        return match same_dimension.or_else(|| UNITS.iter().find(|u| u.0 == unit)) {
             Some(&(_, unit_dimension, factor)) if unit_dimension == dimension => {
                 Ok(ColumnKind::Known { signal, motor, unit: unit.to_string(), factor })
             }
@@ -702,6 +767,24 @@ fn assemble(
     Ok(log)
 }
 
+/// The response of a first-order lag of time constant `tau` (starting in steady state) to an
+/// input that is linear between its samples: exact at the sample times.
+pub fn first_order_lag(time: &[f64], input: &[f64], tau: f64) -> Vec<f64> {
+    let mut output = Vec::with_capacity(input.len());
+    let Some(&first) = input.first() else { return output };
+    let mut y = first;
+    output.push(y);
+    for k in 1..input.len() {
+        let h = time[k] - time[k - 1];
+        let decay = (-h / tau).exp();
+        let slope = (input[k] - input[k - 1]) / h;
+        // y' = (u - y)/tau with u = u0 + slope t: y(h) = u(h) - slope tau + (y0 - u0 + slope tau) e^(-h/tau).
+        y = input[k] - slope * tau + (y - input[k - 1] + slope * tau) * decay;
+        output.push(y);
+    }
+    output
+}
+
 fn check_required(kinds: &[ColumnKind], names: &[String], line: usize) -> Result<(), LogError> {
     let has = |wanted: &[Signal]| {
         kinds.iter().any(|k| matches!(k, ColumnKind::Known { signal, .. } if wanted.contains(signal)))
@@ -716,11 +799,13 @@ fn check_required(kinds: &[ColumnKind], names: &[String], line: usize) -> Result
             )),
         ));
     }
-    if !has(&[Signal::MotorCurrent, Signal::MotorTorque]) {
+    if !has(&[Signal::MotorCurrent, Signal::MotorCurrentCommand, Signal::MotorTorque]) {
         return Err(LogError::at(
             Some(line),
             Some("motor_current / motor_torque"),
-            LogErrorKind::MissingColumn("at least one motor_current_<unit> or motor_torque_<unit>".into()),
+            LogErrorKind::MissingColumn(
+                "at least one motor_current_<unit>, motor_current_command_<unit> or motor_torque_<unit>".into(),
+            ),
         ));
     }
     if !has(&[Signal::LoadPos, Signal::MotorPos]) {
@@ -807,6 +892,56 @@ mod tests {
         // Two current columns add up, each times the torque constant.
         assert!((log.total_motor_torque(2.0)[0] - 4.0).abs() < 1e-12);
         assert!(log.torque_from_current());
+    }
+
+    #[test]
+    fn a_linear_axis_reads_metres_and_newtons_and_says_it_is_linear() {
+        let text =
+            "time_s,motor_current_A,load_pos_mm,motor_pos_m,load_vel_mm_s,disturbance_torque_kN,wind_speed_m_s\n\
+0,1,1000,1,10,2,5\n0.01,1,1001,1.001,10,2,5\n";
+        let log = parse_str(text).unwrap();
+        assert!(log.is_linear());
+        assert!((log.signal(Signal::LoadPos).unwrap()[1] - 1.001).abs() < 1e-12);
+        assert!((log.signal(Signal::MotorPos).unwrap()[1] - 1.001).abs() < 1e-12);
+        assert!((log.signal(Signal::LoadVel).unwrap()[0] - 0.01).abs() < 1e-15);
+        assert_eq!(log.signal(Signal::DisturbanceTorque).unwrap()[0], 2000.0);
+        // m_s is still the wind's unit, and an angle log is not linear.
+        assert_eq!(log.signal(Signal::WindSpeed).unwrap()[0], 5.0);
+        assert!(!parse_str(GOOD).unwrap().is_linear());
+        // A length is no unit of a current.
+        assert!(error_of("time_s,motor_current_m,load_pos_m\n0,1,0\n1,1,0\n")
+            .to_string()
+            .contains("not a unit of Current"));
+    }
+
+    #[test]
+    fn a_logged_current_command_becomes_the_current_through_the_loop() {
+        let text = "time_s,motor_current_command_A,load_pos_rad\n0,0,0\n0.001,1,0\n0.002,1,0\n0.003,1,0\n";
+        let log = parse_str(text).unwrap();
+        assert!(log.current_is_commanded() && log.signal(Signal::MotorCurrent).is_none());
+        let bandwidth = 100.0;
+        let current = log.with_current_from_command(bandwidth).unwrap();
+        assert!(!current.current_is_commanded());
+        let values = current.signal(Signal::MotorCurrent).unwrap();
+        // The lag's response to a ramp over the first millisecond, then to the held value:
+        // t/T - (tau/T)(1 - exp(-t/tau)), then 1 + (y(T) - 1) exp(-(t - T)/tau).
+        let tau = 1.0 / (2.0 * std::f64::consts::PI * bandwidth);
+        let ramp_end = 1.0 - tau / 0.001 * (1.0 - (-0.001 / tau).exp());
+        let expected: Vec<f64> = (0..4)
+            .map(|k| match k {
+                0 => 0.0,
+                _ => 1.0 + (ramp_end - 1.0) * (-((k - 1) as f64) * 0.001 / tau).exp(),
+            })
+            .collect();
+        for (a, b) in values.iter().zip(&expected) {
+            assert!((a - b).abs() < 1e-12, "{values:?} against {expected:?}");
+        }
+        // Without a bandwidth the command is taken as it is, with a note saying so.
+        let as_is = log.with_current_from_command(0.0).unwrap();
+        assert_eq!(as_is.signal(Signal::MotorCurrent).unwrap(), log.signal(Signal::MotorCurrentCommand).unwrap());
+        assert!(as_is.notes.iter().any(|n| n.contains("no motor.current_loop_bandwidth")));
+        // A log of the measured current is left alone.
+        assert!(parse_str(GOOD).unwrap().with_current_from_command(bandwidth).is_none());
     }
 
     #[test]

@@ -38,6 +38,7 @@ pub mod names {
     pub const BACKLASH_WIDTH: &str = "backlash.width";
     pub const PRESLIDING_STIFFNESS: &str = "friction.presliding_stiffness";
     pub const PRESLIDING_DAMPING: &str = "friction.presliding_damping";
+    pub const CURRENT_LOOP_BANDWIDTH: &str = "motor.current_loop_bandwidth";
 }
 
 /// What one parameter means. Torques, stiffness, damping and load inertia are on the axis
@@ -53,7 +54,7 @@ pub struct ParameterInfo {
 }
 
 /// Every parameter the model knows, in the order the files list them.
-pub const PARAMETERS: [ParameterInfo; 22] = [
+pub const PARAMETERS: [ParameterInfo; 23] = [
     ParameterInfo { name: names::GEAR_RATIO, unit: "-", description: "gear ratio, motor turns per axis turn", neutral: 1.0 },
     ParameterInfo { name: names::MOTOR_INERTIA, unit: "kg m^2", description: "motor rotor inertia (motor side, all motors together)", neutral: 0.0 },
     ParameterInfo { name: names::TORQUE_CONSTANT, unit: "N m/A", description: "motor torque constant (per motor)", neutral: 1.0 },
@@ -76,6 +77,7 @@ pub const PARAMETERS: [ParameterInfo; 22] = [
     ParameterInfo { name: names::BACKLASH_WIDTH, unit: "rad", description: "total lost motion (dead zone width) of the drive path, axis side", neutral: 0.0 },
     ParameterInfo { name: names::PRESLIDING_STIFFNESS, unit: "N m/rad", description: "presliding (bristle) stiffness of the motor friction while it sticks, referred to the axis; 0 is a rigid stick", neutral: 0.0 },
     ParameterInfo { name: names::PRESLIDING_DAMPING, unit: "N m s/rad", description: "damping of the presliding spring, referred to the axis", neutral: 0.0 },
+    ParameterInfo { name: names::CURRENT_LOOP_BANDWIDTH, unit: "Hz", description: "bandwidth of the drive's current loop (first order); used only when the log holds the current command, to turn it into the current the motors carried", neutral: 0.0 },
 ];
 
 /// Looks up the description of a known parameter.
@@ -161,7 +163,7 @@ pub struct FmuMapping {
 /// axis is two identical half-motors, each with its own half-stiffness path; everything the
 /// axis set holds for "all motors" is halved per motor. Torques and speeds on the motor side
 /// are the axis-side values through the gear ratio.
-pub const FMU_MAPPING: [FmuMapping; 19] = [
+pub const FMU_MAPPING: [FmuMapping; 20] = [
     FmuMapping { parameters: &[names::GEAR_RATIO], variables: &["gear.ratio"], rule: "N" },
     FmuMapping { parameters: &[names::MOTOR_INERTIA], variables: &["motor1.inertia", "motor2.inertia"], rule: "J_m/2 each" },
     FmuMapping {
@@ -204,6 +206,11 @@ pub const FMU_MAPPING: [FmuMapping; 19] = [
         rule: "A/(2 N) each, N P/(2 pi) motor revolutions, phase + 180 deg (the FMU's cogging drives the motor)",
     },
     FmuMapping { parameters: &[names::BACKLASH_WIDTH], variables: &["pinion1.backlash", "pinion2.backlash"], rule: "b in arcsec, each (both paths have the whole dead zone)" },
+    FmuMapping {
+        parameters: &[names::CURRENT_LOOP_BANDWIDTH],
+        variables: &["motor1.current_loop_bandwidth", "motor2.current_loop_bandwidth"],
+        rule: "not passed on: a logged current command is turned into the current through it before the analysis, so the FMU's loop stays transparent",
+    },
 ];
 
 /// FMU variables the mapping fixes whatever the parameters: what the single-axis model does not
@@ -558,8 +565,18 @@ impl From<ParameterError> for String {
 
 /// Units a value may carry after its number, per parameter unit: (parameter unit, written
 /// unit, factor to the parameter unit). A value without a unit is in the parameter's unit.
-const VALUE_UNITS: [(&str, &str, f64); 30] = [
+const VALUE_UNITS: [(&str, &str, f64); 39] = [
     ("-", "-", 1.0),
+    ("Hz", "Hz", 1.0),
+    // A linear axis (m, N) is an axis of unit radius: its axis-side values read as they are.
+    ("kg m^2", "kg", 1.0),
+    ("N m", "N", 1.0),
+    ("N m", "kN", 1e3),
+    ("N m/rad", "N/m", 1.0),
+    ("N m s/rad", "N s/m", 1.0),
+    ("rad", "m", 1.0),
+    ("rad", "mm", 1e-3),
+    ("rad/s", "m/s", 1.0),
     ("kg m^2", "kg m^2", 1.0),
     ("kg m^2", "kg m2", 1.0),
     ("kg m^2", "kg.m2", 1.0),

@@ -49,26 +49,37 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     let _ = writeln!(
         out,
         "Equation-error route ({:?}): {} samples analysed at {:.1} Hz, smoothing cut-off {:.1} Hz, \
-         sticking below {:.3e} rad/s left out of the torque equation. Sensor noise estimated from the data: \
-         torque {:.4} N m (axis side), motor encoder {:.3e} rad, load encoder {:.3e} rad.\n",
+         sticking below {:.3e} {} left out of the torque equation. Sensor noise estimated from the data: \
+         torque {:.4} {} (axis side), motor encoder {:.3e} {}, load encoder {:.3e} {}.\n",
         d.structure,
         d.len(),
         1.0 / d.dt,
         d.cutoff_hz,
         d.stick_speed,
+        axis_unit("rad/s", d.linear),
         d.torque_sigma,
+        axis_unit("N m", d.linear),
         d.motor_pos_sigma,
-        d.load_pos_sigma
+        axis_unit("rad", d.linear),
+        d.load_pos_sigma,
+        axis_unit("rad", d.linear)
     );
+    if d.linear {
+        let _ = writeln!(
+            out,
+            "The axis is linear (positions in metres): axis-side values are in m, m/s, N, kg, N/m and N s/m (an axis of unit radius); motor-side values (motor inertia, torque constant) stay rotary. Small positions are printed in mm.\n"
+        );
+    }
     for note in &v.notes {
         let _ = writeln!(out, "- note: {note}");
     }
     effects_section(&mut out, v);
+    collinear_section(&mut out, v);
     if let Some(t) = &v.twist {
-        twist_section(&mut out, t, v.encoder_skew);
+        twist_section(&mut out, t, v.encoder_skew, d.linear);
     }
     if let Some(o) = &v.output {
-        output_section(&mut out, o);
+        output_section(&mut out, o, d.linear);
     }
     if let Some(f) = &v.frequency {
         frequency_section(&mut out, f);
@@ -82,16 +93,40 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
 /// The effects found, with their parameters and what the data cannot tell them from.
 fn effects_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out, "\n## Effects found\n");
-    if v.selection.found.is_empty() {
+    let withdrawn = v.output.as_ref().and_then(|o| o.withdrawn.as_ref());
+    if let Some(w) = withdrawn {
+        let names: Vec<&str> = w.kinds.iter().map(|k| k.name()).collect();
+        let _ = writeln!(
+            out,
+            "**No effect is claimed.** The search had added {}, but {}. The claims are withdrawn and the corrected parameter set is the starting one.\n",
+            names.join(", "),
+            w.reason
+        );
+    } else if v.selection.found.is_empty() {
         let _ = writeln!(out, "No significant missing effect.\n");
     }
     for found in &v.selection.found {
         let _ = writeln!(out, "**{}** ({})\n", found.kind.name(), found.kind.description());
         let _ = writeln!(out, "| parameter | value | standard deviation | unit |\n|---|---|---|---|");
         for (name, value, sd, unit) in &found.parameters {
+            let unit = if name.starts_with("motor.") { unit.as_str() } else { axis_unit(unit, v.data.linear) };
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
+        for alternative in v.indistinct.iter().filter(|a| a.found == found.kind) {
+            let _ = writeln!(
+                out,
+                "**{} or {}: the data cannot tell.** Over this log's range of motion {} ({}) reproduces what {} adds to the equations to within {:.1} % (RMS; what it leaves has a chi-square of {:.1}, not significant): {}. The law both give over the log is the corrected model's; a log with a wider range of motion (angle, speed) would separate them.\n",
+                found.kind.name(),
+                alternative.alternative.name(),
+                alternative.alternative.name(),
+                alternative.alternative.description(),
+                found.kind.name(),
+                100.0 * alternative.misfit,
+                alternative.chi2,
+                alternative.changes(&v.selection.corrected, &v.start)
+            );
+        }
         let alike = v.selection.equally_consistent(found.kind);
         if !alike.is_empty() {
             let names: Vec<String> = alike.iter().map(|k| format!("{} ({})", k.name(), k.description())).collect();
@@ -102,6 +137,20 @@ fn effects_section(out: &mut String, v: &Validation) {
                 found.kind.name()
             );
         }
+    }
+}
+
+/// Found effects that are collinear over the log: only their sum is determined.
+fn collinear_section(out: &mut String, v: &Validation) {
+    for pair in &v.collinear {
+        let _ = writeln!(
+            out,
+            "**{} and {} are collinear over this log** (weighted cosine of what they add to the equations {:.3}{}): the data determine only their sum, which is the corrected model's; neither value alone is established.\n",
+            pair.first.name(),
+            pair.second.name(),
+            pair.cosine,
+            if pair.cosine < 0.0 { ": they largely cancel" } else { "" }
+        );
     }
 }
 
@@ -136,7 +185,8 @@ fn equation_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out, "## Equation error before and after\n");
     let _ = writeln!(
         out,
-        "Residuals in axis-side N m (divide the torque equation by the gear ratio {} for motor-side N m).\n",
+        "Residuals in axis-side {} (divide the torque equation by the gear ratio {} for motor-side N m).\n",
+        axis_unit("N m", d.linear),
         d.gear_ratio
     );
     let _ = writeln!(out, "| model | channel | RMS | NRMSE fit % | corr. time (samples) | whiteness p | lags outside | largest cross-correlation |");
@@ -188,16 +238,47 @@ fn search_steps_section(out: &mut String, v: &Validation) {
 
 const ARCSEC: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
 
-/// A value in display units: angles in arcsec, speeds in arcsec/s.
-fn display(value: f64, unit: &str) -> (f64, &'static str) {
-    match unit {
-        "rad" => (value * ARCSEC, "arcsec"),
-        "rad/s" => (value * ARCSEC, "arcsec/s"),
-        _ => (value, "N m"),
+/// A value in display units: angles in arcsec, speeds in arcsec/s; on a linear axis
+/// positions in mm, speeds in mm/s, forces in N.
+fn display(value: f64, unit: &str, linear: bool) -> (f64, &'static str) {
+    match (unit, linear) {
+        ("rad", false) => (value * ARCSEC, "arcsec"),
+        ("rad/s", false) => (value * ARCSEC, "arcsec/s"),
+        ("rad", true) => (value * 1e3, "mm"),
+        ("rad/s", true) => (value * 1e3, "mm/s"),
+        (_, false) => (value, "N m"),
+        (_, true) => (value, "N"),
     }
 }
 
-fn output_section(out: &mut String, o: &OutputReport) {
+/// Small axis-side positions for the text: (factor from SI, label).
+fn small_position(linear: bool) -> (f64, &'static str) {
+    if linear {
+        (1e3, "mm")
+    } else {
+        (ARCSEC, "arcsec")
+    }
+}
+
+/// The unit of an axis-side quantity on a linear axis (an axis of unit radius), or as it is on
+/// a rotary one.
+pub fn axis_unit(unit: &str, linear: bool) -> &str {
+    if !linear {
+        return unit;
+    }
+    match unit {
+        "N m" => "N",
+        "N m/rad" => "N/m",
+        "N m s/rad" => "N s/m",
+        "kg m^2" => "kg",
+        "rad" => "m",
+        "rad/s" => "m/s",
+        "rad/(N m)" => "m/N",
+        other => other,
+    }
+}
+
+fn output_section(out: &mut String, o: &OutputReport, linear: bool) {
     let _ = writeln!(out, "## Output error before and after (plant FMU, windowed simulation)\n");
     let _ = writeln!(
         out,
@@ -211,6 +292,12 @@ fn output_section(out: &mut String, o: &OutputReport) {
         o.plan.reason,
         2 * o.state_half_width + 1
     );
+    if o.state_through_motor {
+        let _ = writeln!(
+            out,
+            "The load encoder does not resolve the twist's motion at the state filter's bandwidth (its noise through the filter exceeds the twist rate's RMS): the load side's state at each window start is the motor encoder's less the smoothed twist.\n"
+        );
+    }
     if o.plan.drive_length < o.plan.length {
         let _ = writeln!(
             out,
@@ -220,8 +307,8 @@ fn output_section(out: &mut String, o: &OutputReport) {
     }
     let _ = writeln!(out, "| output | scored | RMS before | RMS after | after/before | NRMSE fit before (%) | NRMSE fit after (%) |\n|---|---|---|---|---|---|---|");
     for (b, a) in o.before.channels.iter().zip(&o.after.channels) {
-        let (rb, unit) = display(b.rms, b.kind.unit());
-        let (ra, _) = display(a.rms, a.kind.unit());
+        let (rb, unit) = display(b.rms, b.kind.unit(), linear);
+        let (ra, _) = display(a.rms, a.kind.unit(), linear);
         let _ = writeln!(
             out,
             "| {} | {} | {rb:.4} {unit} | {ra:.4} {unit} | {:.3} | {:.1} | {:.1} |",
@@ -258,9 +345,9 @@ fn output_section(out: &mut String, o: &OutputReport) {
                 .zip(&o.after.channels)
                 .filter(|((s, _), _)| s.scored)
                 .map(|((s, b), a)| {
-                    let (rs, unit) = display(s.rms, s.kind.unit());
-                    let (rb, _) = display(b.rms, b.kind.unit());
-                    let (ra, _) = display(a.rms, a.kind.unit());
+                    let (rs, unit) = display(s.rms, s.kind.unit(), linear);
+                    let (rb, _) = display(b.rms, b.kind.unit(), linear);
+                    let (ra, _) = display(a.rms, a.kind.unit(), linear);
                     format!("{} {rs:.4} -> {rb:.4} -> {ra:.4} {unit}", s.kind.name())
                 })
                 .collect();
@@ -296,7 +383,8 @@ fn output_section(out: &mut String, o: &OutputReport) {
 }
 
 /// One line on what the twist says, for the KUKA summary and the report.
-pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
+pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>, linear: bool) -> String {
+    let (scale, small) = small_position(linear);
     let mut parts = Vec::new();
     let skew = t.skew();
     parts.push(match corrected {
@@ -309,34 +397,37 @@ pub fn twist_summary(t: &TwistAnalysis, corrected: Option<f64>) -> String {
     });
     if let Some((k, sd)) = t.rigid_stiffness() {
         parts.push(format!(
-            "path compliance: K = {k:.3e} +- {sd:.1e} N m/rad (twist {:.1} arcsec RMS)",
-            t.compliance().rms * ARCSEC
+            "path compliance: K = {k:.3e} +- {sd:.1e} {} (twist {:.1} {small} RMS)",
+            t.compliance().rms * scale,
+            axis_unit("N m/rad", linear)
         ));
     } else if t.structure != Structure::TwoMass {
         parts.push(format!(
-            "no significant path compliance (1/K = {:.2e} +- {:.1e} rad/(N m))",
+            "no significant path compliance (1/K = {:.2e} +- {:.1e} {})",
             t.compliance().value,
-            t.compliance().sd
+            t.compliance().sd,
+            axis_unit("rad/(N m)", linear)
         ));
     }
     let b = t.lost_motion();
     if b.significant && t.structure != Structure::TwoMass {
-        parts.push(format!("lost motion {:.1} +- {:.1} arcsec", b.value * ARCSEC, b.sd * ARCSEC));
+        parts.push(format!("lost motion {:.1} +- {:.1} {small}", b.value * scale, b.sd * scale));
     }
     let position = t.position_dependent();
     if position.significant {
-        parts.push(format!("position-dependent twist (transmission error) {:.1} arcsec RMS", position.rms * ARCSEC));
+        parts.push(format!("position-dependent twist (transmission error) {:.1} {small} RMS", position.rms * scale));
     }
     parts.push(format!(
-        "twist residual {:.1} -> {:.1} arcsec RMS (sensor noise {:.2} arcsec)",
-        t.rms_before * ARCSEC,
-        t.rms_after * ARCSEC,
-        t.noise * ARCSEC
+        "twist residual {:.1} -> {:.1} {small} RMS (sensor noise {:.2} {small})",
+        t.rms_before * scale,
+        t.rms_after * scale,
+        t.noise * scale
     ));
     parts.join("; ")
 }
 
-fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
+fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>, linear: bool) {
+    let (scale, small) = small_position(linear);
     let _ = writeln!(out, "## Two encoders: what the twist says\n");
     let _ = writeln!(
         out,
@@ -345,9 +436,9 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
          (lost motion) and a cubic in the axis angle (transmission error); {} samples, residual correlation time {:.1} samples. {}.\n",
         t.samples,
         t.correlation_time,
-        twist_summary(t, corrected)
+        twist_summary(t, corrected, linear)
     );
-    let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist (arcsec) | significant |\n|---|---|---|---|---|---|");
+    let _ = writeln!(out, "| term | value | standard deviation | unit | RMS added to the twist ({small}) | significant |\n|---|---|---|---|---|---|");
     for term in &t.terms {
         let _ = writeln!(
             out,
@@ -355,8 +446,8 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>) {
             term.name,
             term.value,
             term.sd,
-            term.unit,
-            term.rms * ARCSEC,
+            axis_unit(term.unit, linear),
+            term.rms * scale,
             if term.significant { "yes" } else { "no" }
         );
     }
@@ -703,7 +794,7 @@ fn kuka_axis_notes(out: &mut String, axis: usize, v: &Validation, figures: &[Str
         let _ = writeln!(out, "Windows: {}. Corrected against starting model: {}.", o.plan.reason, o.overall.reason);
     }
     if let Some(t) = &v.twist {
-        let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew));
+        let _ = writeln!(out, "Two encoders: {}.", twist_summary(t, v.encoder_skew, false));
     }
     for h in &v.hints {
         let _ = writeln!(

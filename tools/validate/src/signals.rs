@@ -103,6 +103,32 @@ pub const TORQUE_NOISE_FILTER_LAGS: usize = 4;
 /// of the noise, only a tighter one; where the positions predict nothing the torque's own
 /// estimate stands.
 pub fn torque_noise_sigma(torque: &[f64], positions: &[&[f64]]) -> f64 {
+    torque_noise_unfloored(torque, positions).max(torque_noise_floor(torque))
+}
+
+/// The effective resolution of a torque or current measurement, as bits over its range: a
+/// drive's current sensing through a 12- to 16-bit converter (estimate; the 16-bit end is
+/// taken, so the floor is the smallest noise a real drive's current can have).
+pub const TORQUE_SENSOR_BITS: i32 = 16;
+
+/// The least noise a logged torque can be said to have: the rounding it was logged with (the
+/// smallest step between its samples, over sqrt(12)) and the resolution of a
+/// [`TORQUE_SENSOR_BITS`] converter over the logged range, whichever is larger.
+///
+/// A current without sensor noise (a simulated log, a logged command) is a fact to use, not a
+/// zero to divide by: the noise estimate then falls to what no filter can tell from zero, and
+/// every size judged against it (practical significance) and the smoothing chosen from it (the
+/// narrowest kernel whose acceleration noise stays below the torque noise) would collapse (a
+/// 10.6 Hz cut-off that hid a 51 Hz cogging on a hidden log).
+pub fn torque_noise_floor(torque: &[f64]) -> f64 {
+    let (low, high) = torque.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+    let range = if high > low { high - low } else { 0.0 };
+    let converter = range / 2f64.powi(TORQUE_SENSOR_BITS);
+    resolution(torque).max(converter) / 12f64.sqrt()
+}
+
+/// [`torque_noise_sigma`] without its floor.
+fn torque_noise_unfloored(torque: &[f64], positions: &[&[f64]]) -> f64 {
     let own = noise_sigma(torque);
     let m = TORQUE_NOISE_FILTER_LAGS;
     let n = torque.len();
@@ -237,6 +263,22 @@ mod tests {
         let unrelated: Vec<f64> = (0..n).map(|k| (k as f64 * 0.37).sin()).collect();
         let alone = torque_noise_sigma(&torque, &[&unrelated]);
         assert!(alone <= own && alone > 0.9 * own, "{alone} against {own}");
+    }
+
+    #[test]
+    fn a_noiseless_torque_is_floored_at_its_rounding_and_converter_resolution() {
+        // A smooth torque written with 1e-3 resolution and no noise: the fourth difference and
+        // the position filter see almost nothing, the floor is the rounding.
+        let n = 5_000;
+        let position: Vec<f64> = (0..n).map(|k| (k as f64 * 0.002).sin()).collect();
+        let rounded: Vec<f64> = (0..n).map(|k| ((100.0 * (k as f64 * 0.002).sin()) / 1e-3).round() * 1e-3).collect();
+        let estimate = torque_noise_sigma(&rounded, &[&position]);
+        let converter = 200.0 / 2f64.powi(TORQUE_SENSOR_BITS);
+        assert!(estimate >= converter.max(1e-3) / 12f64.sqrt() * 0.999, "{estimate}");
+        // Written at full precision, the converter's resolution over the range remains.
+        let exact: Vec<f64> = (0..n).map(|k| 100.0 * (k as f64 * 0.002).sin()).collect();
+        let floor = torque_noise_sigma(&exact, &[&position]);
+        assert!(floor >= 0.999 * converter / 12f64.sqrt() && floor.is_finite(), "{floor}");
     }
 
     #[test]

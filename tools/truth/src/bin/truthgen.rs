@@ -6,7 +6,7 @@
 //! that channel's sensor noise. Exit codes: 0 ok, 2 bad usage or bad input.
 
 use antenna_truth::suite::{self, SuiteConfig};
-use antenna_truth::{MotorSensor, SpeedSensor, TruthConfig};
+use antenna_truth::{CurrentLog, MotorSensor, SpeedSensor, TruthConfig};
 use anyhow::{anyhow, bail, Context};
 use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::collections::BTreeMap;
@@ -112,6 +112,21 @@ struct TruthArgs {
     /// With two motors, amperes added to motor 1's current and taken from motor 2's.
     #[arg(long, value_name = "A")]
     current_bias: Option<f64>,
+    /// Bits per revolution of the load encoder (default 25).
+    #[arg(long, value_name = "BITS")]
+    load_encoder_bits: Option<u32>,
+    /// White noise of the current sensor (A, default 0.0125); 0 is a noiseless sensor.
+    #[arg(long, value_name = "A")]
+    current_noise: Option<f64>,
+    /// Log the current loop's command instead of the current (no sensor noise).
+    #[arg(long)]
+    current_command: bool,
+    /// Log the axis as a linear one (positions in mm).
+    #[arg(long)]
+    linear: bool,
+    /// The trajectory's stroke: from 40 deg over this many degrees (default 15 to 85 deg).
+    #[arg(long, value_name = "DEG")]
+    stroke: Option<f64>,
 }
 
 /// A positive finite number, or an error naming the option.
@@ -168,6 +183,27 @@ impl TruthArgs {
         }
         if let Some(bias) = self.current_bias {
             base.noise.current_bias = bias;
+        }
+        if let Some(bits) = self.load_encoder_bits {
+            base.noise.load_encoder_counts = 2f64.powi(bits as i32);
+        }
+        let suite_current_sigma = base.noise.current_sigma;
+        if let Some(sigma) = self.current_noise {
+            if !(sigma >= 0.0 && sigma.is_finite()) {
+                bail!("--current-noise needs a number at least 0, not {sigma}");
+            }
+            base.noise.current_sigma = sigma;
+            base.noise.size_current_sigma = Some(suite_current_sigma);
+        }
+        if self.current_command {
+            base.noise.current_log = CurrentLog::Command;
+            base.noise.current_sigma = 0.0;
+            base.noise.size_current_sigma = Some(suite_current_sigma);
+        }
+        base.linear = self.linear;
+        if let Some(stroke) = self.stroke {
+            base.trajectory.min_position = 40f64.to_radians();
+            base.trajectory.max_position = (40.0 + positive(stroke, "--stroke")?).to_radians();
         }
         if let Some(duration) = self.duration {
             base.duration = duration;
@@ -231,7 +267,6 @@ fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
         Command::Start { out, truth } => {
             truth
                 .config()?
-                .plant
                 .starting_parameters()
                 .write(&out, "Starting parameter set: the truth generator's nominal plant.")?;
         }
