@@ -217,7 +217,10 @@ pub const FMU_MAPPING: [FmuMapping; 20] = [
 /// have (bearing friction: all friction is at the motor; current saturation; quantisation)
 /// switched off, and the current loop made transparent.
 pub const FMU_FIXED: [(&str, &str); 9] = [
-    ("motor1.current_limit, motor2.current_limit", "1e9 A: no saturation (the log holds what the drive did)"),
+    (
+        "motor1.current_limit, motor2.current_limit",
+        "1e4 A, the plant FMU's largest: no saturation (the log holds what the drive did)",
+    ),
     (
         "motor1.current_loop_bandwidth, motor2.current_loop_bandwidth",
         "1000 x the sample rate: the log holds the measured current",
@@ -393,7 +396,7 @@ fn motor_entries(
         (params.value(names::COGGING_PHASE) + std::f64::consts::PI).to_degrees(),
         "effect.cogging_phase + 180 deg",
     );
-    both(out, "motor#.current_limit", 1e9, "no saturation: the log holds what the drive did");
+    both(out, "motor#.current_limit", 1e4, "no saturation (the FMU's largest limit): the log holds what the drive did");
     both(
         out,
         "motor#.current_loop_bandwidth",
