@@ -39,6 +39,8 @@
 //! choice (the one with the shortest memory), not a measured property.
 
 use nalgebra::{DMatrix, DVector};
+
+use crate::prototype::{damped_update, Update};
 use std::f64::consts::{LN_10, PI};
 
 /// Vickery's admittance `chi(x) = 1 / (1 + (2 x)^(4/3))`, `x = n sqrt(A) / U`.
@@ -291,34 +293,10 @@ fn levenberg_marquardt(
         }
         let jtj = jac.transpose() * &jac;
         let jtr = jac.transpose() * &res;
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut a = jtj.clone();
-            for i in 0..n {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
-            }
-            let Some(chol) = a.cholesky() else {
-                lambda *= 10.0;
-                continue;
-            };
-            let step = chol.solve(&(-&jtr));
-            let trial: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
-            let trial_cost = cost(&trial);
-            if trial_cost < current {
-                let relative = (current - trial_cost) / current;
-                theta = trial;
-                current = trial_cost;
-                lambda = (lambda / 3.0).max(1e-12);
-                improved = true;
-                if relative < 1e-10 {
-                    return theta;
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            break;
+        match damped_update(&jtj, &jtr, &mut theta, &mut current, &mut lambda, &cost) {
+            Update::Converged => return theta,
+            Update::Improved => {}
+            Update::Stuck => break,
         }
     }
     theta

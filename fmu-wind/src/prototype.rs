@@ -293,37 +293,59 @@ fn levenberg_marquardt(mut theta: Vec<f64>, n_p: usize, grid: &[f64], weights: &
         }
         let jtj = jac.transpose() * &jac;
         let jtr = jac.transpose() * &res;
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut a = jtj.clone();
-            for i in 0..n {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
-            }
-            let Some(chol) = a.cholesky() else {
-                lambda *= 10.0;
-                continue;
-            };
-            let step = chol.solve(&(-&jtr));
-            let trial: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
-            let trial_cost = cost(&trial);
-            if trial_cost < current {
-                let relative = (current - trial_cost) / current;
-                theta = trial;
-                current = trial_cost;
-                lambda = (lambda / 3.0).max(1e-12);
-                improved = true;
-                if relative < 1e-10 {
-                    return theta;
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            break;
+        match damped_update(&jtj, &jtr, &mut theta, &mut current, &mut lambda, &cost) {
+            Update::Converged => return theta,
+            Update::Improved => {}
+            Update::Stuck => break,
         }
     }
     theta
+}
+
+/// What one damped Gauss-Newton (Levenberg-Marquardt) update did.
+pub(crate) enum Update {
+    /// The cost fell by less than 1e-10 of itself: done.
+    Converged,
+    Improved,
+    /// No damping within 30 tries lowered the cost.
+    Stuck,
+}
+
+/// One Levenberg-Marquardt update of `theta` from the normal equations `jtj`, `jtr` of its
+/// current residuals, raising the damping `lambda` until a step lowers `cost` (and lowering it
+/// after a success). The one update of both fits in this crate (the Davenport prototype here,
+/// the admittance in `admittance.rs`).
+pub(crate) fn damped_update(
+    jtj: &DMatrix<f64>,
+    jtr: &DVector<f64>,
+    theta: &mut Vec<f64>,
+    current: &mut f64,
+    lambda: &mut f64,
+    cost: &dyn Fn(&[f64]) -> f64,
+) -> Update {
+    let n = theta.len();
+    for _ in 0..30 {
+        let mut a = jtj.clone();
+        for i in 0..n {
+            a[(i, i)] += *lambda * jtj[(i, i)].max(1e-12);
+        }
+        let Some(chol) = a.cholesky() else {
+            *lambda *= 10.0;
+            continue;
+        };
+        let step = chol.solve(&(-jtr));
+        let trial: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
+        let trial_cost = cost(&trial);
+        if trial_cost < *current {
+            let relative = (*current - trial_cost) / *current;
+            *theta = trial;
+            *current = trial_cost;
+            *lambda = (*lambda / 3.0).max(1e-12);
+            return if relative < 1e-10 { Update::Converged } else { Update::Improved };
+        }
+        *lambda *= 4.0;
+    }
+    Update::Stuck
 }
 
 #[cfg(test)]
