@@ -98,7 +98,7 @@ macro_rules! controller_variables {
                 HoldRelease = Var::real("anti_limit_cycle.hold_release_error", "arcsec").parameter().start(4.0).min(0.0).max($crate::fmi::common::MAX_HOLD_ERROR_ARCSEC)
                     .description("The hold releases beyond this position error (hysteresis)."),
                 HoldMotionBand = Var::real("anti_limit_cycle.hold_motion_band", "arcsec").parameter().start(0.5).min(0.0)
-                    .description("The hold also releases once the measured position has moved by more than this since the hold began: a held axis that moves is pushed (by wind), not stuck, and needs its integrators. Estimate: 25 times a realistic encoder's reading noise (0.02 arcsec), 13 counts of a 25-bit encoder."),
+                    .description("The hold also releases once the measured position has moved by more than this since the hold began: a held axis that moves is pushed (by wind), not stuck, and needs its integrators. Estimate: 25 times a realistic encoder's reading noise (0.02 arcsec), 13 counts of a 25-bit encoder; range 0.2-2 arcsec (above the noise and count, well below the 4 arcsec release)."),
                 RestTime = Var::real("anti_limit_cycle.rest_time", "s").parameter().start(0.25).min(0.0).max(60.0)
                     .description("The axis must have been at rest this long before the hold engages: friction sticks an axis for good, while a wind-driven axis only passes through zero speed and a noisy speed signal dips below the rest speed for single samples. Estimate, range 0.05-1 s."),
                 $($own)*

@@ -326,9 +326,9 @@ struct Ports {
     el_ctrl_in: [u32; 4],
     el_ctrl_out: [u32; 2],
     wind_in: [u32; 2],
-    wind_out: [u32; 3],
-    /// The wind's drag force on the dish, if the wind unit provides one.
-    wind_drag: Option<u32>,
+    /// Torque about azimuth, about elevation, wind speed and, where the wind unit gives one, the
+    /// drag on the dish: read in one call.
+    wind_out: Vec<u32>,
     structure_in: [u32; 3],
     structure_out: [u32; 4],
 }
@@ -380,8 +380,11 @@ impl Ports {
             el_ctrl_in: vrs(ec, ["command.position", "command.velocity", "measured.position", "measured.motor_speed"])?,
             el_ctrl_out: vrs(ec, ["motor.current_command", "status.reference_position"])?,
             wind_in: vrs(w, ["antenna.azimuth", "antenna.elevation"])?,
-            wind_out: vrs(w, ["torque.azimuth", "torque.elevation", "wind.speed"])?,
-            wind_drag: w.vr("force.drag").ok(),
+            wind_out: {
+                let mut out = vrs(w, ["torque.azimuth", "torque.elevation", "wind.speed"])?.to_vec();
+                out.extend(w.vr("force.drag").ok());
+                out
+            },
             structure_in: vrs(s, ["torque.azimuth", "torque.elevation", "force.dish"])?,
             structure_out: vrs(
                 s,
@@ -481,7 +484,7 @@ impl CoupledAntenna {
         if let Some(structure_overrides) = &config.structure {
             // The structure starts at rest in its static deflection under the loads at the
             // start, so that a run in a mean wind does not begin with ringing modes.
-            let loads = antenna.wind_loads()?;
+            let (loads, _) = antenna.wind_loads()?;
             let mut overrides = structure_overrides.clone();
             for (name, value) in ["torque.azimuth", "torque.elevation", "force.dish"].iter().zip(loads) {
                 overrides.push((name.to_string(), ParameterValue::Real(value)));
@@ -497,16 +500,15 @@ impl CoupledAntenna {
         self.start_time_s + self.steps_done as f64 * self.step_s
     }
 
-    /// The wind's loads on the antenna now (torque about azimuth, about elevation, N m; drag on
-    /// the dish, N), scaled as the configuration says.
-    fn wind_loads(&mut self) -> Result<[f64; 3], ImportError> {
-        let mut wind = [0.0; 3];
-        self.wind.get_real(&self.ports.wind_out, &mut wind)?;
-        let mut drag = [0.0];
-        if let Some(vr) = self.ports.wind_drag {
-            self.wind.get_real(&[vr], &mut drag)?;
-        }
-        Ok([self.wind_scale * wind[0], self.wind_scale * wind[1], self.wind_scale * drag[0]])
+    /// The wind's loads on the antenna now, scaled as the configuration says (torque about
+    /// azimuth, about elevation, N m; drag on the dish, N, 0 if the wind unit gives none), and
+    /// the wind speed, m/s.
+    fn wind_loads(&mut self) -> Result<([f64; 3], f64), ImportError> {
+        let mut wind = [0.0; 4];
+        let n = self.ports.wind_out.len();
+        self.wind.get_real(&self.ports.wind_out, &mut wind[..n])?;
+        let k = self.wind_scale;
+        Ok(([k * wind[0], k * wind[1], k * wind[3]], wind[2]))
     }
 
     /// Exchanges values at the current communication point, records them, and steps every
@@ -523,17 +525,12 @@ impl CoupledAntenna {
         self.elevation_plant.get_real(&p.el_plant_out, &mut el)?;
 
         self.wind.set_real(&p.wind_in, &[az[1], el[1]])?;
-        let mut wind = [0.0; 3];
-        self.wind.get_real(&p.wind_out, &mut wind)?;
-        let torque_az = self.wind_scale * wind[0];
-        let torque_el = self.wind_scale * wind[1];
+        let (loads, wind_speed) = self.wind_loads()?;
+        let p = &self.ports;
+        let [torque_az, torque_el, _] = loads;
         let mut beam = [0.0; 4];
         if let Some(structure) = &mut self.structure {
-            let mut drag = [0.0];
-            if let Some(vr) = p.wind_drag {
-                self.wind.get_real(&[vr], &mut drag)?;
-            }
-            structure.set_real(&p.structure_in, &[torque_az, torque_el, self.wind_scale * drag[0]])?;
+            structure.set_real(&p.structure_in, &loads)?;
             structure.get_real(&p.structure_out, &mut beam)?;
         }
 
@@ -559,7 +556,7 @@ impl CoupledAntenna {
             trace.encoder_elevation_deg.push(el[0]);
             trace.reference_azimuth_deg.push(az_ctrl[2]);
             trace.reference_elevation_deg.push(el_ctrl[1]);
-            trace.wind_speed_m_s.push(if self.wind_scale > 0.0 { wind[2] } else { 0.0 });
+            trace.wind_speed_m_s.push(if self.wind_scale > 0.0 { wind_speed } else { 0.0 });
             trace.wind_torque_azimuth_nm.push(torque_az);
             trace.wind_torque_elevation_nm.push(torque_el);
             trace.current_azimuth_a.push([az[4], az[5]]);
