@@ -455,6 +455,12 @@ impl AzimuthPlant {
         DriveState { sensor_clock: self.sensors.clock(), ..self.core.saved_state() }
     }
 
+    /// [`save_state`](Self::save_state) written over `state`, reusing its storage.
+    pub fn save_state_into(&self, state: &mut DriveState) {
+        self.core.save_into(state);
+        state.sensor_clock = self.sensors.clock();
+    }
+
     /// Restores a state written by [`save_state`](Self::save_state) of a plant with the same
     /// parameters.
     pub fn load_state(&mut self, state: DriveState) -> Result<(), StateError> {
@@ -747,6 +753,27 @@ mod tests {
         // The defaults are seven decades below the bound.
         let (rate, _) = AzimuthPlant::new(d).unwrap().core().fastest_rate();
         assert!(rate < 2e3, "default fastest rate {rate}");
+    }
+
+    #[test]
+    fn a_state_saved_over_a_kept_one_equals_a_fresh_save() {
+        // The runtime keeps one state and saves over it before every step; the delay lines
+        // change length as commands come and go, so the kept vectors must be rewritten whole.
+        let mut params = AzimuthParams::default();
+        params.motors[0].current_command_delay_s = 2.5e-3;
+        let mut plant = AzimuthPlant::new(params).unwrap();
+        let mut kept = plant.save_state();
+        for k in 0..200 {
+            let constant_run = if k % 7 < 3 { 0 } else { k };
+            let inputs = AzimuthInputs {
+                current_command_a: [signal(constant_run, 3), signal(k, 4)],
+                disturbance_torque_nm: 1e4,
+                elevation_deg: 45.0,
+            };
+            plant.step(&inputs, if k % 5 == 0 { 4e-3 } else { 1e-3 }).unwrap();
+            plant.save_state_into(&mut kept);
+            assert_eq!(kept, plant.save_state(), "step {k}");
+        }
     }
 
     #[test]

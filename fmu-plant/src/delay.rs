@@ -66,12 +66,14 @@ impl DelayLine {
         }
     }
 
-    /// The commands kept, `(time issued, command)`, oldest first: the line's state.
-    pub fn entries(&self) -> Vec<(f64, f64)> {
-        self.entries.iter().copied().collect()
+    /// The commands kept, `(time issued, command)`, oldest first (the line's state), written
+    /// over `into`, reusing its storage.
+    pub fn entries_into(&self, into: &mut Vec<(f64, f64)>) {
+        into.clear();
+        into.extend(self.entries.iter().copied());
     }
 
-    /// Restores what [`entries`](Self::entries) returned.
+    /// Restores what [`entries_into`](Self::entries_into) wrote.
     pub fn set_entries(&mut self, entries: Vec<(f64, f64)>) {
         self.entries = entries.into();
     }

@@ -1123,21 +1123,43 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
 
     /// Everything that affects the future (not the caches), bitwise.
     pub fn saved_state(&self) -> DriveState {
-        DriveState {
-            time: self.time,
-            cell: self.cell,
-            x: self.x.as_slice().to_vec(),
-            load_angle_low: self.load_angle_low,
-            load_motion: self.load_motion,
+        let mut state = DriveState {
+            time: 0.0,
+            cell: 0,
+            x: Vec::with_capacity(S),
+            load_angle_low: 0.0,
+            load_motion: Motion::Forward,
             sensor_clock: SampleClock::default(),
-            paths: (0..P)
-                .map(|k| PathState {
-                    motor_motion: self.motor_motion[k],
-                    mesh: self.mesh[k],
-                    delay: self.delay[k].entries(),
-                    anchor: (self.model.presliding_stiffness[k] > 0.0).then_some(self.anchor[k]),
-                })
-                .collect(),
+            paths: Vec::with_capacity(P),
+        };
+        self.save_into(&mut state);
+        state
+    }
+
+    /// [`saved_state`](Self::saved_state) written over `state`, reusing its vectors (the
+    /// runtime keeps a state before every step: this way the step does not allocate). The
+    /// sensor clock is left as it is: the plants write their own.
+    pub fn save_into(&self, state: &mut DriveState) {
+        state.time = self.time;
+        state.cell = self.cell;
+        state.x.clear();
+        state.x.extend_from_slice(self.x.as_slice());
+        state.load_angle_low = self.load_angle_low;
+        state.load_motion = self.load_motion;
+        state.paths.truncate(P);
+        while state.paths.len() < P {
+            state.paths.push(PathState {
+                motor_motion: Motion::Forward,
+                mesh: Mesh::PositiveFlank,
+                delay: Vec::new(),
+                anchor: None,
+            });
+        }
+        for (k, path) in state.paths.iter_mut().enumerate() {
+            path.motor_motion = self.motor_motion[k];
+            path.mesh = self.mesh[k];
+            self.delay[k].entries_into(&mut path.delay);
+            path.anchor = (self.model.presliding_stiffness[k] > 0.0).then_some(self.anchor[k]);
         }
     }
 

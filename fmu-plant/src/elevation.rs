@@ -744,6 +744,12 @@ impl ElevationPlant {
         DriveState { sensor_clock: self.sensors.clock(), ..self.core.saved_state() }
     }
 
+    /// [`save_state`](Self::save_state) written over `state`, reusing its storage.
+    pub fn save_state_into(&self, state: &mut DriveState) {
+        self.core.save_into(state);
+        state.sensor_clock = self.sensors.clock();
+    }
+
     /// Restores a state written by [`save_state`](Self::save_state) of a plant with the same
     /// parameters.
     pub fn load_state(&mut self, state: DriveState) -> Result<(), StateError> {

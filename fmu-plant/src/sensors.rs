@@ -16,7 +16,8 @@
 //! sample period `T_s` (default 1 ms, the controller's sample period), each sample held until
 //! the next sample instant. Sample `k` of a channel is a pure function of the seed, the channel
 //! and `k`: ChaCha12 keyed by the seed (the SplitMix64 expansion of `fmu-wind`), one stream per
-//! channel, words `4k .. 4k + 3` turned into one normal by Box-Muller. The value a master
+//! channel; samples `2j` and `2j + 1` are the two normals (cosine and sine) that Box-Muller
+//! makes of words `4j .. 4j + 3`, so one logarithm and one `sin_cos` give two samples. The value a master
 //! reads at time `t` is therefore the same whatever communication steps led to `t`: 0.5 ms, 1 ms
 //! or 2 ms steps all read sample `k` at `t = k T_s`, and a restored FMU state replays the same
 //! sequence. The alternative, one draw per communication step, would make the noise's
@@ -150,9 +151,100 @@ impl EncoderErrors {
         self.noise_rms_arcsec == 0.0 && self.periodic().all(|p| p.amplitude_arcsec == 0.0)
     }
 
-    /// The sum of the position-periodic errors at an axis angle, rad.
+    /// The sum of the position-periodic errors at an axis angle, rad: the definition, one
+    /// sine per term ([`PeriodicSum`] evaluates the same sum with fewer).
     pub fn periodic_error_rad(&self, angle_rad: f64) -> f64 {
         self.periodic().map(|p| p.error_rad(angle_rad)).sum()
+    }
+}
+
+/// Whole harmonics up to this one are evaluated by rotating the first harmonic.
+const MAX_ROTATED_HARMONIC: usize = 16;
+
+/// The encoder's position-periodic errors prepared so that a reading takes at most a few
+/// `sin_cos` calls instead of one sine per term: the plants read the encoder every step, and
+/// six sines were a tenth of the coupled antenna's time. Each term `A sin(c theta + phi)` is
+/// `A cos(phi) sin(c theta) + A sin(phi) cos(c theta)`. Terms with a whole `c` up to
+/// [`MAX_ROTATED_HARMONIC`] (graduation harmonics, eccentricity) come from `sin_cos(theta)` by
+/// the angle-addition recurrence (its rounding grows by about one ulp per harmonic); a term at
+/// twice another's `c` (the interpolation error's second harmonic) by the double-angle formula;
+/// any other term has its own `sin_cos`. The sum agrees with
+/// [`EncoderErrors::periodic_error_rad`] to about 1e-12 of the amplitudes, the rounding of the
+/// definition's own argument `c theta + phi` at the signal period (some 1e5 rad).
+#[derive(Debug, Clone, PartialEq)]
+struct PeriodicSum {
+    /// Weights `(A cos phi, A sin phi)` in rad of harmonics 1 to `rotated`, summed over terms.
+    harmonic_weights: [(f64, f64); MAX_ROTATED_HARMONIC],
+    /// How many whole harmonics are evaluated (0: none).
+    rotated: usize,
+    /// The other terms, each with a term at twice its cycles if there is one.
+    others: Vec<OwnSineTerm>,
+}
+
+/// A term of [`PeriodicSum`] with its own `sin_cos`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct OwnSineTerm {
+    cycles_per_turn: f64,
+    /// `(A cos phi, A sin phi)`, rad.
+    weights: (f64, f64),
+    /// The weights of the term at twice the cycles (zero if there is none).
+    double_weights: (f64, f64),
+}
+
+impl PeriodicSum {
+    fn new(errors: &EncoderErrors) -> Self {
+        let mut sum =
+            PeriodicSum { harmonic_weights: [(0.0, 0.0); MAX_ROTATED_HARMONIC], rotated: 0, others: Vec::new() };
+        let terms: Vec<&PeriodicError> = errors.periodic().filter(|p| p.amplitude_arcsec != 0.0).collect();
+        let weights = |p: &PeriodicError| {
+            let (sin_phi, cos_phi) = p.phase_deg.to_radians().sin_cos();
+            (p.amplitude_arcsec * ARCSEC * cos_phi, p.amplitude_arcsec * ARCSEC * sin_phi)
+        };
+        let whole = |c: f64| c >= 1.0 && c <= MAX_ROTATED_HARMONIC as f64 && c.fract() == 0.0;
+        let mut doubled = vec![false; terms.len()];
+        for (i, term) in terms.iter().enumerate() {
+            let c = term.cycles_per_turn;
+            if whole(c) {
+                let n = c as usize;
+                let (a, b) = weights(term);
+                sum.harmonic_weights[n - 1].0 += a;
+                sum.harmonic_weights[n - 1].1 += b;
+                sum.rotated = sum.rotated.max(n);
+                continue;
+            }
+            if doubled[i] {
+                continue;
+            }
+            let double = terms.iter().enumerate().position(|(j, other)| {
+                j != i && !doubled[j] && !whole(other.cycles_per_turn) && other.cycles_per_turn == 2.0 * c
+            });
+            let double_weights = match double {
+                Some(j) => {
+                    doubled[j] = true;
+                    weights(terms[j])
+                }
+                None => (0.0, 0.0),
+            };
+            sum.others.push(OwnSineTerm { cycles_per_turn: c, weights: weights(term), double_weights });
+        }
+        sum
+    }
+
+    fn error_rad(&self, angle_rad: f64) -> f64 {
+        let mut total = 0.0;
+        if self.rotated > 0 {
+            let (s1, c1) = angle_rad.sin_cos();
+            let (mut s, mut c) = (s1, c1);
+            for &(a, b) in &self.harmonic_weights[..self.rotated] {
+                total += a * s + b * c;
+                (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+            }
+        }
+        for &OwnSineTerm { cycles_per_turn, weights: (a, b), double_weights: (a2, b2) } in &self.others {
+            let (s, c) = (cycles_per_turn * angle_rad).sin_cos();
+            total += a * s + b * c + a2 * (2.0 * s * c) + b2 * (c * c - s * s);
+        }
+        total
     }
 }
 
@@ -231,8 +323,8 @@ impl SampleClock {
 struct NoiseChannel {
     rms: f64,
     rng: Option<ChaCha12Rng>,
-    /// The sample index and value last drawn.
-    current: Option<(u64, f64)>,
+    /// The index of the Box-Muller pair last drawn and its two samples.
+    current: Option<(u64, [f64; 2])>,
 }
 
 impl NoiseChannel {
@@ -248,24 +340,29 @@ impl NoiseChannel {
     /// Sample `k` of the channel (0 when the channel is off).
     fn sample(&mut self, k: u64) -> f64 {
         let Some(rng) = &mut self.rng else { return 0.0 };
-        if let Some((index, value)) = self.current {
-            if index == k {
-                return value;
+        let pair = k / 2;
+        let half = (k % 2) as usize;
+        if let Some((index, values)) = self.current {
+            if index == pair {
+                return values[half];
             }
         }
-        // Four 32-bit words per sample: sequential reading needs no seek.
-        let position = u128::from(k) * 4;
+        // Four 32-bit words per pair of samples: sequential reading needs no seek.
+        let position = u128::from(pair) * 4;
         if rng.get_word_pos() != position {
             rng.set_word_pos(position);
         }
         let (a, b) = (rng.next_u64(), rng.next_u64());
-        // Box-Muller: u1 in (0, 1], u2 in [0, 1), 53 random bits each.
+        // Box-Muller: u1 in (0, 1], u2 in [0, 1), 53 random bits each; the cosine and the sine
+        // give two independent normals.
         let scale = 1.0 / (1u64 << 53) as f64;
         let u1 = ((a >> 11) + 1) as f64 * scale;
         let u2 = (b >> 11) as f64 * scale;
-        let value = self.rms * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-        self.current = Some((k, value));
-        value
+        let radius = self.rms * (-2.0 * u1.ln()).sqrt();
+        let (sine, cosine) = (std::f64::consts::TAU * u2).sin_cos();
+        let values = [radius * cosine, radius * sine];
+        self.current = Some((pair, values));
+        values[half]
     }
 }
 
@@ -282,6 +379,7 @@ pub(crate) struct Sensors<const P: usize> {
     /// True when the reading is the counted true angle: then nothing is added to it, so the
     /// reading is bit for bit that of the plant before the sensor model.
     exact_encoder: bool,
+    periodic: PeriodicSum,
     clock: SampleClock,
     encoder_noise: NoiseChannel,
     speed_noise: [NoiseChannel; P],
@@ -300,6 +398,7 @@ impl<const P: usize> Sensors<P> {
             params,
             bits,
             exact_encoder: params.encoder.is_exact(),
+            periodic: PeriodicSum::new(&params.encoder),
             clock: SampleClock::default(),
             encoder_noise,
             speed_noise,
@@ -347,7 +446,7 @@ impl<const P: usize> Sensors<P> {
         let sensed = if self.exact_encoder {
             angle_rad
         } else {
-            angle_rad + e.periodic_error_rad(angle_rad) + self.encoder_noise_rad
+            angle_rad + self.periodic.error_rad(angle_rad) + self.encoder_noise_rad
         };
         count(sensed, self.bits, e.count_mode)
     }
@@ -426,6 +525,36 @@ mod tests {
         assert!((rms - 2.0).abs() < 4.0 * 0.0032, "rms {rms}");
         let beyond_three_sigma = samples.iter().filter(|x| x.abs() > 6.0).count() as f64 / n as f64;
         assert!((beyond_three_sigma - 0.0027).abs() < 0.0006, "{beyond_three_sigma}");
+    }
+
+    #[test]
+    fn the_prepared_periodic_sum_equals_one_sine_per_term() {
+        let term = |amplitude_arcsec, cycles_per_turn, phase_deg| PeriodicError {
+            amplitude_arcsec,
+            cycles_per_turn,
+            phase_deg,
+        };
+        let mut errors = EncoderErrors::NONE;
+        errors.graduation = [term(0.6, 2.0, 10.0), term(0.4, 3.0, -70.0), term(0.3, 16.0, 200.0)];
+        errors.interpolation = [term(0.2, 32768.0, 33.0), term(0.1, 65536.0, -5.0)];
+        errors.eccentricity = term(1.5, 1.0, 120.0);
+        // A non-whole harmonic, a second term on the same harmonic, and a lone high one.
+        let mut odd = errors;
+        odd.graduation[1] = term(0.4, 2.5, 15.0);
+        odd.eccentricity = term(1.5, 2.0, 40.0);
+        odd.interpolation[1] = term(0.1, 40000.0, 0.0);
+        for e in [errors, odd] {
+            let sum = PeriodicSum::new(&e);
+            let amplitude: f64 = e.periodic().map(|p| p.amplitude_arcsec * ARCSEC).sum();
+            for k in 0..2000 {
+                let angle = -7.0 + 14.0 * k as f64 / 2000.0;
+                let (fast, reference) = (sum.error_rad(angle), e.periodic_error_rad(angle));
+                // The definition rounds c theta + phi, some 1e5 rad at the signal period, to its
+                // ulp (3e-11 rad): that, not the recurrence, sets the tolerance.
+                assert!((fast - reference).abs() < 1e-11 * amplitude, "{angle}: {fast} vs {reference}");
+            }
+        }
+        assert_eq!(PeriodicSum::new(&EncoderErrors::NONE).error_rad(1.0), 0.0);
     }
 
     #[test]

@@ -124,6 +124,9 @@ pub struct ModelSlot<M: Model> {
     before_step: Values<M::Var>,
     /// The variables a step may write: all a step's undo needs to put back.
     written: WrittenIndices,
+    /// The model's state before the step in progress (kept between steps, as `before_step`,
+    /// so that [`Model::save_state_into`] can reuse its storage); `None` after an undo took it.
+    model_before_step: Option<M::State>,
     /// Whether a String value changed since `before_step` was last copied whole.
     strings_changed: bool,
 }
@@ -136,7 +139,17 @@ impl<M: Model> ModelSlot<M> {
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
         let before_step = values.clone();
         let written = WrittenIndices::of(M::Var::TABLE);
-        Ok(ModelSlot { model, values, guid, access, feedthrough, before_step, written, strings_changed: false })
+        Ok(ModelSlot {
+            model,
+            values,
+            guid,
+            access,
+            feedthrough,
+            before_step,
+            written,
+            model_before_step: None,
+            strings_changed: false,
+        })
     }
 
     fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
@@ -391,14 +404,19 @@ impl<M: Model> DynModel for ModelSlot<M> {
         // Only what a step may write is kept and checked (parameters and inputs are checked by
         // the sets that change them).
         self.before_step.copy_written_from(&self.values, &self.written);
-        let model_before = self.model.save_state();
+        match &mut self.model_before_step {
+            Some(state) => self.model.save_state_into(state),
+            None => self.model_before_step = Some(self.model.save_state()),
+        }
         if let Err(e) = self.model.do_step(&mut self.values, time, step, notes) {
             // Models leave their data untouched on an error; undoing makes sure of it.
+            let model_before = self.model_before_step.take().expect("kept just above");
             self.undo_written(model_before, context)?;
             return Err(e);
         }
         let Some(index) = self.values.first_non_finite_real_among(&self.written.reals) else { return Ok(()) };
         let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
+        let model_before = self.model_before_step.take().expect("kept above");
         self.undo_written(model_before, context)?;
         Err(format!(
             "the step from {time} s by {step} s would give {name} = {value}; it was undone and the instance is as before the step (a parameter or input outside what the model can compute, or a step too long for it)"

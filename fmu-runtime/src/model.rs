@@ -144,10 +144,17 @@ pub trait Model: Sized + Send + 'static {
 
     /// Everything that determines the model's future beyond its variable values (not caches),
     /// as FMU states keep it ([`crate::state`] encodes it).
-    type State: Serialize + DeserializeOwned;
+    type State: Serialize + DeserializeOwned + Send;
 
     /// The model's part of an FMU state.
     fn save_state(&self) -> Self::State;
+
+    /// [`Model::save_state`] written over `state`, which holds an earlier one. The runtime
+    /// keeps the model's state before every step to undo a step that fails; models whose state
+    /// holds vectors override this to reuse their storage, so that a step does not allocate.
+    fn save_state_into(&self, state: &mut Self::State) {
+        *state = self.save_state();
+    }
 
     /// Restores what [`Model::save_state`] returned (possibly in another instance or process)
     /// into a model just created by [`Model::new`] from `values`, which are already restored.

@@ -280,6 +280,29 @@ pub fn format(entries: &[(String, ParameterValue, String)]) -> String {
     out
 }
 
+/// Loads the parameter file named by a model's `parameter_file` variable `file_var` (nothing
+/// when it is empty), resolving a relative path against the FMU's resources folder, so that
+/// `realistic.params` finds the shipped file. The models call it from
+/// [`Model::string_changed`], so a bad file is refused by the call that names it.
+pub fn load_file<M: Model>(
+    file_var: M::Var,
+    values: &mut Values<M::Var>,
+    context: &crate::model::Context,
+) -> Result<(), String> {
+    let name = values.string(file_var).to_string();
+    if name.is_empty() {
+        return Ok(());
+    }
+    let path = std::path::PathBuf::from(&name);
+    let path = match &context.resource_dir {
+        Some(dir) if path.is_relative() => dir.join(&path),
+        _ => path,
+    };
+    let text = crate::files::read_regular_file(&path, crate::files::MAX_PARAMETER_FILE_BYTES, "parameter file")?;
+    apply::<M>(&text, &path.display().to_string(), values)?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

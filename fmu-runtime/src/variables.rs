@@ -8,6 +8,7 @@
 
 use std::fmt;
 use std::marker::PhantomData;
+use std::ops::Range;
 
 use serde::{Deserialize, Serialize};
 
@@ -358,9 +359,11 @@ pub trait VariableSet: Copy + Send + Sync + 'static + fmt::Debug {
 /// are written by a step, so keeping and checking only these is a few times cheaper.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct WrittenIndices {
-    pub reals: Vec<usize>,
-    pub integers: Vec<usize>,
-    pub booleans: Vec<usize>,
+    /// Runs of consecutive indices, so that keeping them is a few block copies rather than
+    /// one indexed copy per variable (tables declare their outputs together).
+    pub reals: Vec<Range<usize>>,
+    pub integers: Vec<Range<usize>>,
+    pub booleans: Vec<Range<usize>>,
 }
 
 impl WrittenIndices {
@@ -371,13 +374,21 @@ impl WrittenIndices {
                 continue;
             }
             match var.base_type() {
-                BaseType::Real => written.reals.push(i),
-                BaseType::Integer => written.integers.push(i),
-                BaseType::Boolean => written.booleans.push(i),
+                BaseType::Real => Self::add(&mut written.reals, i),
+                BaseType::Integer => Self::add(&mut written.integers, i),
+                BaseType::Boolean => Self::add(&mut written.booleans, i),
                 BaseType::String => {}
             }
         }
         written
+    }
+
+    /// Adds index `i` (indices come in increasing order): it extends the last run or starts one.
+    fn add(runs: &mut Vec<Range<usize>>, i: usize) {
+        match runs.last_mut() {
+            Some(run) if run.end == i => run.end = i + 1,
+            _ => runs.push(i..i + 1),
+        }
     }
 }
 
@@ -467,25 +478,26 @@ impl<V: VariableSet> Values<V> {
 
     /// Copies the numbers and booleans at the given indices of `source` (one list per type).
     pub(crate) fn copy_written_from(&mut self, source: &Self, written: &WrittenIndices) {
-        for &i in &written.reals {
-            self.reals[i] = source.reals[i];
+        for run in &written.reals {
+            self.reals[run.clone()].copy_from_slice(&source.reals[run.clone()]);
         }
-        for &i in &written.integers {
-            self.integers[i] = source.integers[i];
+        for run in &written.integers {
+            self.integers[run.clone()].copy_from_slice(&source.integers[run.clone()]);
         }
-        for &i in &written.booleans {
-            self.booleans[i] = source.booleans[i];
+        for run in &written.booleans {
+            self.booleans[run.clone()].copy_from_slice(&source.booleans[run.clone()]);
         }
     }
 
-    /// The first of the given Real variables whose value is NaN or infinite, by index.
-    pub(crate) fn first_non_finite_real_among(&self, indices: &[usize]) -> Option<usize> {
+    /// The first of the Real variables in the given runs of indices whose value is NaN or
+    /// infinite, by index.
+    pub(crate) fn first_non_finite_real_among(&self, runs: &[Range<usize>]) -> Option<usize> {
         // As `first_non_finite_real`: one pass without branches in the common case.
-        let probe: f64 = indices.iter().map(|&i| self.reals[i] * 0.0).sum();
+        let probe: f64 = runs.iter().map(|run| self.reals[run.clone()].iter().map(|x| x * 0.0).sum::<f64>()).sum();
         if probe == 0.0 {
             return None;
         }
-        indices.iter().copied().find(|&i| !self.reals[i].is_finite())
+        runs.iter().flat_map(Clone::clone).find(|&i| !self.reals[i].is_finite())
     }
 
     /// The first Real variable whose value is NaN or infinite, by index.

@@ -159,6 +159,13 @@ impl Model for StructureModel {
         }
     }
 
+    fn save_state_into(&self, state: &mut StructureState) {
+        match (&self.structure, state) {
+            (Some(structure), StructureState::Initialized(kept)) => structure.save_state_into(kept),
+            (_, state) => *state = self.save_state(),
+        }
+    }
+
     fn load_state(&mut self, state: StructureState, values: &Values<StructureVar>) -> Result<(), StateError> {
         let StructureState::Initialized(saved) = state else {
             self.structure = None;

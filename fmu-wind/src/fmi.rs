@@ -115,6 +115,8 @@ declare_variables! {
             .description("Vertical lift coefficient C_L = -C_L0 sin(2 el) cos(yaw) at the current pointing (estimate, docs/wind-model.md)."),
         CoherenceDecay = Var::real("wind.coherence_decay", "1").parameter().start(8.0).min(1.0).max(20.0)
             .description("Decay constant C of the gust's exponential coherence exp(-C n r / U), used by wind.admittance = 2 only. Estimate: 8, range 7-10 (docs/research/antenna-parameters-survey.md, section 4)."),
+        ParameterFile = Var::string("parameter_file").parameter().start_string("")
+            .description("A file of name = value lines applied when this parameter is set (relative paths are looked up in the resources folder): realistic.params holds the realistic antenna's wind parameters (docs/parameters.md), defaults.params every default."),
     }
 }
 
@@ -318,6 +320,13 @@ impl Model for WindModel {
         self.write_torques(values);
     }
 
+    fn string_changed(&mut self, var: WindVar, values: &mut Values<WindVar>, context: &Context) -> Result<(), String> {
+        if var == WindVar::ParameterFile {
+            fmu_runtime::params::load_file::<Self>(var, values, context)?;
+        }
+        Ok(())
+    }
+
     type State = WindState;
 
     fn save_state(&self) -> WindState {
@@ -325,6 +334,15 @@ impl Model for WindModel {
             return WindState::NotInitialized;
         }
         WindState::Initialized { gusts: self.generator.as_ref().map(GustGenerator::save_state) }
+    }
+
+    fn save_state_into(&self, state: &mut WindState) {
+        match (&self.generator, state) {
+            (Some(generator), WindState::Initialized { gusts: Some(kept) }) if self.torque.is_some() => {
+                generator.save_state_into(kept)
+            }
+            (_, state) => *state = self.save_state(),
+        }
     }
 
     fn load_state(&mut self, state: WindState, values: &Values<WindVar>) -> Result<(), StateError> {

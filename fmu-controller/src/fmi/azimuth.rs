@@ -166,6 +166,10 @@ impl Model for AzimuthControllerModel {
         }
     }
 
+    fn save_state_into(&self, state: &mut ControllerState<AzimuthOutputs>) {
+        state.overwrite(self.controller.as_ref().map(AzimuthController::save_state), self.scheduler.as_ref());
+    }
+
     fn load_state(
         &mut self,
         state: ControllerState<AzimuthOutputs>,

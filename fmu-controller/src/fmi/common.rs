@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::cascade::CascadeState;
 use crate::params::CascadeParams;
 use crate::status::AxisStatus;
-use crate::timing::SchedulerState;
+use crate::timing::{SampleScheduler, SchedulerState};
 
 /// A controller FMU's part of an FMU state, for outputs `O`; both parts are absent before
 /// initialisation, and the scheduler before the first step.
@@ -16,6 +16,18 @@ use crate::timing::SchedulerState;
 pub struct ControllerState<O> {
     pub cascade: Option<CascadeState>,
     pub scheduler: Option<SchedulerState<O>>,
+}
+
+impl<O: Clone> ControllerState<O> {
+    /// Writes a controller's state over this one, reusing the pending outputs' storage (the
+    /// runtime keeps a state before every step: this way the step does not allocate).
+    pub fn overwrite(&mut self, cascade: Option<CascadeState>, scheduler: Option<&SampleScheduler<O>>) {
+        self.cascade = cascade;
+        match (scheduler, &mut self.scheduler) {
+            (Some(scheduler), Some(kept)) => scheduler.save_into(kept),
+            (scheduler, kept) => *kept = scheduler.map(SampleScheduler::saved_state),
+        }
+    }
 }
 
 const ARCSEC_DEG: f64 = 1.0 / 3600.0;

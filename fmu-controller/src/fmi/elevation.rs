@@ -167,6 +167,10 @@ impl Model for ElevationControllerModel {
         }
     }
 
+    fn save_state_into(&self, state: &mut ControllerState<ElevationOutputs>) {
+        state.overwrite(self.controller.as_ref().map(ElevationController::save_state), self.scheduler.as_ref());
+    }
+
     fn load_state(
         &mut self,
         state: ControllerState<ElevationOutputs>,

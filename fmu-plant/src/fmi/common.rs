@@ -1,7 +1,7 @@
 //! Pieces shared by the two plant FMUs: motor and friction parameter groups read from the
 //! variable values, the sensor parameters, the parameter-file hook and the model information.
 
-use fmu_runtime::{Context, DefaultExperiment, EnumerationType, ModelInfo, Values, VariableSet};
+use fmu_runtime::{DefaultExperiment, EnumerationType, ModelInfo, Values, VariableSet};
 
 use crate::params::{CoggingParams, FrictionParams, MotorParams, NumericsParams};
 use crate::sensors::{CountMode, EncoderErrors, PeriodicError, SensorParams};
@@ -189,32 +189,6 @@ impl<V: VariableSet> NumericsVars<V> {
             cache_capacity: v.integer(self.cache_capacity) as usize,
         }
     }
-}
-
-/// Loads the parameter file named by a `parameter_file` variable, resolving a relative path
-/// against the FMU's resources folder (so `linear.params` finds the shipped file).
-pub fn load_parameter_file<M: fmu_runtime::Model>(
-    file_var: M::Var,
-    values: &mut Values<M::Var>,
-    context: &Context,
-) -> Result<(), String> {
-    let name = values.string(file_var).to_string();
-    if name.is_empty() {
-        return Ok(());
-    }
-    let path = std::path::PathBuf::from(&name);
-    let path = if path.is_absolute() {
-        path
-    } else {
-        match &context.resource_dir {
-            Some(dir) => dir.join(&path),
-            None => path,
-        }
-    };
-    let text =
-        fmu_runtime::files::read_regular_file(&path, fmu_runtime::files::MAX_PARAMETER_FILE_BYTES, "parameter file")?;
-    fmu_runtime::params::apply::<M>(&text, &path.display().to_string(), values)?;
-    Ok(())
 }
 
 /// The work of a plant step of `step` seconds in pieces (what the drive train cuts a step

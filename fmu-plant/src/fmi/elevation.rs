@@ -6,9 +6,9 @@ use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateErro
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    load_parameter_file, model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
-    SensorVars, COUNT_MODE, MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH,
-    MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE, MIN_MOTOR_INERTIA, TINY,
+    model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
+    MAX_AXIAL_DAMPING, MAX_AXIAL_STIFFNESS, MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_SPEED_NOISE,
+    MIN_MOTOR_INERTIA, TINY,
 };
 use super::common::{
     MAX_AXIAL_BACKLASH, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_GEOMETRY_LENGTH,
@@ -400,7 +400,7 @@ impl Model for ElevationPlantModel {
 
     fn string_changed(&mut self, var: ElVar, values: &mut Values<ElVar>, context: &Context) -> Result<(), String> {
         if var == ElVar::ParameterFile {
-            load_parameter_file::<Self>(var, values, context)?;
+            fmu_runtime::params::load_file::<Self>(var, values, context)?;
         }
         Ok(())
     }
@@ -410,6 +410,13 @@ impl Model for ElevationPlantModel {
 
     fn save_state(&self) -> Option<DriveState> {
         self.plant.as_ref().map(|plant| plant.save_state())
+    }
+
+    fn save_state_into(&self, state: &mut Option<DriveState>) {
+        match (&self.plant, state.as_mut()) {
+            (Some(plant), Some(kept)) => plant.save_state_into(kept),
+            _ => *state = self.save_state(),
+        }
     }
 
     fn load_state(&mut self, state: Option<DriveState>, values: &Values<ElVar>) -> Result<(), StateError> {

@@ -12,14 +12,9 @@ use fmu_structure::modes::{parse_modes, write_modes, DEFAULT_MODES, DEFAULT_MODE
 use super::coupled::{AntennaConfig, Overrides, ParameterValue};
 use super::scenario::{wind_direction_deg, Scenario, WIND_YAW_DEG};
 
-/// The plants' sub-step while Stribeck friction is on (`numerics.nonlinear_substep`), s. The
-/// plant holds the Stribeck excess over each sub-step; the fastest friction feedback it holds
-/// has a time constant of about 0.1 s at the load (load inertia 8.5e5 kg m^2 over the
-/// bearing's friction slope near the 0.005 deg/s Stribeck speed, about 7e6 N m s/rad) and
-/// 0.02 s at a motor, so holding it for the 1 ms communication step errs by a few percent of
-/// that feedback. Measured on the requirement report: every figure the same to its printed
-/// digit as with the FMU's default 0.1 ms, at a tenth of the sub-steps.
-pub const STRIBECK_SUBSTEP_S: f64 = 1e-3;
+/// The plants' sub-step while Stribeck friction is on: one value for the master and the
+/// packaged `realistic.params`.
+pub use antenna_fmus::parameters::STRIBECK_SUBSTEP_S;
 
 /// A named configuration of the whole antenna.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

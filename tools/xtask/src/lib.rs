@@ -161,7 +161,11 @@ pub fn write_fmu(spec: &FmuSpec, shared_library: &Path, output: &Path) -> Result
         ("modelDescription.xml".to_string(), (spec.model_description)().into_bytes(), 0o644),
         (format!("binaries/linux64/{}.so", spec.model_identifier), binary, 0o755),
     ];
-    for (path, bytes) in (spec.resources)() {
+    let mut resources = (spec.resources)();
+    if let Some(text) = antenna_fmus::parameters::realistic_parameter_file(spec.model_identifier) {
+        resources.push((antenna_fmus::parameters::REALISTIC_PARAMETER_FILE.to_string(), text.into_bytes()));
+    }
+    for (path, bytes) in resources {
         if path.contains("..") || path.starts_with('/') {
             return Err(XtaskError::ResourceOutsideFolder(path));
         }
