@@ -264,7 +264,8 @@ pub fn render_markdown(parameters: &[UncertainParameter]) -> String {
          FMUs' start values with no structure and a coherent gust; the default applies the default \
          column) and `antenna sweep` read. Edit the CSV, not this file. Scale says how a sweep \
          spreads its samples over the range; basis says whether the default comes from a source, \
-         from the paper, or is an estimate.\n\n\
+         from the paper, or is an estimate. Each plant and the wind ship the default column for \
+         their variables as `resources/realistic.params` (`parameter_file = realistic.params`).\n\n\
          | parameter | unit | paper | default | range | scale | sets | basis | source or reasoning |\n\
          |---|---|---|---|---|---|---|---|---|\n",
     );
