@@ -41,41 +41,58 @@ pub struct ModalStructure {
     modes: Vec<Mode>,
     /// `(q, q')` of each mode.
     states: Vec<[f64; 2]>,
+    /// The axes' speeds (rad/s) at the start of the previous step and its length, s: the
+    /// acceleration over it is the difference of the speeds over the length.
+    previous_speeds: Option<([f64; 2], f64)>,
+    /// The axes' accelerations held over the current step, rad/s^2.
+    accelerations: [f64; 2],
     /// The discretisation for the last step size (masters usually keep one): a cache, not state.
     cache: Option<(u64, Vec<ModeStep>)>,
 }
 
-/// The structure's part of an FMU state: every mode's coordinate and velocity.
+/// The structure's part of an FMU state: every mode's coordinate and velocity, and what the
+/// axes' accelerations are computed from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModalState {
     pub states: Vec<[f64; 2]>,
+    pub previous_speeds: Option<([f64; 2], f64)>,
+    pub accelerations: [f64; 2],
 }
 
 impl ModalStructure {
     /// The structure at rest in the static deflection under `loads`.
     pub fn at_rest(modes: Vec<Mode>, loads: &[f64; 3]) -> ModalStructure {
         let states = modes.iter().map(|m| [m.static_coordinate(loads), 0.0]).collect();
-        ModalStructure { modes, states, cache: None }
+        ModalStructure { modes, states, previous_speeds: None, accelerations: [0.0; 2], cache: None }
     }
 
     pub fn modes(&self) -> &[Mode] {
         &self.modes
     }
 
-    /// Advances by `step` seconds with the loads held constant. A step whose result is not
+    /// Advances by `step` seconds with the loads held constant. `speeds` are the axes' speeds
+    /// (rad/s, azimuth and elevation) at the start of the step: the axes' accelerations held
+    /// over it are their mean over the previous step (zero on the first step), whose inertial
+    /// loads the modes feel as the drives swing the structure. A step whose result is not
     /// finite (loads far beyond any structure) changes nothing and is an error.
-    pub fn step(&mut self, loads: &[f64; 3], step: f64) -> Result<(), String> {
+    pub fn step(&mut self, loads: &[f64; 3], speeds: &[f64; 2], step: f64) -> Result<(), String> {
         let key = step.to_bits();
         if self.cache.as_ref().is_none_or(|(k, _)| *k != key) {
             self.cache = Some((key, self.modes.iter().map(|m| ModeStep::new(m, step)).collect()));
         }
+        let accelerations = match self.previous_speeds {
+            Some((previous, length)) => [0, 1].map(|k| (speeds[k] - previous[k]) / length),
+            None => [0.0; 2],
+        };
         let (_, steps) = self.cache.as_ref().expect("filled above");
         let next: Vec<[f64; 2]> = self
             .modes
             .iter()
             .zip(steps)
             .zip(&self.states)
-            .map(|((mode, s), x)| s.apply(*x, mode.static_coordinate(loads)))
+            .map(|((mode, s), x)| {
+                s.apply(*x, mode.static_coordinate(loads) + mode.inertial_load(&accelerations) / mode.stiffness)
+            })
             .collect();
         if let Some(k) = next.iter().position(|x| !x.iter().all(|v| v.is_finite())) {
             return Err(format!(
@@ -84,6 +101,8 @@ impl ModalStructure {
             ));
         }
         self.states = next;
+        self.previous_speeds = Some((*speeds, step));
+        self.accelerations = accelerations;
         Ok(())
     }
 
@@ -97,12 +116,12 @@ impl ModalStructure {
         offset
     }
 
-    /// The quasi-static beam offset, rad: where the beam would settle under `loads` held for
-    /// ever.
+    /// The quasi-static beam offset, rad: where the beam would settle under `loads` and the
+    /// accelerations of the current step held for ever.
     pub fn static_offset(&self, loads: &[f64; 3]) -> [f64; 2] {
         let mut offset = [0.0; 2];
         for mode in &self.modes {
-            let q = mode.static_coordinate(loads);
+            let q = mode.static_coordinate(loads) + mode.inertial_load(&self.accelerations) / mode.stiffness;
             offset[0] += mode.beam[0] * q;
             offset[1] += mode.beam[1] * q;
         }
@@ -110,12 +129,18 @@ impl ModalStructure {
     }
 
     pub fn save_state(&self) -> ModalState {
-        ModalState { states: self.states.clone() }
+        ModalState {
+            states: self.states.clone(),
+            previous_speeds: self.previous_speeds,
+            accelerations: self.accelerations,
+        }
     }
 
     /// [`save_state`](Self::save_state) written over `state`, reusing its storage.
     pub fn save_state_into(&self, state: &mut ModalState) {
         state.states.clone_from(&self.states);
+        state.previous_speeds = self.previous_speeds;
+        state.accelerations = self.accelerations;
     }
 
     /// Restores a saved state into a structure with the same number of modes.
@@ -126,7 +151,14 @@ impl ModalStructure {
         if !state.states.iter().flatten().all(|v| v.is_finite()) {
             return Err("the state holds a non-finite modal coordinate".into());
         }
+        let speeds_finite =
+            state.previous_speeds.is_none_or(|(v, h)| v.iter().all(|x| x.is_finite()) && h.is_finite() && h > 0.0);
+        if !speeds_finite || !state.accelerations.iter().all(|a| a.is_finite()) {
+            return Err("the state holds a non-finite axis speed, step or acceleration".into());
+        }
         self.states = state.states;
+        self.previous_speeds = state.previous_speeds;
+        self.accelerations = state.accelerations;
         Ok(())
     }
 }
@@ -144,7 +176,7 @@ mod tests {
         let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015)], &[0.0; 3]);
         let loads = [1e4, 0.0, 0.0];
         for _ in 0..30_000 {
-            s.step(&loads, 1e-3).unwrap();
+            s.step(&loads, &[0.0; 2], 1e-3).unwrap();
         }
         let expected = 1e4 / 4e8;
         assert!((s.beam_offset()[0] / expected - 1.0).abs() < 1e-6, "{:?}", s.beam_offset());
@@ -152,13 +184,34 @@ mod tests {
     }
 
     #[test]
+    fn a_constant_axis_acceleration_deflects_the_beam_by_minus_acceleration_over_omega_squared() {
+        // The axis speeds up at 0.5 deg/s^2 (a slew's acceleration): the dish lags the gear by
+        // a / w^2 once the ringing has decayed (1.5 % damping: tau = 1.8 s).
+        let m = mode(6.0, 0.015);
+        let mut s = ModalStructure::at_rest(vec![m.clone()], &[0.0; 3]);
+        let (a, h) = (0.5_f64.to_radians(), 1e-3);
+        for k in 0..30_000 {
+            s.step(&[0.0; 3], &[a * k as f64 * h, 0.0], h).unwrap();
+        }
+        let expected = -a / (m.omega() * m.omega());
+        assert!((s.beam_offset()[0] / expected - 1.0).abs() < 1e-6, "{} against {expected}", s.beam_offset()[0]);
+        assert!((s.static_offset(&[0.0; 3])[0] / expected - 1.0).abs() < 1e-9);
+        // Elevation speeds do not move an azimuth mode.
+        let mut e = ModalStructure::at_rest(vec![m], &[0.0; 3]);
+        for k in 0..1000 {
+            e.step(&[0.0; 3], &[0.0, a * k as f64 * h], h).unwrap();
+        }
+        assert_eq!(e.beam_offset()[0], 0.0);
+    }
+
+    #[test]
     fn one_long_step_equals_many_short_ones() {
         let loads = [1e4, 0.0, 0.0];
         let mut long = ModalStructure::at_rest(vec![mode(6.0, 0.015), mode(9.0, 0.02)], &[0.0; 3]);
         let mut short = long.clone();
-        long.step(&loads, 0.1).unwrap();
+        long.step(&loads, &[0.0; 2], 0.1).unwrap();
         for _ in 0..400 {
-            short.step(&loads, 0.25e-3).unwrap();
+            short.step(&loads, &[0.0; 2], 0.25e-3).unwrap();
         }
         let (a, b) = (long.beam_offset()[0], short.beam_offset()[0]);
         assert!((a - b).abs() < 1e-12 * 1e4 / 4e8, "{a} against {b}");
@@ -172,7 +225,7 @@ mod tests {
         let mut previous = s.beam_offset()[0];
         let mut crossings = Vec::new();
         for k in 1..=20_000 {
-            s.step(&[0.0; 3], h).unwrap();
+            s.step(&[0.0; 3], &[0.0; 2], h).unwrap();
             let now = s.beam_offset()[0];
             if previous > 0.0 && now <= 0.0 {
                 crossings.push(k as f64 * h - h * now / (now - previous));
@@ -190,7 +243,7 @@ mod tests {
         // Kept from a structure with one mode: the vector must be rewritten whole.
         let mut kept = ModalStructure::at_rest(vec![mode(5.0, 0.01)], &[0.0; 3]).save_state();
         for k in 0..10 {
-            s.step(&[1e4 + 1e3 * k as f64, 2e4, 0.0], 1e-3).unwrap();
+            s.step(&[1e4 + 1e3 * k as f64, 2e4, 0.0], &[1e-3 * k as f64, 0.0], 1e-3).unwrap();
             s.save_state_into(&mut kept);
             assert_eq!(kept, s.save_state(), "step {k}");
         }
@@ -199,7 +252,8 @@ mod tests {
     #[test]
     fn a_state_with_another_mode_count_is_refused() {
         let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015)], &[0.0; 3]);
-        let error = s.load_state(ModalState { states: vec![[0.0; 2]; 2] }).unwrap_err();
+        let state = ModalState { states: vec![[0.0; 2]; 2], previous_speeds: None, accelerations: [0.0; 2] };
+        let error = s.load_state(state).unwrap_err();
         assert!(error.contains("2 modes"), "{error}");
     }
 }

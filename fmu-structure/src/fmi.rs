@@ -18,6 +18,9 @@ pub const MAX_LOAD_TORQUE: f64 = 1e8;
 /// 13.5 m dish (estimate, order 1e6 N).
 pub const MAX_LOAD_FORCE: f64 = 1e8;
 
+/// Largest axis speed, deg/s (either sign): some fifty times a fast slew.
+pub const MAX_AXIS_SPEED: f64 = 100.0;
+
 const LOAD_INPUTS: &[u32] =
     &[StructureVar::AzTorque as u32, StructureVar::ElTorque as u32, StructureVar::DishForce as u32];
 
@@ -42,6 +45,10 @@ declare_variables! {
             .description("Modes file (name = value lines: mode<k>.frequency, damping, stiffness, azimuth_torque, elevation_torque, dish_force, beam_azimuth, beam_elevation; docs/structure-model.md); relative paths are looked up in the resources folder. The shipped structure_modes.params holds one estimated 6 Hz mode per axis."),
         ModeCount = Var::integer("mode_count").calculated_parameter()
             .description("Number of modes read from modes_file."),
+        AzSpeed = Var::real("axis.azimuth_speed", "deg/s").input().start(0.0).min(-MAX_AXIS_SPEED).max(MAX_AXIS_SPEED)
+            .description("Load-side azimuth speed (the plant's axis.speed): its change over each step is the azimuth acceleration whose inertial load the modes feel, -(stiffness / (2 pi frequency)^2) times azimuth_torque times the acceleration (docs/structure-model.md). Leave it at 0 for wind loads alone."),
+        ElSpeed = Var::real("axis.elevation_speed", "deg/s").input().start(0.0).min(-MAX_AXIS_SPEED).max(MAX_AXIS_SPEED)
+            .description("Load-side elevation speed (the plant's axis.speed): as axis.azimuth_speed, through elevation_torque."),
     }
 }
 
@@ -72,6 +79,11 @@ impl StructureModel {
             _ => path,
         };
         read_modes(&path).map_err(|e| e.to_string())
+    }
+
+    /// The axes' speeds, rad/s.
+    fn speeds(values: &Values<StructureVar>) -> [f64; 2] {
+        [values.real(StructureVar::AzSpeed).to_radians(), values.real(StructureVar::ElSpeed).to_radians()]
     }
 
     fn write_offsets(&self, values: &mut Values<StructureVar>) {
@@ -125,7 +137,7 @@ impl Model for StructureModel {
         _notes: &mut Notes,
     ) -> Result<(), String> {
         let structure = self.structure.as_mut().ok_or("the structure model is not initialised")?;
-        structure.step(&Self::loads(values), step)?;
+        structure.step(&Self::loads(values), &Self::speeds(values), step)?;
         self.write_offsets(values);
         Ok(())
     }

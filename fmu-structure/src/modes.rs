@@ -65,6 +65,18 @@ impl Mode {
         self.participation.iter().zip(loads).map(|(p, u)| p * u).sum()
     }
 
+    /// The modal load of the axes' angular accelerations (rad/s^2, azimuth and elevation): the
+    /// inertia of the mode's moving part resisting them, `-(K / w^2) (p_az a_az + p_el a_el)`. A
+    /// mode's modal mass `K / w^2` is carried by an axis through the same participation as a
+    /// torque about it (one rigid outer body on the mode's spring: the dish and the elevation
+    /// structure twisting against the gear). A constant acceleration `a` of an axis with
+    /// participation 1 therefore deflects the coordinate by `-a / w^2`, whatever the stiffness.
+    pub fn inertial_load(&self, accelerations: &[f64; 2]) -> f64 {
+        let w = self.omega();
+        -self.stiffness / (w * w)
+            * (self.participation[0] * accelerations[0] + self.participation[1] * accelerations[1])
+    }
+
     /// The static deflection of the modal coordinate under constant loads.
     pub fn static_coordinate(&self, loads: &[f64; 3]) -> f64 {
         self.modal_load(loads) / self.stiffness

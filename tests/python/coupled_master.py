@@ -197,9 +197,9 @@ class CoupledAntenna:
             ("antenna.azimuth", az0),
             ("antenna.elevation", el0),
         ] + more("Wind"))
-        self.az_plant_out = self.az_plant.port(["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current"])
+        self.az_plant_out = self.az_plant.port(["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current", "axis.speed"])
         self.az_plant_in = self.az_plant.port(["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"])
-        self.el_plant_out = self.el_plant.port(["axis.encoder_position", "axis.position", "motor.speed", "motor.current"])
+        self.el_plant_out = self.el_plant.port(["axis.encoder_position", "axis.position", "motor.speed", "motor.current", "axis.speed"])
         self.el_plant_in = self.el_plant.port(["motor.current_command", "load.disturbance_torque"])
         self.az_ctrl_in = self.az_ctrl.port(["command.position", "command.velocity", "measured.position", "measured.motor1_speed", "measured.motor2_speed"])
         self.az_ctrl_out = self.az_ctrl.port(["motor1.current_command", "motor2.current_command", "status.reference_position"])
@@ -215,7 +215,11 @@ class CoupledAntenna:
             loads = self.wind_loads()
             self.structure = Unit("Structure", "structure", start_time, more("Structure") + list(
                 zip(("torque.azimuth", "torque.elevation", "force.dish"), loads)))
-            self.structure_in = self.structure.port(["torque.azimuth", "torque.elevation", "force.dish"])
+            # The axes' speeds, where the structure takes them: their changes swing it.
+            speeds = ["axis.azimuth_speed", "axis.elevation_speed"]
+            self.structure_speeds = all(name in self.structure.variables for name in speeds)
+            self.structure_in = self.structure.port(
+                ["torque.azimuth", "torque.elevation", "force.dish"] + (speeds if self.structure_speeds else []))
             self.structure_out = self.structure.port(["beam.azimuth_offset", "beam.elevation_offset",
                                                       "beam.azimuth_offset_static", "beam.elevation_offset_static"])
             self.units.append(self.structure)
@@ -245,6 +249,8 @@ class CoupledAntenna:
             drag = self.wind.get(self.wind_drag)[0] if self.wind_drag else 0.0
             s_in = self.structure_in[1]
             s_in[0], s_in[1], s_in[2] = torque_az, torque_el, self.wind_scale * drag
+            if self.structure_speeds:
+                s_in[3], s_in[4] = az[6], el[4]
             self.structure.set(self.structure_in)
             beam = tuple(self.structure.get(self.structure_out))
         a_in = self.az_ctrl_in[1]

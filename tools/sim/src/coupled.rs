@@ -317,9 +317,9 @@ fn apply_overrides(
 
 /// Value references used at every step, looked up once by name.
 struct Ports {
-    az_plant_out: [u32; 6],
+    az_plant_out: [u32; 7],
     az_plant_in: [u32; 4],
-    el_plant_out: [u32; 4],
+    el_plant_out: [u32; 5],
     el_plant_in: [u32; 2],
     az_ctrl_in: [u32; 5],
     az_ctrl_out: [u32; 3],
@@ -329,7 +329,9 @@ struct Ports {
     /// Torque about azimuth, about elevation, wind speed and, where the wind unit gives one, the
     /// drag on the dish: read in one call.
     wind_out: Vec<u32>,
-    structure_in: [u32; 3],
+    /// Torque about azimuth, about elevation, force on the dish and, where the structure takes
+    /// them, the axes' speeds (whose changes swing the structure).
+    structure_in: Vec<u32>,
     structure_out: [u32; 4],
 }
 
@@ -358,13 +360,17 @@ impl Ports {
                     "motor2.speed",
                     "motor1.current",
                     "motor2.current",
+                    "axis.speed",
                 ],
             )?,
             az_plant_in: vrs(
                 ap,
                 ["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"],
             )?,
-            el_plant_out: vrs(ep, ["axis.encoder_position", "axis.position", "motor.speed", "motor.current"])?,
+            el_plant_out: vrs(
+                ep,
+                ["axis.encoder_position", "axis.position", "motor.speed", "motor.current", "axis.speed"],
+            )?,
             el_plant_in: vrs(ep, ["motor.current_command", "load.disturbance_torque"])?,
             az_ctrl_in: vrs(
                 ac,
@@ -385,7 +391,13 @@ impl Ports {
                 out.extend(w.vr("force.drag").ok());
                 out
             },
-            structure_in: vrs(s, ["torque.azimuth", "torque.elevation", "force.dish"])?,
+            structure_in: {
+                let mut inputs = vrs(s, ["torque.azimuth", "torque.elevation", "force.dish"])?.to_vec();
+                if let Ok(speeds) = vrs(s, ["axis.azimuth_speed", "axis.elevation_speed"]) {
+                    inputs.extend(speeds);
+                }
+                inputs
+            },
             structure_out: vrs(
                 s,
                 [
@@ -519,9 +531,9 @@ impl CoupledAntenna {
         let p = &self.ports;
         let command = table.at(t);
 
-        let mut az = [0.0; 6];
+        let mut az = [0.0; 7];
         self.azimuth_plant.get_real(&p.az_plant_out, &mut az)?;
-        let mut el = [0.0; 4];
+        let mut el = [0.0; 5];
         self.elevation_plant.get_real(&p.el_plant_out, &mut el)?;
 
         self.wind.set_real(&p.wind_in, &[az[1], el[1]])?;
@@ -530,7 +542,8 @@ impl CoupledAntenna {
         let [torque_az, torque_el, _] = loads;
         let mut beam = [0.0; 4];
         if let Some(structure) = &mut self.structure {
-            structure.set_real(&p.structure_in, &loads)?;
+            let inputs = [loads[0], loads[1], loads[2], az[6], el[4]];
+            structure.set_real(&p.structure_in, &inputs[..p.structure_in.len()])?;
             structure.get_real(&p.structure_out, &mut beam)?;
         }
 
