@@ -256,6 +256,23 @@ impl selection::Judge for OutputJudge<'_> {
         result
     }
 
+    fn confirm_joint(
+        &mut self,
+        kinds: [Kind; 2],
+        without: &ParameterSet,
+        with: &ParameterSet,
+    ) -> Result<String, String> {
+        let baseline = self.error_of(without).map_err(|e| format!("the model without them does not simulate: {e}"))?;
+        let candidate = self.error_of(with).map_err(|e| format!("the model with them does not simulate: {e}"))?;
+        let parameters = kinds.iter().map(|k| parameter_count(*k, self.data.structure)).sum();
+        let mut comparison = output_error::compare(&baseline, &candidate, parameters, self.alpha);
+        comparison.reason =
+            format!("jointly with {}, against the model before both: {}", kinds[1].name(), comparison.reason);
+        let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
+        self.confirmations.push((kinds[0], comparison));
+        result
+    }
+
     fn prefers(&mut self, incumbent: &ParameterSet, challenger: &ParameterSet, extra: isize) -> bool {
         match (self.error_of(incumbent), self.error_of(challenger)) {
             (Ok(a), Ok(b)) => output_error::compare(&a, &b, extra.max(0) as usize, self.alpha).confirmed,

@@ -554,6 +554,18 @@ pub trait Judge {
     /// refined parameters with it, `Ok` with a note to keep it, `Err` with the reason to
     /// reject it.
     fn confirm(&mut self, kind: Kind, without: &ParameterSet, with: &ParameterSet) -> Result<String, String>;
+    /// Whether two effects taken together may be claimed: the model `with` both against the
+    /// model `without` either, paying for the parameters of both. By default, both confirmed
+    /// each on its own account (a judge that simulates compares the two models directly).
+    fn confirm_joint(
+        &mut self,
+        kinds: [Kind; 2],
+        without: &ParameterSet,
+        with: &ParameterSet,
+    ) -> Result<String, String> {
+        self.confirm(kinds[0], without, with)?;
+        self.confirm(kinds[1], without, with)
+    }
     /// Whether the model `challenger` predicts significantly better than `incumbent`, two
     /// confirmed alternatives of one step (`extra` is how many more parameters the challenger
     /// has). The equation error ranks the candidates; a judge that can compare them overrules
@@ -1097,8 +1109,9 @@ fn swap_retest(
 /// residual of the joint alternative (so neither counts as noise in the other's test) at the
 /// step's level divided by the number of pairs (Bonferroni), each at least the noise in size.
 /// The passing pairs are tried best-ranked first (explained fraction less the BIC penalty of
-/// both); a pair is taken when its refined parameters are admissible and the judge confirms
-/// each effect against the model with only the other.
+/// both); a pair is taken when its refined parameters are admissible, the judge confirms the
+/// pair against the model it extends (paying for both), and each effect against the model
+/// with only the other.
 #[allow(clippy::too_many_arguments)]
 fn search_pair(
     data: &EquationData,
@@ -1176,6 +1189,15 @@ fn search_pair(
         trial.push(b);
         let (refined, refined_fit, iterations) = refine(data, seeded, &trial, weights, options.max_iterations);
         if candidates::admissible(&refined, data).is_err() {
+            continue;
+        }
+        // The pair must first improve on the model it extends. Each member's own confirmation
+        // below is against the joint refit less that member, where the accepted effects have
+        // moved with the pair: three nearly collinear effects (a torque-constant change, the
+        // Coulomb level and the inertia, each a share of the torque) slide along their common
+        // direction, and each member then "confirms" against a model the pair itself made
+        // worse than the one it started from.
+        if judge.confirm_joint([a, b], params, &refined).is_err() {
             continue;
         }
         let only_b = without_effect(a, &refined, params);
