@@ -235,6 +235,27 @@ struct OutputJudge<'a> {
 }
 
 impl OutputJudge<'_> {
+    /// Compares the models `with` and `without` (the former paying for `parameters` more),
+    /// records the comparison under `kind` (its reason prefixed by `context`), and returns it.
+    fn compare_and_record(
+        &mut self,
+        kind: Kind,
+        without: &ParameterSet,
+        with: &ParameterSet,
+        parameters: usize,
+        context: Option<String>,
+    ) -> Result<String, String> {
+        let baseline = self.error_of(without).map_err(|e| format!("the model without it does not simulate: {e}"))?;
+        let candidate = self.error_of(with).map_err(|e| format!("the model with it does not simulate: {e}"))?;
+        let mut comparison = output_error::compare(&baseline, &candidate, parameters, self.alpha);
+        if let Some(context) = context {
+            comparison.reason = format!("{context}: {}", comparison.reason);
+        }
+        let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
+        self.confirmations.push((kind, comparison));
+        result
+    }
+
     fn error_of(&mut self, params: &ParameterSet) -> Result<OutputError, SimulationError> {
         if let Some((_, e)) = self.cache.iter().find(|(p, _)| p == params) {
             return Ok(e.clone());
@@ -247,13 +268,7 @@ impl OutputJudge<'_> {
 
 impl selection::Judge for OutputJudge<'_> {
     fn confirm(&mut self, kind: Kind, without: &ParameterSet, with: &ParameterSet) -> Result<String, String> {
-        let baseline = self.error_of(without).map_err(|e| format!("the model without it does not simulate: {e}"))?;
-        let candidate = self.error_of(with).map_err(|e| format!("the model with it does not simulate: {e}"))?;
-        let comparison =
-            output_error::compare(&baseline, &candidate, parameter_count(kind, self.data.structure), self.alpha);
-        let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
-        self.confirmations.push((kind, comparison));
-        result
+        self.compare_and_record(kind, without, with, parameter_count(kind, self.data.structure), None)
     }
 
     fn confirm_joint(
@@ -262,15 +277,9 @@ impl selection::Judge for OutputJudge<'_> {
         without: &ParameterSet,
         with: &ParameterSet,
     ) -> Result<String, String> {
-        let baseline = self.error_of(without).map_err(|e| format!("the model without them does not simulate: {e}"))?;
-        let candidate = self.error_of(with).map_err(|e| format!("the model with them does not simulate: {e}"))?;
         let parameters = kinds.iter().map(|k| parameter_count(*k, self.data.structure)).sum();
-        let mut comparison = output_error::compare(&baseline, &candidate, parameters, self.alpha);
-        comparison.reason =
-            format!("jointly with {}, against the model before both: {}", kinds[1].name(), comparison.reason);
-        let result = if comparison.confirmed { Ok(comparison.reason.clone()) } else { Err(comparison.reason.clone()) };
-        self.confirmations.push((kinds[0], comparison));
-        result
+        let context = format!("jointly with {}, against the model before both", kinds[1].name());
+        self.compare_and_record(kinds[0], without, with, parameters, Some(context))
     }
 
     fn prefers(&mut self, incumbent: &ParameterSet, challenger: &ParameterSet, extra: isize) -> bool {
