@@ -17,12 +17,20 @@
 //!
 //! The beam points where the load-side axes point plus the structure's offsets; the pointing
 //! error the requirements judge is the command minus the beam.
+//!
+//! A step is the wind exchange (the wind unit told where the axes point, its loads read) and
+//! then two lanes that share nothing within the step: the azimuth plant, its controller and the
+//! structure; the elevation plant, its controller and the wind unit's own step. [`Lanes::Two`]
+//! runs the first lane on a second thread (a Jacobi master's units are independent between
+//! exchanges); every unit sees the same calls with the same values in the same order as on one
+//! thread, so the results are equal bit for bit.
 
 use std::path::Path;
 
 use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
 
-use super::command::CommandTable;
+use super::command::{Command, CommandTable};
+use super::handoff::Handoff;
 
 /// A value for a parameter set by name.
 #[derive(Debug, Clone, PartialEq)]
@@ -427,6 +435,7 @@ pub struct CoupledAntenna {
     /// The configuration's load scale, or 0 for a calm day (the wind unit cannot be set to
     /// zero speed).
     wind_scale: f64,
+    lanes: Lanes,
 }
 
 impl CoupledAntenna {
@@ -488,6 +497,7 @@ impl CoupledAntenna {
             start_time_s: start_time,
             steps_done: 0,
             wind_scale: config.wind_load_scale,
+            lanes: Lanes::One,
         };
         // The wind unit's gust is meaningless without wind: zero torques in that case.
         if w.mean_speed_m_s <= 0.0 {
@@ -516,78 +526,57 @@ impl CoupledAntenna {
     /// azimuth, about elevation, N m; drag on the dish, N, 0 if the wind unit gives none), and
     /// the wind speed, m/s.
     fn wind_loads(&mut self) -> Result<([f64; 3], f64), ImportError> {
-        let mut wind = [0.0; 4];
-        let n = self.ports.wind_out.len();
-        self.wind.get_real(&self.ports.wind_out, &mut wind[..n])?;
-        let k = self.wind_scale;
-        Ok(([k * wind[0], k * wind[1], k * wind[3]], wind[2]))
+        wind_loads(&mut self.wind, &self.ports, self.wind_scale)
+    }
+
+    /// How many threads step this antenna (one unless set).
+    pub fn set_lanes(&mut self, lanes: Lanes) {
+        self.lanes = lanes;
     }
 
     /// Exchanges values at the current communication point, records them, and steps every
     /// unit to the next point.
     pub fn step(&mut self, table: &CommandTable, trace: Option<&mut Trace>) -> Result<(), ImportError> {
-        let t = self.time_s();
-        let h = self.step_s;
-        let p = &self.ports;
-        let command = table.at(t);
+        self.run_steps(table, 1, trace, &mut |_| {})
+    }
 
-        let mut az = [0.0; 7];
-        self.azimuth_plant.get_real(&p.az_plant_out, &mut az)?;
-        let mut el = [0.0; 5];
-        self.elevation_plant.get_real(&p.el_plant_out, &mut el)?;
-
-        self.wind.set_real(&p.wind_in, &[az[1], el[1]])?;
-        let (loads, wind_speed) = self.wind_loads()?;
-        let p = &self.ports;
-        let [torque_az, torque_el, _] = loads;
-        let mut beam = [0.0; 4];
-        if let Some(structure) = &mut self.structure {
-            let inputs = [loads[0], loads[1], loads[2], az[6], el[4]];
-            structure.set_real(&p.structure_in, &inputs[..p.structure_in.len()])?;
-            structure.get_real(&p.structure_out, &mut beam)?;
-        }
-
-        self.azimuth_controller
-            .set_real(&p.az_ctrl_in, &[command.azimuth_deg, command.azimuth_rate_deg_per_s, az[0], az[2], az[3]])?;
-        let mut az_ctrl = [0.0; 3];
-        self.azimuth_controller.get_real(&p.az_ctrl_out, &mut az_ctrl)?;
-        self.elevation_controller
-            .set_real(&p.el_ctrl_in, &[command.elevation_deg, command.elevation_rate_deg_per_s, el[0], el[2]])?;
-        let mut el_ctrl = [0.0; 2];
-        self.elevation_controller.get_real(&p.el_ctrl_out, &mut el_ctrl)?;
-
-        self.azimuth_plant.set_real(&p.az_plant_in, &[az_ctrl[0], az_ctrl[1], torque_az, el[1]])?;
-        self.elevation_plant.set_real(&p.el_plant_in, &[el_ctrl[0], torque_el])?;
-
-        if let Some(trace) = trace {
-            trace.time_s.push(t);
-            trace.command_azimuth_deg.push(command.azimuth_deg);
-            trace.command_elevation_deg.push(command.elevation_deg);
-            trace.azimuth_deg.push(az[1]);
-            trace.elevation_deg.push(el[1]);
-            trace.encoder_azimuth_deg.push(az[0]);
-            trace.encoder_elevation_deg.push(el[0]);
-            trace.reference_azimuth_deg.push(az_ctrl[2]);
-            trace.reference_elevation_deg.push(el_ctrl[1]);
-            trace.wind_speed_m_s.push(if self.wind_scale > 0.0 { wind_speed } else { 0.0 });
-            trace.wind_torque_azimuth_nm.push(torque_az);
-            trace.wind_torque_elevation_nm.push(torque_el);
-            trace.current_azimuth_a.push([az[4], az[5]]);
-            trace.current_elevation_a.push(el[3]);
-            trace.beam_offset_arcsec.push([beam[0], beam[1]]);
-            trace.beam_offset_static_arcsec.push([beam[2], beam[3]]);
-        }
-
-        self.azimuth_plant.do_step(t, h)?;
-        self.elevation_plant.do_step(t, h)?;
-        self.azimuth_controller.do_step(t, h)?;
-        self.elevation_controller.do_step(t, h)?;
-        self.wind.do_step(t, h)?;
-        if let Some(structure) = &mut self.structure {
-            structure.do_step(t, h)?;
-        }
-        self.steps_done += 1;
-        Ok(())
+    /// Takes `steps` communication steps, recording each point in `trace` if given; `progress`
+    /// is called with the fraction done every 1000 steps. With [`Lanes::Two`] the azimuth
+    /// lane runs on a second thread; the values exchanged and every unit's sequence of calls
+    /// are the same as with one, so the results are equal bit for bit.
+    pub fn run_steps(
+        &mut self,
+        table: &CommandTable,
+        steps: u64,
+        trace: Option<&mut Trace>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<(), ImportError> {
+        let mut master = Master {
+            table,
+            start_time_s: self.start_time_s,
+            step_s: self.step_s,
+            first_step: self.steps_done,
+            wind_scale: self.wind_scale,
+            ports: &self.ports,
+            trace,
+        };
+        let mut azimuth = AzimuthLane {
+            plant: &mut self.azimuth_plant,
+            controller: &mut self.azimuth_controller,
+            structure: self.structure.as_mut(),
+            ports: &self.ports,
+        };
+        let mut elevation = ElevationLane {
+            plant: &mut self.elevation_plant,
+            controller: &mut self.elevation_controller,
+            ports: &self.ports,
+        };
+        let (done, result) = match self.lanes {
+            Lanes::One => master.run_on_one_thread(&mut azimuth, &mut elevation, &mut self.wind, steps, progress),
+            Lanes::Two => master.run_on_two_threads(&mut azimuth, &mut elevation, &mut self.wind, steps, progress),
+        };
+        self.steps_done += done;
+        result
     }
 
     /// Runs until `end_time_s`, recording every communication point; `progress` is called
@@ -602,13 +591,311 @@ impl CoupledAntenna {
         let steps = ((end_time_s - start) / self.step_s).round().max(0.0) as u64;
         let mut trace = Trace::default();
         trace.reserve(steps as usize);
-        for k in 0..steps {
-            self.step(table, Some(&mut trace))?;
-            if k % 1000 == 0 {
-                progress(k as f64 / steps as f64);
-            }
-        }
+        self.run_steps(table, steps, Some(&mut trace), progress)?;
         progress(1.0);
         Ok(trace)
+    }
+}
+
+/// How many threads step one coupled run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Lanes {
+    /// Every unit on the calling thread.
+    #[default]
+    One,
+    /// The azimuth lane (plant, controller, structure) on a second thread while the calling
+    /// thread steps the elevation lane and the wind. The two meet once per communication step:
+    /// worth it for one long run on an otherwise idle machine, not for many runs side by side
+    /// (sweeps and the report already keep every core busy with whole runs).
+    Two,
+}
+
+/// The wind's loads on the antenna now, scaled by `scale` (torque about azimuth, about
+/// elevation, N m; drag on the dish, N, 0 if the wind unit gives none), and the wind speed, m/s.
+fn wind_loads(wind: &mut Instance, ports: &Ports, scale: f64) -> Result<([f64; 3], f64), ImportError> {
+    let mut values = [0.0; 4];
+    let n = ports.wind_out.len();
+    wind.get_real(&ports.wind_out, &mut values[..n])?;
+    Ok(([scale * values[0], scale * values[1], scale * values[3]], values[2]))
+}
+
+/// What the azimuth lane is given at a communication point.
+struct AzimuthLaneInput {
+    /// Commanded position, deg, and rate, deg/s.
+    command: [f64; 2],
+    /// The azimuth plant's outputs at this point (`Ports::az_plant_out`).
+    plant: [f64; 7],
+    wind_torque_nm: f64,
+    /// The true elevation, deg (the azimuth load's inertia depends on it).
+    elevation_deg: f64,
+    /// The structure's inputs (`Ports::structure_in`; the first `len` are used).
+    structure: [f64; 5],
+}
+
+/// What the azimuth lane gives back: the values at the point it was given, and the plant's
+/// outputs at the next one.
+struct AzimuthLaneOutput {
+    controller: [f64; 3],
+    beam: [f64; 4],
+    plant_next: [f64; 7],
+}
+
+/// The azimuth plant, its controller and the structure: everything that the azimuth axis and
+/// the beam exchange within a step once the wind's loads are known.
+struct AzimuthLane<'a> {
+    plant: &'a mut Instance,
+    controller: &'a mut Instance,
+    structure: Option<&'a mut Instance>,
+    ports: &'a Ports,
+}
+
+impl AzimuthLane<'_> {
+    fn step(&mut self, t: f64, h: f64, input: &AzimuthLaneInput) -> Result<AzimuthLaneOutput, ImportError> {
+        let p = self.ports;
+        let mut beam = [0.0; 4];
+        if let Some(structure) = self.structure.as_deref_mut() {
+            structure.set_real(&p.structure_in, &input.structure[..p.structure_in.len()])?;
+            structure.get_real(&p.structure_out, &mut beam)?;
+        }
+        let az = &input.plant;
+        self.controller.set_real(&p.az_ctrl_in, &[input.command[0], input.command[1], az[0], az[2], az[3]])?;
+        let mut controller = [0.0; 3];
+        self.controller.get_real(&p.az_ctrl_out, &mut controller)?;
+        self.plant
+            .set_real(&p.az_plant_in, &[controller[0], controller[1], input.wind_torque_nm, input.elevation_deg])?;
+        self.plant.do_step(t, h)?;
+        self.controller.do_step(t, h)?;
+        if let Some(structure) = self.structure.as_deref_mut() {
+            structure.do_step(t, h)?;
+        }
+        let mut plant_next = [0.0; 7];
+        self.plant.get_real(&p.az_plant_out, &mut plant_next)?;
+        Ok(AzimuthLaneOutput { controller, beam, plant_next })
+    }
+}
+
+/// The elevation plant and its controller; the wind unit is stepped with them (its values
+/// were exchanged before the lanes ran).
+struct ElevationLane<'a> {
+    plant: &'a mut Instance,
+    controller: &'a mut Instance,
+    ports: &'a Ports,
+}
+
+/// What the elevation lane gives back: its controller's outputs at the point, the plant's at
+/// the next one.
+struct ElevationLaneOutput {
+    controller: [f64; 2],
+    plant_next: [f64; 5],
+}
+
+impl ElevationLane<'_> {
+    fn step(
+        &mut self,
+        t: f64,
+        h: f64,
+        command: [f64; 2],
+        el: &[f64; 5],
+        wind_torque_nm: f64,
+        wind: &mut Instance,
+    ) -> Result<ElevationLaneOutput, ImportError> {
+        let p = self.ports;
+        self.controller.set_real(&p.el_ctrl_in, &[command[0], command[1], el[0], el[2]])?;
+        let mut controller = [0.0; 2];
+        self.controller.get_real(&p.el_ctrl_out, &mut controller)?;
+        self.plant.set_real(&p.el_plant_in, &[controller[0], wind_torque_nm])?;
+        self.plant.do_step(t, h)?;
+        self.controller.do_step(t, h)?;
+        wind.do_step(t, h)?;
+        let mut plant_next = [0.0; 5];
+        self.plant.get_real(&p.el_plant_out, &mut plant_next)?;
+        Ok(ElevationLaneOutput { controller, plant_next })
+    }
+}
+
+/// A communication point's values once the wind's loads are known: what the lanes are given.
+struct Point {
+    t: f64,
+    command: Command,
+    loads: [f64; 3],
+    wind_speed: f64,
+}
+
+/// The master's side of a run: the clock, the command, the wind exchange, and the trace.
+struct Master<'a, 't> {
+    table: &'a CommandTable,
+    start_time_s: f64,
+    step_s: f64,
+    /// The antenna's step count when this run began.
+    first_step: u64,
+    wind_scale: f64,
+    ports: &'a Ports,
+    trace: Option<&'t mut Trace>,
+}
+
+impl Master<'_, '_> {
+    /// The time of the `k`th step of this run, counted in steps, not accumulated, so that long
+    /// runs do not drift.
+    fn time(&self, k: u64) -> f64 {
+        self.start_time_s + (self.first_step + k) as f64 * self.step_s
+    }
+
+    /// The exchange that comes before the lanes: the command, and the wind unit told where the
+    /// antenna points and asked for its loads.
+    fn point(&self, k: u64, az: &[f64; 7], el: &[f64; 5], wind: &mut Instance) -> Result<Point, ImportError> {
+        let t = self.time(k);
+        let command = self.table.at(t);
+        wind.set_real(&self.ports.wind_in, &[az[1], el[1]])?;
+        let (loads, wind_speed) = wind_loads(wind, self.ports, self.wind_scale)?;
+        Ok(Point { t, command, loads, wind_speed })
+    }
+
+    fn azimuth_input(point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLaneInput {
+        let c = &point.command;
+        AzimuthLaneInput {
+            command: [c.azimuth_deg, c.azimuth_rate_deg_per_s],
+            plant: *az,
+            wind_torque_nm: point.loads[0],
+            elevation_deg: el[1],
+            structure: [point.loads[0], point.loads[1], point.loads[2], az[6], el[4]],
+        }
+    }
+
+    fn elevation_command(point: &Point) -> [f64; 2] {
+        [point.command.elevation_deg, point.command.elevation_rate_deg_per_s]
+    }
+
+    fn record(&mut self, point: &Point, az: &[f64; 7], el: &[f64; 5], a: &AzimuthLaneOutput, e: &ElevationLaneOutput) {
+        let Some(trace) = self.trace.as_deref_mut() else { return };
+        trace.time_s.push(point.t);
+        trace.command_azimuth_deg.push(point.command.azimuth_deg);
+        trace.command_elevation_deg.push(point.command.elevation_deg);
+        trace.azimuth_deg.push(az[1]);
+        trace.elevation_deg.push(el[1]);
+        trace.encoder_azimuth_deg.push(az[0]);
+        trace.encoder_elevation_deg.push(el[0]);
+        trace.reference_azimuth_deg.push(a.controller[2]);
+        trace.reference_elevation_deg.push(e.controller[1]);
+        trace.wind_speed_m_s.push(if self.wind_scale > 0.0 { point.wind_speed } else { 0.0 });
+        trace.wind_torque_azimuth_nm.push(point.loads[0]);
+        trace.wind_torque_elevation_nm.push(point.loads[1]);
+        trace.current_azimuth_a.push([az[4], az[5]]);
+        trace.current_elevation_a.push(el[3]);
+        trace.beam_offset_arcsec.push([a.beam[0], a.beam[1]]);
+        trace.beam_offset_static_arcsec.push([a.beam[2], a.beam[3]]);
+    }
+
+    /// Both plants' outputs where the run begins.
+    fn plant_outputs(
+        &self,
+        azimuth: &mut AzimuthLane,
+        elevation: &mut ElevationLane,
+    ) -> Result<([f64; 7], [f64; 5]), ImportError> {
+        let mut az = [0.0; 7];
+        azimuth.plant.get_real(&self.ports.az_plant_out, &mut az)?;
+        let mut el = [0.0; 5];
+        elevation.plant.get_real(&self.ports.el_plant_out, &mut el)?;
+        Ok((az, el))
+    }
+
+    /// Every lane on this thread. Returns the steps completed and how the run ended.
+    fn run_on_one_thread(
+        &mut self,
+        azimuth: &mut AzimuthLane,
+        elevation: &mut ElevationLane,
+        wind: &mut Instance,
+        steps: u64,
+        progress: &mut dyn FnMut(f64),
+    ) -> (u64, Result<(), ImportError>) {
+        let mut done = 0;
+        let mut body = || -> Result<(), ImportError> {
+            let (mut az, mut el) = self.plant_outputs(azimuth, elevation)?;
+            let h = self.step_s;
+            for k in 0..steps {
+                let point = self.point(k, &az, &el, wind)?;
+                let a = azimuth.step(point.t, h, &Self::azimuth_input(&point, &az, &el))?;
+                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind)?;
+                self.record(&point, &az, &el, &a, &e);
+                (az, el) = (a.plant_next, e.plant_next);
+                done = k + 1;
+                if k % 1000 == 0 {
+                    progress(k as f64 / steps as f64);
+                }
+            }
+            Ok(())
+        };
+        let result = body();
+        (done, result)
+    }
+
+    /// The azimuth lane on a second thread, the rest on this one; they meet at every point
+    /// through two [`Handoff`]s. Returns the steps completed and how the run ended.
+    fn run_on_two_threads(
+        &mut self,
+        azimuth: &mut AzimuthLane,
+        elevation: &mut ElevationLane,
+        wind: &mut Instance,
+        steps: u64,
+        progress: &mut dyn FnMut(f64),
+    ) -> (u64, Result<(), ImportError>) {
+        let (mut az, mut el) = match self.plant_outputs(azimuth, elevation) {
+            Ok(outputs) => outputs,
+            Err(e) => return (0, Err(e)),
+        };
+        let h = self.step_s;
+        // `None` asks the azimuth lane to stop.
+        let to_azimuth: Handoff<Option<(f64, AzimuthLaneInput)>> = Handoff::new();
+        let from_azimuth: Handoff<Result<AzimuthLaneOutput, ImportError>> = Handoff::new();
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                // Tells the master if this thread ends without answering (a panic).
+                let _closing = from_azimuth.closing_on_drop();
+                for n in 1.. {
+                    let Some(Some((t, input))) = to_azimuth.receive(n) else { return };
+                    let output = azimuth.step(t, h, &input);
+                    let failed = output.is_err();
+                    from_azimuth.send(output);
+                    if failed {
+                        return;
+                    }
+                }
+            });
+            let _closing = to_azimuth.closing_on_drop();
+            let mut done = 0;
+            let mut body = || -> Result<(), ImportError> {
+                for k in 0..steps {
+                    let point = match self.point(k, &az, &el, wind) {
+                        Ok(point) => point,
+                        Err(e) => {
+                            to_azimuth.send(None);
+                            return Err(e);
+                        }
+                    };
+                    to_azimuth.send(Some((point.t, Self::azimuth_input(&point, &az, &el))));
+                    let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
+                    let a = from_azimuth
+                        .receive(k + 1)
+                        .expect("the azimuth lane answers every point it is given or panics");
+                    let (a, e) = match (a, e) {
+                        (Ok(a), Ok(e)) => (a, e),
+                        (Err(error), _) => return Err(error),
+                        (Ok(_), Err(error)) => {
+                            to_azimuth.send(None);
+                            return Err(error);
+                        }
+                    };
+                    self.record(&point, &az, &el, &a, &e);
+                    (az, el) = (a.plant_next, e.plant_next);
+                    done = k + 1;
+                    if k % 1000 == 0 {
+                        progress(k as f64 / steps as f64);
+                    }
+                }
+                to_azimuth.send(None);
+                Ok(())
+            };
+            let result = body();
+            (done, result)
+        })
     }
 }

@@ -8,6 +8,7 @@ pub mod command;
 pub mod configuration;
 pub mod coupled;
 pub mod frequency_response;
+mod handoff;
 pub mod metrics;
 pub mod report;
 pub mod scenario;
@@ -16,4 +17,6 @@ pub mod wind_spectra;
 
 pub use command::{Command, CommandPoint, CommandTable};
 pub use configuration::{AntennaSetup, Configuration, ScenarioSettings};
-pub use coupled::{AntennaConfig, CoupledAntenna, ErrorParts, FmuSet, Overrides, ParameterValue, Trace, WindCondition};
+pub use coupled::{
+    AntennaConfig, CoupledAntenna, ErrorParts, FmuSet, Lanes, Overrides, ParameterValue, Trace, WindCondition,
+};
