@@ -73,6 +73,19 @@ impl ErrorFigures {
 }
 
 impl CaseResult {
+    /// Relabels the error figures of a linear axis's log, which `validate` computes in the same
+    /// numbers as a rotary axis of unit radius: metres for radians, newtons for newton metres.
+    fn in_linear_units(&mut self) {
+        for figures in [&mut self.output, &mut self.equation].into_iter().flatten() {
+            figures.unit = match figures.unit.as_str() {
+                "rad" => "m".into(),
+                "rad/s" => "m/s".into(),
+                "N m" => "N".into(),
+                other => other.into(),
+            };
+        }
+    }
+
     pub fn size(&self) -> f64 {
         self.truth.effects.iter().map(|e| e.1).fold(0.0, f64::max)
     }
@@ -240,12 +253,20 @@ pub fn run_case(
         std::fs::read_to_string(&truth_path).map_err(|e| format!("cannot read {}: {e}", truth_path.display()))?;
     let truth = parse_truth(&text)?;
     let clock = std::time::Instant::now();
-    let result = MeasuredLog::read(path)
-        .map_err(|e| e.to_string())
-        .and_then(|log| validate_with(&log, start, options, simulator).map_err(|e| e.to_string()));
+    let mut linear = false;
+    let result = MeasuredLog::read(path).map_err(|e| e.to_string()).and_then(|log| {
+        linear = log.is_linear();
+        validate_with(&log, start, options, simulator).map_err(|e| e.to_string())
+    });
     let seconds = clock.elapsed().as_secs_f64();
     Ok(match result {
-        Ok(validation) => score(&truth, &validation, start, seconds),
+        Ok(validation) => {
+            let mut scored = score(&truth, &validation, start, seconds);
+            if linear {
+                scored.in_linear_units();
+            }
+            scored
+        }
         Err(message) => CaseResult {
             truth,
             found: Vec::new(),
@@ -314,8 +335,8 @@ pub fn run_suite(
 
 const ARCSEC_PER_RAD: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
 
-/// Error figures as text: RMS before -> after in display units (arcsec for angles), ratio,
-/// fit before -> after.
+/// Error figures as text: RMS before -> after in display units (arcsec for angles, mm for a
+/// linear axis's positions), ratio, fit before -> after.
 fn figures_text(f: &Option<ErrorFigures>) -> (String, String, String, String) {
     match f {
         None => ("-".into(), "-".into(), "-".into(), "-".into()),
@@ -324,6 +345,10 @@ fn figures_text(f: &Option<ErrorFigures>) -> (String, String, String, String) {
                 (ARCSEC_PER_RAD, "arcsec")
             } else if f.unit == "rad/s" {
                 (ARCSEC_PER_RAD, "arcsec/s")
+            } else if f.unit == "m" {
+                (1e3, "mm")
+            } else if f.unit == "m/s" {
+                (1e3, "mm/s")
             } else {
                 (1.0, f.unit.as_str())
             };
@@ -703,6 +728,45 @@ mod tests {
         if std::env::var_os("KEEP_FIGURE").is_none() {
             std::fs::remove_file(&path).unwrap();
         }
+    }
+
+    #[test]
+    fn a_linear_axis_case_prints_its_errors_in_millimetres_and_newtons() {
+        let figures = |unit: &str, before: f64| ErrorFigures {
+            channel: "axis position".into(),
+            unit: unit.into(),
+            before,
+            after: before / 10.0,
+            fit_before: 90.0,
+            fit_after: 99.0,
+        };
+        let mut case = CaseResult {
+            truth: CaseTruth {
+                log_file: "log_001.csv".into(),
+                seed: 1,
+                effects: Vec::new(),
+                torque_sigma: 1.0,
+                twist_sigma: 1.0,
+                sample_interval: 0.002,
+            },
+            found: Vec::new(),
+            parameters: Vec::new(),
+            named: true,
+            extras: Vec::new(),
+            equally_consistent: Vec::new(),
+            output: Some(figures("rad", 2e-3)),
+            equation: Some(figures("N m", 30.0)),
+            anti_resonance: None,
+            measured_trough: None,
+            response: None,
+            score_ratio: None,
+            error: None,
+            seconds: 0.0,
+        };
+        assert!(figures_text(&case.output).1.ends_with("arcsec"), "a rotary axis stays in arcsec");
+        case.in_linear_units();
+        assert_eq!(figures_text(&case.output).1, "2.000 -> 0.200 mm");
+        assert_eq!(figures_text(&case.equation).1, "30.000 -> 3.000 N");
     }
 
     #[test]
