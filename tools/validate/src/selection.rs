@@ -396,14 +396,31 @@ pub struct Selection {
 }
 
 impl Selection {
-    /// The candidates the data cannot tell from a found effect (confirmed in the step that
-    /// chose it, and not predicted significantly worse).
+    /// The candidates the data cannot tell from a found effect: confirmed in the step that
+    /// chose it and not predicted significantly worse; and any effect the backward check
+    /// removed whose own step could not tell it from this one (the search took that one first,
+    /// then this one on top, and kept this one: it stands for both, so the label must not
+    /// depend on which the search happened to try first).
     pub fn equally_consistent(&self, kind: Kind) -> Vec<Kind> {
-        self.steps
+        let single = |s: &&Step| s.paired.is_none();
+        let mut alike: Vec<Kind> = self
+            .steps
             .iter()
-            .filter(|s| s.chosen == Some(kind) && s.paired.is_none())
+            .filter(single)
+            .filter(|s| s.chosen == Some(kind))
             .flat_map(|s| s.equally_consistent.iter().copied())
-            .collect()
+            .collect();
+        for (gone, _) in &self.removed {
+            let could_not_tell = self
+                .steps
+                .iter()
+                .filter(single)
+                .any(|s| s.chosen == Some(*gone) && s.equally_consistent.contains(&kind));
+            if could_not_tell && *gone != kind && !alike.contains(gone) {
+                alike.push(*gone);
+            }
+        }
+        alike
     }
 }
 
@@ -1242,4 +1259,62 @@ pub fn final_fit(
 pub fn fit_fixed(data: &EquationData, params: &ParameterSet, weights: &[f64]) -> Fit {
     let channels = model_channels(data, params);
     fit(&channels, &baseline_columns(data, params), &[], weights)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn empty_fit() -> Fit {
+        Fit {
+            channels: Vec::new(),
+            columns: Vec::new(),
+            beta: Vec::new(),
+            covariance: nalgebra::DMatrix::zeros(0, 0),
+            residual: Vec::new(),
+            sigma: Vec::new(),
+            tau: Vec::new(),
+            rss: Vec::new(),
+            used: Vec::new(),
+        }
+    }
+
+    fn step(chosen: Kind, equally_consistent: Vec<Kind>) -> Step {
+        Step {
+            scores: Vec::new(),
+            chosen: Some(chosen),
+            paired: None,
+            threshold: 1e-3,
+            iterations: 1,
+            equally_consistent,
+        }
+    }
+
+    fn selection(removed: Vec<(Kind, String)>) -> Selection {
+        Selection {
+            before: empty_fit(),
+            after: empty_fit(),
+            // The search took viscous first (Coulomb confirmed as well, not beaten), then Coulomb
+            // on top of it.
+            steps: vec![step(Kind::Viscous, vec![Kind::Coulomb]), step(Kind::Coulomb, Vec::new())],
+            found: Vec::new(),
+            corrected: ParameterSet::new(),
+            removed,
+        }
+    }
+
+    #[test]
+    fn an_effect_that_outlives_a_removed_one_it_could_not_be_told_from_carries_its_name() {
+        let kept_both = selection(Vec::new());
+        assert_eq!(kept_both.equally_consistent(Kind::Coulomb), Vec::<Kind>::new());
+        assert_eq!(kept_both.equally_consistent(Kind::Viscous), vec![Kind::Coulomb]);
+        let viscous_removed = selection(vec![(Kind::Viscous, "the model without it predicts as well".into())]);
+        assert_eq!(viscous_removed.equally_consistent(Kind::Coulomb), vec![Kind::Viscous]);
+        // A removed effect that its step could tell apart lends no label.
+        let inertia_removed = Selection {
+            steps: vec![step(Kind::Inertia, vec![Kind::Offset]), step(Kind::Coulomb, Vec::new())],
+            ..selection(vec![(Kind::Inertia, "compensation".into())])
+        };
+        assert_eq!(inertia_removed.equally_consistent(Kind::Coulomb), Vec::<Kind>::new());
+    }
 }
