@@ -83,6 +83,8 @@ pub struct AntennaConfig {
     /// The structure between encoders and beam with its parameter overrides (`modes_file`), or
     /// `None` for the paper's rigid antenna, whose beam is the load-side axes.
     pub structure: Option<Overrides>,
+    /// How many threads step the run; the results do not depend on it.
+    pub lanes: Lanes,
 }
 
 impl AntennaConfig {
@@ -98,6 +100,7 @@ impl AntennaConfig {
             wind_unit: Vec::new(),
             wind_load_scale: 1.0,
             structure: None,
+            lanes: Lanes::One,
         }
     }
 
@@ -497,7 +500,7 @@ impl CoupledAntenna {
             start_time_s: start_time,
             steps_done: 0,
             wind_scale: config.wind_load_scale,
-            lanes: Lanes::One,
+            lanes: config.lanes,
         };
         // The wind unit's gust is meaningless without wind: zero torques in that case.
         if w.mean_speed_m_s <= 0.0 {
@@ -529,7 +532,7 @@ impl CoupledAntenna {
         wind_loads(&mut self.wind, &self.ports, self.wind_scale)
     }
 
-    /// How many threads step this antenna (one unless set).
+    /// How many threads step this antenna from now on (the configuration's at first).
     pub fn set_lanes(&mut self, lanes: Lanes) {
         self.lanes = lanes;
     }
