@@ -1,8 +1,10 @@
 //! The coupled master on two threads (`Lanes::Two`: the azimuth plant, its controller and the
-//! structure on a second thread) against the same master on one: the same values exchanged,
-//! so the same run bit for bit, and a unit's error ends the run with that error on either
-//! thread instead of leaving the other waiting.
+//! structure on a second thread; `Lanes::Auto`: whichever of one and two is faster, timed as it
+//! runs) against the same master on one: the same values exchanged, so the same run bit for
+//! bit, and a unit's error ends the run with that error on either thread instead of leaving the
+//! other waiting.
 
+use antenna_sim::coupled::{AUTO_PROBE_STEPS, AUTO_RUN_STEPS};
 use antenna_sim::scenario::{normal_wind, step_table, tracking_table, SIDEREAL_RATE_DEG_PER_S};
 use antenna_sim::{AntennaConfig, CommandTable, Configuration, CoupledAntenna, FmuSet, Lanes, Trace};
 
@@ -36,26 +38,42 @@ fn two_threads_run_the_realistic_antenna_in_normal_wind_bit_for_bit_as_one() {
 }
 
 #[test]
-fn a_run_in_steps_equals_one_run_on_either_thread_count() {
+fn a_run_in_steps_equals_one_run_whatever_the_lanes_of_each_piece() {
     let fmus = fmus();
     let config = AntennaConfig { wind: normal_wind(30.0, 9), ..Configuration::Realistic.antenna_config() };
     let rate = SIDEREAL_RATE_DEG_PER_S;
     let table = tracking_table((30.0, 45.0), (rate, rate), 2.0);
     let whole = trace(&fmus, &config, &table, 1.0, Lanes::One);
-    for lanes in [Lanes::One, Lanes::Two] {
+    let pieces = [1, 299, 200, 500];
+    for lanes in [[Lanes::One; 4], [Lanes::Two; 4], [Lanes::Auto; 4], [Lanes::Two, Lanes::One, Lanes::Auto, Lanes::Two]]
+    {
         let mut antenna = CoupledAntenna::new(&fmus, &config, &table).unwrap();
-        antenna.set_lanes(lanes);
-        let mut pieces = Trace::default();
-        for steps in [1, 299, 700] {
-            antenna.run_steps(&table, steps, Some(&mut pieces), &mut |_| {}).unwrap();
+        let mut traced = Trace::default();
+        for (steps, lanes) in pieces.into_iter().zip(lanes) {
+            antenna.set_lanes(lanes);
+            antenna.run_steps(&table, steps, Some(&mut traced), &mut |_| {}).unwrap();
         }
         assert!((antenna.time_s() - 1.0).abs() < 1e-12);
         assert!(
-            pieces == whole,
+            traced == whole,
             "{lanes:?}: pieces differ from one run (first row: {:?})",
-            first_difference(&whole, &pieces)
+            first_difference(&whole, &traced)
         );
     }
+}
+
+#[test]
+fn the_automatic_lanes_probe_and_switch_without_changing_a_long_run() {
+    let fmus = fmus();
+    let config = AntennaConfig { wind: normal_wind(30.0, 13), ..Configuration::Realistic.antenna_config() };
+    let rate = SIDEREAL_RATE_DEG_PER_S;
+    // Long enough for two rounds of probes and runs.
+    let seconds = (2 * (2 * AUTO_PROBE_STEPS + AUTO_RUN_STEPS)) as f64 * config.step_s;
+    let table = tracking_table((30.0, 45.0), (rate, rate), seconds + 1.0);
+    let one = trace(&fmus, &config, &table, seconds, Lanes::One);
+    let auto = trace(&fmus, &config, &table, seconds, Lanes::Auto);
+    assert_eq!(auto.time_s.len() as u64, 2 * (2 * AUTO_PROBE_STEPS + AUTO_RUN_STEPS));
+    assert!(one == auto, "the traces differ (first row: {:?})", first_difference(&one, &auto));
 }
 
 #[test]
@@ -71,7 +89,7 @@ fn an_error_in_either_lane_or_in_the_wind_exchange_ends_the_run_with_that_error(
         ("elevation plant", |a| drop(a.elevation_plant.terminate())),
         ("wind", |a| drop(a.wind.terminate())),
     ];
-    for lanes in [Lanes::One, Lanes::Two] {
+    for lanes in [Lanes::One, Lanes::Two, Lanes::Auto] {
         for (unit, break_it) in breakers {
             let mut antenna = CoupledAntenna::new(&fmus, &config, &table).unwrap();
             antenna.set_lanes(lanes);

@@ -26,6 +26,7 @@
 //! thread, so the results are equal bit for bit.
 
 use std::path::Path;
+use std::time::Instant;
 
 use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
 
@@ -546,12 +547,46 @@ impl CoupledAntenna {
     /// Takes `steps` communication steps, recording each point in `trace` if given; `progress`
     /// is called with the fraction done every 1000 steps. With [`Lanes::Two`] the azimuth
     /// lane runs on a second thread; the values exchanged and every unit's sequence of calls
-    /// are the same as with one, so the results are equal bit for bit.
+    /// are the same as with one, so the results are equal bit for bit, whatever the lanes.
     pub fn run_steps(
         &mut self,
         table: &CommandTable,
         steps: u64,
+        mut trace: Option<&mut Trace>,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<(), ImportError> {
+        if self.lanes != Lanes::Auto {
+            return self.run_lanes(table, steps, trace, self.lanes, progress);
+        }
+        // Two lanes pay only while the second thread has a core of its own: on a busy machine
+        // every meeting waits for the scheduler, and a step can take a hundred times longer.
+        // So both are timed on this machine now, in short probes, the faster runs on, and the
+        // probes are repeated from time to time.
+        let start = self.steps_done;
+        let mut chunk = |antenna: &mut Self, n: u64, lanes: Lanes, trace: Option<&mut Trace>| {
+            let first = antenna.steps_done - start;
+            let n = n.min(steps - first);
+            let started = Instant::now();
+            let mut report = |fraction: f64| progress((first as f64 + fraction * n as f64) / steps as f64);
+            antenna.run_lanes(table, n, trace, lanes, &mut report)?;
+            Ok::<f64, ImportError>(started.elapsed().as_secs_f64() / n.max(1) as f64)
+        };
+        while self.steps_done - start < steps {
+            let two = chunk(self, AUTO_PROBE_STEPS, Lanes::Two, trace.as_deref_mut())?;
+            let one = chunk(self, AUTO_PROBE_STEPS, Lanes::One, trace.as_deref_mut())?;
+            let faster = if two < one { Lanes::Two } else { Lanes::One };
+            chunk(self, AUTO_RUN_STEPS, faster, trace.as_deref_mut())?;
+        }
+        Ok(())
+    }
+
+    /// [`Self::run_steps`] on the given lanes (one or two).
+    fn run_lanes(
+        &mut self,
+        table: &CommandTable,
+        steps: u64,
         trace: Option<&mut Trace>,
+        lanes: Lanes,
         progress: &mut dyn FnMut(f64),
     ) -> Result<(), ImportError> {
         let mut master = Master {
@@ -574,9 +609,11 @@ impl CoupledAntenna {
             controller: &mut self.elevation_controller,
             ports: &self.ports,
         };
-        let (done, result) = match self.lanes {
-            Lanes::One => master.run_on_one_thread(&mut azimuth, &mut elevation, &mut self.wind, steps, progress),
+        let (done, result) = match lanes {
             Lanes::Two => master.run_on_two_threads(&mut azimuth, &mut elevation, &mut self.wind, steps, progress),
+            Lanes::One | Lanes::Auto => {
+                master.run_on_one_thread(&mut azimuth, &mut elevation, &mut self.wind, steps, progress)
+            }
         };
         self.steps_done += done;
         result
@@ -609,9 +646,20 @@ pub enum Lanes {
     /// The azimuth lane (plant, controller, structure) on a second thread while the calling
     /// thread steps the elevation lane and the wind. The two meet once per communication step:
     /// worth it for one long run on an otherwise idle machine, not for many runs side by side
-    /// (sweeps and the report already keep every core busy with whole runs).
+    /// (sweeps and the report already keep every core busy with whole runs), and much slower
+    /// than one thread when the second has to wait for a core.
     Two,
+    /// Two lanes while they are faster than one on this machine: both are timed in probes of
+    /// [`AUTO_PROBE_STEPS`] steps every [`AUTO_RUN_STEPS`], and the faster runs on.
+    Auto,
 }
+
+/// The steps of each probe of [`Lanes::Auto`] (half a second of simulated time, a
+/// millisecond or two of computing).
+pub const AUTO_PROBE_STEPS: u64 = 500;
+/// The steps [`Lanes::Auto`] runs on the faster lanes before it probes again (tens of
+/// milliseconds of computing: a machine's load changes on that scale).
+pub const AUTO_RUN_STEPS: u64 = 20_000;
 
 /// The wind's loads on the antenna now, scaled by `scale` (torque about azimuth, about
 /// elevation, N m; drag on the dish, N, 0 if the wind unit gives none), and the wind speed, m/s.

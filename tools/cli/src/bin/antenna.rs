@@ -144,8 +144,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     let started = Instant::now();
     let config = configuration.antenna_config();
     // One scenario alone would leave every core but one idle: its azimuth lane takes a second
-    // (the same results bit for bit; many scenarios keep the cores busy with whole runs).
-    let lanes = if scenarios.len() == 1 && rayon::current_num_threads() > 1 { Lanes::Two } else { Lanes::One };
+    // while that is faster on this machine (the same results bit for bit; many scenarios keep
+    // the cores busy with whole runs).
+    let lanes = if scenarios.len() == 1 && rayon::current_num_threads() > 1 { Lanes::Auto } else { Lanes::One };
     let outcomes = run_all(&fmus, &AntennaConfig { lanes, ..config.clone() }, &scenarios, cli.trace.as_deref())?;
     // Each windy jitter scenario also ran in calm air for its budget.
     let calm_twins: f64 = outcomes
