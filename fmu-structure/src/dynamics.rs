@@ -48,6 +48,8 @@ pub struct ModalStructure {
     accelerations: [f64; 2],
     /// The discretisation for the last step size (masters usually keep one): a cache, not state.
     cache: Option<(u64, Vec<ModeStep>)>,
+    /// Scratch for the next step's modal states (not part of the state).
+    next_states: Vec<[f64; 2]>,
 }
 
 /// The structure's part of an FMU state: every mode's coordinate and velocity, and what the
@@ -63,7 +65,14 @@ impl ModalStructure {
     /// The structure at rest in the static deflection under `loads`.
     pub fn at_rest(modes: Vec<Mode>, loads: &[f64; 3]) -> ModalStructure {
         let states = modes.iter().map(|m| [m.static_coordinate(loads), 0.0]).collect();
-        ModalStructure { modes, states, previous_speeds: None, accelerations: [0.0; 2], cache: None }
+        ModalStructure {
+            modes,
+            states,
+            previous_speeds: None,
+            accelerations: [0.0; 2],
+            cache: None,
+            next_states: Vec::new(),
+        }
     }
 
     pub fn modes(&self) -> &[Mode] {
@@ -85,22 +94,21 @@ impl ModalStructure {
             None => [0.0; 2],
         };
         let (_, steps) = self.cache.as_ref().expect("filled above");
-        let next: Vec<[f64; 2]> = self
-            .modes
-            .iter()
-            .zip(steps)
-            .zip(&self.states)
-            .map(|((mode, s), x)| {
-                s.apply(*x, mode.static_coordinate(loads) + mode.inertial_load(&accelerations) / mode.stiffness)
-            })
-            .collect();
+        // The new states go to a buffer kept between steps (no allocation per step) and replace
+        // the old ones only when all are finite.
+        let mut next = std::mem::take(&mut self.next_states);
+        next.clear();
+        next.extend(self.modes.iter().zip(steps).zip(&self.states).map(|((mode, s), x)| {
+            s.apply(*x, mode.static_coordinate(loads) + mode.inertial_load(&accelerations) / mode.stiffness)
+        }));
         if let Some(k) = next.iter().position(|x| !x.iter().all(|v| v.is_finite())) {
+            self.next_states = next;
             return Err(format!(
                 "mode {} of the structure left the finite numbers over a step of {step} s (loads {loads:?}); the state is unchanged",
                 k + 1
             ));
         }
-        self.states = next;
+        self.next_states = std::mem::replace(&mut self.states, next);
         self.previous_speeds = Some((*speeds, step));
         self.accelerations = accelerations;
         Ok(())
