@@ -39,6 +39,7 @@ use rand_chacha::ChaCha12Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::floor::floor;
+use crate::trig::sin_cos;
 
 /// One arcsecond in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
@@ -162,9 +163,9 @@ impl EncoderErrors {
 const MAX_ROTATED_HARMONIC: usize = 16;
 
 /// The encoder's position-periodic errors prepared so that a reading takes at most a few
-/// `sin_cos` calls instead of one sine per term: the plants read the encoder every step, and
-/// six sines were a tenth of the coupled antenna's time. Each term `A sin(c theta + phi)` is
-/// `A cos(phi) sin(c theta) + A sin(phi) cos(c theta)`. Terms with a whole `c` up to
+/// `sin_cos` calls (the plant's own, [`crate::trig`]) instead of one sine per term: the plants
+/// read the encoder every step, and six sines were a tenth of the coupled antenna's time. Each
+/// term `A sin(c theta + phi)` is `A cos(phi) sin(c theta) + A sin(phi) cos(c theta)`. Terms with a whole `c` up to
 /// [`MAX_ROTATED_HARMONIC`] (graduation harmonics, eccentricity) come from `sin_cos(theta)` by
 /// the angle-addition recurrence (its rounding grows by about one ulp per harmonic); a term at
 /// twice another's `c` (the interpolation error's second harmonic) by the double-angle formula;
@@ -233,7 +234,7 @@ impl PeriodicSum {
     fn error_rad(&self, angle_rad: f64) -> f64 {
         let mut total = 0.0;
         if self.rotated > 0 {
-            let (s1, c1) = angle_rad.sin_cos();
+            let (s1, c1) = sin_cos(angle_rad);
             let (mut s, mut c) = (s1, c1);
             for &(a, b) in &self.harmonic_weights[..self.rotated] {
                 total += a * s + b * c;
@@ -241,7 +242,7 @@ impl PeriodicSum {
             }
         }
         for &OwnSineTerm { cycles_per_turn, weights: (a, b), double_weights: (a2, b2) } in &self.others {
-            let (s, c) = (cycles_per_turn * angle_rad).sin_cos();
+            let (s, c) = sin_cos(cycles_per_turn * angle_rad);
             total += a * s + b * c + a2 * (2.0 * s * c) + b2 * (c * c - s * s);
         }
         total
@@ -359,7 +360,7 @@ impl NoiseChannel {
         let u1 = ((a >> 11) + 1) as f64 * scale;
         let u2 = (b >> 11) as f64 * scale;
         let radius = self.rms * (-2.0 * u1.ln()).sqrt();
-        let (sine, cosine) = (std::f64::consts::TAU * u2).sin_cos();
+        let (sine, cosine) = sin_cos(std::f64::consts::TAU * u2);
         let values = [radius * cosine, radius * sine];
         self.current = Some((pair, values));
         values[half]
