@@ -326,6 +326,9 @@ struct NoiseChannel {
     rng: Option<ChaCha12Rng>,
     /// The index of the Box-Muller pair last drawn and its two samples.
     current: Option<(u64, [f64; 2])>,
+    /// The pair whose words the generator gives next: asking the generator for its word
+    /// position costs more than the pair's arithmetic.
+    next_pair: u64,
 }
 
 impl NoiseChannel {
@@ -335,7 +338,7 @@ impl NoiseChannel {
             rng.set_stream(stream);
             rng
         });
-        Self { rms, rng, current: None }
+        Self { rms, rng, current: None, next_pair: 0 }
     }
 
     /// Sample `k` of the channel (0 when the channel is off).
@@ -349,11 +352,11 @@ impl NoiseChannel {
             }
         }
         // Four 32-bit words per pair of samples: sequential reading needs no seek.
-        let position = u128::from(pair) * 4;
-        if rng.get_word_pos() != position {
-            rng.set_word_pos(position);
+        if self.next_pair != pair {
+            rng.set_word_pos(u128::from(pair) * 4);
         }
         let (a, b) = (rng.next_u64(), rng.next_u64());
+        self.next_pair = pair.wrapping_add(1);
         // Box-Muller: u1 in (0, 1], u2 in [0, 1), 53 random bits each; the cosine and the sine
         // give two independent normals.
         let scale = 1.0 / (1u64 << 53) as f64;
