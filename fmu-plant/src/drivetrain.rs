@@ -41,6 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache::{BoundedCache, DiscretisationKey};
 use crate::delay::DelayLine;
+use crate::floor::ceil;
 use crate::params::FrictionParams;
 use crate::sensors::SampleClock;
 
@@ -132,7 +133,9 @@ impl BodyFriction {
         self.elements.iter().map(|e| (1.0 + direction * e.asymmetry) * e.static_nm).sum()
     }
 
-    /// Stribeck excess over the Coulomb level at a sliding speed, for motion in `direction`.
+    /// Stribeck excess over the Coulomb level at a sliding speed, for motion in `direction`:
+    /// the definition, which [`FrictionLevels`] evaluates from prepared factors.
+    #[cfg(test)]
     pub fn stribeck_excess(&self, direction: f64, speed: f64) -> f64 {
         self.elements
             .iter()
@@ -142,6 +145,69 @@ impl BodyFriction {
                 (1.0 + direction * e.asymmetry) * (e.static_nm - e.coulomb_nm) * (-ratio * ratio).exp()
             })
             .sum()
+    }
+}
+
+/// A body's friction levels in both directions, computed once from its [`BodyFriction`]: the
+/// integrator needs them for every piece (the input vector) and every consistency check, and
+/// summing the elements' asymmetric levels each time was a few percent of a plant's step. Each
+/// number is the one `BodyFriction` computes, by the same operations in the same order, so the
+/// friction torques are the same bits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FrictionLevels {
+    /// [`BodyFriction::is_present`].
+    present: bool,
+    /// [`BodyFriction::kinetic`] forward (+1) and backward (-1).
+    kinetic: [f64; 2],
+    /// [`BodyFriction::breakaway`] forward and backward.
+    breakaway: [f64; 2],
+    /// The elements with a Stribeck curve (the first `stribeck_count`): the Stribeck velocity
+    /// and the excess at zero speed `(1 + d a)(static - coulomb)` forward and backward.
+    stribeck: [(f64, [f64; 2]); 2],
+    stribeck_count: usize,
+}
+
+impl FrictionLevels {
+    fn new(friction: &BodyFriction) -> Self {
+        let mut levels = Self {
+            present: friction.is_present(),
+            kinetic: [friction.kinetic(1.0), friction.kinetic(-1.0)],
+            breakaway: [friction.breakaway(1.0), friction.breakaway(-1.0)],
+            stribeck: [(0.0, [0.0; 2]); 2],
+            stribeck_count: 0,
+        };
+        for e in friction.elements.iter().filter(|e| e.stribeck_velocity_rad_per_s > 0.0) {
+            let excess = |direction: f64| (1.0 + direction * e.asymmetry) * (e.static_nm - e.coulomb_nm);
+            levels.stribeck[levels.stribeck_count] = (e.stribeck_velocity_rad_per_s, [excess(1.0), excess(-1.0)]);
+            levels.stribeck_count += 1;
+        }
+        levels
+    }
+
+    /// The friction torque opposing a body sliding in `motion` at the Stribeck sampling speed
+    /// `speed` (positive for forward motion); zero for a stuck body or no friction.
+    fn sliding_torque(&self, motion: Motion, speed: f64) -> f64 {
+        let side = match motion {
+            Motion::Forward => 0,
+            Motion::Backward => 1,
+            Motion::Stuck => return 0.0,
+        };
+        if !self.present {
+            return 0.0;
+        }
+        let excess: f64 = self.stribeck[..self.stribeck_count]
+            .iter()
+            .map(|&(velocity, excess)| {
+                let ratio = speed / velocity;
+                excess[side] * (-ratio * ratio).exp()
+            })
+            .sum();
+        motion.direction() * (self.kinetic[side] + excess)
+    }
+
+    /// True if a stuck body holds against `torque` (divided by `scale` into the body's units).
+    fn holds(&self, torque: f64, scale: f64) -> bool {
+        torque <= self.breakaway[0] / scale && torque >= -self.breakaway[1] / scale
     }
 }
 
@@ -410,6 +476,12 @@ pub(crate) struct Checkpoint<const P: usize, const S: usize> {
 #[derive(Debug, Clone)]
 pub(crate) struct DriveCore<const P: usize, const S: usize, const U: usize> {
     config: CoreConfig<P>,
+    /// The friction levels of the load and of each motor, from `config`.
+    load_friction: FrictionLevels,
+    motor_friction: [FrictionLevels; P],
+    /// True if a step is cut into sub-steps no longer than `config.substep` (see
+    /// [`DriveCore::step`]).
+    needs_substeps: bool,
     x: SVector<f64, S>,
     /// Low-order part of the load angle: `x[LOAD_ANGLE] + load_angle_low` is the angle. The
     /// load angle is large (N times the axis angle) while each step moves it little, so it is
@@ -444,8 +516,14 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     pub fn new(config: CoreConfig<P>, cell: i64, model: CellModel<P>) -> Self {
         assert!(S == 2 + 4 * P && U == 2 * P + 1 && P < 7, "state and input sizes do not match the number of paths");
         let delay = std::array::from_fn(|k| DelayLine::new(config.command_delay[k]));
+        let needs_substeps = config.substep_torques
+            || config.load_friction.has_stribeck()
+            || config.motor_friction.iter().any(BodyFriction::has_stribeck);
         let mut core = Self {
             config,
+            load_friction: FrictionLevels::new(&config.load_friction),
+            motor_friction: config.motor_friction.map(|f| FrictionLevels::new(&f)),
+            needs_substeps,
             x: SVector::zeros(),
             load_angle_low: 0.0,
             load_motion: Motion::Forward,
@@ -679,12 +757,6 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         bits
     }
 
-    fn needs_substeps(&self) -> bool {
-        self.config.substep_torques
-            || self.config.load_friction.has_stribeck()
-            || self.config.motor_friction.iter().any(BodyFriction::has_stribeck)
-    }
-
     /// Advances by `h` with the current commands (A) and the load torque (N m about the axis)
     /// held constant. `position_torques` returns the position-dependent torques (motor side
     /// per motor, axis side on the load) for a state; it is evaluated at the start of every
@@ -694,12 +766,12 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         self.statistics.steps += 1;
         // Pieces no longer than the event check interval, and no longer than the sub-step when
         // torques that are not piecewise linear are on.
-        let longest = if self.needs_substeps() {
+        let longest = if self.needs_substeps {
             self.config.substep.min(self.config.event_check_interval)
         } else {
             self.config.event_check_interval
         };
-        let substeps = (h / longest * (1.0 - 1e-12)).ceil().max(1.0);
+        let substeps = ceil(h / longest * (1.0 - 1e-12)).max(1.0);
         let delayed = self.config.command_delay.iter().any(|&d| d > 0.0);
         if !delayed {
             // Common case: the commands are constant over the step, which is cut into equal
@@ -800,20 +872,11 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         for k in 0..P {
             u[k] = inputs.commands[k];
             u[P + k] = inputs.motor_torque[k]
-                - self.friction_torque(&self.config.motor_friction[k], self.motor_motion[k], 1 + k);
+                - self.motor_friction[k].sliding_torque(self.motor_motion[k], self.stribeck_speed[1 + k]);
         }
-        let load_friction = self.friction_torque(&self.config.load_friction, self.load_motion, 0);
+        let load_friction = self.load_friction.sliding_torque(self.load_motion, self.stribeck_speed[0]);
         u[2 * P] = (inputs.load_torque_axis - load_friction) / self.model.gear_ratio;
         u
-    }
-
-    /// Friction torque opposing a sliding body (positive for forward motion), in its own units.
-    fn friction_torque(&self, friction: &BodyFriction, motion: Motion, body: usize) -> f64 {
-        let direction = motion.direction();
-        if direction == 0.0 || !friction.is_present() {
-            return 0.0;
-        }
-        direction * (friction.kinetic(direction) + friction.stribeck_excess(direction, self.stribeck_speed[body]))
     }
 
     /// The state after `piece_length / 2^level` in the current mode, except that its
@@ -960,10 +1023,6 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             - Self::path_torque_of(x, &self.model, self.mesh[k], k)
     }
 
-    fn holds(friction: &BodyFriction, torque: f64, scale: f64) -> bool {
-        torque <= friction.breakaway(1.0) / scale && torque >= -friction.breakaway(-1.0) / scale
-    }
-
     fn is_consistent(&self, x: &SVector<f64, S>, inputs: &PieceInputs<P>) -> bool {
         for k in 0..P {
             let half_gap = 0.5 * self.config.backlash[k];
@@ -979,21 +1038,19 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
                 return false;
             }
         }
-        if self.config.load_friction.is_present() {
+        if self.load_friction.present {
             let consistent = match self.load_motion {
                 Motion::Forward => x[LOAD_SPEED] >= 0.0,
                 Motion::Backward => x[LOAD_SPEED] <= 0.0,
-                Motion::Stuck => {
-                    Self::holds(&self.config.load_friction, self.load_holding_torque(x, inputs), self.model.gear_ratio)
-                }
+                Motion::Stuck => self.load_friction.holds(self.load_holding_torque(x, inputs), self.model.gear_ratio),
             };
             if !consistent {
                 return false;
             }
         }
         for k in 0..P {
-            let friction = &self.config.motor_friction[k];
-            if !friction.is_present() {
+            let friction = &self.motor_friction[k];
+            if !friction.present {
                 continue;
             }
             let v = x[motor_speed_index(k)];
@@ -1001,9 +1058,9 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
                 Motion::Forward => v >= 0.0,
                 Motion::Backward => v <= 0.0,
                 Motion::Stuck if self.model.presliding_stiffness[k] > 0.0 => {
-                    Self::holds(friction, self.bristle_torque(x, k), 1.0)
+                    friction.holds(self.bristle_torque(x, k), 1.0)
                 }
-                Motion::Stuck => Self::holds(friction, self.motor_holding_torque(x, inputs, k), 1.0),
+                Motion::Stuck => friction.holds(self.motor_holding_torque(x, inputs, k), 1.0),
             };
             if !consistent {
                 return false;
@@ -1040,7 +1097,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         // at rest either sticks or slides off in the direction of its holding torque.
         let mut load_candidate = false;
         let mut motor_candidate = [false; P];
-        if self.config.load_friction.is_present() {
+        if self.load_friction.present {
             let v = self.x[LOAD_SPEED];
             if (self.load_motion == Motion::Forward && v < 0.0) || (self.load_motion == Motion::Backward && v > 0.0) {
                 self.x[LOAD_SPEED] = 0.0;
@@ -1048,7 +1105,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             }
         }
         for k in 0..P {
-            if !self.config.motor_friction[k].is_present() {
+            if !self.motor_friction[k].present {
                 continue;
             }
             let v = self.x[motor_speed_index(k)];
@@ -1064,7 +1121,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         }
         if load_candidate || self.load_motion == Motion::Stuck {
             let torque = self.load_holding_torque(&self.x, inputs);
-            let next = if Self::holds(&self.config.load_friction, torque, self.model.gear_ratio) {
+            let next = if self.load_friction.holds(torque, self.model.gear_ratio) {
                 self.x[LOAD_SPEED] = 0.0;
                 Motion::Stuck
             } else if torque > 0.0 {
@@ -1079,7 +1136,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
         }
         for k in 0..P {
             let sigma = self.model.presliding_stiffness[k];
-            if sigma > 0.0 && self.config.motor_friction[k].is_present() {
+            if sigma > 0.0 && self.motor_friction[k].present {
                 // Presliding: a motor that came to rest sticks to an anchor placed so that the
                 // bristle carries the friction it had at zero speed in its direction (torque
                 // continuous); a sticking motor slips when the bristle torque passes breakaway,
@@ -1096,7 +1153,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
                     let mut here = self.x;
                     here[LOAD_ANGLE] = 0.0;
                     let torque = self.bristle_torque(&here, k);
-                    if !Self::holds(&friction, torque, 1.0) {
+                    if !self.motor_friction[k].holds(torque, 1.0) {
                         self.motor_motion[k] = if torque > 0.0 { Motion::Forward } else { Motion::Backward };
                         self.stribeck_speed[1 + k] = 0.0;
                     }
@@ -1105,7 +1162,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             }
             if motor_candidate[k] || self.motor_motion[k] == Motion::Stuck {
                 let torque = self.motor_holding_torque(&self.x, inputs, k);
-                let next = if Self::holds(&self.config.motor_friction[k], torque, 1.0) {
+                let next = if self.motor_friction[k].holds(torque, 1.0) {
                     self.x[motor_speed_index(k)] = 0.0;
                     Motion::Stuck
                 } else if torque > 0.0 {
@@ -1270,6 +1327,46 @@ mod tests {
         let free = Discretisation::<6, 3>::new(&model, 0, 1e-3);
         for r in 0..6 {
             assert_eq!(free.ad[(r, LOAD_ANGLE)], if r == LOAD_ANGLE { 1.0 } else { 0.0 });
+        }
+    }
+
+    #[test]
+    fn prepared_friction_levels_give_the_definitions_bits() {
+        let element = |coulomb_nm, static_nm, stribeck_velocity_rad_per_s, asymmetry| FrictionParams {
+            coulomb_nm,
+            static_nm,
+            stribeck_velocity_rad_per_s,
+            asymmetry,
+        };
+        let bodies = [
+            BodyFriction::single(FrictionParams::NONE),
+            BodyFriction::single(element(1500.0, 2000.0, 8.7e-5, 0.0)),
+            BodyFriction::single(element(0.3, 0.4, 0.0, -0.2)),
+            BodyFriction {
+                elements: [element(0.3, 0.4, 1.5, 0.1), element(8.0 / 60.0, 10.0 / 60.0, 0.055 * 60.0, -0.3)],
+            },
+            BodyFriction { elements: [element(0.0, 0.5, 0.2, 0.0), element(0.2, 0.2, 0.7, 0.05)] },
+        ];
+        for body in &bodies {
+            let levels = FrictionLevels::new(body);
+            assert_eq!(levels.present, body.is_present());
+            assert_eq!(
+                levels.breakaway.map(f64::to_bits),
+                [body.breakaway(1.0), body.breakaway(-1.0)].map(f64::to_bits)
+            );
+            for speed in [0.0, -0.0, 1e-6, -3e-5, 8.7e-5, 0.01, -0.3, 1.0, 2.5, -40.0, 1e4] {
+                for motion in [Motion::Forward, Motion::Backward, Motion::Stuck] {
+                    // The torque as the integrator computed it before the levels were prepared.
+                    let direction = motion.direction();
+                    let definition = if direction == 0.0 || !body.is_present() {
+                        0.0
+                    } else {
+                        direction * (body.kinetic(direction) + body.stribeck_excess(direction, speed))
+                    };
+                    let prepared = levels.sliding_torque(motion, speed);
+                    assert_eq!(prepared.to_bits(), definition.to_bits(), "{body:?} {motion:?} at {speed}");
+                }
+            }
         }
     }
 }

@@ -1,5 +1,5 @@
-//! `floor` without the library call, for the encoders and the parameter cells that pay for it
-//! at every step.
+//! `floor` and `ceil` without the library call, for the encoders, the parameter cells and the
+//! integrator's sub-step count, which pay for them at every step.
 
 /// `x.floor()`, the same result for every `f64`, without the library call. The baseline
 /// x86-64 target has no rounding instruction (SSE4.1), so `f64::floor` is a software routine
@@ -22,12 +22,20 @@ pub(crate) fn floor(x: f64) -> f64 {
     }
 }
 
+/// `x.ceil()`, the same result for every `f64` (NaN apart, whose sign may differ), without the
+/// library call: `ceil x = -floor(-x)` exactly, negation being exact and `-0.0` coming out
+/// where the library's gives it.
+#[inline]
+pub(crate) fn ceil(x: f64) -> f64 {
+    -floor(-x)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn branch_free_floor_gives_the_library_floor_bit_for_bit() {
+    fn branch_free_floor_and_ceil_give_the_library_results_bit_for_bit() {
         let mut samples =
             vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5, 2.0f64.powi(52) - 0.5, -(2.0f64.powi(52) - 0.5)];
         samples.extend([
@@ -59,12 +67,12 @@ mod tests {
             samples.push((x >> 11) as f64 / (1u64 << 40) as f64 * if x & 1 == 0 { 1.0 } else { -1.0 });
         }
         for value in samples {
-            let expected = value.floor();
-            let got = floor(value);
-            assert!(
-                got.to_bits() == expected.to_bits() || (got.is_nan() && expected.is_nan()),
-                "floor({value:e}) = {got:e}, expected {expected:e}"
-            );
+            for (name, got, expected) in [("floor", floor(value), value.floor()), ("ceil", ceil(value), value.ceil())] {
+                assert!(
+                    got.to_bits() == expected.to_bits() || (got.is_nan() && expected.is_nan()),
+                    "{name}({value:e}) = {got:e}, expected {expected:e}"
+                );
+            }
         }
     }
 }

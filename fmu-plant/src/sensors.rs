@@ -39,6 +39,7 @@ use rand_chacha::ChaCha12Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::floor::floor;
+use crate::trig::sin_cos;
 
 /// One arcsecond in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
@@ -162,9 +163,9 @@ impl EncoderErrors {
 const MAX_ROTATED_HARMONIC: usize = 16;
 
 /// The encoder's position-periodic errors prepared so that a reading takes at most a few
-/// `sin_cos` calls instead of one sine per term: the plants read the encoder every step, and
-/// six sines were a tenth of the coupled antenna's time. Each term `A sin(c theta + phi)` is
-/// `A cos(phi) sin(c theta) + A sin(phi) cos(c theta)`. Terms with a whole `c` up to
+/// `sin_cos` calls (the plant's own, [`crate::trig`]) instead of one sine per term: the plants
+/// read the encoder every step, and six sines were a tenth of the coupled antenna's time. Each
+/// term `A sin(c theta + phi)` is `A cos(phi) sin(c theta) + A sin(phi) cos(c theta)`. Terms with a whole `c` up to
 /// [`MAX_ROTATED_HARMONIC`] (graduation harmonics, eccentricity) come from `sin_cos(theta)` by
 /// the angle-addition recurrence (its rounding grows by about one ulp per harmonic); a term at
 /// twice another's `c` (the interpolation error's second harmonic) by the double-angle formula;
@@ -233,7 +234,7 @@ impl PeriodicSum {
     fn error_rad(&self, angle_rad: f64) -> f64 {
         let mut total = 0.0;
         if self.rotated > 0 {
-            let (s1, c1) = angle_rad.sin_cos();
+            let (s1, c1) = sin_cos(angle_rad);
             let (mut s, mut c) = (s1, c1);
             for &(a, b) in &self.harmonic_weights[..self.rotated] {
                 total += a * s + b * c;
@@ -241,7 +242,7 @@ impl PeriodicSum {
             }
         }
         for &OwnSineTerm { cycles_per_turn, weights: (a, b), double_weights: (a2, b2) } in &self.others {
-            let (s, c) = (cycles_per_turn * angle_rad).sin_cos();
+            let (s, c) = sin_cos(cycles_per_turn * angle_rad);
             total += a * s + b * c + a2 * (2.0 * s * c) + b2 * (c * c - s * s);
         }
         total
@@ -325,6 +326,9 @@ struct NoiseChannel {
     rng: Option<ChaCha12Rng>,
     /// The index of the Box-Muller pair last drawn and its two samples.
     current: Option<(u64, [f64; 2])>,
+    /// The pair whose words the generator gives next: asking the generator for its word
+    /// position costs more than the pair's arithmetic.
+    next_pair: u64,
 }
 
 impl NoiseChannel {
@@ -334,7 +338,7 @@ impl NoiseChannel {
             rng.set_stream(stream);
             rng
         });
-        Self { rms, rng, current: None }
+        Self { rms, rng, current: None, next_pair: 0 }
     }
 
     /// Sample `k` of the channel (0 when the channel is off).
@@ -348,18 +352,18 @@ impl NoiseChannel {
             }
         }
         // Four 32-bit words per pair of samples: sequential reading needs no seek.
-        let position = u128::from(pair) * 4;
-        if rng.get_word_pos() != position {
-            rng.set_word_pos(position);
+        if self.next_pair != pair {
+            rng.set_word_pos(u128::from(pair) * 4);
         }
         let (a, b) = (rng.next_u64(), rng.next_u64());
+        self.next_pair = pair.wrapping_add(1);
         // Box-Muller: u1 in (0, 1], u2 in [0, 1), 53 random bits each; the cosine and the sine
         // give two independent normals.
         let scale = 1.0 / (1u64 << 53) as f64;
         let u1 = ((a >> 11) + 1) as f64 * scale;
         let u2 = (b >> 11) as f64 * scale;
         let radius = self.rms * (-2.0 * u1.ln()).sqrt();
-        let (sine, cosine) = (std::f64::consts::TAU * u2).sin_cos();
+        let (sine, cosine) = sin_cos(std::f64::consts::TAU * u2);
         let values = [radius * cosine, radius * sine];
         self.current = Some((pair, values));
         values[half]
