@@ -35,7 +35,6 @@ pub mod elevation;
 mod floor;
 pub mod params;
 pub mod sensors;
-mod trig;
 
 pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
 pub use drivetrain::{DriveState, Mesh, Motion, NumericsStatistics, PathState};

@@ -39,7 +39,7 @@ use rand_chacha::ChaCha12Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::floor::floor;
-use crate::trig::sin_cos;
+use libm::sincos as sin_cos;
 
 /// One arcsecond in radians.
 pub const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
@@ -163,7 +163,8 @@ impl EncoderErrors {
 const MAX_ROTATED_HARMONIC: usize = 16;
 
 /// The encoder's position-periodic errors prepared so that a reading takes at most a few
-/// `sin_cos` calls (the plant's own, [`crate::trig`]) instead of one sine per term: the plants
+/// `sin_cos` calls (fdlibm's, from the `libm` crate: about 90 instructions a call against the
+/// system library's 130) instead of one sine per term: the plants
 /// read the encoder every step, and six sines were a tenth of the coupled antenna's time. Each
 /// term `A sin(c theta + phi)` is `A cos(phi) sin(c theta) + A sin(phi) cos(c theta)`. Terms with a whole `c` up to
 /// [`MAX_ROTATED_HARMONIC`] (graduation harmonics, eccentricity) come from `sin_cos(theta)` by
