@@ -10,7 +10,7 @@ use crate::ffi::{fmi2CallbackFunctions, Status};
 use crate::model::{Context, Model, Notes};
 use crate::phase::{Phase, CAT_ERROR, LOG_CATEGORIES};
 use crate::state::{InstanceState, StateError, StateHeader};
-use crate::variables::{BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
+use crate::variables::{all_finite, BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
 
 /// Guards against a stray or freed pointer being used as an instance.
 pub const INSTANCE_MAGIC: u64 = 0x4D4B_4154_5F46_4D55; // "MKAT_FMU"
@@ -49,11 +49,18 @@ pub trait DynModel: Send {
     fn has_feedthrough(&self) -> bool;
     /// Whether any of `vrs` is an output with direct feedthrough (unknown references are not).
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool;
-    /// The step's work in internal pieces and what sets their length ([`Model::step_pieces`]).
-    fn step_pieces(&self, step: f64) -> (f64, &'static str);
     /// Advances the model; a step whose values would come out NaN or infinite is undone and
-    /// refused.
-    fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String>;
+    /// refused. A step that would take more than `max_pieces` internal pieces
+    /// ([`Model::step_pieces`]) is refused before anything changes (one call for both, as
+    /// every step of every FMU of a coupled simulation pays for the call).
+    fn do_step(
+        &mut self,
+        time: f64,
+        step: f64,
+        max_pieces: f64,
+        context: &Context,
+        notes: &mut Notes,
+    ) -> Result<(), String>;
     /// The bytes of a state: `header`, then the values and the model's state.
     fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError>;
     /// Restores a state of this model (checked by identifier and GUID) and returns its header.
@@ -273,7 +280,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         }
         // A get never hands out NaN or infinity with fmi2OK: the steps and initialisation are
         // guarded, and this catches what a feedthrough output computed just now.
-        if out.iter().map(|x| x * 0.0).sum::<f64>() != 0.0 {
+        if !all_finite(out) {
             return Err(self.non_finite_read(vrs, out));
         }
         Ok(refreshed)
@@ -394,11 +401,19 @@ impl<M: Model> DynModel for ModelSlot<M> {
         vrs.iter().any(|&vr| self.access.get(vr as usize).is_some_and(|a| a.feedthrough))
     }
 
-    fn step_pieces(&self, step: f64) -> (f64, &'static str) {
-        M::step_pieces(&self.values, step)
-    }
-
-    fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String> {
+    fn do_step(
+        &mut self,
+        time: f64,
+        step: f64,
+        max_pieces: f64,
+        context: &Context,
+        notes: &mut Notes,
+    ) -> Result<(), String> {
+        let (pieces, what) = M::step_pieces(&self.values, step);
+        // NaN pieces (a model's arithmetic gone wrong) are refused too.
+        if !(pieces <= max_pieces) {
+            return Err(too_many_pieces(step, pieces, what, max_pieces));
+        }
         // Keep what is needed to undo the step: the values (copied into a kept buffer) and the
         // model's own state (what an FMU state holds of it).
         // Only what a step may write is kept and checked (parameters and inputs are checked by
@@ -444,6 +459,15 @@ impl<M: Model> DynModel for ModelSlot<M> {
         self.strings_changed = true;
         Ok(header)
     }
+}
+
+/// Why a step is refused for its count of internal pieces.
+#[cold]
+#[inline(never)]
+fn too_many_pieces(step: f64, pieces: f64, what: &str, max_pieces: f64) -> String {
+    format!(
+        "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {max_pieces:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
+    )
 }
 
 /// Whether a number is subnormal (nonzero and smaller in magnitude than the smallest normal
@@ -538,6 +562,9 @@ pub struct Instance {
     /// Whether the model has outputs with direct feedthrough (`DynModel::has_feedthrough`,
     /// kept here because every set and step asks).
     pub feedthrough: bool,
+    /// What the model notes during a step, empty between calls (kept here so that a step
+    /// neither builds nor drops one).
+    pub step_notes: Notes,
     pub context: Context,
     pub model: Box<dyn DynModel>,
     /// Rebuilds the model for fmi2Reset.

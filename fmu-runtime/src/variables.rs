@@ -350,36 +350,44 @@ pub trait VariableSet: Copy + Send + Sync + 'static + fmt::Debug {
     }
 }
 
-/// The values of all variables of one instance, indexed by value reference.
-///
-/// Each base type has its own vector with one slot per variable, so access is a plain index.
 /// The variables a step may write (outputs, locals and calculated parameters; parameters and
 /// inputs change only through the master's sets), by type: what the runtime keeps to undo a
-/// step and checks for finiteness after it. A plant has about 160 variables of which some 45
+/// step and checks for finiteness after it. A plant has about 100 variables of which some 15
 /// are written by a step, so keeping and checking only these is a few times cheaper.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct WrittenIndices {
-    /// Runs of consecutive indices, so that keeping them is a few block copies rather than
-    /// one indexed copy per variable (tables declare their outputs together).
+    /// Runs of consecutive Real indices, checked for finiteness after every step (tables
+    /// declare their outputs together, so there are few).
     pub reals: Vec<Range<usize>>,
-    pub integers: Vec<Range<usize>>,
-    pub booleans: Vec<Range<usize>>,
+    /// Per type, the smallest span of indices holding every written variable of that type
+    /// (empty when there is none): the undo copy takes each whole, one block copy per type
+    /// instead of one per run, which is cheaper for the few and short runs of these tables
+    /// (each block copy is a call with a fixed cost). Parameters and inputs that lie inside a
+    /// span are copied along; putting them back on an undo changes nothing, as a step does not
+    /// change them.
+    pub real_span: Range<usize>,
+    pub integer_span: Range<usize>,
+    pub boolean_span: Range<usize>,
 }
 
 impl WrittenIndices {
     pub(crate) fn of(table: &[Var]) -> WrittenIndices {
         let mut written = WrittenIndices::default();
+        let (mut integers, mut booleans) = (Vec::new(), Vec::new());
         for (i, var) in table.iter().enumerate() {
             if matches!(var.causality, Causality::Parameter | Causality::Input) {
                 continue;
             }
             match var.base_type() {
                 BaseType::Real => Self::add(&mut written.reals, i),
-                BaseType::Integer => Self::add(&mut written.integers, i),
-                BaseType::Boolean => Self::add(&mut written.booleans, i),
+                BaseType::Integer => Self::add(&mut integers, i),
+                BaseType::Boolean => Self::add(&mut booleans, i),
                 BaseType::String => {}
             }
         }
+        written.real_span = Self::span(&written.reals);
+        written.integer_span = Self::span(&integers);
+        written.boolean_span = Self::span(&booleans);
         written
     }
 
@@ -390,8 +398,36 @@ impl WrittenIndices {
             _ => runs.push(i..i + 1),
         }
     }
+
+    /// From the start of the first run to the end of the last (increasing runs).
+    fn span(runs: &[Range<usize>]) -> Range<usize> {
+        match (runs.first(), runs.last()) {
+            (Some(first), Some(last)) => first.start..last.end,
+            _ => 0..0,
+        }
+    }
 }
 
+/// Whether any of `values` is NaN or infinite, as the sign bit of the result: a finite number's
+/// exponent field is below all ones, so adding one to the field stays inside it, while NaN's
+/// and infinity's carries into the sign bit. Integer operations can be reordered freely, so the
+/// compiler vectorises this where a sum of floating-point numbers must stay in order.
+#[inline]
+fn non_finite_probe(values: &[f64]) -> u64 {
+    const EXPONENT: u64 = 0x7FF0_0000_0000_0000;
+    const EXPONENT_ONE: u64 = 0x0010_0000_0000_0000;
+    values.iter().fold(0, |probe, x| probe | ((x.to_bits() & EXPONENT) + EXPONENT_ONE))
+}
+
+/// Whether every value is finite (neither NaN nor infinite), in one pass without branches.
+#[inline]
+pub(crate) fn all_finite(values: &[f64]) -> bool {
+    non_finite_probe(values) >> 63 == 0
+}
+
+/// The values of all variables of one instance, indexed by value reference.
+///
+/// Each base type has its own vector with one slot per variable, so access is a plain index.
 /// Models read parameters and inputs and write outputs through the typed accessors; the runtime
 /// does every check (type, causality, phase, range, finiteness) before a master's value lands
 /// here.
@@ -476,25 +512,27 @@ impl<V: VariableSet> Values<V> {
         self.booleans.copy_from_slice(&source.booleans);
     }
 
-    /// Copies the numbers and booleans at the given indices of `source` (one list per type).
+    /// Copies the numbers and booleans a step may write (`written`'s spans) from `source`.
+    #[inline]
     pub(crate) fn copy_written_from(&mut self, source: &Self, written: &WrittenIndices) {
-        for run in &written.reals {
-            self.reals[run.clone()].copy_from_slice(&source.reals[run.clone()]);
+        let (reals, integers, booleans) = (&written.real_span, &written.integer_span, &written.boolean_span);
+        if !reals.is_empty() {
+            self.reals[reals.clone()].copy_from_slice(&source.reals[reals.clone()]);
         }
-        for run in &written.integers {
-            self.integers[run.clone()].copy_from_slice(&source.integers[run.clone()]);
+        if !integers.is_empty() {
+            self.integers[integers.clone()].copy_from_slice(&source.integers[integers.clone()]);
         }
-        for run in &written.booleans {
-            self.booleans[run.clone()].copy_from_slice(&source.booleans[run.clone()]);
+        if !booleans.is_empty() {
+            self.booleans[booleans.clone()].copy_from_slice(&source.booleans[booleans.clone()]);
         }
     }
 
     /// The first of the Real variables in the given runs of indices whose value is NaN or
     /// infinite, by index.
     pub(crate) fn first_non_finite_real_among(&self, runs: &[Range<usize>]) -> Option<usize> {
-        // As `first_non_finite_real`: one pass without branches in the common case.
-        let probe: f64 = runs.iter().map(|run| self.reals[run.clone()].iter().map(|x| x * 0.0).sum::<f64>()).sum();
-        if probe == 0.0 {
+        // One pass without branches in the common case ([`non_finite_probe`]).
+        let probe = runs.iter().fold(0, |probe, run| probe | non_finite_probe(&self.reals[run.clone()]));
+        if probe >> 63 == 0 {
             return None;
         }
         runs.iter().flat_map(Clone::clone).find(|&i| !self.reals[i].is_finite())
@@ -502,10 +540,7 @@ impl<V: VariableSet> Values<V> {
 
     /// The first Real variable whose value is NaN or infinite, by index.
     pub(crate) fn first_non_finite_real(&self) -> Option<usize> {
-        // A sum of zeros stays zero for finite values and becomes NaN otherwise: one pass
-        // without branches over the values in the common case.
-        let probe: f64 = self.reals.iter().map(|x| x * 0.0).sum();
-        if probe == 0.0 {
+        if all_finite(&self.reals) {
             return None;
         }
         self.reals.iter().position(|x| !x.is_finite())
