@@ -68,16 +68,13 @@ pub trait DynModel: Send {
     fn load(&mut self, bytes: &[u8], context: &Context) -> Result<StateHeader, StateError>;
 }
 
-/// What a get or set of one value reference needs on the hot path, packed into a small entry:
+/// What a set of one Real value reference needs on the hot path, packed into a small entry:
 /// a master exchanges a few dozen values every millisecond, and reading the whole declaration
 /// (names, descriptions, units) for each costs more than the model's own step. The
 /// declaration stays the one source: this is derived from it, and every failed check falls
 /// back to the declaration's own checks, which word the error.
 #[derive(Debug, Clone, Copy)]
 struct Access {
-    base: BaseType,
-    /// An output that depends on inputs within the step (declared with `depends_on`).
-    feedthrough: bool,
     /// The values fmi2SetReal accepts for this variable by the declaration's checks, as
     /// `(lo, hi)`, before stepping (index 0: before and during initialisation) and while
     /// stepping (index 1). For a Real settable in that phase it is the declared range
@@ -102,11 +99,7 @@ impl Access {
                 (f64::NAN, f64::NAN)
             }
         };
-        Access {
-            base: var.base_type(),
-            feedthrough: !var.depends_on.is_empty(),
-            settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)],
-        }
+        Access { settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)] }
     }
 
     /// Whether a Real passes the declaration's checks in a phase (index as `settable_range`).
@@ -117,6 +110,24 @@ impl Access {
     }
 }
 
+/// Marks an output with direct feedthrough in [`real_read`]'s entries.
+const FEEDTHROUGH_BIT: u32 = 1 << 31;
+/// [`real_read`]'s entry for a variable that is not a Real: no slot of [`Values`] is this high.
+const NOT_A_REAL: u32 = !FEEDTHROUGH_BIT;
+
+/// What fmi2GetReal needs of value reference `index`, in one number, so that the hottest loop
+/// of a coupled simulation does one load per value: for a Real, its storage slot in [`Values`]
+/// with [`FEEDTHROUGH_BIT`] set if it is an output with direct feedthrough; otherwise
+/// [`NOT_A_REAL`], which as a slot is out of bounds. Derived from the declaration, as [`Access`].
+fn real_read<V: VariableSet>(index: usize) -> u32 {
+    let var = &V::TABLE[index];
+    if var.base_type() != BaseType::Real {
+        return NOT_A_REAL;
+    }
+    let feedthrough = if var.depends_on.is_empty() { 0 } else { FEEDTHROUGH_BIT };
+    u32::from(V::SLOTS[index]) | feedthrough
+}
+
 /// A model with its values; implements [`DynModel`] for any [`Model`].
 pub struct ModelSlot<M: Model> {
     model: M,
@@ -124,6 +135,8 @@ pub struct ModelSlot<M: Model> {
     guid: String,
     /// One entry per value reference, from the variable table.
     access: Vec<Access>,
+    /// One entry per value reference, for fmi2GetReal ([`real_read`]).
+    real_reads: Vec<u32>,
     /// Whether any output depends directly on an input (from the table, computed once).
     feedthrough: bool,
     /// The values before the step in progress, to undo a step whose results are not finite
@@ -143,6 +156,7 @@ impl<M: Model> ModelSlot<M> {
         let values = Values::<M::Var>::at_start();
         let model = M::new(&values, context)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
+        let real_reads = (0..M::Var::TABLE.len()).map(real_read::<M::Var>).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
         let before_step = values.clone();
         let written = WrittenIndices::of(M::Var::TABLE);
@@ -151,6 +165,7 @@ impl<M: Model> ModelSlot<M> {
             values,
             guid,
             access,
+            real_reads,
             feedthrough,
             before_step,
             written,
@@ -262,21 +277,28 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn get_real(&mut self, vrs: &[u32], out: &mut [f64], refresh: bool) -> Result<bool, String> {
-        // Check every reference first (and note whether one is a feedthrough output), bring
-        // the feedthrough outputs up to date if needed, then copy: no value is read stale.
-        let mut reads_feedthrough = false;
-        for &vr in vrs {
-            match self.access.get(vr as usize) {
-                Some(a) if a.base == BaseType::Real => reads_feedthrough |= a.feedthrough,
-                _ => return Err(Self::not_a_real(vr)),
+        // Copy while checking every reference (and noting whether one is a feedthrough
+        // output); if one is and the inputs changed, bring the feedthrough outputs up to date
+        // and copy again: no value is read stale. One pass for the common get, which reads no
+        // pending feedthrough output (a master's get after each step is such a get whenever it
+        // reads none: after a step of a model with feedthrough, `refresh` is always set). A
+        // refused call may have written part of `out`, which the master must not read after
+        // fmi2Error anyway; the instance is unchanged.
+        let mut reads = 0;
+        for (slot, &vr) in out.iter_mut().zip(vrs) {
+            let read = self.real_reads.get(vr as usize).copied().unwrap_or(NOT_A_REAL);
+            reads |= read;
+            match self.values.reals_by_slot().get((read & !FEEDTHROUGH_BIT) as usize) {
+                Some(&value) => *slot = value,
+                None => return Err(Self::not_a_real(vr)),
             }
         }
-        let refreshed = refresh && reads_feedthrough;
+        let refreshed = refresh && reads & FEEDTHROUGH_BIT != 0;
         if refreshed {
             self.model.update_feedthrough(&mut self.values);
-        }
-        for (slot, &vr) in out.iter_mut().zip(vrs) {
-            *slot = self.values.real_at(vr as usize);
+            for (slot, &vr) in out.iter_mut().zip(vrs) {
+                *slot = self.values.real_at(vr as usize);
+            }
         }
         // A get never hands out NaN or infinity with fmi2OK: the steps and initialisation are
         // guarded, and this catches what a feedthrough output computed just now.
@@ -313,8 +335,11 @@ impl<M: Model> DynModel for ModelSlot<M> {
         let phase_index = usize::from(phase == SetPhase::Stepping);
         for (&vr, &value) in vrs.iter().zip(values) {
             if self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase_index)) {
-                let var = M::Var::from_index(vr as usize).expect("the access table has one entry per variable");
-                check_model_real::<M>(var, value, &self.values)?;
+                // The access table has one entry per variable, so there is a variable (written
+                // without `expect`, so that a model without a check of its own pays nothing).
+                if let Some(var) = M::Var::from_index(vr as usize) {
+                    check_model_real::<M>(var, value, &self.values)?;
+                }
             } else {
                 self.check_real_by_declaration(vr, value, phase)?;
             }
@@ -398,7 +423,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool {
-        vrs.iter().any(|&vr| self.access.get(vr as usize).is_some_and(|a| a.feedthrough))
+        vrs.iter().any(|&vr| self.real_reads.get(vr as usize).is_some_and(|&read| read & FEEDTHROUGH_BIT != 0))
     }
 
     fn do_step(
@@ -411,13 +436,14 @@ impl<M: Model> DynModel for ModelSlot<M> {
     ) -> Result<(), String> {
         let (pieces, what) = M::step_pieces(&self.values, step);
         // NaN pieces (a model's arithmetic gone wrong) are refused too.
-        if !(pieces <= max_pieces) {
+        if pieces.is_nan() || pieces > max_pieces {
             return Err(too_many_pieces(step, pieces, what, max_pieces));
         }
         // Keep what is needed to undo the step: the values (copied into a kept buffer) and the
         // model's own state (what an FMU state holds of it).
         // Only what a step may write is kept and checked (parameters and inputs are checked by
-        // the sets that change them).
+        // the sets that change them): the first slots of each vector of the values, one block
+        // copy each ([`crate::variables::storage_slots`]).
         self.before_step.copy_written_from(&self.values, &self.written);
         match &mut self.model_before_step {
             Some(state) => self.model.save_state_into(state),
@@ -429,7 +455,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
             self.undo_written(model_before, context)?;
             return Err(e);
         }
-        let Some(index) = self.values.first_non_finite_real_among(&self.written.reals) else { return Ok(()) };
+        let Some(index) = self.values.first_non_finite_written(&self.written) else { return Ok(()) };
         let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
         let model_before = self.model_before_step.take().expect("kept above");
         self.undo_written(model_before, context)?;
