@@ -47,7 +47,10 @@ fn create_model<M: Model>(context: &Context) -> Result<Box<dyn DynModel>, String
 // Panics: a hook, installed once, that keeps the message of a panic for the instance's logger
 // instead of printing it to stderr. The hook belongs to this shared library's own copy of the
 // standard library, and this library's code runs only inside exported calls, so every panic it
-// sees happened inside an FMU call: no per-call bookkeeping is needed on the happy path.
+// sees happened inside an FMU call: no per-call bookkeeping is needed on the happy path. It is
+// installed by fmi2Instantiate, before anything else of this library can run: every other
+// function that catches panics needs an instance, which only fmi2Instantiate makes, so the
+// calls of the hot loop do not check it again.
 
 thread_local! {
     static PANIC_MESSAGE: RefCell<Option<String>> = const { RefCell::new(None) };
@@ -80,11 +83,18 @@ fn install_panic_hook() {
     });
 }
 
-/// Runs `f`, turning a panic into `Err(message)`.
+/// Runs `f`, turning a panic into `Err(message)`. The panic hook must be installed
+/// ([`install_panic_hook`], done by fmi2Instantiate) for the message to be kept.
+#[inline(always)]
 fn catch<R>(f: impl FnOnce() -> R) -> Result<R, String> {
-    install_panic_hook();
-    panic::catch_unwind(AssertUnwindSafe(f))
-        .map_err(|_| PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_else(|| "(no message)".to_string()))
+    panic::catch_unwind(AssertUnwindSafe(f)).map_err(|_| panic_message())
+}
+
+/// The message the hook kept of the panic just caught.
+#[cold]
+#[inline(never)]
+fn panic_message() -> String {
+    PANIC_MESSAGE.with(|slot| slot.borrow_mut().take()).unwrap_or_else(|| "(no message)".to_string())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -110,7 +120,9 @@ unsafe fn instance_from<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
 }
 
 /// Checks the instance (from [`instance_from`]) and the phase, then runs the body with panics
-/// caught. An error result moves the instance to the Error phase.
+/// caught. An error result moves the instance to the Error phase. Everything but the checks
+/// and the body is out of line, so that the frame of a hot call stays small.
+#[inline(always)]
 fn with_instance(
     instance: Option<&mut Instance>,
     function: &'static str,
@@ -119,34 +131,61 @@ fn with_instance(
 ) -> fmi2Status {
     let Some(instance) = instance else { return fmi2Error };
     if instance.category_enabled(CAT_CALLS) {
-        instance.log(Status::Ok, CAT_CALLS, &format!("{function} (phase {})", instance.phase.name()));
+        log_call(instance, function);
     }
     if instance.phase as u32 & allowed == 0 {
-        let message = format!(
-            "illegal call in phase {}: {function} is allowed in {}",
-            instance.phase.name(),
-            legal::describe(allowed)
-        );
-        instance.error(function, &message);
-        if instance.phase != Phase::Fatal {
-            instance.phase = Phase::Error;
-        }
-        return fmi2Error;
+        return illegal_call(instance, function, allowed);
     }
     let borrowed: &mut Instance = &mut *instance;
     match catch(move || body(borrowed)) {
         Ok(Ok(status)) => status as fmi2Status,
-        Ok(Err(message)) => {
-            instance.error(function, &message);
-            instance.phase = Phase::Error;
-            fmi2Error
-        }
-        Err(panic_message) => {
-            instance.error(function, &format!("internal error (panic): {panic_message}"));
-            instance.phase = Phase::Error;
-            fmi2Error
-        }
+        Ok(Err(message)) => failed_call(instance, function, message),
+        Err(panic_message) => panicked_call(instance, function, panic_message),
     }
+}
+
+/// Logs a call under logCalls.
+#[cold]
+#[inline(never)]
+fn log_call(instance: &Instance, function: &str) {
+    instance.log(Status::Ok, CAT_CALLS, &format!("{function} (phase {})", instance.phase.name()));
+}
+
+/// Refuses a call the phase does not allow: logged, and the instance moves to the Error phase
+/// (a Fatal one stays Fatal).
+#[cold]
+#[inline(never)]
+fn illegal_call(instance: &mut Instance, function: &str, allowed: u32) -> fmi2Status {
+    let message = format!(
+        "illegal call in phase {}: {function} is allowed in {}",
+        instance.phase.name(),
+        legal::describe(allowed)
+    );
+    instance.error(function, &message);
+    if instance.phase != Phase::Fatal {
+        instance.phase = Phase::Error;
+    }
+    fmi2Error
+}
+
+/// A call whose body failed: logged, and the instance moves to the Error phase.
+#[cold]
+#[inline(never)]
+fn failed_call(instance: &mut Instance, function: &str, message: String) -> fmi2Status {
+    instance.error(function, &message);
+    instance.phase = Phase::Error;
+    fmi2Error
+}
+
+/// A call whose body panicked: logged, and the instance moves to the Error phase.
+#[cold]
+#[inline(never)]
+fn panicked_call(instance: &mut Instance, function: &str, panic_message: String) -> fmi2Status {
+    instance.error(function, &format!("internal error (panic): {panic_message}"));
+    instance.phase = Phase::Error;
+    // A step that panicked may have left notes behind; they are not the next step's.
+    instance.step_notes = Notes::default();
+    fmi2Error
 }
 
 /// Builds a slice from a C array after the `n == 0` short-cut and a null check.
@@ -155,12 +194,13 @@ fn with_instance(
 ///
 /// `pointer` is NULL or points to `n` initialised elements that stay valid and unchanged while
 /// the slice is used (FMI 2.0 calling convention for arrays).
-unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
+#[inline(always)]
+unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &'static str) -> Result<&'a [T], String> {
     if n == 0 {
         return Ok(&[]);
     }
     if pointer.is_null() {
-        return Err(format!("{what} is NULL but {n} elements were announced"));
+        return Err(null_array(what, n));
     }
     // SAFETY: non-null, so by this function's contract `n` valid elements; n == 0 was handled
     // above.
@@ -173,15 +213,23 @@ unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &str) -> Result<&'a [T
 ///
 /// `pointer` is NULL or points to `n` elements that may be written and are not accessed
 /// otherwise while the slice is used.
-unsafe fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
+#[inline(always)]
+unsafe fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &'static str) -> Result<&'a mut [T], String> {
     if n == 0 {
         return Ok(&mut []);
     }
     if pointer.is_null() {
-        return Err(format!("{what} is NULL but {n} elements were announced"));
+        return Err(null_array(what, n));
     }
     // SAFETY: non-null, so by this function's contract `n` writable elements lent to us alone.
     Ok(unsafe { std::slice::from_raw_parts_mut(pointer, n) })
+}
+
+/// Why an array argument is refused.
+#[cold]
+#[inline(never)]
+fn null_array(what: &str, n: usize) -> String {
+    format!("{what} is NULL but {n} elements were announced")
 }
 
 /// Copies a C string; the caller's buffer may be freed after the call returns.
@@ -218,16 +266,30 @@ fn set_phase(instance: &Instance) -> Result<SetPhase, String> {
         Phase::Instantiated => Ok(SetPhase::BeforeInitialization),
         Phase::InitializationMode => Ok(SetPhase::Initialization),
         Phase::StepComplete => Ok(SetPhase::Stepping),
-        other => Err(format!("values cannot be set in phase {}", other.name())),
+        other => Err(not_settable_in(other)),
     }
+}
+
+#[cold]
+#[inline(never)]
+fn not_settable_in(phase: Phase) -> String {
+    format!("values cannot be set in phase {}", phase.name())
 }
 
 #[inline]
 fn log_notes(instance: &Instance, notes: Notes) -> Status {
     // Almost every step has nothing to say: keep that case to two comparisons.
-    if notes.events.is_empty() && notes.warnings.is_empty() {
+    if notes.is_empty() {
         return Status::Ok;
     }
+    log_notes_slow(instance, notes)
+}
+
+/// Logs and empties the notes a step left in [`Instance::step_notes`].
+#[cold]
+#[inline(never)]
+fn log_step_notes(instance: &mut Instance) -> Status {
+    let notes = std::mem::take(&mut instance.step_notes);
     log_notes_slow(instance, notes)
 }
 
@@ -398,6 +460,8 @@ pub unsafe fn instantiate(
     // copied: FMI 2.0 asks the master to keep it alive, but a copy costs nothing and does not
     // depend on that.
     let callbacks = unsafe { *functions };
+    // Before any call of this library can panic (see `install_panic_hook`).
+    install_panic_hook();
     let result = catch(|| -> Result<Box<Instance>, (CString, String)> {
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let name = match unsafe { copy_string(instance_name, "instanceName") } {
@@ -455,6 +519,7 @@ pub unsafe fn instantiate(
             needs_initialize: true,
             inputs_changed: false,
             feedthrough: model.has_feedthrough(),
+            step_notes: Notes::default(),
             context,
             model,
             create: entry.create,
@@ -1051,44 +1116,52 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
             fmi_boolean(no_set_prior, "noSetFMUStatePriorToCurrentPoint")?;
         }
         if (current - instance.time).abs() > TIME_TOLERANCE * instance.time.abs().max(1.0) {
-            return Err(format!(
-                "currentCommunicationPoint {current} is not where the instance is ({}); steps must be contiguous (use fmi2SetFMUstate to go back)",
-                instance.time
-            ));
+            return Err(not_contiguous(current, instance.time));
         }
         if let Some(stop) = instance.stop_time {
             let end = current + step;
             if end > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
-                return Err(format!(
-                    "the step from {current} by {step} s ends at {end}, after the stopTime {stop} given in fmi2SetupExperiment"
-                ));
+                return Err(after_stop_time(current, step, end, stop));
             }
         }
-        let (pieces, what) = instance.model.step_pieces(step);
-        // NaN pieces (a model's arithmetic gone wrong) are refused too.
-        if pieces.is_nan() || pieces > MAX_STEP_PIECES {
-            return Err(format!(
-                "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {MAX_STEP_PIECES:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
-            ));
-        }
-        let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
-        match instance.model.do_step(current, step, &instance.context, &mut notes) {
+        // The notes are the instance's, empty between calls, so that a step neither builds
+        // nor drops any; the model refuses a step of more than MAX_STEP_PIECES pieces.
+        instance.step_notes.enable_events(instance.category_enabled(CAT_EVENTS));
+        match instance.model.do_step(current, step, MAX_STEP_PIECES, &instance.context, &mut instance.step_notes) {
             Ok(()) => {
                 // Feedthrough outputs are brought up to date lazily, before the next get that
                 // reads one of them.
                 instance.inputs_changed = instance.feedthrough;
                 instance.time = current + step;
                 instance.last_successful_time = instance.time;
-                let status = log_notes(instance, notes);
+                let status = if instance.step_notes.is_empty() { Status::Ok } else { log_step_notes(instance) };
                 instance.last_step_status = status;
                 Ok(status)
             }
             Err(e) => {
+                // What the failed step noted is not logged (the error says what happened).
+                if !instance.step_notes.is_empty() {
+                    instance.step_notes = Notes::default();
+                }
                 instance.last_step_status = Status::Error;
                 Err(e)
             }
         }
     })
+}
+
+#[cold]
+#[inline(never)]
+fn not_contiguous(current: f64, time: f64) -> String {
+    format!(
+        "currentCommunicationPoint {current} is not where the instance is ({time}); steps must be contiguous (use fmi2SetFMUstate to go back)"
+    )
+}
+
+#[cold]
+#[inline(never)]
+fn after_stop_time(current: f64, step: f64, end: f64, stop: f64) -> String {
+    format!("the step from {current} by {step} s ends at {end}, after the stopTime {stop} given in fmi2SetupExperiment")
 }
 
 /// Why `fmi2DoStep`'s step size or communication point is refused (one of them is).

@@ -6,7 +6,7 @@ use std::ptr::{null, null_mut};
 
 use super::*;
 use crate::state::{StateError, STATE_TAG};
-use crate::variables::{EnumerationType, Values};
+use crate::variables::{BaseType, EnumerationType, Values, VariableSet};
 use crate::{declare_variables, DefaultExperiment};
 use fmu_import::LoggerCallbacks;
 use via_c::{
@@ -263,10 +263,14 @@ impl Model for TestModel {
         values: &mut Values<TestVar>,
         _time: f64,
         step: f64,
-        _notes: &mut Notes,
+        notes: &mut Notes,
     ) -> Result<(), String> {
         if values.boolean(TestVar::PanicOnStep) {
+            notes.warning("about to panic");
             panic!("deliberate panic with 50% probability");
+        }
+        if values.real(TestVar::Input) == 7.0 {
+            notes.warning("an input of 7 is noted");
         }
         let factor = if values.integer(TestVar::Mode) == 2 { 2.0 } else { 1.0 };
         let u = values.real(TestVar::Input) + values.real(TestVar::Tunable);
@@ -945,4 +949,57 @@ fn error_messages_are_logged_after_debug_logging_is_switched_off() {
     let before = m.errors().len();
     assert_eq!(do_step(m.c, 0.0, -1.0, 0), fmi2Error);
     assert_eq!(m.errors().len(), before + 1, "the error was not logged");
+}
+
+#[test]
+fn values_store_the_variables_a_step_writes_first_in_table_order() {
+    let (table, slots) = (TestVar::TABLE, TestVar::SLOTS);
+    let mut sorted = slots.to_vec();
+    sorted.sort_unstable();
+    assert_eq!(sorted, (0..table.len() as u16).collect::<Vec<_>>(), "the slots are not a permutation");
+    let mut by_slot: Vec<usize> = (0..table.len()).collect();
+    by_slot.sort_by_key(|&i| slots[i]);
+    let written = crate::variables::WrittenIndices::of(table);
+    let (first, rest) = by_slot.split_at(written.count);
+    assert!(first.iter().all(|&i| table[i].written_by_step()) && rest.iter().all(|&i| !table[i].written_by_step()));
+    assert!(first.windows(2).chain(rest.windows(2)).all(|w| w[0] < w[1]), "table order is not kept");
+    // The test table declares parameters before outputs, so the order really changes.
+    assert!(!first.is_empty() && first[0] != 0);
+}
+
+#[test]
+fn a_step_warning_is_logged_once_and_a_panicking_step_leaves_none_for_the_next() {
+    let m = Master::initialized();
+    let warnings = || m.callbacks.book.records().into_iter().filter(|r| r.status == Status::Warning).count();
+    assert_eq!(m.set(U, 7.0), fmi2OK);
+    assert_eq!(do_step(m.c, 0.0, 0.1, 0), fmi2Warning);
+    assert_eq!(warnings(), 1);
+    assert_eq!(m.set(U, 0.0), fmi2OK);
+    assert_eq!(do_step(m.c, 0.1, 0.1, 0), fmi2OK, "the warning was carried to the next step");
+    assert_eq!(warnings(), 1);
+    let mut state: fmi2FMUstate = null_mut();
+    assert_eq!(get_fmu_state(m.c, &mut state), fmi2OK);
+    let panic_vr = TestVar::PanicOnStep as u32;
+    assert_eq!(set_boolean(m.c, &panic_vr, 1, &1), fmi2OK);
+    assert_eq!(do_step(m.c, 0.2, 0.1, 0), fmi2Error);
+    assert_eq!(set_fmu_state(m.c, state), fmi2OK);
+    assert_eq!(do_step(m.c, 0.2, 0.1, 0), fmi2OK, "the panicking step's warning was carried over");
+    assert_eq!(warnings(), 1);
+    assert_eq!(free_fmu_state(m.c, &mut state), fmi2OK);
+}
+
+#[test]
+fn saved_values_list_each_type_in_table_order_whatever_the_storage_order() {
+    let mut values = Values::<TestVar>::at_start();
+    // Distinct values, so that any other order shows.
+    let reals: Vec<usize> =
+        (0..TestVar::TABLE.len()).filter(|&i| TestVar::TABLE[i].base_type() == BaseType::Real).collect();
+    for (k, &i) in reals.iter().enumerate() {
+        values.set_real(TestVar::from_index(i).unwrap(), k as f64 + 0.5);
+    }
+    let bytes = postcard::to_allocvec(&values).unwrap();
+    let (saved, _, _, _): (Vec<f64>, Vec<i32>, Vec<bool>, Vec<String>) = postcard::from_bytes(&bytes).unwrap();
+    assert_eq!(saved, (0..reals.len()).map(|k| k as f64 + 0.5).collect::<Vec<_>>());
+    let back: Values<TestVar> = postcard::from_bytes(&bytes).unwrap();
+    assert_eq!(back, values);
 }

@@ -10,7 +10,7 @@ use crate::ffi::{fmi2CallbackFunctions, Status};
 use crate::model::{Context, Model, Notes};
 use crate::phase::{Phase, CAT_ERROR, LOG_CATEGORIES};
 use crate::state::{InstanceState, StateError, StateHeader};
-use crate::variables::{BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
+use crate::variables::{all_finite, BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
 
 /// Guards against a stray or freed pointer being used as an instance.
 pub const INSTANCE_MAGIC: u64 = 0x4D4B_4154_5F46_4D55; // "MKAT_FMU"
@@ -49,11 +49,18 @@ pub trait DynModel: Send {
     fn has_feedthrough(&self) -> bool;
     /// Whether any of `vrs` is an output with direct feedthrough (unknown references are not).
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool;
-    /// The step's work in internal pieces and what sets their length ([`Model::step_pieces`]).
-    fn step_pieces(&self, step: f64) -> (f64, &'static str);
     /// Advances the model; a step whose values would come out NaN or infinite is undone and
-    /// refused.
-    fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String>;
+    /// refused. A step that would take more than `max_pieces` internal pieces
+    /// ([`Model::step_pieces`]) is refused before anything changes (one call for both, as
+    /// every step of every FMU of a coupled simulation pays for the call).
+    fn do_step(
+        &mut self,
+        time: f64,
+        step: f64,
+        max_pieces: f64,
+        context: &Context,
+        notes: &mut Notes,
+    ) -> Result<(), String>;
     /// The bytes of a state: `header`, then the values and the model's state.
     fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError>;
     /// Restores a state of this model (checked by identifier and GUID) and returns its header.
@@ -61,16 +68,13 @@ pub trait DynModel: Send {
     fn load(&mut self, bytes: &[u8], context: &Context) -> Result<StateHeader, StateError>;
 }
 
-/// What a get or set of one value reference needs on the hot path, packed into a small entry:
+/// What a set of one Real value reference needs on the hot path, packed into a small entry:
 /// a master exchanges a few dozen values every millisecond, and reading the whole declaration
 /// (names, descriptions, units) for each costs more than the model's own step. The
 /// declaration stays the one source: this is derived from it, and every failed check falls
 /// back to the declaration's own checks, which word the error.
 #[derive(Debug, Clone, Copy)]
 struct Access {
-    base: BaseType,
-    /// An output that depends on inputs within the step (declared with `depends_on`).
-    feedthrough: bool,
     /// The values fmi2SetReal accepts for this variable by the declaration's checks, as
     /// `(lo, hi)`, before stepping (index 0: before and during initialisation) and while
     /// stepping (index 1). For a Real settable in that phase it is the declared range
@@ -95,11 +99,7 @@ impl Access {
                 (f64::NAN, f64::NAN)
             }
         };
-        Access {
-            base: var.base_type(),
-            feedthrough: !var.depends_on.is_empty(),
-            settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)],
-        }
+        Access { settable_range: [range(SetPhase::Initialization), range(SetPhase::Stepping)] }
     }
 
     /// Whether a Real passes the declaration's checks in a phase (index as `settable_range`).
@@ -110,6 +110,24 @@ impl Access {
     }
 }
 
+/// Marks an output with direct feedthrough in [`real_read`]'s entries.
+const FEEDTHROUGH_BIT: u32 = 1 << 31;
+/// [`real_read`]'s entry for a variable that is not a Real: no slot of [`Values`] is this high.
+const NOT_A_REAL: u32 = !FEEDTHROUGH_BIT;
+
+/// What fmi2GetReal needs of value reference `index`, in one number, so that the hottest loop
+/// of a coupled simulation does one load per value: for a Real, its storage slot in [`Values`]
+/// with [`FEEDTHROUGH_BIT`] set if it is an output with direct feedthrough; otherwise
+/// [`NOT_A_REAL`], which as a slot is out of bounds. Derived from the declaration, as [`Access`].
+fn real_read<V: VariableSet>(index: usize) -> u32 {
+    let var = &V::TABLE[index];
+    if var.base_type() != BaseType::Real {
+        return NOT_A_REAL;
+    }
+    let feedthrough = if var.depends_on.is_empty() { 0 } else { FEEDTHROUGH_BIT };
+    u32::from(V::SLOTS[index]) | feedthrough
+}
+
 /// A model with its values; implements [`DynModel`] for any [`Model`].
 pub struct ModelSlot<M: Model> {
     model: M,
@@ -117,6 +135,8 @@ pub struct ModelSlot<M: Model> {
     guid: String,
     /// One entry per value reference, from the variable table.
     access: Vec<Access>,
+    /// One entry per value reference, for fmi2GetReal ([`real_read`]).
+    real_reads: Vec<u32>,
     /// Whether any output depends directly on an input (from the table, computed once).
     feedthrough: bool,
     /// The values before the step in progress, to undo a step whose results are not finite
@@ -136,6 +156,7 @@ impl<M: Model> ModelSlot<M> {
         let values = Values::<M::Var>::at_start();
         let model = M::new(&values, context)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
+        let real_reads = (0..M::Var::TABLE.len()).map(real_read::<M::Var>).collect();
         let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
         let before_step = values.clone();
         let written = WrittenIndices::of(M::Var::TABLE);
@@ -144,6 +165,7 @@ impl<M: Model> ModelSlot<M> {
             values,
             guid,
             access,
+            real_reads,
             feedthrough,
             before_step,
             written,
@@ -255,25 +277,32 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn get_real(&mut self, vrs: &[u32], out: &mut [f64], refresh: bool) -> Result<bool, String> {
-        // Check every reference first (and note whether one is a feedthrough output), bring
-        // the feedthrough outputs up to date if needed, then copy: no value is read stale.
-        let mut reads_feedthrough = false;
-        for &vr in vrs {
-            match self.access.get(vr as usize) {
-                Some(a) if a.base == BaseType::Real => reads_feedthrough |= a.feedthrough,
-                _ => return Err(Self::not_a_real(vr)),
+        // Copy while checking every reference (and noting whether one is a feedthrough
+        // output); if one is and the inputs changed, bring the feedthrough outputs up to date
+        // and copy again: no value is read stale. One pass for the common get, which reads no
+        // pending feedthrough output (a master's get after each step is such a get whenever it
+        // reads none: after a step of a model with feedthrough, `refresh` is always set). A
+        // refused call may have written part of `out`, which the master must not read after
+        // fmi2Error anyway; the instance is unchanged.
+        let mut reads = 0;
+        for (slot, &vr) in out.iter_mut().zip(vrs) {
+            let read = self.real_reads.get(vr as usize).copied().unwrap_or(NOT_A_REAL);
+            reads |= read;
+            match self.values.reals_by_slot().get((read & !FEEDTHROUGH_BIT) as usize) {
+                Some(&value) => *slot = value,
+                None => return Err(Self::not_a_real(vr)),
             }
         }
-        let refreshed = refresh && reads_feedthrough;
+        let refreshed = refresh && reads & FEEDTHROUGH_BIT != 0;
         if refreshed {
             self.model.update_feedthrough(&mut self.values);
-        }
-        for (slot, &vr) in out.iter_mut().zip(vrs) {
-            *slot = self.values.real_at(vr as usize);
+            for (slot, &vr) in out.iter_mut().zip(vrs) {
+                *slot = self.values.real_at(vr as usize);
+            }
         }
         // A get never hands out NaN or infinity with fmi2OK: the steps and initialisation are
         // guarded, and this catches what a feedthrough output computed just now.
-        if out.iter().map(|x| x * 0.0).sum::<f64>() != 0.0 {
+        if !all_finite(out) {
             return Err(self.non_finite_read(vrs, out));
         }
         Ok(refreshed)
@@ -306,8 +335,11 @@ impl<M: Model> DynModel for ModelSlot<M> {
         let phase_index = usize::from(phase == SetPhase::Stepping);
         for (&vr, &value) in vrs.iter().zip(values) {
             if self.access.get(vr as usize).is_some_and(|a| a.accepts_real(value, phase_index)) {
-                let var = M::Var::from_index(vr as usize).expect("the access table has one entry per variable");
-                check_model_real::<M>(var, value, &self.values)?;
+                // The access table has one entry per variable, so there is a variable (written
+                // without `expect`, so that a model without a check of its own pays nothing).
+                if let Some(var) = M::Var::from_index(vr as usize) {
+                    check_model_real::<M>(var, value, &self.values)?;
+                }
             } else {
                 self.check_real_by_declaration(vr, value, phase)?;
             }
@@ -391,18 +423,27 @@ impl<M: Model> DynModel for ModelSlot<M> {
     }
 
     fn reads_feedthrough(&self, vrs: &[u32]) -> bool {
-        vrs.iter().any(|&vr| self.access.get(vr as usize).is_some_and(|a| a.feedthrough))
+        vrs.iter().any(|&vr| self.real_reads.get(vr as usize).is_some_and(|&read| read & FEEDTHROUGH_BIT != 0))
     }
 
-    fn step_pieces(&self, step: f64) -> (f64, &'static str) {
-        M::step_pieces(&self.values, step)
-    }
-
-    fn do_step(&mut self, time: f64, step: f64, context: &Context, notes: &mut Notes) -> Result<(), String> {
+    fn do_step(
+        &mut self,
+        time: f64,
+        step: f64,
+        max_pieces: f64,
+        context: &Context,
+        notes: &mut Notes,
+    ) -> Result<(), String> {
+        let (pieces, what) = M::step_pieces(&self.values, step);
+        // NaN pieces (a model's arithmetic gone wrong) are refused too.
+        if pieces.is_nan() || pieces > max_pieces {
+            return Err(too_many_pieces(step, pieces, what, max_pieces));
+        }
         // Keep what is needed to undo the step: the values (copied into a kept buffer) and the
         // model's own state (what an FMU state holds of it).
         // Only what a step may write is kept and checked (parameters and inputs are checked by
-        // the sets that change them).
+        // the sets that change them): the first slots of each vector of the values, one block
+        // copy each ([`crate::variables::storage_slots`]).
         self.before_step.copy_written_from(&self.values, &self.written);
         match &mut self.model_before_step {
             Some(state) => self.model.save_state_into(state),
@@ -414,7 +455,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
             self.undo_written(model_before, context)?;
             return Err(e);
         }
-        let Some(index) = self.values.first_non_finite_real_among(&self.written.reals) else { return Ok(()) };
+        let Some(index) = self.values.first_non_finite_written(&self.written) else { return Ok(()) };
         let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
         let model_before = self.model_before_step.take().expect("kept above");
         self.undo_written(model_before, context)?;
@@ -444,6 +485,15 @@ impl<M: Model> DynModel for ModelSlot<M> {
         self.strings_changed = true;
         Ok(header)
     }
+}
+
+/// Why a step is refused for its count of internal pieces.
+#[cold]
+#[inline(never)]
+fn too_many_pieces(step: f64, pieces: f64, what: &str, max_pieces: f64) -> String {
+    format!(
+        "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {max_pieces:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
+    )
 }
 
 /// Whether a number is subnormal (nonzero and smaller in magnitude than the smallest normal
@@ -538,6 +588,9 @@ pub struct Instance {
     /// Whether the model has outputs with direct feedthrough (`DynModel::has_feedthrough`,
     /// kept here because every set and step asks).
     pub feedthrough: bool,
+    /// What the model notes during a step, empty between calls (kept here so that a step
+    /// neither builds nor drops one).
+    pub step_notes: Notes,
     pub context: Context,
     pub model: Box<dyn DynModel>,
     /// Rebuilds the model for fmi2Reset.

@@ -53,6 +53,19 @@ impl Notes {
         Notes { events_enabled, events: Vec::new(), warnings: Vec::new() }
     }
 
+    /// Whether event messages will be kept from now on (an instance keeps one `Notes` for its
+    /// steps, so that a step builds and drops none).
+    #[inline]
+    pub(crate) fn enable_events(&mut self, events_enabled: bool) {
+        self.events_enabled = events_enabled;
+    }
+
+    /// Whether there is nothing to log.
+    #[inline]
+    pub(crate) fn is_empty(&self) -> bool {
+        self.events.is_empty() && self.warnings.is_empty()
+    }
+
     /// Whether event messages will be logged; check it before formatting one in a hot path.
     pub fn events_enabled(&self) -> bool {
         self.events_enabled
