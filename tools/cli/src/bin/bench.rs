@@ -50,6 +50,10 @@ struct Cli {
     /// such as `valgrind --tool=callgrind`, whose counts do not depend on the machine's load.
     #[arg(long, conflicts_with_all = ["fmpy", "sweep"])]
     only_coupled: bool,
+    /// Runs of the coupled antenna; the best counts (1 with `--only-coupled` unless given, for
+    /// profilers; 3 otherwise).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    runs: Option<u32>,
     /// With `--only-coupled`: the threads that step the run (1, or 2 for the azimuth lane on a
     /// second thread).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2), requires = "only_coupled")]
@@ -80,10 +84,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         .context("cannot open the FMUs (package them first: cargo xtask package)")?;
     if cli.only_coupled {
         let lanes = if cli.threads == 2 { Lanes::Two } else { Lanes::One };
-        return coupled(&fmus, cli.seconds, 1, &[lanes]);
+        return coupled(&fmus, cli.seconds, cli.runs.unwrap_or(1) as usize, &[lanes]);
     }
     if !cli.only_sweep {
-        coupled(&fmus, cli.seconds, 3, &[Lanes::One, Lanes::Two, Lanes::Auto])?;
+        coupled(&fmus, cli.seconds, cli.runs.unwrap_or(3) as usize, &[Lanes::One, Lanes::Two, Lanes::Auto])?;
         single_calls(&fmus)?;
         if cli.fmpy {
             fmpy_master(cli.seconds)?;
