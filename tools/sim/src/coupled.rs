@@ -539,7 +539,8 @@ impl CoupledAntenna {
     }
 
     /// Exchanges values at the current communication point, records them, and steps every
-    /// unit to the next point.
+    /// unit to the next point. On [`Lanes::Two`] every call starts and ends the second thread:
+    /// [`Self::run_steps`] is the way to take many steps.
     pub fn step(&mut self, table: &CommandTable, trace: Option<&mut Trace>) -> Result<(), ImportError> {
         self.run_steps(table, 1, trace, &mut |_| {})
     }
@@ -557,6 +558,11 @@ impl CoupledAntenna {
     ) -> Result<(), ImportError> {
         if self.lanes != Lanes::Auto {
             return self.run_lanes(table, steps, trace, self.lanes, progress);
+        }
+        if steps < 2 * AUTO_PROBE_STEPS {
+            // Too short to time both: the second thread's start alone would cost more than it
+            // could save (and `step` would start one per step).
+            return self.run_lanes(table, steps, trace, Lanes::One, progress);
         }
         // Two lanes pay only while the second thread has a core of its own: on a busy machine
         // every meeting waits for the scheduler, and a step can take a hundred times longer.
