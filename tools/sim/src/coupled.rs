@@ -31,7 +31,7 @@ use std::time::Instant;
 use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
 
 use super::command::{Command, CommandTable};
-use super::handoff::Handoff;
+use super::handoff::{Handoff, Received};
 
 /// A value for a parameter set by name.
 #[derive(Debug, Clone, PartialEq)]
@@ -689,12 +689,61 @@ struct AzimuthLaneInput {
     structure: [f64; 5],
 }
 
+/// The values of an [`AzimuthLaneInput`] and its time, in the order they cross between threads.
+const AZIMUTH_INPUT_WORDS: usize = 17;
+
+impl AzimuthLaneInput {
+    fn to_words(&self, t: f64) -> [f64; AZIMUTH_INPUT_WORDS] {
+        let mut words = [0.0; AZIMUTH_INPUT_WORDS];
+        words[0] = t;
+        words[1..3].copy_from_slice(&self.command);
+        words[3..10].copy_from_slice(&self.plant);
+        words[10] = self.wind_torque_nm;
+        words[11] = self.elevation_deg;
+        words[12..17].copy_from_slice(&self.structure);
+        words
+    }
+
+    /// The input and its time.
+    fn from_words(words: &[f64; AZIMUTH_INPUT_WORDS]) -> (f64, Self) {
+        let input = AzimuthLaneInput {
+            command: [words[1], words[2]],
+            plant: std::array::from_fn(|i| words[3 + i]),
+            wind_torque_nm: words[10],
+            elevation_deg: words[11],
+            structure: std::array::from_fn(|i| words[12 + i]),
+        };
+        (words[0], input)
+    }
+}
+
 /// What the azimuth lane gives back: the values at the point it was given, and the plant's
 /// outputs at the next one.
 struct AzimuthLaneOutput {
     controller: [f64; 3],
     beam: [f64; 4],
     plant_next: [f64; 7],
+}
+
+/// The values of an [`AzimuthLaneOutput`], in the order they cross between threads.
+const AZIMUTH_OUTPUT_WORDS: usize = 14;
+
+impl AzimuthLaneOutput {
+    fn to_words(&self) -> [f64; AZIMUTH_OUTPUT_WORDS] {
+        let mut words = [0.0; AZIMUTH_OUTPUT_WORDS];
+        words[0..3].copy_from_slice(&self.controller);
+        words[3..7].copy_from_slice(&self.beam);
+        words[7..14].copy_from_slice(&self.plant_next);
+        words
+    }
+
+    fn from_words(words: &[f64; AZIMUTH_OUTPUT_WORDS]) -> Self {
+        AzimuthLaneOutput {
+            controller: std::array::from_fn(|i| words[i]),
+            beam: std::array::from_fn(|i| words[3 + i]),
+            plant_next: std::array::from_fn(|i| words[7 + i]),
+        }
+    }
 }
 
 /// The azimuth plant, its controller and the structure: everything that the azimuth axis and
@@ -900,20 +949,21 @@ impl Master<'_, '_> {
             Err(e) => return (0, Err(e)),
         };
         let h = self.step_s;
-        // `None` asks the azimuth lane to stop.
-        let to_azimuth: Handoff<Option<(f64, AzimuthLaneInput)>> = Handoff::new();
-        let from_azimuth: Handoff<Result<AzimuthLaneOutput, ImportError>> = Handoff::new();
+        let to_azimuth: Handoff<(), AZIMUTH_INPUT_WORDS> = Handoff::new();
+        let from_azimuth: Handoff<ImportError, AZIMUTH_OUTPUT_WORDS> = Handoff::new();
         std::thread::scope(|scope| {
             scope.spawn(|| {
                 // Tells the master if this thread ends without answering (a panic).
                 let _closing = from_azimuth.closing_on_drop();
                 for n in 1.. {
-                    let Some(Some((t, input))) = to_azimuth.receive(n) else { return };
-                    let output = azimuth.step(t, h, &input);
-                    let failed = output.is_err();
-                    from_azimuth.send(output);
-                    if failed {
-                        return;
+                    let Received::Values(words) = to_azimuth.receive(n) else { return };
+                    let (t, input) = AzimuthLaneInput::from_words(&words);
+                    match azimuth.step(t, h, &input) {
+                        Ok(output) => from_azimuth.send(&output.to_words()),
+                        Err(error) => {
+                            from_azimuth.send_failure(error);
+                            return;
+                        }
                     }
                 }
             });
@@ -924,20 +974,24 @@ impl Master<'_, '_> {
                     let point = match self.point(k, &az, &el, wind) {
                         Ok(point) => point,
                         Err(e) => {
-                            to_azimuth.send(None);
+                            to_azimuth.send_stop();
                             return Err(e);
                         }
                     };
-                    to_azimuth.send(Some((point.t, Self::azimuth_input(&point, &az, &el))));
+                    to_azimuth.send(&Self::azimuth_input(&point, &az, &el).to_words(point.t));
                     let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
-                    let a = from_azimuth
-                        .receive(k + 1)
-                        .expect("the azimuth lane answers every point it is given or panics");
+                    let a = match from_azimuth.receive(k + 1) {
+                        Received::Values(words) => Ok(AzimuthLaneOutput::from_words(&words)),
+                        Received::Failed(error) => Err(error),
+                        Received::Stop | Received::Gone => {
+                            panic!("the azimuth lane answers every point it is given or panics")
+                        }
+                    };
                     let (a, e) = match (a, e) {
                         (Ok(a), Ok(e)) => (a, e),
                         (Err(error), _) => return Err(error),
                         (Ok(_), Err(error)) => {
-                            to_azimuth.send(None);
+                            to_azimuth.send_stop();
                             return Err(error);
                         }
                     };
@@ -948,7 +1002,7 @@ impl Master<'_, '_> {
                         progress(k as f64 / steps as f64);
                     }
                 }
-                to_azimuth.send(None);
+                to_azimuth.send_stop();
                 Ok(())
             };
             let result = body();
