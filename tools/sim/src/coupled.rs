@@ -522,8 +522,7 @@ impl CoupledAntenna {
 
     /// The time of the next communication point, s.
     pub fn time_s(&self) -> f64 {
-        // Counted in steps, not accumulated, so long runs do not drift.
-        self.start_time_s + self.steps_done as f64 * self.step_s
+        step_time(self.start_time_s, self.step_s, self.steps_done)
     }
 
     /// The wind's loads on the antenna now, scaled as the configuration says (torque about
@@ -676,12 +675,8 @@ fn wind_loads(wind: &mut Instance, ports: &Ports, scale: f64) -> Result<([f64; 3
     Ok(([scale * values[0], scale * values[1], scale * values[3]], values[2]))
 }
 
-/// What the azimuth lane is given at a communication point.
-struct AzimuthLaneInput {
-    /// Commanded position, deg, and rate, deg/s.
-    command: [f64; 2],
-    /// The azimuth plant's outputs at this point (`Ports::az_plant_out`).
-    plant: [f64; 7],
+/// What the azimuth lane is given at a communication point once the wind's loads are known.
+struct AzimuthLoads {
     wind_torque_nm: f64,
     /// The true elevation, deg (the azimuth load's inertia depends on it).
     elevation_deg: f64,
@@ -689,31 +684,29 @@ struct AzimuthLaneInput {
     structure: [f64; 5],
 }
 
-/// The values of an [`AzimuthLaneInput`] and its time, in the order they cross between threads.
-const AZIMUTH_INPUT_WORDS: usize = 17;
+/// The values of an [`AzimuthLoads`], its time and the next step's command, in the order they
+/// cross between threads.
+const AZIMUTH_LOADS_WORDS: usize = 10;
 
-impl AzimuthLaneInput {
-    fn to_words(&self, t: f64) -> [f64; AZIMUTH_INPUT_WORDS] {
-        let mut words = [0.0; AZIMUTH_INPUT_WORDS];
+impl AzimuthLoads {
+    fn to_words(&self, t: f64, next_command: [f64; 2]) -> [f64; AZIMUTH_LOADS_WORDS] {
+        let mut words = [0.0; AZIMUTH_LOADS_WORDS];
         words[0] = t;
-        words[1..3].copy_from_slice(&self.command);
-        words[3..10].copy_from_slice(&self.plant);
-        words[10] = self.wind_torque_nm;
-        words[11] = self.elevation_deg;
-        words[12..17].copy_from_slice(&self.structure);
+        words[1] = self.wind_torque_nm;
+        words[2] = self.elevation_deg;
+        words[3..8].copy_from_slice(&self.structure);
+        words[8..10].copy_from_slice(&next_command);
         words
     }
 
-    /// The input and its time.
-    fn from_words(words: &[f64; AZIMUTH_INPUT_WORDS]) -> (f64, Self) {
-        let input = AzimuthLaneInput {
-            command: [words[1], words[2]],
-            plant: std::array::from_fn(|i| words[3 + i]),
-            wind_torque_nm: words[10],
-            elevation_deg: words[11],
-            structure: std::array::from_fn(|i| words[12 + i]),
+    /// The loads, their time and the next step's command.
+    fn from_words(words: &[f64; AZIMUTH_LOADS_WORDS]) -> (f64, Self, [f64; 2]) {
+        let loads = AzimuthLoads {
+            wind_torque_nm: words[1],
+            elevation_deg: words[2],
+            structure: std::array::from_fn(|i| words[3 + i]),
         };
-        (words[0], input)
+        (words[0], loads, [words[8], words[9]])
     }
 }
 
@@ -748,6 +741,11 @@ impl AzimuthLaneOutput {
 
 /// The azimuth plant, its controller and the structure: everything that the azimuth axis and
 /// the beam exchange within a step once the wind's loads are known.
+///
+/// A step is two parts. The controller's exchange and step need only the command and the
+/// plant's outputs at the point, not the wind, so on two lanes they are done ahead, while the
+/// master is still exchanging with the wind; the plant and the structure wait for the loads.
+/// Every unit sees the same calls with the same values in either order.
 struct AzimuthLane<'a> {
     plant: &'a mut Instance,
     controller: &'a mut Instance,
@@ -756,26 +754,54 @@ struct AzimuthLane<'a> {
 }
 
 impl AzimuthLane<'_> {
-    fn step(&mut self, t: f64, h: f64, input: &AzimuthLaneInput) -> Result<AzimuthLaneOutput, ImportError> {
+    /// The controller's exchange and step at a point; its outputs (torque command, speed
+    /// command, reference).
+    fn control(&mut self, t: f64, h: f64, command: [f64; 2], az: &[f64; 7]) -> Result<[f64; 3], ImportError> {
+        let p = self.ports;
+        self.controller.set_real(&p.az_ctrl_in, &[command[0], command[1], az[0], az[2], az[3]])?;
+        let mut controller = [0.0; 3];
+        self.controller.get_real(&p.az_ctrl_out, &mut controller)?;
+        self.controller.do_step(t, h)?;
+        Ok(controller)
+    }
+
+    /// The structure's exchange and the plant's step once the loads are known: the beam's
+    /// offsets at the point and the plant's outputs at the next one.
+    fn drive(
+        &mut self,
+        t: f64,
+        h: f64,
+        controller: &[f64; 3],
+        loads: &AzimuthLoads,
+    ) -> Result<([f64; 4], [f64; 7]), ImportError> {
         let p = self.ports;
         let mut beam = [0.0; 4];
         if let Some(structure) = self.structure.as_deref_mut() {
-            structure.set_real(&p.structure_in, &input.structure[..p.structure_in.len()])?;
+            structure.set_real(&p.structure_in, &loads.structure[..p.structure_in.len()])?;
             structure.get_real(&p.structure_out, &mut beam)?;
         }
-        let az = &input.plant;
-        self.controller.set_real(&p.az_ctrl_in, &[input.command[0], input.command[1], az[0], az[2], az[3]])?;
-        let mut controller = [0.0; 3];
-        self.controller.get_real(&p.az_ctrl_out, &mut controller)?;
         self.plant
-            .set_real(&p.az_plant_in, &[controller[0], controller[1], input.wind_torque_nm, input.elevation_deg])?;
+            .set_real(&p.az_plant_in, &[controller[0], controller[1], loads.wind_torque_nm, loads.elevation_deg])?;
         self.plant.do_step(t, h)?;
-        self.controller.do_step(t, h)?;
         if let Some(structure) = self.structure.as_deref_mut() {
             structure.do_step(t, h)?;
         }
         let mut plant_next = [0.0; 7];
         self.plant.get_real(&p.az_plant_out, &mut plant_next)?;
+        Ok((beam, plant_next))
+    }
+
+    /// A whole step on one lane.
+    fn step(
+        &mut self,
+        t: f64,
+        h: f64,
+        command: [f64; 2],
+        az: &[f64; 7],
+        loads: &AzimuthLoads,
+    ) -> Result<AzimuthLaneOutput, ImportError> {
+        let controller = self.control(t, h, command, az)?;
+        let (beam, plant_next) = self.drive(t, h, &controller, loads)?;
         Ok(AzimuthLaneOutput { controller, beam, plant_next })
     }
 }
@@ -827,6 +853,12 @@ struct Point {
     wind_speed: f64,
 }
 
+/// The time of a run's `n`th communication point, counted in steps, not accumulated, so that
+/// long runs do not drift.
+fn step_time(start_time_s: f64, step_s: f64, n: u64) -> f64 {
+    start_time_s + n as f64 * step_s
+}
+
 /// The master's side of a run: the clock, the command, the wind exchange, and the trace.
 struct Master<'a, 't> {
     table: &'a CommandTable,
@@ -843,24 +875,36 @@ impl Master<'_, '_> {
     /// The time of the `k`th step of this run, counted in steps, not accumulated, so that long
     /// runs do not drift.
     fn time(&self, k: u64) -> f64 {
-        self.start_time_s + (self.first_step + k) as f64 * self.step_s
+        step_time(self.start_time_s, self.step_s, self.first_step + k)
     }
 
     /// The exchange that comes before the lanes: the command, and the wind unit told where the
     /// antenna points and asked for its loads.
     fn point(&self, k: u64, az: &[f64; 7], el: &[f64; 5], wind: &mut Instance) -> Result<Point, ImportError> {
+        self.point_commanded(k, self.table.at(self.time(k)), az, el, wind)
+    }
+
+    /// [`Self::point`] with the command already looked up.
+    fn point_commanded(
+        &self,
+        k: u64,
+        command: Command,
+        az: &[f64; 7],
+        el: &[f64; 5],
+        wind: &mut Instance,
+    ) -> Result<Point, ImportError> {
         let t = self.time(k);
-        let command = self.table.at(t);
         wind.set_real(&self.ports.wind_in, &[az[1], el[1]])?;
         let (loads, wind_speed) = wind_loads(wind, self.ports, self.wind_scale)?;
         Ok(Point { t, command, loads, wind_speed })
     }
 
-    fn azimuth_input(point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLaneInput {
-        let c = &point.command;
-        AzimuthLaneInput {
-            command: [c.azimuth_deg, c.azimuth_rate_deg_per_s],
-            plant: *az,
+    fn azimuth_command(command: &Command) -> [f64; 2] {
+        [command.azimuth_deg, command.azimuth_rate_deg_per_s]
+    }
+
+    fn azimuth_loads(point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLoads {
+        AzimuthLoads {
             wind_torque_nm: point.loads[0],
             elevation_deg: el[1],
             structure: [point.loads[0], point.loads[1], point.loads[2], az[6], el[4]],
@@ -919,7 +963,8 @@ impl Master<'_, '_> {
             let h = self.step_s;
             for k in 0..steps {
                 let point = self.point(k, &az, &el, wind)?;
-                let a = azimuth.step(point.t, h, &Self::azimuth_input(&point, &az, &el))?;
+                let command = Self::azimuth_command(&point.command);
+                let a = azimuth.step(point.t, h, command, &az, &Self::azimuth_loads(&point, &az, &el))?;
                 let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind)?;
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
@@ -949,20 +994,42 @@ impl Master<'_, '_> {
             Err(e) => return (0, Err(e)),
         };
         let h = self.step_s;
-        let to_azimuth: Handoff<(), AZIMUTH_INPUT_WORDS> = Handoff::new();
+        let to_azimuth: Handoff<(), AZIMUTH_LOADS_WORDS> = Handoff::new();
         let from_azimuth: Handoff<ImportError, AZIMUTH_OUTPUT_WORDS> = Handoff::new();
+        let first_az = az;
+        let (start_time_s, first_step) = (self.start_time_s, self.first_step);
+        let mut command = self.table.at(self.time(0));
+        let first_command = Self::azimuth_command(&command);
         std::thread::scope(|scope| {
             scope.spawn(|| {
                 // Tells the master if this thread ends without answering (a panic).
                 let _closing = from_azimuth.closing_on_drop();
-                for n in 1.. {
-                    let Received::Values(words) = to_azimuth.receive(n) else { return };
-                    let (t, input) = AzimuthLaneInput::from_words(&words);
-                    match azimuth.step(t, h, &input) {
-                        Ok(output) => from_azimuth.send(&output.to_words()),
-                        Err(error) => {
-                            from_azimuth.send_failure(error);
-                            return;
+                // The controller's part of step k is done before the loads of step k arrive
+                // (see `AzimuthLane`), with the command that came with the loads of step k - 1;
+                // a failure there answers step k.
+                let time = |k: u64| step_time(start_time_s, h, first_step + k);
+                let control = |azimuth: &mut AzimuthLane, k: u64, command: [f64; 2], az: &[f64; 7]| {
+                    azimuth.control(time(k), h, command, az)
+                };
+                let mut az = first_az;
+                let mut controller = match control(azimuth, 0, first_command, &az) {
+                    Ok(controller) => controller,
+                    Err(error) => return from_azimuth.send_failure(error),
+                };
+                for k in 0..steps {
+                    let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
+                    let (t, loads, next_command) = AzimuthLoads::from_words(&words);
+                    match azimuth.drive(t, h, &controller, &loads) {
+                        Ok((beam, plant_next)) => {
+                            from_azimuth.send(&AzimuthLaneOutput { controller, beam, plant_next }.to_words());
+                            az = plant_next;
+                        }
+                        Err(error) => return from_azimuth.send_failure(error),
+                    }
+                    if k + 1 < steps {
+                        match control(azimuth, k + 1, next_command, &az) {
+                            Ok(next) => controller = next,
+                            Err(error) => return from_azimuth.send_failure(error),
                         }
                     }
                 }
@@ -971,14 +1038,20 @@ impl Master<'_, '_> {
             let mut done = 0;
             let mut body = || -> Result<(), ImportError> {
                 for k in 0..steps {
-                    let point = match self.point(k, &az, &el, wind) {
+                    let point = match self.point_commanded(k, command, &az, &el, wind) {
                         Ok(point) => point,
                         Err(e) => {
                             to_azimuth.send_stop();
                             return Err(e);
                         }
                     };
-                    to_azimuth.send(&Self::azimuth_input(&point, &az, &el).to_words(point.t));
+                    // The next step's command goes with these loads, so that the azimuth lane
+                    // can run its controller before the next loads are known.
+                    if k + 1 < steps {
+                        command = self.table.at(self.time(k + 1));
+                    }
+                    let loads = Self::azimuth_loads(&point, &az, &el);
+                    to_azimuth.send(&loads.to_words(point.t, Self::azimuth_command(&command)));
                     let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
                     let a = match from_azimuth.receive(k + 1) {
                         Received::Values(words) => Ok(AzimuthLaneOutput::from_words(&words)),
