@@ -83,8 +83,11 @@ fn an_error_in_either_lane_or_in_the_wind_exchange_ends_the_run_with_that_error(
     let rate = SIDEREAL_RATE_DEG_PER_S;
     let table = tracking_table((30.0, 45.0), (rate, rate), 2.0);
     type Breaker = fn(&mut CoupledAntenna);
-    let breakers: [(&str, Breaker); 4] = [
+    let breakers: [(&str, Breaker); 6] = [
         ("azimuth plant", |a| drop(a.azimuth_plant.terminate())),
+        // On two lanes the azimuth controller steps ahead of the loads (the pipelined part).
+        ("azimuth controller", |a| drop(a.azimuth_controller.terminate())),
+        ("elevation controller", |a| drop(a.elevation_controller.terminate())),
         ("structure", |a| drop(a.structure.as_mut().expect("realistic").terminate())),
         ("elevation plant", |a| drop(a.elevation_plant.terminate())),
         ("wind", |a| drop(a.wind.terminate())),
