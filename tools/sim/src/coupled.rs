@@ -684,29 +684,27 @@ struct AzimuthLoads {
     structure: [f64; 5],
 }
 
-/// The values of an [`AzimuthLoads`], its time and the next step's command, in the order they
-/// cross between threads.
-const AZIMUTH_LOADS_WORDS: usize = 10;
+/// The values of an [`AzimuthLoads`] and its time, in the order they cross between threads.
+const AZIMUTH_LOADS_WORDS: usize = 8;
 
 impl AzimuthLoads {
-    fn to_words(&self, t: f64, next_command: [f64; 2]) -> [f64; AZIMUTH_LOADS_WORDS] {
+    fn to_words(&self, t: f64) -> [f64; AZIMUTH_LOADS_WORDS] {
         let mut words = [0.0; AZIMUTH_LOADS_WORDS];
         words[0] = t;
         words[1] = self.wind_torque_nm;
         words[2] = self.elevation_deg;
         words[3..8].copy_from_slice(&self.structure);
-        words[8..10].copy_from_slice(&next_command);
         words
     }
 
-    /// The loads, their time and the next step's command.
-    fn from_words(words: &[f64; AZIMUTH_LOADS_WORDS]) -> (f64, Self, [f64; 2]) {
+    /// The loads and their time.
+    fn from_words(words: &[f64; AZIMUTH_LOADS_WORDS]) -> (f64, Self) {
         let loads = AzimuthLoads {
             wind_torque_nm: words[1],
             elevation_deg: words[2],
             structure: std::array::from_fn(|i| words[3 + i]),
         };
-        (words[0], loads, [words[8], words[9]])
+        (words[0], loads)
     }
 }
 
@@ -718,24 +716,40 @@ struct AzimuthLaneOutput {
     plant_next: [f64; 7],
 }
 
-/// The values of an [`AzimuthLaneOutput`], in the order they cross between threads.
-const AZIMUTH_OUTPUT_WORDS: usize = 14;
+/// The values of an [`AzimuthLaneOutput`] and the next step's command, in the order they cross
+/// between threads.
+const AZIMUTH_OUTPUT_WORDS: usize = 18;
 
 impl AzimuthLaneOutput {
-    fn to_words(&self) -> [f64; AZIMUTH_OUTPUT_WORDS] {
+    fn to_words(&self, next_command: &Command) -> [f64; AZIMUTH_OUTPUT_WORDS] {
+        let c = next_command;
         let mut words = [0.0; AZIMUTH_OUTPUT_WORDS];
         words[0..3].copy_from_slice(&self.controller);
         words[3..7].copy_from_slice(&self.beam);
         words[7..14].copy_from_slice(&self.plant_next);
+        words[14..18].copy_from_slice(&[
+            c.azimuth_deg,
+            c.azimuth_rate_deg_per_s,
+            c.elevation_deg,
+            c.elevation_rate_deg_per_s,
+        ]);
         words
     }
 
-    fn from_words(words: &[f64; AZIMUTH_OUTPUT_WORDS]) -> Self {
-        AzimuthLaneOutput {
+    /// The output and the next step's command.
+    fn from_words(words: &[f64; AZIMUTH_OUTPUT_WORDS]) -> (Self, Command) {
+        let output = AzimuthLaneOutput {
             controller: std::array::from_fn(|i| words[i]),
             beam: std::array::from_fn(|i| words[3 + i]),
             plant_next: std::array::from_fn(|i| words[7 + i]),
-        }
+        };
+        let command = Command {
+            azimuth_deg: words[14],
+            azimuth_rate_deg_per_s: words[15],
+            elevation_deg: words[16],
+            elevation_rate_deg_per_s: words[17],
+        };
+        (output, command)
     }
 }
 
@@ -1000,14 +1014,17 @@ impl Master<'_, '_> {
         let (start_time_s, first_step) = (self.start_time_s, self.first_step);
         let mut command = self.table.at(self.time(0));
         let first_command = Self::azimuth_command(&command);
+        // The azimuth lane looks up the commands (a table is not shared between threads): the
+        // next step's goes back with its outputs, so that the master has one lookup less.
+        let worker_table = self.table.clone();
         std::thread::scope(|scope| {
             scope.spawn(|| {
+                let table = worker_table;
                 // Tells the master if this thread ends without answering (a panic).
                 let _closing = from_azimuth.closing_on_drop();
-                // The controller's part of step k is done before the loads of step k arrive
-                // (see `AzimuthLane`), with the command that came with the loads of step k - 1;
-                // a failure there answers step k.
                 let time = |k: u64| step_time(start_time_s, h, first_step + k);
+                // The controller's part of step k is done before the loads of step k arrive
+                // (see `AzimuthLane`); a failure there answers step k.
                 let control = |azimuth: &mut AzimuthLane, k: u64, command: [f64; 2], az: &[f64; 7]| {
                     azimuth.control(time(k), h, command, az)
                 };
@@ -1017,17 +1034,20 @@ impl Master<'_, '_> {
                     Err(error) => return from_azimuth.send_failure(error),
                 };
                 for k in 0..steps {
+                    // Looked up while the master exchanges with the wind.
+                    let next_command = if k + 1 < steps { table.at(time(k + 1)) } else { Command::default() };
                     let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
-                    let (t, loads, next_command) = AzimuthLoads::from_words(&words);
+                    let (t, loads) = AzimuthLoads::from_words(&words);
                     match azimuth.drive(t, h, &controller, &loads) {
                         Ok((beam, plant_next)) => {
-                            from_azimuth.send(&AzimuthLaneOutput { controller, beam, plant_next }.to_words());
+                            let output = AzimuthLaneOutput { controller, beam, plant_next };
+                            from_azimuth.send(&output.to_words(&next_command));
                             az = plant_next;
                         }
                         Err(error) => return from_azimuth.send_failure(error),
                     }
                     if k + 1 < steps {
-                        match control(azimuth, k + 1, next_command, &az) {
+                        match control(azimuth, k + 1, Self::azimuth_command(&next_command), &az) {
                             Ok(next) => controller = next,
                             Err(error) => return from_azimuth.send_failure(error),
                         }
@@ -1045,16 +1065,14 @@ impl Master<'_, '_> {
                             return Err(e);
                         }
                     };
-                    // The next step's command goes with these loads, so that the azimuth lane
-                    // can run its controller before the next loads are known.
-                    if k + 1 < steps {
-                        command = self.table.at(self.time(k + 1));
-                    }
-                    let loads = Self::azimuth_loads(&point, &az, &el);
-                    to_azimuth.send(&loads.to_words(point.t, Self::azimuth_command(&command)));
+                    to_azimuth.send(&Self::azimuth_loads(&point, &az, &el).to_words(point.t));
                     let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
                     let a = match from_azimuth.receive(k + 1) {
-                        Received::Values(words) => Ok(AzimuthLaneOutput::from_words(&words)),
+                        Received::Values(words) => {
+                            let (output, next_command) = AzimuthLaneOutput::from_words(&words);
+                            command = next_command;
+                            Ok(output)
+                        }
                         Received::Failed(error) => Err(error),
                         Received::Stop | Received::Gone => {
                             panic!("the azimuth lane answers every point it is given or panics")
