@@ -206,7 +206,16 @@ fn search_steps_section(out: &mut String, v: &Validation) {
             (Some(a), None) => a.name().to_string(),
             _ => "none".to_string(),
         };
-        let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
+        if step.re_estimate {
+            let _ = writeln!(
+                out,
+                "Step {} (re-estimate of the families the start holds: each tested in the equation error from its neutral value at p threshold {:.2e}, then refitted and judged on the output error): chosen **{chosen}**\n",
+                i + 1,
+                step.threshold
+            );
+        } else {
+            let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
+        }
         let _ = writeln!(
             out,
             "| candidate | chi2 | parameters | p | trials | BIC gain | effect/noise | significant | searched |"
