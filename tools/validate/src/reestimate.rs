@@ -72,6 +72,8 @@ struct Trial {
     kind: Kind,
     params: ParameterSet,
     error: OutputError,
+    /// Its output-error score relative to the model with the start's value.
+    score: f64,
 }
 
 /// Re-estimates the families the start holds that the search did not change (see the module
@@ -119,15 +121,22 @@ pub fn reestimate(
         if scores.is_empty() {
             break;
         }
-        // The families the data carry, best-ranked first, each at the value the equation
-        // error fits from the current model (as the search fits a candidate), judged on the
-        // output error against the model with the start's value.
-        let mut order: Vec<usize> = (0..scores.len()).filter(|&i| scores[i].significant).collect();
-        order.sort_by(|&a, &b| scores[b].rank.total_cmp(&scores[a].rank));
+        // The families the data carry, each at the value the equation error fits from the
+        // current model (as the search fits a candidate), judged on the output error against
+        // the model with the start's value.
         let mut confirmed: Vec<Trial> = Vec::new();
-        for index in order {
+        for index in (0..scores.len()).filter(|&i| scores[i].significant).collect::<Vec<_>>() {
             let kind = scores[index].kind;
             let Ok(fitted) = selection::fit_candidate(data, &params, &accepted, kind, options) else { continue };
+            // The change must still be worth a parameter: at least the noise in the equation
+            // where it shows (the search's practical significance; only the equation error's
+            // statistical test is left to the simulation).
+            let size = selection::change_to_noise(data, kind, &fitted, &params);
+            if size < options.min_effect_to_noise {
+                scores[index].confirmation =
+                    Some(format!("the re-estimate changes the equations by only {size:.2} times the noise"));
+                continue;
+            }
             let Ok(fitted_error) = output_error::output_error(simulator, &fitted, data, out, plan) else { continue };
             let mut comparison =
                 output_error::compare(&current, &fitted_error, parameter_count(kind, data.structure), level);
@@ -135,32 +144,16 @@ pub fn reestimate(
             result.confirmations.push((kind, comparison.clone()));
             scores[index].confirmation = Some(comparison.reason.clone());
             if comparison.confirmed {
-                confirmed.push(Trial { kind, params: fitted, error: fitted_error });
+                confirmed.push(Trial { kind, params: fitted, error: fitted_error, score: comparison.score_after });
             }
         }
-        // The best-ranked confirmed family, unless a lower-ranked one predicts significantly
-        // better (as the search chooses); the others it does not beat are equally consistent.
+        // The equation error could not establish the change, so the simulation chooses: the
+        // confirmed family that predicts best; the others it does not beat significantly are
+        // equally consistent with it.
         let extra = |a: Kind, b: Kind| {
             (parameter_count(a, data.structure) as isize - parameter_count(b, data.structure) as isize).max(0) as usize
         };
-        let mut chosen: Option<usize> = None;
-        for i in 0..confirmed.len() {
-            let better = match chosen {
-                None => true,
-                Some(c) => {
-                    output_error::compare(
-                        &confirmed[c].error,
-                        &confirmed[i].error,
-                        extra(confirmed[i].kind, confirmed[c].kind),
-                        level,
-                    )
-                    .confirmed
-                }
-            };
-            if better {
-                chosen = Some(i);
-            }
-        }
+        let chosen = (0..confirmed.len()).min_by(|&a, &b| confirmed[a].score.total_cmp(&confirmed[b].score));
         let equally_consistent: Vec<Kind> = match chosen {
             Some(c) => confirmed
                 .iter()

@@ -285,6 +285,13 @@ fn refined_effect_to_noise(
         .fold(0.0, f64::max)
 }
 
+/// The size of an effect's change from `before` to `refined` in the equations, over the
+/// noise of the channel it shows in (largest over channels): the search's practical
+/// significance, for a change found elsewhere ([`crate::reestimate`]).
+pub fn change_to_noise(data: &EquationData, kind: Kind, refined: &ParameterSet, before: &ParameterSet) -> f64 {
+    refined_effect_to_noise(data, kind, refined, before, &channel_noise(data))
+}
+
 /// `params` with the parameters of one effect put back to their values in `before` (the
 /// effect removed, everything else kept; for friction levels, only the effect's own change).
 pub fn without_effect(kind: Kind, params: &ParameterSet, before: &ParameterSet) -> ParameterSet {

@@ -1,11 +1,17 @@
 //! The re-estimation of a family the starting set already holds (`antenna_validate::reestimate`),
 //! on a synthetic rigid axis simulated by the crate's own rigid stand-in for the plant FMU.
 //!
-//! The case is the mechanism seen on the KUKA records from a start with a friction guess: the
-//! guess is wrong by a torque below the torque sensor's noise, so the equation error's test of
-//! the change from the guess fails on practical significance, while the motion, integrated over
-//! the output error's windows, shows the difference far above the encoder's noise. The family
-//! itself (the whole Coulomb friction) is many times the noise in the equation error.
+//! The case is the mechanism seen on the KUKA records from a start with a friction guess. The
+//! truth's Coulomb level is 60 N m, the start's guess 42 N m: a change seven times the torque
+//! sensor's noise in the equations, but the axis also carries a slow unlogged disturbance
+//! torque (20 N m, periods of 4-14 s) that colours the equation error's residual, as the real
+//! records' unmodelled dynamics do, so that its robust test of the change from the guess finds
+//! too few independent samples (chi-square 15 against about 19 at the search's level). The
+//! family itself, the whole Coulomb friction, passes that test from zero by far (chi-square
+//! 219), and the simulation, over 76 windows short against the disturbance, tells the guess
+//! from the data (better in 45 of 76 windows, p = 1.3e-3 against its level 3.3e-3). The margin
+//! is narrow by construction: a guess of 40 N m is found by the search itself, one of 44 N m is
+//! not confirmed by the simulation either.
 
 use antenna_validate::candidates::Kind;
 use antenna_validate::measured_log::parse_str;
@@ -19,10 +25,12 @@ const DT: f64 = 0.004;
 const GEAR: f64 = 100.0;
 /// The truth's Coulomb level (axis side, N m) and the start's wrong guess of it.
 const COULOMB: f64 = 60.0;
-const GUESS: f64 = 48.0;
-/// Torque sensor noise (axis side, N m): above the guess's error, far below the friction.
-const TORQUE_NOISE: f64 = 25.0;
+const GUESS: f64 = 42.0;
+/// Torque sensor noise (axis side, N m).
+const TORQUE_NOISE: f64 = 2.0;
 const POSITION_NOISE: f64 = 1e-6;
+/// Amplitude (N m) of the slowest of the three sines of the unlogged disturbance torque.
+const DISTURBANCE: f64 = 20.0;
 
 fn truth() -> ParameterSet {
     let mut p = ParameterSet::new();
@@ -36,10 +44,10 @@ fn truth() -> ParameterSet {
     p
 }
 
-/// A 30 s log of the truth driven by a multisine torque that reverses the axis often, motor
+/// A 15 s log of the truth driven by a multisine torque that reverses the axis often, motor
 /// torque and motor encoder only, with white sensor noise.
 fn log_csv() -> String {
-    let n = 7500;
+    let n = 3750;
     let axis_torque = |t: f64| {
         use std::f64::consts::TAU;
         300.0 * (TAU * 0.31 * t).sin() + 150.0 * (TAU * 1.13 * t + 1.0).sin() + 80.0 * (TAU * 2.71 * t + 2.0).sin()
@@ -66,7 +74,20 @@ fn log_csv() -> String {
         currents: held[0],
         history: Vec::new(),
     };
-    let motion = simulator.simulate(&start, &held, &[], DT).unwrap();
+    // An unlogged slow disturbance torque on the axis (cable drag, wind), which colours the
+    // equation error's residual as the real records' unmodelled dynamics do.
+    let amplitude = DISTURBANCE;
+    let disturbance: Vec<f64> = (0..n)
+        .map(|k| {
+            use std::f64::consts::TAU;
+            let t = (k as f64 + 0.5) * DT;
+            amplitude
+                * ((TAU * 0.13 * t + 0.3).sin()
+                    + 0.7 * (TAU * 0.07 * t + 2.1).sin()
+                    + 0.5 * (TAU * 0.23 * t + 4.0).sin())
+        })
+        .collect();
+    let motion = simulator.simulate(&start, &held, &disturbance, DT).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(16);
     let torque_noise = Normal::new(0.0, TORQUE_NOISE / GEAR).unwrap();
     let position_noise = Normal::new(0.0, POSITION_NOISE).unwrap();
@@ -85,7 +106,8 @@ fn log_csv() -> String {
 fn validate_from(start: &ParameterSet) -> Validation {
     let log = parse_str(&log_csv()).unwrap();
     let mut simulator = RigidReferenceSimulator::default();
-    validate_with(&log, start, &ValidateOptions::default(), Some(&mut simulator)).unwrap()
+    let options = ValidateOptions::default();
+    validate_with(&log, start, &options, Some(&mut simulator)).unwrap()
 }
 
 fn friction_found(v: &Validation) -> Vec<Kind> {
@@ -93,7 +115,7 @@ fn friction_found(v: &Validation) -> Vec<Kind> {
 }
 
 #[test]
-fn a_friction_guess_wrong_by_less_than_the_torque_noise_is_re_estimated_on_the_motion() {
+fn a_friction_guess_the_equation_error_cannot_reject_is_re_estimated_on_the_motion() {
     let mut start = truth();
     start.set(names::COULOMB, GUESS);
     start.set(names::STATIC, GUESS);
