@@ -228,7 +228,7 @@ fn search_steps_section(out: &mut String, v: &Validation) {
         if step.re_estimate {
             let _ = writeln!(
                 out,
-                "Step {} (re-estimate of the families the start holds: each tested in the equation error from its neutral value at p threshold {:.2e}, then refitted and judged on the output error): chosen **{chosen}**\n",
+                "Step {} (re-estimate of the families the start holds: each tested in the equation error from its neutral value at p threshold {:.2e}, its change fitted in the equation error, at least the noise, and judged on the output error): chosen **{chosen}**\n",
                 i + 1,
                 step.threshold
             );
