@@ -19,6 +19,7 @@ pub mod output_error;
 pub mod parameters;
 pub mod plant_fmu;
 pub mod presliding;
+pub mod reestimate;
 pub mod refit;
 pub mod report;
 pub mod selection;
@@ -54,6 +55,9 @@ pub struct OutputOptions {
     pub refit: bool,
     /// Calibrate the friction's presliding compliance before the search ([`presliding`]).
     pub presliding: bool,
+    /// Re-estimate the effect families the starting set holds on the output error when the
+    /// equation error finds the family in the data ([`reestimate`]).
+    pub reestimate: bool,
 }
 
 impl Default for OutputOptions {
@@ -66,6 +70,7 @@ impl Default for OutputOptions {
             alpha: 0.01,
             refit: true,
             presliding: true,
+            reestimate: true,
         }
     }
 }
@@ -531,6 +536,27 @@ fn search_with_output_error(
         selection.corrected = r.params.clone();
         after = r.error.clone();
     }
+    // The families the start holds, re-estimated where the equation error finds the family in
+    // the data and the simulation confirms the new value (reestimate.rs).
+    let search_steps = selection.steps.len();
+    let mut confirmations = confirmations;
+    if options.output.reestimate {
+        let r = reestimate::reestimate(
+            simulator,
+            data,
+            &out,
+            &plan,
+            start,
+            &mut selection,
+            &after,
+            &options.selection,
+            options.output.alpha,
+        );
+        confirmations.extend(r.confirmations);
+        if r.changed {
+            after = r.error;
+        }
+    }
     let overall = output_error::compare(
         &before,
         &after,
@@ -544,7 +570,7 @@ fn search_with_output_error(
     if withdrawn.is_some() {
         after = before.clone();
     }
-    let hints = output_hints(simulator, data, &out, &plan, &selection, &after, options);
+    let hints = output_hints(simulator, data, &out, &plan, &selection, search_steps, &after, options);
     let frequency = frequency::compare(data, &out, start, &selection.corrected);
     let output = Some(OutputReport {
         config: out.config,
@@ -601,17 +627,20 @@ pub fn withdraw_without_improvement(
 /// size) that the output error alone would confirm on top of the corrected model. Not claimed:
 /// the equation error's test failed, typically for want of independent samples in a short or
 /// slow log.
+#[allow(clippy::too_many_arguments)]
 fn output_hints(
     simulator: &mut dyn PlantSimulator,
     data: &EquationData,
     out: &OutputData,
     plan: &WindowPlan,
     selection: &Selection,
+    search_steps: usize,
     after: &OutputError,
     options: &ValidateOptions,
 ) -> Vec<Hint> {
     let mut hints = Vec::new();
-    let Some(last) = selection.steps.last() else { return hints };
+    // The last step of the search proper (the re-estimation's steps test other things).
+    let Some(last) = selection.steps[..search_steps.min(selection.steps.len())].last() else { return hints };
     let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
     for score in &last.scores {
         if score.not_applicable.is_some()

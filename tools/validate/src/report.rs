@@ -74,6 +74,7 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
         let _ = writeln!(out, "- note: {note}");
     }
     effects_section(&mut out, v);
+    standing_section(&mut out, v);
     collinear_section(&mut out, v);
     if let Some(t) = &v.twist {
         twist_section(&mut out, t, v.encoder_skew, d.linear);
@@ -137,6 +138,24 @@ fn effects_section(out: &mut String, v: &Validation) {
                 found.kind.name()
             );
         }
+    }
+}
+
+/// The families the start holds that the re-estimation tested and left as they were: the
+/// equation error finds each in the data, but the change is below the noise or does not
+/// predict the motion significantly better, so the data cannot tell the start's value from the
+/// re-estimate.
+fn standing_section(out: &mut String, v: &Validation) {
+    let Some(last) = v.selection.steps.iter().rev().find(|s| s.re_estimate && s.chosen.is_none()) else { return };
+    for score in last.scores.iter().filter(|s| s.significant) {
+        let Some(reason) = &score.confirmation else { continue };
+        let _ = writeln!(
+            out,
+            "**The start's {} stands** ({}): the equation error finds it in the data (chi-square {:.1} from its neutral value), but its re-estimate is not established ({reason}): the data cannot tell the start's value from the re-estimate.\n",
+            score.kind.name(),
+            score.kind.description(),
+            score.likelihood_ratio
+        );
     }
 }
 
@@ -206,7 +225,16 @@ fn search_steps_section(out: &mut String, v: &Validation) {
             (Some(a), None) => a.name().to_string(),
             _ => "none".to_string(),
         };
-        let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
+        if step.re_estimate {
+            let _ = writeln!(
+                out,
+                "Step {} (re-estimate of the families the start holds: each tested in the equation error from its neutral value at p threshold {:.2e}, its change fitted in the equation error, at least the noise, and judged on the output error): chosen **{chosen}**\n",
+                i + 1,
+                step.threshold
+            );
+        } else {
+            let _ = writeln!(out, "Step {} (p threshold {:.2e}): chosen **{chosen}**\n", i + 1, step.threshold);
+        }
         let _ = writeln!(
             out,
             "| candidate | chi2 | parameters | p | trials | BIC gain | effect/noise | significant | searched |"

@@ -285,6 +285,13 @@ fn refined_effect_to_noise(
         .fold(0.0, f64::max)
 }
 
+/// The size of an effect's change from `before` to `refined` in the equations, over the
+/// noise of the channel it shows in (largest over channels): the search's practical
+/// significance, for a change found elsewhere ([`crate::reestimate`]).
+pub fn change_to_noise(data: &EquationData, kind: Kind, refined: &ParameterSet, before: &ParameterSet) -> f64 {
+    refined_effect_to_noise(data, kind, refined, before, &channel_noise(data))
+}
+
 /// `params` with the parameters of one effect put back to their values in `before` (the
 /// effect removed, everything else kept; for friction levels, only the effect's own change).
 pub fn without_effect(kind: Kind, params: &ParameterSet, before: &ParameterSet) -> ParameterSet {
@@ -373,6 +380,10 @@ pub struct Step {
     /// predict significantly better: the data cannot tell them from it (an unbalance over a
     /// few degrees of axis angle near its extremum is a constant torque, an offset).
     pub equally_consistent: Vec<Kind>,
+    /// A step of the re-estimation of the families the starting set holds
+    /// ([`crate::reestimate`]): the scores are the equation error's tests of each family from
+    /// its neutral value, and the chosen one was refitted and confirmed on the output error.
+    pub re_estimate: bool,
 }
 
 /// An effect the search added, with its fitted parameters.
@@ -750,6 +761,7 @@ fn forward_step(
                 threshold,
                 iterations: 0,
                 equally_consistent: Vec::new(),
+                re_estimate: false,
             };
         };
         model.accepted.push(a);
@@ -764,12 +776,60 @@ fn forward_step(
             threshold,
             iterations,
             equally_consistent: Vec::new(),
+            re_estimate: false,
         };
     };
     model.accepted.push(kind);
     model.params = refined;
     model.current = refined_fit;
-    Step { scores, chosen: Some(kind), paired: None, threshold, iterations, equally_consistent }
+    Step { scores, chosen: Some(kind), paired: None, threshold, iterations, equally_consistent, re_estimate: false }
+}
+
+/// The equation-error test of an effect's whole family, as a start without it would have had
+/// it: `neutral` is the model with the family at its neutral value (no Coulomb friction, no
+/// load inertia, ...), the `accepted` effects are fitted jointly, and the candidate `kind` is
+/// scored from there and marked significant at `threshold` (the search's last step's level),
+/// with the BIC and the noise conditions of the search. A starting set that holds a guess of
+/// a family cannot otherwise show that the data carry the family at all: its test is of the
+/// change from the guess, which on a coloured residual can be well inside the equation error's
+/// uncertainty while the simulation still tells the guess from the data.
+pub fn presence(
+    data: &EquationData,
+    neutral: &ParameterSet,
+    accepted: &[Kind],
+    kind: Kind,
+    threshold: f64,
+    options: &SelectionOptions,
+) -> Score {
+    let channels = model_channels(data, neutral);
+    let unit = vec![1.0; channels.len()];
+    let first = fit(&channels, &baseline_columns(data, neutral), &[], &unit);
+    let (columns, _) = refine_columns(data, neutral, &channels, accepted, &first.channel_weights());
+    let current = fit(&channels, &columns, &[], &first.channel_weights());
+    let model = Model { params: neutral.clone(), current, accepted: accepted.to_vec(), pairs: Vec::new() };
+    let weights = model.current.channel_weights();
+    let only = SelectionOptions { candidates: vec![kind], ..options.clone() };
+    let (scores, _, _) = score_candidates(data, &model, &weights, &channel_noise(data), &only);
+    let mut score = scores.into_iter().next().unwrap_or(Score {
+        kind,
+        not_applicable: Some("already in the model".into()),
+        likelihood_ratio: 0.0,
+        parameters: 0,
+        p_value: 1.0,
+        trials: 0.0,
+        bic_gain: f64::NEG_INFINITY,
+        rank: f64::NEG_INFINITY,
+        significant: false,
+        explained_fraction: 0.0,
+        effect_to_noise: 0.0,
+        searched: Vec::new(),
+        confirmation: None,
+    });
+    score.significant = score.not_applicable.is_none()
+        && score.p_value < threshold
+        && score.bic_gain > 0.0
+        && score.effect_to_noise >= options.min_effect_to_noise;
+    score
 }
 
 /// Every candidate not yet accepted, fitted jointly with the accepted effects and tested:
@@ -1287,6 +1347,7 @@ mod tests {
             threshold: 1e-3,
             iterations: 1,
             equally_consistent,
+            re_estimate: false,
         }
     }
 
