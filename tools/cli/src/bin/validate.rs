@@ -184,6 +184,9 @@ struct TuningArgs {
     /// Do not calibrate the presliding (bristle) compliance.
     #[arg(long)]
     no_presliding: bool,
+    /// Do not re-estimate the effect families the starting set already holds.
+    #[arg(long)]
+    no_reestimate: bool,
 }
 
 impl TuningArgs {
@@ -206,6 +209,9 @@ impl TuningArgs {
         }
         if self.no_presliding {
             options.output.presliding = false;
+        }
+        if self.no_reestimate {
+            options.output.reestimate = false;
         }
         options
     }
