@@ -140,6 +140,8 @@ pub struct OutputReport {
     /// The found effects' parameters refitted on the output error ([`refit`]), when that
     /// lowered its score; the corrected model and "after" are then the refitted ones.
     pub refit: Option<refit::Refit>,
+    /// The joint refit after a family the start holds was re-estimated ([`reestimate`]).
+    pub refit_after_reestimate: Option<refit::Refit>,
     /// The friction-form calibration ([`presliding`]), when it was tried; when kept, `before`
     /// is the calibrated starting model's error and `starting` the uncalibrated one's.
     pub calibration: Option<presliding::Calibration>,
@@ -540,6 +542,7 @@ fn search_with_output_error(
     // the data and the simulation confirms the new value (reestimate.rs).
     let search_steps = selection.steps.len();
     let mut confirmations = confirmations;
+    let mut refit_after_reestimate = None;
     if options.output.reestimate {
         let r = reestimate::reestimate(
             simulator,
@@ -555,6 +558,7 @@ fn search_with_output_error(
         confirmations.extend(r.confirmations);
         if r.changed {
             after = r.error;
+            refit_after_reestimate = r.refit;
         }
     }
     let overall = output_error::compare(
@@ -583,6 +587,7 @@ fn search_with_output_error(
         overall,
         withdrawn,
         refit: refitted,
+        refit_after_reestimate,
         calibration,
         starting,
     });

@@ -73,6 +73,8 @@ pub struct Reestimation {
     pub confirmations: Vec<(Kind, Comparison)>,
     pub error: OutputError,
     pub changed: bool,
+    /// The joint refit of all found effects after a change, when it lowered the score.
+    pub refit: Option<refit::Refit>,
 }
 
 /// One family's confirmed trial: its re-estimated parameters and their output error.
@@ -101,7 +103,7 @@ pub fn reestimate(
     options: &SelectionOptions,
     alpha: f64,
 ) -> Reestimation {
-    let mut result = Reestimation { confirmations: Vec::new(), error: error.clone(), changed: false };
+    let mut result = Reestimation { confirmations: Vec::new(), error: error.clone(), changed: false, refit: None };
     let Some(threshold) = selection.steps.iter().rev().find(|s| !s.re_estimate).map(|s| s.threshold) else {
         return result;
     };
@@ -201,8 +203,9 @@ pub fn reestimate(
     }
     // All found effects refitted together, as the search's own refit does.
     if let Some(r) = refit::refit(simulator, data, out, plan, start, &accepted, &params, &current) {
-        params = r.params;
-        current = r.error;
+        params = r.params.clone();
+        current = r.error.clone();
+        result.refit = Some(r);
     }
     let weights = selection.after.channel_weights();
     let (_, found) = selection::final_fit(data, start, &params, &accepted, &weights);

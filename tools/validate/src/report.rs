@@ -382,11 +382,20 @@ fn output_section(out: &mut String, o: &OutputReport, linear: bool) {
             let _ = writeln!(out, "Starting model (rigid stick) -> calibrated -> corrected: {}.\n", rows.join("; "));
         }
     }
-    if let Some(r) = &o.refit {
+    let refits = [
+        (&o.refit, "Parameters refitted on the output error", "the equation-error fit's"),
+        (
+            &o.refit_after_reestimate,
+            "After the re-estimation of the start's families, all found effects' parameters refitted together",
+            "the re-estimated model's",
+        ),
+    ];
+    for (refit, what, of) in refits {
+        let Some(r) = refit else { continue };
         let changes: Vec<String> = r.changes.iter().map(|(name, a, b)| format!("{name} {a:.4e} -> {b:.4e}")).collect();
         let _ = writeln!(
             out,
-            "Parameters refitted on the output error (Levenberg-Marquardt, {} iterations): {}; score {:.3} of the equation-error fit's.\n",
+            "{what} (Levenberg-Marquardt, {} iterations): {}; score {:.3} of {of}.\n",
             r.iterations,
             changes.join(", "),
             r.score_after
