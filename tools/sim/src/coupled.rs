@@ -768,8 +768,8 @@ struct AzimuthLane<'a> {
 }
 
 impl AzimuthLane<'_> {
-    /// The controller's exchange and step at a point; its outputs (torque command, speed
-    /// command, reference).
+    /// The controller's exchange and step at a point; its outputs (the two motors' current
+    /// commands, the reference position).
     fn control(&mut self, t: f64, h: f64, command: [f64; 2], az: &[f64; 7]) -> Result<[f64; 3], ImportError> {
         let p = self.ports;
         self.controller.set_real(&p.az_ctrl_in, &[command[0], command[1], az[0], az[2], az[3]])?;
