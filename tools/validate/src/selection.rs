@@ -118,6 +118,27 @@ pub struct Score {
     pub confirmation: Option<String>,
 }
 
+impl Score {
+    /// The score of a candidate that does not apply, with the reason: never significant.
+    fn not_applicable(kind: Kind, reason: String) -> Self {
+        Score {
+            kind,
+            not_applicable: Some(reason),
+            likelihood_ratio: 0.0,
+            parameters: 0,
+            p_value: 1.0,
+            trials: 0.0,
+            bic_gain: f64::NEG_INFINITY,
+            rank: f64::NEG_INFINITY,
+            significant: false,
+            explained_fraction: 0.0,
+            effect_to_noise: 0.0,
+            searched: Vec::new(),
+            confirmation: None,
+        }
+    }
+}
+
 /// Sensor noise of each channel (raw, before smoothing), from the model-free estimates: the
 /// torque sensor for the torque equation, the twist (both encoders) for the load equation.
 pub fn channel_noise(data: &EquationData) -> Vec<f64> {
@@ -810,21 +831,8 @@ pub fn presence(
     let weights = model.current.channel_weights();
     let only = SelectionOptions { candidates: vec![kind], ..options.clone() };
     let (scores, _, _) = score_candidates(data, &model, &weights, &channel_noise(data), &only);
-    let mut score = scores.into_iter().next().unwrap_or(Score {
-        kind,
-        not_applicable: Some("already in the model".into()),
-        likelihood_ratio: 0.0,
-        parameters: 0,
-        p_value: 1.0,
-        trials: 0.0,
-        bic_gain: f64::NEG_INFINITY,
-        rank: f64::NEG_INFINITY,
-        significant: false,
-        explained_fraction: 0.0,
-        effect_to_noise: 0.0,
-        searched: Vec::new(),
-        confirmation: None,
-    });
+    let mut score =
+        scores.into_iter().next().unwrap_or_else(|| Score::not_applicable(kind, "already in the model".into()));
     score.significant = score.not_applicable.is_none()
         && score.p_value < threshold
         && score.bic_gain > 0.0
@@ -862,21 +870,7 @@ fn score_candidates(
         ) {
             Ok(instance) => instance,
             Err(reason) => {
-                scores.push(Score {
-                    kind,
-                    not_applicable: Some(reason),
-                    likelihood_ratio: 0.0,
-                    parameters: 0,
-                    p_value: 1.0,
-                    trials: 0.0,
-                    bic_gain: f64::NEG_INFINITY,
-                    rank: f64::NEG_INFINITY,
-                    significant: false,
-                    explained_fraction: 0.0,
-                    effect_to_noise: 0.0,
-                    searched: Vec::new(),
-                    confirmation: None,
-                });
+                scores.push(Score::not_applicable(kind, reason));
                 continue;
             }
         };
