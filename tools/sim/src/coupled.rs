@@ -20,14 +20,12 @@
 //!
 //! A step is the wind exchange (the wind unit told where the axes point, its loads read) and
 //! then two lanes that share nothing within the step: the azimuth plant, its controller and the
-//! wind unit's own step; the elevation plant, its controller and the structure. [`Lanes::Two`]
+//! structure; the elevation plant, its controller and the wind unit's own step. [`Lanes::Two`]
 //! runs the first lane on a second thread (a Jacobi master's units are independent between
 //! exchanges); every unit sees the same calls with the same values in the same order as on one
-//! thread, so the results are equal bit for bit. The lanes are cut so that their work is about
-//! equal (about 6,500 instructions each, the wind exchange on the master's side).
+//! thread, so the results are equal bit for bit.
 
 use std::path::Path;
-use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
@@ -608,12 +606,12 @@ impl CoupledAntenna {
         let mut azimuth = AzimuthLane {
             plant: &mut self.azimuth_plant,
             controller: &mut self.azimuth_controller,
+            structure: self.structure.as_mut(),
             ports: &self.ports,
         };
         let mut elevation = ElevationLane {
             plant: &mut self.elevation_plant,
             controller: &mut self.elevation_controller,
-            structure: self.structure.as_mut(),
             ports: &self.ports,
         };
         let (done, result) = match lanes {
@@ -650,9 +648,8 @@ pub enum Lanes {
     /// Every unit on the calling thread.
     #[default]
     One,
-    /// The azimuth lane (plant, controller, the wind unit's step) on a second thread while the
-    /// calling thread exchanges with the wind and steps the elevation lane (plant, controller,
-    /// structure). The two meet once per communication step:
+    /// The azimuth lane (plant, controller, structure) on a second thread while the calling
+    /// thread steps the elevation lane and the wind. The two meet once per communication step:
     /// worth it for one long run on an otherwise idle machine, not for many runs side by side
     /// (sweeps and the report already keep every core busy with whole runs), and much slower
     /// than one thread when the second has to wait for a core.
@@ -683,40 +680,54 @@ struct AzimuthLoads {
     wind_torque_nm: f64,
     /// The true elevation, deg (the azimuth load's inertia depends on it).
     elevation_deg: f64,
+    /// The structure's inputs (`Ports::structure_in`; the first `len` are used).
+    structure: [f64; 5],
 }
 
 /// The values of an [`AzimuthLoads`] and its time, in the order they cross between threads.
-const AZIMUTH_LOADS_WORDS: usize = 3;
+const AZIMUTH_LOADS_WORDS: usize = 8;
 
 impl AzimuthLoads {
     fn to_words(&self, t: f64) -> [f64; AZIMUTH_LOADS_WORDS] {
-        [t, self.wind_torque_nm, self.elevation_deg]
+        let mut words = [0.0; AZIMUTH_LOADS_WORDS];
+        words[0] = t;
+        words[1] = self.wind_torque_nm;
+        words[2] = self.elevation_deg;
+        words[3..8].copy_from_slice(&self.structure);
+        words
     }
 
     /// The loads and their time.
     fn from_words(words: &[f64; AZIMUTH_LOADS_WORDS]) -> (f64, Self) {
-        (words[0], AzimuthLoads { wind_torque_nm: words[1], elevation_deg: words[2] })
+        let loads = AzimuthLoads {
+            wind_torque_nm: words[1],
+            elevation_deg: words[2],
+            structure: std::array::from_fn(|i| words[3 + i]),
+        };
+        (words[0], loads)
     }
 }
 
-/// What the azimuth lane gives back: its controller's outputs at the point it was given, and
-/// the plant's at the next one.
+/// What the azimuth lane gives back: the values at the point it was given, and the plant's
+/// outputs at the next one.
 struct AzimuthLaneOutput {
     controller: [f64; 3],
+    beam: [f64; 4],
     plant_next: [f64; 7],
 }
 
 /// The values of an [`AzimuthLaneOutput`] and the next step's command, in the order they cross
 /// between threads.
-const AZIMUTH_OUTPUT_WORDS: usize = 14;
+const AZIMUTH_OUTPUT_WORDS: usize = 18;
 
 impl AzimuthLaneOutput {
     fn to_words(&self, next_command: &Command) -> [f64; AZIMUTH_OUTPUT_WORDS] {
         let c = next_command;
         let mut words = [0.0; AZIMUTH_OUTPUT_WORDS];
         words[0..3].copy_from_slice(&self.controller);
-        words[3..10].copy_from_slice(&self.plant_next);
-        words[10..14].copy_from_slice(&[
+        words[3..7].copy_from_slice(&self.beam);
+        words[7..14].copy_from_slice(&self.plant_next);
+        words[14..18].copy_from_slice(&[
             c.azimuth_deg,
             c.azimuth_rate_deg_per_s,
             c.elevation_deg,
@@ -729,29 +740,30 @@ impl AzimuthLaneOutput {
     fn from_words(words: &[f64; AZIMUTH_OUTPUT_WORDS]) -> (Self, Command) {
         let output = AzimuthLaneOutput {
             controller: std::array::from_fn(|i| words[i]),
-            plant_next: std::array::from_fn(|i| words[3 + i]),
+            beam: std::array::from_fn(|i| words[3 + i]),
+            plant_next: std::array::from_fn(|i| words[7 + i]),
         };
         let command = Command {
-            azimuth_deg: words[10],
-            azimuth_rate_deg_per_s: words[11],
-            elevation_deg: words[12],
-            elevation_rate_deg_per_s: words[13],
+            azimuth_deg: words[14],
+            azimuth_rate_deg_per_s: words[15],
+            elevation_deg: words[16],
+            elevation_rate_deg_per_s: words[17],
         };
         (output, command)
     }
 }
 
-/// The azimuth plant and its controller, and the wind unit's own step, whose values were
-/// exchanged before the lanes ran. (The wind's step rides here, and the structure on the
-/// elevation lane, because that cut makes the lanes about equal.)
+/// The azimuth plant, its controller and the structure: everything that the azimuth axis and
+/// the beam exchange within a step once the wind's loads are known.
 ///
 /// A step is two parts. The controller's exchange and step need only the command and the
 /// plant's outputs at the point, not the wind, so on two lanes they are done ahead, while the
-/// master is still exchanging with the wind; the plant waits for the loads.
+/// master is still exchanging with the wind; the plant and the structure wait for the loads.
 /// Every unit sees the same calls with the same values in either order.
 struct AzimuthLane<'a> {
     plant: &'a mut Instance,
     controller: &'a mut Instance,
+    structure: Option<&'a mut Instance>,
     ports: &'a Ports,
 }
 
@@ -767,24 +779,30 @@ impl AzimuthLane<'_> {
         Ok(controller)
     }
 
-    /// The plant's step once the loads are known, and the wind unit's: the plant's outputs at
-    /// the next point.
+    /// The structure's exchange and the plant's step once the loads are known: the beam's
+    /// offsets at the point and the plant's outputs at the next one.
     fn drive(
         &mut self,
         t: f64,
         h: f64,
         controller: &[f64; 3],
         loads: &AzimuthLoads,
-        wind: &mut Instance,
-    ) -> Result<[f64; 7], ImportError> {
+    ) -> Result<([f64; 4], [f64; 7]), ImportError> {
         let p = self.ports;
+        let mut beam = [0.0; 4];
+        if let Some(structure) = self.structure.as_deref_mut() {
+            structure.set_real(&p.structure_in, &loads.structure[..p.structure_in.len()])?;
+            structure.get_real(&p.structure_out, &mut beam)?;
+        }
         self.plant
             .set_real(&p.az_plant_in, &[controller[0], controller[1], loads.wind_torque_nm, loads.elevation_deg])?;
         self.plant.do_step(t, h)?;
+        if let Some(structure) = self.structure.as_deref_mut() {
+            structure.do_step(t, h)?;
+        }
         let mut plant_next = [0.0; 7];
         self.plant.get_real(&p.az_plant_out, &mut plant_next)?;
-        wind.do_step(t, h)?;
-        Ok(plant_next)
+        Ok((beam, plant_next))
     }
 
     /// A whole step on one lane.
@@ -795,34 +813,29 @@ impl AzimuthLane<'_> {
         command: [f64; 2],
         az: &[f64; 7],
         loads: &AzimuthLoads,
-        wind: &mut Instance,
     ) -> Result<AzimuthLaneOutput, ImportError> {
         let controller = self.control(t, h, command, az)?;
-        let plant_next = self.drive(t, h, &controller, loads, wind)?;
-        Ok(AzimuthLaneOutput { controller, plant_next })
+        let (beam, plant_next) = self.drive(t, h, &controller, loads)?;
+        Ok(AzimuthLaneOutput { controller, beam, plant_next })
     }
 }
 
-/// The elevation plant, its controller and the structure (the beam's offsets need the wind's
-/// loads and both axes' speeds at the point, which the master has before the lanes run).
+/// The elevation plant and its controller; the wind unit is stepped with them (its values
+/// were exchanged before the lanes ran).
 struct ElevationLane<'a> {
     plant: &'a mut Instance,
     controller: &'a mut Instance,
-    structure: Option<&'a mut Instance>,
     ports: &'a Ports,
 }
 
-/// What the elevation lane gives back: its controller's outputs and the beam's offsets at the
-/// point, the plant's outputs at the next one.
+/// What the elevation lane gives back: its controller's outputs at the point, the plant's at
+/// the next one.
 struct ElevationLaneOutput {
     controller: [f64; 2],
-    beam: [f64; 4],
     plant_next: [f64; 5],
 }
 
 impl ElevationLane<'_> {
-    /// A step; `structure_inputs` are the structure's inputs at the point (`Ports::structure_in`;
-    /// the first `len` are used).
     fn step(
         &mut self,
         t: f64,
@@ -830,7 +843,7 @@ impl ElevationLane<'_> {
         command: [f64; 2],
         el: &[f64; 5],
         wind_torque_nm: f64,
-        structure_inputs: &[f64; 5],
+        wind: &mut Instance,
     ) -> Result<ElevationLaneOutput, ImportError> {
         let p = self.ports;
         self.controller.set_real(&p.el_ctrl_in, &[command[0], command[1], el[0], el[2]])?;
@@ -839,15 +852,10 @@ impl ElevationLane<'_> {
         self.plant.set_real(&p.el_plant_in, &[controller[0], wind_torque_nm])?;
         self.plant.do_step(t, h)?;
         self.controller.do_step(t, h)?;
+        wind.do_step(t, h)?;
         let mut plant_next = [0.0; 5];
         self.plant.get_real(&p.el_plant_out, &mut plant_next)?;
-        let mut beam = [0.0; 4];
-        if let Some(structure) = self.structure.as_deref_mut() {
-            structure.set_real(&p.structure_in, &structure_inputs[..p.structure_in.len()])?;
-            structure.get_real(&p.structure_out, &mut beam)?;
-            structure.do_step(t, h)?;
-        }
-        Ok(ElevationLaneOutput { controller, beam, plant_next })
+        Ok(ElevationLaneOutput { controller, plant_next })
     }
 }
 
@@ -909,13 +917,12 @@ impl Master<'_, '_> {
         [command.azimuth_deg, command.azimuth_rate_deg_per_s]
     }
 
-    fn azimuth_loads(point: &Point, el: &[f64; 5]) -> AzimuthLoads {
-        AzimuthLoads { wind_torque_nm: point.loads[0], elevation_deg: el[1] }
-    }
-
-    /// The structure's inputs at a point: the wind's loads and both axes' speeds.
-    fn structure_inputs(point: &Point, az: &[f64; 7], el: &[f64; 5]) -> [f64; 5] {
-        [point.loads[0], point.loads[1], point.loads[2], az[6], el[4]]
+    fn azimuth_loads(point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLoads {
+        AzimuthLoads {
+            wind_torque_nm: point.loads[0],
+            elevation_deg: el[1],
+            structure: [point.loads[0], point.loads[1], point.loads[2], az[6], el[4]],
+        }
     }
 
     fn elevation_command(point: &Point) -> [f64; 2] {
@@ -938,8 +945,8 @@ impl Master<'_, '_> {
         trace.wind_torque_elevation_nm.push(point.loads[1]);
         trace.current_azimuth_a.push([az[4], az[5]]);
         trace.current_elevation_a.push(el[3]);
-        trace.beam_offset_arcsec.push([e.beam[0], e.beam[1]]);
-        trace.beam_offset_static_arcsec.push([e.beam[2], e.beam[3]]);
+        trace.beam_offset_arcsec.push([a.beam[0], a.beam[1]]);
+        trace.beam_offset_static_arcsec.push([a.beam[2], a.beam[3]]);
     }
 
     /// Both plants' outputs where the run begins.
@@ -971,9 +978,8 @@ impl Master<'_, '_> {
             for k in 0..steps {
                 let point = self.point(k, &az, &el, wind)?;
                 let command = Self::azimuth_command(&point.command);
-                let a = azimuth.step(point.t, h, command, &az, &Self::azimuth_loads(&point, &el), wind)?;
-                let structure = Self::structure_inputs(&point, &az, &el);
-                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], &structure)?;
+                let a = azimuth.step(point.t, h, command, &az, &Self::azimuth_loads(&point, &az, &el))?;
+                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind)?;
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
                 done = k + 1;
@@ -1011,11 +1017,6 @@ impl Master<'_, '_> {
         // The azimuth lane looks up the commands (a table is not shared between threads): the
         // next step's goes back with its outputs, so that the master has one lookup less.
         let worker_table = self.table.clone();
-        // The wind unit is exchanged with on this thread and stepped on the azimuth lane's. The
-        // handoffs order the two (the loads go out after the exchange, the lane answers after
-        // the step), so the lock is never contended: it only lets both threads hold the unit.
-        let wind = Mutex::new(wind);
-        let wind_unit = || wind.lock().unwrap_or_else(PoisonError::into_inner);
         std::thread::scope(|scope| {
             scope.spawn(|| {
                 let table = worker_table;
@@ -1037,9 +1038,9 @@ impl Master<'_, '_> {
                     let next_command = if k + 1 < steps { table.at(time(k + 1)) } else { Command::default() };
                     let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
                     let (t, loads) = AzimuthLoads::from_words(&words);
-                    match azimuth.drive(t, h, &controller, &loads, &mut wind_unit()) {
-                        Ok(plant_next) => {
-                            let output = AzimuthLaneOutput { controller, plant_next };
+                    match azimuth.drive(t, h, &controller, &loads) {
+                        Ok((beam, plant_next)) => {
+                            let output = AzimuthLaneOutput { controller, beam, plant_next };
                             from_azimuth.send(&output.to_words(&next_command));
                             az = plant_next;
                         }
@@ -1057,18 +1058,15 @@ impl Master<'_, '_> {
             let mut done = 0;
             let mut body = || -> Result<(), ImportError> {
                 for k in 0..steps {
-                    let exchanged = self.point_commanded(k, command, &az, &el, &mut wind_unit());
-                    let point = match exchanged {
+                    let point = match self.point_commanded(k, command, &az, &el, wind) {
                         Ok(point) => point,
                         Err(e) => {
                             to_azimuth.send_stop();
                             return Err(e);
                         }
                     };
-                    to_azimuth.send(&Self::azimuth_loads(&point, &el).to_words(point.t));
-                    let structure = Self::structure_inputs(&point, &az, &el);
-                    let e =
-                        elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], &structure);
+                    to_azimuth.send(&Self::azimuth_loads(&point, &az, &el).to_words(point.t));
+                    let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
                     let a = match from_azimuth.receive(k + 1) {
                         Received::Values(words) => {
                             let (output, next_command) = AzimuthLaneOutput::from_words(&words);
