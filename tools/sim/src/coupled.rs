@@ -652,7 +652,10 @@ pub enum Lanes {
     /// thread steps the elevation lane and the wind. The two meet once per communication step:
     /// worth it for one long run on an otherwise idle machine, not for many runs side by side
     /// (sweeps and the report already keep every core busy with whole runs), and much slower
-    /// than one thread when the second has to wait for a core.
+    /// than one thread when the second has to wait for a core. Each unit stays on one thread:
+    /// a unit called from both moves its memory between the cores at every step (the wind
+    /// unit stepped on the lane and exchanged with here made a step 1.4 times as long, README
+    /// "Speed").
     Two,
     /// Two lanes while they are faster than one on this machine: both are timed in probes of
     /// [`AUTO_PROBE_STEPS`] steps every [`AUTO_RUN_STEPS`], and the faster runs on.
