@@ -5,7 +5,7 @@
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::modes::Mode;
+use crate::modes::{Mode, LOADS};
 
 /// Radians to arcseconds.
 pub const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
@@ -63,7 +63,7 @@ pub struct ModalState {
 
 impl ModalStructure {
     /// The structure at rest in the static deflection under `loads`.
-    pub fn at_rest(modes: Vec<Mode>, loads: &[f64; 3]) -> ModalStructure {
+    pub fn at_rest(modes: Vec<Mode>, loads: &[f64; LOADS]) -> ModalStructure {
         let states = modes.iter().map(|m| [m.static_coordinate(loads), 0.0]).collect();
         ModalStructure {
             modes,
@@ -84,7 +84,7 @@ impl ModalStructure {
     /// over it are their mean over the previous step (zero on the first step), whose inertial
     /// loads the modes feel as the drives swing the structure. A step whose result is not
     /// finite (loads far beyond any structure) changes nothing and is an error.
-    pub fn step(&mut self, loads: &[f64; 3], speeds: &[f64; 2], step: f64) -> Result<(), String> {
+    pub fn step(&mut self, loads: &[f64; LOADS], speeds: &[f64; 2], step: f64) -> Result<(), String> {
         let key = step.to_bits();
         if self.cache.as_ref().is_none_or(|(k, _)| *k != key) {
             self.cache = Some((key, self.modes.iter().map(|m| ModeStep::new(m, step)).collect()));
@@ -126,7 +126,7 @@ impl ModalStructure {
 
     /// The quasi-static beam offset, rad: where the beam would settle under `loads` and the
     /// accelerations of the current step held for ever.
-    pub fn static_offset(&self, loads: &[f64; 3]) -> [f64; 2] {
+    pub fn static_offset(&self, loads: &[f64; LOADS]) -> [f64; 2] {
         let mut offset = [0.0; 2];
         for mode in &self.modes {
             let q = mode.static_coordinate(loads) + mode.inertial_load(&self.accelerations) / mode.stiffness;
@@ -176,13 +176,19 @@ mod tests {
     use super::*;
 
     fn mode(frequency_hz: f64, damping_ratio: f64) -> Mode {
-        Mode { frequency_hz, damping_ratio, stiffness: 4e8, participation: [1.0, 0.0, 0.0], beam: [1.0, 0.0] }
+        Mode {
+            frequency_hz,
+            damping_ratio,
+            stiffness: 4e8,
+            participation: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            beam: [1.0, 0.0],
+        }
     }
 
     #[test]
     fn a_constant_load_settles_at_load_over_stiffness() {
-        let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015)], &[0.0; 3]);
-        let loads = [1e4, 0.0, 0.0];
+        let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015)], &[0.0; LOADS]);
+        let loads = [1e4, 0.0, 0.0, 0.0, 0.0, 0.0];
         for _ in 0..30_000 {
             s.step(&loads, &[0.0; 2], 1e-3).unwrap();
         }
@@ -196,26 +202,26 @@ mod tests {
         // The axis speeds up at 0.5 deg/s^2 (a slew's acceleration): the dish lags the gear by
         // a / w^2 once the ringing has decayed (1.5 % damping: tau = 1.8 s).
         let m = mode(6.0, 0.015);
-        let mut s = ModalStructure::at_rest(vec![m.clone()], &[0.0; 3]);
+        let mut s = ModalStructure::at_rest(vec![m.clone()], &[0.0; LOADS]);
         let (a, h) = (0.5_f64.to_radians(), 1e-3);
         for k in 0..30_000 {
-            s.step(&[0.0; 3], &[a * k as f64 * h, 0.0], h).unwrap();
+            s.step(&[0.0; LOADS], &[a * k as f64 * h, 0.0], h).unwrap();
         }
         let expected = -a / (m.omega() * m.omega());
         assert!((s.beam_offset()[0] / expected - 1.0).abs() < 1e-6, "{} against {expected}", s.beam_offset()[0]);
-        assert!((s.static_offset(&[0.0; 3])[0] / expected - 1.0).abs() < 1e-9);
+        assert!((s.static_offset(&[0.0; LOADS])[0] / expected - 1.0).abs() < 1e-9);
         // Elevation speeds do not move an azimuth mode.
-        let mut e = ModalStructure::at_rest(vec![m], &[0.0; 3]);
+        let mut e = ModalStructure::at_rest(vec![m], &[0.0; LOADS]);
         for k in 0..1000 {
-            e.step(&[0.0; 3], &[0.0, a * k as f64 * h], h).unwrap();
+            e.step(&[0.0; LOADS], &[0.0, a * k as f64 * h], h).unwrap();
         }
         assert_eq!(e.beam_offset()[0], 0.0);
     }
 
     #[test]
     fn one_long_step_equals_many_short_ones() {
-        let loads = [1e4, 0.0, 0.0];
-        let mut long = ModalStructure::at_rest(vec![mode(6.0, 0.015), mode(9.0, 0.02)], &[0.0; 3]);
+        let loads = [1e4, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let mut long = ModalStructure::at_rest(vec![mode(6.0, 0.015), mode(9.0, 0.02)], &[0.0; LOADS]);
         let mut short = long.clone();
         long.step(&loads, &[0.0; 2], 0.1).unwrap();
         for _ in 0..400 {
@@ -228,12 +234,12 @@ mod tests {
     #[test]
     fn the_free_oscillation_rings_at_the_damped_frequency_and_decays_at_zeta_omega() {
         let m = mode(6.0, 0.015);
-        let mut s = ModalStructure::at_rest(vec![m.clone()], &[1e4, 0.0, 0.0]);
+        let mut s = ModalStructure::at_rest(vec![m.clone()], &[1e4, 0.0, 0.0, 0.0, 0.0, 0.0]);
         let h = 1e-4;
         let mut previous = s.beam_offset()[0];
         let mut crossings = Vec::new();
         for k in 1..=20_000 {
-            s.step(&[0.0; 3], &[0.0; 2], h).unwrap();
+            s.step(&[0.0; LOADS], &[0.0; 2], h).unwrap();
             let now = s.beam_offset()[0];
             if previous > 0.0 && now <= 0.0 {
                 crossings.push(k as f64 * h - h * now / (now - previous));
@@ -247,11 +253,11 @@ mod tests {
 
     #[test]
     fn a_state_saved_over_a_kept_one_equals_a_fresh_save() {
-        let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015), mode(7.0, 0.02)], &[1e4, 2e4, 0.0]);
+        let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015), mode(7.0, 0.02)], &[1e4, 2e4, 0.0, 0.0, 0.0, 0.0]);
         // Kept from a structure with one mode: the vector must be rewritten whole.
-        let mut kept = ModalStructure::at_rest(vec![mode(5.0, 0.01)], &[0.0; 3]).save_state();
+        let mut kept = ModalStructure::at_rest(vec![mode(5.0, 0.01)], &[0.0; LOADS]).save_state();
         for k in 0..10 {
-            s.step(&[1e4 + 1e3 * k as f64, 2e4, 0.0], &[1e-3 * k as f64, 0.0], 1e-3).unwrap();
+            s.step(&[1e4 + 1e3 * k as f64, 2e4, 0.0, 0.0, 0.0, 0.0], &[1e-3 * k as f64, 0.0], 1e-3).unwrap();
             s.save_state_into(&mut kept);
             assert_eq!(kept, s.save_state(), "step {k}");
         }
@@ -259,7 +265,7 @@ mod tests {
 
     #[test]
     fn a_state_with_another_mode_count_is_refused() {
-        let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015)], &[0.0; 3]);
+        let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015)], &[0.0; LOADS]);
         let state = ModalState { states: vec![[0.0; 2]; 2], previous_speeds: None, accelerations: [0.0; 2] };
         let error = s.load_state(state).unwrap_err();
         assert!(error.contains("2 modes"), "{error}");

@@ -8,7 +8,7 @@ use fmu_runtime::{declare_variables, Context, DefaultExperiment, Model, ModelInf
 use serde::{Deserialize, Serialize};
 
 use crate::dynamics::{ModalState, ModalStructure, ARCSEC_PER_RAD};
-use crate::modes::{parse_modes, read_modes, Mode, DEFAULT_MODES, DEFAULT_MODES_FILE};
+use crate::modes::{parse_modes, read_modes, Mode, DEFAULT_MODES, DEFAULT_MODES_FILE, LOADS};
 
 /// Largest load torque about an axis, N m (either sign): some hundred times the survival wind
 /// torque of a 13.5 m dish (estimate, order 1e6 N m), as the plants declare it.
@@ -21,8 +21,14 @@ pub const MAX_LOAD_FORCE: f64 = 1e8;
 /// Largest axis speed, deg/s (either sign): some fifty times a fast slew.
 pub const MAX_AXIS_SPEED: f64 = 100.0;
 
-const LOAD_INPUTS: &[u32] =
-    &[StructureVar::AzTorque as u32, StructureVar::ElTorque as u32, StructureVar::DishForce as u32];
+const LOAD_INPUTS: &[u32] = &[
+    StructureVar::AzTorque as u32,
+    StructureVar::ElTorque as u32,
+    StructureVar::DishForce as u32,
+    StructureVar::AxialForce as u32,
+    StructureVar::LateralForce as u32,
+    StructureVar::LiftForce as u32,
+];
 
 declare_variables! {
     /// Variables of the structure FMU. Loads in SI, beam offsets in arcseconds.
@@ -32,7 +38,7 @@ declare_variables! {
         ElTorque = Var::real("torque.elevation", "N.m").input().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
             .description("Load torque on the structure about the elevation axis (the wind's pitching moment; with a drive-excited mode, also the jackscrew reaction); positive raises the dish."),
         DishForce = Var::real("force.dish", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
-            .description("Wind force on the dish (drag along the wind). The default modes take no force (their dish_force participation is zero); modes from a finite-element model may."),
+            .description("Wind drag on the dish along the wind, whatever its direction relative to the antenna (the Wind FMU's force.drag), weighed by each mode's dish_force. One number cannot weigh a drag whose direction in the antenna's frame turns with the yaw: modes from a finite-element model should take force.axial and force.lateral instead (a mode may not take both). The default modes take no force."),
         BeamAz = Var::real("beam.azimuth_offset", "arcsec").output()
             .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of beam_azimuth times the modal coordinate."),
         BeamEl = Var::real("beam.elevation_offset", "arcsec").output()
@@ -42,13 +48,19 @@ declare_variables! {
         BeamElStatic = Var::real("beam.elevation_offset_static", "arcsec").output().depends_on(LOAD_INPUTS)
             .description("Quasi-static part of beam.elevation_offset: where it settles under the current loads held for ever (static compliance times load)."),
         ModesFile = Var::string("modes_file").parameter().start_string(DEFAULT_MODES_FILE)
-            .description("Modes file (name = value lines: mode<k>.frequency, damping, stiffness, azimuth_torque, elevation_torque, dish_force, beam_azimuth, beam_elevation; docs/structure-model.md); relative paths are looked up in the resources folder. The shipped structure_modes.params holds one estimated 6 Hz mode per axis."),
+            .description("Modes file (name = value lines: mode<k>.frequency, damping, stiffness, azimuth_torque, elevation_torque, dish_force, beam_azimuth, beam_elevation, and optionally axial_force, lateral_force, lift_force, which default to 0; docs/structure-model.md); relative paths are looked up in the resources folder. The shipped structure_modes.params holds one estimated 6 Hz mode per axis."),
         ModeCount = Var::integer("mode_count").calculated_parameter()
             .description("Number of modes read from modes_file."),
         AzSpeed = Var::real("axis.azimuth_speed", "deg/s").input().start(0.0).min(-MAX_AXIS_SPEED).max(MAX_AXIS_SPEED)
             .description("Load-side azimuth speed (the plant's axis.speed): its change over each step is the azimuth acceleration whose inertial load the modes feel, -(stiffness / (2 pi frequency)^2) times azimuth_torque times the acceleration (docs/structure-model.md). Leave it at 0 for wind loads alone."),
         ElSpeed = Var::real("axis.elevation_speed", "deg/s").input().start(0.0).min(-MAX_AXIS_SPEED).max(MAX_AXIS_SPEED)
             .description("Load-side elevation speed (the plant's axis.speed): as axis.azimuth_speed, through elevation_torque."),
+        AxialForce = Var::real("force.axial", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
+            .description("Horizontal wind force on the dish along the horizontal projection of the boresight (the Wind FMU's force.axial), positive pushing the dish backwards, from its reflector face towards its back: a wind blowing into the face (yaw 0) gives +drag. Weighed by each mode's axial_force (default 0)."),
+        LateralForce = Var::real("force.lateral", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
+            .description("Horizontal wind force on the dish across the boresight (cross-elevation; the Wind FMU's force.lateral), positive pushing the dish towards increasing azimuth (clockwise seen from above, to the right seen from behind the dish looking out along the boresight). Weighed by each mode's lateral_force (default 0)."),
+        LiftForce = Var::real("force.lift", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
+            .description("Vertical wind force on the dish (the Wind FMU's force.lift), positive up. Weighed by each mode's lift_force (default 0)."),
     }
 }
 
@@ -60,8 +72,16 @@ pub struct StructureModel {
 }
 
 impl StructureModel {
-    fn loads(values: &Values<StructureVar>) -> [f64; 3] {
-        [values.real(StructureVar::AzTorque), values.real(StructureVar::ElTorque), values.real(StructureVar::DishForce)]
+    /// The loads in the order of [`LOADS`].
+    fn loads(values: &Values<StructureVar>) -> [f64; LOADS] {
+        [
+            values.real(StructureVar::AzTorque),
+            values.real(StructureVar::ElTorque),
+            values.real(StructureVar::DishForce),
+            values.real(StructureVar::AxialForce),
+            values.real(StructureVar::LateralForce),
+            values.real(StructureVar::LiftForce),
+        ]
     }
 
     /// The modes named by `modes_file`: relative names are looked up in the resources folder;
@@ -101,7 +121,7 @@ impl Model for StructureModel {
         ModelInfo {
             model_identifier: "Structure",
             model_name: "Structure",
-            description: "Modal model of the antenna structure between the drives' load side (the encoders) and the RF beam: loads (torques about the axes, wind force on the dish) in, beam pointing offsets relative to the encoder-measured axes out. Modes (frequency, damping, modal stiffness, participation factors) from a replaceable file; exact zero-order hold, so results do not depend on the communication step for piecewise-constant loads.",
+            description: "Modal model of the antenna structure between the drives' load side (the encoders) and the RF beam: loads (torques about the axes, wind forces on the dish) in, beam pointing offsets relative to the encoder-measured axes out. Modes (frequency, damping, modal stiffness, participation factors) from a replaceable file; exact zero-order hold, so results do not depend on the communication step for piecewise-constant loads.",
             author: "MeerKAT antenna positioner reference model contributors",
             version: env!("CARGO_PKG_VERSION"),
             default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },

@@ -3,9 +3,10 @@
 //! `fmu_runtime::params`), and the static compliance they imply.
 //!
 //! A mode `k` with coordinate `q_k` obeys
-//! `(1 / w_k^2) q_k'' + (2 zeta_k / w_k) q_k' + q_k = (p_az T_az + p_el T_el + p_F F) / K_k`
-//! with `w_k = 2 pi f_k`, and moves the beam by `b_az q_k` (on-sky azimuth) and `b_el q_k`
-//! (elevation). The scale of `q_k` is free (a finite-element export with mass-normalised mode
+//! `(1 / w_k^2) q_k'' + (2 zeta_k / w_k) q_k' + q_k = (p . u) / K_k`
+//! with `w_k = 2 pi f_k` and `u` the six loads of [`LOADS`] (the torques about the axes, the
+//! drag whatever its direction, and the wind force resolved in the antenna's frame), and moves
+//! the beam by `b_az q_k` (on-sky azimuth) and `b_el q_k` (elevation). The scale of `q_k` is free (a finite-element export with mass-normalised mode
 //! shapes gives `K_k = w_k^2` and the mode-shape values as `p` and `b`); the static compliance
 //! from a load to a beam offset, `b p / K` summed over the modes, does not depend on it.
 
@@ -20,11 +21,14 @@ pub const DEFAULT_MODES: &str = include_str!("../resources/structure_modes.param
 /// Its file name in the resources folder.
 pub const DEFAULT_MODES_FILE: &str = "structure_modes.params";
 
-/// The fields every mode needs, in file order: frequency (Hz), damping ratio (1), modal
-/// stiffness (N m per unit of the modal coordinate), the participations of the azimuth torque,
-/// the elevation torque (modal load per N m) and the dish force (per N), and the beam offsets
-/// (rad, on-sky azimuth and elevation) per unit of the modal coordinate.
-pub const FIELDS: [&str; 8] = [
+/// The fields of a mode, in file order: frequency (Hz), damping ratio (1), modal stiffness (N m
+/// per unit of the modal coordinate), the participations of the azimuth torque, the elevation
+/// torque (modal load per N m) and the dish force (per N), the beam offsets (rad, on-sky
+/// azimuth and elevation) per unit of the modal coordinate, and the participations of the
+/// wind force resolved in the antenna's frame (per N: axial, lateral, lift). The first
+/// [`REQUIRED_FIELDS`] are required; the resolved forces' participations came later and default
+/// to zero, so that a modes file written before them reads as it did.
+pub const FIELDS: [&str; 11] = [
     "frequency",
     "damping",
     "stiffness",
@@ -33,7 +37,20 @@ pub const FIELDS: [&str; 8] = [
     "dish_force",
     "beam_azimuth",
     "beam_elevation",
+    "axial_force",
+    "lateral_force",
+    "lift_force",
 ];
+
+/// How many of [`FIELDS`], from the first, every mode must give.
+pub const REQUIRED_FIELDS: usize = 8;
+
+/// The loads a mode takes, in the order of [`Mode::participation`]: torque about azimuth and
+/// about elevation (N m), the drag on the dish along the wind whatever its direction (N), and
+/// the wind force on the dish resolved in the antenna's frame (N): axial (along the horizontal
+/// projection of the boresight, positive from the dish's face towards its back), lateral
+/// (horizontal, positive towards increasing azimuth) and lift (vertical, positive up).
+pub const LOADS: usize = 6;
 
 /// A modes file with more modes is refused: the FMU discretises each mode on every new step
 /// size, and thousands of modes would be an error in the file, not a structure.
@@ -48,8 +65,9 @@ pub struct Mode {
     pub damping_ratio: f64,
     /// Modal stiffness K: the load on the modal coordinate per unit of it.
     pub stiffness: f64,
-    /// Modal load per unit of azimuth torque (N m), elevation torque (N m) and dish force (N).
-    pub participation: [f64; 3],
+    /// Modal load per unit of each load of [`LOADS`]: azimuth torque (N m), elevation torque
+    /// (N m), dish force (N), axial, lateral and lift force (N).
+    pub participation: [f64; LOADS],
     /// Beam offset (rad) per unit of the modal coordinate: on-sky azimuth, elevation.
     pub beam: [f64; 2],
 }
@@ -61,8 +79,17 @@ impl Mode {
     }
 
     /// The modal load (in units of the modal coordinate times K) for the given loads.
-    pub fn modal_load(&self, loads: &[f64; 3]) -> f64 {
-        self.participation.iter().zip(loads).map(|(p, u)| p * u).sum()
+    ///
+    /// The three resolved forces are added only where the mode takes them: a zero participation
+    /// times a load is a signed zero, which could flip the sign of a zero modal load, and the
+    /// modes written before those forces existed must give the same bits as they did.
+    pub fn modal_load(&self, loads: &[f64; LOADS]) -> f64 {
+        let first: f64 = self.participation[..3].iter().zip(&loads[..3]).map(|(p, u)| p * u).sum();
+        self.participation[3..]
+            .iter()
+            .zip(&loads[3..])
+            .filter(|(p, _)| **p != 0.0)
+            .fold(first, |sum, (p, u)| sum + p * u)
     }
 
     /// The modal load of the axes' angular accelerations (rad/s^2, azimuth and elevation): the
@@ -78,7 +105,7 @@ impl Mode {
     }
 
     /// The static deflection of the modal coordinate under constant loads.
-    pub fn static_coordinate(&self, loads: &[f64; 3]) -> f64 {
+    pub fn static_coordinate(&self, loads: &[f64; LOADS]) -> f64 {
         self.modal_load(loads) / self.stiffness
     }
 }
@@ -103,7 +130,7 @@ pub enum ModesError {
         "{origin}: mode {mode} is missing (modes are numbered 1, 2, ... without gaps; the file has mode {highest})"
     )]
     Gap { origin: String, mode: usize, highest: usize },
-    #[error("{origin}: mode{mode}.{field} is missing (every mode needs {fields})")]
+    #[error("{origin}: mode{mode}.{field} is missing (every mode needs {fields}; axial_force, lateral_force and lift_force default to 0)")]
     MissingField { origin: String, mode: usize, field: &'static str, fields: String },
     #[error("{origin}:{line}: mode{mode}.{field} = {value}: {reason}")]
     Invalid { origin: String, line: usize, mode: usize, field: &'static str, value: f64, reason: &'static str },
@@ -111,6 +138,10 @@ pub enum ModesError {
 
 fn field_list() -> String {
     FIELDS.join(", ")
+}
+
+fn required_field_list() -> String {
+    FIELDS[..REQUIRED_FIELDS].join(", ")
 }
 
 /// Splits `mode<k>.<field>` into the mode number and the field's index in [`FIELDS`].
@@ -130,7 +161,7 @@ type Slot = Option<(f64, usize)>;
 /// Reads a modes file's text; `origin` names it in the errors.
 pub fn parse_modes(text: &str, origin: &str) -> Result<Vec<Mode>, ModesError> {
     let assignments = params::parse(text, origin).map_err(ModesError::Syntax)?;
-    let mut slots: Vec<[Slot; 8]> = Vec::new();
+    let mut slots: Vec<[Slot; FIELDS.len()]> = Vec::new();
     for a in &assignments {
         let unknown = || ModesError::UnknownName {
             origin: origin.into(),
@@ -151,7 +182,7 @@ pub fn parse_modes(text: &str, origin: &str) -> Result<Vec<Mode>, ModesError> {
             });
         };
         if slots.len() < mode {
-            slots.resize(mode, [None; 8]);
+            slots.resize(mode, [None; FIELDS.len()]);
         }
         slots[mode - 1][field] = Some((value, a.line));
     }
@@ -162,19 +193,29 @@ pub fn parse_modes(text: &str, origin: &str) -> Result<Vec<Mode>, ModesError> {
 }
 
 /// Checks one mode's fields and builds it.
-fn mode_from_fields(origin: &str, mode: usize, fields: &[Slot; 8], highest: usize) -> Result<Mode, ModesError> {
+fn mode_from_fields(
+    origin: &str,
+    mode: usize,
+    fields: &[Slot; FIELDS.len()],
+    highest: usize,
+) -> Result<Mode, ModesError> {
     if fields.iter().all(Option::is_none) {
         return Err(ModesError::Gap { origin: origin.into(), mode, highest });
     }
-    let mut values = [0.0; 8];
+    let mut values = [0.0; FIELDS.len()];
     for (i, slot) in fields.iter().enumerate() {
-        let (value, _) = slot.ok_or_else(|| ModesError::MissingField {
-            origin: origin.into(),
-            mode,
-            field: FIELDS[i],
-            fields: field_list(),
-        })?;
-        values[i] = value;
+        values[i] = match slot {
+            Some((value, _)) => *value,
+            None if i >= REQUIRED_FIELDS => 0.0,
+            None => {
+                return Err(ModesError::MissingField {
+                    origin: origin.into(),
+                    mode,
+                    field: FIELDS[i],
+                    fields: required_field_list(),
+                })
+            }
+        };
     }
     let invalid = |i: usize, reason| {
         let (value, line) = fields[i].expect("checked above");
@@ -189,26 +230,37 @@ fn mode_from_fields(origin: &str, mode: usize, fields: &[Slot; 8], highest: usiz
     if values[2] <= 0.0 {
         return Err(invalid(2, "the modal stiffness must be positive"));
     }
-    if values[3..6].iter().all(|p| *p == 0.0) {
+    if values[3..6].iter().chain(&values[8..11]).all(|p| *p == 0.0) {
         return Err(invalid(
             3,
-            "the mode takes no load (azimuth_torque, elevation_torque and dish_force are all zero)",
+            "the mode takes no load (azimuth_torque, elevation_torque, dish_force, axial_force, lateral_force and lift_force are all zero)",
         ));
     }
     if values[6..8].iter().all(|b| *b == 0.0) {
         return Err(invalid(6, "the mode does not move the beam (beam_azimuth and beam_elevation are both zero)"));
     }
+    // `dish_force` weighs the drag whatever its direction; `axial_force` and `lateral_force`
+    // weigh the same drag resolved in the antenna's frame. A master connects both, so a mode
+    // taking both would feel the drag twice.
+    if values[5] != 0.0 {
+        if let Some(i) = [8, 9].into_iter().find(|i| values[*i] != 0.0) {
+            return Err(invalid(
+                i,
+                "a mode takes the drag either through dish_force (whatever its direction) or resolved through axial_force and lateral_force, not both (a master connects both, and the drag would count twice)",
+            ));
+        }
+    }
     Ok(Mode {
         frequency_hz: values[0],
         damping_ratio: values[1],
         stiffness: values[2],
-        participation: [values[3], values[4], values[5]],
+        participation: [values[3], values[4], values[5], values[8], values[9], values[10]],
         beam: [values[6], values[7]],
     })
 }
 
-/// The largest modes file read, bytes (1 MiB): [`MAX_MODES`] modes of eight fields take about
-/// 400 kB written out with comments.
+/// The largest modes file read, bytes (1 MiB): [`MAX_MODES`] modes of eleven fields take about
+/// 550 kB written out with comments.
 pub const MAX_MODES_FILE_BYTES: u64 = 1 << 20;
 
 /// Reads a modes file from disk: only a regular file of at most [`MAX_MODES_FILE_BYTES`]
@@ -220,9 +272,10 @@ pub fn read_modes(path: &Path) -> Result<Vec<Mode>, ModesError> {
 }
 
 /// The static compliance of a set of modes: beam offset (rad; on-sky azimuth, elevation) per
-/// unit of each load (azimuth torque N m, elevation torque N m, dish force N).
-pub fn static_compliance(modes: &[Mode]) -> [[f64; 3]; 2] {
-    let mut compliance = [[0.0; 3]; 2];
+/// unit of each load of [`LOADS`] (azimuth torque N m, elevation torque N m, dish, axial,
+/// lateral and lift force N).
+pub fn static_compliance(modes: &[Mode]) -> [[f64; LOADS]; 2] {
+    let mut compliance = [[0.0; LOADS]; 2];
     for mode in modes {
         for (row, b) in compliance.iter_mut().zip(mode.beam) {
             for (entry, p) in row.iter_mut().zip(mode.participation) {
@@ -241,7 +294,8 @@ impl Mode {
             1 => self.damping_ratio,
             2 => self.stiffness,
             i @ 3..=5 => self.participation[i - 3],
-            i => self.beam[i - 6],
+            i @ 6..=7 => self.beam[i - 6],
+            i => self.participation[i - 5],
         })
     }
 
@@ -253,7 +307,8 @@ impl Mode {
             1 => self.damping_ratio = value,
             2 => self.stiffness = value,
             i @ 3..=5 => self.participation[i - 3] = value,
-            i => self.beam[i - 6] = value,
+            i @ 6..=7 => self.beam[i - 6] = value,
+            i => self.participation[i - 5] = value,
         }
         true
     }
@@ -297,7 +352,7 @@ mod tests {
             assert_eq!((mode.frequency_hz, mode.damping_ratio, mode.stiffness), (6.0, 0.015, 4e8));
         }
         let c = static_compliance(&modes);
-        assert_eq!(c, [[2.5e-9, 0.0, 0.0], [0.0, 2.5e-9, 0.0]]);
+        assert_eq!(c, [[2.5e-9, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 2.5e-9, 0.0, 0.0, 0.0, 0.0]]);
     }
 
     #[test]
@@ -306,7 +361,7 @@ mod tests {
             frequency_hz: 4.0,
             damping_ratio: 0.01,
             stiffness: 2e8,
-            participation: [0.5, -0.25, 3.0],
+            participation: [0.5, -0.25, 3.0, 0.0, -1.5, 0.75],
             beam: [2.0, 1.0],
         };
         // The same mode with its coordinate scaled by s: K / s^2, p / s, b / s.
@@ -319,11 +374,51 @@ mod tests {
         };
         let (a, b) = (static_compliance(&[mode]), static_compliance(&[scaled]));
         assert!((a[0][2] - 2.0 * 3.0 / 2e8).abs() < 1e-22);
+        assert!((a[1][4] + 1.0 * 1.5 / 2e8).abs() < 1e-22);
         for (ra, rb) in a.iter().zip(&b) {
             for (x, y) in ra.iter().zip(rb) {
                 assert!((x - y).abs() <= 1e-15 * x.abs().max(1e-30), "{x} against {y}");
             }
         }
+    }
+
+    #[test]
+    fn a_file_without_the_resolved_forces_reads_them_as_zero_and_a_file_with_them_sets_them() {
+        let modes = parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).unwrap();
+        assert!(modes.iter().all(|m| m.participation[3..] == [0.0; 3]));
+        let text = format!(
+            "{DEFAULT_MODES}\nmode1.lateral_force = 2e-3\nmode2.lift_force = -4e-3\nmode2.axial_force = 1e-3\n"
+        );
+        let modes = parse_modes(&text, "f.params").unwrap();
+        assert_eq!(modes[0].participation, [1.0, 0.0, 0.0, 0.0, 2e-3, 0.0]);
+        assert_eq!(modes[1].participation, [0.0, 1.0, 0.0, 1e-3, 0.0, -4e-3]);
+        assert_eq!((modes[0].field("lateral_force"), modes[1].field("lift_force")), (Some(2e-3), Some(-4e-3)));
+        // A mode may take only a resolved force.
+        let lateral_only = DEFAULT_MODES.replace("mode1.azimuth_torque = 1", "mode1.azimuth_torque = 0")
+            + "mode1.lateral_force = 1e-3\n";
+        assert_eq!(parse_modes(&lateral_only, "f.params").unwrap()[0].participation[4], 1e-3);
+    }
+
+    #[test]
+    fn a_mode_without_the_resolved_forces_gives_the_three_load_sum_bit_for_bit() {
+        // The sum as it was before the resolved forces existed: the default antenna's results
+        // must not move by a bit, signed zeros included.
+        let mode = Mode {
+            frequency_hz: 6.0,
+            damping_ratio: 0.015,
+            stiffness: 4e8,
+            participation: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            beam: [1.0, 0.0],
+        };
+        for first in [-0.0, 0.0, 1.0e4, -3.3e3, 1e-300] {
+            for resolved in [0.0, -0.0, 7.0, -7.0] {
+                let loads = [first, -0.0, -0.0, resolved, resolved, resolved];
+                let three: f64 = mode.participation[..3].iter().zip(&loads[..3]).map(|(p, u)| p * u).sum();
+                assert_eq!(mode.modal_load(&loads).to_bits(), three.to_bits(), "{loads:?}");
+            }
+        }
+        let resolved = Mode { participation: [1.0, 0.0, 0.0, 2.0, -3.0, 0.5], ..mode };
+        assert_eq!(resolved.modal_load(&[10.0, 0.0, 0.0, 1.0, 2.0, 4.0]), 10.0 + 2.0 - 6.0 + 2.0);
     }
 
     fn with_line(line: &str, replaced: &str) -> String {
@@ -353,6 +448,18 @@ mod tests {
             (String::from("mode0.frequency = 1"), "`mode0.frequency` is not a mode field"),
             (String::from("mode01.frequency = 1"), "is not a mode field"),
             (String::from("mode5000.frequency = 1"), "mode 5000 is beyond the 1000 modes"),
+            (
+                DEFAULT_MODES.replace("mode1.dish_force = 0", "mode1.dish_force = 2") + "mode1.axial_force = 1\n",
+                "mode1.axial_force = 1: a mode takes the drag either through dish_force",
+            ),
+            (
+                DEFAULT_MODES.replace("mode2.dish_force = 0", "mode2.dish_force = 2") + "mode2.lateral_force = -1\n",
+                "mode2.lateral_force = -1: a mode takes the drag either",
+            ),
+            (
+                with_line("mode1.azimuth_torque = 0", "mode1.azimuth_torque = 1") + "mode1.lift_force = 0\n",
+                "takes no load",
+            ),
         ];
         for (text, needle) in cases {
             let error = parse_modes(&text, "f.params").unwrap_err().to_string();

@@ -117,6 +117,14 @@ declare_variables! {
             .description("Decay constant C of the gust's exponential coherence exp(-C n r / U), used by wind.admittance = 2 only. Estimate: 8, range 7-10 (docs/research/antenna-parameters-survey.md, section 4)."),
         ParameterFile = Var::string("parameter_file").parameter().start_string("")
             .description("A file of name = value lines applied when this parameter is set (relative paths are looked up in the resources folder): realistic.params holds the realistic antenna's wind parameters (docs/parameters.md), defaults.params every default."),
+        Axial = Var::real("force.axial", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("The drag resolved along the horizontal projection of the boresight, force.drag cos(yaw): positive pushes the dish backwards, from its reflector face towards its back (a wind blowing into the face, yaw 0, gives +drag; a wind from behind, yaw 180, -drag). The input force.axial of the Structure FMU."),
+        AxialMean = Var::real("force.axial_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Mean part of force.axial, force.drag_mean cos(yaw)."),
+        Lateral = Var::real("force.lateral", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("The drag resolved across the boresight, horizontal (cross-elevation), -force.drag sin(yaw): positive pushes the dish towards increasing azimuth (clockwise seen from above; to the right seen from behind the dish looking out along the boresight), as a wind from its left (negative yaw) does. With force.axial and force.lift a right-handed frame. The cross-flow side force is not modelled. The input force.lateral of the Structure FMU."),
+        LateralMean = Var::real("force.lateral_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Mean part of force.lateral, -force.drag_mean sin(yaw)."),
     }
 }
 
@@ -233,6 +241,10 @@ impl WindModel {
         values.set_real(WindVar::DragMean, f.drag_mean);
         values.set_real(WindVar::Lift, f.lift());
         values.set_real(WindVar::LiftMean, f.lift_mean);
+        values.set_real(WindVar::Axial, f.axial());
+        values.set_real(WindVar::AxialMean, f.axial_mean());
+        values.set_real(WindVar::Lateral, f.lateral());
+        values.set_real(WindVar::LateralMean, f.lateral_mean());
         values.set_real(WindVar::CDrag, f.c_drag);
         values.set_real(WindVar::CLift, f.c_lift);
         values.set_real(WindVar::AzTorque, t.azimuth());

@@ -18,7 +18,11 @@
 //! The same law gives the forces on the dish ([`DishForces`]): drag along the flow and lift
 //! (vertical), `F = C 0.5 rho A v |v|`, with the angular laws of [`ForceCoefficients`]. The
 //! gust that enters both is the load gust: the point gust through the aerodynamic admittance
-//! ([`crate::admittance`]), or the point gust itself in the coherent configuration.
+//! ([`crate::admittance`]), or the point gust itself in the coherent configuration. The drag is
+//! also resolved in the antenna's frame, whose horizontal axes turn with azimuth: axial
+//! `drag cos(yaw)` (positive from the dish's face towards its back) and lateral
+//! `-drag sin(yaw)` (positive towards increasing azimuth), which is what a structural mode's
+//! participation weighs.
 
 use crate::coefficients::CoefficientTable;
 use std::f64::consts::PI;
@@ -106,6 +110,11 @@ impl ForceCoefficients {
 }
 
 /// The forces on the dish at one instant, N: drag positive downwind, lift positive up.
+///
+/// The drag lies along the wind, whose direction in the antenna's frame turns with the yaw; its
+/// components in that frame are [`DishForces::axial`] and [`DishForces::lateral`]. With the lift
+/// they make a right-handed frame: axial (horizontal, backwards from the face), lateral
+/// (horizontal, towards increasing azimuth), up.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DishForces {
     pub drag_mean: f64,
@@ -114,6 +123,10 @@ pub struct DishForces {
     pub lift_gust: f64,
     pub c_drag: f64,
     pub c_lift: f64,
+    /// `cos(yaw)`: the axial component per unit drag.
+    pub axial_per_drag: f64,
+    /// `-sin(yaw)`: the lateral component per unit drag.
+    pub lateral_per_drag: f64,
 }
 
 impl DishForces {
@@ -123,6 +136,31 @@ impl DishForces {
 
     pub fn lift(&self) -> f64 {
         self.lift_mean + self.lift_gust
+    }
+
+    /// The drag along the horizontal projection of the boresight, positive pushing the dish
+    /// backwards (from its reflector face towards its back): `drag cos(yaw)`. A wind blowing
+    /// into the face (yaw 0) gives `+drag`, a wind from behind (yaw 180) `-drag`.
+    pub fn axial(&self) -> f64 {
+        self.drag() * self.axial_per_drag
+    }
+
+    /// Mean part of [`DishForces::axial`].
+    pub fn axial_mean(&self) -> f64 {
+        self.drag_mean * self.axial_per_drag
+    }
+
+    /// The drag across the boresight, horizontal (cross-elevation), positive pushing the dish
+    /// towards increasing azimuth (clockwise seen from above): `-drag sin(yaw)`. A wind coming
+    /// from the left of the boresight (yaw -90, seen from behind the dish) pushes it to the
+    /// right, towards increasing azimuth.
+    pub fn lateral(&self) -> f64 {
+        self.drag() * self.lateral_per_drag
+    }
+
+    /// Mean part of [`DishForces::lateral`].
+    pub fn lateral_mean(&self) -> f64 {
+        self.drag_mean * self.lateral_per_drag
     }
 }
 
@@ -187,9 +225,12 @@ impl WindTorqueModel {
         azimuth_deg: f64,
         elevation_deg: f64,
     ) -> DishForces {
-        let (c_drag, c_lift) = self.forces.at(yaw_deg(wind_direction_deg, azimuth_deg), elevation_deg);
+        let yaw = yaw_deg(wind_direction_deg, azimuth_deg);
+        let (c_drag, c_lift) = self.forces.at(yaw, elevation_deg);
         let k = 0.5 * self.air_density * self.reference_area();
         let (mean, gust) = self.speed_squared(v_mean, v_gust);
+        // fdlibm's sincos, as the coefficients use: the same bits on every platform.
+        let (sin_yaw, cos_yaw) = libm::sincos(yaw.to_radians());
         DishForces {
             drag_mean: c_drag * k * mean,
             drag_gust: c_drag * k * gust,
@@ -197,6 +238,8 @@ impl WindTorqueModel {
             lift_gust: c_lift * k * gust,
             c_drag,
             c_lift,
+            axial_per_drag: cos_yaw,
+            lateral_per_drag: -sin_yaw,
         }
     }
 
@@ -392,6 +435,24 @@ mod tests {
             assert!((f.drag_gust / f.drag_mean - ratio).abs() < 1e-12);
             assert!((f.lift_gust / f.lift_mean - ratio).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn the_drag_resolves_into_axial_cos_yaw_and_lateral_minus_sin_yaw() {
+        // The wind comes from 30 deg clockwise of the pointing (yaw +30, from the right seen
+        // from behind the dish): it pushes the dish backwards and to the left (towards lower
+        // azimuth), and the two components add up to the drag as a vector.
+        let m = model(TorqueForm::Quadratic);
+        let f = m.forces(9.8, 1.3, 70.0, 40.0, 20.0);
+        let (s, c) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
+        assert!((f.axial() - f.drag() * c).abs() < 1e-12 * f.drag() && f.axial() > 0.0);
+        assert!((f.lateral() + f.drag() * s).abs() < 1e-12 * f.drag() && f.lateral() < 0.0);
+        assert!((f.axial_mean() - f.drag_mean * c).abs() < 1e-12 * f.drag_mean);
+        assert!((f.lateral_mean() + f.drag_mean * s).abs() < 1e-12 * f.drag_mean);
+        assert!((f.axial().hypot(f.lateral()) - f.drag()).abs() < 1e-12 * f.drag());
+        // The mirrored wind (yaw -30) pushes to the right; a wind from behind pushes forwards.
+        assert!(m.forces(9.8, 0.0, 10.0, 40.0, 20.0).lateral() > 0.0);
+        assert!(m.forces(9.8, 0.0, 220.0, 40.0, 20.0).axial() < 0.0);
     }
 
     #[test]

@@ -89,6 +89,12 @@ class CommandTable:
         return position, rate
 
 
+# The wind unit's forces, each with the structure input it drives: the drag along the wind to
+# force.dish (which the structure always has), the drag resolved in the antenna's frame and the
+# lift to the inputs of the same names, where both units have them.
+WIND_FORCES = (("force.drag", "force.dish"), ("force.axial", "force.axial"), ("force.lateral", "force.lateral"),
+               ("force.lift", "force.lift"))
+
 UNITS = ("AzimuthPlant", "ElevationPlant", "AzimuthController", "ElevationController", "Wind", "Structure")
 
 
@@ -207,27 +213,45 @@ class CoupledAntenna:
         self.el_ctrl_out = self.el_ctrl.port(["motor.current_command", "status.reference_position"])
         self.wind_in = self.wind.port(["antenna.azimuth", "antenna.elevation"])
         self.wind_out = self.wind.port(["torque.azimuth", "torque.elevation", "wind.speed"])
-        self.wind_drag = self.wind.port(["force.drag"]) if "force.drag" in self.wind.variables else None
+        # The wind's forces where the unit gives them (an old one gives none): their places in
+        # WIND_FORCES, read in one call.
+        self.wind_force_slots = [i for i, (name, _) in enumerate(WIND_FORCES) if name in self.wind.variables]
+        self.wind_forces = (self.wind.port([WIND_FORCES[i][0] for i in self.wind_force_slots])
+                            if self.wind_force_slots else None)
         self.units = [self.az_plant, self.el_plant, self.az_ctrl, self.el_ctrl, self.wind]
         self.structure = None
         if config.get("structure", False):
-            # The structure starts at rest in its static deflection under the loads at the start.
+            # The structure starts at rest in its static deflection under the loads at the start:
+            # the torques and the drag always, a resolved force where both units have it.
             loads = self.wind_loads()
-            self.structure = Unit("Structure", "structure", start_time, more("Structure") + list(
-                zip(("torque.azimuth", "torque.elevation", "force.dish"), loads)))
+            structure_variables = read_model_description(os.path.join(FMU_DIR, "Structure.fmu")).modelVariables
+            structure_names = {v.name for v in structure_variables}
+            self.structure_loads = [0, 1, 2] + [
+                2 + i for i in range(1, len(WIND_FORCES))
+                if i in self.wind_force_slots and WIND_FORCES[i][1] in structure_names]
+            load_inputs = ["torque.azimuth", "torque.elevation"] + [WIND_FORCES[i - 2][1] for i in self.structure_loads[2:]]
+            self.structure = Unit("Structure", "structure", start_time, more("Structure") + [
+                (name, loads[i]) for name, i in zip(load_inputs, self.structure_loads)])
             # The axes' speeds, where the structure takes them: their changes swing it.
             speeds = ["axis.azimuth_speed", "axis.elevation_speed"]
             self.structure_speeds = all(name in self.structure.variables for name in speeds)
-            self.structure_in = self.structure.port(
-                ["torque.azimuth", "torque.elevation", "force.dish"] + (speeds if self.structure_speeds else []))
+            self.structure_in = self.structure.port(load_inputs + (speeds if self.structure_speeds else []))
             self.structure_out = self.structure.port(["beam.azimuth_offset", "beam.elevation_offset",
                                                       "beam.azimuth_offset_static", "beam.elevation_offset_static"])
             self.units.append(self.structure)
 
+    def forces(self):
+        """The wind's forces in the order of WIND_FORCES, scaled; 0 where the unit gives none."""
+        forces = [0.0] * len(WIND_FORCES)
+        if self.wind_forces:
+            for slot, value in zip(self.wind_force_slots, self.wind.get(self.wind_forces)):
+                forces[slot] = self.wind_scale * value
+        return forces
+
     def wind_loads(self):
+        """Torque about azimuth, about elevation, then the forces of WIND_FORCES, scaled."""
         wind = self.wind.get(self.wind_out)
-        drag = self.wind.get(self.wind_drag)[0] if self.wind_drag else 0.0
-        return [self.wind_scale * wind[0], self.wind_scale * wind[1], self.wind_scale * drag]
+        return [self.wind_scale * wind[0], self.wind_scale * wind[1]] + self.forces()
 
     def time(self):
         return self.start_time + self.steps_done * self.step_s
@@ -246,11 +270,13 @@ class CoupledAntenna:
         torque_el = self.wind_scale * wind[1]
         beam = (0.0, 0.0, 0.0, 0.0)
         if self.structure is not None:
-            drag = self.wind.get(self.wind_drag)[0] if self.wind_drag else 0.0
+            loads = [torque_az, torque_el] + self.forces()
             s_in = self.structure_in[1]
-            s_in[0], s_in[1], s_in[2] = torque_az, torque_el, self.wind_scale * drag
+            for k, i in enumerate(self.structure_loads):
+                s_in[k] = loads[i]
             if self.structure_speeds:
-                s_in[3], s_in[4] = az[6], el[4]
+                n = len(self.structure_loads)
+                s_in[n], s_in[n + 1] = az[6], el[4]
             self.structure.set(self.structure_in)
             beam = tuple(self.structure.get(self.structure_out))
         a_in = self.az_ctrl_in[1]

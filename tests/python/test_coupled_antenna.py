@@ -107,3 +107,35 @@ def test_fmpy_master_settles_a_30_arcmin_step_within_4_s(tmp_path):
     # The command really stepped by 30 arcmin on each axis.
     step = np.abs(trace[jump_index, 1:3] - trace[jump_index - 1, 1:3])
     assert np.allclose(step, 0.5, atol=1e-6), step
+
+
+def test_fmpy_master_gives_a_lateral_force_mode_the_drags_lateral_part(tmp_path):
+    """The fmpy master connects the wind's force.lateral to the structure: a mode that takes only
+    the lateral force sees none in a front wind (yaw 0) and -drag sin(yaw) when the wind turns by
+    45 deg either way, with the drag by hand (docs/wind-model.md). Steady wind (no gust), the
+    paper's drive model holding azimuth 100 deg, elevation 30 deg for 2 s."""
+    lever, stiffness = 5.0, 4e8
+    modes = tmp_path / "lateral.params"
+    modes.write_text(
+        f"mode1.frequency = 6.0\nmode1.damping = 0.015\nmode1.stiffness = {stiffness}\nmode1.azimuth_torque = 0\n"
+        f"mode1.elevation_torque = 0\nmode1.dish_force = 0\nmode1.lateral_force = {lever}\nmode1.beam_azimuth = 1\n"
+        "mode1.beam_elevation = 0\n")
+    table = coupled_master.CommandTable([(0.0, 100.0, 30.0), (2.0, 100.0, 30.0)])
+    q_a = 0.5 * 1.075 * 9.8**2 * np.pi * 13.5**2 / 4.0
+    whole = q_a * 1.3 * np.cos(np.radians(30.0)) * lever / stiffness * 180.0 / np.pi * 3600.0
+    offsets = {}
+    for direction, yaw in ((100.0, 0.0), (55.0, -45.0), (145.0, 45.0)):
+        config = {"step_s": 1e-3, "wind.mean_speed": 9.8, "wind.roughness_length": 0.0105, "wind.direction": direction,
+                  "seed": 1, "structure": True, "wind_load_scale": 1.0,
+                  "overrides": {unit: [] for unit in coupled_master.UNITS}}
+        config["overrides"]["Structure"].append(("modes_file", str(modes)))
+        config["overrides"]["Wind"].append(("spectrum", 3))
+        trace = np.array(coupled_master.run(config, table, 2.0))
+        static = trace[-1, 17]
+        expected = -whole * abs(np.cos(np.radians(yaw))) * np.sin(np.radians(yaw))
+        offsets[yaw] = static
+        if yaw == 0.0:
+            assert abs(static) < 1e-4 * whole, static
+        else:
+            assert abs(static / expected - 1.0) < 0.01, (yaw, static, expected)
+    assert offsets[-45.0] > 0.0 > offsets[45.0]

@@ -5,7 +5,8 @@ A step load through fmpy's simulate_fmu with an input signal: the beam offsets s
 times the static compliance of the modes file shipped in the FMU (read and summed here, with
 no project code), and the transient rings at each mode's damped frequency. The Rust tests in
 tests/rust/structure_fmu.rs check the same FMU through the C ABI (FRF, communication steps,
-bad modes files, FMU states).
+bad modes files, FMU states). A second test drives the wind force resolved in the antenna's
+frame (force.axial, force.lateral, force.lift) into a written modes file that takes it.
 """
 
 import math
@@ -17,7 +18,10 @@ from fmpy import simulate_fmu
 from conftest import FMU_DIRECTORY, PACKAGE_HINT
 
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
-FIELDS = ("frequency", "damping", "stiffness", "azimuth_torque", "elevation_torque", "dish_force", "beam_azimuth", "beam_elevation")
+FIELDS = ("frequency", "damping", "stiffness", "azimuth_torque", "elevation_torque", "dish_force", "beam_azimuth", "beam_elevation",
+          "axial_force", "lateral_force", "lift_force")
+# The resolved forces' participations are optional and default to zero.
+OPTIONAL = ("axial_force", "lateral_force", "lift_force")
 
 
 def structure_path():
@@ -30,6 +34,11 @@ def shipped_modes():
     """The modes file in the FMU's resources as a list of {field: value}, one per mode."""
     with zipfile.ZipFile(structure_path()) as archive:
         text = archive.read("resources/structure_modes.params").decode()
+    return parse_modes(text)
+
+
+def parse_modes(text):
+    """A modes file's text as a list of {field: value}, one per mode, optional fields filled."""
     modes = {}
     for line in text.splitlines():
         line = line.split("#", 1)[0].strip()
@@ -38,7 +47,7 @@ def shipped_modes():
         name, value = (part.strip() for part in line.split("=", 1))
         mode, field = name.removeprefix("mode").split(".", 1)
         assert field in FIELDS, name
-        modes.setdefault(int(mode), {})[field] = float(value)
+        modes.setdefault(int(mode), dict.fromkeys(OPTIONAL, 0.0))[field] = float(value)
     return [modes[k] for k in sorted(modes)]
 
 
@@ -80,3 +89,58 @@ def test_a_step_load_settles_at_load_times_compliance_and_rings_at_each_mode_fre
         ringing = (len(exact) - 1) / (exact[-1] - exact[0])
         damped = mode["frequency"] * math.sqrt(1.0 - mode["damping"] ** 2)
         assert abs(ringing / damped - 1.0) < 0.02, f"{output}: rings at {ringing} Hz, the mode is at {damped} Hz"
+
+
+# Two modes that take the resolved forces: one per beam axis, physical scaling (lever arms, m).
+RESOLVED_MODES = """\
+mode1.frequency = 5.0
+mode1.damping = 0.02
+mode1.stiffness = 3e8
+mode1.azimuth_torque = 0
+mode1.elevation_torque = 0
+mode1.dish_force = 0
+mode1.lateral_force = 4.0
+mode1.lift_force = 0.5
+mode1.beam_azimuth = 1
+mode1.beam_elevation = 0
+mode2.frequency = 7.0
+mode2.damping = 0.015
+mode2.stiffness = 5e8
+mode2.azimuth_torque = 0
+mode2.elevation_torque = 1
+mode2.dish_force = 0
+mode2.axial_force = 2.5
+mode2.lift_force = -1.5
+mode2.beam_azimuth = 0
+mode2.beam_elevation = 1
+"""
+
+
+def test_constant_axial_lateral_and_lift_forces_settle_at_force_times_participation_over_stiffness(tmp_path):
+    path = tmp_path / "resolved.params"
+    path.write_text(RESOLVED_MODES)
+    modes = parse_modes(RESOLVED_MODES)
+    forces = {"force.axial": 9.6e3, "force.lateral": -4.8e3, "force.lift": -2.2e3}
+    signal = np.array(
+        [(0.0, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (1.0, *forces.values()), (31.0, *forces.values())],
+        dtype=[("time", np.float64)] + [(name, np.float64) for name in forces],
+    )
+    result = simulate_fmu(
+        str(structure_path()),
+        stop_time=31.0,
+        step_size=1e-3,
+        output_interval=1e-3,
+        start_values={"modes_file": str(path)},
+        input=signal,
+        output=["beam.azimuth_offset", "beam.elevation_offset"],
+    )
+    for axis, output in enumerate(("beam.azimuth_offset", "beam.elevation_offset")):
+        beam_field = ("beam_azimuth", "beam_elevation")[axis]
+        expected = sum(
+            m[beam_field] * np.dot([m["axial_force"], m["lateral_force"], m["lift_force"]], list(forces.values()))
+            / m["stiffness"]
+            for m in modes
+        ) * ARCSEC_PER_RAD
+        offset = result[output]
+        assert abs(offset[result["time"] < 1.0]).max() == 0.0, f"{output} moved before the forces"
+        assert abs(offset[-1] / expected - 1.0) < 0.01, f"{output}: {offset[-1]} arcsec against {expected}"

@@ -4,7 +4,11 @@
 //! shows in the frequency response from load torque to beam offset, estimated from a white-noise
 //! run, at its documented frequency; results do not depend on the communication step for
 //! piecewise-constant loads; a bad modes file is an fmi2Error that names the file and the
-//! cause; an FMU state replays the run bit for bit.
+//! cause; an FMU state replays the run bit for bit. The wind force resolved in the antenna's
+//! frame (axial, lateral, lift) deflects the beam by force x participation / stiffness x beam
+//! participation, an old modes file ignores it, and in the coupled antenna a mode that takes
+//! only the lateral force sees none in a front wind and the drag's lateral part when the wind
+//! turns.
 //!
 //! Figures for docs/structure-model.md: `cargo test --release -p antenna-tests --test
 //! structure_fmu -- --nocapture`.
@@ -13,12 +17,15 @@ use std::io::Read;
 use std::path::PathBuf;
 
 use antenna_dsp::{transfer_function_h1, WelchConfig};
+use antenna_sim::{CommandPoint, CommandTable, Configuration, CoupledAntenna, FmuSet, Lanes, Trace, WindCondition};
 use antenna_tests::{expect_error, fmu_path, open, output_bits, reals, set_reals, test_signal};
 use fmu_import::{Fmu, Instance};
 use fmu_runtime::params::{self, ParameterValue};
 
 const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
-const LOADS: [&str; 3] = ["torque.azimuth", "torque.elevation", "force.dish"];
+/// The structure's loads in the order of a mode's participations (docs/structure-model.md).
+const LOADS: [&str; 6] =
+    ["torque.azimuth", "torque.elevation", "force.dish", "force.axial", "force.lateral", "force.lift"];
 const OFFSETS: [&str; 2] = ["beam.azimuth_offset", "beam.elevation_offset"];
 
 /// One mode as the modes file documents it (docs/structure-model.md), read here independently
@@ -28,7 +35,7 @@ struct Mode {
     frequency_hz: f64,
     damping_ratio: f64,
     stiffness: f64,
-    participation: [f64; 3],
+    participation: [f64; 6],
     beam: [f64; 2],
 }
 
@@ -44,7 +51,8 @@ fn parse_modes(text: &str) -> Vec<Mode> {
                 frequency_hz: f64::NAN,
                 damping_ratio: f64::NAN,
                 stiffness: f64::NAN,
-                participation: [f64::NAN; 3],
+                // The resolved forces' participations are optional and default to zero.
+                participation: [f64::NAN, f64::NAN, f64::NAN, 0.0, 0.0, 0.0],
                 beam: [f64::NAN; 2],
             });
         }
@@ -56,6 +64,9 @@ fn parse_modes(text: &str) -> Vec<Mode> {
             "azimuth_torque" => m.participation[0] = value,
             "elevation_torque" => m.participation[1] = value,
             "dish_force" => m.participation[2] = value,
+            "axial_force" => m.participation[3] = value,
+            "lateral_force" => m.participation[4] = value,
+            "lift_force" => m.participation[5] = value,
             "beam_azimuth" => m.beam[0] = value,
             "beam_elevation" => m.beam[1] = value,
             other => panic!("unknown field {other}"),
@@ -73,9 +84,10 @@ fn shipped_modes() -> Vec<Mode> {
     parse_modes(&text)
 }
 
-/// The static beam offset (arcsec; azimuth, elevation) under constant loads: the sum over the
-/// modes of beam x participation / stiffness, times the load.
-fn static_offset(modes: &[Mode], loads: &[f64; 3]) -> [f64; 2] {
+/// The static beam offset (arcsec; azimuth, elevation) under constant loads (the first of
+/// [`LOADS`]; the rest zero): the sum over the modes of beam x participation / stiffness, times
+/// the load.
+fn static_offset(modes: &[Mode], loads: &[f64]) -> [f64; 2] {
     let mut offset = [0.0; 2];
     for m in modes {
         let q: f64 = m.participation.iter().zip(loads).map(|(p, u)| p * u).sum::<f64>() / m.stiffness;
@@ -107,15 +119,15 @@ fn structure(fmu: &Fmu, name: &str, modes_file: Option<&str>) -> Instance {
 
 /// Runs `steps` steps of `step` seconds from `start` with the loads `loads(time)` set before
 /// each; returns the beam offsets after every step.
-fn run(
+fn run<const N: usize>(
     fmu: &Fmu,
     instance: &mut Instance,
     start: f64,
     step: f64,
     steps: usize,
-    loads: impl Fn(f64) -> [f64; 3],
+    loads: impl Fn(f64) -> [f64; N],
 ) -> Vec<[f64; 2]> {
-    let load_vrs = fmu.description.vrs(&LOADS).unwrap();
+    let load_vrs = fmu.description.vrs(&LOADS[..N]).unwrap();
     let offset_vrs = fmu.description.vrs(&OFFSETS).unwrap();
     let mut out = Vec::with_capacity(steps);
     let mut offset = [0.0; 2];
@@ -191,6 +203,166 @@ fn the_static_outputs_follow_the_loads_without_a_step_and_a_loaded_start_is_at_r
         reals(&fmu, &mut instance, &["beam.azimuth_offset_static", "beam.elevation_offset_static"]).unwrap();
     let expected = static_offset(&modes, &[2e4, -3e4, 0.0]);
     assert!((quasi_static[1] / expected[1] - 1.0).abs() < 1e-12, "{quasi_static:?} against {expected:?}");
+}
+
+/// Three modes that take the wind force resolved in the antenna's frame: one physical mode per
+/// axis (lever arms in metres) and one in a finite-element scaling (`K = w^2`) that takes all
+/// three forces and moves both beam axes.
+const RESOLVED_MODES: &str = "\
+mode1.frequency = 5.0\nmode1.damping = 0.02\nmode1.stiffness = 3e8\nmode1.azimuth_torque = 0\nmode1.elevation_torque = 0\nmode1.dish_force = 0\nmode1.lateral_force = 4.0\nmode1.beam_azimuth = 1\nmode1.beam_elevation = 0\n\
+mode2.frequency = 7.0\nmode2.damping = 0.015\nmode2.stiffness = 5e8\nmode2.azimuth_torque = 0\nmode2.elevation_torque = 1\nmode2.dish_force = 0\nmode2.axial_force = 2.5\nmode2.lift_force = -1.5\nmode2.beam_azimuth = 0\nmode2.beam_elevation = 1\n\
+mode3.frequency = 9.0\nmode3.damping = 0.01\nmode3.stiffness = 3197.75\nmode3.azimuth_torque = 0\nmode3.elevation_torque = 0\nmode3.dish_force = 0\nmode3.axial_force = -1e-3\nmode3.lateral_force = 5e-4\nmode3.lift_force = 2e-3\nmode3.beam_azimuth = 3e-3\nmode3.beam_elevation = 1e-3\n";
+
+#[test]
+fn a_constant_axial_lateral_or_lift_force_deflects_the_beam_by_force_times_participation_over_stiffness() {
+    let fmu = open("Structure");
+    let dir = scratch("resolved");
+    let path = dir.join("resolved.params");
+    std::fs::write(&path, RESOLVED_MODES).unwrap();
+    let modes = parse_modes(RESOLVED_MODES);
+    // About the mean drag and lift at 9.8 m/s (docs/wind-model.md): one force at a time, then
+    // all three together.
+    let cases: [(&str, [f64; 3]); 4] = [
+        ("axial", [9.6e3, 0.0, 0.0]),
+        ("lateral", [0.0, -4.8e3, 0.0]),
+        ("lift", [0.0, 0.0, -2.2e3]),
+        ("all three", [6.8e3, 3.4e3, -2.2e3]),
+    ];
+    for (label, forces) in cases {
+        let mut instance = structure(&fmu, label, Some(path.to_str().unwrap()));
+        let loads = [0.0, 0.0, 0.0, forces[0], forces[1], forces[2]];
+        // From rest, unloaded, the forces held 40 s: the slowest transient (9 Hz at 1 %) falls
+        // to exp(-0.01 x 2 pi 9 x 40) = 1.5e-10 of the step.
+        let offsets = run(&fmu, &mut instance, 0.0, 1e-3, 40_000, |_| loads);
+        let end = offsets[offsets.len() - 1];
+        // force x participation / stiffness x beam participation, written out mode by mode.
+        let mut expected = [0.0; 2];
+        for m in &modes {
+            let q = (m.participation[3] * forces[0] + m.participation[4] * forces[1] + m.participation[5] * forces[2])
+                / m.stiffness;
+            expected[0] += m.beam[0] * q * ARCSEC_PER_RAD;
+            expected[1] += m.beam[1] * q * ARCSEC_PER_RAD;
+        }
+        for axis in 0..2 {
+            let error = (end[axis] - expected[axis]).abs() / expected[axis].abs();
+            println!(
+                "resolved forces, {label}: axis {axis}: {:.6} arcsec, force x participation / stiffness x beam {:.6} arcsec, error {:.2e}",
+                end[axis], expected[axis], error
+            );
+            assert!(error < 0.01, "{label}: axis {axis}: {} arcsec against {}", end[axis], expected[axis]);
+        }
+        let quasi_static =
+            reals(&fmu, &mut instance, &["beam.azimuth_offset_static", "beam.elevation_offset_static"]).unwrap();
+        for axis in 0..2 {
+            assert!((quasi_static[axis] / expected[axis] - 1.0).abs() < 1e-9, "{label}: static {quasi_static:?}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn modes_without_the_resolved_forces_ignore_them_bit_for_bit() {
+    // The shipped modes and a file written before the resolved forces existed: setting
+    // force.axial, force.lateral and force.lift changes no output by a bit.
+    let fmu = open("Structure");
+    let dir = scratch("old");
+    let path = dir.join("coupled.params");
+    std::fs::write(&path, COUPLED_MODES).unwrap();
+    for file in [None, Some(path.to_str().unwrap())] {
+        let loads = |t: f64| {
+            let k = (t * 200.0) as u64;
+            [1e4 * test_signal(k, 31), 1e4 * test_signal(k, 32), 5e3 * test_signal(k, 33)]
+        };
+        let mut without = structure(&fmu, "without", file);
+        let a = run(&fmu, &mut without, 0.0, 1e-3, 3000, loads);
+        let mut with = structure(&fmu, "with", file);
+        let b = run(&fmu, &mut with, 0.0, 1e-3, 3000, |t| {
+            let [az, el, dish] = loads(t);
+            [az, el, dish, 7e3, -4e3 - t, 2e3]
+        });
+        let bits = |r: &[[f64; 2]]| r.iter().flat_map(|o| o.map(f64::to_bits)).collect::<Vec<_>>();
+        assert!(bits(&a) == bits(&b), "{file:?}: the resolved forces moved a mode that does not take them");
+        assert_eq!(output_bits(&fmu, &mut without), output_bits(&fmu, &mut with));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A coupled run of the paper's drive model with the structure of `modes_file`, holding
+/// azimuth 100 deg, elevation 30 deg in a steady 9.8 m/s wind from `direction` (no gust: the
+/// static deflection is then exact); the trace and the wind unit's lateral force at the end.
+fn coupled_hold(fmus: &FmuSet, modes_file: &str, direction: f64, lanes: Lanes) -> (Trace, f64) {
+    let mut config = Configuration::Paper.antenna_config();
+    config.structure = Some(vec![("modes_file".into(), antenna_sim::ParameterValue::Text(modes_file.into()))]);
+    config.wind = WindCondition { mean_speed_m_s: 9.8, roughness_length_m: 0.0105, direction_deg: direction, seed: 1 };
+    config.wind_unit.push(("spectrum".into(), antenna_sim::ParameterValue::Integer(3)));
+    config.lanes = lanes;
+    let table = CommandTable::new(vec![
+        CommandPoint { time_s: 0.0, azimuth_deg: 100.0, elevation_deg: 30.0 },
+        CommandPoint { time_s: 2.0, azimuth_deg: 100.0, elevation_deg: 30.0 },
+    ])
+    .unwrap();
+    let mut antenna = CoupledAntenna::new(fmus, &config, &table).unwrap();
+    let mut trace = Trace::default();
+    antenna.run_steps(&table, 2000, Some(&mut trace), &mut |_| {}).unwrap();
+    let lateral = {
+        let mut value = [f64::NAN];
+        antenna.wind.get_real(&[fmus.wind.description.vr("force.lateral").unwrap()], &mut value).unwrap();
+        value[0]
+    };
+    (trace, lateral)
+}
+
+#[test]
+fn in_the_coupled_antenna_a_lateral_force_mode_sees_none_in_front_wind_and_the_drags_lateral_part_when_the_wind_turns()
+{
+    let directory = antenna_fmus::fmu_directory();
+    let fmus = FmuSet::open(&directory).unwrap();
+    let dir = scratch("coupled-lateral");
+    let path = dir.join("lateral.params");
+    // The azimuth mode takes only the lateral force (a 5 m lever arm; physical scaling); the
+    // elevation mode is the shipped one.
+    let (p, k) = (5.0, 4e8);
+    let modes = format!(
+        "mode1.frequency = 6.0\nmode1.damping = 0.015\nmode1.stiffness = {k:e}\nmode1.azimuth_torque = 0\nmode1.elevation_torque = 0\nmode1.dish_force = 0\nmode1.lateral_force = {p}\nmode1.beam_azimuth = 1\nmode1.beam_elevation = 0\n\
+         mode2.frequency = 6.0\nmode2.damping = 0.015\nmode2.stiffness = 4e8\nmode2.azimuth_torque = 0\nmode2.elevation_torque = 1\nmode2.dish_force = 0\nmode2.beam_azimuth = 0\nmode2.beam_elevation = 1\n"
+    );
+    std::fs::write(&path, modes).unwrap();
+    let file = path.to_str().unwrap();
+    // The drag by hand (docs/wind-model.md): q A C_D0 |cos el cos yaw| at 9.8 m/s, el 30 deg.
+    let q_a = 0.5 * 1.075 * 9.8 * 9.8 * std::f64::consts::PI * 13.5 * 13.5 / 4.0;
+    let drag = |yaw: f64| q_a * 1.3 * (30f64.to_radians().cos() * yaw.to_radians().cos()).abs();
+    // Azimuth 100 deg: wind from 100 is yaw 0 (into the face); turned by 90 deg, from 55 and
+    // from 145, yaw -45 and +45.
+    let mut statics = Vec::new();
+    for (direction, yaw) in [(100.0, 0.0), (55.0, -45.0), (145.0, 45.0)] {
+        let (trace, lateral) = coupled_hold(&fmus, file, direction, Lanes::One);
+        let beam = trace.beam_offset_static_arcsec[trace.beam_offset_static_arcsec.len() - 1][0];
+        let by_hand = -drag(yaw) * yaw.to_radians().sin() * p / k * ARCSEC_PER_RAD;
+        let from_wind = lateral * p / k * ARCSEC_PER_RAD;
+        println!(
+            "wind from {direction} deg (yaw {yaw:+}): static beam azimuth offset {beam:+.6} arcsec; lateral force {lateral:+.1} N x {p} m / {k:e} N m = {from_wind:+.6}; by hand -drag sin(yaw) {by_hand:+.6}"
+        );
+        assert!((beam - from_wind).abs() <= 1e-9 * from_wind.abs().max(1e-3), "{beam} against {from_wind}");
+        if yaw == 0.0 {
+            // Only the axis's servo error (arcseconds) turns the drag off the boresight: less
+            // than 1e-4 of what the whole drag would give (a yaw of 1e-4 rad, 21 arcsec).
+            let whole = drag(0.0) * p / k * ARCSEC_PER_RAD;
+            assert!(beam.abs() < 1e-4 * whole, "front wind: {beam} arcsec against {whole} for the whole drag");
+        } else {
+            assert!((beam / by_hand - 1.0).abs() < 0.01, "yaw {yaw}: {beam} against {by_hand}");
+        }
+        statics.push(beam);
+    }
+    // Turning the wind from 55 to 145 deg mirrors the lateral push: the beam moves to the other side.
+    assert!(statics[1] > 0.0 && statics[2] < 0.0 && (statics[1] + statics[2]).abs() < 1e-3 * statics[1]);
+    // The same values cross between the threads of the two-lane master.
+    let (one, _) = coupled_hold(&fmus, file, 145.0, Lanes::One);
+    let (two, _) = coupled_hold(&fmus, file, 145.0, Lanes::Two);
+    assert!(
+        one.beam_offset_arcsec == two.beam_offset_arcsec
+            && one.beam_offset_static_arcsec == two.beam_offset_static_arcsec
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The frequency of the largest |H1| between `low` and `high` Hz, refined by a parabola through
@@ -299,6 +471,11 @@ fn a_bad_modes_file_is_an_fmi2_error_naming_the_file_and_the_cause() {
         ("gap", good.replace("mode2.", "mode4."), "mode 2 is missing"),
         ("not_a_number", good.replace("mode1.damping = 0.02", "mode1.damping = low"), "`low` is not a number"),
         ("empty", String::from("# no modes\n"), "no modes"),
+        (
+            "drag_twice",
+            good.replace("mode2.dish_force = 2.5\n", "mode2.dish_force = 2.5\nmode2.lateral_force = 1\n"),
+            "not both",
+        ),
     ];
     for (name, text, cause) in cases {
         let path = dir.join(format!("{name}.params"));

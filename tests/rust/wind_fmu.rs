@@ -1292,6 +1292,75 @@ fn drag_and_lift_means_are_q_a_c_at_every_pointing_and_the_gust_parts_follow_the
 }
 
 #[test]
+fn the_axial_and_lateral_forces_are_drag_cos_yaw_and_minus_drag_sin_yaw_at_every_yaw() {
+    // The drag resolved in the antenna's frame: axial along the horizontal boresight, positive
+    // backwards (from the face to the back), lateral positive towards increasing azimuth. Read
+    // right after setting the pointing, without a step (direct feedthrough, as declared).
+    let fmu = open("Wind");
+    let v = 9.8;
+    let q_a = 0.5 * DEFAULT_DENSITY * v * v * PI * DEFAULT_DIAMETER * DEFAULT_DIAMETER / 4.0;
+    let index = |name: &str| 1 + fmu.description.variables.iter().position(|x| x.name == name).unwrap();
+    let pointing = [index("antenna.azimuth"), index("antenna.elevation")];
+    for name in ["force.axial", "force.axial_mean", "force.lateral", "force.lateral_mean"] {
+        let declared = fmu.description.output_dependencies.iter().find(|(o, _)| *o == index(name));
+        assert_eq!(declared.map(|(_, d)| d.clone()), Some(Some(pointing.to_vec())), "{name}");
+    }
+    let mut instance =
+        wind(&fmu, "resolved", &[("wind.mean_speed", v), ("wind.direction", 30.0)], &[("seed", 5)]).unwrap();
+    instance.do_step(0.0, 1.0).unwrap();
+    let names = [
+        "wind.yaw",
+        "force.drag",
+        "force.drag_mean",
+        "force.axial",
+        "force.axial_mean",
+        "force.lateral",
+        "force.lateral_mean",
+    ];
+    // Yaw = 30 deg - azimuth; the elevation keeps the drag away from its edge-on zero except
+    // where the yaw puts it there (C_D = C_D0 |cos el cos yaw|: none at yaw 90).
+    for (yaw, elevation) in [
+        (0.0, 30.0),
+        (45.0, 30.0),
+        (90.0, 30.0),
+        (135.0, 15.0),
+        (180.0, 60.0),
+        (-45.0, 30.0),
+        (-90.0, 5.0),
+        (-150.0, 45.0),
+    ] {
+        set_reals(&fmu, &mut instance, &[("antenna.azimuth", 30.0 - yaw), ("antenna.elevation", elevation)]);
+        let got = reals(&fmu, &mut instance, &names).unwrap();
+        assert!((got[0] - yaw).abs() < 1e-12, "yaw {} for {yaw}", got[0]);
+        let (sin, cos) = f64::to_radians(yaw).sin_cos();
+        println!(
+            "yaw {yaw:+6.1} el {elevation:4.1}: drag {:9.2} N, axial {:+9.2} N (drag cos {:+9.2}), lateral {:+9.2} N (-drag sin {:+9.2})",
+            got[1],
+            got[3],
+            got[1] * cos,
+            got[5],
+            -got[1] * sin
+        );
+        assert!((got[3] - got[1] * cos).abs() < 1e-12 * q_a, "axial at yaw {yaw}");
+        assert!((got[4] - got[2] * cos).abs() < 1e-12 * q_a, "axial mean at yaw {yaw}");
+        assert!((got[5] + got[1] * sin).abs() < 1e-12 * q_a, "lateral at yaw {yaw}");
+        assert!((got[6] + got[2] * sin).abs() < 1e-12 * q_a, "lateral mean at yaw {yaw}");
+        assert!((got[3].hypot(got[5]) - got[1].abs()).abs() < 1e-12 * q_a, "the parts add up to the drag");
+    }
+    // The signs in words: front wind pushes the dish back, wind from behind pushes it forward,
+    // wind from the left of the boresight (negative yaw) pushes it towards increasing azimuth.
+    let at = |instance: &mut Instance, yaw: f64| {
+        set_reals(&fmu, instance, &[("antenna.azimuth", 30.0 - yaw), ("antenna.elevation", 30.0)]);
+        reals(&fmu, instance, &["force.drag", "force.axial", "force.lateral"]).unwrap()
+    };
+    let front = at(&mut instance, 0.0);
+    assert!(front[0] > 0.0 && front[1] == front[0] && front[2].abs() < 1e-12 * q_a, "{front:?}");
+    let behind = at(&mut instance, 180.0);
+    assert!(behind[1] == -behind[0] && behind[2].abs() < 1e-12 * q_a, "{behind:?}");
+    assert!(at(&mut instance, -45.0)[2] > 0.0 && at(&mut instance, 45.0)[2] < 0.0);
+}
+
+#[test]
 fn every_parameter_and_input_outside_its_physical_range_is_refused() {
     let fmu = open("Wind");
     let cases: [(&str, f64); 15] = [

@@ -11,7 +11,7 @@
 //! command table ──► controllers ──current commands──► plants ──encoders, motor speeds──► controllers
 //!                                     wind ◄── true pointing (az, el) ── plants
 //!                                     wind ──torques about the axes──► plants (load.disturbance_torque)
-//!                                     wind ──the same torques, drag force──► structure ──beam offsets──► pointing
+//!                                     wind ──the same torques, drag, its axial and lateral parts, lift──► structure ──beam offsets──► pointing
 //!                         elevation plant ──true elevation──► azimuth plant (load inertia)
 //! ```
 //!
@@ -338,14 +338,39 @@ struct Ports {
     el_ctrl_in: [u32; 4],
     el_ctrl_out: [u32; 2],
     wind_in: [u32; 2],
-    /// Torque about azimuth, about elevation, wind speed and, where the wind unit gives one, the
-    /// drag on the dish: read in one call.
+    /// Torque about azimuth, about elevation, wind speed and then the forces of [`WIND_FORCES`]
+    /// that the wind unit gives: read in one call.
     wind_out: Vec<u32>,
+    /// For each force read after the wind speed, its place in [`WIND_FORCES`].
+    wind_forces: Vec<usize>,
     /// Torque about azimuth, about elevation, force on the dish and, where the structure takes
-    /// them, the axes' speeds (whose changes swing the structure).
+    /// them, the axes' speeds (whose changes swing the structure) and the resolved forces that
+    /// both the structure takes and the wind unit gives.
     structure_in: Vec<u32>,
+    /// For each of `structure_in`, its name and where its value comes from: an index into the
+    /// loads ([`LOADS`]: torques, then [`WIND_FORCES`]) or, from [`LOADS`] on, the azimuth and
+    /// elevation speeds.
+    structure_sources: Vec<(&'static str, usize)>,
     structure_out: [u32; 4],
 }
+
+/// The wind unit's forces the master reads where the unit gives them, in the order they follow
+/// the two torques in the loads, each with the structure input it drives: the drag along the
+/// wind (to `force.dish`, which the structure always has), and the drag resolved in the
+/// antenna's frame and the lift (each connected only where both units have it).
+const WIND_FORCES: [(&str, &str); 4] = [
+    ("force.drag", "force.dish"),
+    ("force.axial", "force.axial"),
+    ("force.lateral", "force.lateral"),
+    ("force.lift", "force.lift"),
+];
+
+/// The loads the wind unit gives at a point: torque about azimuth, about elevation (N m), and
+/// the forces of [`WIND_FORCES`] (N, 0 where the wind unit gives none).
+const LOADS: usize = 2 + WIND_FORCES.len();
+
+/// The most inputs the structure is sent: the loads and the two axes' speeds.
+const STRUCTURE_INPUTS: usize = LOADS + 2;
 
 impl Ports {
     fn look_up(fmus: &FmuSet) -> Result<Ports, ImportError> {
@@ -362,6 +387,17 @@ impl Ports {
         let ec = &fmus.elevation_controller.description;
         let w = &fmus.wind.description;
         let s = &fmus.structure.description;
+        // The torques and the drag always (an old wind unit without forces sends zero drag);
+        // the axes' speeds where the structure takes them; a resolved force where both take it.
+        let mut structure_inputs = vec![("torque.azimuth", 0), ("torque.elevation", 1), ("force.dish", 2)];
+        if s.vr("axis.azimuth_speed").is_ok() && s.vr("axis.elevation_speed").is_ok() {
+            structure_inputs.extend([("axis.azimuth_speed", LOADS), ("axis.elevation_speed", LOADS + 1)]);
+        }
+        for (i, (output, input)) in WIND_FORCES.iter().enumerate().skip(1) {
+            if w.vr(output).is_ok() && s.vr(input).is_ok() {
+                structure_inputs.push((input, 2 + i));
+            }
+        }
         Ok(Ports {
             az_plant_out: vrs(
                 ap,
@@ -400,16 +436,12 @@ impl Ports {
             wind_in: vrs(w, ["antenna.azimuth", "antenna.elevation"])?,
             wind_out: {
                 let mut out = vrs(w, ["torque.azimuth", "torque.elevation", "wind.speed"])?.to_vec();
-                out.extend(w.vr("force.drag").ok());
+                out.extend(WIND_FORCES.iter().filter_map(|(name, _)| w.vr(name).ok()));
                 out
             },
-            structure_in: {
-                let mut inputs = vrs(s, ["torque.azimuth", "torque.elevation", "force.dish"])?.to_vec();
-                if let Ok(speeds) = vrs(s, ["axis.azimuth_speed", "axis.elevation_speed"]) {
-                    inputs.extend(speeds);
-                }
-                inputs
-            },
+            wind_forces: (0..WIND_FORCES.len()).filter(|i| w.vr(WIND_FORCES[*i].0).is_ok()).collect(),
+            structure_in: structure_inputs.iter().map(|(name, _)| s.vr(name)).collect::<Result<_, _>>()?,
+            structure_sources: structure_inputs,
             structure_out: vrs(
                 s,
                 [
@@ -512,8 +544,10 @@ impl CoupledAntenna {
             // start, so that a run in a mean wind does not begin with ringing modes.
             let (loads, _) = antenna.wind_loads()?;
             let mut overrides = structure_overrides.clone();
-            for (name, value) in ["torque.azimuth", "torque.elevation", "force.dish"].iter().zip(loads) {
-                overrides.push((name.to_string(), ParameterValue::Real(value)));
+            for (name, source) in &antenna.ports.structure_sources {
+                if let Some(value) = loads.get(*source) {
+                    overrides.push((name.to_string(), ParameterValue::Real(*value)));
+                }
             }
             antenna.structure = Some(make(&fmus.structure, "structure", &overrides)?);
         }
@@ -526,9 +560,9 @@ impl CoupledAntenna {
     }
 
     /// The wind's loads on the antenna now, scaled as the configuration says (torque about
-    /// azimuth, about elevation, N m; drag on the dish, N, 0 if the wind unit gives none), and
-    /// the wind speed, m/s.
-    fn wind_loads(&mut self) -> Result<([f64; 3], f64), ImportError> {
+    /// azimuth, about elevation, N m; the forces of [`WIND_FORCES`], N, 0 where the wind unit
+    /// gives none), and the wind speed, m/s.
+    fn wind_loads(&mut self) -> Result<([f64; LOADS], f64), ImportError> {
         wind_loads(&mut self.wind, &self.ports, self.wind_scale)
     }
 
@@ -670,12 +704,19 @@ pub const AUTO_PROBE_STEPS: u64 = 500;
 pub const AUTO_RUN_STEPS: u64 = 20_000;
 
 /// The wind's loads on the antenna now, scaled by `scale` (torque about azimuth, about
-/// elevation, N m; drag on the dish, N, 0 if the wind unit gives none), and the wind speed, m/s.
-fn wind_loads(wind: &mut Instance, ports: &Ports, scale: f64) -> Result<([f64; 3], f64), ImportError> {
-    let mut values = [0.0; 4];
+/// elevation, N m; the forces of [`WIND_FORCES`], N, 0 where the wind unit gives none), and the
+/// wind speed, m/s.
+fn wind_loads(wind: &mut Instance, ports: &Ports, scale: f64) -> Result<([f64; LOADS], f64), ImportError> {
+    let mut values = [0.0; 3 + WIND_FORCES.len()];
     let n = ports.wind_out.len();
     wind.get_real(&ports.wind_out, &mut values[..n])?;
-    Ok(([scale * values[0], scale * values[1], scale * values[3]], values[2]))
+    let mut loads = [0.0; LOADS];
+    loads[0] = scale * values[0];
+    loads[1] = scale * values[1];
+    for (value, force) in values[3..n].iter().zip(&ports.wind_forces) {
+        loads[2 + force] = scale * value;
+    }
+    Ok((loads, values[2]))
 }
 
 /// What the azimuth lane is given at a communication point once the wind's loads are known.
@@ -684,11 +725,11 @@ struct AzimuthLoads {
     /// The true elevation, deg (the azimuth load's inertia depends on it).
     elevation_deg: f64,
     /// The structure's inputs (`Ports::structure_in`; the first `len` are used).
-    structure: [f64; 5],
+    structure: [f64; STRUCTURE_INPUTS],
 }
 
 /// The values of an [`AzimuthLoads`] and its time, in the order they cross between threads.
-const AZIMUTH_LOADS_WORDS: usize = 8;
+const AZIMUTH_LOADS_WORDS: usize = 3 + STRUCTURE_INPUTS;
 
 impl AzimuthLoads {
     fn to_words(&self, t: f64) -> [f64; AZIMUTH_LOADS_WORDS] {
@@ -696,7 +737,7 @@ impl AzimuthLoads {
         words[0] = t;
         words[1] = self.wind_torque_nm;
         words[2] = self.elevation_deg;
-        words[3..8].copy_from_slice(&self.structure);
+        words[3..].copy_from_slice(&self.structure);
         words
     }
 
@@ -866,7 +907,7 @@ impl ElevationLane<'_> {
 struct Point {
     t: f64,
     command: Command,
-    loads: [f64; 3],
+    loads: [f64; LOADS],
     wind_speed: f64,
 }
 
@@ -920,12 +961,17 @@ impl Master<'_, '_> {
         [command.azimuth_deg, command.azimuth_rate_deg_per_s]
     }
 
-    fn azimuth_loads(point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLoads {
-        AzimuthLoads {
-            wind_torque_nm: point.loads[0],
-            elevation_deg: el[1],
-            structure: [point.loads[0], point.loads[1], point.loads[2], az[6], el[4]],
+    /// The azimuth lane's values at a point: the structure's inputs gathered in the order of
+    /// `Ports::structure_in`.
+    fn azimuth_loads(ports: &Ports, point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLoads {
+        let mut sources = [0.0; STRUCTURE_INPUTS];
+        sources[..LOADS].copy_from_slice(&point.loads);
+        sources[LOADS..].copy_from_slice(&[az[6], el[4]]);
+        let mut structure = [0.0; STRUCTURE_INPUTS];
+        for (value, (_, source)) in structure.iter_mut().zip(&ports.structure_sources) {
+            *value = sources[*source];
         }
+        AzimuthLoads { wind_torque_nm: point.loads[0], elevation_deg: el[1], structure }
     }
 
     fn elevation_command(point: &Point) -> [f64; 2] {
@@ -981,7 +1027,8 @@ impl Master<'_, '_> {
             for k in 0..steps {
                 let point = self.point(k, &az, &el, wind)?;
                 let command = Self::azimuth_command(&point.command);
-                let a = azimuth.step(point.t, h, command, &az, &Self::azimuth_loads(&point, &az, &el))?;
+                let loads = Self::azimuth_loads(self.ports, &point, &az, &el);
+                let a = azimuth.step(point.t, h, command, &az, &loads)?;
                 let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind)?;
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
@@ -1068,7 +1115,7 @@ impl Master<'_, '_> {
                             return Err(e);
                         }
                     };
-                    to_azimuth.send(&Self::azimuth_loads(&point, &az, &el).to_words(point.t));
+                    to_azimuth.send(&Self::azimuth_loads(self.ports, &point, &az, &el).to_words(point.t));
                     let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
                     let a = match from_azimuth.receive(k + 1) {
                         Received::Values(words) => {
