@@ -61,6 +61,14 @@ declare_variables! {
             .description("Horizontal wind force on the dish across the boresight (cross-elevation; the Wind FMU's force.lateral), positive pushing the dish towards increasing azimuth (clockwise seen from above, to the right seen from behind the dish looking out along the boresight). Weighed by each mode's lateral_force (default 0)."),
         LiftForce = Var::real("force.lift", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
             .description("Vertical wind force on the dish (the Wind FMU's force.lift), positive up. Weighed by each mode's lift_force (default 0)."),
+        TakesDishForce = Var::boolean("takes.force.dish").calculated_parameter()
+            .description("True when a mode of modes_file takes force.dish (a non-zero dish_force). When false the input changes nothing, and a master may leave it unset: the shipped modes take no force."),
+        TakesAxialForce = Var::boolean("takes.force.axial").calculated_parameter()
+            .description("True when a mode of modes_file takes force.axial (a non-zero axial_force); when false a master may leave that input unset."),
+        TakesLateralForce = Var::boolean("takes.force.lateral").calculated_parameter()
+            .description("True when a mode of modes_file takes force.lateral (a non-zero lateral_force); when false a master may leave that input unset."),
+        TakesLiftForce = Var::boolean("takes.force.lift").calculated_parameter()
+            .description("True when a mode of modes_file takes force.lift (a non-zero lift_force); when false a master may leave that input unset."),
     }
 }
 
@@ -142,6 +150,13 @@ impl Model for StructureModel {
     ) -> Result<(), String> {
         let modes = Self::modes(values, context)?;
         let count = i32::try_from(modes.len()).map_err(|_| "too many modes".to_string())?;
+        // Which forces the modes take (participations 2.. of `LOADS`), so that a master can
+        // leave the others unset.
+        let takes = |load: usize| modes.iter().any(|mode| mode.participation[load] != 0.0);
+        values.set_boolean(StructureVar::TakesDishForce, takes(2));
+        values.set_boolean(StructureVar::TakesAxialForce, takes(3));
+        values.set_boolean(StructureVar::TakesLateralForce, takes(4));
+        values.set_boolean(StructureVar::TakesLiftForce, takes(5));
         self.structure = Some(ModalStructure::at_rest(modes, &Self::loads(values)));
         values.set_integer(StructureVar::ModeCount, count);
         self.write_offsets(values);

@@ -85,11 +85,12 @@ impl Mode {
     /// modes written before those forces existed must give the same bits as they did.
     pub fn modal_load(&self, loads: &[f64; LOADS]) -> f64 {
         let first: f64 = self.participation[..3].iter().zip(&loads[..3]).map(|(p, u)| p * u).sum();
-        self.participation[3..]
-            .iter()
-            .zip(&loads[3..])
-            .filter(|(p, _)| **p != 0.0)
-            .fold(first, |sum, (p, u)| sum + p * u)
+        let resolved = [self.participation[3], self.participation[4], self.participation[5]];
+        // Most modes take none of them (the shipped ones): one test, at every step.
+        if resolved == [0.0; 3] {
+            return first;
+        }
+        resolved.iter().zip(&loads[3..]).filter(|(p, _)| **p != 0.0).fold(first, |sum, (p, u)| sum + p * u)
     }
 
     /// The modal load of the axes' angular accelerations (rad/s^2, azimuth and elevation): the

@@ -100,10 +100,15 @@ pub const LIFT_COEFFICIENT_MAX: f64 = 0.3;
 impl ForceCoefficients {
     /// `(C_D, C_L)` at yaw `psi` and elevation `el`, degrees.
     pub fn at(&self, yaw_deg: f64, elevation_deg: f64) -> (f64, f64) {
+        self.at_cos_yaw(libm::cos(yaw_deg.to_radians()), elevation_deg)
+    }
+
+    /// [`Self::at`] with `cos(psi)` given (the forces need the yaw's sine as well, and one
+    /// `sincos` gives both: fdlibm's `sincos` and `cos` give the same bits, tested).
+    fn at_cos_yaw(&self, cos_psi: f64, elevation_deg: f64) -> (f64, f64) {
         // Evaluated at every step: one fdlibm `sincos` for the elevation (sin 2 el = 2 sin el
-        // cos el) and one `cos` instead of four calls into the system library.
+        // cos el) instead of four calls into the system library.
         let (sin_el, cos_el) = libm::sincos(elevation_deg.to_radians());
-        let cos_psi = libm::cos(yaw_deg.to_radians());
         let cos_alpha = cos_el * cos_psi;
         (self.drag_face_on * cos_alpha.abs(), -self.lift_max * (2.0 * sin_el * cos_el) * cos_psi)
     }
@@ -226,11 +231,11 @@ impl WindTorqueModel {
         elevation_deg: f64,
     ) -> DishForces {
         let yaw = yaw_deg(wind_direction_deg, azimuth_deg);
-        let (c_drag, c_lift) = self.forces.at(yaw, elevation_deg);
-        let k = 0.5 * self.air_density * self.reference_area();
-        let (mean, gust) = self.speed_squared(v_mean, v_gust);
         // fdlibm's sincos, as the coefficients use: the same bits on every platform.
         let (sin_yaw, cos_yaw) = libm::sincos(yaw.to_radians());
+        let (c_drag, c_lift) = self.forces.at_cos_yaw(cos_yaw, elevation_deg);
+        let k = 0.5 * self.air_density * self.reference_area();
+        let (mean, gust) = self.speed_squared(v_mean, v_gust);
         DishForces {
             drag_mean: c_drag * k * mean,
             drag_gust: c_drag * k * gust,
@@ -453,6 +458,18 @@ mod tests {
         // The mirrored wind (yaw -30) pushes to the right; a wind from behind pushes forwards.
         assert!(m.forces(9.8, 0.0, 10.0, 40.0, 20.0).lateral() > 0.0);
         assert!(m.forces(9.8, 0.0, 220.0, 40.0, 20.0).axial() < 0.0);
+    }
+
+    #[test]
+    fn fdlibm_sincos_gives_the_cosine_of_cos_bit_for_bit() {
+        // The force coefficients take the yaw's cosine from the `sincos` that the resolved
+        // forces need: their values must not change with it. Every yaw the model sees lies in
+        // [-180, 180] deg; a dense sweep, the quadrant edges and a few far arguments.
+        let mut angles: Vec<f64> = (-720_000..=720_000).map(|k| (k as f64 * 2.5e-4).to_radians()).collect();
+        angles.extend([0.0, -0.0, std::f64::consts::FRAC_PI_4, std::f64::consts::PI, 1e6, -3e9, 1e-300]);
+        for x in angles {
+            assert_eq!(libm::sincos(x).1.to_bits(), libm::cos(x).to_bits(), "cos({x:e})");
+        }
     }
 
     #[test]

@@ -287,6 +287,32 @@ fn modes_without_the_resolved_forces_ignore_them_bit_for_bit() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+#[test]
+fn the_takes_parameters_say_which_wind_forces_the_modes_weigh() {
+    // A master may leave unset the forces that no mode takes (the antenna master does, which
+    // saves it a twentieth of a step): the shipped modes take none, the coupled modes only the
+    // drag, the resolved-force modes the axial, lateral and lift forces but not the drag.
+    let fmu = open("Structure");
+    let dir = scratch("takes");
+    let (coupled, resolved) = (dir.join("coupled.params"), dir.join("resolved.params"));
+    std::fs::write(&coupled, COUPLED_MODES).unwrap();
+    std::fs::write(&resolved, RESOLVED_MODES).unwrap();
+    let names = ["takes.force.dish", "takes.force.axial", "takes.force.lateral", "takes.force.lift"];
+    let vrs: Vec<u32> = names.iter().map(|name| fmu.description.vr(name).unwrap()).collect();
+    let cases = [
+        (None, [false; 4]),
+        (Some(coupled.to_str().unwrap()), [true, false, false, false]),
+        (Some(resolved.to_str().unwrap()), [false, true, true, true]),
+    ];
+    for (file, expected) in cases {
+        let mut instance = structure(&fmu, "takes", file);
+        let mut takes = [!expected[0]; 4];
+        instance.get_boolean(&vrs, &mut takes).unwrap();
+        assert_eq!(takes, expected, "{file:?}: {names:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A coupled run of the paper's drive model with the structure of `modes_file`, holding
 /// azimuth 100 deg, elevation 30 deg in a steady 9.8 m/s wind from `direction` (no gust: the
 /// static deflection is then exact); the trace and the wind unit's lateral force at the end.
