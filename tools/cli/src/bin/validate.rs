@@ -623,6 +623,9 @@ fn print_summary(v: &Validation) {
                 a.fit_percent
             );
         }
+        if let Some(r) = &o.recheck {
+            println!("    {}", antenna_validate::report::recheck_summary(r).replace("**", ""));
+        }
         for (kind, c) in &o.confirmations {
             println!(
                 "    confirmation of {}: {} -> {}",
