@@ -10,6 +10,7 @@
 //! after is reported on it, in physical units, as a control engineer compares models.
 
 pub mod candidates;
+pub mod documents;
 pub mod equation_error;
 pub mod finite;
 pub mod frequency;
