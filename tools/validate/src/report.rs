@@ -170,7 +170,11 @@ fn recheck_section(out: &mut String, v: &Validation) {
 /// One paragraph on the re-check after the re-estimation, for the report and the summary.
 pub fn recheck_summary(r: &crate::Recheck) -> String {
     let list = |items: &[(crate::candidates::Kind, String)]| {
-        items.iter().map(|(k, why)| format!("{} ({why})", k.name())).collect::<Vec<_>>().join("; ")
+        items
+            .iter()
+            .map(|(k, why)| format!("{} (with it against without it: {why})", k.name()))
+            .collect::<Vec<_>>()
+            .join("; ")
     };
     let mut text = String::from(
         "**Re-checked after the re-estimation** (each effect found before it taken out in turn with the re-estimated values in place, the others refitted, and confirmed again on the output error):",
