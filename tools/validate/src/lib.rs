@@ -10,6 +10,7 @@
 //! after is reported on it, in physical units, as a control engineer compares models.
 
 pub mod candidates;
+pub mod documents;
 pub mod equation_error;
 pub mod finite;
 pub mod frequency;
@@ -142,6 +143,9 @@ pub struct OutputReport {
     pub refit: Option<refit::Refit>,
     /// The joint refit after a family the start holds was re-estimated ([`reestimate`]).
     pub refit_after_reestimate: Option<refit::Refit>,
+    /// The backward check of the effects found before a re-estimation changed the model, run
+    /// again with the re-estimated values in place ([`recheck_after_reestimate`]).
+    pub recheck: Option<Recheck>,
     /// The friction-form calibration ([`presliding`]), when it was tried; when kept, `before`
     /// is the calibrated starting model's error and `starting` the uncalibrated one's.
     pub calibration: Option<presliding::Calibration>,
@@ -541,8 +545,10 @@ fn search_with_output_error(
     // The families the start holds, re-estimated where the equation error finds the family in
     // the data and the simulation confirms the new value (reestimate.rs).
     let search_steps = selection.steps.len();
+    let earlier: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
     let mut confirmations = confirmations;
     let mut refit_after_reestimate = None;
+    let mut recheck = None;
     if options.output.reestimate {
         let r = reestimate::reestimate(
             simulator,
@@ -559,6 +565,21 @@ fn search_with_output_error(
         if r.changed {
             after = r.error;
             refit_after_reestimate = r.refit;
+            if !earlier.is_empty() {
+                let (checked, error) = recheck_after_reestimate(
+                    simulator,
+                    data,
+                    (&out, &plan),
+                    start,
+                    &mut selection,
+                    &earlier,
+                    &after,
+                    options,
+                    &mut confirmations,
+                )?;
+                after = error;
+                recheck = Some(checked);
+            }
         }
     }
     let overall = output_error::compare(
@@ -588,10 +609,80 @@ fn search_with_output_error(
         withdrawn,
         refit: refitted,
         refit_after_reestimate,
+        recheck,
         calibration,
         starting,
     });
     Ok(Searched { selection, output, frequency, hints })
+}
+
+/// The re-check of the effects found before a re-estimation: each kept one with the note of
+/// its confirmation against the final model less it, each withdrawn one with the reason, and
+/// the joint refit on the output error of what is left, when something was withdrawn and the
+/// refit lowered the score.
+#[derive(Debug, Clone)]
+pub struct Recheck {
+    pub kept: Vec<(Kind, String)>,
+    pub withdrawn: Vec<(Kind, String)>,
+    pub refit: Option<refit::Refit>,
+}
+
+/// The backward check once more after a re-estimation changed a family the start held: the
+/// effects the search found (`earlier`) were each confirmed against a model that still had
+/// the start's value, so one of them may have stood in for that value. Each is taken out in
+/// turn with the re-estimated value in place, the others refitted, and the output error's
+/// confirmation (signed-rank test and BIC gain) asked again ([`selection::recheck`], the
+/// backward check's own code); what no longer confirms is withdrawn, and the effects left are
+/// refitted together on the output error. Returns the outcome and the output error of the
+/// model it ends with; the comparisons are added to `confirmations`, marked as the re-check's.
+#[allow(clippy::too_many_arguments)]
+fn recheck_after_reestimate(
+    simulator: &mut dyn PlantSimulator,
+    data: &EquationData,
+    (out, plan): (&OutputData, &WindowPlan),
+    start: &ParameterSet,
+    selection: &mut Selection,
+    earlier: &[Kind],
+    after: &OutputError,
+    options: &ValidateOptions,
+    confirmations: &mut Vec<(Kind, Comparison)>,
+) -> Result<(Recheck, OutputError), ValidationError> {
+    let mut judge = OutputJudge {
+        simulator: &mut *simulator,
+        data,
+        out,
+        plan,
+        cache: vec![(selection.corrected.clone(), after.clone())],
+        confirmations: Vec::new(),
+        alpha: options.output.alpha,
+    };
+    let checked = selection::recheck(data, start, selection, earlier, &options.selection, &mut judge);
+    let OutputJudge { cache, confirmations: asked, .. } = judge;
+    confirmations.extend(asked.into_iter().map(|(kind, mut c)| {
+        c.reason = format!("re-check after the re-estimation: {}", c.reason);
+        (kind, c)
+    }));
+    let mut recheck = Recheck { kept: checked.kept, withdrawn: checked.withdrawn, refit: None };
+    if recheck.withdrawn.is_empty() {
+        return Ok((recheck, after.clone()));
+    }
+    let mut error = match cache.iter().find(|(p, _)| *p == selection.corrected) {
+        Some((_, e)) => e.clone(),
+        None => output_error::output_error(simulator, &selection.corrected, data, out, plan)?,
+    };
+    let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+    if options.output.refit && !kinds.is_empty() {
+        if let Some(r) = refit::refit(simulator, data, out, plan, start, &kinds, &selection.corrected, &error) {
+            let weights = selection.after.channel_weights();
+            let (_, found) = selection::final_fit(data, start, &r.params, &kinds, &weights);
+            selection.after = selection::fit_fixed(data, &r.params, &weights);
+            selection.found = found;
+            selection.corrected = r.params.clone();
+            error = r.error.clone();
+            recheck.refit = Some(r);
+        }
+    }
+    Ok((recheck, error))
 }
 
 /// Effects withdrawn by the final verdict.

@@ -75,6 +75,7 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     }
     effects_section(&mut out, v);
     standing_section(&mut out, v);
+    recheck_section(&mut out, v);
     collinear_section(&mut out, v);
     if let Some(t) = &v.twist {
         twist_section(&mut out, t, v.encoder_skew, d.linear);
@@ -157,6 +158,41 @@ fn standing_section(out: &mut String, v: &Validation) {
             score.likelihood_ratio
         );
     }
+}
+
+/// The backward check of the effects found before a re-estimation, run again with the
+/// re-estimated values in place: what it kept and what it withdrew, with the figures.
+fn recheck_section(out: &mut String, v: &Validation) {
+    let Some(r) = v.output.as_ref().and_then(|o| o.recheck.as_ref()) else { return };
+    let _ = writeln!(out, "{}\n", recheck_summary(r));
+}
+
+/// One paragraph on the re-check after the re-estimation, for the report and the summary.
+pub fn recheck_summary(r: &crate::Recheck) -> String {
+    let list = |items: &[(crate::candidates::Kind, String)]| {
+        items
+            .iter()
+            .map(|(k, why)| format!("{} (with it against without it: {why})", k.name()))
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let mut text = String::from(
+        "**Re-checked after the re-estimation** (each effect found before it taken out in turn with the re-estimated values in place, the others refitted, and confirmed again on the output error):",
+    );
+    if !r.kept.is_empty() {
+        text.push_str(&format!(" kept {}", list(&r.kept)));
+    }
+    if !r.withdrawn.is_empty() {
+        if !r.kept.is_empty() {
+            text.push(';');
+        }
+        text.push_str(&format!(
+            " withdrawn {}: the model without it, with the re-estimated values, predicts as well",
+            list(&r.withdrawn)
+        ));
+    }
+    text.push('.');
+    text
 }
 
 /// Found effects that are collinear over the log: only their sum is determined.
@@ -388,6 +424,11 @@ fn output_section(out: &mut String, o: &OutputReport, linear: bool) {
             &o.refit_after_reestimate,
             "After the re-estimation of the start's families, all found effects' parameters refitted together",
             "the re-estimated model's",
+        ),
+        (
+            &o.recheck.as_ref().and_then(|r| r.refit.clone()),
+            "After the re-check withdrew an effect, the effects left refitted together",
+            "the model without it",
         ),
     ];
     for (refit, what, of) in refits {

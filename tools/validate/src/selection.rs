@@ -1041,29 +1041,132 @@ fn backward_check(
     options: &SelectionOptions,
     judge: &mut dyn Judge,
 ) -> Vec<(Kind, String)> {
+    let all = model.accepted.clone();
+    check_each(data, start, model, &all, options, judge).removed
+}
+
+/// What [`check_each`] decided: the effects removed, each with the judge's reason, and the
+/// effects kept, each with the note of its last confirmation (against the final model less it).
+struct Checked {
+    removed: Vec<(Kind, String)>,
+    kept: Vec<(Kind, String)>,
+}
+
+/// The backward check over the accepted effects in `removable` (the others always stay):
+/// each in turn is taken out (its parameters back to `start`'s), the remaining accepted
+/// effects refitted, and the judge asked to confirm it against that model; the first that
+/// fails is removed, and the round is repeated on the smaller model until every one left
+/// confirms. Nothing is checked while the model holds a single effect: against the start it
+/// was confirmed when it was added.
+fn check_each(
+    data: &EquationData,
+    start: &ParameterSet,
+    model: &mut Model,
+    removable: &[Kind],
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Checked {
     let mut removed = Vec::new();
+    let mut notes: Vec<(Kind, String)> = Vec::new();
     while model.accepted.len() >= 2 {
         let mut dropped = None;
         for index in 0..model.accepted.len() {
             let kind = model.accepted[index];
+            if !removable.contains(&kind) {
+                continue;
+            }
             let others: Vec<Kind> = model.accepted.iter().copied().filter(|k| *k != kind).collect();
             let weights = model.current.channel_weights();
             let (without, without_fit, _) =
                 refine(data, without_effect(kind, &model.params, start), &others, &weights, options.max_iterations);
-            if candidates::admissible(&without, data).is_err() {
+            if let Err(reason) = candidates::admissible(&without, data) {
+                notes.retain(|(k, _)| *k != kind);
+                notes.push((kind, format!("the model without it is not admissible ({reason})")));
                 continue;
             }
-            if let Err(reason) = judge.confirm(kind, &without, &model.params) {
-                dropped = Some((index, without, without_fit, reason));
-                break;
+            match judge.confirm(kind, &without, &model.params) {
+                Ok(note) => {
+                    notes.retain(|(k, _)| *k != kind);
+                    notes.push((kind, note));
+                }
+                Err(reason) => {
+                    dropped = Some((index, without, without_fit, reason));
+                    break;
+                }
             }
         }
         let Some((index, without, without_fit, reason)) = dropped else { break };
-        removed.push((model.accepted.remove(index), reason));
+        let kind = model.accepted.remove(index);
+        notes.retain(|(k, _)| *k != kind);
+        removed.push((kind, reason));
         model.params = without;
         model.current = without_fit;
     }
-    removed
+    let kept = removable
+        .iter()
+        .filter(|k| model.accepted.contains(k))
+        .map(|k| {
+            let note = notes.iter().find(|(n, _)| n == k).map(|(_, note)| note.clone());
+            (*k, note.unwrap_or_else(|| "the only effect left: confirmed against the start when it was added".into()))
+        })
+        .collect();
+    Checked { removed, kept }
+}
+
+/// The outcome of [`recheck`]: the effects re-checked and kept (with the note of their
+/// confirmation against the final model less each) and the ones withdrawn (with the reason).
+#[derive(Debug, Clone, Default)]
+pub struct Rechecked {
+    pub kept: Vec<(Kind, String)>,
+    pub withdrawn: Vec<(Kind, String)>,
+}
+
+/// The backward check once more, on the effects in `earlier` only, in the model
+/// `selection.corrected` (which holds them and whatever was added since, such as a family the
+/// start held and the re-estimation changed): each is taken out in turn, the others refitted,
+/// and the judge asked to confirm it against that model; what no longer confirms is withdrawn
+/// (with a pair partner claimed only jointly with it) and the selection is refitted on the
+/// equation error at the remaining effects. An effect confirmed against a model that still had
+/// a wrong value of some family can have been standing in for that value.
+pub fn recheck(
+    data: &EquationData,
+    start: &ParameterSet,
+    selection: &mut Selection,
+    earlier: &[Kind],
+    options: &SelectionOptions,
+    judge: &mut dyn Judge,
+) -> Rechecked {
+    let weights = selection.after.channel_weights();
+    let accepted: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
+    let pairs: Vec<(Kind, Kind)> = selection
+        .steps
+        .iter()
+        .filter(|s| !s.re_estimate)
+        .filter_map(|s| Some((s.chosen?, s.paired?)))
+        .filter(|(a, b)| accepted.contains(a) && accepted.contains(b))
+        .collect();
+    let mut model = Model {
+        params: selection.corrected.clone(),
+        current: fit_fixed(data, &selection.corrected, &weights),
+        accepted,
+        pairs,
+    };
+    let removable: Vec<Kind> = earlier.iter().copied().filter(|k| model.accepted.contains(k)).collect();
+    let Checked { mut removed, kept } = check_each(data, start, &mut model, &removable, options, judge);
+    if removed.is_empty() {
+        return Rechecked { kept, withdrawn: removed };
+    }
+    removed.extend(drop_lone_pair_members(data, start, &mut model, options));
+    let kept = kept.into_iter().filter(|(k, _)| model.accepted.contains(k)).collect();
+    if model.accepted.is_empty() {
+        model.params = start.clone();
+    }
+    let (after, found) = final_fit(data, start, &model.params, &model.accepted, &weights);
+    selection.after = if model.accepted.is_empty() { selection.before.clone() } else { after };
+    selection.found = found;
+    selection.corrected = model.params;
+    selection.removed.extend(removed.iter().cloned());
+    Rechecked { kept, withdrawn: removed }
 }
 
 /// A pair's members were claimed only jointly: when the backward check removed one, the other
