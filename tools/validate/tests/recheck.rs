@@ -31,91 +31,20 @@
 use antenna_validate::candidates::{parameter_count, Kind};
 use antenna_validate::equation_error::EquationData;
 use antenna_validate::measured_log::parse_str;
-use antenna_validate::output_error::{
-    self, choose_window, OutputData, PlantSimulator, RigidReferenceSimulator, WindowPlan, WindowStart,
-};
-use antenna_validate::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
+use antenna_validate::output_error::{self, choose_window, OutputData, RigidReferenceSimulator, WindowPlan};
+use antenna_validate::parameters::{names, ParameterSet};
 use antenna_validate::selection::{self, Judge};
 use antenna_validate::{validate_with, ValidateOptions, Validation};
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 
-const DT: f64 = 0.004;
-const GEAR: f64 = 100.0;
-const SAMPLES: usize = 3750;
-/// The truth's friction, axis side: Coulomb (N m) and viscous (N m s/rad).
-const COULOMB: f64 = 60.0;
-const VISCOUS: f64 = 80.0;
-/// Torque sensor noise (axis side, N m) and motor encoder noise (rad).
-const TORQUE_NOISE: f64 = 2.0;
-const POSITION_NOISE: f64 = 1e-6;
-/// Amplitude (N m) of the slowest of the three sines of the unlogged disturbance torque.
-const DISTURBANCE: f64 = 20.0;
+mod common;
 
+use common::{log_csv, COULOMB, FREQUENCIES, VISCOUS};
+
+/// The shared truth with a torque offset (N m).
 fn truth(offset: f64) -> ParameterSet {
-    let mut p = ParameterSet::new();
-    p.set(names::GEAR_RATIO, GEAR);
-    p.set(names::MOTOR_INERTIA, 2e-3);
-    p.set(names::TORQUE_CONSTANT, 1.0);
-    p.set(names::LOAD_INERTIA, 30.0);
-    p.set(names::COULOMB, COULOMB);
-    p.set(names::STATIC, COULOMB);
-    p.set(names::VISCOUS, VISCOUS);
+    let mut p = common::truth();
     p.set(names::TORQUE_OFFSET, offset);
     p
-}
-
-/// A 15 s log of `truth` driven by an axis torque of three sines of the given frequencies (Hz;
-/// amplitudes 300, 150 and 80 N m), motor torque and motor encoder only.
-fn log_csv(truth: &ParameterSet, frequencies: [f64; 3]) -> String {
-    use std::f64::consts::TAU;
-    let [f1, f2, f3] = frequencies;
-    let axis_torque =
-        |t: f64| 300.0 * (TAU * f1 * t).sin() + 150.0 * (TAU * f2 * t + 1.0).sin() + 80.0 * (TAU * f3 * t + 2.0).sin();
-    let torque: Vec<f64> = (0..=SAMPLES).map(|k| axis_torque(k as f64 * DT)).collect();
-    // Held over each interval at the mean of its two samples, as the output error drives the plant.
-    let held: Vec<[f64; 2]> = torque
-        .windows(2)
-        .map(|w| {
-            let motor = 0.5 * (w[0] + w[1]) / GEAR;
-            [motor, motor]
-        })
-        .collect();
-    let mut simulator = RigidReferenceSimulator::default();
-    let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Torque, sample_interval: DT };
-    simulator.configure(truth, &config).unwrap();
-    let start = WindowStart {
-        load_angle: 0.0,
-        load_speed: 0.0,
-        motor_angle: 0.0,
-        motor_speed: 0.0,
-        twist: 0.0,
-        currents: held[0],
-        history: Vec::new(),
-    };
-    let disturbance: Vec<f64> = (0..SAMPLES)
-        .map(|k| {
-            let t = (k as f64 + 0.5) * DT;
-            DISTURBANCE
-                * ((TAU * 0.13 * t + 0.3).sin()
-                    + 0.7 * (TAU * 0.07 * t + 2.1).sin()
-                    + 0.5 * (TAU * 0.23 * t + 4.0).sin())
-        })
-        .collect();
-    let motion = simulator.simulate(&start, &held, &disturbance, DT).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(16);
-    let torque_noise = Normal::new(0.0, TORQUE_NOISE / GEAR).unwrap();
-    let position_noise = Normal::new(0.0, POSITION_NOISE).unwrap();
-    let mut csv = String::from("time_s,motor_torque_Nm,motor_pos_rad\n");
-    for (k, (tau, q)) in torque.iter().zip(&motion.motor_pos).enumerate() {
-        csv.push_str(&format!(
-            "{:.4},{:.6},{:.9}\n",
-            k as f64 * DT,
-            tau / GEAR + torque_noise.sample(&mut rng),
-            q + position_noise.sample(&mut rng)
-        ));
-    }
-    csv
 }
 
 fn kinds(v: &Validation) -> Vec<Kind> {
@@ -124,7 +53,7 @@ fn kinds(v: &Validation) -> Vec<Kind> {
 
 #[test]
 fn an_offset_really_in_the_log_is_kept_when_the_start_s_friction_is_re_estimated() {
-    let log = parse_str(&log_csv(&truth(50.0), [0.31, 1.13, 2.71])).unwrap();
+    let log = parse_str(&log_csv(&truth(50.0), FREQUENCIES)).unwrap();
     let mut start = truth(0.0);
     start.set(names::COULOMB, 42.0);
     start.set(names::STATIC, 42.0);

@@ -15,92 +15,23 @@
 
 use antenna_validate::candidates::Kind;
 use antenna_validate::measured_log::parse_str;
-use antenna_validate::output_error::{PlantSimulator, RigidReferenceSimulator, WindowStart};
-use antenna_validate::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
+use antenna_validate::output_error::RigidReferenceSimulator;
+use antenna_validate::parameters::{names, ParameterSet};
 use antenna_validate::{validate_with, ValidateOptions, Validation};
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 
-const DT: f64 = 0.004;
-const GEAR: f64 = 100.0;
-/// The truth's Coulomb level (axis side, N m) and the start's wrong guess of it.
-const COULOMB: f64 = 60.0;
+mod common;
+
+use common::{COULOMB, FREQUENCIES};
+
+/// The start's wrong guess of the truth's Coulomb level (axis side, N m).
 const GUESS: f64 = 42.0;
-/// Torque sensor noise (axis side, N m).
-const TORQUE_NOISE: f64 = 2.0;
-const POSITION_NOISE: f64 = 1e-6;
-/// Amplitude (N m) of the slowest of the three sines of the unlogged disturbance torque.
-const DISTURBANCE: f64 = 20.0;
 
 fn truth() -> ParameterSet {
-    let mut p = ParameterSet::new();
-    p.set(names::GEAR_RATIO, GEAR);
-    p.set(names::MOTOR_INERTIA, 2e-3);
-    p.set(names::TORQUE_CONSTANT, 1.0);
-    p.set(names::LOAD_INERTIA, 30.0);
-    p.set(names::COULOMB, COULOMB);
-    p.set(names::STATIC, COULOMB);
-    p.set(names::VISCOUS, 80.0);
-    p
+    common::truth()
 }
 
-/// A 15 s log of the truth driven by a multisine torque that reverses the axis often, motor
-/// torque and motor encoder only, with white sensor noise.
 fn log_csv() -> String {
-    let n = 3750;
-    let axis_torque = |t: f64| {
-        use std::f64::consts::TAU;
-        300.0 * (TAU * 0.31 * t).sin() + 150.0 * (TAU * 1.13 * t + 1.0).sin() + 80.0 * (TAU * 2.71 * t + 2.0).sin()
-    };
-    let torque: Vec<f64> = (0..=n).map(|k| axis_torque(k as f64 * DT)).collect();
-    // The simulator holds each command over its interval at the mean of its two samples, as
-    // the output error drives the plant.
-    let held: Vec<[f64; 2]> = torque
-        .windows(2)
-        .map(|w| {
-            let motor = 0.5 * (w[0] + w[1]) / GEAR;
-            [motor, motor]
-        })
-        .collect();
-    let mut simulator = RigidReferenceSimulator::default();
-    let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Torque, sample_interval: DT };
-    simulator.configure(&truth(), &config).unwrap();
-    let start = WindowStart {
-        load_angle: 0.0,
-        load_speed: 0.0,
-        motor_angle: 0.0,
-        motor_speed: 0.0,
-        twist: 0.0,
-        currents: held[0],
-        history: Vec::new(),
-    };
-    // An unlogged slow disturbance torque on the axis (cable drag, wind), which colours the
-    // equation error's residual as the real records' unmodelled dynamics do.
-    let amplitude = DISTURBANCE;
-    let disturbance: Vec<f64> = (0..n)
-        .map(|k| {
-            use std::f64::consts::TAU;
-            let t = (k as f64 + 0.5) * DT;
-            amplitude
-                * ((TAU * 0.13 * t + 0.3).sin()
-                    + 0.7 * (TAU * 0.07 * t + 2.1).sin()
-                    + 0.5 * (TAU * 0.23 * t + 4.0).sin())
-        })
-        .collect();
-    let motion = simulator.simulate(&start, &held, &disturbance, DT).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(16);
-    let torque_noise = Normal::new(0.0, TORQUE_NOISE / GEAR).unwrap();
-    let position_noise = Normal::new(0.0, POSITION_NOISE).unwrap();
-    let mut csv = String::from("time_s,motor_torque_Nm,motor_pos_rad\n");
-    for (k, (tau, q)) in torque.iter().zip(&motion.motor_pos).enumerate() {
-        csv.push_str(&format!(
-            "{:.4},{:.6},{:.9}\n",
-            k as f64 * DT,
-            tau / GEAR + torque_noise.sample(&mut rng),
-            q + position_noise.sample(&mut rng)
-        ));
-    }
-    csv
+    common::log_csv(&truth(), FREQUENCIES)
 }
 
 fn validate_from(start: &ParameterSet) -> Validation {
