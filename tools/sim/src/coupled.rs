@@ -383,40 +383,35 @@ impl Ports {
         structure: &mut Instance,
         description: &ModelDescription,
     ) -> Result<(), ImportError> {
-        let mut taken = Vec::with_capacity(self.structure_sources.len());
-        for (input, source) in &self.structure_sources {
-            let is_force = (2..LOADS).contains(source);
+        let mut kept = Vec::with_capacity(self.structure_in.len());
+        for (&vr, &(input, source)) in self.structure_in.iter().zip(&self.structure_sources) {
             let says = description.vr(&format!("takes.{input}")).ok();
-            let keep = match (is_force, says) {
-                (true, Some(vr)) => {
-                    let mut takes = [true];
-                    structure.get_boolean(&[vr], &mut takes)?;
-                    takes[0]
+            let taken = match says {
+                Some(takes) if (2..LOADS).contains(&source) => {
+                    let mut value = [true];
+                    structure.get_boolean(&[takes], &mut value)?;
+                    value[0]
                 }
                 _ => true,
             };
-            taken.push(keep);
+            if taken {
+                kept.push((vr, (input, source)));
+            }
         }
-        let mut keep = taken.iter().copied();
-        self.structure_in.retain(|_| keep.next().unwrap_or(true));
-        let mut keep = taken.iter().copied();
-        self.structure_sources.retain(|_| keep.next().unwrap_or(true));
+        (self.structure_in, self.structure_sources) = kept.into_iter().unzip();
         self.read_only_forces_sent();
         Ok(())
     }
 
     /// Reads from the wind unit only the forces that go to the structure (none without one).
     fn read_only_forces_sent(&mut self) {
-        let needed = |force: usize| self.structure_sources.iter().any(|(_, source)| *source == 2 + force);
-        let read: Vec<bool> = self.wind_forces.iter().map(|&force| needed(force)).collect();
-        let mut read_iter = read.iter().copied();
-        self.wind_forces.retain(|_| read_iter.next().unwrap_or(true));
-        let mut index = 0;
-        self.wind_out.retain(|_| {
-            index += 1;
-            // The torques and the wind speed come first and are always read.
-            index <= 3 || read[index - 4]
-        });
+        let sent = |force: usize| self.structure_sources.iter().any(|&(_, source)| source == 2 + force);
+        // The torques and the wind speed come first and are always read; the forces follow.
+        let (forces, vrs): (Vec<usize>, Vec<u32>) =
+            self.wind_forces.iter().zip(&self.wind_out[3..]).filter(|(&force, _)| sent(force)).unzip();
+        self.wind_out.truncate(3);
+        self.wind_out.extend(vrs);
+        self.wind_forces = forces;
     }
 
     fn look_up(fmus: &FmuSet) -> Result<Ports, ImportError> {
