@@ -535,11 +535,7 @@ fn search_with_output_error(
         None
     };
     if let Some(r) = &refitted {
-        let weights = selection.after.channel_weights();
-        let (_, found) = selection::final_fit(data, start, &r.params, &kinds, &weights);
-        selection.after = selection::fit_fixed(data, &r.params, &weights);
-        selection.found = found;
-        selection.corrected = r.params.clone();
+        selection.adopt(data, start, r.params.clone(), &kinds);
         after = r.error.clone();
     }
     // The families the start holds, re-estimated where the equation error finds the family in
@@ -673,11 +669,7 @@ fn recheck_after_reestimate(
     let kinds: Vec<Kind> = selection.found.iter().map(|f| f.kind).collect();
     if options.output.refit && !kinds.is_empty() {
         if let Some(r) = refit::refit(simulator, data, out, plan, start, &kinds, &selection.corrected, &error) {
-            let weights = selection.after.channel_weights();
-            let (_, found) = selection::final_fit(data, start, &r.params, &kinds, &weights);
-            selection.after = selection::fit_fixed(data, &r.params, &weights);
-            selection.found = found;
-            selection.corrected = r.params.clone();
+            selection.adopt(data, start, r.params.clone(), &kinds);
             error = r.error.clone();
             recheck.refit = Some(r);
         }

@@ -207,11 +207,7 @@ pub fn reestimate(
         current = r.error.clone();
         result.refit = Some(r);
     }
-    let weights = selection.after.channel_weights();
-    let (_, found) = selection::final_fit(data, start, &params, &accepted, &weights);
-    selection.after = selection::fit_fixed(data, &params, &weights);
-    selection.found = found;
-    selection.corrected = params;
+    selection.adopt(data, start, params, &accepted);
     result.error = current;
     result
 }

@@ -428,6 +428,17 @@ pub struct Selection {
 }
 
 impl Selection {
+    /// Makes `params` the corrected set with `kinds` as the found effects (after a refit on the
+    /// output error or a re-estimation): their figures, and the equation error after, at those
+    /// parameters.
+    pub fn adopt(&mut self, data: &EquationData, start: &ParameterSet, params: ParameterSet, kinds: &[Kind]) {
+        let weights = self.after.channel_weights();
+        let (_, found) = final_fit(data, start, &params, kinds, &weights);
+        self.after = fit_fixed(data, &params, &weights);
+        self.found = found;
+        self.corrected = params;
+    }
+
     /// The candidates the data cannot tell from a found effect: confirmed in the step that
     /// chose it and not predicted significantly worse; and any effect the backward check
     /// removed whose own step could not tell it from this one (the search took that one first,
