@@ -707,6 +707,34 @@ fn cogging(
     })
 }
 
+/// How large an effect is in physical terms: the change of its leading parameter from
+/// `before` to `after` (name, change, unit): the friction level, the offset, the width, the
+/// stiffness, the load inertia, the delay or the torque-constant scale; for an unbalance the
+/// size of the change of its (cos, sin) vector; for a cogging torque, of its amplitude.
+pub fn size_change(kind: Kind, before: &ParameterSet, after: &ParameterSet) -> (&'static str, f64, &'static str) {
+    let change = |name: &str| after.value(name) - before.value(name);
+    match kind {
+        Kind::Coulomb => (names::COULOMB, change(names::COULOMB), "N m"),
+        Kind::Viscous => (names::VISCOUS, change(names::VISCOUS), "N m s/rad"),
+        Kind::Offset => (names::TORQUE_OFFSET, change(names::TORQUE_OFFSET), "N m"),
+        Kind::Backlash => (names::BACKLASH_WIDTH, change(names::BACKLASH_WIDTH), "rad"),
+        Kind::Stiffness => (names::STIFFNESS, change(names::STIFFNESS), "N m/rad"),
+        Kind::Inertia => (names::LOAD_INERTIA, change(names::LOAD_INERTIA), "kg m^2"),
+        Kind::Unbalance => {
+            let vector = |p: &ParameterSet| {
+                let (a, phase) = (p.value(names::UNBALANCE_TORQUE), p.value(names::UNBALANCE_PHASE));
+                (a * phase.cos(), a * phase.sin())
+            };
+            let ((c0, s0), (c1, s1)) = (vector(before), vector(after));
+            (names::UNBALANCE_TORQUE, (c1 - c0).hypot(s1 - s0), "N m")
+        }
+        Kind::Delay => (names::DELAY, change(names::DELAY), "s"),
+        Kind::TorqueConstant => (names::TORQUE_CONSTANT_SCALE, change(names::TORQUE_CONSTANT_SCALE), "-"),
+        Kind::Stribeck => ("friction.static - friction.coulomb", change(names::STATIC) - change(names::COULOMB), "N m"),
+        Kind::Cogging => (names::COGGING_AMPLITUDE, change(names::COGGING_AMPLITUDE), "N m"),
+    }
+}
+
 /// The physical parameters of a fitted effect: (name, value, standard deviation, unit).
 pub type Reported = Vec<(String, f64, f64, String)>;
 

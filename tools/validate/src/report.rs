@@ -1,13 +1,14 @@
 //! Report of a validation run: a markdown summary (effects found, fitted parameters with
 //! uncertainty, error before and after on the output error and the equation error, residual
-//! statistics, the output-error confirmations, the frequency response, the search steps) and
-//! PNG figures: the output error (measured and simulated motion, residuals, before and after),
-//! the equation-error residuals and fit, the residual spectra, and the measured and model
-//! frequency responses.
+//! statistics, the output-error confirmations, the detection limits of what was not found, the
+//! frequency response, the search steps) and PNG figures: the output error (measured and
+//! simulated motion, residuals, before and after), the equation-error residuals and fit, the
+//! residual spectra, and the measured and model frequency responses.
 
 use super::equation_error::Structure;
 use super::frequency::FrequencyResponse;
 use super::output_error::ChannelKind;
+use super::selection::{DetectionLimit, LimitSetBy};
 use super::twist::TwistAnalysis;
 use super::{ChannelStats, OutputReport, Validation};
 use antenna_plot::{Figure, Panel};
@@ -77,6 +78,7 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     standing_section(&mut out, v);
     recheck_section(&mut out, v);
     collinear_section(&mut out, v);
+    detection_section(&mut out, v);
     if let Some(t) = &v.twist {
         twist_section(&mut out, t, v.encoder_skew, d.linear);
     }
@@ -158,6 +160,68 @@ fn standing_section(out: &mut String, v: &Validation) {
             score.likelihood_ratio
         );
     }
+}
+
+/// What the log could not have shown: the detection limit of every candidate the search's
+/// last step tried and did not claim.
+fn detection_section(out: &mut String, v: &Validation) {
+    let limits = v.selection.detection_limits();
+    if limits.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "## Detection limits: what this log cannot show
+"
+    );
+    let _ = writeln!(
+        out,
+        "For each candidate the search's last step tried and did not claim: the smallest change of its leading parameter that the equation error would have found significant (at that step's p threshold, with a positive BIC gain) and at least the noise. First order from the candidate's own fit: what an effect adds to the equations grows with its size and the test statistic with its square, so the fitted change over the square root of its chi-square is its standard error. A claim also needs the output error's confirmation, so these are lower bounds: an effect of the kind below its limit cannot be claimed from this log, whatever the truth holds, and one well above it would have been put to the simulation. Candidates that do not apply to this log are listed with the reason in the search steps below.\n"
+    );
+    let _ = writeln!(
+        out,
+        "| candidate | parameter | smallest claimable change | effect/noise | set by |\n|---|---|---|---|---|"
+    );
+    for (kind, limit) in &limits {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {:.2} | {} |",
+            kind.name(),
+            limit.parameter,
+            limit_text(limit, v.data.linear),
+            limit.effect_to_noise,
+            match limit.set_by {
+                LimitSetBy::Significance => "the significance test",
+                LimitSetBy::NoiseFloor => "the noise floor",
+            }
+        );
+    }
+    let _ = writeln!(out);
+}
+
+/// A detection limit's size in the units an engineer reads: backlash in arcsec (mm on a linear
+/// axis), a delay in ms, the axis-side units of a linear axis.
+pub fn limit_text(limit: &DetectionLimit, linear: bool) -> String {
+    match limit.unit {
+        "rad" => {
+            let (value, unit) = display(limit.size, "rad", linear);
+            format!("{value:.3} {unit}")
+        }
+        "s" => format!("{:.2} ms", limit.size * 1e3),
+        "-" => format!("{:.2} %", limit.size * 100.0),
+        unit => format!("{:.3e} {}", limit.size, axis_unit(unit, linear)),
+    }
+}
+
+/// One line of the detection limits for the summary.
+pub fn detection_summary(v: &Validation) -> Option<String> {
+    let limits = v.selection.detection_limits();
+    if limits.is_empty() {
+        return None;
+    }
+    let parts: Vec<String> =
+        limits.iter().map(|(kind, limit)| format!("{} {}", kind.name(), limit_text(limit, v.data.linear))).collect();
+    Some(format!("detection limits (the smallest change the search would claim): {}", parts.join(", ")))
 }
 
 /// The backward check of the effects found before a re-estimation, run again with the

@@ -116,6 +116,72 @@ pub struct Score {
     pub searched: Vec<(String, f64)>,
     /// The confirmation's note, for the chosen candidate.
     pub confirmation: Option<String>,
+    /// The leading parameter's change that the candidate's own fit gave ([`candidates::size_change`]).
+    pub fitted_change: Option<(&'static str, f64, &'static str)>,
+    /// The candidate could not be set up on this log: its signals or the parameter set lack
+    /// what it needs (a stiffness without two encoders). Set with `not_applicable`'s reason,
+    /// never by a rejection of a significant candidate.
+    pub unobservable: bool,
+    /// The smallest effect of this kind the step would have found significant and at least the
+    /// noise ([`DetectionLimit`]); `None` where the candidate does not apply or its fit gave
+    /// nothing to scale.
+    pub detection_limit: Option<DetectionLimit>,
+}
+
+/// What sets a detection limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LimitSetBy {
+    /// The significance test (the step's p threshold and a positive BIC gain).
+    Significance,
+    /// The practical-significance floor: the effect must be at least the noise.
+    NoiseFloor,
+}
+
+/// The smallest effect of a candidate's kind that a search step would have found significant
+/// and at least the noise, to first order from the candidate's own fit: what the effect adds
+/// to the equations scales with its size and the test statistic with its square, so the fitted
+/// change over the square root of its chi-square is its standard error, whatever the fit found
+/// (noise included). A claim also needs the output error's confirmation, so this is a lower
+/// bound of what the log can establish: an effect of the kind below it cannot be claimed from
+/// this log ("the data cannot tell"), one above it would have been put to the simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectionLimit {
+    /// The leading parameter ([`candidates::size_change`]).
+    pub parameter: &'static str,
+    /// The smallest claimable |change| of it.
+    pub size: f64,
+    pub unit: &'static str,
+    /// The same effect's RMS in the equations over the noise of the channel it shows in.
+    pub effect_to_noise: f64,
+    pub set_by: LimitSetBy,
+}
+
+impl DetectionLimit {
+    /// The limit of a scored candidate at a step's p `threshold`, or `None` when its fit gave
+    /// no effect to scale (a zero statistic or change).
+    pub fn of(score: &Score, threshold: f64, min_effect_to_noise: f64) -> Option<Self> {
+        let (parameter, change, unit) = score.fitted_change?;
+        let (chi2, dof) = (score.likelihood_ratio, score.parameters as f64);
+        let usable = |x: f64| x.is_finite() && x > 0.0;
+        if score.not_applicable.is_some() || !usable(chi2) || !usable(change.abs()) || !usable(score.effect_to_noise) {
+            return None;
+        }
+        // The statistic an effect needs: the chi-square quantile of the step's level, and more
+        // than the BIC penalty (the score keeps the gain, chi2 less the penalty).
+        let needed =
+            antenna_dsp::distributions::chi_squared_quantile(1.0 - threshold, dof.max(1.0)).max(chi2 - score.bic_gain);
+        let by_test = (needed / chi2).sqrt();
+        let by_floor = min_effect_to_noise / score.effect_to_noise;
+        let (factor, set_by) =
+            if by_test >= by_floor { (by_test, LimitSetBy::Significance) } else { (by_floor, LimitSetBy::NoiseFloor) };
+        Some(DetectionLimit {
+            parameter,
+            size: change.abs() * factor,
+            unit,
+            effect_to_noise: score.effect_to_noise * factor,
+            set_by,
+        })
+    }
 }
 
 impl Score {
@@ -135,6 +201,9 @@ impl Score {
             effect_to_noise: 0.0,
             searched: Vec::new(),
             confirmation: None,
+            fitted_change: None,
+            unobservable: true,
+            detection_limit: None,
         }
     }
 }
@@ -437,6 +506,35 @@ impl Selection {
         self.after = fit_fixed(data, &params, &weights);
         self.found = found;
         self.corrected = params;
+    }
+
+    /// The detection limit of every candidate the search's last step scored and nothing
+    /// claimed: the smallest change of each kind this log would have found significant and at
+    /// least the noise ([`DetectionLimit`]). Empty when the search stopped at its effect limit
+    /// (its last step chose one) or never ran.
+    pub fn detection_limits(&self) -> Vec<(Kind, DetectionLimit)> {
+        let Some(last) = self.steps.iter().rev().find(|s| !s.re_estimate) else { return Vec::new() };
+        if last.chosen.is_some() {
+            return Vec::new();
+        }
+        let found: Vec<Kind> = self.found.iter().map(|f| f.kind).collect();
+        last.scores
+            .iter()
+            // A candidate the output error rejected is seen, not below a limit: its note says so.
+            .filter(|s| !found.contains(&s.kind) && s.not_applicable.is_none() && !s.significant)
+            .filter_map(|s| Some((s.kind, s.detection_limit.clone()?)))
+            .collect()
+    }
+
+    /// The candidates the search's last step could not set up on this log, with the reason
+    /// (a stiffness or a backlash without two encoders): the log cannot show them.
+    pub fn unobservable(&self) -> Vec<(Kind, String)> {
+        let Some(last) = self.steps.iter().rev().find(|s| !s.re_estimate) else { return Vec::new() };
+        last.scores
+            .iter()
+            .filter(|s| s.unobservable)
+            .filter_map(|s| Some((s.kind, s.not_applicable.clone()?)))
+            .collect()
     }
 
     /// The candidates the data cannot tell from a found effect: confirmed in the step that
@@ -909,6 +1007,9 @@ fn score_candidates(
         let n_eff = alternative.effective_samples().max(2.0);
         let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
         let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
+        let mut fitted = model.params.clone();
+        candidates::apply(instance, own_beta, data, &mut fitted);
+        let fitted_change = candidates::size_change(kind, &model.params, &fitted);
         let effect_to_noise = contribution(instance, own_beta, &current.channels)
             .iter()
             .zip(&observable_noise(kind, data, noise))
@@ -928,6 +1029,9 @@ fn score_candidates(
             effect_to_noise,
             searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
             confirmation: None,
+            fitted_change: Some(fitted_change),
+            unobservable: false,
+            detection_limit: None,
         });
         *slot = alternative;
     }
@@ -939,6 +1043,7 @@ fn score_candidates(
             && score.p_value < threshold
             && score.bic_gain > 0.0
             && score.effect_to_noise >= options.min_effect_to_noise;
+        score.detection_limit = DetectionLimit::of(score, threshold, options.min_effect_to_noise);
     }
     (scores, evaluated, threshold)
 }

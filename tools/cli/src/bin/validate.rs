@@ -628,6 +628,9 @@ fn print_summary(v: &Validation) {
     if v.selection.found.is_empty() {
         println!("no significant missing effect");
     }
+    if let Some(line) = antenna_validate::report::detection_summary(v) {
+        println!("{line}");
+    }
     for found in &v.selection.found {
         println!("found {} ({})", found.kind.name(), found.kind.description());
         for (name, value, sd, unit) in &found.parameters {
