@@ -170,6 +170,10 @@ impl DetectionLimit {
         // than the BIC penalty (the score keeps the gain, chi2 less the penalty).
         let needed =
             antenna_dsp::distributions::chi_squared_quantile(1.0 - threshold, dof.max(1.0)).max(chi2 - score.bic_gain);
+        if !needed.is_finite() {
+            // A level too small for the quantile's precision: no finite limit to give.
+            return None;
+        }
         let by_test = (needed / chi2).sqrt();
         let by_floor = min_effect_to_noise / score.effect_to_noise;
         let (factor, set_by) =
@@ -1590,5 +1594,43 @@ mod tests {
             ..selection(vec![(Kind::Inertia, "compensation".into())])
         };
         assert_eq!(inertia_removed.equally_consistent(Kind::Coulomb), Vec::<Kind>::new());
+    }
+
+    fn scored(chi2: f64, bic_gain: f64, effect_to_noise: f64, change: f64) -> Score {
+        Score {
+            likelihood_ratio: chi2,
+            parameters: 1,
+            bic_gain,
+            effect_to_noise,
+            not_applicable: None,
+            unobservable: false,
+            fitted_change: Some((crate::parameters::names::TORQUE_OFFSET, change, "N m")),
+            ..Score::not_applicable(Kind::Offset, String::new())
+        }
+    }
+
+    #[test]
+    fn a_detection_limit_scales_the_fitted_change_to_the_statistic_or_the_noise_the_step_needs() {
+        // The step's level 2.7e-3 needs a chi-square of 9.0 at one parameter (z = 3): a fitted
+        // change of 10 N m at chi-square 4 (two standard errors of 5 N m) scales to 15 N m.
+        let threshold = chi_squared_sf(9.0, 1.0);
+        let limit = DetectionLimit::of(&scored(4.0, 2.0, 3.0, -10.0), threshold, 1.0).unwrap();
+        assert!((limit.size - 15.0).abs() < 1e-6, "{limit:?}");
+        assert!((limit.effect_to_noise - 4.5).abs() < 1e-6);
+        assert_eq!(limit.set_by, LimitSetBy::Significance);
+        // The same standard error from a fit that found twice as much: the same limit.
+        let again = DetectionLimit::of(&scored(16.0, 14.0, 6.0, 20.0), threshold, 1.0).unwrap();
+        assert!((again.size - 15.0).abs() < 1e-6, "{again:?}");
+        // A BIC penalty above the quantile sets it instead (chi2 - gain = 16: four errors).
+        let by_bic = DetectionLimit::of(&scored(4.0, -12.0, 3.0, 10.0), threshold, 1.0).unwrap();
+        assert!((by_bic.size - 20.0).abs() < 1e-6, "{by_bic:?}");
+        // On a quiet log the noise floor sets it: 1.5 times the noise at 10 N m needs 6.67 N m
+        // to reach the noise, more than the test needs.
+        let floor = DetectionLimit::of(&scored(400.0, 390.0, 0.15, 10.0), threshold, 1.0).unwrap();
+        assert_eq!(floor.set_by, LimitSetBy::NoiseFloor);
+        assert!((floor.size - 10.0 / 0.15).abs() < 1e-9 && (floor.effect_to_noise - 1.0).abs() < 1e-12);
+        // Nothing to scale, or a candidate that did not apply: no limit.
+        assert_eq!(DetectionLimit::of(&scored(0.0, 0.0, 0.0, 0.0), threshold, 1.0), None);
+        assert_eq!(DetectionLimit::of(&Score::not_applicable(Kind::Offset, "no".into()), threshold, 1.0), None);
     }
 }
