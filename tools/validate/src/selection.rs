@@ -512,12 +512,17 @@ impl Selection {
         self.corrected = params;
     }
 
+    /// The search's last step (not a re-estimation's), whose scores are of the final model.
+    fn last_search_step(&self) -> Option<&Step> {
+        self.steps.iter().rev().find(|s| !s.re_estimate)
+    }
+
     /// The detection limit of every candidate the search's last step scored and nothing
     /// claimed: the smallest change of each kind this log would have found significant and at
     /// least the noise ([`DetectionLimit`]). Empty when the search stopped at its effect limit
     /// (its last step chose one) or never ran.
     pub fn detection_limits(&self) -> Vec<(Kind, DetectionLimit)> {
-        let Some(last) = self.steps.iter().rev().find(|s| !s.re_estimate) else { return Vec::new() };
+        let Some(last) = self.last_search_step() else { return Vec::new() };
         if last.chosen.is_some() {
             return Vec::new();
         }
@@ -533,7 +538,7 @@ impl Selection {
     /// The candidates the search's last step could not set up on this log, with the reason
     /// (a stiffness or a backlash without two encoders): the log cannot show them.
     pub fn unobservable(&self) -> Vec<(Kind, String)> {
-        let Some(last) = self.steps.iter().rev().find(|s| !s.re_estimate) else { return Vec::new() };
+        let Some(last) = self.last_search_step() else { return Vec::new() };
         last.scores
             .iter()
             .filter(|s| s.unobservable)
