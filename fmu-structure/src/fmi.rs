@@ -21,6 +21,18 @@ pub const MAX_LOAD_FORCE: f64 = 1e8;
 /// Largest axis speed, deg/s (either sign): some fifty times a fast slew.
 pub const MAX_AXIS_SPEED: f64 = 100.0;
 
+/// What the drive torques depend on within a step: the loads and the axes' speeds.
+const LOAD_AND_SPEED_INPUTS: &[u32] = &[
+    StructureVar::AzTorque as u32,
+    StructureVar::ElTorque as u32,
+    StructureVar::DishForce as u32,
+    StructureVar::AxialForce as u32,
+    StructureVar::LateralForce as u32,
+    StructureVar::LiftForce as u32,
+    StructureVar::AzSpeed as u32,
+    StructureVar::ElSpeed as u32,
+];
+
 const LOAD_INPUTS: &[u32] = &[
     StructureVar::AzTorque as u32,
     StructureVar::ElTorque as u32,
@@ -69,6 +81,14 @@ declare_variables! {
             .description("True when a mode of modes_file takes force.lateral (a non-zero lateral_force); when false a master may leave that input unset."),
         TakesLiftForce = Var::boolean("takes.force.lift").calculated_parameter()
             .description("True when a mode of modes_file takes force.lift (a non-zero lift_force); when false a master may leave that input unset."),
+        DriveTorqueAz = Var::real("drive_torque.azimuth", "N.m").output().depends_on(LOAD_AND_SPEED_INPUTS)
+            .description("Torque the structure passes to the azimuth drive's load side, mean over a coming step as long as the last: torque.azimuth less, through each mode's azimuth_torque participation, the force that accelerates the mode's moving part (for one mode of participation 1, its spring and damper). To couple the modes both ways, connect it to the azimuth plant's load.disturbance_torque in place of the wind's torque and lower the plant's load inertia by modal_inertia.azimuth (docs/structure-model.md)."),
+        DriveTorqueEl = Var::real("drive_torque.elevation", "N.m").output().depends_on(LOAD_AND_SPEED_INPUTS)
+            .description("As drive_torque.azimuth, about the elevation axis: to the elevation plant's load.disturbance_torque, with its load inertia lowered by modal_inertia.elevation."),
+        ModalInertiaAz = Var::real("modal_inertia.azimuth", "kg.m2").calculated_parameter()
+            .description("Inertia the modes carry about the azimuth axis, the sum over the modes of azimuth_torque^2 stiffness / (2 pi frequency)^2: what a plant coupled to drive_torque.azimuth leaves out of its load inertia."),
+        ModalInertiaEl = Var::real("modal_inertia.elevation", "kg.m2").calculated_parameter()
+            .description("Inertia the modes carry about the elevation axis, as modal_inertia.azimuth with elevation_torque."),
     }
 }
 
@@ -157,7 +177,11 @@ impl Model for StructureModel {
         values.set_boolean(StructureVar::TakesAxialForce, takes(3));
         values.set_boolean(StructureVar::TakesLateralForce, takes(4));
         values.set_boolean(StructureVar::TakesLiftForce, takes(5));
-        self.structure = Some(ModalStructure::at_rest(modes, &Self::loads(values)));
+        let structure = ModalStructure::at_rest(modes, &Self::loads(values));
+        let [az_inertia, el_inertia] = structure.modal_inertias();
+        values.set_real(StructureVar::ModalInertiaAz, az_inertia);
+        values.set_real(StructureVar::ModalInertiaEl, el_inertia);
+        self.structure = Some(structure);
         values.set_integer(StructureVar::ModeCount, count);
         self.write_offsets(values);
         self.update_feedthrough(values);
@@ -179,9 +203,13 @@ impl Model for StructureModel {
 
     fn update_feedthrough(&mut self, values: &mut Values<StructureVar>) {
         let Some(structure) = &self.structure else { return };
-        let [az, el] = structure.static_offset(&Self::loads(values));
+        let loads = Self::loads(values);
+        let [az, el] = structure.static_offset(&loads);
         values.set_real(StructureVar::BeamAzStatic, az * ARCSEC_PER_RAD);
         values.set_real(StructureVar::BeamElStatic, el * ARCSEC_PER_RAD);
+        let [az, el] = structure.drive_torques(&loads, &Self::speeds(values));
+        values.set_real(StructureVar::DriveTorqueAz, az);
+        values.set_real(StructureVar::DriveTorqueEl, el);
     }
 
     /// A new modes file is read at once, so that a bad one is refused by the call that names it.

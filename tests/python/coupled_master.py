@@ -125,7 +125,7 @@ def read_config(path):
 class Unit:
     """One FMU instance with batched, preallocated value-reference arrays."""
 
-    def __init__(self, name, instance_name, start_time, overrides):
+    def __init__(self, name, instance_name, start_time, overrides, carried=None):
         path = os.path.join(FMU_DIR, name + ".fmu")
         self.description = read_model_description(path)
         self.variables = {v.name: v for v in self.description.modelVariables}
@@ -150,6 +150,14 @@ class Unit:
             else:
                 self.fmu.setString(vr, [value])
         self.fmu.enterInitializationMode()
+        if carried is not None and carried[1] > 0.0:
+            # The structure's modes carry this much of the load inertia: the plant keeps the rest.
+            vr = [self.variables[carried[0]].valueReference]
+            inertia = self.fmu.getReal(vr)[0]
+            if not carried[1] < inertia:
+                raise ValueError(f"the structure's modes carry {carried[1]:.4e} kg m^2, not less than "
+                                 f"{name}'s {carried[0]} = {inertia:.4e} kg m^2")
+            self.fmu.setReal(vr, [inertia - carried[1]])
         self.fmu.exitInitializationMode()
         self.component = self.fmu.component
         self.set_real_raw = self.fmu.fmi2SetReal
@@ -186,14 +194,6 @@ class CoupledAntenna:
         self.wind_scale = config.get("wind_load_scale", 1.0) if mean > 0.0 else 0.0
         extra = config.get("overrides", {})
         more = lambda unit: list(extra.get(unit, []))
-        self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time,
-                             [("initial_position", az0), ("elevation", el0)] + more("AzimuthPlant"))
-        self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time,
-                             [("initial_position", el0)] + more("ElevationPlant"))
-        self.az_ctrl = Unit("AzimuthController", "azimuth_controller", start_time,
-                            [("command.position", az0), ("measured.position", az0)] + more("AzimuthController"))
-        self.el_ctrl = Unit("ElevationController", "elevation_controller", start_time,
-                            [("command.position", el0), ("measured.position", el0)] + more("ElevationController"))
         self.wind = Unit("Wind", "wind", start_time, [
             ("wind.mean_speed", max(mean, 0.5)),
             ("wind.roughness_length", config["wind.roughness_length"]),
@@ -203,14 +203,6 @@ class CoupledAntenna:
             ("antenna.azimuth", az0),
             ("antenna.elevation", el0),
         ] + more("Wind"))
-        self.az_plant_out = self.az_plant.port(["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current", "axis.speed"])
-        self.az_plant_in = self.az_plant.port(["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"])
-        self.el_plant_out = self.el_plant.port(["axis.encoder_position", "axis.position", "motor.speed", "motor.current", "axis.speed"])
-        self.el_plant_in = self.el_plant.port(["motor.current_command", "load.disturbance_torque"])
-        self.az_ctrl_in = self.az_ctrl.port(["command.position", "command.velocity", "measured.position", "measured.motor1_speed", "measured.motor2_speed"])
-        self.az_ctrl_out = self.az_ctrl.port(["motor1.current_command", "motor2.current_command", "status.reference_position"])
-        self.el_ctrl_in = self.el_ctrl.port(["command.position", "command.velocity", "measured.position", "measured.motor_speed"])
-        self.el_ctrl_out = self.el_ctrl.port(["motor.current_command", "status.reference_position"])
         self.wind_in = self.wind.port(["antenna.azimuth", "antenna.elevation"])
         self.wind_out = self.wind.port(["torque.azimuth", "torque.elevation", "wind.speed"])
         # The wind's forces where the unit gives them (an old one gives none): their places in
@@ -218,8 +210,11 @@ class CoupledAntenna:
         self.wind_force_slots = [i for i, (name, _) in enumerate(WIND_FORCES) if name in self.wind.variables]
         self.wind_forces = (self.wind.port([WIND_FORCES[i][0] for i in self.wind_force_slots])
                             if self.wind_force_slots else None)
-        self.units = [self.az_plant, self.el_plant, self.az_ctrl, self.el_ctrl, self.wind]
+        # The structure comes before the plants: where its modes push back on the drives, the
+        # plants leave the inertia the modes carry out of their own.
         self.structure = None
+        self.structure_drive = None
+        carried = (0.0, 0.0)
         if config.get("structure", False):
             # The structure starts at rest in its static deflection under the loads at the start:
             # the torques and the drag always, a resolved force where both units have it.
@@ -238,6 +233,32 @@ class CoupledAntenna:
             self.structure_in = self.structure.port(load_inputs + (speeds if self.structure_speeds else []))
             self.structure_out = self.structure.port(["beam.azimuth_offset", "beam.elevation_offset",
                                                       "beam.azimuth_offset_static", "beam.elevation_offset_static"])
+            # Both ways (the default): the structure's drive torques load the plants, whose load
+            # inertias leave out what the modes carry.
+            if config.get("structure_feedback", True):
+                self.structure_drive = self.structure.port(["drive_torque.azimuth", "drive_torque.elevation"])
+                carried = tuple(self.structure.get(self.structure.port(["modal_inertia.azimuth",
+                                                                         "modal_inertia.elevation"])))
+        self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time,
+                             [("initial_position", az0), ("elevation", el0)] + more("AzimuthPlant"),
+                             carried=("load.turning_head_inertia", carried[0]))
+        self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time,
+                             [("initial_position", el0)] + more("ElevationPlant"),
+                             carried=("load.inertia", carried[1]))
+        self.az_ctrl = Unit("AzimuthController", "azimuth_controller", start_time,
+                            [("command.position", az0), ("measured.position", az0)] + more("AzimuthController"))
+        self.el_ctrl = Unit("ElevationController", "elevation_controller", start_time,
+                            [("command.position", el0), ("measured.position", el0)] + more("ElevationController"))
+        self.az_plant_out = self.az_plant.port(["axis.encoder_position", "axis.position", "motor1.speed", "motor2.speed", "motor1.current", "motor2.current", "axis.speed"])
+        self.az_plant_in = self.az_plant.port(["motor1.current_command", "motor2.current_command", "load.disturbance_torque", "elevation"])
+        self.el_plant_out = self.el_plant.port(["axis.encoder_position", "axis.position", "motor.speed", "motor.current", "axis.speed"])
+        self.el_plant_in = self.el_plant.port(["motor.current_command", "load.disturbance_torque"])
+        self.az_ctrl_in = self.az_ctrl.port(["command.position", "command.velocity", "measured.position", "measured.motor1_speed", "measured.motor2_speed"])
+        self.az_ctrl_out = self.az_ctrl.port(["motor1.current_command", "motor2.current_command", "status.reference_position"])
+        self.el_ctrl_in = self.el_ctrl.port(["command.position", "command.velocity", "measured.position", "measured.motor_speed"])
+        self.el_ctrl_out = self.el_ctrl.port(["motor.current_command", "status.reference_position"])
+        self.units = [self.az_plant, self.el_plant, self.az_ctrl, self.el_ctrl, self.wind]
+        if self.structure is not None:
             self.units.append(self.structure)
 
     def forces(self):
@@ -268,6 +289,9 @@ class CoupledAntenna:
         wind = self.wind.get(self.wind_out)
         torque_az = self.wind_scale * wind[0]
         torque_el = self.wind_scale * wind[1]
+        # The torques on the drives' load side: the wind's, or the structure's where its modes
+        # push back on the drives.
+        drive_az, drive_el = torque_az, torque_el
         beam = (0.0, 0.0, 0.0, 0.0)
         if self.structure is not None:
             loads = [torque_az, torque_el] + self.forces()
@@ -279,6 +303,8 @@ class CoupledAntenna:
                 s_in[n], s_in[n + 1] = az[6], el[4]
             self.structure.set(self.structure_in)
             beam = tuple(self.structure.get(self.structure_out))
+            if self.structure_drive is not None:
+                drive_az, drive_el = self.structure.get(self.structure_drive)
         a_in = self.az_ctrl_in[1]
         a_in[0], a_in[1], a_in[2], a_in[3], a_in[4] = caz, caz_rate, az[0], az[2], az[3]
         self.az_ctrl.set(self.az_ctrl_in)
@@ -288,10 +314,10 @@ class CoupledAntenna:
         self.el_ctrl.set(self.el_ctrl_in)
         el_ctrl = self.el_ctrl.get(self.el_ctrl_out)
         p_in = self.az_plant_in[1]
-        p_in[0], p_in[1], p_in[2], p_in[3] = az_ctrl[0], az_ctrl[1], torque_az, el[1]
+        p_in[0], p_in[1], p_in[2], p_in[3] = az_ctrl[0], az_ctrl[1], drive_az, el[1]
         self.az_plant.set(self.az_plant_in)
         q_in = self.el_plant_in[1]
-        q_in[0], q_in[1] = el_ctrl[0], torque_el
+        q_in[0], q_in[1] = el_ctrl[0], drive_el
         self.el_plant.set(self.el_plant_in)
         if trace is not None:
             trace.append((t, caz, cel, az[1], el[1], az[0], el[0], az_ctrl[2], el_ctrl[1],

@@ -10,20 +10,26 @@
 //! ```text
 //! command table ──► controllers ──current commands──► plants ──encoders, motor speeds──► controllers
 //!                                     wind ◄── true pointing (az, el) ── plants
-//!                                     wind ──torques about the axes──► plants (load.disturbance_torque)
-//!                                     wind ──the same torques, drag, its axial and lateral parts, lift──► structure ──beam offsets──► pointing
+//!                                     wind ──torques about the axes, drag, its axial and lateral parts, lift──► structure ──beam offsets──► pointing
+//!                                structure ──drive torques (the modes pushing back)──► plants (load.disturbance_torque)
+//!                                   plants ──axis speeds──► structure
 //!                         elevation plant ──true elevation──► azimuth plant (load inertia)
 //! ```
 //!
 //! The beam points where the load-side axes point plus the structure's offsets; the pointing
-//! error the requirements judge is the command minus the beam.
+//! error the requirements judge is the command minus the beam. The structure's modes push back
+//! on the drives (`AntennaConfig::structure_feedback`): the plants take the structure's drive
+//! torques, and their load inertias leave out what the modes carry. Coupled one way, or without
+//! a structure, the plants take the wind's torques themselves.
 //!
 //! A step is the wind exchange (the wind unit told where the axes point, its loads read) and
-//! then two lanes that share nothing within the step: the azimuth plant, its controller and the
-//! structure; the elevation plant, its controller and the wind unit's own step. [`Lanes::Two`]
-//! runs the first lane on a second thread (a Jacobi master's units are independent between
-//! exchanges); every unit sees the same calls with the same values in the same order as on one
-//! thread, so the results are equal bit for bit.
+//! then two lanes: the azimuth plant, its controller and the structure; the elevation plant, its
+//! controller and the wind unit's own step. They share one value within the step, the
+//! structure's torque on the elevation drive, which the azimuth lane hands over as soon as the
+//! structure's exchange gives it. [`Lanes::Two`] runs the first lane on a second thread (a
+//! Jacobi master's units are independent between exchanges); every unit sees the same calls
+//! with the same values in the same order as on one thread, so the results are equal bit for
+//! bit.
 
 use std::path::Path;
 use std::time::Instant;
@@ -84,6 +90,12 @@ pub struct AntennaConfig {
     /// The structure between encoders and beam with its parameter overrides (`modes_file`), or
     /// `None` for the paper's rigid antenna, whose beam is the load-side axes.
     pub structure: Option<Overrides>,
+    /// Whether the structure's modes push back on the drives: the plants take the structure's
+    /// `drive_torque.*` in place of the wind's torques and leave the modes' inertia
+    /// (`modal_inertia.*`) out of their load inertia, so that the modes and the drives move
+    /// together (docs/structure-model.md, "Both ways"). Off, the modes swing on the drives
+    /// without reacting on them. Without a structure it changes nothing.
+    pub structure_feedback: bool,
     /// How many threads step the run; the results do not depend on it.
     pub lanes: Lanes,
 }
@@ -101,6 +113,7 @@ impl AntennaConfig {
             wind_unit: Vec::new(),
             wind_load_scale: 1.0,
             structure: None,
+            structure_feedback: true,
             lanes: Lanes::One,
         }
     }
@@ -352,6 +365,9 @@ struct Ports {
     /// elevation speeds.
     structure_sources: Vec<(&'static str, usize)>,
     structure_out: [u32; 4],
+    /// The structure's `drive_torque.azimuth` and `drive_torque.elevation` when its modes push
+    /// back on the drives: then they, not the wind's torques, go to the plants.
+    structure_drive: Option<[u32; 2]>,
 }
 
 /// The wind unit's forces the master reads where the unit gives them, in the order they follow
@@ -492,6 +508,7 @@ impl Ports {
                     "beam.elevation_offset_static",
                 ],
             )?,
+            structure_drive: None,
         })
     }
 }
@@ -554,63 +571,96 @@ impl CoupledAntenna {
         ];
         wind_overrides.extend(config.wind_unit.iter().cloned());
         let start_time = table.time_span().0;
-        let make = |fmu: &Fmu, name: &str, overrides: &Overrides| -> Result<Instance, ImportError> {
+        // Instantiates and initialises a unit; `carried` is a load inertia parameter and the
+        // inertia the structure's modes carry of it, which the unit leaves out.
+        let make_carrying = |fmu: &Fmu,
+                             name: &str,
+                             overrides: &Overrides,
+                             carried: Option<(&str, f64)>|
+         -> Result<Instance, ImportError> {
             let mut instance = fmu.instantiate(name, false)?;
             instance.setup_experiment(start_time, None)?;
             apply_overrides(&mut instance, &fmu.description, overrides)?;
             instance.enter_initialization_mode()?;
+            if let Some((parameter, carried)) = carried.filter(|(_, carried)| *carried > 0.0) {
+                let vr = fmu.description.vr(parameter)?;
+                let mut inertia = [0.0];
+                instance.get_real(&[vr], &mut inertia)?;
+                if carried >= inertia[0] {
+                    return Err(ImportError::Description(format!(
+                            "the structure's modes carry {carried:.4e} kg m^2 about the axis of {name}, not less than its {parameter} = {:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)",
+                            inertia[0]
+                        )));
+                }
+                instance.set_real(&[vr], &[inertia[0] - carried])?;
+            }
             instance.exit_initialization_mode()?;
             Ok(instance)
         };
-        let mut antenna = CoupledAntenna {
-            azimuth_plant: make(&fmus.azimuth_plant, "azimuth_plant", &az_plant_overrides)?,
-            elevation_plant: make(&fmus.elevation_plant, "elevation_plant", &el_plant_overrides)?,
-            azimuth_controller: make(&fmus.azimuth_controller, "azimuth_controller", &az_ctrl_overrides)?,
-            elevation_controller: make(&fmus.elevation_controller, "elevation_controller", &el_ctrl_overrides)?,
-            wind: make(&fmus.wind, "wind", &wind_overrides)?,
-            structure: None,
-            ports,
-            step_s: config.step_s,
-            start_time_s: start_time,
-            steps_done: 0,
-            wind_scale: config.wind_load_scale,
-            lanes: config.lanes,
-        };
+        let make = |fmu: &Fmu, name: &str, overrides: &Overrides| make_carrying(fmu, name, overrides, None);
+        let mut ports = ports;
+        let mut wind = make(&fmus.wind, "wind", &wind_overrides)?;
         // The wind unit's gust is meaningless without wind: zero torques in that case.
-        if w.mean_speed_m_s <= 0.0 {
-            antenna.wind_scale = 0.0;
-        }
+        let wind_scale = if w.mean_speed_m_s <= 0.0 { 0.0 } else { config.wind_load_scale };
+        // The structure comes before the plants: where its modes push back on the drives, the
+        // plants leave the inertia the modes carry out of their own.
+        let mut structure = None;
+        let mut carried = [0.0; 2];
         if let Some(structure_overrides) = &config.structure {
             // The structure starts at rest in its static deflection under the loads at the
             // start, so that a run in a mean wind does not begin with ringing modes.
-            let (loads, _) = antenna.wind_loads()?;
+            let (loads, _) = wind_loads(&mut wind, &ports, wind_scale)?;
             let mut overrides = structure_overrides.clone();
-            for (name, source) in &antenna.ports.structure_sources {
+            for (name, source) in &ports.structure_sources {
                 if let Some(value) = loads.get(*source) {
                     overrides.push((name.to_string(), ParameterValue::Real(*value)));
                 }
             }
-            let mut structure = make(&fmus.structure, "structure", &overrides)?;
-            antenna.ports.keep_forces_taken(&mut structure, &fmus.structure.description)?;
-            antenna.structure = Some(structure);
+            let description = &fmus.structure.description;
+            let mut unit = make(&fmus.structure, "structure", &overrides)?;
+            ports.keep_forces_taken(&mut unit, description)?;
+            if config.structure_feedback {
+                let inertias = [description.vr("modal_inertia.azimuth")?, description.vr("modal_inertia.elevation")?];
+                unit.get_real(&inertias, &mut carried)?;
+                ports.structure_drive =
+                    Some([description.vr("drive_torque.azimuth")?, description.vr("drive_torque.elevation")?]);
+            }
+            structure = Some(unit);
         } else {
-            antenna.ports.structure_in.clear();
-            antenna.ports.structure_sources.clear();
-            antenna.ports.read_only_forces_sent();
+            ports.structure_in.clear();
+            ports.structure_sources.clear();
+            ports.read_only_forces_sent();
         }
+        let antenna = CoupledAntenna {
+            azimuth_plant: make_carrying(
+                &fmus.azimuth_plant,
+                "azimuth_plant",
+                &az_plant_overrides,
+                Some(("load.turning_head_inertia", carried[0])),
+            )?,
+            elevation_plant: make_carrying(
+                &fmus.elevation_plant,
+                "elevation_plant",
+                &el_plant_overrides,
+                Some(("load.inertia", carried[1])),
+            )?,
+            azimuth_controller: make(&fmus.azimuth_controller, "azimuth_controller", &az_ctrl_overrides)?,
+            elevation_controller: make(&fmus.elevation_controller, "elevation_controller", &el_ctrl_overrides)?,
+            wind,
+            structure,
+            ports,
+            step_s: config.step_s,
+            start_time_s: start_time,
+            steps_done: 0,
+            wind_scale,
+            lanes: config.lanes,
+        };
         Ok(antenna)
     }
 
     /// The time of the next communication point, s.
     pub fn time_s(&self) -> f64 {
         step_time(self.start_time_s, self.step_s, self.steps_done)
-    }
-
-    /// The wind's loads on the antenna now, scaled as the configuration says (torque about
-    /// azimuth, about elevation, N m; the forces of [`WIND_FORCES`], N, 0 where the wind unit
-    /// gives none), and the wind speed, m/s.
-    fn wind_loads(&mut self) -> Result<([f64; LOADS], f64), ImportError> {
-        wind_loads(&mut self.wind, &self.ports, self.wind_scale)
     }
 
     /// How many threads step this antenna from now on (the configuration's at first).
@@ -769,6 +819,9 @@ fn wind_loads(wind: &mut Instance, ports: &Ports, scale: f64) -> Result<([f64; L
 /// What the azimuth lane is given at a communication point once the wind's loads are known.
 struct AzimuthLoads {
     wind_torque_nm: f64,
+    /// The wind's torque about elevation, N m: the elevation plant's load when the structure
+    /// does not push back on the drives (then the lane does not hand it back).
+    wind_elevation_torque_nm: f64,
     /// The true elevation, deg (the azimuth load's inertia depends on it).
     elevation_deg: f64,
     /// The structure's inputs (`Ports::structure_in`; the first `len` are used).
@@ -776,7 +829,7 @@ struct AzimuthLoads {
 }
 
 /// The values of an [`AzimuthLoads`] and its time, in the order they cross between threads.
-const AZIMUTH_LOADS_WORDS: usize = 3 + STRUCTURE_INPUTS;
+const AZIMUTH_LOADS_WORDS: usize = 4 + STRUCTURE_INPUTS;
 
 impl AzimuthLoads {
     fn to_words(&self, t: f64) -> [f64; AZIMUTH_LOADS_WORDS] {
@@ -784,7 +837,8 @@ impl AzimuthLoads {
         words[0] = t;
         words[1] = self.wind_torque_nm;
         words[2] = self.elevation_deg;
-        words[3..].copy_from_slice(&self.structure);
+        words[3] = self.wind_elevation_torque_nm;
+        words[4..].copy_from_slice(&self.structure);
         words
     }
 
@@ -793,7 +847,8 @@ impl AzimuthLoads {
         let loads = AzimuthLoads {
             wind_torque_nm: words[1],
             elevation_deg: words[2],
-            structure: std::array::from_fn(|i| words[3 + i]),
+            wind_elevation_torque_nm: words[3],
+            structure: std::array::from_fn(|i| words[4 + i]),
         };
         (words[0], loads)
     }
@@ -870,33 +925,45 @@ impl AzimuthLane<'_> {
         Ok(controller)
     }
 
-    /// The structure's exchange and the plant's step once the loads are known: the beam's
-    /// offsets at the point and the plant's outputs at the next one.
+    /// The structure's exchange once the loads are known: the beam's offsets at the point and
+    /// the torques on the drives' load side over the step (azimuth, elevation): the
+    /// structure's drive torques where its modes push back on the drives, else the wind's.
+    fn exchange_structure(&mut self, loads: &AzimuthLoads) -> Result<([f64; 4], [f64; 2]), ImportError> {
+        let p = self.ports;
+        let mut beam = [0.0; 4];
+        let mut drive = [loads.wind_torque_nm, loads.wind_elevation_torque_nm];
+        if let Some(structure) = self.structure.as_deref_mut() {
+            structure.set_real(&p.structure_in, &loads.structure[..p.structure_in.len()])?;
+            structure.get_real(&p.structure_out, &mut beam)?;
+            if let Some(vrs) = &p.structure_drive {
+                structure.get_real(vrs, &mut drive)?;
+            }
+        }
+        Ok((beam, drive))
+    }
+
+    /// The plant's and the structure's steps, with the torque on the azimuth load side: the
+    /// plant's outputs at the next point.
     fn drive(
         &mut self,
         t: f64,
         h: f64,
         controller: &[f64; 3],
-        loads: &AzimuthLoads,
-    ) -> Result<([f64; 4], [f64; 7]), ImportError> {
+        torque_nm: f64,
+        elevation_deg: f64,
+    ) -> Result<[f64; 7], ImportError> {
         let p = self.ports;
-        let mut beam = [0.0; 4];
-        if let Some(structure) = self.structure.as_deref_mut() {
-            structure.set_real(&p.structure_in, &loads.structure[..p.structure_in.len()])?;
-            structure.get_real(&p.structure_out, &mut beam)?;
-        }
-        self.plant
-            .set_real(&p.az_plant_in, &[controller[0], controller[1], loads.wind_torque_nm, loads.elevation_deg])?;
+        self.plant.set_real(&p.az_plant_in, &[controller[0], controller[1], torque_nm, elevation_deg])?;
         self.plant.do_step(t, h)?;
         if let Some(structure) = self.structure.as_deref_mut() {
             structure.do_step(t, h)?;
         }
         let mut plant_next = [0.0; 7];
         self.plant.get_real(&p.az_plant_out, &mut plant_next)?;
-        Ok((beam, plant_next))
+        Ok(plant_next)
     }
 
-    /// A whole step on one lane.
+    /// A whole step on one lane, and the torque on the elevation load side over it.
     fn step(
         &mut self,
         t: f64,
@@ -904,10 +971,11 @@ impl AzimuthLane<'_> {
         command: [f64; 2],
         az: &[f64; 7],
         loads: &AzimuthLoads,
-    ) -> Result<AzimuthLaneOutput, ImportError> {
+    ) -> Result<(AzimuthLaneOutput, f64), ImportError> {
         let controller = self.control(t, h, command, az)?;
-        let (beam, plant_next) = self.drive(t, h, &controller, loads)?;
-        Ok(AzimuthLaneOutput { controller, beam, plant_next })
+        let (beam, [torque_az, torque_el]) = self.exchange_structure(loads)?;
+        let plant_next = self.drive(t, h, &controller, torque_az, loads.elevation_deg)?;
+        Ok((AzimuthLaneOutput { controller, beam, plant_next }, torque_el))
     }
 }
 
@@ -927,20 +995,23 @@ struct ElevationLaneOutput {
 }
 
 impl ElevationLane<'_> {
+    /// A step of the elevation lane; `torque_nm` gives the torque on the elevation load side
+    /// over the step, asked for after the controller's exchange (on two lanes it comes from the
+    /// structure's exchange on the other thread, which runs meanwhile).
     fn step(
         &mut self,
         t: f64,
         h: f64,
         command: [f64; 2],
         el: &[f64; 5],
-        wind_torque_nm: f64,
+        torque_nm: impl FnOnce() -> Result<f64, ImportError>,
         wind: &mut Instance,
     ) -> Result<ElevationLaneOutput, ImportError> {
         let p = self.ports;
         self.controller.set_real(&p.el_ctrl_in, &[command[0], command[1], el[0], el[2]])?;
         let mut controller = [0.0; 2];
         self.controller.get_real(&p.el_ctrl_out, &mut controller)?;
-        self.plant.set_real(&p.el_plant_in, &[controller[0], wind_torque_nm])?;
+        self.plant.set_real(&p.el_plant_in, &[controller[0], torque_nm()?])?;
         self.plant.do_step(t, h)?;
         self.controller.do_step(t, h)?;
         wind.do_step(t, h)?;
@@ -1018,7 +1089,12 @@ impl Master<'_, '_> {
         for (value, (_, source)) in structure.iter_mut().zip(&ports.structure_sources) {
             *value = sources[*source];
         }
-        AzimuthLoads { wind_torque_nm: point.loads[0], elevation_deg: el[1], structure }
+        AzimuthLoads {
+            wind_torque_nm: point.loads[0],
+            wind_elevation_torque_nm: point.loads[1],
+            elevation_deg: el[1],
+            structure,
+        }
     }
 
     fn elevation_command(point: &Point) -> [f64; 2] {
@@ -1075,8 +1151,8 @@ impl Master<'_, '_> {
                 let point = self.point(k, &az, &el, wind)?;
                 let command = Self::azimuth_command(&point.command);
                 let loads = Self::azimuth_loads(self.ports, &point, &az, &el);
-                let a = azimuth.step(point.t, h, command, &az, &loads)?;
-                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind)?;
+                let (a, torque_el) = azimuth.step(point.t, h, command, &az, &loads)?;
+                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, || Ok(torque_el), wind)?;
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
                 done = k + 1;
@@ -1107,6 +1183,10 @@ impl Master<'_, '_> {
         let h = self.step_s;
         let to_azimuth: Handoff<(), AZIMUTH_LOADS_WORDS> = Handoff::new();
         let from_azimuth: Handoff<ImportError, AZIMUTH_OUTPUT_WORDS> = Handoff::new();
+        // Where the structure's modes push back on the drives, the elevation plant's load comes
+        // from the structure's exchange on the azimuth lane, handed over within the step.
+        let feedback = self.ports.structure_drive.is_some();
+        let elevation_torque: Handoff<ImportError, 1> = Handoff::new();
         let first_az = az;
         let (start_time_s, first_step) = (self.start_time_s, self.first_step);
         let mut command = self.table.at(self.time(0));
@@ -1119,6 +1199,7 @@ impl Master<'_, '_> {
                 let table = worker_table;
                 // Tells the master if this thread ends without answering (a panic).
                 let _closing = from_azimuth.closing_on_drop();
+                let _closing_torque = elevation_torque.closing_on_drop();
                 let time = |k: u64| step_time(start_time_s, h, first_step + k);
                 // The controller's part of step k is done before the loads of step k arrive
                 // (see `AzimuthLane`); a failure there answers step k.
@@ -1135,8 +1216,17 @@ impl Master<'_, '_> {
                     let next_command = if k + 1 < steps { table.at(time(k + 1)) } else { Command::default() };
                     let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
                     let (t, loads) = AzimuthLoads::from_words(&words);
-                    match azimuth.drive(t, h, &controller, &loads) {
-                        Ok((beam, plant_next)) => {
+                    let (beam, [torque_az, torque_el]) = match azimuth.exchange_structure(&loads) {
+                        Ok(exchanged) => exchanged,
+                        // The master waits for the elevation torque first where it needs it.
+                        Err(error) if feedback => return elevation_torque.send_failure(error),
+                        Err(error) => return from_azimuth.send_failure(error),
+                    };
+                    if feedback {
+                        elevation_torque.send(&[torque_el]);
+                    }
+                    match azimuth.drive(t, h, &controller, torque_az, loads.elevation_deg) {
+                        Ok(plant_next) => {
                             let output = AzimuthLaneOutput { controller, beam, plant_next };
                             from_azimuth.send(&output.to_words(&next_command));
                             az = plant_next;
@@ -1163,7 +1253,35 @@ impl Master<'_, '_> {
                         }
                     };
                     to_azimuth.send(&Self::azimuth_loads(self.ports, &point, &az, &el).to_words(point.t));
-                    let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, point.loads[1], wind);
+                    // Set when the azimuth lane failed before its elevation torque: it has
+                    // ended, and answers nothing more.
+                    let lane_failed = std::cell::Cell::new(false);
+                    let torque_el = || {
+                        if !feedback {
+                            return Ok(point.loads[1]);
+                        }
+                        match elevation_torque.receive(k + 1) {
+                            Received::Values([torque]) => Ok(torque),
+                            Received::Failed(error) => {
+                                lane_failed.set(true);
+                                Err(error)
+                            }
+                            // The lane ended on a failure it reported with its outputs (its
+                            // controller's, which runs a step ahead).
+                            Received::Gone => match from_azimuth.receive(k + 1) {
+                                Received::Failed(error) => {
+                                    lane_failed.set(true);
+                                    Err(error)
+                                }
+                                _ => panic!("the azimuth lane answers every point it is given or panics"),
+                            },
+                            Received::Stop => panic!("the azimuth lane never asks the master to stop"),
+                        }
+                    };
+                    let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, torque_el, wind);
+                    if lane_failed.get() {
+                        return e.map(|_| ());
+                    }
                     let a = match from_azimuth.receive(k + 1) {
                         Received::Values(words) => {
                             let (output, next_command) = AzimuthLaneOutput::from_words(&words);

@@ -78,6 +78,11 @@ struct Cli {
     /// median and the worst figure (1: only the scenario's own seed).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=1000))]
     seeds: u16,
+    /// Couple the structure one way: its modes swing on the drives without pushing back on
+    /// them (the plants take the wind's torques and their whole load inertia), as before the
+    /// two-way coupling; for comparison.
+    #[arg(long)]
+    one_way_structure: bool,
 }
 
 /// The antenna configurations of docs/parameters.csv.
@@ -142,7 +147,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
     let started = Instant::now();
-    let config = configuration.antenna_config();
+    let config = AntennaConfig { structure_feedback: !cli.one_way_structure, ..configuration.antenna_config() };
     // One scenario alone would leave every core but one idle: its azimuth lane takes a second
     // while that is faster on this machine (the same results bit for bit; many scenarios keep
     // the cores busy with whole runs).
@@ -375,7 +380,7 @@ fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io
     let s = &outcome.scenario;
     std::fs::write(dir.join(format!("{}.commands.csv", s.name)), s.table.to_csv())?;
     let mut text = format!(
-        "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\nwind_load_scale = {:e}\nstructure = {}\n",
+        "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\nwind_load_scale = {:e}\nstructure = {}\nstructure_feedback = {}\n",
         config.step_s,
         s.end_s,
         s.wind.mean_speed_m_s,
@@ -384,6 +389,7 @@ fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io
         s.wind.seed,
         config.wind_load_scale,
         config.structure.is_some(),
+        config.structure.is_some() && config.structure_feedback,
     );
     // Every parameter override as `<model identifier>.<variable> = value`.
     for (unit, overrides) in config.all_overrides() {
