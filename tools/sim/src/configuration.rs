@@ -141,6 +141,9 @@ impl AntennaSetup {
         let shipped = parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).expect("the shipped modes file is valid");
         let mut modes = shipped.clone();
         let mut structure_present = false;
+        // The modes' inertia shares (field, default, value): they set the modes' frequencies
+        // once the stiffnesses and the axes' inertias are known.
+        let mut shares = Vec::new();
         for (parameter, value) in values {
             let Some(value) = *value else { continue };
             for target in &parameter.targets {
@@ -157,6 +160,10 @@ impl AntennaSetup {
                         };
                         overrides.push((name.clone(), value));
                     }
+                    Target::StructureMode { field } if field.ends_with(INERTIA_SHARE) => {
+                        structure_present = true;
+                        shares.push((field.clone(), parameter.default, value));
+                    }
                     Target::StructureMode { field } => {
                         structure_present = true;
                         set_mode_field(&mut modes, &parameter.name, field, value)?;
@@ -166,6 +173,9 @@ impl AntennaSetup {
                     }
                 }
             }
+        }
+        for (field, default, share) in shares {
+            set_frequency_from_share(&mut modes, &shipped, values, &field, default, share)?;
         }
         if structure_present {
             config.structure = Some(structure_overrides(&modes, &shipped, modes_folder)?);
@@ -210,6 +220,49 @@ fn set_mode_field(
     } else {
         Err(unknown())
     }
+}
+
+/// The suffix of a mode's pseudo-field that the table draws instead of its frequency: the share
+/// of an axis's load inertia that the mode's moving part carries.
+const INERTIA_SHARE: &str = ".inertia_share";
+
+/// For each mode with an inertia share, the table's parameter whose inertia the share is of (the
+/// part of the axis's load inertia the master takes the mode's out of, when the modes push back
+/// on the drives).
+const SHARED_INERTIAS: [(&str, &str); 2] =
+    [("mode1", "azimuth.turning_head_inertia"), ("mode2", "elevation.load_inertia")];
+
+/// Sets a mode's frequency from the share of an axis's inertia that it carries: the mode's
+/// inertia is `K / w^2 = share J`, so `w = sqrt(K / (share J))`. Written as a scaling of the
+/// shipped mode, `f = f0 sqrt((K / K0) (share0 J0) / (share J))` with the table's defaults
+/// `share0`, `J0`, so that the defaults give the shipped frequency to the bit.
+fn set_frequency_from_share(
+    modes: &mut [fmu_structure::modes::Mode],
+    shipped: &[fmu_structure::modes::Mode],
+    values: &[(UncertainParameter, Option<f64>)],
+    field: &str,
+    default_share: f64,
+    share: f64,
+) -> Result<(), SetupError> {
+    let mode_name = field.trim_end_matches(INERTIA_SHARE);
+    let unknown = || SetupError::UnknownModeField {
+        parameter: field.to_string(),
+        mode: mode_name.to_string(),
+        field: field.to_string(),
+    };
+    let (_, inertia_name) = SHARED_INERTIAS.iter().find(|(mode, _)| *mode == mode_name).ok_or_else(unknown)?;
+    let index: usize = mode_name.trim_start_matches("mode").parse().map_err(|_| unknown())?;
+    let (Some(mode), Some(shipped)) = (modes.get_mut(index.wrapping_sub(1)), shipped.get(index.wrapping_sub(1))) else {
+        return Err(unknown());
+    };
+    let (inertia_default, inertia) = values
+        .iter()
+        .find(|(p, _)| p.name == *inertia_name)
+        .map(|(p, value)| (p.default, value.unwrap_or(p.default)))
+        .ok_or_else(unknown)?;
+    let ratio = (mode.stiffness / shipped.stiffness) * (default_share * inertia_default) / (share * inertia);
+    mode.frequency_hz = shipped.frequency_hz * ratio.sqrt();
+    Ok(())
 }
 
 fn apply_scenario_setting(
@@ -284,8 +337,9 @@ mod tests {
     #[test]
     fn a_varied_structure_is_written_to_a_modes_file_that_reads_back() {
         let mut values = Configuration::Realistic.values();
-        let frequency = values.iter_mut().find(|(p, _)| p.name == "structure.azimuth_mode_frequency").unwrap();
-        frequency.1 = Some(4.5);
+        // A quarter of the share at the same stiffness: twice the frequency.
+        let share = values.iter_mut().find(|(p, _)| p.name == "structure.azimuth_mode_inertia_share").unwrap();
+        share.1 = Some(share.0.default / 4.0);
         assert!(matches!(AntennaSetup::from_values(&values, None), Err(SetupError::NoFolderForModes)));
         let folder = std::env::temp_dir().join(format!("antenna-sim-modes-{}", std::process::id()));
         std::fs::create_dir_all(&folder).unwrap();
@@ -293,8 +347,11 @@ mod tests {
         let Some(overrides) = setup.config.structure else { panic!("no structure") };
         let ParameterValue::Text(path) = &overrides[0].1 else { panic!("{overrides:?}") };
         let modes = fmu_structure::modes::read_modes(Path::new(path)).unwrap();
-        assert_eq!(modes[0].frequency_hz, 4.5);
+        assert!((modes[0].frequency_hz / 12.0 - 1.0).abs() < 1e-12, "{}", modes[0].frequency_hz);
         assert_eq!(modes[1].frequency_hz, 6.0);
+        // The mode's inertia is the share of the turning head's.
+        let inertia = modes[0].stiffness / (modes[0].omega() * modes[0].omega());
+        assert!((inertia / (0.5117 / 4.0 * 5.5e5) - 1.0).abs() < 1e-4, "{inertia}");
         std::fs::remove_dir_all(&folder).unwrap();
     }
 
