@@ -69,6 +69,13 @@ pub struct IdentificationConfig {
     /// loop: no friction but the viscous B_M, no backlash, saturation or quantisation) instead
     /// of the default nonlinear plant.
     pub linear_configuration: bool,
+    /// Couple the packaged `Structure` FMU (its shipped modes, beside the plant's `.fmu`) both
+    /// ways, as the antenna master does: the plant takes the structure's drive torque on its
+    /// load side and leaves the inertia the axis's mode carries out of its own, the structure
+    /// takes the axis's speed. The mode then shows in the drive's response as a second
+    /// anti-resonance, at the frequency of the mode with the motor held
+    /// ([`StructuralAntiResonance`]).
+    pub structure: bool,
 }
 
 impl IdentificationConfig {
@@ -97,6 +104,7 @@ impl IdentificationConfig {
                 initial_position_deg: -150.0,
                 seed: 20_260_001,
                 linear_configuration: false,
+                structure: false,
             },
             Axis::Elevation => IdentificationConfig {
                 axis,
@@ -112,6 +120,7 @@ impl IdentificationConfig {
                 initial_position_deg: 15.0,
                 seed: 20_260_002,
                 linear_configuration: false,
+                structure: false,
             },
         }
     }
@@ -148,6 +157,40 @@ pub struct Identification {
     /// Wall-clock time of the simulation and of the analysis, s.
     pub simulation_wall_s: f64,
     pub analysis_wall_s: f64,
+    /// With the structure coupled: its mode's anti-resonance as predicted from the parameters.
+    pub structural: Option<StructuralAntiResonance>,
+}
+
+/// The structural mode as the drive sees it when the mode pushes back on it.
+///
+/// With the motor held, the load side is two bodies: what the plant keeps of the load inertia,
+/// `J_r`, on the drive's stiffness `K_d = J_r (2 pi f_AR)^2`, and the mode's body `J_m` on the
+/// mode's stiffness `K = J_m w_s^2`, `w_s` the mode's frequency with the axis clamped (the
+/// modes file's). The drive's response from current to motor speed has its anti-resonances at
+/// that system's natural frequencies; the lower one is the structure's,
+/// `w^2 = ((a + b + c) - sqrt((a + b + c)^2 - 4 a c)) / 2` with `a = K_d / J_r`, `b = K / J_r`,
+/// `c = K / J_m`: below `w_s`, because the drive's compliance is in series with the mode's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StructuralAntiResonance {
+    /// The mode's frequency with the axis clamped at the encoder (the modes file's), Hz.
+    pub clamped_hz: f64,
+    /// The inertia the mode carries about the axis, kg m^2.
+    pub modal_inertia: f64,
+    /// The load inertia the plant keeps, kg m^2.
+    pub remaining_inertia: f64,
+    /// The predicted anti-resonance with the motor held, Hz.
+    pub predicted_hz: f64,
+}
+
+impl StructuralAntiResonance {
+    fn predict(clamped_hz: f64, modal_inertia: f64, remaining_inertia: f64, drive_anti_resonance_hz: f64) -> Self {
+        let a = (TAU * drive_anti_resonance_hz).powi(2);
+        let c = (TAU * clamped_hz).powi(2);
+        let b = c * modal_inertia / remaining_inertia;
+        let sum = a + b + c;
+        let lower = 0.5 * (sum - (sum * sum - 4.0 * a * c).sqrt());
+        StructuralAntiResonance { clamped_hz, modal_inertia, remaining_inertia, predicted_hz: lower.sqrt() / TAU }
+    }
 }
 
 impl MeasuredResponse for Identification {
@@ -221,6 +264,17 @@ impl Identification {
     /// neighbours (the bin spacing alone is 1/segment).
     pub fn measured_trough(&self) -> Trough {
         let (lo, hi) = self.search_band();
+        self.trough_between(lo, hi)
+    }
+
+    /// With the structure coupled, the trough of the measured response near the structural
+    /// anti-resonance (between 0.7 and 1.3 times the predicted one), as [`Self::measured_trough`].
+    pub fn structural_trough(&self) -> Option<Trough> {
+        let predicted = self.structural?.predicted_hz;
+        Some(self.trough_between(0.7 * predicted, 1.3 * predicted))
+    }
+
+    fn trough_between(&self, lo: f64, hi: f64) -> Trough {
         let db: Vec<f64> = self.measured.iter().map(|h| 20.0 * h.norm().log10()).collect();
         let candidates =
             (1..self.frequency_hz.len() - 1).filter(|&i| self.frequency_hz[i] >= lo && self.frequency_hz[i] <= hi);
@@ -392,10 +446,21 @@ fn reference_parameters(
 pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identification, IdentificationError> {
     let started = std::time::Instant::now();
     let fmu = Fmu::open(fmu_path)?;
-    let mut instance = initialised_plant(&fmu, config)?;
+    let mut structure = if config.structure { Some(coupled_structure(fmu_path, config.axis)?) } else { None };
+    let carried = structure.as_ref().map_or(0.0, |s| s.modal_inertia);
+    let mut instance = initialised_plant(&fmu, config, carried)?;
     let (two_mass, torque_per_amp, bandwidth_hz, reported_anti_resonance_hz) =
         reference_parameters(config.axis, &mut instance, &fmu)?;
-    let record = record(&fmu, &mut instance, config)?;
+    let structural = match &structure {
+        Some(s) => Some(StructuralAntiResonance::predict(
+            s.clamped_hz,
+            s.modal_inertia,
+            read_real(&fmu, &mut instance, "load.inertia")?,
+            reported_anti_resonance_hz,
+        )),
+        None => None,
+    };
+    let record = record(&fmu, &mut instance, config, structure.as_mut())?;
     let simulation_wall_s = started.elapsed().as_secs_f64();
 
     let analysis_started = std::time::Instant::now();
@@ -422,16 +487,75 @@ pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identi
         flank_changes: record.flank_changes,
         simulation_wall_s,
         analysis_wall_s: analysis_started.elapsed().as_secs_f64(),
+        structural,
+    })
+}
+
+/// The structure coupled to one axis's plant for the identification.
+struct CoupledStructure {
+    instance: Instance,
+    /// The structure's inputs: the two axes' speeds (deg/s); the loads stay zero.
+    speed_vrs: [u32; 2],
+    /// `drive_torque.<axis>`.
+    drive_vr: u32,
+    /// Which of the speeds is this axis's.
+    axis_index: usize,
+    modal_inertia: f64,
+    clamped_hz: f64,
+}
+
+/// The packaged Structure FMU beside the plant's, initialised with its shipped modes.
+fn coupled_structure(plant_path: &Path, axis: Axis) -> Result<CoupledStructure, IdentificationError> {
+    let fmu = Fmu::open(plant_path.with_file_name("Structure.fmu"))?;
+    let mut instance = fmu.instantiate("structure-identification", false)?;
+    instance.setup_experiment(0.0, None)?;
+    instance.enter_initialization_mode()?;
+    instance.exit_initialization_mode()?;
+    let (axis_index, name) = match axis {
+        Axis::Azimuth => (0, "azimuth"),
+        Axis::Elevation => (1, "elevation"),
+    };
+    let modal_inertia = read_real(&fmu, &mut instance, &format!("modal_inertia.{name}"))?;
+    // The axis's mode in the shipped file: the first that its torque drives.
+    let modes = fmu_structure::modes::parse_modes(fmu_structure::modes::DEFAULT_MODES, "structure_modes.params")
+        .map_err(|e| IdentificationError::ModelMismatch(e.to_string()))?;
+    let mode = modes
+        .iter()
+        .find(|m| m.participation[axis_index] != 0.0)
+        .ok_or_else(|| IdentificationError::ModelMismatch(format!("the shipped structure has no mode about {name}")))?;
+    let md = &fmu.description;
+    Ok(CoupledStructure {
+        speed_vrs: [md.vr("axis.azimuth_speed")?, md.vr("axis.elevation_speed")?],
+        drive_vr: md.vr(&format!("drive_torque.{name}"))?,
+        axis_index,
+        modal_inertia,
+        clamped_hz: mode.frequency_hz,
+        instance,
     })
 }
 
 /// The plant instance set up for the experiment: at its elevation (the azimuth plant's input;
 /// the elevation plant's geometry frozen there) and start position, linear if asked.
-fn initialised_plant(fmu: &Fmu, config: &IdentificationConfig) -> Result<Instance, IdentificationError> {
+fn initialised_plant(fmu: &Fmu, config: &IdentificationConfig, carried: f64) -> Result<Instance, IdentificationError> {
     let md = &fmu.description;
     let mut instance = fmu.instantiate(&format!("{}-identification", config.axis.name()), false)?;
     instance.setup_experiment(0.0, None)?;
     instance.enter_initialization_mode()?;
+    if carried > 0.0 {
+        // The structure's mode carries this much of the load: the plant keeps the rest, of the
+        // part the antenna master takes it from.
+        let name = match config.axis {
+            Axis::Azimuth => "load.turning_head_inertia",
+            Axis::Elevation => "load.inertia",
+        };
+        let inertia = read_real(fmu, &mut instance, name)?;
+        if carried >= inertia {
+            return Err(IdentificationError::ModelMismatch(format!(
+                "the structure's mode carries {carried:.4e} kg m^2, not less than {name} = {inertia:.4e} kg m^2"
+            )));
+        }
+        instance.set_real(&[md.vr(name)?], &[inertia - carried])?;
+    }
     if config.linear_configuration {
         instance.set_boolean(&[md.vr("linear_configuration")?], &[true])?;
     }
@@ -470,8 +594,14 @@ struct Record {
 
 /// Drives the plant with the seeded excitation, from rest through the settling time and the
 /// record, and keeps the record with the linear-regime checks.
-fn record(fmu: &Fmu, instance: &mut Instance, config: &IdentificationConfig) -> Result<Record, IdentificationError> {
+fn record(
+    fmu: &Fmu,
+    instance: &mut Instance,
+    config: &IdentificationConfig,
+    mut structure: Option<&mut CoupledStructure>,
+) -> Result<Record, IdentificationError> {
     let md = &fmu.description;
+    let load_torque_vr = md.vr("load.disturbance_torque")?;
     let (input_vrs, speed_vrs, axis_speed_vr) = match config.axis {
         Axis::Azimuth => (
             md.vrs(&["motor1.current_command", "motor2.current_command"])?,
@@ -518,6 +648,17 @@ fn record(fmu: &Fmu, instance: &mut Instance, config: &IdentificationConfig) -> 
             Axis::Elevation => vec![common],
         };
         instance.set_real(&input_vrs, &commands)?;
+        if let Some(s) = structure.as_deref_mut() {
+            // The structure swung by the axis, and its torque back on the axis.
+            instance.get_real(&[axis_speed_vr], &mut axis_speed)?;
+            let mut speeds = [0.0; 2];
+            speeds[s.axis_index] = axis_speed[0];
+            s.instance.set_real(&s.speed_vrs, &speeds)?;
+            let mut torque = [0.0];
+            s.instance.get_real(&[s.drive_vr], &mut torque)?;
+            instance.set_real(&[load_torque_vr], &torque)?;
+            s.instance.do_step(t, h)?;
+        }
         instance.do_step(t, h)?;
     }
     record.flank_changes = flanks.changes;
