@@ -134,11 +134,16 @@ pub fn beam_error_spectra(trace: &Trace, from_s: f64) -> Option<(Vec<f64>, Vec<f
 }
 
 /// The frequency of the largest spectral peak between `low_hz` and `high_hz`, refined by a
-/// parabola through the peak bin and its neighbours in log power.
+/// parabola through the peak bin and its neighbours in log power; `None` when the largest value
+/// is at an end of the band (a slope, not a peak: a mode damped into the background).
 pub fn peak_frequency_hz(frequency_hz: &[f64], psd: &[f64], low_hz: f64, high_hz: f64) -> Option<f64> {
-    let k = (1..frequency_hz.len().saturating_sub(1))
+    let band: Vec<usize> = (1..frequency_hz.len().saturating_sub(1))
         .filter(|&k| frequency_hz[k] >= low_hz && frequency_hz[k] <= high_hz)
-        .max_by(|&a, &b| psd[a].total_cmp(&psd[b]))?;
+        .collect();
+    let k = band.iter().copied().max_by(|&a, &b| psd[a].total_cmp(&psd[b]))?;
+    if Some(&k) == band.first() || Some(&k) == band.last() {
+        return None;
+    }
     let (l, c, r) = (psd[k - 1].max(1e-300).ln(), psd[k].max(1e-300).ln(), psd[k + 1].max(1e-300).ln());
     let denominator = l - 2.0 * c + r;
     let shift = if denominator.abs() > 0.0 { 0.5 * (l - r) / denominator } else { 0.0 };

@@ -331,10 +331,16 @@ fn extra_sections(
             outcome.scenario.name
         ));
         for (name, documented, peak) in peaks {
-            text.push_str(&format!(
-                " Structural {name}: spectral peak at {peak:.3} Hz ({:+.2} % from the documented {documented} Hz).",
-                100.0 * (peak / documented - 1.0)
-            ));
+            text.push_str(&match peak {
+                Some(peak) => format!(
+                    " Structural {name}: spectral peak at {peak:.3} Hz ({:+.2} % from the documented {documented} Hz).",
+                    100.0 * (peak / documented - 1.0)
+                ),
+                None => format!(" Structural {name}: no spectral peak within 20 % of the documented {documented} Hz."),
+            });
+        }
+        if config.structure.is_some() && config.structure_feedback {
+            text.push_str(" The modes push back on the drives here, so the servo loops load them: the documented frequencies are the modes' with the axes clamped at the encoders; held by the drives alone (motors locked) they ring slightly lower (`plant-bode --structure` measures it against its prediction), and the closed loops add damping that flattens the peaks (docs/structure-model.md, \"Both ways\"). `--one-way-structure` shows them undamped at the documented frequencies.");
         }
         text.push('\n');
         println!("wrote {}", path.display());
