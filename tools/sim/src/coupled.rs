@@ -996,8 +996,9 @@ struct ElevationLaneOutput {
 
 impl ElevationLane<'_> {
     /// A step of the elevation lane; `torque_nm` gives the torque on the elevation load side
-    /// over the step, asked for after the controller's exchange (on two lanes it comes from the
-    /// structure's exchange on the other thread, which runs meanwhile).
+    /// over the step, asked for as late as possible: on two lanes it comes from the structure's
+    /// exchange on the other thread, which runs meanwhile, so the controller's and the wind
+    /// unit's steps (which need nothing from the plant's step) come first.
     fn step(
         &mut self,
         t: f64,
@@ -1011,10 +1012,10 @@ impl ElevationLane<'_> {
         self.controller.set_real(&p.el_ctrl_in, &[command[0], command[1], el[0], el[2]])?;
         let mut controller = [0.0; 2];
         self.controller.get_real(&p.el_ctrl_out, &mut controller)?;
-        self.plant.set_real(&p.el_plant_in, &[controller[0], torque_nm()?])?;
-        self.plant.do_step(t, h)?;
         self.controller.do_step(t, h)?;
         wind.do_step(t, h)?;
+        self.plant.set_real(&p.el_plant_in, &[controller[0], torque_nm()?])?;
+        self.plant.do_step(t, h)?;
         let mut plant_next = [0.0; 5];
         self.plant.get_real(&p.el_plant_out, &mut plant_next)?;
         Ok(ElevationLaneOutput { controller, plant_next })
