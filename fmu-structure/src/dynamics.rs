@@ -180,6 +180,13 @@ impl ModalStructure {
     /// lowers the plants' load inertias by [`Self::modal_inertias`], couples the modes both ways:
     /// under slow loads the drives see what they saw without the structure.
     pub fn drive_torques(&self, loads: &[f64; LOADS], speeds: &[f64; 2]) -> [f64; 2] {
+        self.feedthrough(loads, speeds).1
+    }
+
+    /// [`Self::static_offset`] and [`Self::drive_torques`] in one pass over the modes (each
+    /// mode's load taken once): what the FMU's feedthrough outputs need after every set.
+    pub fn feedthrough(&self, loads: &[f64; LOADS], speeds: &[f64; 2]) -> ([f64; 2], [f64; 2]) {
+        let mut offset = [0.0; 2];
         let mut torques = [loads[0], loads[1]];
         // The discretisation of the last step's length: the cache's, or (after a restored
         // state, whose cache may hold another length) computed afresh, the same numbers.
@@ -194,17 +201,20 @@ impl ModalStructure {
         };
         let accelerations = if steps.is_some() { self.held_accelerations(speeds, window).0 } else { [0.0; 2] };
         for (k, (mode, x)) in self.modes.iter().zip(&self.states).enumerate() {
-            let forcing = mode.static_coordinate(loads) + mode.inertial_load(&accelerations) / mode.stiffness;
+            let load = mode.static_coordinate(loads);
+            let settled = load + mode.inertial_load(&self.accelerations) / mode.stiffness;
+            offset[0] += mode.beam[0] * settled;
+            offset[1] += mode.beam[1] * settled;
+            let forcing = load + mode.inertial_load(&accelerations) / mode.stiffness;
             let [q, v] = match steps {
                 Some(steps) => steps[k].mean(*x, forcing),
                 None => *x,
             };
-            let load = mode.static_coordinate(loads);
             let inertial_force = mode.stiffness * (load - q - 2.0 * mode.damping_ratio / mode.omega() * v);
             torques[0] -= mode.participation[0] * inertial_force;
             torques[1] -= mode.participation[1] * inertial_force;
         }
-        torques
+        (offset, torques)
     }
 
     /// The modes' inertia about each axis, kg m^2 (azimuth, elevation): `sum_k p_i,k^2 K_k /
@@ -398,6 +408,7 @@ mod tests {
         el_mode.beam = [0.0, 1.0];
         let mut s = ModalStructure::at_rest(vec![mode(6.0, 0.015), el_mode], &loads);
         assert_eq!(s.drive_torques(&loads, &[0.0; 2]), [1e4, -2e4]);
+        assert_eq!(s.feedthrough(&loads, &[0.0; 2]).0, s.static_offset(&loads), "one pass, the same bits");
         for _ in 0..100 {
             s.step(&loads, &[0.0; 2], 1e-3).unwrap();
         }

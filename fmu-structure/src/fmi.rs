@@ -203,13 +203,11 @@ impl Model for StructureModel {
 
     fn update_feedthrough(&mut self, values: &mut Values<StructureVar>) {
         let Some(structure) = &self.structure else { return };
-        let loads = Self::loads(values);
-        let [az, el] = structure.static_offset(&loads);
+        let ([az, el], [torque_az, torque_el]) = structure.feedthrough(&Self::loads(values), &Self::speeds(values));
         values.set_real(StructureVar::BeamAzStatic, az * ARCSEC_PER_RAD);
         values.set_real(StructureVar::BeamElStatic, el * ARCSEC_PER_RAD);
-        let [az, el] = structure.drive_torques(&loads, &Self::speeds(values));
-        values.set_real(StructureVar::DriveTorqueAz, az);
-        values.set_real(StructureVar::DriveTorqueEl, el);
+        values.set_real(StructureVar::DriveTorqueAz, torque_az);
+        values.set_real(StructureVar::DriveTorqueEl, torque_el);
     }
 
     /// A new modes file is read at once, so that a bad one is refused by the call that names it.

@@ -6,6 +6,7 @@
 
 use antenna_fmus::model_description_directory;
 use antenna_fmus::parameters::{parameters, Target};
+use antenna_sim::configuration::{INERTIA_SHARE, SHARED_INERTIAS};
 use fmu_import::ModelDescription;
 use fmu_structure::modes::{parse_modes, DEFAULT_MODES, DEFAULT_MODES_FILE};
 
@@ -59,8 +60,24 @@ fn the_structures_defaults_are_the_shipped_modes_files_values() {
         for target in &p.targets {
             let Target::StructureMode { field } = target else { continue };
             let (mode, name) = field.strip_prefix("mode").and_then(|f| f.split_once('.')).unwrap();
-            let mode: usize = mode.parse().unwrap();
-            let shipped = modes[mode - 1].field(name).unwrap_or_else(|| panic!("{}: no field {name}", p.name));
+            let index: usize = mode.parse().unwrap();
+            if field.ends_with(INERTIA_SHARE) {
+                // The share of its axis's inertia that the shipped mode carries: K / w^2 over
+                // the default of the inertia it is a share of, to the table's five digits.
+                let mode = &modes[index - 1];
+                let (_, inertia_name) = SHARED_INERTIAS.iter().find(|(m, _)| field.starts_with(m)).unwrap();
+                let inertia = parameters().into_iter().find(|q| q.name == *inertia_name).unwrap().default;
+                let carried = mode.stiffness / (mode.omega() * mode.omega());
+                assert!(
+                    (p.default * inertia / carried - 1.0).abs() < 1e-4,
+                    "{}: {} x {inertia} against the shipped mode's {carried} kg m^2",
+                    p.name,
+                    p.default
+                );
+                checked += 1;
+                continue;
+            }
+            let shipped = modes[index - 1].field(name).unwrap_or_else(|| panic!("{}: no field {name}", p.name));
             assert_eq!(p.default, shipped, "{}: default against the shipped {field}", p.name);
             assert!(p.paper.is_none(), "{}: the paper's model has no structure", p.name);
             checked += 1;

@@ -224,12 +224,12 @@ fn set_mode_field(
 
 /// The suffix of a mode's pseudo-field that the table draws instead of its frequency: the share
 /// of an axis's load inertia that the mode's moving part carries.
-const INERTIA_SHARE: &str = ".inertia_share";
+pub const INERTIA_SHARE: &str = ".inertia_share";
 
 /// For each mode with an inertia share, the table's parameter whose inertia the share is of (the
 /// part of the axis's load inertia the master takes the mode's out of, when the modes push back
 /// on the drives).
-const SHARED_INERTIAS: [(&str, &str); 2] =
+pub const SHARED_INERTIAS: [(&str, &str); 2] =
     [("mode1", "azimuth.turning_head_inertia"), ("mode2", "elevation.load_inertia")];
 
 /// Sets a mode's frequency from the share of an axis's inertia that it carries: the mode's

@@ -364,7 +364,9 @@ struct Ports {
     /// loads ([`LOADS`]: torques, then [`WIND_FORCES`]) or, from [`LOADS`] on, the azimuth and
     /// elevation speeds.
     structure_sources: Vec<(&'static str, usize)>,
-    structure_out: [u32; 4],
+    /// The four beam offsets and, when its modes push back on the drives, the two drive
+    /// torques: read in one call.
+    structure_out: Vec<u32>,
     /// The structure's `drive_torque.azimuth` and `drive_torque.elevation` when its modes push
     /// back on the drives: then they, not the wind's torques, go to the plants.
     structure_drive: Option<[u32; 2]>,
@@ -507,7 +509,8 @@ impl Ports {
                     "beam.azimuth_offset_static",
                     "beam.elevation_offset_static",
                 ],
-            )?,
+            )?
+            .to_vec(),
             structure_drive: None,
         })
     }
@@ -622,8 +625,9 @@ impl CoupledAntenna {
             if config.structure_feedback {
                 let inertias = [description.vr("modal_inertia.azimuth")?, description.vr("modal_inertia.elevation")?];
                 unit.get_real(&inertias, &mut carried)?;
-                ports.structure_drive =
-                    Some([description.vr("drive_torque.azimuth")?, description.vr("drive_torque.elevation")?]);
+                let drive = [description.vr("drive_torque.azimuth")?, description.vr("drive_torque.elevation")?];
+                ports.structure_out.extend(drive);
+                ports.structure_drive = Some(drive);
             }
             structure = Some(unit);
         } else {
@@ -934,9 +938,12 @@ impl AzimuthLane<'_> {
         let mut drive = [loads.wind_torque_nm, loads.wind_elevation_torque_nm];
         if let Some(structure) = self.structure.as_deref_mut() {
             structure.set_real(&p.structure_in, &loads.structure[..p.structure_in.len()])?;
-            structure.get_real(&p.structure_out, &mut beam)?;
-            if let Some(vrs) = &p.structure_drive {
-                structure.get_real(vrs, &mut drive)?;
+            let mut values = [0.0; 6];
+            let n = p.structure_out.len();
+            structure.get_real(&p.structure_out, &mut values[..n])?;
+            beam.copy_from_slice(&values[..4]);
+            if p.structure_drive.is_some() {
+                drive = [values[4], values[5]];
             }
         }
         Ok((beam, drive))
