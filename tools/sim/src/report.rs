@@ -225,14 +225,34 @@ pub fn beam_spectrum_figure(
     let marks: Vec<(String, f64)> = modes.iter().map(|(name, f, _)| (name.clone(), *f)).collect();
     let title = format!("Beam pointing error spectrum, {} (structural modes marked)", outcome.scenario.name);
     plot_beam_spectrum(&title, &spectra, &marks, path)?;
-    let (f, cross, elevation) = &spectra;
-    Ok(modes
+    Ok(mode_peaks(modes, &spectra))
+}
+
+/// Each structural mode's spectral peak in the beam error of `outcome`, as
+/// [`beam_spectrum_figure`] gives them, without the figure.
+pub fn beam_spectrum_peaks(outcome: &Outcome, config: &AntennaConfig) -> Vec<(String, f64, Option<f64>)> {
+    let from = match outcome.scenario.analysis {
+        Analysis::Jitter { from_s } => from_s,
+        Analysis::Settling { jump_s, .. } => jump_s,
+    };
+    match beam_error_spectra(&outcome.trace, from) {
+        Some(spectra) => mode_peaks(structural_modes(config), &spectra),
+        None => Vec::new(),
+    }
+}
+
+fn mode_peaks(
+    modes: Vec<(String, f64, usize)>,
+    spectra: &(Vec<f64>, Vec<f64>, Vec<f64>),
+) -> Vec<(String, f64, Option<f64>)> {
+    let (f, cross, elevation) = spectra;
+    modes
         .into_iter()
         .map(|(name, frequency, axis)| {
             let psd = if axis == 0 { cross } else { elevation };
             (name, frequency, peak_frequency_hz(f, psd, 0.8 * frequency, 1.2 * frequency))
         })
-        .collect())
+        .collect()
 }
 
 fn figure_text(o: &Outcome) -> String {
