@@ -1,7 +1,10 @@
 """The coupled antenna with fmpy as the co-simulation master.
 
-The same five packaged FMUs, connections and fixed-step Jacobi scheme as the Rust master
-(tools/src/antenna/coupled.rs), written independently on top of fmpy's FMU2Slave. Value
+The same six packaged FMUs, connections and fixed-step Jacobi scheme as the Rust master
+(tools/sim/src/coupled.rs), written independently on top of fmpy's FMU2Slave. With the structure
+(`structure = true`), its modes push back on the drives unless `structure_feedback = false`: the
+plants take its drive_torque.* as their load.disturbance_torque and leave its modal_inertia.* out
+of their load inertia (docs/structure-model.md, "Both ways"). Value
 references are looked up once and the values travel in preallocated ctypes arrays, one call per
 FMU and direction: fmpy's convenience setters convert Python lists on every call, which would
 cost more than the FMUs themselves.

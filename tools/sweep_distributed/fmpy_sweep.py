@@ -122,8 +122,9 @@ def run_sample(values, seconds, table_rows, fmu_dir):
     class Unit(coupled_master.Unit):
         """The master's unit with this sample's parameter values set before initialisation."""
 
-        def __init__(self, name, instance_name, start_time, unit_overrides):
-            super().__init__(name, instance_name, start_time, list(unit_overrides) + overrides.get(name, []))
+        def __init__(self, name, instance_name, start_time, unit_overrides, carried=None):
+            super().__init__(name, instance_name, start_time, list(unit_overrides) + overrides.get(name, []),
+                             carried=carried)
 
     with _PATCH:
         original, coupled_master.Unit = coupled_master.Unit, Unit
