@@ -96,7 +96,7 @@ declare_variables! {
         DragCoefficient = Var::real("dish.drag_coefficient", "1").parameter().start(1.3).min(0.0).max(2.5)
             .description("Face-on drag coefficient C_D0 of the dish; drag coefficient C_D0 |cos(el) cos(yaw)|. Estimate: 1.3, range 1.1-1.6 (about 1.2-1.4 for a solid parabolic dish, weak sources; docs/wind-model.md)."),
         LiftCoefficient = Var::real("dish.lift_coefficient", "1").parameter().start(0.3).min(0.0).max(1.5)
-            .description("Largest lift (cross-flow) coefficient C_L0 of the dish; vertical lift coefficient -C_L0 sin(2 el) cos(yaw). Estimate: 0.3, range 0.1-0.6 (docs/wind-model.md)."),
+            .description("Largest cross-flow coefficient C_L0 of the dish: vertical lift coefficient -C_L0 sin(2 el) cos(yaw), horizontal side force coefficient C_L0 cos^2(el) sin(2 yaw). Estimate: 0.3, range 0.1-0.6 (docs/wind-model.md)."),
         LoadGust = Var::real("wind.load_gust", "m/s").output()
             .description("The gust that drives the torques and forces: wind.gust through the aerodynamic admittance (equal to wind.gust when wind.admittance = 0)."),
         LoadSigma = Var::real("wind.load_sigma", "m/s").calculated_parameter()
@@ -118,13 +118,19 @@ declare_variables! {
         ParameterFile = Var::string("parameter_file").parameter().start_string("")
             .description("A file of name = value lines applied when this parameter is set (relative paths are looked up in the resources folder): realistic.params holds the realistic antenna's wind parameters (docs/parameters.md), defaults.params every default."),
         Axial = Var::real("force.axial", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
-            .description("The drag resolved along the horizontal projection of the boresight, force.drag cos(yaw): positive pushes the dish backwards, from its reflector face towards its back (a wind blowing into the face, yaw 0, gives +drag; a wind from behind, yaw 180, -drag). The input force.axial of the Structure FMU."),
+            .description("The horizontal wind force (drag and side force) resolved along the horizontal projection of the boresight, force.drag cos(yaw) + force.side sin(yaw): positive pushes the dish backwards, from its reflector face towards its back (a wind blowing into the face, yaw 0, gives +drag; a wind from behind, yaw 180, -drag). The input force.axial of the Structure FMU."),
         AxialMean = Var::real("force.axial_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
-            .description("Mean part of force.axial, force.drag_mean cos(yaw)."),
+            .description("Mean part of force.axial, force.drag_mean cos(yaw) + force.side_mean sin(yaw)."),
         Lateral = Var::real("force.lateral", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
-            .description("The drag resolved across the boresight, horizontal (cross-elevation), -force.drag sin(yaw): positive pushes the dish towards increasing azimuth (clockwise seen from above; to the right seen from behind the dish looking out along the boresight), as a wind from its left (negative yaw) does. With force.axial and force.lift a right-handed frame. The cross-flow side force is not modelled. The input force.lateral of the Structure FMU."),
+            .description("The horizontal wind force (drag and side force) resolved across the boresight (cross-elevation), -force.drag sin(yaw) + force.side cos(yaw): positive pushes the dish towards increasing azimuth (clockwise seen from above; to the right seen from behind the dish looking out along the boresight), as a wind from its left (negative yaw) does. With force.axial and force.lift a right-handed frame. The input force.lateral of the Structure FMU."),
         LateralMean = Var::real("force.lateral_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
-            .description("Mean part of force.lateral, -force.drag_mean sin(yaw)."),
+            .description("Mean part of force.lateral, -force.drag_mean sin(yaw) + force.side_mean cos(yaw)."),
+        Side = Var::real("force.side", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Wind side force on the dish, the horizontal part of the cross-flow force (positive to the left of the flow looking downwind, 90 degrees anticlockwise from the downwind direction seen from above): C_S 0.5 rho A v|v| with v = v_m + wind.load_gust. force.axial and force.lateral include it."),
+        SideMean = Var::real("force.side_mean", "N").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Mean part of the side force, C_S 0.5 rho A v_m^2."),
+        CSide = Var::real("coefficient.side", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
+            .description("Side force coefficient C_S = C_L0 cos^2(el) sin(2 yaw) at the current pointing: the horizontal part of the cross-flow force whose vertical part is the lift (estimate, docs/wind-model.md)."),
     }
 }
 
@@ -245,6 +251,9 @@ impl WindModel {
         values.set_real(WindVar::AxialMean, f.axial_mean());
         values.set_real(WindVar::Lateral, f.lateral());
         values.set_real(WindVar::LateralMean, f.lateral_mean());
+        values.set_real(WindVar::Side, f.side());
+        values.set_real(WindVar::SideMean, f.side_mean);
+        values.set_real(WindVar::CSide, f.c_side);
         values.set_real(WindVar::CDrag, f.c_drag);
         values.set_real(WindVar::CLift, f.c_lift);
         values.set_real(WindVar::AzTorque, t.azimuth());

@@ -15,14 +15,15 @@
 //! The coefficients follow the pointing: yaw = wind direction - antenna azimuth, see
 //! [`crate::coefficients`] for the sign conventions.
 //!
-//! The same law gives the forces on the dish ([`DishForces`]): drag along the flow and lift
-//! (vertical), `F = C 0.5 rho A v |v|`, with the angular laws of [`ForceCoefficients`]. The
-//! gust that enters both is the load gust: the point gust through the aerodynamic admittance
-//! ([`crate::admittance`]), or the point gust itself in the coherent configuration. The drag is
-//! also resolved in the antenna's frame, whose horizontal axes turn with azimuth: axial
-//! `drag cos(yaw)` (positive from the dish's face towards its back) and lateral
-//! `-drag sin(yaw)` (positive towards increasing azimuth), which is what a structural mode's
-//! participation weighs.
+//! The same law gives the forces on the dish ([`DishForces`]): drag along the flow, and the
+//! cross-flow force split into lift (vertical) and side force (horizontal, across the wind),
+//! `F = C 0.5 rho A v |v|`, with the angular laws of [`ForceCoefficients`]. The gust that
+//! enters them is the load gust: the point gust through the aerodynamic admittance
+//! ([`crate::admittance`]), or the point gust itself in the coherent configuration. The
+//! horizontal forces are also resolved in the antenna's frame, whose horizontal axes turn with
+//! azimuth: axial `drag cos(yaw) + side sin(yaw)` (positive from the dish's face towards its
+//! back) and lateral `-drag sin(yaw) + side cos(yaw)` (positive towards increasing azimuth),
+//! which is what a structural mode's participation weighs.
 
 use crate::coefficients::CoefficientTable;
 use std::f64::consts::PI;
@@ -66,6 +67,9 @@ impl WindTorques {
 ///
 /// * drag along the flow, `C_D = C_D0 |cos alpha|`,
 /// * lift, the vertical component of the force across the flow, `C_L = -C_L0 sin(2 el) cos(psi)`,
+/// * side force, its horizontal component, `C_S = C_L0 cos^2(el) sin(2 psi)`, positive to the
+///   left of the flow looking downwind (90 degrees anticlockwise from the downwind direction,
+///   seen from above),
 ///
 /// with `cos alpha = cos(el) cos(psi)` the cosine of the angle between the boresight and the
 /// direction the wind comes from (the angle of [`crate::coefficients`]'s reference model). The
@@ -75,7 +79,10 @@ impl WindTorques {
 /// force normal to the aperture that pushes the face away from the wind, and its vertical
 /// component is `sin(el) / sin(alpha)` of it, so `-C_L0 sin(2 alpha) sin(el) / sin(alpha) =
 /// -2 C_L0 cos(alpha) sin(el)`. Front wind on a raised dish pushes it down (negative lift), wind
-/// from behind lifts it. `C_D0 = 1.3` (range 1.1-1.6: "approximately 1.2-1.4 for a solid
+/// from behind lifts it. The horizontal component across the wind is `cos(el) sin(psi) /
+/// sin(alpha)` of it, `C_L0 2 cos(alpha) cos(el) sin(psi) = C_L0 cos^2(el) sin(2 psi)`: one
+/// law, so lift and side force cannot disagree (a yawed dish at zero elevation is a raised dish
+/// turned on its side). `C_D0 = 1.3` (range 1.1-1.6: "approximately 1.2-1.4 for a solid
 /// parabolic dish", weak vendor sources; JPL Publication 78-16 was not read) and `C_L0 = 0.3`
 /// (0.1-0.6, order of the published lift curves, not verified); docs/wind-model.md.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,34 +107,50 @@ pub const LIFT_COEFFICIENT_MAX: f64 = 0.3;
 impl ForceCoefficients {
     /// `(C_D, C_L)` at yaw `psi` and elevation `el`, degrees.
     pub fn at(&self, yaw_deg: f64, elevation_deg: f64) -> (f64, f64) {
-        self.at_cos_yaw(libm::cos(yaw_deg.to_radians()), elevation_deg)
+        let (c_drag, c_lift, _) = self.at_yaw(0.0, libm::cos(yaw_deg.to_radians()), elevation_deg);
+        (c_drag, c_lift)
     }
 
-    /// [`Self::at`] with `cos(psi)` given (the forces need the yaw's sine as well, and one
-    /// `sincos` gives both: fdlibm's `sincos` and `cos` give the same bits, tested).
-    fn at_cos_yaw(&self, cos_psi: f64, elevation_deg: f64) -> (f64, f64) {
+    /// `C_S` at yaw `psi` and elevation `el`, degrees.
+    pub fn side_at(&self, yaw_deg: f64, elevation_deg: f64) -> f64 {
+        let (sin_psi, cos_psi) = libm::sincos(yaw_deg.to_radians());
+        self.at_yaw(sin_psi, cos_psi, elevation_deg).2
+    }
+
+    /// `(C_D, C_L, C_S)` from the yaw's sine and cosine and the elevation, degrees (the forces
+    /// take both from one fdlibm `sincos`, which gives the same bits as its `cos`, tested).
+    fn at_yaw(&self, sin_psi: f64, cos_psi: f64, elevation_deg: f64) -> (f64, f64, f64) {
         // Evaluated at every step: one fdlibm `sincos` for the elevation (sin 2 el = 2 sin el
         // cos el) instead of four calls into the system library.
         let (sin_el, cos_el) = libm::sincos(elevation_deg.to_radians());
         let cos_alpha = cos_el * cos_psi;
-        (self.drag_face_on * cos_alpha.abs(), -self.lift_max * (2.0 * sin_el * cos_el) * cos_psi)
+        (
+            self.drag_face_on * cos_alpha.abs(),
+            -self.lift_max * (2.0 * sin_el * cos_el) * cos_psi,
+            self.lift_max * (cos_el * cos_el) * (2.0 * sin_psi * cos_psi),
+        )
     }
 }
 
-/// The forces on the dish at one instant, N: drag positive downwind, lift positive up.
+/// The forces on the dish at one instant, N: drag positive downwind, lift positive up, side
+/// force positive to the left of the flow looking downwind.
 ///
-/// The drag lies along the wind, whose direction in the antenna's frame turns with the yaw; its
-/// components in that frame are [`DishForces::axial`] and [`DishForces::lateral`]. With the lift
-/// they make a right-handed frame: axial (horizontal, backwards from the face), lateral
-/// (horizontal, towards increasing azimuth), up.
+/// Drag and side force lie in the horizontal plane along and across the wind, whose direction
+/// in the antenna's frame turns with the yaw; their sum's components in that frame are
+/// [`DishForces::axial`] and [`DishForces::lateral`]. With the lift they make a right-handed
+/// frame: axial (horizontal, backwards from the face), lateral (horizontal, towards increasing
+/// azimuth), up.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DishForces {
     pub drag_mean: f64,
     pub drag_gust: f64,
     pub lift_mean: f64,
     pub lift_gust: f64,
+    pub side_mean: f64,
+    pub side_gust: f64,
     pub c_drag: f64,
     pub c_lift: f64,
+    pub c_side: f64,
     /// `cos(yaw)`: the axial component per unit drag.
     pub axial_per_drag: f64,
     /// `-sin(yaw)`: the lateral component per unit drag.
@@ -143,29 +166,44 @@ impl DishForces {
         self.lift_mean + self.lift_gust
     }
 
-    /// The drag along the horizontal projection of the boresight, positive pushing the dish
-    /// backwards (from its reflector face towards its back): `drag cos(yaw)`. A wind blowing
-    /// into the face (yaw 0) gives `+drag`, a wind from behind (yaw 180) `-drag`.
+    pub fn side(&self) -> f64 {
+        self.side_mean + self.side_gust
+    }
+
+    /// The horizontal force along the horizontal projection of the boresight, positive pushing
+    /// the dish backwards (from its reflector face towards its back): `drag cos(yaw) + side
+    /// sin(yaw)`. A wind blowing into the face (yaw 0) gives `+drag`, a wind from behind (yaw
+    /// 180) `-drag`.
     pub fn axial(&self) -> f64 {
-        self.drag() * self.axial_per_drag
+        Self::along(self.drag(), self.side(), self.axial_per_drag, self.lateral_per_drag)
     }
 
     /// Mean part of [`DishForces::axial`].
     pub fn axial_mean(&self) -> f64 {
-        self.drag_mean * self.axial_per_drag
+        Self::along(self.drag_mean, self.side_mean, self.axial_per_drag, self.lateral_per_drag)
     }
 
-    /// The drag across the boresight, horizontal (cross-elevation), positive pushing the dish
-    /// towards increasing azimuth (clockwise seen from above): `-drag sin(yaw)`. A wind coming
-    /// from the left of the boresight (yaw -90, seen from behind the dish) pushes it to the
-    /// right, towards increasing azimuth.
+    /// The horizontal force across the boresight (cross-elevation), positive pushing the dish
+    /// towards increasing azimuth (clockwise seen from above): `-drag sin(yaw) + side cos(yaw)`.
+    /// A wind coming from the left of the boresight (yaw -90, seen from behind the dish) pushes
+    /// it to the right, towards increasing azimuth.
     pub fn lateral(&self) -> f64 {
-        self.drag() * self.lateral_per_drag
+        Self::across(self.drag(), self.side(), self.axial_per_drag, self.lateral_per_drag)
     }
 
     /// Mean part of [`DishForces::lateral`].
     pub fn lateral_mean(&self) -> f64 {
-        self.drag_mean * self.lateral_per_drag
+        Self::across(self.drag_mean, self.side_mean, self.axial_per_drag, self.lateral_per_drag)
+    }
+
+    /// `drag cos(yaw) + side sin(yaw)`, with `cos(yaw)` and `-sin(yaw)` given.
+    fn along(drag: f64, side: f64, cos_yaw: f64, minus_sin_yaw: f64) -> f64 {
+        drag * cos_yaw - side * minus_sin_yaw
+    }
+
+    /// `-drag sin(yaw) + side cos(yaw)`, with `cos(yaw)` and `-sin(yaw)` given.
+    fn across(drag: f64, side: f64, cos_yaw: f64, minus_sin_yaw: f64) -> f64 {
+        drag * minus_sin_yaw + side * cos_yaw
     }
 }
 
@@ -220,7 +258,7 @@ impl WindTorqueModel {
         (mean, gust)
     }
 
-    /// Drag and lift on the dish for the same arguments as [`WindTorqueModel::torques`]:
+    /// Drag, lift and side force on the dish for the same arguments as [`WindTorqueModel::torques`]:
     /// `F = C 0.5 rho A v |v|` (or its linearisation), split like the torques.
     pub fn forces(
         &self,
@@ -233,7 +271,7 @@ impl WindTorqueModel {
         let yaw = yaw_deg(wind_direction_deg, azimuth_deg);
         // fdlibm's sincos, as the coefficients use: the same bits on every platform.
         let (sin_yaw, cos_yaw) = libm::sincos(yaw.to_radians());
-        let (c_drag, c_lift) = self.forces.at_cos_yaw(cos_yaw, elevation_deg);
+        let (c_drag, c_lift, c_side) = self.forces.at_yaw(sin_yaw, cos_yaw, elevation_deg);
         let k = 0.5 * self.air_density * self.reference_area();
         let (mean, gust) = self.speed_squared(v_mean, v_gust);
         DishForces {
@@ -241,8 +279,11 @@ impl WindTorqueModel {
             drag_gust: c_drag * k * gust,
             lift_mean: c_lift * k * mean,
             lift_gust: c_lift * k * gust,
+            side_mean: c_side * k * mean,
+            side_gust: c_side * k * gust,
             c_drag,
             c_lift,
+            c_side,
             axial_per_drag: cos_yaw,
             lateral_per_drag: -sin_yaw,
         }
@@ -443,21 +484,50 @@ mod tests {
     }
 
     #[test]
-    fn the_drag_resolves_into_axial_cos_yaw_and_lateral_minus_sin_yaw() {
+    fn drag_and_side_force_resolve_into_axial_and_lateral_by_the_yaw() {
         // The wind comes from 30 deg clockwise of the pointing (yaw +30, from the right seen
         // from behind the dish): it pushes the dish backwards and to the left (towards lower
-        // azimuth), and the two components add up to the drag as a vector.
+        // azimuth), and the two components add up to drag and side force as a vector.
         let m = model(TorqueForm::Quadratic);
         let f = m.forces(9.8, 1.3, 70.0, 40.0, 20.0);
         let (s, c) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
-        assert!((f.axial() - f.drag() * c).abs() < 1e-12 * f.drag() && f.axial() > 0.0);
-        assert!((f.lateral() + f.drag() * s).abs() < 1e-12 * f.drag() && f.lateral() < 0.0);
-        assert!((f.axial_mean() - f.drag_mean * c).abs() < 1e-12 * f.drag_mean);
-        assert!((f.lateral_mean() + f.drag_mean * s).abs() < 1e-12 * f.drag_mean);
-        assert!((f.axial().hypot(f.lateral()) - f.drag()).abs() < 1e-12 * f.drag());
+        let tolerance = 1e-12 * f.drag();
+        assert!(f.side() != 0.0);
+        assert!((f.axial() - (f.drag() * c + f.side() * s)).abs() < tolerance && f.axial() > 0.0);
+        assert!((f.lateral() - (-f.drag() * s + f.side() * c)).abs() < tolerance && f.lateral() < 0.0);
+        assert!((f.axial_mean() - (f.drag_mean * c + f.side_mean * s)).abs() < 1e-12 * f.drag_mean);
+        assert!((f.lateral_mean() - (-f.drag_mean * s + f.side_mean * c)).abs() < 1e-12 * f.drag_mean);
+        assert!((f.axial().hypot(f.lateral()) - f.drag().hypot(f.side())).abs() < tolerance);
+        // Along the wind the drag, across it the side force.
+        assert!((f.axial() * c - f.lateral() * s - f.drag()).abs() < tolerance);
+        assert!((f.axial() * s + f.lateral() * c - f.side()).abs() < tolerance);
         // The mirrored wind (yaw -30) pushes to the right; a wind from behind pushes forwards.
         assert!(m.forces(9.8, 0.0, 10.0, 40.0, 20.0).lateral() > 0.0);
         assert!(m.forces(9.8, 0.0, 220.0, 40.0, 20.0).axial() < 0.0);
+    }
+
+    #[test]
+    fn lift_and_side_force_are_the_vertical_and_horizontal_parts_of_one_cross_flow_force() {
+        // The cross-flow force C_L0 sin(2 alpha), alpha the angle between the boresight and
+        // where the wind comes from, lies in the plane of wind and boresight, across the wind:
+        // its two parts add up to it, and it is perpendicular to the wind. A yawed dish at zero
+        // elevation is a raised dish in front wind turned on its side.
+        let forces = ForceCoefficients::default();
+        for (yaw, el) in [(30.0, 20.0), (-60.0, 45.0), (135.0, 10.0), (90.0, 30.0), (0.0, 60.0), (-170.0, 5.0)] {
+            let (c_drag, c_lift) = forces.at(yaw, el);
+            let c_side = forces.side_at(yaw, el);
+            let (psi, e) = (f64::to_radians(yaw), f64::to_radians(el));
+            let alpha = (e.cos() * psi.cos()).acos();
+            let cross = forces.lift_max * (2.0 * alpha).sin();
+            assert!((c_lift.hypot(c_side) - cross.abs()).abs() < 1e-12, "yaw {yaw} el {el}");
+            assert!((c_drag - forces.drag_face_on * alpha.cos().abs()).abs() < 1e-12);
+        }
+        let (_, lift_raised) = forces.at(0.0, 30.0);
+        assert!((forces.side_at(-30.0, 0.0) - lift_raised).abs() < 1e-12, "the same force turned by 90 deg");
+        // Front, rear and edge-on winds have no side force.
+        for yaw in [0.0, 180.0, 90.0, -90.0] {
+            assert!(forces.side_at(yaw, 30.0).abs() < 1e-12, "yaw {yaw}");
+        }
     }
 
     #[test]

@@ -109,10 +109,10 @@ def test_fmpy_master_settles_a_30_arcmin_step_within_4_s(tmp_path):
     assert np.allclose(step, 0.5, atol=1e-6), step
 
 
-def test_fmpy_master_gives_a_lateral_force_mode_the_drags_lateral_part(tmp_path):
+def test_fmpy_master_gives_a_lateral_force_mode_the_wind_forces_lateral_part(tmp_path):
     """The fmpy master connects the wind's force.lateral to the structure: a mode that takes only
-    the lateral force sees none in a front wind (yaw 0) and -drag sin(yaw) when the wind turns by
-    45 deg either way, with the drag by hand (docs/wind-model.md). Steady wind (no gust), the
+    the lateral force sees none in a front wind (yaw 0) and -drag sin(yaw) + side cos(yaw) when the
+    wind turns by 45 deg either way, with drag and side force by hand (docs/wind-model.md). Steady wind (no gust), the
     paper's drive model holding azimuth 100 deg, elevation 30 deg for 2 s."""
     lever, stiffness = 5.0, 4e8
     modes = tmp_path / "lateral.params"
@@ -123,6 +123,7 @@ def test_fmpy_master_gives_a_lateral_force_mode_the_drags_lateral_part(tmp_path)
     table = coupled_master.CommandTable([(0.0, 100.0, 30.0), (2.0, 100.0, 30.0)])
     q_a = 0.5 * 1.075 * 9.8**2 * np.pi * 13.5**2 / 4.0
     whole = q_a * 1.3 * np.cos(np.radians(30.0)) * lever / stiffness * 180.0 / np.pi * 3600.0
+    side = q_a * 0.3 * np.cos(np.radians(30.0)) ** 2 * lever / stiffness * 180.0 / np.pi * 3600.0
     offsets = {}
     for direction, yaw in ((100.0, 0.0), (55.0, -45.0), (145.0, 45.0)):
         config = {"step_s": 1e-3, "wind.mean_speed": 9.8, "wind.roughness_length": 0.0105, "wind.direction": direction,
@@ -132,7 +133,8 @@ def test_fmpy_master_gives_a_lateral_force_mode_the_drags_lateral_part(tmp_path)
         config["overrides"]["Wind"].append(("spectrum", 3))
         trace = np.array(coupled_master.run(config, table, 2.0))
         static = trace[-1, 17]
-        expected = -whole * abs(np.cos(np.radians(yaw))) * np.sin(np.radians(yaw))
+        psi = np.radians(yaw)
+        expected = -whole * abs(np.cos(psi)) * np.sin(psi) + side * np.sin(2.0 * psi) * np.cos(psi)
         offsets[yaw] = static
         if yaw == 0.0:
             assert abs(static) < 1e-4 * whole, static

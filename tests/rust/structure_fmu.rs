@@ -339,7 +339,7 @@ fn coupled_hold(fmus: &FmuSet, modes_file: &str, direction: f64, lanes: Lanes) -
 }
 
 #[test]
-fn in_the_coupled_antenna_a_lateral_force_mode_sees_none_in_front_wind_and_the_drags_lateral_part_when_the_wind_turns()
+fn in_the_coupled_antenna_a_lateral_force_mode_sees_none_in_front_wind_and_the_wind_forces_lateral_part_when_it_turns()
 {
     let directory = antenna_fmus::fmu_directory();
     let fmus = FmuSet::open(&directory).unwrap();
@@ -354,19 +354,22 @@ fn in_the_coupled_antenna_a_lateral_force_mode_sees_none_in_front_wind_and_the_d
     );
     std::fs::write(&path, modes).unwrap();
     let file = path.to_str().unwrap();
-    // The drag by hand (docs/wind-model.md): q A C_D0 |cos el cos yaw| at 9.8 m/s, el 30 deg.
+    // Drag and side force by hand (docs/wind-model.md): q A C_D0 |cos el cos yaw| and
+    // q A C_L0 cos^2 el sin(2 yaw) at 9.8 m/s, el 30 deg.
     let q_a = 0.5 * 1.075 * 9.8 * 9.8 * std::f64::consts::PI * 13.5 * 13.5 / 4.0;
     let drag = |yaw: f64| q_a * 1.3 * (30f64.to_radians().cos() * yaw.to_radians().cos()).abs();
+    let side = |yaw: f64| q_a * 0.3 * 30f64.to_radians().cos().powi(2) * (2.0 * yaw.to_radians()).sin();
     // Azimuth 100 deg: wind from 100 is yaw 0 (into the face); turned by 90 deg, from 55 and
     // from 145, yaw -45 and +45.
     let mut statics = Vec::new();
-    for (direction, yaw) in [(100.0, 0.0), (55.0, -45.0), (145.0, 45.0)] {
+    for (direction, yaw) in [(100.0, 0.0_f64), (55.0, -45.0), (145.0, 45.0)] {
         let (trace, lateral) = coupled_hold(&fmus, file, direction, Lanes::One);
         let beam = trace.beam_offset_static_arcsec[trace.beam_offset_static_arcsec.len() - 1][0];
-        let by_hand = -drag(yaw) * yaw.to_radians().sin() * p / k * ARCSEC_PER_RAD;
+        let (sin, cos) = yaw.to_radians().sin_cos();
+        let by_hand = (-drag(yaw) * sin + side(yaw) * cos) * p / k * ARCSEC_PER_RAD;
         let from_wind = lateral * p / k * ARCSEC_PER_RAD;
         println!(
-            "wind from {direction} deg (yaw {yaw:+}): static beam azimuth offset {beam:+.6} arcsec; lateral force {lateral:+.1} N x {p} m / {k:e} N m = {from_wind:+.6}; by hand -drag sin(yaw) {by_hand:+.6}"
+            "wind from {direction} deg (yaw {yaw:+}): static beam azimuth offset {beam:+.6} arcsec; lateral force {lateral:+.1} N x {p} m / {k:e} N m = {from_wind:+.6}; by hand -drag sin(yaw) + side cos(yaw) {by_hand:+.6}"
         );
         assert!((beam - from_wind).abs() <= 1e-9 * from_wind.abs().max(1e-3), "{beam} against {from_wind}");
         if yaw == 0.0 {

@@ -1292,16 +1292,20 @@ fn drag_and_lift_means_are_q_a_c_at_every_pointing_and_the_gust_parts_follow_the
 }
 
 #[test]
-fn the_axial_and_lateral_forces_are_drag_cos_yaw_and_minus_drag_sin_yaw_at_every_yaw() {
-    // The drag resolved in the antenna's frame: axial along the horizontal boresight, positive
-    // backwards (from the face to the back), lateral positive towards increasing azimuth. Read
-    // right after setting the pointing, without a step (direct feedthrough, as declared).
+fn the_axial_and_lateral_forces_are_drag_and_side_force_resolved_by_the_yaw_at_every_yaw() {
+    // Drag and side force resolved in the antenna's frame: axial along the horizontal
+    // boresight, positive backwards (from the face to the back), lateral positive towards
+    // increasing azimuth; axial = drag cos(yaw) + side sin(yaw), lateral = -drag sin(yaw) +
+    // side cos(yaw). Read right after setting the pointing, without a step (direct
+    // feedthrough, as declared).
     let fmu = open("Wind");
     let v = 9.8;
     let q_a = 0.5 * DEFAULT_DENSITY * v * v * PI * DEFAULT_DIAMETER * DEFAULT_DIAMETER / 4.0;
     let index = |name: &str| 1 + fmu.description.variables.iter().position(|x| x.name == name).unwrap();
     let pointing = [index("antenna.azimuth"), index("antenna.elevation")];
-    for name in ["force.axial", "force.axial_mean", "force.lateral", "force.lateral_mean"] {
+    for name in
+        ["force.axial", "force.axial_mean", "force.lateral", "force.lateral_mean", "force.side", "force.side_mean"]
+    {
         let declared = fmu.description.output_dependencies.iter().find(|(o, _)| *o == index(name));
         assert_eq!(declared.map(|(_, d)| d.clone()), Some(Some(pointing.to_vec())), "{name}");
     }
@@ -1316,6 +1320,8 @@ fn the_axial_and_lateral_forces_are_drag_cos_yaw_and_minus_drag_sin_yaw_at_every
         "force.axial_mean",
         "force.lateral",
         "force.lateral_mean",
+        "force.side",
+        "force.side_mean",
     ];
     // Yaw = 30 deg - azimuth; the elevation keeps the drag away from its edge-on zero except
     // where the yaw puts it there (C_D = C_D0 |cos el cos yaw|: none at yaw 90).
@@ -1333,19 +1339,30 @@ fn the_axial_and_lateral_forces_are_drag_cos_yaw_and_minus_drag_sin_yaw_at_every
         let got = reals(&fmu, &mut instance, &names).unwrap();
         assert!((got[0] - yaw).abs() < 1e-12, "yaw {} for {yaw}", got[0]);
         let (sin, cos) = f64::to_radians(yaw).sin_cos();
+        let (drag, side) = (got[1], got[7]);
         println!(
-            "yaw {yaw:+6.1} el {elevation:4.1}: drag {:9.2} N, axial {:+9.2} N (drag cos {:+9.2}), lateral {:+9.2} N (-drag sin {:+9.2})",
-            got[1],
+            "yaw {yaw:+6.1} el {elevation:4.1}: drag {drag:9.2} N, side {side:+9.2} N, axial {:+9.2} N (drag cos + side sin {:+9.2}), lateral {:+9.2} N (-drag sin + side cos {:+9.2})",
             got[3],
-            got[1] * cos,
+            drag * cos + side * sin,
             got[5],
-            -got[1] * sin
+            -drag * sin + side * cos
         );
-        assert!((got[3] - got[1] * cos).abs() < 1e-12 * q_a, "axial at yaw {yaw}");
-        assert!((got[4] - got[2] * cos).abs() < 1e-12 * q_a, "axial mean at yaw {yaw}");
-        assert!((got[5] + got[1] * sin).abs() < 1e-12 * q_a, "lateral at yaw {yaw}");
-        assert!((got[6] + got[2] * sin).abs() < 1e-12 * q_a, "lateral mean at yaw {yaw}");
-        assert!((got[3].hypot(got[5]) - got[1].abs()).abs() < 1e-12 * q_a, "the parts add up to the drag");
+        // The side force by hand: C_L0 cos^2(el) sin(2 yaw) q A, C_L0 = 0.3 (the default).
+        let c_side = 0.3 * f64::to_radians(elevation).cos().powi(2) * (2.0 * f64::to_radians(yaw)).sin();
+        assert!(
+            (got[8] - c_side * q_a).abs() < 1e-9 * q_a,
+            "side mean at yaw {yaw}: {} against {}",
+            got[8],
+            c_side * q_a
+        );
+        assert!((got[3] - (drag * cos + side * sin)).abs() < 1e-12 * q_a, "axial at yaw {yaw}");
+        assert!((got[4] - (got[2] * cos + got[8] * sin)).abs() < 1e-12 * q_a, "axial mean at yaw {yaw}");
+        assert!((got[5] - (-drag * sin + side * cos)).abs() < 1e-12 * q_a, "lateral at yaw {yaw}");
+        assert!((got[6] - (-got[2] * sin + got[8] * cos)).abs() < 1e-12 * q_a, "lateral mean at yaw {yaw}");
+        assert!(
+            (got[3].hypot(got[5]) - drag.hypot(side)).abs() < 1e-12 * q_a,
+            "the parts add up to drag and side force"
+        );
     }
     // The signs in words: front wind pushes the dish back, wind from behind pushes it forward,
     // wind from the left of the boresight (negative yaw) pushes it towards increasing azimuth.
