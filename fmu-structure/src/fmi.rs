@@ -21,7 +21,7 @@ pub const MAX_LOAD_FORCE: f64 = 1e8;
 /// Largest axis speed, deg/s (either sign): some fifty times a fast slew.
 pub const MAX_AXIS_SPEED: f64 = 100.0;
 
-/// What the drive torques depend on within a step: the loads and the axes' speeds.
+/// What the drive torques depend on within a step: the loads and then the axes' speeds.
 const LOAD_AND_SPEED_INPUTS: &[u32] = &[
     StructureVar::AzTorque as u32,
     StructureVar::ElTorque as u32,
@@ -33,14 +33,8 @@ const LOAD_AND_SPEED_INPUTS: &[u32] = &[
     StructureVar::ElSpeed as u32,
 ];
 
-const LOAD_INPUTS: &[u32] = &[
-    StructureVar::AzTorque as u32,
-    StructureVar::ElTorque as u32,
-    StructureVar::DishForce as u32,
-    StructureVar::AxialForce as u32,
-    StructureVar::LateralForce as u32,
-    StructureVar::LiftForce as u32,
-];
+/// What the quasi-static offsets depend on within a step: the loads alone.
+const LOAD_INPUTS: &[u32] = LOAD_AND_SPEED_INPUTS.split_at(6).0;
 
 declare_variables! {
     /// Variables of the structure FMU. Loads in SI, beam offsets in arcseconds.
