@@ -321,7 +321,7 @@ fn extra_sections(
     }
     // The figure shows the worst holding scenario in normal wind, where the axes stand still
     // and the modes ring on them; the worst tracking one is described beside it, since with
-    // the modes pushing back on sliding axes their peaks move down and flatten.
+    // the modes pushing back on tracking axes their peaks move down and flatten.
     let worst = |holding: bool| {
         outcomes.iter().filter(|o| o.budget.is_some() && o.scenario.name.starts_with("hold") == holding).max_by(
             |a, b| {
@@ -358,7 +358,7 @@ fn extra_sections(
             ));
         }
         if config.structure.is_some() && config.structure_feedback {
-            text.push_str(" The modes push back on the drives here: holding, the axes stand still and the modes ring on them a little below the documented frequencies (those with the axes clamped at the encoders); while the axes slide (tracking), the drives load the modes and their peaks move down and flatten (docs/structure-model.md, \"Both ways\"). `--one-way-structure` shows the modes without their reaction.");
+            text.push_str(" The modes push back on the drives here: holding, the axes stand still and the modes ring on them a little below the documented frequencies (those with the axes clamped at the encoders); while the axes track, their peaks move down and flatten (docs/structure-model.md, \"Both ways\"). `--one-way-structure` shows the modes without their reaction.");
         }
         text.push('\n');
         println!("wrote {}", path.display());
