@@ -358,7 +358,7 @@ fn extra_sections(
             ));
         }
         if config.structure.is_some() && config.structure_feedback {
-            text.push_str(" The modes push back on the drives here: holding, the axes stand still and the modes ring on them a little below the documented frequencies (those with the axes clamped at the encoders); while the axes track, their peaks move down and flatten (docs/structure-model.md, \"Both ways\"). `--one-way-structure` shows the modes without their reaction.");
+            text.push_str(" The modes push back on the drives here: holding, the axes stand in static friction and the modes ring on them a little below the documented frequencies (those with the axes clamped at the encoders); while the axes track, sliding, the drives and their servos carry the modes, and the peaks move down and flatten (docs/structure-model.md, \"Both ways\"). `--one-way-structure` shows the modes without their reaction.");
         }
         text.push('\n');
         println!("wrote {}", path.display());
