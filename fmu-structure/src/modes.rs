@@ -100,9 +100,13 @@ impl Mode {
     /// structure twisting against the gear). A constant acceleration `a` of an axis with
     /// participation 1 therefore deflects the coordinate by `-a / w^2`, whatever the stiffness.
     pub fn inertial_load(&self, accelerations: &[f64; 2]) -> f64 {
+        -self.inertia() * (self.participation[0] * accelerations[0] + self.participation[1] * accelerations[1])
+    }
+
+    /// The modal mass `K / w^2`: the inertia of the mode's moving part per unit participation.
+    pub fn inertia(&self) -> f64 {
         let w = self.omega();
-        -self.stiffness / (w * w)
-            * (self.participation[0] * accelerations[0] + self.participation[1] * accelerations[1])
+        self.stiffness / (w * w)
     }
 
     /// The static deflection of the modal coordinate under constant loads.

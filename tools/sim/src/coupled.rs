@@ -323,6 +323,35 @@ impl Trace {
     }
 }
 
+/// The plants' parameters (azimuth, elevation) whose inertia the structure's modes carry when
+/// they push back on the drives: the part of each axis's load inertia a mode's body belongs to.
+pub const CARRIED_INERTIA_PARAMETERS: [&str; 2] = ["load.turning_head_inertia", "load.inertia"];
+
+/// Lowers a plant's load inertia `parameter` by the inertia the structure's modes carry
+/// (`modal_inertia.*`), in initialisation mode; nothing when they carry none. A mode at least
+/// as heavy as that part of its axis is an error: it could not push back on a drive.
+pub fn leave_out_carried_inertia(
+    plant: &mut Instance,
+    description: &ModelDescription,
+    parameter: &str,
+    carried: f64,
+) -> Result<(), ImportError> {
+    if carried <= 0.0 {
+        return Ok(());
+    }
+    let vr = description.vr(parameter)?;
+    let mut inertia = [0.0];
+    plant.get_real(&[vr], &mut inertia)?;
+    if carried >= inertia[0] {
+        return Err(ImportError::Description(format!(
+            "the structure's modes carry {carried:.4e} kg m^2 about the axis of {}, not less than its {parameter} = {:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)",
+            plant.name, inertia[0]
+        )));
+    }
+    plant.set_real(&[vr], &[inertia[0] - carried])?;
+    Ok(())
+}
+
 fn apply_overrides(
     instance: &mut Instance,
     description: &ModelDescription,
@@ -585,17 +614,8 @@ impl CoupledAntenna {
             instance.setup_experiment(start_time, None)?;
             apply_overrides(&mut instance, &fmu.description, overrides)?;
             instance.enter_initialization_mode()?;
-            if let Some((parameter, carried)) = carried.filter(|(_, carried)| *carried > 0.0) {
-                let vr = fmu.description.vr(parameter)?;
-                let mut inertia = [0.0];
-                instance.get_real(&[vr], &mut inertia)?;
-                if carried >= inertia[0] {
-                    return Err(ImportError::Description(format!(
-                            "the structure's modes carry {carried:.4e} kg m^2 about the axis of {name}, not less than its {parameter} = {:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)",
-                            inertia[0]
-                        )));
-                }
-                instance.set_real(&[vr], &[inertia[0] - carried])?;
+            if let Some((parameter, carried)) = carried {
+                leave_out_carried_inertia(&mut instance, &fmu.description, parameter, carried)?;
             }
             instance.exit_initialization_mode()?;
             Ok(instance)
@@ -640,13 +660,13 @@ impl CoupledAntenna {
                 &fmus.azimuth_plant,
                 "azimuth_plant",
                 &az_plant_overrides,
-                Some(("load.turning_head_inertia", carried[0])),
+                Some((CARRIED_INERTIA_PARAMETERS[0], carried[0])),
             )?,
             elevation_plant: make_carrying(
                 &fmus.elevation_plant,
                 "elevation_plant",
                 &el_plant_overrides,
-                Some(("load.inertia", carried[1])),
+                Some((CARRIED_INERTIA_PARAMETERS[1], carried[1])),
             )?,
             azimuth_controller: make(&fmus.azimuth_controller, "azimuth_controller", &az_ctrl_overrides)?,
             elevation_controller: make(&fmus.elevation_controller, "elevation_controller", &el_ctrl_overrides)?,
@@ -823,9 +843,6 @@ fn wind_loads(wind: &mut Instance, ports: &Ports, scale: f64) -> Result<([f64; L
 /// What the azimuth lane is given at a communication point once the wind's loads are known.
 struct AzimuthLoads {
     wind_torque_nm: f64,
-    /// The wind's torque about elevation, N m: the elevation plant's load when the structure
-    /// does not push back on the drives (then the lane does not hand it back).
-    wind_elevation_torque_nm: f64,
     /// The true elevation, deg (the azimuth load's inertia depends on it).
     elevation_deg: f64,
     /// The structure's inputs (`Ports::structure_in`; the first `len` are used).
@@ -833,7 +850,7 @@ struct AzimuthLoads {
 }
 
 /// The values of an [`AzimuthLoads`] and its time, in the order they cross between threads.
-const AZIMUTH_LOADS_WORDS: usize = 4 + STRUCTURE_INPUTS;
+const AZIMUTH_LOADS_WORDS: usize = 3 + STRUCTURE_INPUTS;
 
 impl AzimuthLoads {
     fn to_words(&self, t: f64) -> [f64; AZIMUTH_LOADS_WORDS] {
@@ -841,8 +858,7 @@ impl AzimuthLoads {
         words[0] = t;
         words[1] = self.wind_torque_nm;
         words[2] = self.elevation_deg;
-        words[3] = self.wind_elevation_torque_nm;
-        words[4..].copy_from_slice(&self.structure);
+        words[3..].copy_from_slice(&self.structure);
         words
     }
 
@@ -851,8 +867,7 @@ impl AzimuthLoads {
         let loads = AzimuthLoads {
             wind_torque_nm: words[1],
             elevation_deg: words[2],
-            wind_elevation_torque_nm: words[3],
-            structure: std::array::from_fn(|i| words[4 + i]),
+            structure: std::array::from_fn(|i| words[3 + i]),
         };
         (words[0], loads)
     }
@@ -929,13 +944,13 @@ impl AzimuthLane<'_> {
         Ok(controller)
     }
 
-    /// The structure's exchange once the loads are known: the beam's offsets at the point and
-    /// the torques on the drives' load side over the step (azimuth, elevation): the
-    /// structure's drive torques where its modes push back on the drives, else the wind's.
-    fn exchange_structure(&mut self, loads: &AzimuthLoads) -> Result<([f64; 4], [f64; 2]), ImportError> {
+    /// The structure's exchange once the loads are known: the beam's offsets at the point and,
+    /// where its modes push back on the drives, the torques it passes to their load side over
+    /// the step (azimuth, elevation); `None` leaves the drives the wind's torques.
+    fn exchange_structure(&mut self, loads: &AzimuthLoads) -> Result<([f64; 4], Option<[f64; 2]>), ImportError> {
         let p = self.ports;
         let mut beam = [0.0; 4];
-        let mut drive = [loads.wind_torque_nm, loads.wind_elevation_torque_nm];
+        let mut drive = None;
         if let Some(structure) = self.structure.as_deref_mut() {
             structure.set_real(&p.structure_in, &loads.structure[..p.structure_in.len()])?;
             let mut values = [0.0; 6];
@@ -943,7 +958,7 @@ impl AzimuthLane<'_> {
             structure.get_real(&p.structure_out, &mut values[..n])?;
             beam.copy_from_slice(&values[..4]);
             if p.structure_drive.is_some() {
-                drive = [values[4], values[5]];
+                drive = Some([values[4], values[5]]);
             }
         }
         Ok((beam, drive))
@@ -970,7 +985,8 @@ impl AzimuthLane<'_> {
         Ok(plant_next)
     }
 
-    /// A whole step on one lane, and the torque on the elevation load side over it.
+    /// A whole step on one lane, and the structure's torque on the elevation load side over
+    /// it where its modes push back on the drives.
     fn step(
         &mut self,
         t: f64,
@@ -978,11 +994,12 @@ impl AzimuthLane<'_> {
         command: [f64; 2],
         az: &[f64; 7],
         loads: &AzimuthLoads,
-    ) -> Result<(AzimuthLaneOutput, f64), ImportError> {
+    ) -> Result<(AzimuthLaneOutput, Option<f64>), ImportError> {
         let controller = self.control(t, h, command, az)?;
-        let (beam, [torque_az, torque_el]) = self.exchange_structure(loads)?;
+        let (beam, drive) = self.exchange_structure(loads)?;
+        let torque_az = drive.map_or(loads.wind_torque_nm, |[az, _]| az);
         let plant_next = self.drive(t, h, &controller, torque_az, loads.elevation_deg)?;
-        Ok((AzimuthLaneOutput { controller, beam, plant_next }, torque_el))
+        Ok((AzimuthLaneOutput { controller, beam, plant_next }, drive.map(|[_, el]| el)))
     }
 }
 
@@ -1097,12 +1114,7 @@ impl Master<'_, '_> {
         for (value, (_, source)) in structure.iter_mut().zip(&ports.structure_sources) {
             *value = sources[*source];
         }
-        AzimuthLoads {
-            wind_torque_nm: point.loads[0],
-            wind_elevation_torque_nm: point.loads[1],
-            elevation_deg: el[1],
-            structure,
-        }
+        AzimuthLoads { wind_torque_nm: point.loads[0], elevation_deg: el[1], structure }
     }
 
     fn elevation_command(point: &Point) -> [f64; 2] {
@@ -1159,8 +1171,9 @@ impl Master<'_, '_> {
                 let point = self.point(k, &az, &el, wind)?;
                 let command = Self::azimuth_command(&point.command);
                 let loads = Self::azimuth_loads(self.ports, &point, &az, &el);
-                let (a, torque_el) = azimuth.step(point.t, h, command, &az, &loads)?;
-                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, || Ok(torque_el), wind)?;
+                let (a, drive_el) = azimuth.step(point.t, h, command, &az, &loads)?;
+                let torque_el = || Ok(drive_el.unwrap_or(point.loads[1]));
+                let e = elevation.step(point.t, h, Self::elevation_command(&point), &el, torque_el, wind)?;
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
                 done = k + 1;
@@ -1224,15 +1237,16 @@ impl Master<'_, '_> {
                     let next_command = if k + 1 < steps { table.at(time(k + 1)) } else { Command::default() };
                     let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
                     let (t, loads) = AzimuthLoads::from_words(&words);
-                    let (beam, [torque_az, torque_el]) = match azimuth.exchange_structure(&loads) {
+                    let (beam, drive) = match azimuth.exchange_structure(&loads) {
                         Ok(exchanged) => exchanged,
                         // The master waits for the elevation torque first where it needs it.
                         Err(error) if feedback => return elevation_torque.send_failure(error),
                         Err(error) => return from_azimuth.send_failure(error),
                     };
-                    if feedback {
+                    if let Some([_, torque_el]) = drive {
                         elevation_torque.send(&[torque_el]);
                     }
+                    let torque_az = drive.map_or(loads.wind_torque_nm, |[az, _]| az);
                     match azimuth.drive(t, h, &controller, torque_az, loads.elevation_deg) {
                         Ok(plant_next) => {
                             let output = AzimuthLaneOutput { controller, beam, plant_next };

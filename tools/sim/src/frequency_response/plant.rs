@@ -36,6 +36,7 @@ use antenna_dsp::{Complex64, ResponseComparison};
 use antenna_plot::{measured_against_model, Figure, Panel};
 
 use super::{read_real, welch_h1, Axis, FlankWatch, IdentificationError, MeasuredResponse};
+use crate::coupled::{leave_out_carried_inertia, CARRIED_INERTIA_PARAMETERS};
 
 /// The experiment. [`IdentificationConfig::paper`] gives the settings of the figures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -541,21 +542,13 @@ fn initialised_plant(fmu: &Fmu, config: &IdentificationConfig, carried: f64) -> 
     let mut instance = fmu.instantiate(&format!("{}-identification", config.axis.name()), false)?;
     instance.setup_experiment(0.0, None)?;
     instance.enter_initialization_mode()?;
-    if carried > 0.0 {
-        // The structure's mode carries this much of the load: the plant keeps the rest, of the
-        // part the antenna master takes it from.
-        let name = match config.axis {
-            Axis::Azimuth => "load.turning_head_inertia",
-            Axis::Elevation => "load.inertia",
-        };
-        let inertia = read_real(fmu, &mut instance, name)?;
-        if carried >= inertia {
-            return Err(IdentificationError::ModelMismatch(format!(
-                "the structure's mode carries {carried:.4e} kg m^2, not less than {name} = {inertia:.4e} kg m^2"
-            )));
-        }
-        instance.set_real(&[md.vr(name)?], &[inertia - carried])?;
-    }
+    // The structure's mode carries this much of the load: the plant keeps the rest, of the part
+    // the antenna master takes it from.
+    let parameter = match config.axis {
+        Axis::Azimuth => CARRIED_INERTIA_PARAMETERS[0],
+        Axis::Elevation => CARRIED_INERTIA_PARAMETERS[1],
+    };
+    leave_out_carried_inertia(&mut instance, md, parameter, carried)?;
     if config.linear_configuration {
         instance.set_boolean(&[md.vr("linear_configuration")?], &[true])?;
     }
