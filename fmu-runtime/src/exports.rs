@@ -316,16 +316,19 @@ fn log_notes_slow(instance: &Instance, notes: Notes) -> Status {
 #[inline]
 fn ensure_initialized(instance: &mut Instance, vrs: &[u32]) -> Result<Status, String> {
     // The common case, nothing pending, decided without a call.
-    if !instance.inputs_changed && !instance.needs_initialize {
+    if instance.stale_feedthrough == 0 && !instance.needs_initialize {
         return Ok(Status::Ok);
     }
     ensure_initialized_slow(instance, vrs)
 }
 
 fn ensure_initialized_slow(instance: &mut Instance, vrs: &[u32]) -> Result<Status, String> {
-    if instance.inputs_changed && instance.phase == Phase::StepComplete && instance.model.reads_feedthrough(vrs) {
-        instance.model.update_feedthrough();
-        instance.inputs_changed = false;
+    if instance.stale_feedthrough != 0 && instance.phase == Phase::StepComplete {
+        let groups = instance.stale_feedthrough & instance.model.feedthrough_groups_read(vrs);
+        if groups != 0 {
+            instance.model.update_feedthrough(groups);
+            instance.stale_feedthrough &= !groups;
+        }
     }
     if instance.needs_initialize && instance.phase == Phase::InitializationMode {
         let mut notes = Notes::new(instance.category_enabled(CAT_EVENTS));
@@ -517,8 +520,8 @@ pub unsafe fn instantiate(
             last_successful_time: 0.0,
             last_step_status: Status::Ok,
             needs_initialize: true,
-            inputs_changed: false,
-            feedthrough: model.has_feedthrough(),
+            stale_feedthrough: 0,
+            feedthrough_groups: model.feedthrough_groups(),
             step_notes: Notes::default(),
             context,
             model,
@@ -661,7 +664,7 @@ pub unsafe fn reset(c: fmi2Component) -> fmi2Status {
         instance.last_successful_time = 0.0;
         instance.last_step_status = Status::Ok;
         instance.needs_initialize = true;
-        instance.inputs_changed = false;
+        instance.stale_feedthrough = 0;
         Ok(Status::Ok)
     })
 }
@@ -685,10 +688,9 @@ pub unsafe fn get_real(c: fmi2Component, vr: *const fmi2ValueReference, n: usize
         // The feedthrough part of `ensure_initialized` is done by the model's get, which looks
         // at each reference anyway (the hottest get: no second pass over them).
         let status = if instance.needs_initialize { ensure_initialized(instance, &[])? } else { Status::Ok };
-        let refresh = instance.inputs_changed && instance.phase == Phase::StepComplete;
-        if instance.model.get_real(vrs, out, refresh)? {
-            instance.inputs_changed = false;
-        }
+        let stale = if instance.phase == Phase::StepComplete { instance.stale_feedthrough } else { 0 };
+        let refreshed = instance.model.get_real(vrs, out, stale)?;
+        instance.stale_feedthrough &= !refreshed;
         Ok(status)
     })
 }
@@ -778,7 +780,7 @@ fn mark_changed(instance: &mut Instance) {
     if matches!(instance.phase, Phase::Instantiated | Phase::InitializationMode) {
         instance.needs_initialize = true;
     } else {
-        instance.inputs_changed = instance.feedthrough;
+        instance.stale_feedthrough = instance.feedthrough_groups;
     }
 }
 
@@ -1131,7 +1133,7 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
             Ok(()) => {
                 // Feedthrough outputs are brought up to date lazily, before the next get that
                 // reads one of them.
-                instance.inputs_changed = instance.feedthrough;
+                instance.stale_feedthrough = instance.feedthrough_groups;
                 instance.time = current + step;
                 instance.last_successful_time = instance.time;
                 let status = if instance.step_notes.is_empty() { Status::Ok } else { log_step_notes(instance) };

@@ -221,6 +221,8 @@ declare_variables! {
         PanicOnStep = Var::boolean("panic_on_step").parameter().tunable().start_boolean(false).description("Panics in the next step (tests panic capture)."),
         ParameterFile = Var::string("parameter_file").parameter().start_string("").description("Parameter file to load."),
         Count = Var::integer("count").parameter().start_integer(3).range_integer(0, 10).description("An integer parameter."),
+        Square = Var::real("u_squared", "1").output().depends_on(&[TestVar::Input as u32]).description("The input squared: a feedthrough output of a second group."),
+        SquareUpdates = Var::real("u_squared_updates", "1").output().description("How many times the square's group was brought up to date."),
     }
 }
 
@@ -281,7 +283,22 @@ impl Model for TestModel {
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<TestVar>) {
-        values.set_real(TestVar::Feedthrough, values.real(TestVar::Input));
+        self.update_feedthrough_groups(values, u32::MAX);
+    }
+
+    fn feedthrough_group(var: TestVar) -> u32 {
+        u32::from(var == TestVar::Square)
+    }
+
+    fn update_feedthrough_groups(&mut self, values: &mut Values<TestVar>, groups: u32) {
+        let u = values.real(TestVar::Input);
+        if groups & 1 != 0 {
+            values.set_real(TestVar::Feedthrough, u);
+        }
+        if groups & 2 != 0 {
+            values.set_real(TestVar::Square, u * u);
+            values.set_real(TestVar::SquareUpdates, values.real(TestVar::SquareUpdates) + 1.0);
+        }
     }
 
     fn check_real(var: TestVar, value: f64, _values: &Values<TestVar>) -> Result<(), String> {
@@ -722,7 +739,7 @@ fn a_string_parameter_can_load_values_atomically() {
     // Nothing of the failed file landed: restore is by recreating from the state machine's view.
     let instance = instance_from(m.c).unwrap();
     let mut out = [0.0];
-    instance.model.get_real(&[TestVar::Gain as u32], &mut out, false).unwrap();
+    instance.model.get_real(&[TestVar::Gain as u32], &mut out, 0).unwrap();
     assert_eq!(out[0], 2.0);
 }
 
@@ -767,6 +784,34 @@ fn a_feedthrough_update_waits_through_gets_of_other_outputs_for_the_get_that_rea
     m.set(U, -3.0);
     assert_eq!(m.get(Y), 0.0);
     assert_eq!(m.get(TestVar::Feedthrough as u32), -3.0);
+}
+
+#[test]
+fn a_get_brings_up_to_date_only_the_feedthrough_groups_it_reads_and_leaves_the_others_pending() {
+    let m = Master::initialized();
+    assert_eq!(do_step(m.c, 0.0, 0.1, 0), fmi2OK);
+    let (echo, square, updates) = (TestVar::Feedthrough as u32, TestVar::Square as u32, TestVar::SquareUpdates as u32);
+    m.set(U, 3.0);
+    let before = m.get(updates);
+    // The echo's group alone: the square's is not computed.
+    assert_eq!(m.get(echo), 3.0);
+    assert_eq!(m.get(updates), before);
+    // Still pending, not lost: the square follows the input set before the echo was read.
+    assert_eq!(m.get(square), 9.0);
+    assert_eq!(m.get(updates), before + 1.0);
+    // Up to date now: a second read computes nothing.
+    assert_eq!(m.get(square), 9.0);
+    assert_eq!(m.get(updates), before + 1.0);
+    // A new input marks both groups again; each is brought up to date by its own read.
+    m.set(U, -4.0);
+    assert_eq!(m.get(square), 16.0);
+    assert_eq!(m.get(echo), -4.0);
+    // A step marks them too.
+    assert_eq!(do_step(m.c, 0.1, 0.1, 0), fmi2OK);
+    m.set(U, 5.0);
+    let mut both = [0.0; 2];
+    assert_eq!(get_real(m.c, [echo, square].as_ptr(), 2, both.as_mut_ptr()), fmi2OK);
+    assert_eq!(both, [5.0, 25.0]);
 }
 
 #[test]

@@ -27,9 +27,10 @@ pub trait DynModel: Send {
     fn model_identifier(&self) -> &'static str;
     fn guid(&self) -> &str;
     fn get(&self, vr: u32, ty: BaseType) -> Result<&'static Var, String>;
-    /// Reads Reals. With `refresh`, the outputs with direct feedthrough are brought up to date
-    /// first if any of `vrs` is one of them; returns whether that happened.
-    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], refresh: bool) -> Result<bool, String>;
+    /// Reads Reals. The feedthrough groups in `stale` (bit `g` for group `g`, see
+    /// [`Model::feedthrough_group`]) are brought up to date first where one of `vrs` is an output
+    /// of them; returns the groups that were.
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], stale: u32) -> Result<u32, String>;
     fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), String>;
     fn get_boolean(&self, vrs: &[u32], out: &mut [bool]) -> Result<(), String>;
     fn get_string(&self, vrs: &[u32]) -> Result<Vec<String>, String>;
@@ -44,11 +45,12 @@ pub trait DynModel: Send {
         context: &Context,
     ) -> Result<(), String>;
     fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String>;
-    fn update_feedthrough(&mut self);
-    /// Whether any output depends directly on an input.
-    fn has_feedthrough(&self) -> bool;
-    /// Whether any of `vrs` is an output with direct feedthrough (unknown references are not).
-    fn reads_feedthrough(&self, vrs: &[u32]) -> bool;
+    /// Brings the feedthrough outputs of `groups` up to date.
+    fn update_feedthrough(&mut self, groups: u32);
+    /// The feedthrough groups of the model's outputs (0: no output depends directly on an input).
+    fn feedthrough_groups(&self) -> u32;
+    /// The feedthrough groups that `vrs` read (unknown references read none).
+    fn feedthrough_groups_read(&self, vrs: &[u32]) -> u32;
     /// Advances the model; a step whose values would come out NaN or infinite is undone and
     /// refused. A step that would take more than `max_pieces` internal pieces
     /// ([`Model::step_pieces`]) is refused before anything changes (one call for both, as
@@ -110,22 +112,32 @@ impl Access {
     }
 }
 
-/// Marks an output with direct feedthrough in [`real_read`]'s entries.
-const FEEDTHROUGH_BIT: u32 = 1 << 31;
+/// The storage slot's part of a [`real_read`] entry; the bits above it are the feedthrough
+/// group of an output with direct feedthrough (bit `16 + g` for group `g`).
+const SLOT_BITS: u32 = 0xFFFF;
+/// Where the feedthrough group bits of a [`real_read`] entry start.
+const GROUP_SHIFT: u32 = 16;
 /// [`real_read`]'s entry for a variable that is not a Real: no slot of [`Values`] is this high.
-const NOT_A_REAL: u32 = !FEEDTHROUGH_BIT;
+const NOT_A_REAL: u32 = SLOT_BITS;
 
 /// What fmi2GetReal needs of value reference `index`, in one number, so that the hottest loop
 /// of a coupled simulation does one load per value: for a Real, its storage slot in [`Values`]
-/// with [`FEEDTHROUGH_BIT`] set if it is an output with direct feedthrough; otherwise
-/// [`NOT_A_REAL`], which as a slot is out of bounds. Derived from the declaration, as [`Access`].
-fn real_read<V: VariableSet>(index: usize) -> u32 {
-    let var = &V::TABLE[index];
+/// with the bit of its feedthrough group set above [`GROUP_SHIFT`] if it is an output with
+/// direct feedthrough; otherwise [`NOT_A_REAL`], which as a slot is out of bounds. Derived from
+/// the declaration and [`Model::feedthrough_group`], as [`Access`].
+fn real_read<M: Model>(index: usize) -> u32 {
+    let var = &M::Var::TABLE[index];
     if var.base_type() != BaseType::Real {
         return NOT_A_REAL;
     }
-    let feedthrough = if var.depends_on.is_empty() { 0 } else { FEEDTHROUGH_BIT };
-    u32::from(V::SLOTS[index]) | feedthrough
+    let slot = u32::from(M::Var::SLOTS[index]);
+    assert!(slot < NOT_A_REAL, "more Real variables than a get's entries can number");
+    let group = match M::Var::from_index(index) {
+        Some(v) if !var.depends_on.is_empty() => M::feedthrough_group(v),
+        _ => return slot,
+    };
+    assert!(group < 32 - GROUP_SHIFT, "{}: feedthrough group {group} is not below 16", var.name);
+    slot | 1 << (GROUP_SHIFT + group)
 }
 
 /// A model with its values; implements [`DynModel`] for any [`Model`].
@@ -137,8 +149,8 @@ pub struct ModelSlot<M: Model> {
     access: Vec<Access>,
     /// One entry per value reference, for fmi2GetReal ([`real_read`]).
     real_reads: Vec<u32>,
-    /// Whether any output depends directly on an input (from the table, computed once).
-    feedthrough: bool,
+    /// The feedthrough groups of the model's outputs (from the table, computed once).
+    feedthrough_groups: u32,
     /// The values before the step in progress, to undo a step whose results are not finite
     /// (kept between steps so that taking the copy does not allocate).
     before_step: Values<M::Var>,
@@ -156,8 +168,8 @@ impl<M: Model> ModelSlot<M> {
         let values = Values::<M::Var>::at_start();
         let model = M::new(&values, context)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
-        let real_reads = (0..M::Var::TABLE.len()).map(real_read::<M::Var>).collect();
-        let feedthrough = M::Var::TABLE.iter().any(|v| !v.depends_on.is_empty());
+        let real_reads: Vec<u32> = (0..M::Var::TABLE.len()).map(real_read::<M>).collect();
+        let feedthrough_groups = real_reads.iter().fold(0, |groups, read| groups | read >> GROUP_SHIFT);
         let before_step = values.clone();
         let written = WrittenIndices::of(M::Var::TABLE);
         Ok(ModelSlot {
@@ -166,7 +178,7 @@ impl<M: Model> ModelSlot<M> {
             guid,
             access,
             real_reads,
-            feedthrough,
+            feedthrough_groups,
             before_step,
             written,
             model_before_step: None,
@@ -276,26 +288,26 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Self::lookup(vr, ty).map(|(_, v)| v)
     }
 
-    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], refresh: bool) -> Result<bool, String> {
-        // Copy while checking every reference (and noting whether one is a feedthrough
-        // output); if one is and the inputs changed, bring the feedthrough outputs up to date
-        // and copy again: no value is read stale. One pass for the common get, which reads no
-        // pending feedthrough output (a master's get after each step is such a get whenever it
-        // reads none: after a step of a model with feedthrough, `refresh` is always set). A
-        // refused call may have written part of `out`, which the master must not read after
-        // fmi2Error anyway; the instance is unchanged.
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], stale: u32) -> Result<u32, String> {
+        // Copy while checking every reference (and noting the feedthrough groups read); if a
+        // group read is stale (its inputs changed), bring that group up to date and copy again:
+        // no value is read stale. One pass for the common get, which reads no stale group (a
+        // master's get after each step is such a get whenever it reads no feedthrough output:
+        // after a step of a model with feedthrough, every group is stale). A refused call may
+        // have written part of `out`, which the master must not read after fmi2Error anyway;
+        // the instance is unchanged.
         let mut reads = 0;
         for (slot, &vr) in out.iter_mut().zip(vrs) {
             let read = self.real_reads.get(vr as usize).copied().unwrap_or(NOT_A_REAL);
             reads |= read;
-            match self.values.reals_by_slot().get((read & !FEEDTHROUGH_BIT) as usize) {
+            match self.values.reals_by_slot().get((read & SLOT_BITS) as usize) {
                 Some(&value) => *slot = value,
                 None => return Err(Self::not_a_real(vr)),
             }
         }
-        let refreshed = refresh && reads & FEEDTHROUGH_BIT != 0;
-        if refreshed {
-            self.model.update_feedthrough(&mut self.values);
+        let refreshed = stale & reads >> GROUP_SHIFT;
+        if refreshed != 0 {
+            self.model.update_feedthrough_groups(&mut self.values, refreshed);
             for (slot, &vr) in out.iter_mut().zip(vrs) {
                 *slot = self.values.real_at(vr as usize);
             }
@@ -414,16 +426,17 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Err(format!("initialisation gives {name} = {value}: the parameters do not describe a model that can run"))
     }
 
-    fn update_feedthrough(&mut self) {
-        self.model.update_feedthrough(&mut self.values);
+    fn update_feedthrough(&mut self, groups: u32) {
+        self.model.update_feedthrough_groups(&mut self.values, groups);
     }
 
-    fn has_feedthrough(&self) -> bool {
-        self.feedthrough
+    fn feedthrough_groups(&self) -> u32 {
+        self.feedthrough_groups
     }
 
-    fn reads_feedthrough(&self, vrs: &[u32]) -> bool {
-        vrs.iter().any(|&vr| self.real_reads.get(vr as usize).is_some_and(|&read| read & FEEDTHROUGH_BIT != 0))
+    fn feedthrough_groups_read(&self, vrs: &[u32]) -> u32 {
+        vrs.iter()
+            .fold(0, |groups, &vr| groups | self.real_reads.get(vr as usize).map_or(0, |read| read >> GROUP_SHIFT))
     }
 
     fn do_step(
@@ -581,13 +594,14 @@ pub struct Instance {
     pub last_step_status: Status,
     /// Parameters changed since the model last initialised: recompute before reading outputs.
     pub needs_initialize: bool,
-    /// Inputs changed since the last step (or the step moved what they act on): outputs with
-    /// direct feedthrough are recomputed before the next get that reads one of them. Only
-    /// ever set for a model that has such outputs.
-    pub inputs_changed: bool,
-    /// Whether the model has outputs with direct feedthrough (`DynModel::has_feedthrough`,
-    /// kept here because every set and step asks).
-    pub feedthrough: bool,
+    /// The feedthrough groups whose inputs changed since they were last brought up to date
+    /// (a set of inputs, or a step that moved what they act on mark every group): a group's
+    /// outputs are recomputed before the next get that reads one of them. Only ever non-zero
+    /// for a model that has such outputs.
+    pub stale_feedthrough: u32,
+    /// The feedthrough groups of the model's outputs (`DynModel::feedthrough_groups`, kept
+    /// here because every set and step asks; 0 for a model without feedthrough).
+    pub feedthrough_groups: u32,
     /// What the model notes during a step, empty between calls (kept here so that a step
     /// neither builds nor drops one).
     pub step_notes: Notes,
@@ -658,7 +672,7 @@ impl Instance {
         self.last_successful_time = header.last_successful_time;
         self.needs_initialize = header.needs_initialize;
         // Feedthrough outputs are recomputed from the restored inputs on the next get.
-        self.inputs_changed = true;
+        self.stale_feedthrough = self.feedthrough_groups;
         Ok(())
     }
 

@@ -134,6 +134,21 @@ pub trait Model: Sized + Send + 'static {
     /// direct feedthrough keep the default.
     fn update_feedthrough(&mut self, _values: &mut Values<Self::Var>) {}
 
+    /// The group (0 to 15) of an output with direct feedthrough. A get brings up to date only
+    /// the groups of the outputs it reads ([`Model::update_feedthrough_groups`]), so that a
+    /// master that reads some of a model's feedthrough outputs at every step does not pay for
+    /// the others. Models keep the default, one group, unless their feedthrough outputs fall
+    /// into parts that cost something apart.
+    fn feedthrough_group(_var: Self::Var) -> u32 {
+        0
+    }
+
+    /// Recomputes the feedthrough outputs of `groups` (bit `g` for group `g`); it may compute
+    /// more. The default recomputes them all ([`Model::update_feedthrough`]).
+    fn update_feedthrough_groups(&mut self, values: &mut Values<Self::Var>, _groups: u32) {
+        self.update_feedthrough(values);
+    }
+
     /// Extra checks on a Real value a master wants to set, beyond range and finiteness.
     fn check_real(_var: Self::Var, _value: f64, _values: &Values<Self::Var>) -> Result<(), String> {
         Ok(())
