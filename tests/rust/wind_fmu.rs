@@ -1020,6 +1020,34 @@ fn a_new_pointing_changes_the_torque_without_a_step() {
     assert!(gusts.windows(2).all(|w| w[0] == w[1]), "setting the pointing moved the gust");
 }
 
+#[test]
+fn the_dish_forces_read_after_the_torques_follow_a_new_pointing_as_when_read_alone() {
+    // The forces are brought up to date apart from the torques (their own feedthrough group):
+    // a get of the torques must leave them pending, not stale.
+    let fmu = open("Wind");
+    let forces = ["force.drag", "force.lift", "force.axial", "force.lateral", "force.side", "coefficient.drag"];
+    let mut read = |torques_first: bool| {
+        let mut instance =
+            wind(&fmu, "forces", &[("wind.mean_speed", 9.5), ("wind.direction", 135.0)], &[("seed", 9)]).unwrap();
+        let mut rows = Vec::new();
+        for (step, (azimuth, elevation)) in
+            [(0.0, 0.0), (180.0, 30.0), (45.0, 60.0), (100.0, 15.0)].into_iter().enumerate()
+        {
+            instance.do_step(step as f64 * 0.5, 0.5).unwrap();
+            set_reals(&fmu, &mut instance, &[("antenna.azimuth", azimuth), ("antenna.elevation", elevation)]);
+            if torques_first {
+                reals(&fmu, &mut instance, &["torque.azimuth", "torque.elevation"]).unwrap();
+            }
+            rows.push(reals(&fmu, &mut instance, &forces).unwrap());
+        }
+        rows
+    };
+    let (after_torques, alone) = (read(true), read(false));
+    println!("forces after the torques: {after_torques:?}");
+    assert_eq!(after_torques, alone);
+    assert!(alone.windows(2).all(|w| w[0][2] != w[1][2]), "the pointings change the axial force");
+}
+
 // ---------------------------------------------------------------------------------------------
 // The coherent configuration (`wind.admittance = 0`) against the FMU before the admittance.
 
