@@ -10,6 +10,7 @@
 //! Welch estimate and the bin-by-bin comparison with the model.
 
 pub mod plant;
+pub mod structure_loop;
 pub mod velocity_loop;
 
 use antenna_dsp::{transfer_function_h1, Complex64, Detrend, DspError, ResponseComparison, WelchConfig};
