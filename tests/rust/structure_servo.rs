@@ -15,7 +15,7 @@
 use std::f64::consts::TAU;
 
 use antenna_dsp::{transfer_function_h1, TransferEstimate, WelchConfig};
-use antenna_sim::frequency_response::structure_loop::AxisWithMode;
+use antenna_sim::frequency_response::structure_loop::{figure, AxisWithMode};
 use antenna_sim::frequency_response::Axis;
 use antenna_sim::scenario::{normal_wind, tracking_table};
 use antenna_sim::{AntennaConfig, Configuration, CoupledAntenna, FmuSet, ParameterValue, Trace};
@@ -233,6 +233,17 @@ fn spectral_peak(estimate: &TransferEstimate, response: impl Fn(f64) -> C64) -> 
     (estimate.frequency_hz[peak], spectrum(peak) / spectrum(reference))
 }
 
+/// The models against the run, for docs/figures/structure-servo-45deg.png, into `out/`.
+fn write_figure(drawn: &[(AxisWithMode, Vec<f64>, Vec<C64>)]) {
+    let directory = antenna_fmus::workspace_root().join("out");
+    std::fs::create_dir_all(&directory).unwrap();
+    let path = directory.join("structure-servo-45deg.png");
+    let axes: Vec<_> = drawn.iter().map(|(model, f, h)| (model, Some((f.as_slice(), h.as_slice())))).collect();
+    let title = "The structural mode under the servo: wind torque to beam pointing, holding at 45 deg";
+    figure(title, &axes, 1.0, 12.0).save_png(&path).unwrap();
+    println!("wrote {}", path.display());
+}
+
 #[test]
 fn with_friction_zeroed_a_held_axis_loads_the_structural_mode_as_the_linear_servo_model_predicts() {
     let started = std::time::Instant::now();
@@ -242,6 +253,7 @@ fn with_friction_zeroed_a_held_axis_loads_the_structural_mode_as_the_linear_serv
     println!("coupled antenna, friction zeroed, hold at {ELEVATION_DEG} deg in normal wind: {SIMULATED_S} s simulated in {simulated:.1?}");
     println!("| axis | case | peak (Hz) | pole (Hz) | damping (pole) | damping (half power) | peak height / clamped |");
     println!("|---|---|---|---|---|---|---|");
+    let mut drawn = Vec::new();
     for axis in Axis::BOTH {
         let model = AxisWithMode::shipped(axis, ELEVATION_DEG);
         let free = model.free_resonance(3.0, 9.0);
@@ -260,6 +272,7 @@ fn with_friction_zeroed_a_held_axis_loads_the_structural_mode_as_the_linear_serv
         }
         let estimate = measured_response(&trace, axis, config.step_s);
         let figures = compare(&estimate, &model);
+        drawn.push((model.clone(), estimate.frequency_hz.clone(), estimate.h1.clone()));
         for (case, fit) in
             [("model, free, fitted on the bins", &figures.model), ("simulated, fitted", &figures.measured)]
         {
@@ -322,5 +335,6 @@ fn with_friction_zeroed_a_held_axis_loads_the_structural_mode_as_the_linear_serv
             figures.rms_log_error_free
         );
     }
+    write_figure(&drawn);
     println!("test time {:.1?}", started.elapsed());
 }

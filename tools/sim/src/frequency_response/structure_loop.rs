@@ -34,6 +34,7 @@
 
 use std::f64::consts::TAU;
 
+use antenna_plot::{Figure, Panel};
 use fmu_controller::linear::{PositionLoopModel, C64};
 use fmu_controller::{AzimuthController, AzimuthControllerParams, ElevationController, ElevationControllerParams};
 use fmu_plant::analytic::{current_loop_response, TwoMassParameters};
@@ -245,6 +246,45 @@ impl AxisWithMode {
     pub fn clamped_resonance(&self, low_hz: f64, high_hz: f64) -> Resonance {
         resonance(|w| self.beam_per_wind_torque_clamped(w), low_hz, high_hz)
     }
+}
+
+/// Arcseconds per radian.
+const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+
+/// A simulated frequency response: bin frequencies (Hz) and values (rad per N m).
+pub type SimulatedResponse<'a> = (&'a [f64], &'a [C64]);
+
+/// One panel per axis: the magnitude of the beam's pointing per wind torque (arcsec per kN m)
+/// from `low_hz` to `high_hz`, the free axis's model, the clamped mode's, and where given a
+/// simulated estimate as markers.
+pub fn figure(title: &str, axes: &[(&AxisWithMode, Option<SimulatedResponse>)], low_hz: f64, high_hz: f64) -> Figure {
+    let points = 600;
+    let grid: Vec<f64> = (0..=points).map(|k| low_hz * (high_hz / low_hz).powf(k as f64 / points as f64)).collect();
+    let scale = ARCSEC_PER_RAD * 1e3;
+    let mut figure = Figure::new(1000, 400 * axes.len() as u32).title(title);
+    for (model, simulated) in axes {
+        let free: Vec<f64> = grid.iter().map(|f| scale * model.beam_per_wind_torque_free(TAU * f).norm()).collect();
+        let clamped: Vec<f64> =
+            grid.iter().map(|f| scale * model.beam_per_wind_torque_clamped(TAU * f).norm()).collect();
+        let mut panel = Panel::new(&format!("{} at {} deg", model.axis.name(), model.elevation_deg))
+            .x_label("Frequency (Hz)")
+            .y_label("|beam pointing / wind torque| (arcsec per kN m)")
+            .log_y();
+        if let Some((frequency_hz, response)) = simulated {
+            let keep: Vec<usize> =
+                (0..frequency_hz.len()).filter(|&k| (low_hz..=high_hz).contains(&frequency_hz[k])).collect();
+            let f: Vec<f64> = keep.iter().map(|&k| frequency_hz[k]).collect();
+            let h: Vec<f64> = keep.iter().map(|&k| scale * response[k].norm()).collect();
+            panel = panel.markers("coupled antenna, friction zeroed (H1)", &f, &h);
+        }
+        panel = panel.line("linear model, axis free (servo closed, no friction)", &grid, &free).dashed(
+            "the mode on a fixed base (axis clamped)",
+            &grid,
+            &clamped,
+        );
+        figure = figure.panel(panel);
+    }
+    figure
 }
 
 /// The resonance of `response` (a function of omega, rad/s) between `low_hz` and `high_hz`:
