@@ -234,14 +234,23 @@ impl WindModel {
         }
     }
 
+    /// What the loads are computed from: the mean speed and the load gust (m/s), the wind's
+    /// direction and the antenna's azimuth and elevation (deg).
+    fn load_inputs(&self, values: &Values<WindVar>) -> [f64; 5] {
+        [
+            values.real(WindVar::MeanSpeed),
+            self.load_gust(),
+            values.real(WindVar::Direction),
+            values.real(WindVar::Azimuth),
+            values.real(WindVar::Elevation),
+        ]
+    }
+
     /// The torques, their coefficients and the yaw: the outputs that depend on the pointing
     /// inputs (direct feedthrough) that every coupled master reads ([`TORQUE_GROUP`]).
     fn write_torques(&self, values: &mut Values<WindVar>) {
         let Some(torque) = &self.torque else { return };
-        let v_mean = values.real(WindVar::MeanSpeed);
-        let gust = self.load_gust();
-        let (direction, azimuth, elevation) =
-            (values.real(WindVar::Direction), values.real(WindVar::Azimuth), values.real(WindVar::Elevation));
+        let [v_mean, gust, direction, azimuth, elevation] = self.load_inputs(values);
         let t = torque.torques(v_mean, gust, direction, azimuth, elevation);
         values.set_real(WindVar::AzTorque, t.azimuth());
         values.set_real(WindVar::AzTorqueMean, t.azimuth_mean);
@@ -259,10 +268,7 @@ impl WindModel {
     /// them, and their two `sincos` and thirteen outputs were about a tenth of the unit's step.
     fn write_forces(&self, values: &mut Values<WindVar>) {
         let Some(torque) = &self.torque else { return };
-        let v_mean = values.real(WindVar::MeanSpeed);
-        let gust = self.load_gust();
-        let (direction, azimuth, elevation) =
-            (values.real(WindVar::Direction), values.real(WindVar::Azimuth), values.real(WindVar::Elevation));
+        let [v_mean, gust, direction, azimuth, elevation] = self.load_inputs(values);
         let f = torque.forces(v_mean, gust, direction, azimuth, elevation);
         values.set_real(WindVar::Drag, f.drag());
         values.set_real(WindVar::DragMean, f.drag_mean);
