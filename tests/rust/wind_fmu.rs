@@ -1026,7 +1026,7 @@ fn the_dish_forces_read_after_the_torques_follow_a_new_pointing_as_when_read_alo
     // a get of the torques must leave them pending, not stale.
     let fmu = open("Wind");
     let forces = ["force.drag", "force.lift", "force.axial", "force.lateral", "force.side", "coefficient.drag"];
-    let mut read = |torques_first: bool| {
+    let read = |torques_first: bool| {
         let mut instance =
             wind(&fmu, "forces", &[("wind.mean_speed", 9.5), ("wind.direction", 135.0)], &[("seed", 9)]).unwrap();
         let mut rows = Vec::new();
