@@ -127,11 +127,11 @@ pub trait Model: Sized + Send + 'static {
         (0.0, "")
     }
 
-    /// Recomputes the outputs that depend directly on inputs (those declared with
+    /// Recomputes all the outputs that depend directly on inputs (those declared with
     /// `depends_on`) so that a get sees the current inputs as the standard requires. The
-    /// runtime calls it before the first get after a set of inputs and after every step of a
-    /// model that declares such outputs, so `do_step` need not compute them. Models without
-    /// direct feedthrough keep the default.
+    /// runtime calls it, through [`Model::update_feedthrough_groups`], before the first get that
+    /// reads one of them after a set of inputs or a step, so `do_step` need not compute them.
+    /// Models without direct feedthrough keep the default.
     fn update_feedthrough(&mut self, _values: &mut Values<Self::Var>) {}
 
     /// The group (0 to 15) of an output with direct feedthrough. A get brings up to date only

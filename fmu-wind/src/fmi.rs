@@ -350,8 +350,7 @@ impl Model for WindModel {
         self.torque = Some(torque);
         self.kappa = kappa;
         self.write_gust(values);
-        self.write_torques(values);
-        self.write_forces(values);
+        self.update_feedthrough(values);
         Self::check_outputs_finite(values)
     }
 
