@@ -60,10 +60,42 @@ impl ModeStep {
     }
 }
 
+/// The width of the elevation cells over which a mode that changes with elevation is held at its
+/// cell centre's frequency, deg: the plants' default parameter grid (`numerics.parameter_grid_cell`),
+/// so that the inertia a mode carries and the rest that the azimuth plant keeps are taken at the
+/// same elevation. Each new cell costs one discretisation of the modes (a matrix exponential);
+/// within a cell the frequency moves by at most 0.2 % between the horizon and the zenith of the
+/// shipped ranges.
+pub const ELEVATION_CELL_DEG: f64 = 0.25;
+
+/// The elevation cell holding an elevation.
+fn elevation_cell(elevation_deg: f64) -> i64 {
+    (elevation_deg / ELEVATION_CELL_DEG).floor() as i64
+}
+
+/// The modes as read and the cells they were last evaluated in, for a structure with a mode
+/// that changes with elevation.
+#[derive(Debug, Clone)]
+struct ElevationCells {
+    /// The modes as read (zenith and horizon frequencies).
+    read: Vec<Mode>,
+    /// The cell that the structure's modes and discretisation are for.
+    cell: i64,
+    /// The cell before it, with its modes and discretisation, kept because an axis held near a
+    /// cell boundary crosses it back and forth.
+    other: Option<(i64, Vec<Mode>, StepCache)>,
+}
+
+/// The discretisation of the modes for one step size (its bits), if computed.
+type StepCache = Option<(u64, Vec<ModeStep>)>;
+
 /// The modes and their coordinates and velocities.
 #[derive(Debug, Clone)]
 pub struct ModalStructure {
+    /// The modes at the current elevation cell (as read when none changes with elevation).
     modes: Vec<Mode>,
+    /// Where a mode changes with elevation, the modes as read and the cells; `None` otherwise.
+    elevation: Option<ElevationCells>,
     /// `(q, q')` of each mode.
     states: Vec<[f64; 2]>,
     /// The axes' speeds (rad/s) at the start of the previous step and its length, s: the
@@ -75,7 +107,7 @@ pub struct ModalStructure {
     /// The axes' accelerations held over the current step, rad/s^2.
     accelerations: [f64; 2],
     /// The discretisation for the last step size (masters usually keep one): a cache, not state.
-    cache: Option<(u64, Vec<ModeStep>)>,
+    cache: StepCache,
     /// Scratch for the next step's modal states (not part of the state).
     next_states: Vec<[f64; 2]>,
 }
@@ -91,22 +123,58 @@ pub struct ModalState {
 }
 
 impl ModalStructure {
-    /// The structure at rest in the static deflection under `loads`.
+    /// The structure at rest in the static deflection under `loads` (which does not depend on
+    /// the frequencies), with its modes at the zenith until [`Self::set_elevation`] says
+    /// otherwise.
     pub fn at_rest(modes: Vec<Mode>, loads: &[f64; LOADS]) -> ModalStructure {
         let states = modes.iter().map(|m| [m.static_coordinate(loads), 0.0]).collect();
-        ModalStructure {
+        let elevation = modes.iter().any(Mode::varies_with_elevation).then(|| ElevationCells {
+            read: modes.clone(),
+            cell: i64::MIN,
+            other: None,
+        });
+        let mut structure = ModalStructure {
             modes,
+            elevation,
             states,
             previous_speeds: None,
             earlier_accelerations: None,
             accelerations: [0.0; 2],
             cache: None,
             next_states: Vec::new(),
-        }
+        };
+        structure.set_elevation(90.0);
+        structure
     }
 
+    /// The modes at the current elevation cell.
     pub fn modes(&self) -> &[Mode] {
         &self.modes
+    }
+
+    /// Sets the elevation (deg) at which the modes that change with elevation are taken from
+    /// now on: their frequencies at the centre of its [`ELEVATION_CELL_DEG`] cell. Nothing for a
+    /// structure whose modes do not change with elevation. The modal states are kept: the
+    /// frequency changes, the mode's coordinate and velocity do not.
+    pub fn set_elevation(&mut self, elevation_deg: f64) {
+        let Some(cells) = &mut self.elevation else { return };
+        let cell = elevation_cell(elevation_deg);
+        if cell == cells.cell {
+            return;
+        }
+        let (modes, cache) = match cells.other.take() {
+            Some((other, modes, cache)) if other == cell => (modes, cache),
+            _ => {
+                let centre = (cell as f64 + 0.5) * ELEVATION_CELL_DEG;
+                (cells.read.iter().map(|m| m.at_elevation(centre)).collect(), None)
+            }
+        };
+        let left_modes = std::mem::replace(&mut self.modes, modes);
+        let left_cache = std::mem::replace(&mut self.cache, cache);
+        if cells.cell != i64::MIN {
+            cells.other = Some((cells.cell, left_modes, left_cache));
+        }
+        cells.cell = cell;
     }
 
     /// The axes' accelerations (rad/s^2) to hold over a coming step of `step` seconds, with
@@ -217,17 +285,21 @@ impl ModalStructure {
         (offset, torques)
     }
 
-    /// The modes' inertia about each axis, kg m^2 (azimuth, elevation): `sum_k p_i,k^2 K_k /
-    /// w_k^2`. The modes carry it, so a plant coupled to [`Self::drive_torques`] keeps only the
-    /// rest of its load inertia.
+    /// The modes' inertia about each axis at the current elevation cell, kg m^2 (azimuth,
+    /// elevation): `sum_k p_i,k^2 K_k / w_k^2`. The modes carry it, so a plant coupled to
+    /// [`Self::drive_torques`] keeps only the rest of its load inertia.
     pub fn modal_inertias(&self) -> [f64; 2] {
-        let mut inertias = [0.0; 2];
-        for mode in &self.modes {
-            let inertia = mode.inertia();
-            inertias[0] += mode.participation[0] * mode.participation[0] * inertia;
-            inertias[1] += mode.participation[1] * mode.participation[1] * inertia;
-        }
-        inertias
+        carried_inertias(&self.modes, |mode| mode.frequency_hz)
+    }
+
+    /// [`Self::modal_inertias`] with the dish at the zenith and at the horizon: `(zenith,
+    /// horizon)`, equal for modes that do not change with elevation. Between them the inertia
+    /// turns as `horizon cos^2(el) + zenith sin^2(el)`.
+    pub fn modal_inertias_zenith_and_horizon(&self) -> ([f64; 2], [f64; 2]) {
+        let read = self.elevation.as_ref().map_or(&self.modes, |cells| &cells.read);
+        let zenith = carried_inertias(read, |mode| mode.frequency_hz);
+        let horizon = carried_inertias(read, |mode| mode.horizon_frequency_hz.unwrap_or(mode.frequency_hz));
+        (zenith, horizon)
     }
 
     /// The beam offset, rad (on-sky azimuth, elevation), from the modes' coordinates.
@@ -288,6 +360,19 @@ impl ModalStructure {
     }
 }
 
+/// `sum_k p_i,k^2 K_k / w_k^2` about each axis (azimuth, elevation), with each mode's frequency
+/// (Hz) as `frequency` gives it.
+fn carried_inertias(modes: &[Mode], frequency: impl Fn(&Mode) -> f64) -> [f64; 2] {
+    let mut inertias = [0.0; 2];
+    for mode in modes {
+        let w = 2.0 * std::f64::consts::PI * frequency(mode);
+        let inertia = mode.stiffness / (w * w);
+        inertias[0] += mode.participation[0] * mode.participation[0] * inertia;
+        inertias[1] += mode.participation[1] * mode.participation[1] * inertia;
+    }
+    inertias
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -295,11 +380,41 @@ mod tests {
     fn mode(frequency_hz: f64, damping_ratio: f64) -> Mode {
         Mode {
             frequency_hz,
+            horizon_frequency_hz: None,
             damping_ratio,
             stiffness: 4e8,
             participation: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
             beam: [1.0, 0.0],
         }
+    }
+
+    #[test]
+    fn crossing_elevation_cells_back_and_forth_steps_each_cell_with_its_own_frequency() {
+        // An axis held at a cell boundary (45 deg) crosses it at every step: the structure
+        // keeps the other cell's discretisation, and must step exactly as one discretised
+        // afresh in each step's cell.
+        let varying = Mode { horizon_frequency_hz: Some(4.0), ..mode(6.0, 0.015) };
+        let loads = [2e4, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let mut kept = ModalStructure::at_rest(vec![varying.clone()], &[0.0; LOADS]);
+        let mut fresh_state = kept.save_state();
+        for k in 0..400 {
+            let elevation = if k % 3 == 0 { 45.01 } else { 44.99 };
+            let speeds = [1e-3 * (k as f64 * 0.01).sin(), 0.0];
+            kept.set_elevation(elevation);
+            kept.step(&loads, &speeds, 1e-3).unwrap();
+            let centre = if elevation > 45.0 { 45.125 } else { 44.875 };
+            let mut fresh = ModalStructure::at_rest(vec![varying.at_elevation(centre)], &[0.0; LOADS]);
+            fresh.load_state(fresh_state).unwrap();
+            fresh.step(&loads, &speeds, 1e-3).unwrap();
+            fresh_state = fresh.save_state();
+            assert_eq!(kept.save_state(), fresh_state, "step {k}");
+            assert_eq!(kept.modes()[0].frequency_hz, varying.frequency_at(centre));
+        }
+        // The two ends' inertias, and the current cell's between them.
+        let ([zenith, _], [horizon, _]) = kept.modal_inertias_zenith_and_horizon();
+        assert_eq!((zenith, horizon), (mode(6.0, 0.0).inertia(), mode(4.0, 0.0).inertia()));
+        let current = kept.modal_inertias()[0];
+        assert!(zenith < current && current < horizon);
     }
 
     #[test]

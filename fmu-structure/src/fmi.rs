@@ -21,20 +21,26 @@ pub const MAX_LOAD_FORCE: f64 = 1e8;
 /// Largest axis speed, deg/s (either sign): some fifty times a fast slew.
 pub const MAX_AXIS_SPEED: f64 = 100.0;
 
-/// What the drive torques depend on within a step: the loads and then the axes' speeds.
-const LOAD_AND_SPEED_INPUTS: &[u32] = &[
+/// What the drive torques depend on within a step: the loads, the elevation (which sets the
+/// frequency of a mode that changes with it) and then the axes' speeds.
+const DRIVE_TORQUE_INPUTS: &[u32] = &[
     StructureVar::AzTorque as u32,
     StructureVar::ElTorque as u32,
     StructureVar::DishForce as u32,
     StructureVar::AxialForce as u32,
     StructureVar::LateralForce as u32,
     StructureVar::LiftForce as u32,
+    StructureVar::Elevation as u32,
     StructureVar::AzSpeed as u32,
     StructureVar::ElSpeed as u32,
 ];
 
-/// What the quasi-static offsets depend on within a step: the loads alone.
-const LOAD_INPUTS: &[u32] = LOAD_AND_SPEED_INPUTS.split_at(6).0;
+/// What the quasi-static offsets depend on within a step: the loads and the elevation (the
+/// inertia that the current step's accelerations load the modes with is `K / w^2` there).
+const OFFSET_INPUTS: &[u32] = DRIVE_TORQUE_INPUTS.split_at(7).0;
+
+/// The elevation range the structure takes, deg: the azimuth plant's.
+const ELEVATION_RANGE_DEG: (f64, f64) = (-10.0, 120.0);
 
 declare_variables! {
     /// Variables of the structure FMU. Loads in SI, beam offsets in arcseconds.
@@ -49,12 +55,12 @@ declare_variables! {
             .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of beam_azimuth times the modal coordinate."),
         BeamEl = Var::real("beam.elevation_offset", "arcsec").output()
             .description("Beam pointing offset in elevation relative to the encoder-measured axis: the sum over the modes of beam_elevation times the modal coordinate."),
-        BeamAzStatic = Var::real("beam.azimuth_offset_static", "arcsec").output().depends_on(LOAD_INPUTS)
+        BeamAzStatic = Var::real("beam.azimuth_offset_static", "arcsec").output().depends_on(OFFSET_INPUTS)
             .description("Quasi-static part of beam.azimuth_offset: where it settles under the current loads held for ever (static compliance times load)."),
-        BeamElStatic = Var::real("beam.elevation_offset_static", "arcsec").output().depends_on(LOAD_INPUTS)
+        BeamElStatic = Var::real("beam.elevation_offset_static", "arcsec").output().depends_on(OFFSET_INPUTS)
             .description("Quasi-static part of beam.elevation_offset: where it settles under the current loads held for ever (static compliance times load)."),
         ModesFile = Var::string("modes_file").parameter().start_string(DEFAULT_MODES_FILE)
-            .description("Modes file (name = value lines: mode<k>.frequency, damping, stiffness, azimuth_torque, elevation_torque, dish_force, beam_azimuth, beam_elevation, and optionally axial_force, lateral_force, lift_force, which default to 0; docs/structure-model.md); relative paths are looked up in the resources folder. The shipped structure_modes.params holds one estimated 6 Hz mode per axis."),
+            .description("Modes file (name = value lines: mode<k>.frequency, damping, stiffness, azimuth_torque, elevation_torque, dish_force, beam_azimuth, beam_elevation, and optionally axial_force, lateral_force, lift_force, which default to 0, and horizon_frequency, which defaults to frequency; docs/structure-model.md); relative paths are looked up in the resources folder. The shipped structure_modes.params holds one estimated 6 Hz mode per axis."),
         ModeCount = Var::integer("mode_count").calculated_parameter()
             .description("Number of modes read from modes_file."),
         AzSpeed = Var::real("axis.azimuth_speed", "deg/s").input().start(0.0).min(-MAX_AXIS_SPEED).max(MAX_AXIS_SPEED)
@@ -75,14 +81,22 @@ declare_variables! {
             .description("True when a mode of modes_file takes force.lateral (a non-zero lateral_force); when false a master may leave that input unset."),
         TakesLiftForce = Var::boolean("takes.force.lift").calculated_parameter()
             .description("True when a mode of modes_file takes force.lift (a non-zero lift_force); when false a master may leave that input unset."),
-        DriveTorqueAz = Var::real("drive_torque.azimuth", "N.m").output().depends_on(LOAD_AND_SPEED_INPUTS)
+        DriveTorqueAz = Var::real("drive_torque.azimuth", "N.m").output().depends_on(DRIVE_TORQUE_INPUTS)
             .description("Torque the structure passes to the azimuth drive's load side, mean over a coming step as long as the last: torque.azimuth less, through each mode's azimuth_torque participation, the force that accelerates the mode's moving part (for one mode of participation 1, its spring and damper). To couple the modes both ways, connect it to the azimuth plant's load.disturbance_torque in place of the wind's torque and lower the plant's load inertia by modal_inertia.azimuth (docs/structure-model.md)."),
-        DriveTorqueEl = Var::real("drive_torque.elevation", "N.m").output().depends_on(LOAD_AND_SPEED_INPUTS)
+        DriveTorqueEl = Var::real("drive_torque.elevation", "N.m").output().depends_on(DRIVE_TORQUE_INPUTS)
             .description("As drive_torque.azimuth, about the elevation axis: to the elevation plant's load.disturbance_torque, with its load inertia lowered by modal_inertia.elevation."),
         ModalInertiaAz = Var::real("modal_inertia.azimuth", "kg.m2").calculated_parameter()
-            .description("Inertia the modes carry about the azimuth axis, the sum over the modes of azimuth_torque^2 stiffness / (2 pi frequency)^2: what a plant coupled to drive_torque.azimuth leaves out of its load inertia."),
+            .description("Inertia the modes carry about the azimuth axis with the dish at the zenith (at every elevation when no mode changes with elevation), the sum over the modes of azimuth_torque^2 stiffness / (2 pi frequency)^2: what a plant coupled to drive_torque.azimuth leaves out of its load inertia. Between the zenith and the horizon it turns as modal_inertia.azimuth_horizon cos^2(elevation) + modal_inertia.azimuth sin^2(elevation)."),
         ModalInertiaEl = Var::real("modal_inertia.elevation", "kg.m2").calculated_parameter()
-            .description("Inertia the modes carry about the elevation axis, as modal_inertia.azimuth with elevation_torque."),
+            .description("Inertia the modes carry about the elevation axis with the dish at the zenith, as modal_inertia.azimuth with elevation_torque."),
+        Elevation = Var::real("axis.elevation", "deg").input().start(45.0).min(ELEVATION_RANGE_DEG.0).max(ELEVATION_RANGE_DEG.1)
+            .description("Elevation of the dish (the elevation plant's axis.position): sets the frequency of a mode that changes with elevation (horizon_frequency in the modes file), held at the centre of each 0.25 deg cell. Changes nothing when takes.axis.elevation is false."),
+        ModalInertiaAzHorizon = Var::real("modal_inertia.azimuth_horizon", "kg.m2").calculated_parameter()
+            .description("Inertia the modes carry about the azimuth axis with the dish at the horizon (elevation 0), as modal_inertia.azimuth with each mode's horizon_frequency; equal to modal_inertia.azimuth when no mode changes with elevation."),
+        ModalInertiaElHorizon = Var::real("modal_inertia.elevation_horizon", "kg.m2").calculated_parameter()
+            .description("Inertia the modes carry about the elevation axis with the dish at the horizon, as modal_inertia.azimuth_horizon with elevation_torque."),
+        TakesElevation = Var::boolean("takes.axis.elevation").calculated_parameter()
+            .description("True when a mode of modes_file changes with elevation (a horizon_frequency other than its frequency). When false the input axis.elevation changes nothing, and a master may leave it unset: the shipped modes do not change with elevation."),
     }
 }
 
@@ -121,6 +135,11 @@ impl StructureModel {
             _ => path,
         };
         read_modes(&path).map_err(|e| e.to_string())
+    }
+
+    /// The elevation the modes are taken at, deg.
+    fn elevation(values: &Values<StructureVar>) -> f64 {
+        values.real(StructureVar::Elevation)
     }
 
     /// The axes' speeds, rad/s.
@@ -171,10 +190,13 @@ impl Model for StructureModel {
         values.set_boolean(StructureVar::TakesAxialForce, takes(3));
         values.set_boolean(StructureVar::TakesLateralForce, takes(4));
         values.set_boolean(StructureVar::TakesLiftForce, takes(5));
+        values.set_boolean(StructureVar::TakesElevation, modes.iter().any(Mode::varies_with_elevation));
         let structure = ModalStructure::at_rest(modes, &Self::loads(values));
-        let [az_inertia, el_inertia] = structure.modal_inertias();
+        let ([az_inertia, el_inertia], [az_horizon, el_horizon]) = structure.modal_inertias_zenith_and_horizon();
         values.set_real(StructureVar::ModalInertiaAz, az_inertia);
         values.set_real(StructureVar::ModalInertiaEl, el_inertia);
+        values.set_real(StructureVar::ModalInertiaAzHorizon, az_horizon);
+        values.set_real(StructureVar::ModalInertiaElHorizon, el_horizon);
         self.structure = Some(structure);
         values.set_integer(StructureVar::ModeCount, count);
         self.write_offsets(values);
@@ -190,13 +212,15 @@ impl Model for StructureModel {
         _notes: &mut Notes,
     ) -> Result<(), String> {
         let structure = self.structure.as_mut().ok_or("the structure model is not initialised")?;
+        structure.set_elevation(Self::elevation(values));
         structure.step(&Self::loads(values), &Self::speeds(values), step)?;
         self.write_offsets(values);
         Ok(())
     }
 
     fn update_feedthrough(&mut self, values: &mut Values<StructureVar>) {
-        let Some(structure) = &self.structure else { return };
+        let Some(structure) = &mut self.structure else { return };
+        structure.set_elevation(Self::elevation(values));
         let ([az, el], [torque_az, torque_el]) = structure.feedthrough(&Self::loads(values), &Self::speeds(values));
         values.set_real(StructureVar::BeamAzStatic, az * ARCSEC_PER_RAD);
         values.set_real(StructureVar::BeamElStatic, el * ARCSEC_PER_RAD);

@@ -25,10 +25,12 @@ pub const DEFAULT_MODES_FILE: &str = "structure_modes.params";
 /// per unit of the modal coordinate), the participations of the azimuth torque, the elevation
 /// torque (modal load per N m) and the dish force (per N), the beam offsets (rad, on-sky
 /// azimuth and elevation) per unit of the modal coordinate, and the participations of the
-/// wind force resolved in the antenna's frame (per N: axial, lateral, lift). The first
-/// [`REQUIRED_FIELDS`] are required; the resolved forces' participations came later and default
-/// to zero, so that a modes file written before them reads as it did.
-pub const FIELDS: [&str; 11] = [
+/// wind force resolved in the antenna's frame (per N: axial, lateral, lift), and the frequency
+/// at the horizon (Hz) of a mode whose frequency changes with elevation. The first
+/// [`REQUIRED_FIELDS`] are required; the others came later and are optional, so that a modes
+/// file written before them reads as it did: the resolved forces' participations default to
+/// zero, the horizon frequency to the frequency (a mode that does not change with elevation).
+pub const FIELDS: [&str; 12] = [
     "frequency",
     "damping",
     "stiffness",
@@ -40,7 +42,11 @@ pub const FIELDS: [&str; 11] = [
     "axial_force",
     "lateral_force",
     "lift_force",
+    "horizon_frequency",
 ];
+
+/// The index of `horizon_frequency` in [`FIELDS`].
+const HORIZON_FREQUENCY: usize = 11;
 
 /// How many of [`FIELDS`], from the first, every mode must give.
 pub const REQUIRED_FIELDS: usize = 8;
@@ -59,8 +65,17 @@ pub const MAX_MODES: usize = 1000;
 /// One structural mode.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mode {
-    /// Undamped natural frequency, Hz.
+    /// Undamped natural frequency, Hz: at the zenith (elevation 90 deg) for a mode with a
+    /// [`horizon_frequency_hz`](Self::horizon_frequency_hz), at every elevation otherwise.
     pub frequency_hz: f64,
+    /// Undamped natural frequency with the dish at the horizon (elevation 0), Hz, for a mode
+    /// whose frequency changes with elevation; `None` for one that does not. Its stiffness
+    /// stays, and the inertia its moving part carries, `K / w^2`, turns between the zenith's and
+    /// the horizon's as a rigid body's inertia about the vertical axis does when it tips about
+    /// the elevation axis: `J(el) = J_horizon cos^2(el) + J_zenith sin^2(el)`, so
+    /// `1 / f(el)^2 = cos^2(el) / f_horizon^2 + sin^2(el) / f_zenith^2`
+    /// ([`Self::frequency_at`]).
+    pub horizon_frequency_hz: Option<f64>,
     /// Damping ratio (fraction of critical).
     pub damping_ratio: f64,
     /// Modal stiffness K: the load on the modal coordinate per unit of it.
@@ -73,9 +88,37 @@ pub struct Mode {
 }
 
 impl Mode {
-    /// Angular frequency, rad/s.
+    /// Angular frequency, rad/s (at the zenith for a mode that changes with elevation: the
+    /// structure steps [`Self::at_elevation`]).
     pub fn omega(&self) -> f64 {
         2.0 * std::f64::consts::PI * self.frequency_hz
+    }
+
+    /// Whether the mode's frequency changes with elevation.
+    pub fn varies_with_elevation(&self) -> bool {
+        self.horizon_frequency_hz.is_some_and(|h| h != self.frequency_hz)
+    }
+
+    /// The undamped natural frequency at an elevation, Hz: `1 / f^2 = cos^2(el) / f_horizon^2 +
+    /// sin^2(el) / f_zenith^2` (the modal inertia `K / w^2` as a rigid body's about the vertical
+    /// axis); exactly `frequency_hz` for a mode that does not change with elevation.
+    pub fn frequency_at(&self, elevation_deg: f64) -> f64 {
+        match self.horizon_frequency_hz {
+            Some(horizon) if horizon != self.frequency_hz => {
+                let (s, c) = elevation_deg.to_radians().sin_cos();
+                1.0 / (c * c / (horizon * horizon) + s * s / (self.frequency_hz * self.frequency_hz)).sqrt()
+            }
+            _ => self.frequency_hz,
+        }
+    }
+
+    /// The mode as it is at an elevation: its frequency there, the rest unchanged (a mode that
+    /// does not change with elevation is returned as it is).
+    pub fn at_elevation(&self, elevation_deg: f64) -> Mode {
+        if !self.varies_with_elevation() {
+            return self.clone();
+        }
+        Mode { frequency_hz: self.frequency_at(elevation_deg), horizon_frequency_hz: None, ..self.clone() }
     }
 
     /// The modal load (in units of the modal coordinate times K) for the given loads.
@@ -135,7 +178,7 @@ pub enum ModesError {
         "{origin}: mode {mode} is missing (modes are numbered 1, 2, ... without gaps; the file has mode {highest})"
     )]
     Gap { origin: String, mode: usize, highest: usize },
-    #[error("{origin}: mode{mode}.{field} is missing (every mode needs {fields}; axial_force, lateral_force and lift_force default to 0)")]
+    #[error("{origin}: mode{mode}.{field} is missing (every mode needs {fields}; axial_force, lateral_force and lift_force default to 0, horizon_frequency to the frequency)")]
     MissingField { origin: String, mode: usize, field: &'static str, fields: String },
     #[error("{origin}:{line}: mode{mode}.{field} = {value}: {reason}")]
     Invalid { origin: String, line: usize, mode: usize, field: &'static str, value: f64, reason: &'static str },
@@ -229,6 +272,9 @@ fn mode_from_fields(
     if values[0] <= 0.0 {
         return Err(invalid(0, "the frequency must be positive"));
     }
+    if fields[HORIZON_FREQUENCY].is_some() && values[HORIZON_FREQUENCY] <= 0.0 {
+        return Err(invalid(HORIZON_FREQUENCY, "the frequency at the horizon must be positive"));
+    }
     if values[1] < 0.0 {
         return Err(invalid(1, "the damping ratio must not be negative"));
     }
@@ -257,6 +303,7 @@ fn mode_from_fields(
     }
     Ok(Mode {
         frequency_hz: values[0],
+        horizon_frequency_hz: fields[HORIZON_FREQUENCY].map(|(value, _)| value),
         damping_ratio: values[1],
         stiffness: values[2],
         participation: [values[3], values[4], values[5], values[8], values[9], values[10]],
@@ -264,8 +311,8 @@ fn mode_from_fields(
     })
 }
 
-/// The largest modes file read, bytes (1 MiB): [`MAX_MODES`] modes of eleven fields take about
-/// 550 kB written out with comments.
+/// The largest modes file read, bytes (1 MiB): [`MAX_MODES`] modes of twelve fields take about
+/// 600 kB written out with comments.
 pub const MAX_MODES_FILE_BYTES: u64 = 1 << 20;
 
 /// Reads a modes file from disk: only a regular file of at most [`MAX_MODES_FILE_BYTES`]
@@ -292,10 +339,12 @@ pub fn static_compliance(modes: &[Mode]) -> [[f64; LOADS]; 2] {
 }
 
 impl Mode {
-    /// The value of one field (a name of [`FIELDS`]).
+    /// The value of one field (a name of [`FIELDS`]); the horizon frequency of a mode that
+    /// does not change with elevation is its frequency.
     pub fn field(&self, field: &str) -> Option<f64> {
         Some(match FIELDS.iter().position(|f| *f == field)? {
             0 => self.frequency_hz,
+            HORIZON_FREQUENCY => self.horizon_frequency_hz.unwrap_or(self.frequency_hz),
             1 => self.damping_ratio,
             2 => self.stiffness,
             i @ 3..=5 => self.participation[i - 3],
@@ -309,6 +358,7 @@ impl Mode {
         let Some(index) = FIELDS.iter().position(|f| *f == field) else { return false };
         match index {
             0 => self.frequency_hz = value,
+            HORIZON_FREQUENCY => self.horizon_frequency_hz = Some(value),
             1 => self.damping_ratio = value,
             2 => self.stiffness = value,
             i @ 3..=5 => self.participation[i - 3] = value,
@@ -328,6 +378,11 @@ pub fn write_modes(modes: &[Mode], heading: &str) -> String {
     }
     for (k, mode) in modes.iter().enumerate() {
         for field in FIELDS {
+            // A mode that does not change with elevation is written without a horizon
+            // frequency, so that it reads back as one (and a file of such modes as before).
+            if field == FIELDS[HORIZON_FREQUENCY] && mode.horizon_frequency_hz.is_none() {
+                continue;
+            }
             let value = mode.field(field).expect("FIELDS names every field");
             text.push_str(&format!("mode{}.{field} = {value:e}\n", k + 1));
         }
@@ -364,6 +419,7 @@ mod tests {
     fn static_compliance_is_beam_times_participation_over_stiffness_whatever_the_modal_scale() {
         let mode = Mode {
             frequency_hz: 4.0,
+            horizon_frequency_hz: None,
             damping_ratio: 0.01,
             stiffness: 2e8,
             participation: [0.5, -0.25, 3.0, 0.0, -1.5, 0.75],
@@ -410,6 +466,7 @@ mod tests {
         // must not move by a bit, signed zeros included.
         let mode = Mode {
             frequency_hz: 6.0,
+            horizon_frequency_hz: None,
             damping_ratio: 0.015,
             stiffness: 4e8,
             participation: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
@@ -424,6 +481,34 @@ mod tests {
         }
         let resolved = Mode { participation: [1.0, 0.0, 0.0, 2.0, -3.0, 0.5], ..mode };
         assert_eq!(resolved.modal_load(&[10.0, 0.0, 0.0, 1.0, 2.0, 4.0]), 10.0 + 2.0 - 6.0 + 2.0);
+    }
+
+    #[test]
+    fn a_horizon_frequency_turns_the_modal_inertia_as_a_rigid_body_tipping_about_the_elevation_axis() {
+        let text = format!("{DEFAULT_MODES}\nmode1.horizon_frequency = 4.0\n");
+        let modes = parse_modes(&text, "f.params").unwrap();
+        let (azimuth, elevation) = (&modes[0], &modes[1]);
+        assert!(azimuth.varies_with_elevation() && !elevation.varies_with_elevation());
+        assert_eq!((azimuth.frequency_at(0.0), azimuth.frequency_at(90.0)), (4.0, 6.0));
+        // The inertia K / w^2 at any elevation is J_horizon cos^2 + J_zenith sin^2.
+        let inertia = |f: f64| azimuth.stiffness / (2.0 * std::f64::consts::PI * f).powi(2);
+        for elevation_deg in [15.0, 45.0, 60.0, 88.0] {
+            let (s, c) = f64::to_radians(elevation_deg).sin_cos();
+            let expected = inertia(4.0) * c * c + inertia(6.0) * s * s;
+            let at = azimuth.at_elevation(elevation_deg);
+            assert!((at.inertia() / expected - 1.0).abs() < 1e-13, "{elevation_deg} deg");
+            assert!(!at.varies_with_elevation());
+        }
+        // A mode without one is the same at every elevation, bit for bit.
+        assert_eq!(elevation.at_elevation(15.0), *elevation);
+        assert_eq!(elevation.field("horizon_frequency"), Some(6.0));
+        // Written out, each reads back as it was: with and without a horizon frequency.
+        assert_eq!(parse_modes(&write_modes(&modes, "h"), "w").unwrap(), modes);
+        assert!(!write_modes(&modes[1..], "h").contains("horizon_frequency"));
+        let error = parse_modes(&format!("{DEFAULT_MODES}\nmode2.horizon_frequency = 0\n"), "f.params").unwrap_err();
+        assert!(error
+            .to_string()
+            .contains("mode2.horizon_frequency = 0: the frequency at the horizon must be positive"));
     }
 
     fn with_line(line: &str, replaced: &str) -> String {

@@ -153,14 +153,16 @@ class Unit:
             else:
                 self.fmu.setString(vr, [value])
         self.fmu.enterInitializationMode()
-        if carried is not None and carried[1] > 0.0:
+        for parameter, amount in carried or []:
             # The structure's modes carry this much of the load inertia: the plant keeps the rest.
-            vr = [self.variables[carried[0]].valueReference]
+            if amount <= 0.0:
+                continue
+            vr = [self.variables[parameter].valueReference]
             inertia = self.fmu.getReal(vr)[0]
-            if not carried[1] < inertia:
-                raise ValueError(f"the structure's modes carry {carried[1]:.4e} kg m^2, not less than "
-                                 f"{name}'s {carried[0]} = {inertia:.4e} kg m^2")
-            self.fmu.setReal(vr, [inertia - carried[1]])
+            if not amount < inertia:
+                raise ValueError(f"the structure's modes carry {amount:.4e} kg m^2, not less than "
+                                 f"{name}'s {parameter} = {inertia:.4e} kg m^2")
+            self.fmu.setReal(vr, [inertia - amount])
         self.fmu.exitInitializationMode()
         self.component = self.fmu.component
         self.set_real_raw = self.fmu.fmi2SetReal
@@ -217,7 +219,8 @@ class CoupledAntenna:
         # plants leave the inertia the modes carry out of their own.
         self.structure = None
         self.structure_drive = None
-        carried = (0.0, 0.0)
+        # The inertia the modes carry about azimuth and elevation, at the zenith and at the horizon.
+        carried = {"zenith": (0.0, 0.0), "horizon": (0.0, 0.0)}
         if config.get("structure", False):
             # The structure starts at rest in its static deflection under the loads at the start:
             # the torques and the drag always, a resolved force where both units have it.
@@ -228,26 +231,44 @@ class CoupledAntenna:
                 2 + i for i in range(1, len(WIND_FORCES))
                 if i in self.wind_force_slots and WIND_FORCES[i][1] in structure_names]
             load_inputs = ["torque.azimuth", "torque.elevation"] + [WIND_FORCES[i - 2][1] for i in self.structure_loads[2:]]
-            self.structure = Unit("Structure", "structure", start_time, more("Structure") + [
+            # A structure with modes that change with elevation takes the dish's elevation; this
+            # master sends it whether or not a mode uses it.
+            self.structure_elevation = "axis.elevation" in structure_names
+            elevation = [("axis.elevation", el0)] if self.structure_elevation else []
+            self.structure = Unit("Structure", "structure", start_time, more("Structure") + elevation + [
                 (name, loads[i]) for name, i in zip(load_inputs, self.structure_loads)])
             # The axes' speeds, where the structure takes them: their changes swing it.
             speeds = ["axis.azimuth_speed", "axis.elevation_speed"]
             self.structure_speeds = all(name in self.structure.variables for name in speeds)
-            self.structure_in = self.structure.port(load_inputs + (speeds if self.structure_speeds else []))
+            self.structure_in = self.structure.port(load_inputs + (speeds if self.structure_speeds else [])
+                                                    + (["axis.elevation"] if self.structure_elevation else []))
             self.structure_out = self.structure.port(["beam.azimuth_offset", "beam.elevation_offset",
                                                       "beam.azimuth_offset_static", "beam.elevation_offset_static"])
             # Both ways (the default): the structure's drive torques load the plants, whose load
             # inertias leave out what the modes carry.
             if config.get("structure_feedback", True):
                 self.structure_drive = self.structure.port(["drive_torque.azimuth", "drive_torque.elevation"])
-                carried = tuple(self.structure.get(self.structure.port(["modal_inertia.azimuth",
-                                                                         "modal_inertia.elevation"])))
+                for end, suffix in (("zenith", ""), ("horizon", "_horizon")):
+                    names = [f"modal_inertia.azimuth{suffix}", f"modal_inertia.elevation{suffix}"]
+                    if not all(n in self.structure.variables for n in names):
+                        names = ["modal_inertia.azimuth", "modal_inertia.elevation"]
+                    carried[end] = tuple(self.structure.get(self.structure.port(names)))
+        # The modes' inertia about azimuth turns as horizon cos^2(el) + zenith sin^2(el), the
+        # azimuth plant's as turning head + cross cos^2(el) + boresight sin^2(el): the share of
+        # both ends comes out of the turning head, the excess out of the part that goes the same way.
+        (az_zenith, el_zenith), (az_horizon, el_horizon) = carried["zenith"], carried["horizon"]
+        shared = min(az_zenith, az_horizon)
+        if el_zenith != el_horizon:
+            raise ValueError("the structure's modes carry an inertia about the elevation axis that changes "
+                             "with elevation; the elevation plant's does not: couple them one way")
         self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time,
                              [("initial_position", az0), ("elevation", el0)] + more("AzimuthPlant"),
-                             carried=("load.turning_head_inertia", carried[0]))
+                             carried=[("load.turning_head_inertia", shared),
+                                      ("load.elevation_structure_cross_inertia", az_horizon - shared),
+                                      ("load.elevation_structure_boresight_inertia", az_zenith - shared)])
         self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time,
                              [("initial_position", el0)] + more("ElevationPlant"),
-                             carried=("load.inertia", carried[1]))
+                             carried=[("load.inertia", el_zenith)])
         self.az_ctrl = Unit("AzimuthController", "azimuth_controller", start_time,
                             [("command.position", az0), ("measured.position", az0)] + more("AzimuthController"))
         self.el_ctrl = Unit("ElevationController", "elevation_controller", start_time,
@@ -301,9 +322,12 @@ class CoupledAntenna:
             s_in = self.structure_in[1]
             for k, i in enumerate(self.structure_loads):
                 s_in[k] = loads[i]
+            n = len(self.structure_loads)
             if self.structure_speeds:
-                n = len(self.structure_loads)
                 s_in[n], s_in[n + 1] = az[6], el[4]
+                n += 2
+            if self.structure_elevation:
+                s_in[n] = el[1]
             self.structure.set(self.structure_in)
             beam = tuple(self.structure.get(self.structure_out))
             if self.structure_drive is not None:

@@ -556,3 +556,133 @@ fn a_restored_fmu_state_replays_the_run_bitwise() {
     assert_eq!(fresh.serialize_state(&restored).unwrap(), bytes, "deserialize then serialize is not the identity");
     assert!(schedule(&mut fresh) == first, "a deserialized state continues differently");
 }
+
+/// One lightly damped azimuth mode that changes with elevation: 6 Hz at the zenith, 7 Hz at the
+/// horizon (a dish's inertia about the vertical axis is largest with its boresight vertical).
+const ELEVATION_MODES: &str = "\
+mode1.frequency = 6.0\nmode1.horizon_frequency = 7.0\nmode1.damping = 0.002\nmode1.stiffness = 4e8\nmode1.azimuth_torque = 1\nmode1.elevation_torque = 0\nmode1.dish_force = 0\nmode1.beam_azimuth = 1\nmode1.beam_elevation = 0\n";
+
+/// The frequency of a ringing record (one value per `step` seconds) from its zero crossings,
+/// interpolated linearly between samples, Hz.
+fn ringing_frequency(record: &[f64], step: f64) -> f64 {
+    let crossings: Vec<f64> = record
+        .windows(2)
+        .enumerate()
+        .filter(|(_, w)| w[0] < 0.0 && w[1] >= 0.0)
+        .map(|(k, w)| (k as f64 + w[0] / (w[0] - w[1])) * step)
+        .collect();
+    let (first, last) = (crossings[0], crossings[crossings.len() - 1]);
+    (crossings.len() - 1) as f64 / (last - first)
+}
+
+#[test]
+fn a_mode_with_a_horizon_frequency_rings_at_each_elevation_at_the_documented_frequency() {
+    let fmu = open("Structure");
+    let dir = scratch("elevation");
+    let file = dir.join("elevation.params");
+    std::fs::write(&file, ELEVATION_MODES).unwrap();
+    let (zenith_hz, horizon_hz, damping, stiffness) = (6.0_f64, 7.0_f64, 0.002_f64, 4e8);
+    let inertia = |f: f64| stiffness / (std::f64::consts::TAU * f).powi(2);
+    let step = 1e-3;
+    for elevation_deg in [0.0, 15.0, 45.0, 88.0] {
+        let mut instance = fmu.instantiate("elevation", false).unwrap();
+        instance.setup_experiment(0.0, None).unwrap();
+        instance.set_string(&[fmu.description.vr("modes_file").unwrap()], &[file.to_str().unwrap()]).unwrap();
+        set_reals(&fmu, &mut instance, &[("axis.elevation", elevation_deg)]);
+        instance.enter_initialization_mode().unwrap();
+        instance.exit_initialization_mode().unwrap();
+        // docs/structure-model.md: 1 / f^2 = cos^2(el) / f_horizon^2 + sin^2(el) / f_zenith^2,
+        // damped by sqrt(1 - zeta^2). The FMU holds each 0.25 deg cell at its centre's frequency,
+        // within 0.03 % of the elevation's here.
+        let (s, c) = elevation_deg.to_radians().sin_cos();
+        let undamped = 1.0 / (c * c / (horizon_hz * horizon_hz) + s * s / (zenith_hz * zenith_hz)).sqrt();
+        let expected = undamped * (1.0 - damping * damping).sqrt();
+        // A torque held for one step, then 20 s of free ringing.
+        let offsets = run(&fmu, &mut instance, 0.0, step, 20_000, |t| [if t < step / 2.0 { 1e5 } else { 0.0 }]);
+        let record: Vec<f64> = offsets.iter().map(|o| o[0]).collect();
+        let measured = ringing_frequency(&record, step);
+        println!("elevation {elevation_deg} deg: rings at {measured:.4} Hz, documented {expected:.4} Hz");
+        assert!((measured / expected - 1.0).abs() < 5e-4, "{elevation_deg} deg: {measured} Hz against {expected} Hz");
+        let takes = fmu.description.vr("takes.axis.elevation").unwrap();
+        let mut says = [false];
+        instance.get_boolean(&[takes], &mut says).unwrap();
+        assert!(says[0], "a mode with a horizon frequency takes the elevation");
+        let carried = reals(&fmu, &mut instance, &["modal_inertia.azimuth", "modal_inertia.azimuth_horizon"]).unwrap();
+        assert!((carried[0] / inertia(zenith_hz) - 1.0).abs() < 1e-12, "{carried:?}");
+        assert!((carried[1] / inertia(horizon_hz) - 1.0).abs() < 1e-12, "{carried:?}");
+    }
+    // The shipped modes do not change with elevation: the two ends carry the same inertia, and
+    // the elevation input changes nothing.
+    let mut shipped = structure(&fmu, "shipped", None);
+    let takes = fmu.description.vr("takes.axis.elevation").unwrap();
+    let mut says = [true];
+    shipped.get_boolean(&[takes], &mut says).unwrap();
+    assert!(!says[0]);
+    let ends = reals(
+        &fmu,
+        &mut shipped,
+        &[
+            "modal_inertia.azimuth",
+            "modal_inertia.azimuth_horizon",
+            "modal_inertia.elevation",
+            "modal_inertia.elevation_horizon",
+        ],
+    )
+    .unwrap();
+    assert_eq!((ends[0], ends[2]), (ends[1], ends[3]));
+    let at = |elevation_deg: f64| {
+        let mut instance = structure(&fmu, "shipped-elevation", None);
+        set_reals(&fmu, &mut instance, &[("axis.elevation", elevation_deg)]);
+        let offsets = run(&fmu, &mut instance, 0.0, step, 2_000, |t| [1e4 * (7.0 * t).sin(), 5e3]);
+        let mut bits: Vec<u64> = offsets.iter().flatten().map(|v| v.to_bits()).collect();
+        bits.extend(output_bits(&fmu, &mut instance));
+        bits
+    };
+    assert_eq!(at(15.0), at(88.0));
+}
+
+#[test]
+fn coupled_both_ways_the_azimuth_plant_keeps_its_inertia_less_the_modes_at_every_elevation() {
+    use antenna_sim::coupled::leave_out_carried_inertia;
+    // A mode that carries 2.814e5 kg m^2 at the zenith and 2.068e5 at the horizon (6 and 7 Hz at
+    // 4e8 N m/rad), and one that carries more at the horizon: the plant's inertia plus the
+    // modes', `horizon cos^2 + zenith sin^2`, is the plant's own at every elevation.
+    let plant = open("AzimuthPlant");
+    let inertia_at = |instance: &mut Instance, elevation_deg: f64| {
+        set_reals(&plant, instance, &[("elevation", elevation_deg)]);
+        reals(&plant, instance, &["load.inertia"]).unwrap()[0]
+    };
+    let initialised = |carried: Option<(f64, f64)>| {
+        let mut instance = plant.instantiate("inertia", false).unwrap();
+        instance.setup_experiment(0.0, None).unwrap();
+        instance.enter_initialization_mode().unwrap();
+        if let Some((zenith, horizon)) = carried {
+            leave_out_carried_inertia(&mut instance, &plant.description, 0, zenith, horizon).unwrap();
+        }
+        instance.exit_initialization_mode().unwrap();
+        instance
+    };
+    let mut whole = initialised(None);
+    for (zenith, horizon) in [(2.814e5, 2.068e5), (2.068e5, 2.814e5), (2.814e5, 2.814e5)] {
+        let mut rest = initialised(Some((zenith, horizon)));
+        for elevation_deg in [0.0, 15.0, 45.0, 70.0, 90.0] {
+            // The plant reports the inertia of its elevation cell's centre.
+            let frozen = fmu_plant::AzimuthParams::default().frozen_elevation_deg(elevation_deg);
+            let (s, c) = frozen.to_radians().sin_cos();
+            let carried = horizon * c * c + zenith * s * s;
+            let (own, kept) = (inertia_at(&mut whole, elevation_deg), inertia_at(&mut rest, elevation_deg));
+            assert!(
+                ((kept + carried) / own - 1.0).abs() < 1e-12,
+                "zenith {zenith}, horizon {horizon}, {elevation_deg} deg: {kept} + {carried} against {own}"
+            );
+        }
+    }
+    // The elevation plant's inertia does not change with elevation: modes whose inertia about
+    // that axis does cannot be coupled both ways to it.
+    let elevation_plant = open("ElevationPlant");
+    let mut instance = elevation_plant.instantiate("inertia", false).unwrap();
+    instance.setup_experiment(0.0, None).unwrap();
+    instance.enter_initialization_mode().unwrap();
+    let error = leave_out_carried_inertia(&mut instance, &elevation_plant.description, 1, 2.0e5, 1.5e5).unwrap_err();
+    assert!(error.to_string().contains("cannot be coupled both ways"), "{error}");
+}

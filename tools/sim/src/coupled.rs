@@ -327,28 +327,65 @@ impl Trace {
 /// they push back on the drives: the part of each axis's load inertia a mode's body belongs to.
 pub const CARRIED_INERTIA_PARAMETERS: [&str; 2] = ["load.turning_head_inertia", "load.inertia"];
 
-/// Lowers a plant's load inertia `parameter` by the inertia the structure's modes carry
-/// (`modal_inertia.*`), in initialisation mode; nothing when they carry none. A mode at least
-/// as heavy as that part of its axis is an error: it could not push back on a drive.
+/// The azimuth plant's two parts of the elevation structure's inertia about the azimuth axis,
+/// the one that goes as `cos^2(el)` and the one that goes as `sin^2(el)`: where a mode that
+/// changes with elevation carries more at the horizon or at the zenith than at the other end,
+/// the excess comes out of them.
+pub const ELEVATION_DEPENDENT_INERTIA_PARAMETERS: [&str; 2] =
+    ["load.elevation_structure_cross_inertia", "load.elevation_structure_boresight_inertia"];
+
+/// Which plant parameters lose how much inertia (kg m^2) when the structure's modes, coupled
+/// both ways, carry `zenith` about an axis with the dish at the zenith and `horizon` at the
+/// horizon (`modal_inertia.*` and `modal_inertia.*_horizon`), so that the plant's inertia plus
+/// the modes' is the axis's at every elevation.
+///
+/// The modes' inertia about an axis turns as `horizon cos^2(el) + zenith sin^2(el)`, the
+/// azimuth plant's as `turning_head + cross cos^2(el) + boresight sin^2(el)`: the part both ends
+/// share comes out of the turning head ([`CARRIED_INERTIA_PARAMETERS`]) and the rest out of the
+/// cross or the boresight part. The elevation plant's inertia does not change with elevation, so
+/// modes whose inertia about the elevation axis does are an error: they cannot be coupled both
+/// ways to that plant.
+pub fn carried_inertia_split(axis: usize, zenith: f64, horizon: f64) -> Result<Vec<(&'static str, f64)>, ImportError> {
+    let shared = zenith.min(horizon);
+    let parts = match axis {
+        0 => vec![
+            (CARRIED_INERTIA_PARAMETERS[0], shared),
+            (ELEVATION_DEPENDENT_INERTIA_PARAMETERS[0], horizon - shared),
+            (ELEVATION_DEPENDENT_INERTIA_PARAMETERS[1], zenith - shared),
+        ],
+        _ if zenith != horizon => {
+            return Err(ImportError::Description(format!(
+                "the structure's modes carry {zenith:.4e} kg m^2 about the elevation axis at the zenith and {horizon:.4e} at the horizon, but the elevation plant's load inertia does not change with elevation: a mode that changes with elevation (horizon_frequency) and takes the elevation torque cannot be coupled both ways to it (couple it one way, or give it no horizon_frequency)"
+            )))
+        }
+        _ => vec![(CARRIED_INERTIA_PARAMETERS[1], zenith)],
+    };
+    Ok(parts.into_iter().filter(|(_, carried)| *carried > 0.0).collect())
+}
+
+/// Lowers a plant's load inertia by the inertia the structure's modes carry about its axis
+/// (`axis` 0 azimuth, 1 elevation; `zenith` and `horizon` as [`carried_inertia_split`] takes
+/// them), in initialisation mode; nothing when they carry none. A mode at least as heavy as the
+/// part of its axis it comes out of is an error: it could not push back on a drive.
 pub fn leave_out_carried_inertia(
     plant: &mut Instance,
     description: &ModelDescription,
-    parameter: &str,
-    carried: f64,
+    axis: usize,
+    zenith: f64,
+    horizon: f64,
 ) -> Result<(), ImportError> {
-    if carried <= 0.0 {
-        return Ok(());
+    for (parameter, carried) in carried_inertia_split(axis, zenith, horizon)? {
+        let vr = description.vr(parameter)?;
+        let mut inertia = [0.0];
+        plant.get_real(&[vr], &mut inertia)?;
+        if carried >= inertia[0] {
+            return Err(ImportError::Description(format!(
+                "the structure's modes carry {carried:.4e} kg m^2 about the axis of {}, not less than its {parameter} = {:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)",
+                plant.name, inertia[0]
+            )));
+        }
+        plant.set_real(&[vr], &[inertia[0] - carried])?;
     }
-    let vr = description.vr(parameter)?;
-    let mut inertia = [0.0];
-    plant.get_real(&[vr], &mut inertia)?;
-    if carried >= inertia[0] {
-        return Err(ImportError::Description(format!(
-            "the structure's modes carry {carried:.4e} kg m^2 about the axis of {}, not less than its {parameter} = {:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)",
-            plant.name, inertia[0]
-        )));
-    }
-    plant.set_real(&[vr], &[inertia[0] - carried])?;
     Ok(())
 }
 
@@ -417,30 +454,29 @@ const WIND_FORCES: [(&str, &str); 4] = [
 /// the forces of [`WIND_FORCES`] (N, 0 where the wind unit gives none).
 const LOADS: usize = 2 + WIND_FORCES.len();
 
-/// The most inputs the structure is sent: the loads and the two axes' speeds.
-const STRUCTURE_INPUTS: usize = LOADS + 2;
+/// The most inputs the structure is sent: the loads, the two axes' speeds and the elevation.
+const STRUCTURE_INPUTS: usize = LOADS + 3;
 
 impl Ports {
-    /// Leaves out the wind's forces that the structure's modes do not take, as its
-    /// `takes.<input>` calculated parameters say (a structure that does not say takes every
-    /// input it has): the shipped modes take none, and reading and setting four forces at every
-    /// step cost some 600 instructions, a twentieth of a step. The results are the same bit for
-    /// bit, since no mode weighs an input left out.
-    fn keep_forces_taken(
+    /// Leaves out the inputs that the structure's modes do not take, as its `takes.<input>`
+    /// calculated parameters say (a structure that does not say takes every input it has): the
+    /// wind's forces and the elevation, which the shipped modes do not take; reading and setting
+    /// four forces at every step cost some 600 instructions, a twentieth of a step. The results
+    /// are the same bit for bit, since no mode weighs an input left out.
+    fn keep_inputs_taken(
         &mut self,
         structure: &mut Instance,
         description: &ModelDescription,
     ) -> Result<(), ImportError> {
         let mut kept = Vec::with_capacity(self.structure_in.len());
         for (&vr, &(input, source)) in self.structure_in.iter().zip(&self.structure_sources) {
-            let says = description.vr(&format!("takes.{input}")).ok();
-            let taken = match says {
-                Some(takes) if (2..LOADS).contains(&source) => {
+            let taken = match description.vr(&format!("takes.{input}")) {
+                Ok(takes) => {
                     let mut value = [true];
                     structure.get_boolean(&[takes], &mut value)?;
                     value[0]
                 }
-                _ => true,
+                Err(_) => true,
             };
             if taken {
                 kept.push((vr, (input, source)));
@@ -477,10 +513,14 @@ impl Ports {
         let w = &fmus.wind.description;
         let s = &fmus.structure.description;
         // The torques and the drag always (an old wind unit without forces sends zero drag);
-        // the axes' speeds where the structure takes them; a resolved force where both take it.
+        // the axes' speeds and the elevation where the structure takes them; a resolved force
+        // where both take it.
         let mut structure_inputs = vec![("torque.azimuth", 0), ("torque.elevation", 1), ("force.dish", 2)];
         if s.vr("axis.azimuth_speed").is_ok() && s.vr("axis.elevation_speed").is_ok() {
             structure_inputs.extend([("axis.azimuth_speed", LOADS), ("axis.elevation_speed", LOADS + 1)]);
+        }
+        if s.vr("axis.elevation").is_ok() {
+            structure_inputs.push(("axis.elevation", LOADS + 2));
         }
         for (i, (output, input)) in WIND_FORCES.iter().enumerate().skip(1) {
             if w.vr(output).is_ok() && s.vr(input).is_ok() {
@@ -604,19 +644,20 @@ impl CoupledAntenna {
         ];
         wind_overrides.extend(config.wind_unit.iter().cloned());
         let start_time = table.time_span().0;
-        // Instantiates and initialises a unit; `carried` is a load inertia parameter and the
-        // inertia the structure's modes carry of it, which the unit leaves out.
+        // Instantiates and initialises a unit; `carried` is a plant's axis and the inertia the
+        // structure's modes carry about it at the zenith and at the horizon, which the unit
+        // leaves out.
         let make_carrying = |fmu: &Fmu,
                              name: &str,
                              overrides: &Overrides,
-                             carried: Option<(&str, f64)>|
+                             carried: Option<(usize, f64, f64)>|
          -> Result<Instance, ImportError> {
             let mut instance = fmu.instantiate(name, false)?;
             instance.setup_experiment(start_time, None)?;
             apply_overrides(&mut instance, &fmu.description, overrides)?;
             instance.enter_initialization_mode()?;
-            if let Some((parameter, carried)) = carried {
-                leave_out_carried_inertia(&mut instance, &fmu.description, parameter, carried)?;
+            if let Some((axis, zenith, horizon)) = carried {
+                leave_out_carried_inertia(&mut instance, &fmu.description, axis, zenith, horizon)?;
             }
             instance.exit_initialization_mode()?;
             Ok(instance)
@@ -629,7 +670,8 @@ impl CoupledAntenna {
         // The structure comes before the plants: where its modes push back on the drives, the
         // plants leave the inertia the modes carry out of their own.
         let mut structure = None;
-        let mut carried = [0.0; 2];
+        // The modes' inertia about each axis at the zenith and at the horizon.
+        let mut carried = [[0.0; 2]; 2];
         if let Some(structure_overrides) = &config.structure {
             // The structure starts at rest in its static deflection under the loads at the
             // start, so that a run in a mean wind does not begin with ringing modes.
@@ -641,11 +683,23 @@ impl CoupledAntenna {
                 }
             }
             let description = &fmus.structure.description;
+            // The modes that change with elevation start at the antenna's.
+            if description.vr("axis.elevation").is_ok() {
+                overrides.push(("axis.elevation".into(), ParameterValue::Real(start.elevation_deg)));
+            }
             let mut unit = make(&fmus.structure, "structure", &overrides)?;
-            ports.keep_forces_taken(&mut unit, description)?;
+            ports.keep_inputs_taken(&mut unit, description)?;
             if config.structure_feedback {
-                let inertias = [description.vr("modal_inertia.azimuth")?, description.vr("modal_inertia.elevation")?];
-                unit.get_real(&inertias, &mut carried)?;
+                for (end, suffix) in carried.iter_mut().zip(["", "_horizon"]) {
+                    // A structure without the horizon's inertias has modes that do not change
+                    // with elevation: the zenith's hold at the horizon too.
+                    let names = [format!("modal_inertia.azimuth{suffix}"), format!("modal_inertia.elevation{suffix}")];
+                    let vrs = match (description.vr(&names[0]), description.vr(&names[1])) {
+                        (Ok(az), Ok(el)) => [az, el],
+                        _ => [description.vr("modal_inertia.azimuth")?, description.vr("modal_inertia.elevation")?],
+                    };
+                    unit.get_real(&vrs, end)?;
+                }
                 let drive = [description.vr("drive_torque.azimuth")?, description.vr("drive_torque.elevation")?];
                 ports.structure_out.extend(drive);
                 ports.structure_drive = Some(drive);
@@ -661,13 +715,13 @@ impl CoupledAntenna {
                 &fmus.azimuth_plant,
                 "azimuth_plant",
                 &az_plant_overrides,
-                Some((CARRIED_INERTIA_PARAMETERS[0], carried[0])),
+                Some((0, carried[0][0], carried[1][0])),
             )?,
             elevation_plant: make_carrying(
                 &fmus.elevation_plant,
                 "elevation_plant",
                 &el_plant_overrides,
-                Some((CARRIED_INERTIA_PARAMETERS[1], carried[1])),
+                Some((1, carried[0][1], carried[1][1])),
             )?,
             azimuth_controller: make(&fmus.azimuth_controller, "azimuth_controller", &az_ctrl_overrides)?,
             elevation_controller: make(&fmus.elevation_controller, "elevation_controller", &el_ctrl_overrides)?,
@@ -1110,7 +1164,7 @@ impl Master<'_, '_> {
     fn azimuth_loads(ports: &Ports, point: &Point, az: &[f64; 7], el: &[f64; 5]) -> AzimuthLoads {
         let mut sources = [0.0; STRUCTURE_INPUTS];
         sources[..LOADS].copy_from_slice(&point.loads);
-        sources[LOADS..].copy_from_slice(&[az[6], el[4]]);
+        sources[LOADS..].copy_from_slice(&[az[6], el[4], el[1]]);
         let mut structure = [0.0; STRUCTURE_INPUTS];
         for (value, (_, source)) in structure.iter_mut().zip(&ports.structure_sources) {
             *value = sources[*source];

@@ -36,7 +36,7 @@ use antenna_dsp::{Complex64, ResponseComparison};
 use antenna_plot::{measured_against_model, Figure, Panel};
 
 use super::{read_real, welch_h1, Axis, FlankWatch, IdentificationError, MeasuredResponse};
-use crate::coupled::{leave_out_carried_inertia, CARRIED_INERTIA_PARAMETERS};
+use crate::coupled::leave_out_carried_inertia;
 
 /// The experiment. [`IdentificationConfig::paper`] gives the settings of the figures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -447,8 +447,9 @@ fn reference_parameters(
 pub fn identify(fmu_path: &Path, config: &IdentificationConfig) -> Result<Identification, IdentificationError> {
     let started = std::time::Instant::now();
     let fmu = Fmu::open(fmu_path)?;
-    let mut structure = if config.structure { Some(coupled_structure(fmu_path, config.axis)?) } else { None };
-    let carried = structure.as_ref().map_or(0.0, |s| s.modal_inertia);
+    let mut structure =
+        if config.structure { Some(coupled_structure(fmu_path, config.axis, config.elevation_deg)?) } else { None };
+    let carried = structure.as_ref().map_or((0.0, 0.0), |s| s.carried_zenith_and_horizon);
     let mut instance = initialised_plant(&fmu, config, carried)?;
     let (two_mass, torque_per_amp, bandwidth_hz, reported_anti_resonance_hz) =
         reference_parameters(config.axis, &mut instance, &fmu)?;
@@ -501,22 +502,34 @@ struct CoupledStructure {
     drive_vr: u32,
     /// Which of the speeds is this axis's.
     axis_index: usize,
+    /// The inertia the modes carry about the axis at the experiment's elevation, kg m^2.
     modal_inertia: f64,
+    /// The same with the dish at the zenith and at the horizon, which the plant leaves out.
+    carried_zenith_and_horizon: (f64, f64),
     clamped_hz: f64,
 }
 
-/// The packaged Structure FMU beside the plant's, initialised with its shipped modes.
-fn coupled_structure(plant_path: &Path, axis: Axis) -> Result<CoupledStructure, IdentificationError> {
+/// The packaged Structure FMU beside the plant's, initialised with its shipped modes at the
+/// experiment's elevation.
+fn coupled_structure(
+    plant_path: &Path,
+    axis: Axis,
+    elevation_deg: f64,
+) -> Result<CoupledStructure, IdentificationError> {
     let fmu = Fmu::open(plant_path.with_file_name("Structure.fmu"))?;
     let mut instance = fmu.instantiate("structure-identification", false)?;
     instance.setup_experiment(0.0, None)?;
     instance.enter_initialization_mode()?;
+    instance.set_real(&[fmu.description.vr("axis.elevation")?], &[elevation_deg])?;
     instance.exit_initialization_mode()?;
     let (axis_index, name) = match axis {
         Axis::Azimuth => (0, "azimuth"),
         Axis::Elevation => (1, "elevation"),
     };
-    let modal_inertia = read_real(&fmu, &mut instance, &format!("modal_inertia.{name}"))?;
+    let zenith = read_real(&fmu, &mut instance, &format!("modal_inertia.{name}"))?;
+    let horizon = read_real(&fmu, &mut instance, &format!("modal_inertia.{name}_horizon"))?;
+    let (sin_el, cos_el) = elevation_deg.to_radians().sin_cos();
+    let modal_inertia = if zenith == horizon { zenith } else { horizon * cos_el * cos_el + zenith * sin_el * sin_el };
     // The axis's mode in the shipped file: the first that its torque drives.
     let modes = fmu_structure::modes::parse_modes(fmu_structure::modes::DEFAULT_MODES, "structure_modes.params")
         .map_err(|e| IdentificationError::ModelMismatch(e.to_string()))?;
@@ -530,25 +543,30 @@ fn coupled_structure(plant_path: &Path, axis: Axis) -> Result<CoupledStructure, 
         drive_vr: md.vr(&format!("drive_torque.{name}"))?,
         axis_index,
         modal_inertia,
-        clamped_hz: mode.frequency_hz,
+        carried_zenith_and_horizon: (zenith, horizon),
+        clamped_hz: mode.frequency_at(elevation_deg),
         instance,
     })
 }
 
 /// The plant instance set up for the experiment: at its elevation (the azimuth plant's input;
 /// the elevation plant's geometry frozen there) and start position, linear if asked.
-fn initialised_plant(fmu: &Fmu, config: &IdentificationConfig, carried: f64) -> Result<Instance, IdentificationError> {
+fn initialised_plant(
+    fmu: &Fmu,
+    config: &IdentificationConfig,
+    carried: (f64, f64),
+) -> Result<Instance, IdentificationError> {
     let md = &fmu.description;
     let mut instance = fmu.instantiate(&format!("{}-identification", config.axis.name()), false)?;
     instance.setup_experiment(0.0, None)?;
     instance.enter_initialization_mode()?;
     // The structure's mode carries this much of the load: the plant keeps the rest, of the part
     // the antenna master takes it from.
-    let parameter = match config.axis {
-        Axis::Azimuth => CARRIED_INERTIA_PARAMETERS[0],
-        Axis::Elevation => CARRIED_INERTIA_PARAMETERS[1],
+    let axis = match config.axis {
+        Axis::Azimuth => 0,
+        Axis::Elevation => 1,
     };
-    leave_out_carried_inertia(&mut instance, md, parameter, carried)?;
+    leave_out_carried_inertia(&mut instance, md, axis, carried.0, carried.1)?;
     if config.linear_configuration {
         instance.set_boolean(&[md.vr("linear_configuration")?], &[true])?;
     }
