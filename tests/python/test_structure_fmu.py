@@ -19,8 +19,9 @@ from conftest import FMU_DIRECTORY, PACKAGE_HINT
 
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 FIELDS = ("frequency", "damping", "stiffness", "azimuth_torque", "elevation_torque", "dish_force", "beam_azimuth", "beam_elevation",
-          "axial_force", "lateral_force", "lift_force")
-# The resolved forces' participations are optional and default to zero.
+          "axial_force", "lateral_force", "lift_force", "horizon_frequency")
+# The resolved forces' participations are optional and default to zero (the horizon frequency,
+# also optional, defaults to the frequency: filled in by parse_modes).
 OPTIONAL = ("axial_force", "lateral_force", "lift_force")
 
 
@@ -48,6 +49,8 @@ def parse_modes(text):
         mode, field = name.removeprefix("mode").split(".", 1)
         assert field in FIELDS, name
         modes.setdefault(int(mode), dict.fromkeys(OPTIONAL, 0.0))[field] = float(value)
+    for mode in modes.values():
+        mode.setdefault("horizon_frequency", mode["frequency"])
     return [modes[k] for k in sorted(modes)]
 
 
@@ -144,3 +147,48 @@ def test_constant_axial_lateral_and_lift_forces_settle_at_force_times_participat
         offset = result[output]
         assert abs(offset[result["time"] < 1.0]).max() == 0.0, f"{output} moved before the forces"
         assert abs(offset[-1] / expected - 1.0) < 0.01, f"{output}: {offset[-1]} arcsec against {expected}"
+
+
+# One lightly damped azimuth mode that changes with elevation: 6 Hz at the zenith, 7 Hz at the
+# horizon (docs/structure-model.md, "Modes that change with elevation").
+ELEVATION_MODES = """\
+mode1.frequency = 6.0
+mode1.horizon_frequency = 7.0
+mode1.damping = 0.002
+mode1.stiffness = 4e8
+mode1.azimuth_torque = 1
+mode1.elevation_torque = 0
+mode1.dish_force = 0
+mode1.beam_azimuth = 1
+mode1.beam_elevation = 0
+"""
+
+
+def test_a_mode_with_a_horizon_frequency_rings_at_the_documented_frequency_of_its_elevation(tmp_path):
+    modes_file = tmp_path / "elevation.params"
+    modes_file.write_text(ELEVATION_MODES)
+    mode = parse_modes(ELEVATION_MODES)[0]
+    for elevation in (15.0, 60.0):
+        # A torque held for the first millisecond, then free ringing.
+        signal = np.array([(0.0, 1e5), (1e-3, 1e5), (1e-3, 0.0), (10.0, 0.0)],
+                          dtype=[("time", np.float64), ("torque.azimuth", np.float64)])
+        result = simulate_fmu(
+            str(structure_path()),
+            stop_time=10.0,
+            step_size=1e-3,
+            output_interval=1e-3,
+            input=signal,
+            start_values={"modes_file": str(modes_file), "axis.elevation": elevation},
+            output=["beam.azimuth_offset", "modal_inertia.azimuth", "modal_inertia.azimuth_horizon"],
+        )
+        offset, time = result["beam.azimuth_offset"], result["time"]
+        crossings = np.nonzero((offset[:-1] > 0.0) & (offset[1:] <= 0.0))[0]
+        exact = time[crossings] - offset[crossings] * (time[crossings + 1] - time[crossings]) / (offset[crossings + 1] - offset[crossings])
+        ringing = (len(exact) - 1) / (exact[-1] - exact[0])
+        c, s = math.cos(math.radians(elevation)), math.sin(math.radians(elevation))
+        undamped = 1.0 / math.sqrt(c * c / mode["horizon_frequency"] ** 2 + s * s / mode["frequency"] ** 2)
+        damped = undamped * math.sqrt(1.0 - mode["damping"] ** 2)
+        assert abs(ringing / damped - 1.0) < 1e-3, f"{elevation} deg: rings at {ringing} Hz, documented {damped} Hz"
+        inertia = lambda f: mode["stiffness"] / (2.0 * math.pi * f) ** 2
+        assert abs(result["modal_inertia.azimuth"][-1] / inertia(mode["frequency"]) - 1.0) < 1e-12
+        assert abs(result["modal_inertia.azimuth_horizon"][-1] / inertia(mode["horizon_frequency"]) - 1.0) < 1e-12

@@ -83,6 +83,11 @@ struct Cli {
     /// two-way coupling; for comparison.
     #[arg(long)]
     one_way_structure: bool,
+    /// The structure's modes from this modes file (docs/structure-model.md: the modes of your
+    /// own finite-element model, at the zenith and, with horizon_frequency, the horizon) in
+    /// place of the shipped ones. Not with --config paper, which has no structure.
+    #[arg(long, value_name = "MODES.params")]
+    modes: Option<PathBuf>,
 }
 
 /// The antenna configurations of docs/parameters.csv.
@@ -147,7 +152,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
     let started = Instant::now();
-    let config = AntennaConfig { structure_feedback: !cli.one_way_structure, ..configuration.antenna_config() };
+    let mut config = AntennaConfig { structure_feedback: !cli.one_way_structure, ..configuration.antenna_config() };
+    if let Some(modes) = &cli.modes {
+        let Some(structure) = config.structure.as_mut() else {
+            bail!("--modes: this configuration (--config paper) has no structure");
+        };
+        // The FMU looks a relative name up in its resources folder: hand it the whole path.
+        let path = modes.canonicalize().with_context(|| format!("--modes {}", modes.display()))?;
+        structure.push(("modes_file".into(), antenna_sim::ParameterValue::Text(path.display().to_string())));
+    }
     // One scenario alone would leave every core but one idle: its azimuth lane takes a second
     // while that is faster on this machine (the same results bit for bit; many scenarios keep
     // the cores busy with whole runs).
