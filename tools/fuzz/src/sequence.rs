@@ -2,6 +2,7 @@
 //! calls they are so that a failure can be replayed by hand.
 
 use std::fmt;
+use std::sync::OnceLock;
 
 use crate::rng::Rng;
 use crate::target::{BaseType, Target, Variable};
@@ -364,12 +365,33 @@ fn set_call(target: &Target, rng: &mut Rng, initialising: bool, valid: bool) -> 
                         "defaults.params",
                         "../../../../etc/passwd",
                         "%s%n%s",
+                        alternative_modes_file(),
                     ]);
                     (vr, s.to_string())
                 })
                 .collect(),
         ),
     }
+}
+
+/// A valid modes file with what the shipped one leaves out: a mode that changes with elevation
+/// and takes both torques, one that takes the resolved wind forces. A `Structure` instance runs
+/// on it (its elevation cells, its coupled participations); to the other FMUs it is a file of
+/// unknown names. Written once per process to a fixed path, so that sequences stay a function of
+/// their seed and print as calls that replay.
+fn alternative_modes_file() -> &'static str {
+    const MODES: &str = "\
+mode1.frequency = 5.0\nmode1.horizon_frequency = 6.5\nmode1.damping = 0.01\nmode1.stiffness = 3e8\n\
+mode1.azimuth_torque = 1\nmode1.elevation_torque = 0.3\nmode1.dish_force = 0\nmode1.beam_azimuth = 1\nmode1.beam_elevation = 0.2\n\
+mode2.frequency = 8.0\nmode2.damping = 0.02\nmode2.stiffness = 1\nmode2.azimuth_torque = 0\nmode2.elevation_torque = 1e-4\n\
+mode2.dish_force = 0\nmode2.axial_force = 2e-5\nmode2.lateral_force = -1e-5\nmode2.lift_force = 3e-5\nmode2.beam_azimuth = 1e-5\nmode2.beam_elevation = 2e-5\n";
+    static PATH: OnceLock<String> = OnceLock::new();
+    PATH.get_or_init(|| {
+        let path = std::env::temp_dir().join("fmu-fuzz-structure-modes.params");
+        // A failed write leaves a missing file, which is one more bad input.
+        let _ = std::fs::write(&path, MODES);
+        path.display().to_string()
+    })
 }
 
 fn real_value(var: Option<&Variable>, rng: &mut Rng, valid: bool) -> f64 {
