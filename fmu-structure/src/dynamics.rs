@@ -156,7 +156,17 @@ impl ModalStructure {
     /// now on: their frequencies at the centre of its [`ELEVATION_CELL_DEG`] cell. Nothing for a
     /// structure whose modes do not change with elevation. The modal states are kept: the
     /// frequency changes, the mode's coordinate and velocity do not.
+    #[inline]
     pub fn set_elevation(&mut self, elevation_deg: f64) {
+        // Called before every step and every feedthrough update: the common structure, whose
+        // modes do not change with elevation, pays one test.
+        if self.elevation.is_some() {
+            self.move_to_elevation(elevation_deg);
+        }
+    }
+
+    #[inline(never)]
+    fn move_to_elevation(&mut self, elevation_deg: f64) {
         let Some(cells) = &mut self.elevation else { return };
         let cell = elevation_cell(elevation_deg);
         if cell == cells.cell {
