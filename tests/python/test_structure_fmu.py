@@ -54,6 +54,14 @@ def parse_modes(text):
     return [modes[k] for k in sorted(modes)]
 
 
+def ringing_frequency(time, signal):
+    """A ringing signal's frequency, Hz, from its downward zero crossings, each interpolated
+    linearly between its two samples."""
+    crossings = np.nonzero((signal[:-1] > 0.0) & (signal[1:] <= 0.0))[0]
+    exact = time[crossings] - signal[crossings] * (time[crossings + 1] - time[crossings]) / (signal[crossings + 1] - signal[crossings])
+    return (len(exact) - 1) / (exact[-1] - exact[0])
+
+
 def test_a_step_load_settles_at_load_times_compliance_and_rings_at_each_mode_frequency():
     modes = shipped_modes()
     loads = {"torque.azimuth": 1.05e4, "torque.elevation": -8.0e3, "force.dish": 0.0}
@@ -87,9 +95,7 @@ def test_a_step_load_settles_at_load_times_compliance_and_rings_at_each_mode_fre
         window = (time > 1.0) & (time < 6.0)
         transient = offset[window] - expected
         t = time[window]
-        crossings = np.nonzero((transient[:-1] > 0.0) & (transient[1:] <= 0.0))[0]
-        exact = t[crossings] - transient[crossings] * (t[crossings + 1] - t[crossings]) / (transient[crossings + 1] - transient[crossings])
-        ringing = (len(exact) - 1) / (exact[-1] - exact[0])
+        ringing = ringing_frequency(t, transient)
         damped = mode["frequency"] * math.sqrt(1.0 - mode["damping"] ** 2)
         assert abs(ringing / damped - 1.0) < 0.02, f"{output}: rings at {ringing} Hz, the mode is at {damped} Hz"
 
@@ -181,10 +187,7 @@ def test_a_mode_with_a_horizon_frequency_rings_at_the_documented_frequency_of_it
             start_values={"modes_file": str(modes_file), "axis.elevation": elevation},
             output=["beam.azimuth_offset", "modal_inertia.azimuth", "modal_inertia.azimuth_horizon"],
         )
-        offset, time = result["beam.azimuth_offset"], result["time"]
-        crossings = np.nonzero((offset[:-1] > 0.0) & (offset[1:] <= 0.0))[0]
-        exact = time[crossings] - offset[crossings] * (time[crossings + 1] - time[crossings]) / (offset[crossings + 1] - offset[crossings])
-        ringing = (len(exact) - 1) / (exact[-1] - exact[0])
+        ringing = ringing_frequency(result["time"], result["beam.azimuth_offset"])
         c, s = math.cos(math.radians(elevation)), math.sin(math.radians(elevation))
         undamped = 1.0 / math.sqrt(c * c / mode["horizon_frequency"] ** 2 + s * s / mode["frequency"] ** 2)
         damped = undamped * math.sqrt(1.0 - mode["damping"] ** 2)

@@ -195,6 +195,40 @@ struct AxisFigures {
 }
 
 /// The run against the model over a band, Hz.
+impl AxisFigures {
+    /// The simulated peak against the predicted: frequency and pole within 1.5 %, damping
+    /// within 25 %, height within 15 %; and the run nearer the prediction than the clamped mode
+    /// (its rms log-magnitude difference under 0.3 of the clamped mode's).
+    ///
+    /// The fit's own bias cancels between the two (the same bins, weights and function); what
+    /// remains is the estimate's random error and the co-simulation's coupling through the step
+    /// (within 0.1 point of damping at 1 ms, docs/structure-model.md). Three gust seeds
+    /// (101-103) put the simulated peak at 45 deg within 0.4 % of the prediction, the damping
+    /// within 0.3 point and the height within 2 %: the limits are three to four times that.
+    /// With the friction of the realistic antenna the azimuth peak stays at 5.991 Hz with 1.7 %
+    /// damping (the clamped mode), 2.8 % above the prediction, and fails here.
+    fn assert_within_limits(&self, case: &str) {
+        let (measured_peak_hz, measured_peak) = self.measured.peak();
+        let (model_peak_hz, model_peak) = self.model.peak();
+        let (measured_pole_hz, measured_damping) = self.measured.pole();
+        let (model_pole_hz, model_damping) = self.model.pole();
+        let within = |what: &str, measured: f64, model: f64, limit: f64| {
+            assert!((measured / model - 1.0).abs() < limit, "{case}: simulated {what} {measured}, predicted {model}");
+        };
+        within("peak (Hz)", measured_peak_hz, model_peak_hz, 0.015);
+        within("pole (Hz)", measured_pole_hz, model_pole_hz, 0.015);
+        within("damping", measured_damping, model_damping, 0.25);
+        within("peak height", measured_peak, model_peak, 0.15);
+        // The prediction is not the clamped mode's: the run is far from that one.
+        assert!(
+            self.rms_log_error_free < 0.3 * self.rms_log_error_clamped,
+            "{case}: the run is as close to the clamped mode ({}) as to the free model ({})",
+            self.rms_log_error_clamped,
+            self.rms_log_error_free
+        );
+    }
+}
+
 fn compare(estimate: &TransferEstimate, model: &AxisWithMode, band_hz: (f64, f64)) -> AxisFigures {
     let bins: Vec<usize> = (0..estimate.frequency_hz.len())
         .filter(|&k| estimate.frequency_hz[k] >= band_hz.0 && estimate.frequency_hz[k] <= band_hz.1)
@@ -304,41 +338,7 @@ fn with_friction_zeroed_a_held_axis_loads_the_structural_mode_as_the_linear_serv
             "{}: the beam's spectrum in this wind (the response squared times the wind torque's spectrum) peaks at {spectral_peak_hz:.2} Hz, {spectral_rise:.2} times its level at 4.9 Hz (simulated: {simulated_spectral_peak_hz:.2} Hz, {simulated_spectral_rise:.2})",
             axis.name()
         );
-        let (measured_peak_hz, measured_peak) = figures.measured.peak();
-        let (model_peak_hz, model_peak) = figures.model.peak();
-        let (measured_pole_hz, measured_damping) = figures.measured.pole();
-        let (model_pole_hz, model_damping) = figures.model.pole();
-        let case = axis.name();
-        // The fit's own bias cancels between the two (the same bins, weights and function);
-        // what remains is the estimate's random error and the co-simulation's coupling through
-        // the step (within 0.1 point of damping at 1 ms, docs/structure-model.md). Three gust
-        // seeds (101-103) put the simulated peak within 0.4 % of the prediction, the damping
-        // within 0.3 point and the height within 2 %: the limits are three to four times that.
-        // With the friction of the realistic antenna the azimuth peak stays at 5.991 Hz with
-        // 1.7 % damping (the clamped mode), 2.8 % above the prediction, and fails here.
-        assert!(
-            (measured_peak_hz / model_peak_hz - 1.0).abs() < 0.015,
-            "{case}: simulated peak {measured_peak_hz} Hz, predicted {model_peak_hz} Hz"
-        );
-        assert!(
-            (measured_pole_hz / model_pole_hz - 1.0).abs() < 0.015,
-            "{case}: simulated pole {measured_pole_hz} Hz, predicted {model_pole_hz} Hz"
-        );
-        assert!(
-            (measured_damping / model_damping - 1.0).abs() < 0.25,
-            "{case}: simulated damping {measured_damping}, predicted {model_damping}"
-        );
-        assert!(
-            (measured_peak / model_peak - 1.0).abs() < 0.15,
-            "{case}: simulated peak height {measured_peak}, predicted {model_peak}"
-        );
-        // The prediction is not the clamped mode's: the run is far from that one.
-        assert!(
-            figures.rms_log_error_free < 0.3 * figures.rms_log_error_clamped,
-            "{case}: the run is as close to the clamped mode ({}) as to the free model ({})",
-            figures.rms_log_error_clamped,
-            figures.rms_log_error_free
-        );
+        figures.assert_within_limits(axis.name());
     }
     write_figure(&drawn);
     println!("test time {:.1?}", started.elapsed());
@@ -363,7 +363,7 @@ fn a_mode_that_changes_with_elevation_loads_the_held_azimuth_axis_as_predicted_a
     let file = directory.join("elevation.params");
     std::fs::write(&file, write_modes(&modes, "the shipped modes, azimuth 7 Hz at the horizon")).unwrap();
     let mut peaks = Vec::new();
-    for elevation_deg in [15.0, 70.0] {
+    for elevation_deg in [15.0, 60.0] {
         let mut config = frictionless_realistic_config();
         config
             .structure
@@ -391,25 +391,14 @@ fn a_mode_that_changes_with_elevation_loads_the_held_azimuth_axis_as_predicted_a
         );
         // The limits of the 45 deg test: the master leaves the mode's inertia at this
         // elevation out of the azimuth plant, so that drive and mode move as the model's.
-        assert!(
-            (measured_hz / model_hz - 1.0).abs() < 0.015,
-            "{elevation_deg} deg: simulated peak {measured_hz} Hz, predicted {model_hz} Hz"
-        );
-        assert!(
-            (measured_damping / model_damping - 1.0).abs() < 0.25,
-            "{elevation_deg} deg: simulated damping {measured_damping}, predicted {model_damping}"
-        );
-        assert!(
-            (measured_peak / model_peak - 1.0).abs() < 0.15,
-            "{elevation_deg} deg: simulated height {measured_peak}, predicted {model_peak}"
-        );
+        figures.assert_within_limits(&format!("azimuth at {elevation_deg} deg"));
         peaks.push(measured_hz);
     }
-    // At 15 deg the mode is clamped at 6.92 Hz, at 70 deg at 6.10 Hz: the peak
+    // At 15 deg the mode is clamped at 6.92 Hz, at 60 deg at 6.21 Hz: the peak
     // moves with it.
     assert!(
         peaks[0] > 1.1 * peaks[1],
-        "the peak at 15 deg ({}) is not above the one at 70 deg ({})",
+        "the peak at 15 deg ({}) is not above the one at 60 deg ({})",
         peaks[0],
         peaks[1]
     );
