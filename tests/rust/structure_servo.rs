@@ -272,13 +272,12 @@ fn spectral_peak(estimate: &TransferEstimate, response: impl Fn(f64) -> C64) -> 
     (estimate.frequency_hz[peak], spectrum(peak) / spectrum(reference))
 }
 
-/// The models against the run, for docs/figures/structure-servo-45deg.png, into `out/`.
-fn write_figure(drawn: &[(AxisWithMode, Vec<f64>, Vec<C64>)]) {
+/// The models against the run, for docs/figures/ (`name`), into `out/`.
+fn write_figure(name: &str, title: &str, drawn: &[(AxisWithMode, Vec<f64>, Vec<C64>)]) {
     let directory = antenna_fmus::workspace_root().join("out");
     std::fs::create_dir_all(&directory).unwrap();
-    let path = directory.join("structure-servo-45deg.png");
+    let path = directory.join(name);
     let axes: Vec<_> = drawn.iter().map(|(model, f, h)| (model, Some((f.as_slice(), h.as_slice())))).collect();
-    let title = "The structural mode under the servo: wind torque to beam pointing, holding at 45 deg";
     figure(title, &axes, 1.0, 12.0).save_png(&path).unwrap();
     println!("wrote {}", path.display());
 }
@@ -340,7 +339,11 @@ fn with_friction_zeroed_a_held_axis_loads_the_structural_mode_as_the_linear_serv
         );
         figures.assert_within_limits(axis.name());
     }
-    write_figure(&drawn);
+    write_figure(
+        "structure-servo-45deg.png",
+        "The structural mode under the servo: wind torque to beam pointing, holding at 45 deg",
+        &drawn,
+    );
     println!("test time {:.1?}", started.elapsed());
 }
 
@@ -363,6 +366,7 @@ fn a_mode_that_changes_with_elevation_loads_the_held_azimuth_axis_as_predicted_a
     let file = directory.join("elevation.params");
     std::fs::write(&file, write_modes(&modes, "the shipped modes, azimuth 7 Hz at the horizon")).unwrap();
     let mut peaks = Vec::new();
+    let mut drawn = Vec::new();
     for elevation_deg in [15.0, 60.0] {
         let mut config = frictionless_realistic_config();
         config
@@ -392,8 +396,14 @@ fn a_mode_that_changes_with_elevation_loads_the_held_azimuth_axis_as_predicted_a
         // The limits of the 45 deg test: the master leaves the mode's inertia at this
         // elevation out of the azimuth plant, so that drive and mode move as the model's.
         figures.assert_within_limits(&format!("azimuth at {elevation_deg} deg"));
+        drawn.push((model.clone(), estimate.frequency_hz.clone(), estimate.h1.clone()));
         peaks.push(measured_hz);
     }
+    write_figure(
+        "structure-servo-elevation.png",
+        "An azimuth mode of 6 Hz (zenith) and 7 Hz (horizon) under the servo, held at 15 and 60 deg",
+        &drawn,
+    );
     // At 15 deg the mode is clamped at 6.92 Hz, at 60 deg at 6.21 Hz: the peak
     // moves with it.
     assert!(
