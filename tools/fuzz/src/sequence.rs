@@ -388,8 +388,18 @@ mode2.dish_force = 0\nmode2.axial_force = 2e-5\nmode2.lateral_force = -1e-5\nmod
     static PATH: OnceLock<String> = OnceLock::new();
     PATH.get_or_init(|| {
         let path = std::env::temp_dir().join("fmu-fuzz-structure-modes.params");
-        // A failed write leaves a missing file, which is one more bad input.
-        let _ = std::fs::write(&path, MODES);
+        // Child processes run sequences at once and each comes here: a file written in place
+        // would be empty for a moment while another reads it (which made the serial and the
+        // two-thread runs of one sequence answer differently). So a file that is already right
+        // is left alone, and a new one is written aside and renamed over it, atomically. A
+        // failed write leaves a missing file, which is one more bad input.
+        if std::fs::read_to_string(&path).is_ok_and(|text| text == MODES) {
+            return path.display().to_string();
+        }
+        let aside = path.with_extension(format!("{}.tmp", std::process::id()));
+        if std::fs::write(&aside, MODES).is_ok() {
+            let _ = std::fs::rename(&aside, &path);
+        }
         path.display().to_string()
     })
 }
