@@ -299,7 +299,7 @@ impl ModalStructure {
     /// elevation): `sum_k p_i,k^2 K_k / w_k^2`. The modes carry it, so a plant coupled to
     /// [`Self::drive_torques`] keeps only the rest of its load inertia.
     pub fn modal_inertias(&self) -> [f64; 2] {
-        carried_inertias(&self.modes, |mode| mode.frequency_hz)
+        carried_inertias(&self.modes, Mode::inertia)
     }
 
     /// [`Self::modal_inertias`] with the dish at the zenith and at the horizon: `(zenith,
@@ -307,9 +307,7 @@ impl ModalStructure {
     /// turns as `horizon cos^2(el) + zenith sin^2(el)`.
     pub fn modal_inertias_zenith_and_horizon(&self) -> ([f64; 2], [f64; 2]) {
         let read = self.elevation.as_ref().map_or(&self.modes, |cells| &cells.read);
-        let zenith = carried_inertias(read, |mode| mode.frequency_hz);
-        let horizon = carried_inertias(read, |mode| mode.horizon_frequency_hz.unwrap_or(mode.frequency_hz));
-        (zenith, horizon)
+        (carried_inertias(read, Mode::inertia), carried_inertias(read, Mode::horizon_inertia))
     }
 
     /// The beam offset, rad (on-sky azimuth, elevation), from the modes' coordinates.
@@ -370,13 +368,12 @@ impl ModalStructure {
     }
 }
 
-/// `sum_k p_i,k^2 K_k / w_k^2` about each axis (azimuth, elevation), with each mode's frequency
-/// (Hz) as `frequency` gives it.
-fn carried_inertias(modes: &[Mode], frequency: impl Fn(&Mode) -> f64) -> [f64; 2] {
+/// `sum_k p_i,k^2 J_k` about each axis (azimuth, elevation), with each mode's inertia `J_k` as
+/// `inertia` gives it.
+fn carried_inertias(modes: &[Mode], inertia: impl Fn(&Mode) -> f64) -> [f64; 2] {
     let mut inertias = [0.0; 2];
     for mode in modes {
-        let w = 2.0 * std::f64::consts::PI * frequency(mode);
-        let inertia = mode.stiffness / (w * w);
+        let inertia = inertia(mode);
         inertias[0] += mode.participation[0] * mode.participation[0] * inertia;
         inertias[1] += mode.participation[1] * mode.participation[1] * inertia;
     }

@@ -146,10 +146,20 @@ impl Mode {
         -self.inertia() * (self.participation[0] * accelerations[0] + self.participation[1] * accelerations[1])
     }
 
-    /// The modal mass `K / w^2`: the inertia of the mode's moving part per unit participation.
+    /// The modal mass `K / w^2`: the inertia of the mode's moving part per unit participation
+    /// (at the zenith for a mode that changes with elevation).
     pub fn inertia(&self) -> f64 {
         let w = self.omega();
         self.stiffness / (w * w)
+    }
+
+    /// The modal mass with the dish at the horizon: [`Self::inertia`] at the horizon frequency
+    /// (the same for a mode that does not change with elevation).
+    pub fn horizon_inertia(&self) -> f64 {
+        match self.horizon_frequency_hz {
+            Some(horizon) => Mode { frequency_hz: horizon, ..self.clone() }.inertia(),
+            None => self.inertia(),
+        }
     }
 
     /// The static deflection of the modal coordinate under constant loads.

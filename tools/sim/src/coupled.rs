@@ -325,13 +325,13 @@ impl Trace {
 
 /// The plants' parameters (azimuth, elevation) whose inertia the structure's modes carry when
 /// they push back on the drives: the part of each axis's load inertia a mode's body belongs to.
-pub const CARRIED_INERTIA_PARAMETERS: [&str; 2] = ["load.turning_head_inertia", "load.inertia"];
+const CARRIED_INERTIA_PARAMETERS: [&str; 2] = ["load.turning_head_inertia", "load.inertia"];
 
 /// The azimuth plant's two parts of the elevation structure's inertia about the azimuth axis,
 /// the one that goes as `cos^2(el)` and the one that goes as `sin^2(el)`: where a mode that
 /// changes with elevation carries more at the horizon or at the zenith than at the other end,
 /// the excess comes out of them.
-pub const ELEVATION_DEPENDENT_INERTIA_PARAMETERS: [&str; 2] =
+const ELEVATION_DEPENDENT_INERTIA_PARAMETERS: [&str; 2] =
     ["load.elevation_structure_cross_inertia", "load.elevation_structure_boresight_inertia"];
 
 /// Which plant parameters lose how much inertia (kg m^2) when the structure's modes, coupled
@@ -690,15 +690,17 @@ impl CoupledAntenna {
             let mut unit = make(&fmus.structure, "structure", &overrides)?;
             ports.keep_inputs_taken(&mut unit, description)?;
             if config.structure_feedback {
-                for (end, suffix) in carried.iter_mut().zip(["", "_horizon"]) {
-                    // A structure without the horizon's inertias has modes that do not change
-                    // with elevation: the zenith's hold at the horizon too.
-                    let names = [format!("modal_inertia.azimuth{suffix}"), format!("modal_inertia.elevation{suffix}")];
-                    let vrs = match (description.vr(&names[0]), description.vr(&names[1])) {
-                        (Ok(az), Ok(el)) => [az, el],
-                        _ => [description.vr("modal_inertia.azimuth")?, description.vr("modal_inertia.elevation")?],
-                    };
-                    unit.get_real(&vrs, end)?;
+                let zenith = [description.vr("modal_inertia.azimuth")?, description.vr("modal_inertia.elevation")?];
+                unit.get_real(&zenith, &mut carried[0])?;
+                // A structure without the horizon's inertias has modes that do not change with
+                // elevation: the zenith's hold at the horizon too.
+                carried[1] = carried[0];
+                let horizon = [
+                    description.vr("modal_inertia.azimuth_horizon"),
+                    description.vr("modal_inertia.elevation_horizon"),
+                ];
+                if let [Ok(az), Ok(el)] = horizon {
+                    unit.get_real(&[az, el], &mut carried[1])?;
                 }
                 let drive = [description.vr("drive_torque.azimuth")?, description.vr("drive_torque.elevation")?];
                 ports.structure_out.extend(drive);
