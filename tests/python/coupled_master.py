@@ -11,8 +11,9 @@ cost more than the FMUs themselves.
 
 Usage:
     coupled_master.py --config S.config --commands S.commands.csv [--trace out.csv]
-    coupled_master.py --bench SECONDS
-The scenario files are written by the Rust main job: `antenna --trace DIR`.
+    coupled_master.py --config S.config --commands S.commands.csv --bench SECONDS
+The scenario files are written by the Rust main job: `antenna --trace DIR`; `bench --fmpy`
+writes those of its own run and times this master on it with `--bench`.
 """
 
 import argparse
@@ -380,12 +381,13 @@ def main():
     parser.add_argument("--config")
     parser.add_argument("--commands")
     parser.add_argument("--trace")
-    parser.add_argument("--bench", type=float, help="simulated seconds of sidereal tracking to time")
+    parser.add_argument("--bench", type=float, help="time this many simulated seconds of the scenario instead")
     args = parser.parse_args()
+    if not (args.config and args.commands):
+        parser.error("give --config and --commands")
+    config = read_config(args.config)
+    table = CommandTable.read(args.commands)
     if args.bench:
-        rows = int(round((args.bench + 1.0) / 0.1))
-        table = CommandTable([(k * 0.1, 30.0 + 0.004 * (k * 0.1), 45.0 + 0.004 * (k * 0.1)) for k in range(rows + 1)])
-        config = {"step_s": 1e-3, "wind.mean_speed": 2.9, "wind.roughness_length": 0.026, "wind.direction": 160.0, "seed": 7}
         antenna = CoupledAntenna(config, table)
         steps = int(round(args.bench / antenna.step_s))
         started = time.perf_counter()
@@ -393,13 +395,11 @@ def main():
             antenna.step(table)
         wall = time.perf_counter() - started
         antenna.close()
-        print(f"sidereal tracking at 45 deg, optimal wind, 1 kHz, 5 FMUs: {args.bench:.0f} s simulated in {wall:.2f} s "
-              f"= {args.bench / wall:.1f} x real time ({wall / steps * 1e6:.1f} us per 1 ms communication step)")
+        fmus = 6 if config.get("structure", False) else 5
+        print(f"sidereal tracking at 45 deg, optimal wind, 1 kHz, {fmus} FMUs: {args.bench:.0f} s simulated "
+              f"in {wall:.2f} s = {args.bench / wall:.1f} x real time ({wall / steps * 1e6:.1f} us per 1 ms "
+              f"communication step)")
         return 0
-    if not (args.config and args.commands):
-        parser.error("give --config and --commands, or --bench")
-    config = read_config(args.config)
-    table = CommandTable.read(args.commands)
     trace = run(config, table, config["end_s"])
     if args.trace:
         with open(args.trace, "w") as f:

@@ -133,6 +133,36 @@ impl AntennaConfig {
         }
         all
     }
+
+    /// The run as another master reads it (`tests/python/coupled_master.py --config`): the step,
+    /// the end, the wind, the structure's coupling and every parameter override as
+    /// `<model identifier>.<variable> = value`, one `name = value` a line.
+    pub fn master_config_text(&self, wind: &WindCondition, end_s: f64) -> String {
+        let mut text = format!(
+            "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\nwind_load_scale = {:e}\nstructure = {}\nstructure_feedback = {}\n",
+            self.step_s,
+            end_s,
+            wind.mean_speed_m_s,
+            wind.roughness_length_m,
+            wind.direction_deg,
+            wind.seed,
+            self.wind_load_scale,
+            self.structure.is_some(),
+            self.structure.is_some() && self.structure_feedback,
+        );
+        for (unit, overrides) in self.all_overrides() {
+            for (name, value) in overrides {
+                let value = match value {
+                    ParameterValue::Real(x) => format!("{x:e}"),
+                    ParameterValue::Integer(i) => i.to_string(),
+                    ParameterValue::Boolean(b) => b.to_string(),
+                    ParameterValue::Text(t) => format!("\"{t}\""),
+                };
+                text.push_str(&format!("{unit}.{name} = {value}\n"));
+            }
+        }
+        text
+    }
 }
 
 /// The six packaged FMUs.

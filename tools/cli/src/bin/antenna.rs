@@ -27,7 +27,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use antenna_sim::command::CommandTable;
-use antenna_sim::coupled::ParameterValue;
 use antenna_sim::coupled::WindCondition;
 use antenna_sim::report::{
     beam_spectrum_figure, beam_spectrum_peaks, budget_markdown, csv, markdown, plot, run_scenario, run_with_budget,
@@ -416,30 +415,7 @@ fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io
     std::fs::create_dir_all(dir)?;
     let s = &outcome.scenario;
     std::fs::write(dir.join(format!("{}.commands.csv", s.name)), s.table.to_csv())?;
-    let mut text = format!(
-        "step_s = {:e}\nend_s = {:e}\nwind.mean_speed = {:e}\nwind.roughness_length = {:e}\nwind.direction = {:e}\nseed = {}\nwind_load_scale = {:e}\nstructure = {}\nstructure_feedback = {}\n",
-        config.step_s,
-        s.end_s,
-        s.wind.mean_speed_m_s,
-        s.wind.roughness_length_m,
-        s.wind.direction_deg,
-        s.wind.seed,
-        config.wind_load_scale,
-        config.structure.is_some(),
-        config.structure.is_some() && config.structure_feedback,
-    );
-    // Every parameter override as `<model identifier>.<variable> = value`.
-    for (unit, overrides) in config.all_overrides() {
-        for (name, value) in overrides {
-            let value = match value {
-                ParameterValue::Real(x) => format!("{x:e}"),
-                ParameterValue::Integer(i) => i.to_string(),
-                ParameterValue::Boolean(b) => b.to_string(),
-                ParameterValue::Text(t) => format!("\"{t}\""),
-            };
-            text.push_str(&format!("{unit}.{name} = {value}\n"));
-        }
-    }
+    let text = config.master_config_text(&s.wind, s.end_s);
     std::fs::write(dir.join(format!("{}.config", s.name)), text)?;
     std::fs::write(dir.join(format!("{}.trace.csv", s.name)), outcome.trace.to_csv())
 }

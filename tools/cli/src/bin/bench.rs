@@ -16,6 +16,7 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Parser;
 
+use antenna_sim::command::CommandTable;
 use antenna_sim::scenario::{optimal_wind, tracking_table};
 use antenna_sim::sweep::rows::RowWriter;
 use antenna_sim::sweep::run::run_samples;
@@ -108,8 +109,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 /// for each of `lanes` (one thread, the azimuth lane on a second one, or the faster of the two).
 fn coupled(fmus: &FmuSet, seconds: f64, runs: usize, lanes: &[Lanes]) -> anyhow::Result<()> {
     println!("## Coupled antenna, Rust master through the C ABI");
-    let table = tracking_table((30.0, 45.0), (0.004, 0.004), seconds + 1.0);
-    let config = AntennaConfig { wind: optimal_wind(30.0, 7), ..AntennaConfig::default() };
+    let (config, table) = benchmark_run(seconds);
     let steps = (seconds / config.step_s).round() as u64;
     for &lane_count in lanes {
         let mut times = Vec::with_capacity(runs);
@@ -160,15 +160,35 @@ fn single_calls(fmus: &FmuSet) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The coupled antenna, fmpy master.
+/// The run both masters are timed on: the realistic antenna (the default configuration, six
+/// FMUs) tracking at the sidereal rate at 45 deg elevation in optimal wind, and its commands.
+fn benchmark_run(seconds: f64) -> (AntennaConfig, CommandTable) {
+    let table = tracking_table((30.0, 45.0), (0.004, 0.004), seconds + 1.0);
+    let config = AntennaConfig { wind: optimal_wind(30.0, 7), ..AntennaConfig::default() };
+    (config, table)
+}
+
+/// The coupled antenna, fmpy master, on the same run as the Rust master's, handed over as the
+/// files `antenna --trace` writes for another master.
 fn fmpy_master(seconds: f64) -> anyhow::Result<()> {
     println!("\n## Coupled antenna, fmpy master (tests/python/coupled_master.py)");
     let root = antenna_fmus::workspace_root();
+    let (config, table) = benchmark_run(seconds);
+    let directory = std::env::temp_dir().join(format!("meerkat-bench-fmpy-{}", std::process::id()));
+    std::fs::create_dir_all(&directory).with_context(|| format!("cannot create {}", directory.display()))?;
+    let (config_path, commands_path) = (directory.join("bench.config"), directory.join("bench.commands.csv"));
+    std::fs::write(&config_path, config.master_config_text(&config.wind, seconds))?;
+    std::fs::write(&commands_path, table.to_csv())?;
     let output = std::process::Command::new(root.join(".venv/bin/python"))
         .arg(root.join("tests/python/coupled_master.py"))
+        .arg("--config")
+        .arg(&config_path)
+        .arg("--commands")
+        .arg(&commands_path)
         .args(["--bench", &format!("{seconds}")])
-        .output()
-        .context("cannot run the fmpy master (set up .venv first)")?;
+        .output();
+    let _ = std::fs::remove_dir_all(&directory);
+    let output = output.context("cannot run the fmpy master (set up .venv first)")?;
     print!("{}", String::from_utf8_lossy(&output.stdout));
     if !output.status.success() {
         bail!("fmpy master failed: {}", String::from_utf8_lossy(&output.stderr));
