@@ -12,11 +12,38 @@ use super::scenario::{Analysis, Requirement, Scenario, JITTER_LIMIT_ARCSEC, JITT
 use antenna_plot::{Colour, Figure, Panel, PlotError, Series, PALETTE};
 use fmu_import::ImportError;
 
-/// How the figures are defined and what the model leaves out, printed under the table and
-/// written into the report (one paragraph a line).
-pub const DEFINITIONS: &str = "Jitter = worst RMS of the beam's on-sky pointing error sqrt(cross^2 + d_el^2) over sliding 10 s windows, where cross = (command - axis azimuth) cos el - beam azimuth offset and d_el = command - axis elevation - beam elevation offset: the axes' true (load-side) positions plus the structure's deflection between the encoders and the RF beam (none in the paper configuration).
+/// How the figures are defined, and what the model of `config` holds and leaves out, printed
+/// under the table and written into the report (one paragraph a line).
+pub fn definitions(config: &AntennaConfig) -> String {
+    let structure = match (&config.structure, config.structure_feedback) {
+        (None, _) => {
+            "there is no structure between the encoders and the beam (the paper's rigid antenna: the beam is the load-side axes)"
+        }
+        (Some(_), true) => {
+            "the structure's modes take the wind's loads and the inertial load of the axes' accelerations (a slew's or a step's swing of the dish against the gear, a few arcsec at the beam) and push back on the drives"
+        }
+        (Some(_), false) => {
+            "the structure takes the wind's loads and the inertial load of the axes' accelerations (a slew's or a step's swing of the dish against the gear, a few arcsec at the beam) but does not act back on the drives"
+        }
+    };
+    let stiffness_variation = config
+        .azimuth_plant
+        .iter()
+        // Set in order, the last override of a name is the one that holds.
+        .rfind(|(name, _)| name == STIFFNESS_VARIATION)
+        .map_or("0".to_string(), |(_, value)| match value {
+            ParameterValue::Real(v) => format!("{v}"),
+            other => format!("{other:?}"),
+        });
+    format!(
+        "Jitter = worst RMS of the beam's on-sky pointing error sqrt(cross^2 + d_el^2) over sliding 10 s windows, where cross = (command - axis azimuth) cos el - beam azimuth offset and d_el = command - axis elevation - beam elevation offset: the axes' true (load-side) positions plus the structure's deflection between the encoders and the RF beam (none in the paper configuration).
 Settling = until the pointing error stays within 15 arcsec for the next 10 s. Judged from the command for Req. 3 and 4 (the step must return and settle within the limit) and from the end of the slew at maximum speed (the last instant the profiled reference moves at 99 % of its top speed) for Req. 2. The issue's own figure, from the moment the profiled command reaches the target, is the column 'after profile arrival': it is near zero whenever the loops follow the profile within the band, which the peak following error shows.
-What the figures leave out: the structure takes the wind's moments and the inertial load of the axes' accelerations (a slew's or a step's swing of the dish against the gear, a few arcsec at the beam) but does not act back on the drives; the wind is one gust record over the dish with an aerodynamic admittance where the wind unit applies one; the azimuth drive stiffness does not vary over travel; thermal and gravity deformation, the pointing model and atmospheric refraction are outside the servo model.";
+What the model holds and leaves out: {structure}; the wind is one gust record over the dish, with an aerodynamic admittance where the wind unit applies one; the azimuth drive's stiffness changes over the elevation travel by the fraction {STIFFNESS_VARIATION} = {stiffness_variation} (0: not at all) and not over the azimuth travel; thermal and gravity deformation, the pointing model and atmospheric refraction are outside the servo model."
+    )
+}
+
+/// The azimuth plant's parameter for its stiffness's change over the elevation travel.
+const STIFFNESS_VARIATION: &str = "pinion.stiffness_variation";
 
 /// The judged figure of one scenario.
 #[derive(Debug, Clone)]
@@ -512,5 +539,24 @@ mod tests {
         assert_eq!(significant(f64::NAN, 3), "NaN");
         assert_eq!(milliseconds(2.9139999999999944), "2.914");
         assert_eq!(milliseconds(f64::NAN), "NaN");
+    }
+
+    #[test]
+    fn the_report_says_how_the_structure_is_coupled_and_how_the_stiffness_varies() {
+        let realistic = AntennaConfig::default();
+        assert!(realistic.structure.is_some() && realistic.structure_feedback);
+        let text = definitions(&realistic);
+        assert!(text.contains("push back on the drives"), "{text}");
+        assert!(text.contains("pinion.stiffness_variation = 0 "), "{text}");
+
+        let one_way = AntennaConfig { structure_feedback: false, ..realistic.clone() };
+        assert!(definitions(&one_way).contains("does not act back on the drives"));
+
+        let rigid = AntennaConfig::bare();
+        assert!(definitions(&rigid).contains("no structure between the encoders and the beam"));
+
+        let mut varied = realistic;
+        varied.azimuth_plant.push((STIFFNESS_VARIATION.to_string(), ParameterValue::Real(-0.25)));
+        assert!(definitions(&varied).contains("pinion.stiffness_variation = -0.25 "));
     }
 }

@@ -291,11 +291,12 @@ fn write_report(
         total_sim / wall
     );
     println!("{table}");
-    println!("{}", antenna_sim::report::DEFINITIONS);
+    let definitions = antenna_sim::report::definitions(config);
+    println!("{definitions}");
     std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
     let sections = extra_sections(outcomes, spreads, config, out_dir)?;
     println!("{sections}");
-    let header = format!("# Requirement report\n\n{}\n\n", antenna_sim::report::DEFINITIONS.replace('\n', "\n\n"));
+    let header = format!("# Requirement report\n\n{}\n\n", definitions.replace('\n', "\n\n"));
     let report = out_dir.join("report.md");
     std::fs::write(&report, format!("{header}{table}{sections}"))
         .with_context(|| format!("cannot write {}", report.display()))?;
