@@ -103,26 +103,31 @@ UNITS = ("AzimuthPlant", "ElevationPlant", "AzimuthController", "ElevationContro
 
 
 def read_config(path):
+    """The configuration in the file at `path` (see `parse_config`)."""
+    with open(path) as f:
+        return parse_config(f.read())
+
+
+def parse_config(text):
     """The scenario's settings (numbers), and its parameter overrides per FMU: lines
     `<model identifier>.<variable> = value` (numbers, true/false, or "text")."""
     config = {"overrides": {unit: [] for unit in UNITS}, "structure": False, "wind_load_scale": 1.0}
-    with open(path) as f:
-        for line in f:
-            line = line.strip()
-            if not line or line.startswith("#"):
-                continue
-            key, value = (x.strip() for x in line.split("=", 1))
-            if value.startswith('"') and value.endswith('"'):
-                value = value[1:-1]
-            elif value in ("true", "false"):
-                value = value == "true"
-            else:
-                value = float(value)
-            unit, _, name = key.partition(".")
-            if unit in UNITS:
-                config["overrides"][unit].append((name, value))
-            else:
-                config[key] = value
+    for line in text.splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        key, value = (x.strip() for x in line.split("=", 1))
+        if value.startswith('"') and value.endswith('"'):
+            value = value[1:-1]
+        elif value in ("true", "false"):
+            value = value == "true"
+        else:
+            value = float(value)
+        unit, _, name = key.partition(".")
+        if unit in UNITS:
+            config["overrides"][unit].append((name, value))
+        else:
+            config[key] = value
     return config
 
 

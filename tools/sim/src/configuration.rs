@@ -45,6 +45,19 @@ impl Configuration {
             .collect()
     }
 
+    /// [`Configuration::values`] with the parameters named in `set` held at their values.
+    pub fn values_with(self, set: &[(String, f64)]) -> Result<Vec<(UncertainParameter, Option<f64>)>, SetupError> {
+        let mut values = self.values();
+        for (name, value) in set {
+            let Some((_, slot)) = values.iter_mut().find(|(p, _)| p.name == *name) else {
+                let known: Vec<String> = values.iter().map(|(p, _)| p.name.clone()).collect();
+                return Err(SetupError::UnknownParameter { name: name.clone(), known: known.join(", ") });
+            };
+            *slot = Some(*value);
+        }
+        Ok(values)
+    }
+
     /// The coupled master's configuration (the wind condition is the scenario's).
     pub fn antenna_config(self) -> AntennaConfig {
         let point = self.values();
@@ -118,6 +131,8 @@ pub struct AntennaSetup {
 /// Why a point of the table cannot be set up.
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
+    #[error("`{name}` is not a parameter of docs/parameters.csv; they are: {known}")]
+    UnknownParameter { name: String, known: String },
     #[error("{parameter}: target `{target}` is unknown to the master")]
     UnknownTarget { parameter: String, target: String },
     #[error("{parameter}: `{field}` is not a field of mode {mode} of the shipped modes")]
@@ -310,6 +325,21 @@ fn structure_overrides(
 mod tests {
     use super::*;
     use crate::scenario::requirement_scenarios;
+
+    #[test]
+    fn a_value_set_by_name_replaces_the_configurations_and_an_unknown_name_is_refused() {
+        let set = [("structure.stiffness".to_string(), 2e8)];
+        let values = Configuration::Realistic.values_with(&set).unwrap();
+        for ((parameter, value), (_, realistic)) in values.iter().zip(Configuration::Realistic.values()) {
+            let expected = if parameter.name == "structure.stiffness" { Some(2e8) } else { realistic };
+            assert_eq!(*value, expected, "{}", parameter.name);
+        }
+        // The paper's model lacks the structure; setting one of its values adds it.
+        let paper = Configuration::Paper.values_with(&set).unwrap();
+        assert!(paper.iter().any(|(p, v)| p.name == "structure.stiffness" && *v == Some(2e8)));
+        let error = Configuration::Realistic.values_with(&[("structure.stifness".into(), 1.0)]).unwrap_err();
+        assert!(error.to_string().contains("structure.stiffness"), "{error}");
+    }
 
     #[test]
     fn the_paper_configuration_sets_nothing_but_the_papers_values_and_has_no_structure() {

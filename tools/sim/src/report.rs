@@ -42,6 +42,13 @@ What the model holds and leaves out: {structure}; the wind is one gust record ov
     )
 }
 
+/// A frequency to four decimals without trailing zeros: the shipped modes' 6 Hz reads "6", a
+/// mode moved by a parameter "4.2426".
+pub fn hz_text(hz: f64) -> String {
+    let text = format!("{hz:.4}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// The azimuth plant's parameter for its stiffness's change over the elevation travel.
 const STIFFNESS_VARIATION: &str = "pinion.stiffness_variation";
 
@@ -229,7 +236,7 @@ pub fn structural_modes(config: &AntennaConfig) -> Vec<(String, f64, usize)> {
         .enumerate()
         .map(|(k, m)| {
             let axis = usize::from(m.beam[1].abs() > m.beam[0].abs());
-            let name = format!("mode {} ({}), {} Hz", k + 1, ["cross-el", "el"][axis], m.frequency_hz);
+            let name = format!("mode {} ({}), {} Hz", k + 1, ["cross-el", "el"][axis], hz_text(m.frequency_hz));
             (name, m.frequency_hz, axis)
         })
         .collect()
@@ -539,6 +546,13 @@ mod tests {
         assert_eq!(significant(f64::NAN, 3), "NaN");
         assert_eq!(milliseconds(2.9139999999999944), "2.914");
         assert_eq!(milliseconds(f64::NAN), "NaN");
+    }
+
+    #[test]
+    fn frequencies_read_to_four_decimals_without_trailing_zeros() {
+        assert_eq!(hz_text(6.0), "6");
+        assert_eq!(hz_text(4.242640687119286), "4.2426");
+        assert_eq!(hz_text(5.5), "5.5");
     }
 
     #[test]

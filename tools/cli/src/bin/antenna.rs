@@ -36,7 +36,7 @@ use antenna_sim::scenario::{
     normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
 };
 use antenna_sim::sweep;
-use antenna_sim::{AntennaConfig, Configuration, FmuSet, Lanes};
+use antenna_sim::{AntennaConfig, AntennaSetup, Configuration, FmuSet, Lanes};
 
 /// Runs the coupled antenna FMUs through the requirement scenarios (Req. 1-5) and writes the
 /// requirement report.
@@ -87,6 +87,14 @@ struct Cli {
     /// place of the shipped ones. Not with --config paper, which has no structure.
     #[arg(long, value_name = "MODES.params")]
     modes: Option<PathBuf>,
+    /// Hold a parameter of docs/parameters.csv at this value instead of the configuration's
+    /// (repeatable; the names of `antenna sweep --fix`): the report at one point of the ranges.
+    #[arg(long, value_name = "NAME=VALUE", value_parser = parse_fix)]
+    set: Vec<(String, f64)>,
+    /// Write what another master needs for each scenario (its command table and configuration,
+    /// into --trace) and run nothing.
+    #[arg(long, requires = "trace")]
+    export_only: bool,
 }
 
 /// The antenna configurations of docs/parameters.csv.
@@ -136,7 +144,15 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     let out_dir = cli.out.clone().unwrap_or_else(|| antenna_fmus::workspace_root().join("out").join("antenna"));
     let configuration = cli.config.configuration();
-    let settings = configuration.scenario_settings();
+    // A structure whose modes a --set changes is written beside what it is for: the traces
+    // another master reads, or the report.
+    let modes_folder = cli.trace.clone().unwrap_or_else(|| out_dir.clone());
+    std::fs::create_dir_all(&modes_folder).with_context(|| format!("cannot create {}", modes_folder.display()))?;
+    // The FMU looks a relative name up in its resources folder: hand it the whole path.
+    let modes_folder = modes_folder.canonicalize()?;
+    let values = configuration.values_with(&cli.set).context("--set")?;
+    let setup = AntennaSetup::from_values(&values, Some(&modes_folder)).context("--set")?;
+    let settings = setup.scenario;
     let scenarios: Vec<Scenario> = match &cli.commands {
         Some(path) => vec![user_scenario(path, cli.wind, cli.seed)?],
         None => selected_scenarios(cli.only.as_deref())?,
@@ -144,6 +160,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     .iter()
     .map(|s| settings.apply(s))
     .collect();
+    let mut config = AntennaConfig { structure_feedback: !cli.one_way_structure, ..setup.config };
+    if let Some(modes) = &cli.modes {
+        let Some(structure) = config.structure.as_mut() else {
+            bail!("--modes: this configuration (--config paper) has no structure");
+        };
+        let path = modes.canonicalize().with_context(|| format!("--modes {}", modes.display()))?;
+        structure.push(("modes_file".into(), antenna_sim::ParameterValue::Text(path.display().to_string())));
+    }
+    if cli.export_only {
+        let dir = cli.trace.as_deref().expect("clap requires --trace with --export-only");
+        for scenario in &scenarios {
+            write_inputs(dir, &config, scenario)
+                .with_context(|| format!("cannot write {}'s files into {}", scenario.name, dir.display()))?;
+        }
+        return Ok(());
+    }
     if !cli.no_build {
         eprintln!("building and packaging the FMUs ...");
         xtask::build_and_package().context("packaging failed")?;
@@ -151,15 +183,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
     let started = Instant::now();
-    let mut config = AntennaConfig { structure_feedback: !cli.one_way_structure, ..configuration.antenna_config() };
-    if let Some(modes) = &cli.modes {
-        let Some(structure) = config.structure.as_mut() else {
-            bail!("--modes: this configuration (--config paper) has no structure");
-        };
-        // The FMU looks a relative name up in its resources folder: hand it the whole path.
-        let path = modes.canonicalize().with_context(|| format!("--modes {}", modes.display()))?;
-        structure.push(("modes_file".into(), antenna_sim::ParameterValue::Text(path.display().to_string())));
-    }
     // One scenario alone would leave every core but one idle: its azimuth lane takes a second
     // while that is faster on this machine (the same results bit for bit; many scenarios keep
     // the cores busy with whole runs).
@@ -346,10 +369,11 @@ fn extra_sections(
     let peak_text = |peaks: Vec<(String, f64, Option<f64>)>| -> String {
         peaks
             .into_iter()
-            .map(|(name, documented, peak)| match peak {
+            .map(|(name, documented, peak)| (name, antenna_sim::report::hz_text(documented), peak, documented))
+            .map(|(name, documented, peak, frequency)| match peak {
                 Some(peak) => format!(
                     " Structural {name}: spectral peak at {peak:.3} Hz ({:+.2} % from the documented {documented} Hz).",
-                    100.0 * (peak / documented - 1.0)
+                    100.0 * (peak / frequency - 1.0)
                 ),
                 None => format!(" Structural {name}: no spectral peak within 20 % of the documented {documented} Hz."),
             })
@@ -413,12 +437,16 @@ fn user_scenario(path: &Path, wind: Wind, seed: i32) -> anyhow::Result<Scenario>
 
 /// Writes what another master needs to rerun a scenario, and the trace to compare with.
 fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
     let s = &outcome.scenario;
-    std::fs::write(dir.join(format!("{}.commands.csv", s.name)), s.table.to_csv())?;
-    let text = config.master_config_text(&s.wind, s.end_s);
-    std::fs::write(dir.join(format!("{}.config", s.name)), text)?;
+    write_inputs(dir, config, s)?;
     std::fs::write(dir.join(format!("{}.trace.csv", s.name)), outcome.trace.to_csv())
+}
+
+/// Writes a scenario's command table and configuration, what another master needs to run it.
+fn write_inputs(dir: &Path, config: &AntennaConfig, s: &Scenario) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    std::fs::write(dir.join(format!("{}.commands.csv", s.name)), s.table.to_csv())?;
+    std::fs::write(dir.join(format!("{}.config", s.name)), config.master_config_text(&s.wind, s.end_s))
 }
 
 /// The subcommands besides the requirement report.
