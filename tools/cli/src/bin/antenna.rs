@@ -369,13 +369,17 @@ fn extra_sections(
     let peak_text = |peaks: Vec<(String, f64, Option<f64>)>| -> String {
         peaks
             .into_iter()
-            .map(|(name, documented, peak)| (name, antenna_sim::report::hz_text(documented), peak, documented))
-            .map(|(name, documented, peak, frequency)| match peak {
-                Some(peak) => format!(
-                    " Structural {name}: spectral peak at {peak:.3} Hz ({:+.2} % from the documented {documented} Hz).",
-                    100.0 * (peak / frequency - 1.0)
-                ),
-                None => format!(" Structural {name}: no spectral peak within 20 % of the documented {documented} Hz."),
+            .map(|(name, frequency, peak)| {
+                let documented = antenna_sim::report::hz_text(frequency);
+                match peak {
+                    Some(peak) => format!(
+                        " Structural {name}: spectral peak at {peak:.3} Hz ({:+.2} % from the documented {documented} Hz).",
+                        100.0 * (peak / frequency - 1.0)
+                    ),
+                    None => {
+                        format!(" Structural {name}: no spectral peak within 20 % of the documented {documented} Hz.")
+                    }
+                }
             })
             .collect()
     };
