@@ -234,7 +234,8 @@ def simulate(container, commands_path, end_s, step_s=1e-3):
     times = [t0 + k * step_s for k in range(steps + 1)]
     signals = np.array([(t,) + tuple(table.at(t)) for t in times],
                        dtype=[("time", np.float64)] + [(name, np.float64) for name, *_ in COMMAND_INPUTS])
-    outputs = [name for name, *_ in COMMAND_INPUTS] + [f"{unit}.{variable}" for unit, variable in OUTPUTS]
+    declared = {v.name for v in read_model_description(str(container)).modelVariables}
+    outputs = [name for name, *_ in COMMAND_INPUTS] + [f"{u}.{v}" for u, v in OUTPUTS if f"{u}.{v}" in declared]
     return simulate_fmu(str(container), start_time=t0, stop_time=t0 + steps * step_s, step_size=step_s,
                         output_interval=step_s, input=signals, output=outputs)
 
@@ -246,8 +247,11 @@ def jitter_arcsec(result, commands_path, window_s=10.0, after_s=10.0):
     table = coupled_master.CommandTable.read(commands_path)
     command = np.array([table.at(t) for t in result["time"]])
     az, el = result["AzimuthPlant.axis.position"], result["ElevationPlant.axis.position"]
-    cross = (command[:, 0] - az) * np.cos(np.radians(el)) * 3600.0 - result["Structure.beam.azimuth_offset"]
-    error = np.hypot(cross, (command[:, 2] - el) * 3600.0 - result["Structure.beam.elevation_offset"])
+    # Without the structure (the paper's antenna) the beam is the load-side axes.
+    names = result.dtype.names
+    offsets = [result[n] if n in names else 0.0 for n in ("Structure.beam.azimuth_offset", "Structure.beam.elevation_offset")]
+    cross = (command[:, 0] - az) * np.cos(np.radians(el)) * 3600.0 - offsets[0]
+    error = np.hypot(cross, (command[:, 2] - el) * 3600.0 - offsets[1])
     dt = result["time"][1] - result["time"][0]
     window, skip = int(round(window_s / dt)), int(round(after_s / dt))
     error = error[skip:]
