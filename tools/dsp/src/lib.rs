@@ -1,6 +1,7 @@
 //! Signal processing shared by the analysis tools and the tests: Welch spectra with honest
 //! confidence intervals, cross spectra and frequency-response estimates, log-frequency band
-//! averaging, correlation and whiteness tests, and the basic statistics of a record.
+//! averaging, correlation and whiteness tests, the basic statistics of a record, and the
+//! conditioning of a record before a fit (Savitzky-Golay filters, noise estimates, interpolation).
 //!
 //! Conventions, stated once for the whole module:
 //! - Spectra are **one-sided densities per Hz**: a real signal's variance equals the integral of
@@ -19,6 +20,7 @@
 
 pub mod bands;
 pub mod comparison;
+pub mod conditioning;
 pub mod correlation;
 pub mod distributions;
 pub mod error;

@@ -19,9 +19,10 @@
 //! the sum of the two (the rigid-body total) is the only channel. All torques are axis side.
 
 use super::parameters::{names, ParameterSet};
-use super::signals::{gaussian_kernel, noise_sigma, torque_noise_sigma, SavitzkyGolay};
+use super::signals::torque_noise_sigma;
 use crate::finite::{check_parameters, check_series, check_signal, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
+use antenna_dsp::conditioning::{gaussian_kernel, noise_sigma, SavitzkyGolay};
 use antenna_dsp::weighted_least_squares;
 
 /// Settings of the data conditioning. Defaults are documented in docs/validation.md.
@@ -162,7 +163,7 @@ impl EquationData {
 
     /// Time derivative of the smoothed measured torque delayed by `delay` seconds.
     pub fn torque_rate_delayed(&self, delay: f64) -> Vec<f64> {
-        let shifted = super::signals::shift_samples(&self.torque_inner, -delay / self.dt);
+        let shifted = antenna_dsp::conditioning::shift_samples(&self.torque_inner, -delay / self.dt);
         let rate = central_first(&shifted, self.dt);
         rate[self.half_width..self.half_width + self.len()].to_vec()
     }
@@ -170,7 +171,7 @@ impl EquationData {
     /// Smoothed measured torque delayed by `delay` seconds: the value logged `delay` earlier,
     /// which is the torque acting now when the drive applies it `delay` after logging it.
     pub fn torque_delayed(&self, delay: f64) -> Vec<f64> {
-        let shifted = super::signals::shift_samples(&self.torque_inner, -delay / self.dt);
+        let shifted = antenna_dsp::conditioning::shift_samples(&self.torque_inner, -delay / self.dt);
         shifted[self.half_width..self.half_width + self.len()].to_vec()
     }
 }
@@ -351,7 +352,8 @@ pub fn prepare(
 /// torque's noise floor, and, with two encoders, the twist's spread against the load encoder's
 /// count, with what that rules out.
 fn resolution_note(raw: &RawInputs, data: &EquationData) -> String {
-    use super::signals::{resolution, torque_noise_floor};
+    use super::signals::torque_noise_floor;
+    use antenna_dsp::conditioning::resolution;
     let (scale, small) = if data.linear { (1e3, "mm") } else { (180.0 * 3600.0 / std::f64::consts::PI, "arcsec") };
     let torque_unit = if data.linear { "N" } else { "N m" };
     let load_step = resolution(&raw.load_pos);
@@ -857,7 +859,8 @@ pub fn uniform(log: &MeasuredLog, notes: &mut Vec<String>) -> MeasuredLog {
     let grid: Vec<f64> = (0..count).map(|i| t0 + i as f64 * dt).collect();
     let mut out = log.clone();
     for channel in &mut out.channels {
-        channel.values = grid.iter().map(|&t| super::signals::interpolate(&log.time, &channel.values, t)).collect();
+        channel.values =
+            grid.iter().map(|&t| antenna_dsp::conditioning::interpolate(&log.time, &channel.values, t)).collect();
     }
     out.time = grid;
     notes.push(format!("sampling is uneven: resampled to a uniform {dt:.6} s grid by linear interpolation"));

@@ -15,9 +15,9 @@
 
 use super::equation_error::{twist_centres, EquationData, Structure};
 use super::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
-use super::signals::SavitzkyGolay;
 use crate::finite::{check_series, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
+use antenna_dsp::conditioning::SavitzkyGolay;
 
 /// Why the output error of a parameter set could not be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -30,8 +30,8 @@
 
 use super::equation_error::{cogging_torque, static_friction_curve, EquationData, Structure};
 use super::parameters::{names, ParameterSet};
-use super::signals::shift_samples;
 use crate::measured_log::{MeasuredLog, Signal};
+use antenna_dsp::conditioning::shift_samples;
 use antenna_dsp::weighted_least_squares;
 
 /// Thresholds of the twist check. Documented in docs/validation.md.
@@ -300,7 +300,10 @@ pub fn shift_load_encoder(log: &MeasuredLog, skew: f64) -> MeasuredLog {
     let uneven = log.time.windows(2).any(|w| ((w[1] - w[0]) / dt - 1.0).abs() > 0.01);
     for channel in out.channels.iter_mut().filter(|c| c.signal == Signal::LoadPos || c.signal == Signal::LoadVel) {
         channel.values = if uneven {
-            log.time.iter().map(|&t| super::signals::interpolate(&log.time, &channel.values, t + skew)).collect()
+            log.time
+                .iter()
+                .map(|&t| antenna_dsp::conditioning::interpolate(&log.time, &channel.values, t + skew))
+                .collect()
         } else {
             shift_samples(&channel.values, skew / dt)
         };
