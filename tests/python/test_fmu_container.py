@@ -9,6 +9,8 @@ import sys
 
 import numpy as np
 import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
 
 from conftest import REPOSITORY
 
@@ -80,3 +82,57 @@ def test_scenarios_a_container_cannot_hold_are_refused(tmp_path):
     calm.write_text(text.replace("wind.mean_speed = 9.8e0", "wind.mean_speed = 0e0"))
     with pytest.raises(antenna_container.Refused, match="calm"):
         antenna_container.build(calm, commands, tmp_path / "calm.fmu")
+
+
+def test_the_antenna_without_its_controllers_is_the_plant_of_a_controller_of_ones_own(tmp_path):
+    """The controllers stand in for a user's own: coupled to the controller-less container by a
+    plain loop (read what a controller reads, set its currents, step), they drive it to the Rust
+    master's trace bit for bit, tracking at the sidereal rate in optimal wind (the first 15 s:
+    this loop in Python takes most of a millisecond a step)."""
+    scenario = "track-sidereal-el45"
+    folder = rust_scenario(tmp_path, scenario)
+    config = coupled_master.read_config(folder / f"{scenario}.config")
+    table = coupled_master.CommandTable.read(folder / f"{scenario}.commands.csv")
+    container = antenna_container.build(folder / f"{scenario}.config", folder / f"{scenario}.commands.csv",
+                                        tmp_path / "Plant.fmu", controllers=False)
+    description = read_model_description(str(container))
+    vr = {v.name: v.valueReference for v in description.modelVariables}
+    assert not any(name.startswith(("command.", "AzimuthController", "ElevationController")) for name in vr)
+    antenna = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(container)),
+                        modelIdentifier=description.coSimulation.modelIdentifier, instanceName="antenna")
+    t0, h = table.span()[0], config["step_s"]
+    az0, _, el0, _ = table.at(t0)
+    antenna.instantiate()
+    antenna.setupExperiment(startTime=t0)
+    antenna.enterInitializationMode()
+    antenna.exitInitializationMode()
+    azimuth = coupled_master.Unit("AzimuthController", "azimuth", t0, [("command.position", az0), ("measured.position", az0)])
+    elevation = coupled_master.Unit("ElevationController", "elevation", t0,
+                                    [("command.position", el0), ("measured.position", el0)])
+    azimuth_in = azimuth.port(["command.position", "command.velocity", "measured.position", "measured.motor1_speed",
+                               "measured.motor2_speed"])
+    azimuth_out = azimuth.port(["motor1.current_command", "motor2.current_command"])
+    elevation_in = elevation.port(["command.position", "command.velocity", "measured.position", "measured.motor_speed"])
+    elevation_out = elevation.port(["motor.current_command"])
+    measured = [vr[n] for n in ("AzimuthPlant.axis.encoder_position", "AzimuthPlant.motor1.speed",
+                                "AzimuthPlant.motor2.speed", "ElevationPlant.axis.encoder_position",
+                                "ElevationPlant.motor.speed")]
+    shown = [vr[n] for _, n in COMPARED]
+    currents = [vr[f"{unit}.{variable}"] for unit, variable in antenna_container.CURRENT_INPUTS]
+    rust = np.loadtxt(folder / f"{scenario}.trace.csv", delimiter=",", skiprows=1)[:15_000]
+    record = np.zeros((len(rust), len(shown)))
+    for k in range(len(rust)):
+        t = t0 + k * h
+        command_az, rate_az, command_el, rate_el = table.at(t)
+        record[k] = antenna.getReal(shown)
+        encoder_az, speed_1, speed_2, encoder_el, speed_el = antenna.getReal(measured)
+        azimuth_in[1][:] = [command_az, rate_az, encoder_az, speed_1, speed_2]
+        azimuth.set(azimuth_in)
+        elevation_in[1][:] = [command_el, rate_el, encoder_el, speed_el]
+        elevation.set(elevation_in)
+        antenna.setReal(currents, list(azimuth.get(azimuth_out)) + list(elevation.get(elevation_out)))
+        antenna.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+        for controller in (azimuth, elevation):
+            controller.do_step_raw(controller.component, t, h, 1)
+    for i, (column, name) in enumerate(COMPARED):
+        assert np.array_equal(record[:, i], rust[:, column]), name

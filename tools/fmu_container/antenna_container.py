@@ -2,7 +2,9 @@
 written in C by fmpy's authors) around the six packaged FMUs, connected as the Rust master
 connects them, with a scenario's settings as start values. Any FMI 2.0 master then loads one FMU
 with four inputs (the pointing command) and the antenna's positions, encoder readings and beam
-offsets as outputs; composed with other models, it is one block.
+offsets as outputs; composed with other models, it is one block. Without its controllers
+(`--without-controllers`) it is the plant of a controller of one's own: the motors' current
+commands in, what a controller reads (encoders, motor speeds) and the beam out.
 
 The scenario comes from the files the Rust master writes for another master (`antenna --trace DIR`
 or `antenna --export-only --trace DIR`): DIR/<scenario>.config gives the wind and every parameter
@@ -14,6 +16,7 @@ such scenarios are refused.
 
     antenna_container.py --config DIR/S.config --commands DIR/S.commands.csv --out Antenna.fmu
     antenna_container.py ... --simulate        # also run it with fmpy and print the Req. figure
+    antenna_container.py ... --without-controllers   # the plant of a controller of one's own
 
 fmpy 0.3.32 writes two things its own container binary reads otherwise, mended here after it has
 written the archive: connections of FMI 2.0 units typed `Real` (the binary expects `Float64`), and
@@ -48,6 +51,14 @@ COMMAND_INPUTS = (("command.azimuth", "AzimuthController", "command.position", "
                   ("command.azimuth_rate", "AzimuthController", "command.velocity", "deg/s"),
                   ("command.elevation", "ElevationController", "command.position", "deg"),
                   ("command.elevation_rate", "ElevationController", "command.velocity", "deg/s"))
+
+# Without the controllers (a user's own drive the antenna): the current commands are the inputs,
+# and what a controller reads is among the outputs.
+CURRENT_INPUTS = (("AzimuthPlant", "motor1.current_command"), ("AzimuthPlant", "motor2.current_command"),
+                  ("ElevationPlant", "motor.current_command"))
+MEASURED_OUTPUTS = (("AzimuthPlant", "motor1.speed"), ("AzimuthPlant", "motor2.speed"),
+                    ("ElevationPlant", "motor.speed"))
+CONTROLLERS = ("AzimuthController", "ElevationController")
 
 # The container's outputs, named after the unit and variable they show.
 OUTPUTS = (("AzimuthPlant", "axis.position"), ("ElevationPlant", "axis.position"),
@@ -129,13 +140,15 @@ def start_values(config, table, fmu_dir):
     return values
 
 
-def build(config_path, commands_path, output, fmu_dir=None):
-    """Writes the container FMU for a scenario's files to `output` and returns its path."""
+def build(config_path, commands_path, output, fmu_dir=None, controllers=True):
+    """Writes the container FMU for a scenario's files to `output` and returns its path. Without
+    `controllers`, the antenna is the plant of a controller of one's own: its inputs are the
+    motors' current commands, and the encoders and motor speeds are among its outputs."""
     fmu_dir = Path(fmu_dir or coupled_master.FMU_DIR)
     config = coupled_master.read_config(config_path)
     table = coupled_master.CommandTable.read(commands_path)
     structure = config.get("structure", False)
-    units = [u for u in UNITS if u != "Structure" or structure]
+    units = [u for u in UNITS if (u != "Structure" or structure) and (controllers or u not in CONTROLLERS)]
     values = start_values(config, table, fmu_dir)
     components = {u: Component(name=u, filename=fmu_dir / f"{u}.fmu",
                                modelDescription=read_model_description(fmu_dir / f"{u}.fmu")) for u in units}
@@ -143,8 +156,8 @@ def build(config_path, commands_path, output, fmu_dir=None):
 
     description = ModelDescription(
         fmiVersion="2.0", modelName="MeerKATAntenna",
-        description="The MeerKAT antenna positioner: two drives, their controllers, the wind and the structure "
-                    "between encoders and beam, in fmpy's FMU container",
+        description=("The MeerKAT antenna positioner: two drives, " + ("their controllers, " if controllers else "")
+                     + "the wind and the structure between encoders and beam, in fmpy's FMU container"),
         instantiationToken="{" + str(uuid.uuid5(uuid.NAMESPACE_URL, Path(config_path).read_text())) + "}",
         coSimulation=CoSimulation(modelIdentifier="container_fmu", fixedInternalStepSize=config["step_s"]),
         defaultExperiment=DefaultExperiment(startTime=table.span()[0], stopTime=config["end_s"],
@@ -171,15 +184,18 @@ def build(config_path, commands_path, output, fmu_dir=None):
         mappings[declared] = [(components[unit], target)]
 
     t0 = table.span()[0]
-    command = table.at(t0)
-    for (name, unit, variable, unit_text), start in zip(COMMAND_INPUTS, command):
-        declare(name, unit, variable, "input", start, unit_text)
+    if controllers:
+        for (name, unit, variable, unit_text), start in zip(COMMAND_INPUTS, table.at(t0)):
+            declare(name, unit, variable, "input", start, unit_text)
+    else:
+        for unit, variable in CURRENT_INPUTS:
+            declare(f"{unit}.{variable}", unit, variable, "input", 0.0)
     # Every start value is a parameter of the container, those of the units' inputs too: the
     # container sets them before initialisation, and the connections take those inputs over.
     for unit in units:
         for variable, value in values[unit].items():
             declare(f"{unit}.{variable}", unit, variable, "parameter", value)
-    for unit, variable in OUTPUTS:
+    for unit, variable in OUTPUTS + (() if controllers else MEASURED_OUTPUTS):
         if unit in components:
             declare(f"{unit}.{variable}", unit, variable, "output")
     # Every output, computed at initialisation too; no dependencies given (each may depend on
@@ -196,7 +212,8 @@ def build(config_path, commands_path, output, fmu_dir=None):
         wiring += RIGID_CONNECTIONS
     connections = [Connection(startElement=components[a], startConnectors=[variables[a][x]],
                               endElement=components[b], endConnectors=[variables[b][y]])
-                   for a, x, b, y in wiring if x in variables[a] and y in variables.get(b, {})]
+                   for a, x, b, y in wiring
+                   if a in variables and b in variables and x in variables[a] and y in variables[b]]
     configuration = Configuration(parallelDoStep=False, modelDescription=description,
                                   components=list(components.values()), connections=connections,
                                   variableMappings=mappings)
@@ -265,9 +282,13 @@ def main():
     parser.add_argument("--commands", required=True, help="DIR/<scenario>.commands.csv")
     parser.add_argument("--out", required=True, help="the container FMU to write")
     parser.add_argument("--simulate", action="store_true", help="also run it with fmpy and print the jitter")
+    parser.add_argument("--without-controllers", action="store_true",
+                        help="leave the controllers out: the motors' current commands are the inputs")
     args = parser.parse_args()
+    if args.simulate and args.without_controllers:
+        parser.error("--simulate needs the controllers (without them, couple your own)")
     try:
-        container = build(args.config, args.commands, args.out)
+        container = build(args.config, args.commands, args.out, controllers=not args.without_controllers)
     except Refused as refusal:
         parser.error(str(refusal))
     print(f"wrote {container}")
