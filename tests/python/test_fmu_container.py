@@ -6,6 +6,7 @@ requirement report's figure."""
 
 import subprocess
 import sys
+import zipfile
 
 import numpy as np
 import pytest
@@ -67,6 +68,17 @@ def test_the_antenna_in_fmpys_container_gives_the_rust_masters_trace(tmp_path, s
         printed = row["figure"]
         half_digit = 0.5 * 10.0 ** -len(printed.partition(".")[2])
         assert abs(antenna_container.jitter_arcsec(result, commands_path) - float(printed)) <= half_digit, printed
+
+
+def test_the_same_scenario_gives_the_same_container_byte_for_byte(tmp_path):
+    scenario = "hold-el45-normal-wind"
+    folder = rust_scenario(tmp_path, scenario)
+    built = [antenna_container.build(folder / f"{scenario}.config", folder / f"{scenario}.commands.csv",
+                                     tmp_path / f"Antenna-{k}.fmu") for k in range(2)]
+    assert built[0].read_bytes() == built[1].read_bytes()
+    with zipfile.ZipFile(built[0]) as archive:
+        names = archive.namelist()
+    assert names == sorted(names) and "Container.zip" not in names, names
 
 
 def test_scenarios_a_container_cannot_hold_are_refused(tmp_path):

@@ -21,6 +21,8 @@ such scenarios are refused.
 fmpy 0.3.32 writes two things its own container binary reads otherwise, mended here after it has
 written the archive: connections of FMI 2.0 units typed `Real` (the binary expects `Float64`), and
 value references from 0 in the container's model description, where the binary counts from 1.
+It also zips the folder into a file inside it, which can put part of the archive into itself;
+the archive is written again without it, deterministically.
 """
 
 import argparse
@@ -225,21 +227,33 @@ def build(config_path, commands_path, output, fmu_dir=None, controllers=True):
 
 
 def mend_fmpy_archive(path):
-    """The two mends of the module documentation, applied to the archive in place."""
+    """The two mends of the module documentation, applied to the archive in place. The archive is
+    written again with its files in name order, fixed timestamps and modes, and no folder
+    entries, so that the same scenario and FMUs give the same bytes, as `cargo xtask package`
+    does for the FMUs themselves."""
     types = {"Real": "Float64", "Integer": "Int32", "Enumeration": "Int32"}
     mended = path.with_suffix(".mending")
-    with zipfile.ZipFile(path) as source, zipfile.ZipFile(mended, "w", zipfile.ZIP_DEFLATED) as target:
-        for item in source.infolist():
-            data = source.read(item.filename)
-            if item.filename == "resources/container.json":
+    with zipfile.ZipFile(path) as source, zipfile.ZipFile(mended, "w") as target:
+        # fmpy zips the folder into a file inside that folder, which may sweep in a part of
+        # itself as Container.zip: that is not the FMU's.
+        for name in sorted(n for n in source.namelist() if not n.endswith("/") and n != "Container.zip"):
+            data = source.read(name)
+            if name == "resources/container.json":
                 layout = json.loads(data)
                 for entry in layout["connections"] + layout["variables"]:
                     entry["variableType"] = types.get(entry["variableType"], entry["variableType"])
                 data = json.dumps(layout, indent=1).encode()
-            elif item.filename == "modelDescription.xml":
+            elif name == "modelDescription.xml":
                 data = re.sub(rb'valueReference="(\d+)"', lambda m: b'valueReference="%d"' % (int(m.group(1)) + 1), data)
-            target.writestr(item, data)
+            entry = zipfile.ZipInfo(name, date_time=FIXED_TIMESTAMP)
+            entry.compress_type = zipfile.ZIP_DEFLATED
+            entry.external_attr = (0o755 if name.endswith((".so", ".dylib", ".dll")) else 0o644) << 16
+            target.writestr(entry, data)
     mended.replace(path)
+
+
+# The earliest time a zip entry can hold, for every entry.
+FIXED_TIMESTAMP = (1980, 1, 1, 0, 0, 0)
 
 
 def simulate(container, commands_path, end_s, step_s=1e-3):
