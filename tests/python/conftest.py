@@ -1,4 +1,5 @@
-"""Locates the packaged FMUs for the Python tests.
+"""Locates the packaged FMUs for the Python tests, and runs a scenario with the Rust master for
+the tests that compare another master with it.
 
 The FMUs are in target/fmu/ relative to the repository (written by
 `cargo xtask package`), or in the folder that the environment
@@ -10,6 +11,7 @@ never a silent skip.
 
 import os
 import pathlib
+import subprocess
 
 import pytest
 
@@ -17,6 +19,19 @@ REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
 FMU_DIRECTORY = pathlib.Path(os.environ.get("MEERKAT_FMU_DIR", REPOSITORY / "target" / "fmu"))
 PLANTS = ("AzimuthPlant", "ElevationPlant")
 PACKAGE_HINT = "package the FMUs first: cargo xtask package"
+
+
+def rust_scenario(folder, name, configuration="realistic", modes=None):
+    """Runs one requirement scenario with the Rust master, with its own gust seed only (and the
+    structure's modes from the modes file `modes`, if given), and returns `folder`, which then
+    holds the scenario's command table, configuration, trace and report."""
+    subprocess.run(
+        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
+         "--no-build", "--only", name, "--seeds", "1", "--trace", str(folder), "--out", str(folder / "report"),
+         "--config", configuration] + (["--modes", str(modes)] if modes else []),
+        cwd=REPOSITORY, check=True, capture_output=True,
+    )
+    return folder
 
 
 def packaged_fmus():

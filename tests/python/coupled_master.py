@@ -194,6 +194,38 @@ class Unit:
         self.fmu.freeInstance()
 
 
+def modal_inertias(structure):
+    """The inertia (azimuth, elevation; kg m^2) a structure unit's modes carry, with the dish at
+    the zenith and at the horizon: {"zenith": ..., "horizon": ...}. A structure without the
+    horizon's inertias has modes that do not change with elevation: the zenith's hold there too."""
+    carried = {}
+    for end, suffix in (("zenith", ""), ("horizon", "_horizon")):
+        names = [f"modal_inertia.azimuth{suffix}", f"modal_inertia.elevation{suffix}"]
+        if not all(n in structure.variables for n in names):
+            names = ["modal_inertia.azimuth", "modal_inertia.elevation"]
+        carried[end] = tuple(structure.get(structure.port(names)))
+    return carried
+
+
+def carried_inertia_split(zenith, horizon):
+    """What each plant leaves out of its load inertia when the structure's modes carry `zenith`
+    and `horizon` (azimuth, elevation; kg m^2): {plant: [(parameter, kg m^2)]}.
+
+    The modes' inertia about azimuth turns as horizon cos^2(el) + zenith sin^2(el), the azimuth
+    plant's as turning head + cross cos^2(el) + boresight sin^2(el): the share of both ends comes
+    out of the turning head, the excess out of the part that goes the same way
+    (docs/structure-model.md; `antenna_sim::coupled::carried_inertia_split` in the Rust master)."""
+    (az_zenith, el_zenith), (az_horizon, el_horizon) = zenith, horizon
+    if el_zenith != el_horizon:
+        raise ValueError("the structure's modes carry an inertia about the elevation axis that changes "
+                         "with elevation; the elevation plant's does not: couple them one way")
+    shared = min(az_zenith, az_horizon)
+    return {"AzimuthPlant": [("load.turning_head_inertia", shared),
+                             ("load.elevation_structure_cross_inertia", az_horizon - shared),
+                             ("load.elevation_structure_boresight_inertia", az_zenith - shared)],
+            "ElevationPlant": [("load.inertia", el_zenith)]}
+
+
 class CoupledAntenna:
     def __init__(self, config, table):
         start_time = table.span()[0]
@@ -254,27 +286,14 @@ class CoupledAntenna:
             # inertias leave out what the modes carry.
             if config.get("structure_feedback", True):
                 self.structure_drive = self.structure.port(["drive_torque.azimuth", "drive_torque.elevation"])
-                for end, suffix in (("zenith", ""), ("horizon", "_horizon")):
-                    names = [f"modal_inertia.azimuth{suffix}", f"modal_inertia.elevation{suffix}"]
-                    if not all(n in self.structure.variables for n in names):
-                        names = ["modal_inertia.azimuth", "modal_inertia.elevation"]
-                    carried[end] = tuple(self.structure.get(self.structure.port(names)))
-        # The modes' inertia about azimuth turns as horizon cos^2(el) + zenith sin^2(el), the
-        # azimuth plant's as turning head + cross cos^2(el) + boresight sin^2(el): the share of
-        # both ends comes out of the turning head, the excess out of the part that goes the same way.
-        (az_zenith, el_zenith), (az_horizon, el_horizon) = carried["zenith"], carried["horizon"]
-        shared = min(az_zenith, az_horizon)
-        if el_zenith != el_horizon:
-            raise ValueError("the structure's modes carry an inertia about the elevation axis that changes "
-                             "with elevation; the elevation plant's does not: couple them one way")
+                carried = modal_inertias(self.structure)
+        split = carried_inertia_split(carried["zenith"], carried["horizon"])
         self.az_plant = Unit("AzimuthPlant", "azimuth_plant", start_time,
                              [("initial_position", az0), ("elevation", el0)] + more("AzimuthPlant"),
-                             carried=[("load.turning_head_inertia", shared),
-                                      ("load.elevation_structure_cross_inertia", az_horizon - shared),
-                                      ("load.elevation_structure_boresight_inertia", az_zenith - shared)])
+                             carried=split["AzimuthPlant"])
         self.el_plant = Unit("ElevationPlant", "elevation_plant", start_time,
                              [("initial_position", el0)] + more("ElevationPlant"),
-                             carried=[("load.inertia", el_zenith)])
+                             carried=split["ElevationPlant"])
         self.az_ctrl = Unit("AzimuthController", "azimuth_controller", start_time,
                             [("command.position", az0), ("measured.position", az0)] + more("AzimuthController"))
         self.el_ctrl = Unit("ElevationController", "elevation_controller", start_time,

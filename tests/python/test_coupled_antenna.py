@@ -7,7 +7,6 @@ the traces must agree to 1e-9 of each signal's scale. (Speed is measured by the 
 `cargo run --release -p antenna-cli --bin bench -- --fmpy`, not by a timed test.)"""
 
 import os
-import subprocess
 import sys
 
 import numpy as np
@@ -15,20 +14,7 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 import coupled_master  # noqa: E402
-
-ROOT = coupled_master.ROOT
-
-
-def rust_scenario(tmp_path, name, configuration="realistic", modes=None):
-    """Runs one scenario with the Rust master (with the structure's modes from `modes`, a
-    modes file, if given) and returns the folder with its files."""
-    subprocess.run(
-        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
-         "--no-build", "--only", name, "--trace", str(tmp_path), "--out", str(tmp_path / "report"),
-         "--config", configuration] + (["--modes", str(modes)] if modes else []),
-        cwd=ROOT, check=True, capture_output=True,
-    )
-    return tmp_path
+from conftest import rust_scenario  # noqa: E402
 
 
 def fmpy_run(folder, scenario):

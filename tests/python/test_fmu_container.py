@@ -4,7 +4,6 @@ connected as the Rust master connects them, and must give the Rust master's trac
 the beam to 1e-12 of their scale (bit for bit while the command holds still), and the
 requirement report's figure."""
 
-import subprocess
 import sys
 import zipfile
 
@@ -13,7 +12,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from conftest import REPOSITORY
+from conftest import REPOSITORY, rust_scenario
 
 sys.path.insert(0, str(REPOSITORY / "tools" / "fmu_container"))
 import antenna_container  # noqa: E402
@@ -23,18 +22,6 @@ import coupled_master  # noqa: E402
 COMPARED = ((3, "AzimuthPlant.axis.position"), (4, "ElevationPlant.axis.position"),
             (5, "AzimuthPlant.axis.encoder_position"), (6, "ElevationPlant.axis.encoder_position"),
             (15, "Structure.beam.azimuth_offset"), (16, "Structure.beam.elevation_offset"))
-
-
-def rust_scenario(folder, name, configuration="realistic"):
-    """Runs one requirement scenario with the Rust master (its own seed only) and returns the
-    folder with its files and trace."""
-    subprocess.run(
-        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
-         "--no-build", "--only", name, "--seeds", "1", "--trace", str(folder), "--out", str(folder / "report"),
-         "--config", configuration],
-        cwd=REPOSITORY, check=True, capture_output=True,
-    )
-    return folder
 
 
 @pytest.mark.parametrize("scenario, configuration, exact", [

@@ -121,24 +121,15 @@ def start_values(config, table, fmu_dir):
     if config.get("structure", False) and config.get("structure_feedback", True):
         coupled_master.FMU_DIR = str(fmu_dir)
         probe = coupled_master.Unit("Structure", "probe", t0, list(values["Structure"].items()))
-        carried = {}
-        for end, suffix in (("zenith", ""), ("horizon", "_horizon")):
-            names = [f"modal_inertia.azimuth{suffix}", f"modal_inertia.elevation{suffix}"]
-            carried[end] = tuple(probe.get(probe.port(names)))
+        carried = coupled_master.modal_inertias(probe)
         probe.close()
-        (az_zenith, el_zenith), (az_horizon, el_horizon) = carried["zenith"], carried["horizon"]
-        if el_zenith != el_horizon:
-            raise Refused("the structure's modes carry an inertia about the elevation axis that changes with "
-                          "elevation, which the elevation plant cannot leave out")
-        # As the masters split it: the part both ends share out of the turning head, the rest
-        # out of the part of the azimuth load that turns the same way (docs/structure-model.md).
-        shared = min(az_zenith, az_horizon)
-        plant = values["AzimuthPlant"]
-        for name, amount in (("load.turning_head_inertia", shared),
-                             ("load.elevation_structure_cross_inertia", az_horizon - shared),
-                             ("load.elevation_structure_boresight_inertia", az_zenith - shared)):
-            plant[name] = plant[name] - amount
-        values["ElevationPlant"]["load.inertia"] = values["ElevationPlant"]["load.inertia"] - el_zenith
+        try:
+            split = coupled_master.carried_inertia_split(carried["zenith"], carried["horizon"])
+        except ValueError as refusal:
+            raise Refused(str(refusal)) from refusal
+        for plant, amounts in split.items():
+            for name, amount in amounts:
+                values[plant][name] = values[plant][name] - amount
     return values
 
 
