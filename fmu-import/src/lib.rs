@@ -581,10 +581,10 @@ static UNPACK_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// A library this process loaded, found again by its contents.
 struct LoadedLibrary {
-    length: usize,
-    hash: u64,
-    /// The file it was loaded from, to compare the bytes when the length and hash agree.
-    path: PathBuf,
+    /// The file's bytes, kept while the library is loaded: the file itself may be gone (an FMU's
+    /// folder is removed when it is dropped, while its instances keep the library), and another
+    /// FMU that ships the same bytes must still find it.
+    bytes: Vec<u8>,
     library: Weak<Library>,
 }
 
@@ -608,31 +608,14 @@ fn load_shared(path: &Path, shareable: bool) -> Result<Arc<Library>, ImportError
     }
     let bytes =
         std::fs::read(path).map_err(|e| ImportError::Library(format!("cannot read {}: {e}", path.display())))?;
-    let hash = {
-        let mut hasher = std::hash::DefaultHasher::new();
-        std::hash::Hasher::write(&mut hasher, &bytes);
-        std::hash::Hasher::finish(&hasher)
-    };
     let mut loaded = LOADED_LIBRARIES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     loaded.retain(|entry| entry.library.strong_count() > 0);
-    for entry in loaded.iter() {
-        if entry.length != bytes.len() || entry.hash != hash {
-            continue;
-        }
-        // The earlier FMU's folder may be gone (removed when it was dropped): then its file
-        // cannot be compared, and this one is loaded on its own.
-        let same_bytes = std::fs::read(&entry.path).is_ok_and(|earlier| earlier == bytes);
-        if let (true, Some(library)) = (same_bytes, entry.library.upgrade()) {
-            return Ok(library);
-        }
+    if let Some(library) = loaded.iter().filter(|entry| entry.bytes == bytes).find_map(|entry| entry.library.upgrade())
+    {
+        return Ok(library);
     }
     let library = Arc::new(Library::load(path)?);
-    loaded.push(LoadedLibrary {
-        length: bytes.len(),
-        hash,
-        path: path.to_path_buf(),
-        library: Arc::downgrade(&library),
-    });
+    loaded.push(LoadedLibrary { bytes, library: Arc::downgrade(&library) });
     Ok(library)
 }
 
