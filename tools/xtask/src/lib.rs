@@ -39,19 +39,82 @@ pub enum XtaskError {
     StaleGeneratedFiles(Vec<String>),
     #[error("cannot run git ls-files")]
     Git(#[source] std::io::Error),
+    #[error("{} not found: install LLVM's tools for this toolchain with `rustup component add llvm-tools`", .0.display())]
+    ProfdataMissing(PathBuf),
+    #[error("the profile's training run `{what}` failed ({status})")]
+    Training { what: String, status: std::process::ExitStatus },
+    #[error("the training runs wrote no profile into {}", .0.display())]
+    NoProfile(PathBuf),
     #[error("the second build (from a copy of the sources) failed")]
     SecondBuild(#[source] Box<XtaskError>),
 }
 
+/// Where the profile that the FMUs' libraries are optimised with is committed (profile-guided
+/// optimisation, PGO): the counts of every branch and call in the libraries over the main job's
+/// runs, recorded by `cargo xtask pgo`, zipped.
+pub const PGO_PROFILE_ARCHIVE: &str = "tools/xtask/pgo/fmus.profdata.zip";
+
+/// The one entry of [`PGO_PROFILE_ARCHIVE`]: LLVM's indexed profile, as `llvm-profdata merge` writes it.
+const PGO_PROFILE_ENTRY: &str = "fmus.profdata";
+
+/// What a build of the FMUs' libraries reported about the committed profile.
+#[derive(Debug, Clone, Default)]
+pub struct LibraryBuild {
+    /// Whether the libraries were optimised with the committed profile (false: there is none).
+    pub profile_used: bool,
+    /// The compiler's warnings about functions whose code changed since the profile was
+    /// recorded: they are built without their counts (correct, but not as fast as they could
+    /// be) until `cargo xtask pgo` records the profile again.
+    pub stale_profile_warnings: Vec<String>,
+}
+
 /// Builds the shared libraries of the model crates with cargo, in [`LIBRARY_PROFILE`].
-pub fn build_libraries(target_dir: &Path) -> Result<(), XtaskError> {
+pub fn build_libraries(target_dir: &Path) -> Result<LibraryBuild, XtaskError> {
     build_libraries_from(&workspace_root(), target_dir)
 }
 
 /// Builds the FMUs' shared libraries from the sources checked out at `source_root` (the same
 /// package set every time: building one library alone may unify features differently and give
-/// other bytes).
-pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<(), XtaskError> {
+/// other bytes), optimised with the profile committed at [`PGO_PROFILE_ARCHIVE`] when there is
+/// one.
+pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<LibraryBuild, XtaskError> {
+    let archive = source_root.join(PGO_PROFILE_ARCHIVE);
+    if !archive.is_file() {
+        cargo_build_libraries(source_root, target_dir, &[])?;
+        return Ok(LibraryBuild::default());
+    }
+    let profile = unpack_profile(&archive, &target_dir.join("pgo"))?;
+    let stderr = cargo_build_libraries(source_root, target_dir, &[format!("-Cprofile-use={}", profile.display())])?;
+    let stale_profile_warnings =
+        stderr.lines().filter(|line| line.contains("hash mismatch")).map(|line| line.trim().to_string()).collect();
+    Ok(LibraryBuild { profile_used: true, stale_profile_warnings })
+}
+
+/// Unpacks the profile into `folder` and returns its path. The file is rewritten only when its
+/// bytes change: the compiler tracks it as an input, and a new timestamp alone would rebuild
+/// every library.
+fn unpack_profile(archive: &Path, folder: &Path) -> Result<PathBuf, XtaskError> {
+    let file =
+        std::fs::File::open(archive).map_err(|source| XtaskError::Read { path: archive.to_path_buf(), source })?;
+    let mut zip = zip::ZipArchive::new(file)?;
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut zip.by_name(PGO_PROFILE_ENTRY)?, &mut bytes)
+        .map_err(|source| XtaskError::Read { path: archive.to_path_buf(), source })?;
+    let path = folder.join(PGO_PROFILE_ENTRY);
+    if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
+        std::fs::create_dir_all(folder).map_err(|source| XtaskError::Write { path: folder.to_path_buf(), source })?;
+        std::fs::write(&path, &bytes).map_err(|source| XtaskError::Write { path: path.clone(), source })?;
+    }
+    Ok(path)
+}
+
+/// Runs `cargo build` of the model crates with `extra_rustflags` added to the caller's own, and
+/// returns what the compiler wrote to stderr (also passed on to this process's stderr).
+fn cargo_build_libraries(
+    source_root: &Path,
+    target_dir: &Path,
+    extra_rustflags: &[String],
+) -> Result<String, XtaskError> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let mut packages: Vec<&str> = all_fmus().iter().map(|s| package_of(s.library_name)).collect();
     packages.sort();
@@ -65,11 +128,23 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<(),
     for p in &packages {
         command.args(["-p", p]);
     }
-    let status = command.status().map_err(XtaskError::CargoNotRunnable)?;
-    if !status.success() {
-        return Err(XtaskError::BuildFailed { packages: packages.join(", "), status });
+    if !extra_rustflags.is_empty() {
+        // CARGO_ENCODED_RUSTFLAGS (flags separated by 0x1f) keeps a path with spaces in one
+        // flag, and takes precedence over RUSTFLAGS, whose flags it carries over.
+        let mut flags: Vec<String> = match std::env::var("CARGO_ENCODED_RUSTFLAGS") {
+            Ok(encoded) if !encoded.is_empty() => encoded.split('\x1f').map(str::to_string).collect(),
+            _ => std::env::var("RUSTFLAGS").unwrap_or_default().split_whitespace().map(str::to_string).collect(),
+        };
+        flags.extend(extra_rustflags.iter().cloned());
+        command.env("CARGO_ENCODED_RUSTFLAGS", flags.join("\x1f")).env_remove("RUSTFLAGS");
     }
-    Ok(())
+    let output = command.stderr(std::process::Stdio::piped()).output().map_err(XtaskError::CargoNotRunnable)?;
+    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+    eprint!("{stderr}");
+    if !output.status.success() {
+        return Err(XtaskError::BuildFailed { packages: packages.join(", "), status: output.status });
+    }
+    Ok(stderr)
 }
 
 /// Packages every FMU from the libraries in `target_dir/<LIBRARY_PROFILE>` into `output`.
@@ -85,15 +160,142 @@ pub fn package_all(target_dir: &Path, output: &Path) -> Result<Vec<PathBuf>, Xta
     Ok(written)
 }
 
+/// The packaged FMUs and what their build reported.
+#[derive(Debug, Clone)]
+pub struct Packaged {
+    pub files: Vec<PathBuf>,
+    pub build: LibraryBuild,
+}
+
+impl Packaged {
+    /// Tells the developer, on stderr, when the committed profile predates their edits.
+    pub fn warn_if_profile_stale(&self) {
+        if !self.build.stale_profile_warnings.is_empty() {
+            eprintln!("{}", self.stale_profile_message());
+        }
+    }
+
+    /// What to tell a developer whose edits made the committed profile stale.
+    pub fn stale_profile_message(&self) -> String {
+        format!(
+            "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) predates the code of {} function(s), which are built without their counts: run `cargo xtask pgo` to record it again",
+            self.build.stale_profile_warnings.len()
+        )
+    }
+}
+
 /// Builds and packages into the documented folder; what the main job and the tests rely on.
-pub fn build_and_package() -> Result<Vec<PathBuf>, XtaskError> {
+pub fn build_and_package() -> Result<Packaged, XtaskError> {
     let stale = codegen(true)?;
     if !stale.is_empty() {
         return Err(XtaskError::StaleGeneratedFiles(stale));
     }
     let target = workspace_root().join("target");
-    build_libraries(&target)?;
-    package_all(&target, &fmu_directory())
+    let build = build_libraries(&target)?;
+    Ok(Packaged { files: package_all(&target, &fmu_directory())?, build })
+}
+
+/// Records the profile that the FMUs' libraries are optimised with and writes it zipped to
+/// [`PGO_PROFILE_ARCHIVE`] (returned): builds the libraries instrumented (exact counts, also
+/// from several threads), packages them, runs the main job with them (the requirement
+/// scenarios of the realistic antenna with their gust seeds, then of the paper's model) and
+/// merges the counts with the toolchain's `llvm-profdata`.
+///
+/// The profile only steers how the compiler lays out and inlines the code: the FMUs compute
+/// the same numbers with or without it. Record it again when the models' code changes
+/// (`cargo xtask package --pgo-check` fails until then).
+pub fn record_pgo_profile() -> Result<PathBuf, XtaskError> {
+    let root = workspace_root();
+    let profdata = llvm_profdata()?;
+    let target = root.join("target").join("pgo-generate");
+    let raw = target.join("profraw");
+    let _ = std::fs::remove_dir_all(&raw);
+    std::fs::create_dir_all(&raw).map_err(|source| XtaskError::Write { path: raw.clone(), source })?;
+    cargo_build_libraries(
+        &root,
+        &target,
+        &[
+            format!("-Cprofile-generate={}", raw.join("build").display()),
+            "-Cllvm-args=-instrprof-atomic-counter-update-all".to_string(),
+        ],
+    )?;
+    let fmus = target.join("fmu");
+    package_all(&target, &fmus)?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let trainings: [&[&str]; 2] = [&[], &["--config", "paper", "--seeds", "1"]];
+    for (k, extra) in trainings.iter().enumerate() {
+        let out = target.join(format!("out-{k}"));
+        let mut command = Command::new(&cargo);
+        command
+            .current_dir(&root)
+            .args(["run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--", "--no-build", "--out"])
+            .arg(&out)
+            .args(*extra)
+            .env("MEERKAT_FMU_DIR", &fmus)
+            // One file per library (%m), to which every run adds its counts.
+            .env("LLVM_PROFILE_FILE", raw.join("fmu-%m.profraw"))
+            .stdout(std::process::Stdio::null());
+        let status = command.status().map_err(XtaskError::CargoNotRunnable)?;
+        if !status.success() {
+            return Err(XtaskError::Training { what: format!("antenna {}", extra.join(" ")), status });
+        }
+    }
+    let mut inputs: Vec<PathBuf> = std::fs::read_dir(&raw)
+        .map_err(|source| XtaskError::Read { path: raw.clone(), source })?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "profraw"))
+        .collect();
+    if inputs.is_empty() {
+        return Err(XtaskError::NoProfile(raw));
+    }
+    inputs.sort();
+    let merged = target.join(PGO_PROFILE_ENTRY);
+    let status = Command::new(&profdata)
+        .arg("merge")
+        .arg("-o")
+        .arg(&merged)
+        .args(&inputs)
+        .status()
+        .map_err(XtaskError::CargoNotRunnable)?;
+    if !status.success() {
+        return Err(XtaskError::Training { what: "llvm-profdata merge".to_string(), status });
+    }
+    let bytes = std::fs::read(&merged).map_err(|source| XtaskError::Read { path: merged.clone(), source })?;
+    let archive = root.join(PGO_PROFILE_ARCHIVE);
+    if let Some(parent) = archive.parent() {
+        std::fs::create_dir_all(parent).map_err(|source| XtaskError::Write { path: parent.to_path_buf(), source })?;
+    }
+    let file = std::fs::File::create(&archive).map_err(|source| XtaskError::Write { path: archive.clone(), source })?;
+    let mut zip = ZipWriter::new(file);
+    let options = SimpleFileOptions::default()
+        .compression_method(CompressionMethod::Deflated)
+        .compression_level(Some(9))
+        .last_modified_time(DateTime::default())
+        .unix_permissions(0o644);
+    zip.start_file(PGO_PROFILE_ENTRY, options)?;
+    zip.write_all(&bytes).map_err(|source| XtaskError::Write { path: archive.clone(), source })?;
+    zip.finish()?;
+    Ok(archive)
+}
+
+/// The toolchain's own `llvm-profdata` (rustup's `llvm-tools` component): its LLVM is the
+/// compiler's, so it reads the counts the instrumented libraries write.
+fn llvm_profdata() -> Result<PathBuf, XtaskError> {
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".to_string());
+    let text = |args: &[&str]| -> Result<String, XtaskError> {
+        let output = Command::new(&rustc).args(args).output().map_err(XtaskError::CargoNotRunnable)?;
+        Ok(String::from_utf8_lossy(&output.stdout).trim().to_string())
+    };
+    let sysroot = text(&["--print", "sysroot"])?;
+    let version = text(&["-vV"])?;
+    let host = version.lines().find_map(|l| l.strip_prefix("host: ")).unwrap_or("x86_64-unknown-linux-gnu");
+    let path = Path::new(&sysroot).join("lib/rustlib").join(host).join("bin/llvm-profdata");
+    if path.is_file() {
+        Ok(path)
+    } else {
+        Err(XtaskError::ProfdataMissing(path))
+    }
 }
 
 /// Writes `modelDescription/<id>.xml` for every FMU and `docs/parameters.md`, or with `check` only lists those whose

@@ -1,9 +1,10 @@
 //! The project's build tasks as one command, `cargo xtask <task>` (the alias is in
 //! `.cargo/config.toml`): `package` builds and packages the FMUs into `target/fmu/`,
-//! `package-into` into another folder, `codegen` regenerates or checks `modelDescription/`.
+//! `package-into` into another folder, `codegen` regenerates or checks `modelDescription/`,
+//! `pgo` records the profile the libraries are optimised with.
 //!
 //! Exit codes: 0 done; 1 a check that ran and failed (stale generated files, packages that
-//! differ between two builds); 2 bad usage or a task that could not be carried out.
+//! differ between two builds, with `--pgo-check` a stale profile); 2 bad usage or a task that could not be carried out.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,12 +27,19 @@ enum Task {
         /// byte-identical.
         #[arg(long)]
         reproducibility_check: bool,
+        /// Fail (exit 1) if the committed PGO profile predates the models' code (the compiler
+        /// then builds the changed functions without their counts); without it, a warning.
+        #[arg(long)]
+        pgo_check: bool,
     },
     /// Build the shared libraries in $CARGO_TARGET_DIR (or target/) and write every .fmu into DIR.
     PackageInto {
         /// The folder to write the .fmu files into.
         dir: PathBuf,
     },
+    /// Record the PGO profile of the FMUs' libraries (an instrumented build running the main
+    /// job) into tools/xtask/pgo/fmus.profdata.zip. Needs `rustup component add llvm-tools`.
+    Pgo,
     /// Regenerate modelDescription/*.xml from the variable tables.
     Codegen {
         /// Only check: list the stale files and exit 1 if there are any, writing nothing.
@@ -60,22 +68,31 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<Outcome> {
     match cli.task {
-        Task::Package { reproducibility_check } => package(reproducibility_check),
+        Task::Package { reproducibility_check, pgo_check } => package(reproducibility_check, pgo_check),
         Task::PackageInto { dir } => {
             let target = std::env::var("CARGO_TARGET_DIR")
                 .map(PathBuf::from)
                 .unwrap_or_else(|_| antenna_fmus::workspace_root().join("target"));
-            xtask::build_libraries(&target)?;
+            let build = xtask::build_libraries(&target)?;
+            if !build.stale_profile_warnings.is_empty() {
+                eprintln!("xtask: the PGO profile predates the models' code: run `cargo xtask pgo`");
+            }
             for path in xtask::package_all(&target, &dir)? {
                 println!("{}", path.display());
             }
             Ok(Outcome::Done)
         }
         Task::Codegen { check } => codegen(check),
+        Task::Pgo => {
+            let archive = xtask::record_pgo_profile().context("recording the PGO profile failed")?;
+            let size = std::fs::metadata(&archive).map(|m| m.len()).unwrap_or(0);
+            println!("{} ({} bytes)", archive.display(), size);
+            Ok(Outcome::Done)
+        }
     }
 }
 
-fn package(reproducibility_check: bool) -> anyhow::Result<Outcome> {
+fn package(reproducibility_check: bool, pgo_check: bool) -> anyhow::Result<Outcome> {
     let stale = xtask::codegen(true)?;
     if !stale.is_empty() {
         eprintln!("xtask: stale generated files (run `cargo xtask codegen`):");
@@ -84,18 +101,27 @@ fn package(reproducibility_check: bool) -> anyhow::Result<Outcome> {
         }
         return Ok(Outcome::CheckFailed);
     }
-    let written = xtask::build_and_package().context("packaging failed")?;
-    for path in &written {
+    let packaged = xtask::build_and_package().context("packaging failed")?;
+    let written = &packaged.files;
+    for path in written {
         let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
         println!("{} ({} bytes)", path.display(), size);
     }
     if reproducibility_check {
-        let differing = xtask::reproducibility_differences(&written).context("reproducibility check")?;
+        let differing = xtask::reproducibility_differences(written).context("reproducibility check")?;
         if !differing.is_empty() {
             eprintln!("xtask: not reproducible: {} differ between the two builds", differing.join(", "));
             return Ok(Outcome::CheckFailed);
         }
         println!("reproducible: a build from another checkout path gives byte-identical .fmu files");
+    }
+    if !packaged.build.stale_profile_warnings.is_empty() {
+        eprintln!("{}", packaged.stale_profile_message());
+        if pgo_check {
+            return Ok(Outcome::CheckFailed);
+        }
+    } else if packaged.build.profile_used {
+        println!("optimised with the committed PGO profile ({})", xtask::PGO_PROFILE_ARCHIVE);
     }
     Ok(Outcome::Done)
 }
