@@ -54,18 +54,53 @@ pub enum XtaskError {
 /// runs, recorded by `cargo xtask pgo`, zipped.
 pub const PGO_PROFILE_ARCHIVE: &str = "tools/xtask/pgo/fmus.profdata.zip";
 
-/// The one entry of [`PGO_PROFILE_ARCHIVE`]: LLVM's indexed profile, as `llvm-profdata merge` writes it.
+/// The entries of [`PGO_PROFILE_ARCHIVE`]: LLVM's indexed profile, as `llvm-profdata merge`
+/// writes it, and the `rustc -vV` of the compiler that recorded it.
 const PGO_PROFILE_ENTRY: &str = "fmus.profdata";
+const PGO_TOOLCHAIN_ENTRY: &str = "rustc-version.txt";
+
+/// Whether a build of the FMUs' libraries used the committed profile.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum ProfileUse {
+    /// There is no profile: the libraries are built without one.
+    #[default]
+    Absent,
+    /// The libraries are optimised with the profile.
+    Used,
+    /// The profile was recorded by another compiler, whose function names and profile format
+    /// this one need not share: the libraries are built without it.
+    OtherToolchain { recorded: String, current: String },
+}
 
 /// What a build of the FMUs' libraries reported about the committed profile.
 #[derive(Debug, Clone, Default)]
 pub struct LibraryBuild {
-    /// Whether the libraries were optimised with the committed profile (false: there is none).
-    pub profile_used: bool,
+    pub profile: ProfileUse,
     /// The compiler's warnings about functions whose code changed since the profile was
     /// recorded: they are built without their counts (correct, but not as fast as they could
     /// be) until `cargo xtask pgo` records the profile again.
     pub stale_profile_warnings: Vec<String>,
+}
+
+impl LibraryBuild {
+    /// Why the libraries are not fully optimised with the committed profile, if there is one
+    /// and they are not (what `package --pgo-check` fails on).
+    pub fn profile_problem(&self) -> Option<String> {
+        if let ProfileUse::OtherToolchain { recorded, current } = &self.profile {
+            let release = |v: &str| v.lines().find(|l| l.starts_with("release:")).unwrap_or("?").to_string();
+            return Some(format!(
+                "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) was recorded by another compiler ({} against this {}): the libraries are built without it; run `cargo xtask pgo` to record it with this one",
+                release(recorded),
+                release(current)
+            ));
+        }
+        (!self.stale_profile_warnings.is_empty()).then(|| {
+            format!(
+                "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) predates the code of {} function(s), which are built without their counts: run `cargo xtask pgo` to record it again",
+                self.stale_profile_warnings.len()
+            )
+        })
+    }
 }
 
 /// Builds the shared libraries of the model crates with cargo, in [`LIBRARY_PROFILE`].
@@ -76,30 +111,58 @@ pub fn build_libraries(target_dir: &Path) -> Result<LibraryBuild, XtaskError> {
 /// Builds the FMUs' shared libraries from the sources checked out at `source_root` (the same
 /// package set every time: building one library alone may unify features differently and give
 /// other bytes), optimised with the profile committed at [`PGO_PROFILE_ARCHIVE`] when there is
-/// one.
+/// one and this compiler recorded it.
 pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<LibraryBuild, XtaskError> {
     let archive = source_root.join(PGO_PROFILE_ARCHIVE);
     if !archive.is_file() {
         cargo_build_libraries(source_root, target_dir, &[])?;
         return Ok(LibraryBuild::default());
     }
+    let recorded = read_archive_entry(&archive, PGO_TOOLCHAIN_ENTRY)?;
+    let recorded = String::from_utf8_lossy(&recorded).to_string();
+    let current = rustc_output(source_root, &["-vV"])?;
+    if recorded != current {
+        cargo_build_libraries(source_root, target_dir, &[])?;
+        return Ok(LibraryBuild {
+            profile: ProfileUse::OtherToolchain { recorded, current },
+            stale_profile_warnings: Vec::new(),
+        });
+    }
     let profile = unpack_profile(&archive, &target_dir.join("pgo"))?;
     let stderr = cargo_build_libraries(source_root, target_dir, &[format!("-Cprofile-use={}", profile.display())])?;
-    let stale_profile_warnings =
-        stderr.lines().filter(|line| line.contains("hash mismatch")).map(|line| line.trim().to_string()).collect();
-    Ok(LibraryBuild { profile_used: true, stale_profile_warnings })
+    Ok(LibraryBuild { profile: ProfileUse::Used, stale_profile_warnings: stale_profile_warnings(&stderr) })
+}
+
+/// The compiler's warnings, among a build's stderr, of functions whose recorded counts no
+/// longer fit their code (LLVM compares a hash of each function's control flow).
+fn stale_profile_warnings(stderr: &str) -> Vec<String> {
+    stderr.lines().filter(|line| line.contains("(hash mismatch)")).map(|line| line.trim().to_string()).collect()
+}
+
+/// The bytes of one entry of a zip archive.
+fn read_archive_entry(archive: &Path, entry: &str) -> Result<Vec<u8>, XtaskError> {
+    let file =
+        std::fs::File::open(archive).map_err(|source| XtaskError::Read { path: archive.to_path_buf(), source })?;
+    let mut zip = zip::ZipArchive::new(file)?;
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut zip.by_name(entry)?, &mut bytes)
+        .map_err(|source| XtaskError::Read { path: archive.to_path_buf(), source })?;
+    Ok(bytes)
+}
+
+/// What the compiler that cargo runs in `dir` prints for `args` (`rustup` may pick the
+/// toolchain by folder).
+fn rustc_output(dir: &Path, args: &[&str]) -> Result<String, XtaskError> {
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".to_string());
+    let output = Command::new(rustc).current_dir(dir).args(args).output().map_err(XtaskError::CargoNotRunnable)?;
+    Ok(String::from_utf8_lossy(&output.stdout).to_string())
 }
 
 /// Unpacks the profile into `folder` and returns its path. The file is rewritten only when its
 /// bytes change: the compiler tracks it as an input, and a new timestamp alone would rebuild
 /// every library.
 fn unpack_profile(archive: &Path, folder: &Path) -> Result<PathBuf, XtaskError> {
-    let file =
-        std::fs::File::open(archive).map_err(|source| XtaskError::Read { path: archive.to_path_buf(), source })?;
-    let mut zip = zip::ZipArchive::new(file)?;
-    let mut bytes = Vec::new();
-    std::io::Read::read_to_end(&mut zip.by_name(PGO_PROFILE_ENTRY)?, &mut bytes)
-        .map_err(|source| XtaskError::Read { path: archive.to_path_buf(), source })?;
+    let bytes = read_archive_entry(archive, PGO_PROFILE_ENTRY)?;
     let path = folder.join(PGO_PROFILE_ENTRY);
     if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
         std::fs::create_dir_all(folder).map_err(|source| XtaskError::Write { path: folder.to_path_buf(), source })?;
@@ -168,19 +231,12 @@ pub struct Packaged {
 }
 
 impl Packaged {
-    /// Tells the developer, on stderr, when the committed profile predates their edits.
+    /// Tells the developer, on stderr, when the libraries are not optimised with the committed
+    /// profile as they should be (edited code, another compiler).
     pub fn warn_if_profile_stale(&self) {
-        if !self.build.stale_profile_warnings.is_empty() {
-            eprintln!("{}", self.stale_profile_message());
+        if let Some(problem) = self.build.profile_problem() {
+            eprintln!("{problem}");
         }
-    }
-
-    /// What to tell a developer whose edits made the committed profile stale.
-    pub fn stale_profile_message(&self) -> String {
-        format!(
-            "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) predates the code of {} function(s), which are built without their counts: run `cargo xtask pgo` to record it again",
-            self.build.stale_profile_warnings.len()
-        )
     }
 }
 
@@ -273,8 +329,11 @@ pub fn record_pgo_profile() -> Result<PathBuf, XtaskError> {
         .compression_level(Some(9))
         .last_modified_time(DateTime::default())
         .unix_permissions(0o644);
-    zip.start_file(PGO_PROFILE_ENTRY, options)?;
-    zip.write_all(&bytes).map_err(|source| XtaskError::Write { path: archive.clone(), source })?;
+    let toolchain = rustc_output(&root, &["-vV"])?;
+    for (entry, contents) in [(PGO_PROFILE_ENTRY, bytes.as_slice()), (PGO_TOOLCHAIN_ENTRY, toolchain.as_bytes())] {
+        zip.start_file(entry, options)?;
+        zip.write_all(contents).map_err(|source| XtaskError::Write { path: archive.clone(), source })?;
+    }
     zip.finish()?;
     Ok(archive)
 }
@@ -282,13 +341,9 @@ pub fn record_pgo_profile() -> Result<PathBuf, XtaskError> {
 /// The toolchain's own `llvm-profdata` (rustup's `llvm-tools` component): its LLVM is the
 /// compiler's, so it reads the counts the instrumented libraries write.
 fn llvm_profdata() -> Result<PathBuf, XtaskError> {
-    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".to_string());
-    let text = |args: &[&str]| -> Result<String, XtaskError> {
-        let output = Command::new(&rustc).args(args).output().map_err(XtaskError::CargoNotRunnable)?;
-        Ok(String::from_utf8_lossy(&output.stdout).trim().to_string())
-    };
-    let sysroot = text(&["--print", "sysroot"])?;
-    let version = text(&["-vV"])?;
+    let root = workspace_root();
+    let sysroot = rustc_output(&root, &["--print", "sysroot"])?.trim().to_string();
+    let version = rustc_output(&root, &["-vV"])?;
     let host = version.lines().find_map(|l| l.strip_prefix("host: ")).unwrap_or("x86_64-unknown-linux-gnu");
     let path = Path::new(&sysroot).join("lib/rustlib").join(host).join("bin/llvm-profdata");
     if path.is_file() {
@@ -433,4 +488,37 @@ pub fn reproducibility_differences(reference: &[PathBuf]) -> Result<Vec<String>,
     }
     let _ = std::fs::remove_dir_all(&copy);
     Ok(differing)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_used_profile_that_fits_the_code_is_no_problem() {
+        let build = LibraryBuild { profile: ProfileUse::Used, stale_profile_warnings: Vec::new() };
+        assert_eq!(build.profile_problem(), None);
+        assert_eq!(LibraryBuild::default().profile_problem(), None, "no profile committed: nothing to check");
+    }
+
+    #[test]
+    fn functions_the_profile_no_longer_fits_are_a_problem_counted_in_the_message() {
+        let warning =
+            "warning: fmu_controller.cgu.0: function control flow change detected (hash mismatch) _ZN3fooE Hash = 1";
+        let build = LibraryBuild { profile: ProfileUse::Used, stale_profile_warnings: vec![warning.to_string(); 2] };
+        let problem = build.profile_problem().expect("stale counts are a problem");
+        assert!(problem.contains("2 function(s)") && problem.contains("cargo xtask pgo"), "{problem}");
+    }
+
+    #[test]
+    fn a_profile_from_another_compiler_is_a_problem_naming_both_releases() {
+        let recorded = "rustc 1.95.0\nrelease: 1.95.0\nLLVM version: 22.1.2\n".to_string();
+        let current = "rustc 1.96.0\nrelease: 1.96.0\nLLVM version: 22.1.8\n".to_string();
+        let build = LibraryBuild {
+            profile: ProfileUse::OtherToolchain { recorded, current },
+            stale_profile_warnings: Vec::new(),
+        };
+        let problem = build.profile_problem().expect("another compiler's profile is not used");
+        assert!(problem.contains("release: 1.95.0") && problem.contains("release: 1.96.0"), "{problem}");
+    }
 }

@@ -28,7 +28,8 @@ enum Task {
         #[arg(long)]
         reproducibility_check: bool,
         /// Fail (exit 1) if the committed PGO profile predates the models' code (the compiler
-        /// then builds the changed functions without their counts); without it, a warning.
+        /// then builds the changed functions without their counts) or another compiler
+        /// recorded it (then it is not used); without it, a warning.
         #[arg(long)]
         pgo_check: bool,
     },
@@ -73,9 +74,8 @@ fn run(cli: Cli) -> anyhow::Result<Outcome> {
             let target = std::env::var("CARGO_TARGET_DIR")
                 .map(PathBuf::from)
                 .unwrap_or_else(|_| antenna_fmus::workspace_root().join("target"));
-            let build = xtask::build_libraries(&target)?;
-            if !build.stale_profile_warnings.is_empty() {
-                eprintln!("xtask: the PGO profile predates the models' code: run `cargo xtask pgo`");
+            if let Some(problem) = xtask::build_libraries(&target)?.profile_problem() {
+                eprintln!("{problem}");
             }
             for path in xtask::package_all(&target, &dir)? {
                 println!("{}", path.display());
@@ -115,12 +115,12 @@ fn package(reproducibility_check: bool, pgo_check: bool) -> anyhow::Result<Outco
         }
         println!("reproducible: a build from another checkout path gives byte-identical .fmu files");
     }
-    if !packaged.build.stale_profile_warnings.is_empty() {
-        eprintln!("{}", packaged.stale_profile_message());
+    if let Some(problem) = packaged.build.profile_problem() {
+        eprintln!("{problem}");
         if pgo_check {
             return Ok(Outcome::CheckFailed);
         }
-    } else if packaged.build.profile_used {
+    } else if packaged.build.profile == xtask::ProfileUse::Used {
         println!("optimised with the committed PGO profile ({})", xtask::PGO_PROFILE_ARCHIVE);
     }
     Ok(Outcome::Done)
