@@ -80,6 +80,10 @@ pub struct LibraryBuild {
     /// recorded: they are built without their counts (correct, but not as fast as they could
     /// be) until `cargo xtask pgo` records the profile again.
     pub stale_profile_warnings: Vec<String>,
+    /// How many functions the profile has no counts for. Each is built as if without a profile:
+    /// new functions, or every function when the build's settings rename the symbols (another
+    /// `[profile.fmu-release]`, say), which the compiler does not otherwise report.
+    pub functions_without_counts: usize,
 }
 
 impl LibraryBuild {
@@ -94,12 +98,23 @@ impl LibraryBuild {
                 release(current)
             ));
         }
-        (!self.stale_profile_warnings.is_empty()).then(|| {
-            format!(
-                "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) predates the code of {} function(s), which are built without their counts: run `cargo xtask pgo` to record it again",
-                self.stale_profile_warnings.len()
-            )
-        })
+        if self.stale_profile_warnings.is_empty() && self.functions_without_counts == 0 {
+            return None;
+        }
+        let mut misfits = Vec::new();
+        if !self.stale_profile_warnings.is_empty() {
+            misfits.push(format!("predates the code of {} function(s)", self.stale_profile_warnings.len()));
+        }
+        if self.functions_without_counts > 0 {
+            misfits.push(format!(
+                "has no counts for {} function(s) (new code, or build settings that rename the symbols)",
+                self.functions_without_counts
+            ));
+        }
+        Some(format!(
+            "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) {}; they are built without counts: run `cargo xtask pgo` to record it again",
+            misfits.join(" and ")
+        ))
     }
 }
 
@@ -125,13 +140,26 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<Lib
         cargo_build_libraries(source_root, target_dir, &[])?;
         return Ok(LibraryBuild {
             profile: ProfileUse::OtherToolchain { recorded, current },
-            stale_profile_warnings: Vec::new(),
+            ..LibraryBuild::default()
         });
     }
     let profile = unpack_profile(&archive, &target_dir.join("pgo"))?;
-    let stderr = cargo_build_libraries(source_root, target_dir, &[format!("-Cprofile-use={}", profile.display())])?;
-    Ok(LibraryBuild { profile: ProfileUse::Used, stale_profile_warnings: stale_profile_warnings(&stderr) })
+    // The compiler reports functions without counts only when asked; the option changes no
+    // code (tried: byte-identical libraries with and without it).
+    let flags = [format!("-Cprofile-use={}", profile.display()), MISSING_COUNTS_OPTION.to_string()];
+    let stderr = cargo_build_libraries(source_root, target_dir, &flags)?;
+    Ok(LibraryBuild {
+        profile: ProfileUse::Used,
+        stale_profile_warnings: stale_profile_warnings(&stderr),
+        functions_without_counts: stderr.lines().filter(|line| line.contains(MISSING_COUNTS_WARNING)).count(),
+    })
 }
+
+/// Asks LLVM to warn of each function the profile has no counts for.
+const MISSING_COUNTS_OPTION: &str = "-Cllvm-args=-pgo-warn-missing-function";
+
+/// The text of LLVM's warning for a function without counts.
+const MISSING_COUNTS_WARNING: &str = "no profile data available for function";
 
 /// The compiler's warnings, among a build's stderr, of functions whose recorded counts no
 /// longer fit their code (LLVM compares a hash of each function's control flow).
@@ -203,7 +231,17 @@ fn cargo_build_libraries(
     }
     let output = command.stderr(std::process::Stdio::piped()).output().map_err(XtaskError::CargoNotRunnable)?;
     let stderr = String::from_utf8_lossy(&output.stderr).to_string();
-    eprint!("{stderr}");
+    // Passed on, but for the warnings of functions without counts: a build whose settings
+    // rename the symbols gets one per function (some 1,300), and the count says enough.
+    let mut after_missing = false;
+    for line in stderr.lines() {
+        if line.contains(MISSING_COUNTS_WARNING) || (after_missing && line.trim().is_empty()) {
+            after_missing = true;
+            continue;
+        }
+        after_missing = false;
+        eprintln!("{line}");
+    }
     if !output.status.success() {
         return Err(XtaskError::BuildFailed { packages: packages.join(", "), status: output.status });
     }
@@ -496,7 +534,7 @@ mod tests {
 
     #[test]
     fn a_used_profile_that_fits_the_code_is_no_problem() {
-        let build = LibraryBuild { profile: ProfileUse::Used, stale_profile_warnings: Vec::new() };
+        let build = LibraryBuild { profile: ProfileUse::Used, ..LibraryBuild::default() };
         assert_eq!(build.profile_problem(), None);
         assert_eq!(LibraryBuild::default().profile_problem(), None, "no profile committed: nothing to check");
     }
@@ -505,19 +543,31 @@ mod tests {
     fn functions_the_profile_no_longer_fits_are_a_problem_counted_in_the_message() {
         let warning =
             "warning: fmu_controller.cgu.0: function control flow change detected (hash mismatch) _ZN3fooE Hash = 1";
-        let build = LibraryBuild { profile: ProfileUse::Used, stale_profile_warnings: vec![warning.to_string(); 2] };
+        let build = LibraryBuild {
+            profile: ProfileUse::Used,
+            stale_profile_warnings: vec![warning.to_string(); 2],
+            ..LibraryBuild::default()
+        };
         let problem = build.profile_problem().expect("stale counts are a problem");
         assert!(problem.contains("2 function(s)") && problem.contains("cargo xtask pgo"), "{problem}");
+    }
+
+    #[test]
+    fn functions_the_profile_has_no_counts_for_are_a_problem_counted_in_the_message() {
+        // What a build whose settings rename every symbol gives: no function has counts, and
+        // the compiler says nothing unless asked.
+        let build =
+            LibraryBuild { profile: ProfileUse::Used, functions_without_counts: 1347, ..LibraryBuild::default() };
+        let problem = build.profile_problem().expect("functions without counts are a problem");
+        assert!(problem.contains("no counts for 1347 function(s)") && problem.contains("cargo xtask pgo"), "{problem}");
     }
 
     #[test]
     fn a_profile_from_another_compiler_is_a_problem_naming_both_releases() {
         let recorded = "rustc 1.95.0\nrelease: 1.95.0\nLLVM version: 22.1.2\n".to_string();
         let current = "rustc 1.96.0\nrelease: 1.96.0\nLLVM version: 22.1.8\n".to_string();
-        let build = LibraryBuild {
-            profile: ProfileUse::OtherToolchain { recorded, current },
-            stale_profile_warnings: Vec::new(),
-        };
+        let build =
+            LibraryBuild { profile: ProfileUse::OtherToolchain { recorded, current }, ..LibraryBuild::default() };
         let problem = build.profile_problem().expect("another compiler's profile is not used");
         assert!(problem.contains("release: 1.95.0") && problem.contains("release: 1.96.0"), "{problem}");
     }
