@@ -4,7 +4,7 @@
 //! bit, and a unit's error ends the run with that error on either thread instead of leaving the
 //! other waiting.
 
-use antenna_sim::coupled::{AUTO_PROBE_STEPS, AUTO_RUN_STEPS};
+use antenna_sim::coupled::{AUTO_PROBE_STEPS_ONE, AUTO_PROBE_STEPS_TWO, AUTO_RUN_STEPS};
 use antenna_sim::scenario::{normal_wind, step_table, tracking_table, SIDEREAL_RATE_DEG_PER_S};
 use antenna_sim::{AntennaConfig, CommandTable, Configuration, CoupledAntenna, FmuSet, Lanes, Trace};
 
@@ -68,11 +68,11 @@ fn the_automatic_lanes_probe_and_switch_without_changing_a_long_run() {
     let config = AntennaConfig { wind: normal_wind(30.0, 13), ..Configuration::Realistic.antenna_config() };
     let rate = SIDEREAL_RATE_DEG_PER_S;
     // Long enough for two rounds of probes and runs.
-    let seconds = (2 * (2 * AUTO_PROBE_STEPS + AUTO_RUN_STEPS)) as f64 * config.step_s;
+    let seconds = (2 * (AUTO_PROBE_STEPS_TWO + AUTO_PROBE_STEPS_ONE + AUTO_RUN_STEPS)) as f64 * config.step_s;
     let table = tracking_table((30.0, 45.0), (rate, rate), seconds + 1.0);
     let one = trace(&fmus, &config, &table, seconds, Lanes::One);
     let auto = trace(&fmus, &config, &table, seconds, Lanes::Auto);
-    assert_eq!(auto.time_s.len() as u64, 2 * (2 * AUTO_PROBE_STEPS + AUTO_RUN_STEPS));
+    assert_eq!(auto.time_s.len() as u64, 2 * (AUTO_PROBE_STEPS_TWO + AUTO_PROBE_STEPS_ONE + AUTO_RUN_STEPS));
     assert!(one == auto, "the traces differ (first row: {:?})", first_difference(&one, &auto));
 }
 

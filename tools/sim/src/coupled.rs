@@ -798,36 +798,45 @@ impl CoupledAntenna {
         progress: &mut dyn FnMut(f64),
     ) -> Result<(), ImportError> {
         if self.lanes != Lanes::Auto {
-            return self.run_lanes(table, steps, trace, self.lanes, progress);
+            return self.run_lanes(table, steps, trace, self.lanes, progress, 0).map(|_| ());
         }
-        if steps < 2 * AUTO_PROBE_STEPS {
+        if steps < AUTO_PROBE_STEPS_TWO + AUTO_PROBE_STEPS_ONE {
             // Too short to time both: the second thread's start alone would cost more than it
             // could save (and `step` would start one per step).
-            return self.run_lanes(table, steps, trace, Lanes::One, progress);
+            return self.run_lanes(table, steps, trace, Lanes::One, progress, 0).map(|_| ());
         }
         // Two lanes pay only while the second thread has a core of its own: on a busy machine
         // every meeting waits for the scheduler, and a step can take a hundred times longer.
-        // So both are timed on this machine now, in short probes, the faster runs on, and the
-        // probes are repeated from time to time.
+        // So both are timed on this machine now, in probes, the faster runs on, and the probes
+        // are repeated from time to time. A probe times its steps after a warm-up: the first
+        // thousand steps of two new lanes take about twice as long as the later ones (the
+        // second core wakes up, the azimuth units' memory moves to it), and probes timed from
+        // their start chose one thread where two ran 1.8 times as fast (README, "Speed").
         let start = self.steps_done;
-        let mut chunk = |antenna: &mut Self, n: u64, lanes: Lanes, trace: Option<&mut Trace>| {
+        let mut chunk = |antenna: &mut Self, n: u64, lanes: Lanes, warm_up: u64, trace: Option<&mut Trace>| {
             let first = antenna.steps_done - start;
             let n = n.min(steps - first);
+            let warm_up = warm_up.min(n / 2);
             let started = Instant::now();
             let mut report = |fraction: f64| progress((first as f64 + fraction * n as f64) / steps as f64);
-            antenna.run_lanes(table, n, trace, lanes, &mut report)?;
-            Ok::<f64, ImportError>(started.elapsed().as_secs_f64() / n.max(1) as f64)
+            let warm = antenna.run_lanes(table, n, trace, lanes, &mut report, warm_up)?.unwrap_or(started);
+            Ok::<f64, ImportError>(warm.elapsed().as_secs_f64() / (n - warm_up).max(1) as f64)
         };
+        // After a round that two lanes lost, the next comes twice as late (up to 16 runs
+        // later): where the second core is busy, its probe is the slow part of the round.
+        let mut run_steps = AUTO_RUN_STEPS;
         while self.steps_done - start < steps {
-            let two = chunk(self, AUTO_PROBE_STEPS, Lanes::Two, trace.as_deref_mut())?;
-            let one = chunk(self, AUTO_PROBE_STEPS, Lanes::One, trace.as_deref_mut())?;
+            let two = chunk(self, AUTO_PROBE_STEPS_TWO, Lanes::Two, AUTO_WARM_UP_STEPS_TWO, trace.as_deref_mut())?;
+            let one = chunk(self, AUTO_PROBE_STEPS_ONE, Lanes::One, AUTO_WARM_UP_STEPS_ONE, trace.as_deref_mut())?;
             let faster = if two < one { Lanes::Two } else { Lanes::One };
-            chunk(self, AUTO_RUN_STEPS, faster, trace.as_deref_mut())?;
+            chunk(self, run_steps, faster, 0, trace.as_deref_mut())?;
+            run_steps = if faster == Lanes::Two { AUTO_RUN_STEPS } else { (2 * run_steps).min(16 * AUTO_RUN_STEPS) };
         }
         Ok(())
     }
 
-    /// [`Self::run_steps`] on the given lanes (one or two).
+    /// [`Self::run_steps`] on the given lanes (one or two); returns when the first `warm_up`
+    /// steps were done (`None` for 0).
     fn run_lanes(
         &mut self,
         table: &CommandTable,
@@ -835,8 +844,11 @@ impl CoupledAntenna {
         trace: Option<&mut Trace>,
         lanes: Lanes,
         progress: &mut dyn FnMut(f64),
-    ) -> Result<(), ImportError> {
+        warm_up: u64,
+    ) -> Result<Option<Instant>, ImportError> {
         let mut master = Master {
+            warm_up,
+            warm_at: None,
             table,
             start_time_s: self.start_time_s,
             step_s: self.step_s,
@@ -863,7 +875,7 @@ impl CoupledAntenna {
             }
         };
         self.steps_done += done;
-        result
+        result.map(|()| master.warm_at)
     }
 
     /// Runs until `end_time_s`, recording every communication point; `progress` is called
@@ -899,17 +911,26 @@ pub enum Lanes {
     /// unit stepped on the lane and exchanged with here made a step 1.4 times as long, README
     /// "Speed").
     Two,
-    /// Two lanes while they are faster than one on this machine: both are timed in probes of
-    /// [`AUTO_PROBE_STEPS`] steps every [`AUTO_RUN_STEPS`], and the faster runs on.
+    /// Two lanes while they are faster than one on this machine: both are timed in probes
+    /// ([`AUTO_PROBE_STEPS_TWO`], [`AUTO_PROBE_STEPS_ONE`], each timed after a warm-up) every
+    /// [`AUTO_RUN_STEPS`] or more, and the faster runs on.
     Auto,
 }
 
-/// The steps of each probe of [`Lanes::Auto`] (half a second of simulated time, a
-/// millisecond or two of computing).
-pub const AUTO_PROBE_STEPS: u64 = 500;
-/// The steps [`Lanes::Auto`] runs on the faster lanes before it probes again (tens of
-/// milliseconds of computing: a machine's load changes on that scale).
-pub const AUTO_RUN_STEPS: u64 = 20_000;
+/// The steps of [`Lanes::Auto`]'s probe of two lanes (two seconds of simulated time, about two
+/// milliseconds of computing), of which the first [`AUTO_WARM_UP_STEPS_TWO`] are not timed.
+pub const AUTO_PROBE_STEPS_TWO: u64 = 2_000;
+/// The steps of a probe of two lanes before the timed ones.
+pub const AUTO_WARM_UP_STEPS_TWO: u64 = 1_000;
+/// The steps of [`Lanes::Auto`]'s probe of one lane, of which the first
+/// [`AUTO_WARM_UP_STEPS_ONE`] (the azimuth units' memory coming back) are not timed.
+pub const AUTO_PROBE_STEPS_ONE: u64 = 1_000;
+/// The steps of a probe of one lane before the timed ones.
+pub const AUTO_WARM_UP_STEPS_ONE: u64 = 200;
+/// The steps [`Lanes::Auto`] runs on the faster lanes before it probes again (some 25-50
+/// milliseconds of computing: a machine's load changes on that scale), twice as many after
+/// each round one lane won, up to 16 times.
+pub const AUTO_RUN_STEPS: u64 = 40_000;
 
 /// The wind's loads on the antenna now, scaled by `scale` (torque about azimuth, about
 /// elevation, N m; the forces of [`WIND_FORCES`], N, 0 where the wind unit gives none), and the
@@ -1157,6 +1178,10 @@ struct Master<'a, 't> {
     wind_scale: f64,
     ports: &'a Ports,
     trace: Option<&'t mut Trace>,
+    /// After how many steps of this run [`Self::warm_at`] is taken (0: never).
+    warm_up: u64,
+    /// When the first `warm_up` steps were done.
+    warm_at: Option<Instant>,
 }
 
 impl Master<'_, '_> {
@@ -1164,6 +1189,14 @@ impl Master<'_, '_> {
     /// runs do not drift.
     fn time(&self, k: u64) -> f64 {
         step_time(self.start_time_s, self.step_s, self.first_step + k)
+    }
+
+    /// Takes the time when the warm-up's last step is done.
+    #[inline]
+    fn note_done(&mut self, done: u64) {
+        if done == self.warm_up {
+            self.warm_at = Some(Instant::now());
+        }
     }
 
     /// The exchange that comes before the lanes: the command, and the wind unit told where the
@@ -1264,6 +1297,7 @@ impl Master<'_, '_> {
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
                 done = k + 1;
+                self.note_done(done);
                 if k % 1000 == 0 {
                     progress(k as f64 / steps as f64);
                 }
@@ -1425,6 +1459,7 @@ impl Master<'_, '_> {
                     self.record(&point, &az, &el, &a, &e);
                     (az, el) = (a.plant_next, e.plant_next);
                     done = k + 1;
+                    self.note_done(done);
                     if k % 1000 == 0 {
                         progress(k as f64 / steps as f64);
                     }

@@ -7,8 +7,13 @@
 //! one-thread sweep process (what one worker of the distributed engine holds), and with
 //! `--distributed` the Dask engine against the local pool for the same sweep.
 //!
+//! With `--series N`, only the coupled run, timed as the README's speed figures are: `N` rounds
+//! spread over minutes (`--pause`), each timing one thread, two threads and the automatic choice
+//! (best of `--runs` each), then the distribution of those calls. This machine's speed changes
+//! in phases of minutes, so one call's figure says little about the next.
+//!
 //! Usage: `cargo run --release -p antenna-cli --bin bench -- [--seconds 300] [--fmpy] [--sweep 32
-//! [--sweep-scenarios el45] [--distributed]]`.
+//! [--sweep-scenarios el45] [--distributed]]`, or `-- --series 40 --pause 12 --seconds 20`.
 
 use std::process::ExitCode;
 use std::time::Instant;
@@ -59,6 +64,13 @@ struct Cli {
     /// second thread).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2), requires = "only_coupled")]
     threads: u8,
+    /// Only the coupled run, in this many rounds of one thread, two threads and the automatic
+    /// choice (best of `--runs`, 3 unless given, each), then their distribution.
+    #[arg(long, value_name = "ROUNDS", value_parser = clap::value_parser!(u32).range(1..), conflicts_with_all = ["only_coupled", "fmpy", "sweep"])]
+    series: Option<u32>,
+    /// Seconds between the rounds of `--series`.
+    #[arg(long, default_value_t = 10.0, requires = "series")]
+    pause: f64,
 }
 
 /// A finite, positive number of seconds.
@@ -83,6 +95,9 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .context("cannot open the FMUs (package them first: cargo xtask package)")?;
+    if let Some(rounds) = cli.series {
+        return coupled_series(&fmus, cli.seconds, cli.runs.unwrap_or(3) as usize, rounds, cli.pause);
+    }
     if cli.only_coupled {
         let lanes = if cli.threads == 2 { Lanes::Two } else { Lanes::One };
         return coupled(&fmus, cli.seconds, cli.runs.unwrap_or(1) as usize, &[lanes]);
@@ -112,27 +127,84 @@ fn coupled(fmus: &FmuSet, seconds: f64, runs: usize, lanes: &[Lanes]) -> anyhow:
     let (config, table) = benchmark_run(seconds);
     let steps = (seconds / config.step_s).round() as u64;
     for &lane_count in lanes {
-        let mut times = Vec::with_capacity(runs);
-        for _ in 0..runs {
-            let mut antenna = CoupledAntenna::new(fmus, &config, &table)?;
-            antenna.set_lanes(lane_count);
-            let started = Instant::now();
-            antenna.run_steps(&table, steps, None, &mut |_| {})?;
-            times.push(started.elapsed().as_secs_f64());
-        }
-        times.sort_by(f64::total_cmp);
+        let times = coupled_times(fmus, &config, &table, steps, lane_count, runs)?;
         // The best run is what the code can do; the median says how often the machine lets it.
         let (best, median) = (times[0], times[times.len() / 2]);
-        let threads = match lane_count {
-            Lanes::One => "one thread",
-            Lanes::Two => "two threads",
-            Lanes::Auto => "one or two threads, timed as it runs",
-        };
+        let threads = lanes_name(lane_count);
         println!(
             "sidereal tracking at 45 deg, optimal wind, 1 kHz, 6 FMUs, {threads}: {seconds:.0} s simulated in {best:.3} s = {:.0} x real time ({:.0} ns per 1 ms communication step, best of {runs}; median {:.0} x)",
             seconds / best,
             best / steps as f64 * 1e9,
             seconds / median
+        );
+    }
+    Ok(())
+}
+
+/// The wall-clock seconds of `runs` runs of `steps` steps on `lanes`, sorted.
+fn coupled_times(
+    fmus: &FmuSet,
+    config: &AntennaConfig,
+    table: &CommandTable,
+    steps: u64,
+    lanes: Lanes,
+    runs: usize,
+) -> anyhow::Result<Vec<f64>> {
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let mut antenna = CoupledAntenna::new(fmus, config, table)?;
+        antenna.set_lanes(lanes);
+        let started = Instant::now();
+        antenna.run_steps(table, steps, None, &mut |_| {})?;
+        times.push(started.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times)
+}
+
+fn lanes_name(lanes: Lanes) -> &'static str {
+    match lanes {
+        Lanes::One => "one thread",
+        Lanes::Two => "two threads",
+        Lanes::Auto => "one or two threads, timed as it runs",
+    }
+}
+
+/// The coupled run timed in `rounds` rounds, `pause_s` apart, of each lane choice (best of
+/// `runs` per call), and the distribution of the calls' real-time factors: what the README's
+/// speed figures are.
+fn coupled_series(fmus: &FmuSet, seconds: f64, runs: usize, rounds: u32, pause_s: f64) -> anyhow::Result<()> {
+    if !(pause_s.is_finite() && pause_s >= 0.0) {
+        bail!("--pause must be a finite, non-negative number of seconds, not {pause_s}");
+    }
+    println!("## Coupled antenna, Rust master through the C ABI: {rounds} rounds, {pause_s} s apart");
+    let (config, table) = benchmark_run(seconds);
+    let steps = (seconds / config.step_s).round() as u64;
+    let choices = [Lanes::One, Lanes::Two, Lanes::Auto];
+    let mut factors: Vec<Vec<f64>> = vec![Vec::new(); choices.len()];
+    for round in 0..rounds {
+        if round > 0 {
+            std::thread::sleep(std::time::Duration::from_secs_f64(pause_s));
+        }
+        for (lanes, factors) in choices.iter().zip(&mut factors) {
+            let best = coupled_times(fmus, &config, &table, steps, *lanes, runs)?[0];
+            factors.push(seconds / best);
+        }
+    }
+    for (lanes, factors) in choices.iter().zip(&mut factors) {
+        factors.sort_by(f64::total_cmp);
+        let quantile = |q: f64| antenna_sim::sweep::analysis::percentile(factors, q);
+        let fast_enough = factors.iter().filter(|&&f| f >= 1000.0).count();
+        println!(
+            "{}: {rounds} calls of {seconds:.0} s simulated, each the best of {runs}: best {:.0} x ({:.0} ns a step), median {:.0} x ({:.0} ns), quartiles {:.0}-{:.0} x, worst {:.0} x; at least 1,000 x in {fast_enough} of {rounds}",
+            lanes_name(*lanes),
+            quantile(1.0),
+            1e9 * config.step_s / quantile(1.0),
+            quantile(0.5),
+            1e9 * config.step_s / quantile(0.5),
+            quantile(0.25),
+            quantile(0.75),
+            quantile(0.0)
         );
     }
     Ok(())
