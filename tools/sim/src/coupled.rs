@@ -822,15 +822,13 @@ impl CoupledAntenna {
             let warm = antenna.run_lanes(table, n, trace, lanes, &mut report, warm_up)?.unwrap_or(started);
             Ok::<f64, ImportError>(warm.elapsed().as_secs_f64() / (n - warm_up).max(1) as f64)
         };
-        // After a round that two lanes lost, the next comes twice as late (up to 16 runs
-        // later): where the second core is busy, its probe is the slow part of the round.
         let mut run_steps = AUTO_RUN_STEPS;
         while self.steps_done - start < steps {
             let two = chunk(self, AUTO_PROBE_STEPS_TWO, Lanes::Two, AUTO_WARM_UP_STEPS_TWO, trace.as_deref_mut())?;
             let one = chunk(self, AUTO_PROBE_STEPS_ONE, Lanes::One, AUTO_WARM_UP_STEPS_ONE, trace.as_deref_mut())?;
             let faster = if two < one { Lanes::Two } else { Lanes::One };
             chunk(self, run_steps, faster, 0, trace.as_deref_mut())?;
-            run_steps = if faster == Lanes::Two { AUTO_RUN_STEPS } else { (2 * run_steps).min(16 * AUTO_RUN_STEPS) };
+            run_steps = auto_run_steps_after(faster, run_steps);
         }
         Ok(())
     }
@@ -927,10 +925,24 @@ pub const AUTO_WARM_UP_STEPS_TWO: u64 = 1_000;
 pub const AUTO_PROBE_STEPS_ONE: u64 = 1_000;
 /// The steps of a probe of one lane before the timed ones.
 pub const AUTO_WARM_UP_STEPS_ONE: u64 = 200;
+// Every probe times some steps after its warm-up.
+const _: () = assert!(AUTO_WARM_UP_STEPS_TWO < AUTO_PROBE_STEPS_TWO && AUTO_WARM_UP_STEPS_ONE < AUTO_PROBE_STEPS_ONE);
 /// The steps [`Lanes::Auto`] runs on the faster lanes before it probes again (some 25-50
 /// milliseconds of computing: a machine's load changes on that scale), twice as many after
 /// each round one lane won, up to 16 times.
 pub const AUTO_RUN_STEPS: u64 = 40_000;
+
+/// The steps [`Lanes::Auto`] runs before its next probes, after a round that `faster` won and
+/// that ran `run_steps`: after a round one lane won, twice as many (up to 16 times
+/// [`AUTO_RUN_STEPS`]), since where the second core is busy its probe is the slow part of a
+/// round; after a round two lanes won, [`AUTO_RUN_STEPS`] again.
+fn auto_run_steps_after(faster: Lanes, run_steps: u64) -> u64 {
+    if faster == Lanes::Two {
+        AUTO_RUN_STEPS
+    } else {
+        (2 * run_steps).min(16 * AUTO_RUN_STEPS)
+    }
+}
 
 /// The wind's loads on the antenna now, scaled by `scale` (torque about azimuth, about
 /// elevation, N m; the forces of [`WIND_FORCES`], N, 0 where the wind unit gives none), and the
@@ -1470,5 +1482,22 @@ impl Master<'_, '_> {
             let result = body();
             (done, result)
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn automatic_lanes_probe_less_often_while_one_lane_wins_and_as_often_as_ever_once_two_win() {
+        let mut run_steps = AUTO_RUN_STEPS;
+        let mut lengths = Vec::new();
+        for _ in 0..6 {
+            run_steps = auto_run_steps_after(Lanes::One, run_steps);
+            lengths.push(run_steps / AUTO_RUN_STEPS);
+        }
+        assert_eq!(lengths, [2, 4, 8, 16, 16, 16], "doubling, capped at 16 runs");
+        assert_eq!(auto_run_steps_after(Lanes::Two, run_steps), AUTO_RUN_STEPS);
     }
 }
