@@ -76,10 +76,10 @@ pub enum ProfileUse {
 #[derive(Debug, Clone, Default)]
 pub struct LibraryBuild {
     pub profile: ProfileUse,
-    /// The compiler's warnings about functions whose code changed since the profile was
-    /// recorded: they are built without their counts (correct, but not as fast as they could
-    /// be) until `cargo xtask pgo` records the profile again.
-    pub stale_profile_warnings: Vec<String>,
+    /// How many functions changed their code since the profile was recorded (the compiler
+    /// warns of each): they are built without their counts (correct, but not as fast as they
+    /// could be) until `cargo xtask pgo` records the profile again.
+    pub functions_with_changed_code: usize,
     /// How many functions the profile has no counts for. Each is built as if without a profile:
     /// new functions, or every function when the build's settings rename the symbols (another
     /// `[profile.fmu-release]`, say), which the compiler does not otherwise report.
@@ -98,12 +98,12 @@ impl LibraryBuild {
                 release(current)
             ));
         }
-        if self.stale_profile_warnings.is_empty() && self.functions_without_counts == 0 {
+        if self.functions_with_changed_code == 0 && self.functions_without_counts == 0 {
             return None;
         }
         let mut misfits = Vec::new();
-        if !self.stale_profile_warnings.is_empty() {
-            misfits.push(format!("predates the code of {} function(s)", self.stale_profile_warnings.len()));
+        if self.functions_with_changed_code > 0 {
+            misfits.push(format!("predates the code of {} function(s)", self.functions_with_changed_code));
         }
         if self.functions_without_counts > 0 {
             misfits.push(format!(
@@ -150,8 +150,8 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<Lib
     let stderr = cargo_build_libraries(source_root, target_dir, &flags)?;
     Ok(LibraryBuild {
         profile: ProfileUse::Used,
-        stale_profile_warnings: stale_profile_warnings(&stderr),
-        functions_without_counts: stderr.lines().filter(|line| line.contains(MISSING_COUNTS_WARNING)).count(),
+        functions_with_changed_code: count_lines_with(&stderr, CHANGED_CODE_WARNING),
+        functions_without_counts: count_lines_with(&stderr, MISSING_COUNTS_WARNING),
     })
 }
 
@@ -161,10 +161,13 @@ const MISSING_COUNTS_OPTION: &str = "-Cllvm-args=-pgo-warn-missing-function";
 /// The text of LLVM's warning for a function without counts.
 const MISSING_COUNTS_WARNING: &str = "no profile data available for function";
 
-/// The compiler's warnings, among a build's stderr, of functions whose recorded counts no
-/// longer fit their code (LLVM compares a hash of each function's control flow).
-fn stale_profile_warnings(stderr: &str) -> Vec<String> {
-    stderr.lines().filter(|line| line.contains("(hash mismatch)")).map(|line| line.trim().to_string()).collect()
+/// The text of LLVM's warning for a function whose recorded counts no longer fit its code (it
+/// compares a hash of each function's control flow).
+const CHANGED_CODE_WARNING: &str = "(hash mismatch)";
+
+/// How many lines of a build's stderr hold `warning` (the compiler writes one per function).
+fn count_lines_with(stderr: &str, warning: &str) -> usize {
+    stderr.lines().filter(|line| line.contains(warning)).count()
 }
 
 /// The bytes of one entry of a zip archive.
@@ -543,9 +546,10 @@ mod tests {
     fn functions_the_profile_no_longer_fits_are_a_problem_counted_in_the_message() {
         let warning =
             "warning: fmu_controller.cgu.0: function control flow change detected (hash mismatch) _ZN3fooE Hash = 1";
+        let stderr = format!("{warning}\n\n{warning}\n");
         let build = LibraryBuild {
             profile: ProfileUse::Used,
-            stale_profile_warnings: vec![warning.to_string(); 2],
+            functions_with_changed_code: count_lines_with(&stderr, CHANGED_CODE_WARNING),
             ..LibraryBuild::default()
         };
         let problem = build.profile_problem().expect("stale counts are a problem");

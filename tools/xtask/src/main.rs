@@ -28,7 +28,8 @@ enum Task {
         #[arg(long)]
         reproducibility_check: bool,
         /// Fail (exit 1) if the committed PGO profile predates the models' code (the compiler
-        /// then builds the changed functions without their counts) or another compiler
+        /// then builds the changed functions without their counts), has no counts for some
+        /// functions (new code, or settings that rename the symbols) or another compiler
         /// recorded it (then it is not used); without it, a warning.
         #[arg(long)]
         pgo_check: bool,

@@ -162,6 +162,7 @@ fn coupled_times(
     Ok(times)
 }
 
+/// How the figures name a choice of lanes.
 fn lanes_name(lanes: Lanes) -> &'static str {
     match lanes {
         Lanes::One => "one thread",
