@@ -45,6 +45,8 @@ pub enum XtaskError {
     Training { what: String, status: std::process::ExitStatus },
     #[error("the training runs wrote no profile into {}", .0.display())]
     NoProfile(PathBuf),
+    #[error("{0}")]
+    ProfileUnusable(String),
     #[error("the second build (from a copy of the sources) failed")]
     SecondBuild(#[source] Box<XtaskError>),
 }
@@ -87,8 +89,8 @@ pub struct LibraryBuild {
 }
 
 impl LibraryBuild {
-    /// Why the libraries are not fully optimised with the committed profile, if there is one
-    /// and they are not (what `package --pgo-check` fails on).
+    /// Why the libraries are not fully optimised with the committed profile, if they were to
+    /// be and are not (what `package --pgo` warns of).
     pub fn profile_problem(&self) -> Option<String> {
         if let ProfileUse::OtherToolchain { recorded, current } = &self.profile {
             let release = |v: &str| v.lines().find(|l| l.starts_with("release:")).unwrap_or("?").to_string();
@@ -118,30 +120,46 @@ impl LibraryBuild {
     }
 }
 
+/// Whether the FMUs' libraries are built with the committed PGO profile.
+///
+/// Off by default: the profile fits one compiler release and one state of the models' code, so
+/// a default build that used it would depend on both. `cargo xtask package --pgo` opts in for a
+/// release build on the compiler that recorded it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Pgo {
+    #[default]
+    Off,
+    On,
+}
+
 /// Builds the shared libraries of the model crates with cargo, in [`LIBRARY_PROFILE`].
-pub fn build_libraries(target_dir: &Path) -> Result<LibraryBuild, XtaskError> {
-    build_libraries_from(&workspace_root(), target_dir)
+pub fn build_libraries(target_dir: &Path, pgo: Pgo) -> Result<LibraryBuild, XtaskError> {
+    build_libraries_from(&workspace_root(), target_dir, pgo)
 }
 
 /// Builds the FMUs' shared libraries from the sources checked out at `source_root` (the same
 /// package set every time: building one library alone may unify features differently and give
-/// other bytes), optimised with the profile committed at [`PGO_PROFILE_ARCHIVE`] when there is
-/// one and this compiler recorded it.
-pub fn build_libraries_from(source_root: &Path, target_dir: &Path) -> Result<LibraryBuild, XtaskError> {
-    let archive = source_root.join(PGO_PROFILE_ARCHIVE);
-    if !archive.is_file() {
+/// other bytes). With [`Pgo::On`] they are optimised with the profile committed at
+/// [`PGO_PROFILE_ARCHIVE`], which must be there and recorded by this compiler (an error names
+/// both releases otherwise).
+pub fn build_libraries_from(source_root: &Path, target_dir: &Path, pgo: Pgo) -> Result<LibraryBuild, XtaskError> {
+    if pgo == Pgo::Off {
         cargo_build_libraries(source_root, target_dir, &[])?;
         return Ok(LibraryBuild::default());
+    }
+    let archive = source_root.join(PGO_PROFILE_ARCHIVE);
+    if !archive.is_file() {
+        return Err(XtaskError::ProfileUnusable(format!(
+            "--pgo: there is no profile at {PGO_PROFILE_ARCHIVE}; record one with `cargo xtask pgo`"
+        )));
     }
     let recorded = read_archive_entry(&archive, PGO_TOOLCHAIN_ENTRY)?;
     let recorded = String::from_utf8_lossy(&recorded).to_string();
     let current = rustc_output(source_root, &["-vV"])?;
     if recorded != current {
-        cargo_build_libraries(source_root, target_dir, &[])?;
-        return Ok(LibraryBuild {
-            profile: ProfileUse::OtherToolchain { recorded, current },
-            ..LibraryBuild::default()
-        });
+        let build =
+            LibraryBuild { profile: ProfileUse::OtherToolchain { recorded, current }, ..LibraryBuild::default() };
+        return Err(XtaskError::ProfileUnusable(build.profile_problem().unwrap_or_default()));
     }
     let profile = unpack_profile(&archive, &target_dir.join("pgo"))?;
     // The compiler reports functions without counts only when asked; the option changes no
@@ -271,24 +289,14 @@ pub struct Packaged {
     pub build: LibraryBuild,
 }
 
-impl Packaged {
-    /// Tells the developer, on stderr, when the libraries are not optimised with the committed
-    /// profile as they should be (edited code, another compiler).
-    pub fn warn_if_profile_stale(&self) {
-        if let Some(problem) = self.build.profile_problem() {
-            eprintln!("{problem}");
-        }
-    }
-}
-
 /// Builds and packages into the documented folder; what the main job and the tests rely on.
-pub fn build_and_package() -> Result<Packaged, XtaskError> {
+pub fn build_and_package(pgo: Pgo) -> Result<Packaged, XtaskError> {
     let stale = codegen(true)?;
     if !stale.is_empty() {
         return Err(XtaskError::StaleGeneratedFiles(stale));
     }
     let target = workspace_root().join("target");
-    let build = build_libraries(&target)?;
+    let build = build_libraries(&target, pgo)?;
     Ok(Packaged { files: package_all(&target, &fmu_directory())?, build })
 }
 
@@ -300,7 +308,8 @@ pub fn build_and_package() -> Result<Packaged, XtaskError> {
 ///
 /// The profile only steers how the compiler lays out and inlines the code: the FMUs compute
 /// the same numbers with or without it. Record it again when the models' code changes
-/// (`cargo xtask package --pgo-check` fails until then).
+/// (`cargo xtask package --pgo` warns until then) or with another compiler (`--pgo` refuses
+/// a profile another compiler recorded).
 pub fn record_pgo_profile() -> Result<PathBuf, XtaskError> {
     let root = workspace_root();
     let profdata = llvm_profdata()?;
@@ -492,7 +501,7 @@ pub fn write_fmu(spec: &FmuSpec, shared_library: &Path, output: &Path) -> Result
 ///
 /// Only the shared libraries are built from the copy (they are what a checkout path could
 /// leak into); they are packaged by this crate's code, as the first build was.
-pub fn reproducibility_differences(reference: &[PathBuf]) -> Result<Vec<String>, XtaskError> {
+pub fn reproducibility_differences(reference: &[PathBuf], pgo: Pgo) -> Result<Vec<String>, XtaskError> {
     let root = workspace_root();
     let copy = std::env::temp_dir().join(format!("meerkat-repro-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&copy);
@@ -515,7 +524,7 @@ pub fn reproducibility_differences(reference: &[PathBuf]) -> Result<Vec<String>,
     }
     let target = copy.join("target");
     let out = copy.join("fmu");
-    build_libraries_from(&copy.join("checkout"), &target).map_err(|e| XtaskError::SecondBuild(Box::new(e)))?;
+    build_libraries_from(&copy.join("checkout"), &target, pgo).map_err(|e| XtaskError::SecondBuild(Box::new(e)))?;
     package_all(&target, &out)?;
     let mut differing = Vec::new();
     for path in reference {

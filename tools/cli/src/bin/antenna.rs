@@ -178,7 +178,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
     if !cli.no_build {
         eprintln!("building and packaging the FMUs ...");
-        xtask::build_and_package().context("packaging failed")?.warn_if_profile_stale();
+        xtask::build_and_package(xtask::Pgo::Off).context("packaging failed")?;
     }
     let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
         .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
@@ -578,7 +578,7 @@ fn sweep(args: SweepArgs) -> anyhow::Result<()> {
     }
     if !args.no_build {
         eprintln!("building and packaging the FMUs ...");
-        xtask::build_and_package().context("packaging failed")?.warn_if_profile_stale();
+        xtask::build_and_package(xtask::Pgo::Off).context("packaging failed")?;
     }
     if args.engine == EngineName::Dask {
         let hand_off = sweep::distributed::HandOff {
