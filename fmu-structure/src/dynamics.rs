@@ -110,6 +110,12 @@ pub struct ModalStructure {
     cache: StepCache,
     /// Scratch for the next step's modal states (not part of the state).
     next_states: Vec<[f64; 2]>,
+    /// The elevation last set (deg) and its cosine, which projects the modes' rotations about
+    /// the azimuth axis on the sky; the cosine is computed only when a mode has such a rotation
+    /// and the elevation changed.
+    projection: (f64, f64),
+    /// Whether a mode rotates the beam about the azimuth axis.
+    rotates_about_azimuth: bool,
 }
 
 /// The structure's part of an FMU state: every mode's coordinate and velocity, and what the
@@ -133,6 +139,7 @@ impl ModalStructure {
             cell: i64::MIN,
             other: None,
         });
+        let rotates_about_azimuth = modes.iter().any(|m| m.beam_azimuth_rotation != 0.0);
         let mut structure = ModalStructure {
             modes,
             elevation,
@@ -142,6 +149,8 @@ impl ModalStructure {
             accelerations: [0.0; 2],
             cache: None,
             next_states: Vec::new(),
+            projection: (f64::NAN, 0.0),
+            rotates_about_azimuth,
         };
         structure.set_elevation(90.0);
         structure
@@ -153,11 +162,15 @@ impl ModalStructure {
     }
 
     /// Sets the elevation (deg) at which the modes that change with elevation are taken from
-    /// now on: their frequencies at the centre of its [`ELEVATION_CELL_DEG`] cell. Nothing for a
-    /// structure whose modes do not change with elevation. The modal states are kept: the
-    /// frequency changes, the mode's coordinate and velocity do not.
+    /// now on: their frequencies at the centre of its [`ELEVATION_CELL_DEG`] cell. The modal
+    /// states are kept: the frequency changes, the mode's coordinate and velocity do not. The
+    /// beam offsets project the modes' rotations about the azimuth axis on the sky with the
+    /// cosine of this elevation itself, not of its cell's centre.
     #[inline]
     pub fn set_elevation(&mut self, elevation_deg: f64) {
+        if self.rotates_about_azimuth && self.projection.0.to_bits() != elevation_deg.to_bits() {
+            self.projection = (elevation_deg, elevation_deg.to_radians().cos());
+        }
         // Called before every step and every feedthrough update: the common structure, whose
         // modes do not change with elevation, pays one test.
         if self.elevation.is_some() {
@@ -281,8 +294,9 @@ impl ModalStructure {
         for (k, (mode, x)) in self.modes.iter().zip(&self.states).enumerate() {
             let load = mode.static_coordinate(loads);
             let settled = load + mode.inertial_load(&self.accelerations) / mode.stiffness;
-            offset[0] += mode.beam[0] * settled;
-            offset[1] += mode.beam[1] * settled;
+            let beam = mode.beam_on_sky(self.projection.1);
+            offset[0] += beam[0] * settled;
+            offset[1] += beam[1] * settled;
             let forcing = load + mode.inertial_load(&accelerations) / mode.stiffness;
             let [q, v] = match steps {
                 Some(steps) => steps[k].mean(*x, forcing),
@@ -310,12 +324,15 @@ impl ModalStructure {
         (carried_inertias(read, Mode::inertia), carried_inertias(read, Mode::horizon_inertia))
     }
 
-    /// The beam offset, rad (on-sky azimuth, elevation), from the modes' coordinates.
+    /// The beam offset, rad (on the sky: cross-elevation, elevation), from the modes'
+    /// coordinates, with the rotations about the azimuth axis projected at the elevation last
+    /// set.
     pub fn beam_offset(&self) -> [f64; 2] {
         let mut offset = [0.0; 2];
         for (mode, x) in self.modes.iter().zip(&self.states) {
-            offset[0] += mode.beam[0] * x[0];
-            offset[1] += mode.beam[1] * x[0];
+            let beam = mode.beam_on_sky(self.projection.1);
+            offset[0] += beam[0] * x[0];
+            offset[1] += beam[1] * x[0];
         }
         offset
     }
@@ -392,6 +409,7 @@ mod tests {
             stiffness: 4e8,
             participation: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
             beam: [1.0, 0.0],
+            beam_azimuth_rotation: 0.0,
         }
     }
 

@@ -52,7 +52,7 @@ declare_variables! {
         DishForce = Var::real("force.dish", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
             .description("Wind drag on the dish along the wind, whatever its direction relative to the antenna (the Wind FMU's force.drag), weighed by each mode's dish_force. One number cannot weigh a drag whose direction in the antenna's frame turns with the yaw: modes from a finite-element model should take force.axial and force.lateral instead (a mode may not take both). The default modes take no force."),
         BeamAz = Var::real("beam.azimuth_offset", "arcsec").output()
-            .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of beam_azimuth times the modal coordinate."),
+            .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of (beam_azimuth + beam_azimuth_rotation cos(elevation)) times the modal coordinate, with the elevation input held over the step just taken (a rotation about the azimuth axis moves the beam on the sky by the angle times cos(elevation))."),
         BeamEl = Var::real("beam.elevation_offset", "arcsec").output()
             .description("Beam pointing offset in elevation relative to the encoder-measured axis: the sum over the modes of beam_elevation times the modal coordinate."),
         BeamAzStatic = Var::real("beam.azimuth_offset_static", "arcsec").output().depends_on(OFFSET_INPUTS)
@@ -90,13 +90,13 @@ declare_variables! {
         ModalInertiaEl = Var::real("modal_inertia.elevation", "kg.m2").calculated_parameter()
             .description("Inertia the modes carry about the elevation axis with the dish at the zenith, as modal_inertia.azimuth with elevation_torque."),
         Elevation = Var::real("axis.elevation", "deg").input().start(45.0).min(ELEVATION_RANGE_DEG.0).max(ELEVATION_RANGE_DEG.1)
-            .description("Elevation of the dish (the elevation plant's axis.position): sets the frequency of a mode that changes with elevation (horizon_frequency in the modes file), held at the centre of each 0.25 deg cell. Changes nothing when takes.axis.elevation is false."),
+            .description("Elevation of the dish (the elevation plant's axis.position): sets the frequency of a mode that changes with elevation (horizon_frequency in the modes file), held at the centre of each 0.25 deg cell, and projects the modes' rotations about the azimuth axis (beam_azimuth_rotation) on the sky with its cosine. Changes nothing when takes.axis.elevation is false."),
         ModalInertiaAzHorizon = Var::real("modal_inertia.azimuth_horizon", "kg.m2").calculated_parameter()
             .description("Inertia the modes carry about the azimuth axis with the dish at the horizon (elevation 0), as modal_inertia.azimuth with each mode's horizon_frequency; equal to modal_inertia.azimuth when no mode changes with elevation."),
         ModalInertiaElHorizon = Var::real("modal_inertia.elevation_horizon", "kg.m2").calculated_parameter()
             .description("Inertia the modes carry about the elevation axis with the dish at the horizon, as modal_inertia.azimuth_horizon with elevation_torque."),
         TakesElevation = Var::boolean("takes.axis.elevation").calculated_parameter()
-            .description("True when a mode of modes_file changes with elevation (a horizon_frequency other than its frequency). When false the input axis.elevation changes nothing, and a master may leave it unset: the shipped modes do not change with elevation."),
+            .description("True when a mode of modes_file changes with elevation (a horizon_frequency other than its frequency) or rotates the beam about the azimuth axis (a non-zero beam_azimuth_rotation, projected on the sky with cos(elevation)). When false the input axis.elevation changes nothing, and a master may leave it unset. The shipped modes' azimuth twist needs it."),
     }
 }
 
@@ -190,8 +190,10 @@ impl Model for StructureModel {
         values.set_boolean(StructureVar::TakesAxialForce, takes(3));
         values.set_boolean(StructureVar::TakesLateralForce, takes(4));
         values.set_boolean(StructureVar::TakesLiftForce, takes(5));
-        values.set_boolean(StructureVar::TakesElevation, modes.iter().any(Mode::varies_with_elevation));
-        let structure = ModalStructure::at_rest(modes, &Self::loads(values));
+        let takes_elevation = modes.iter().any(|m| m.varies_with_elevation() || m.beam_azimuth_rotation != 0.0);
+        values.set_boolean(StructureVar::TakesElevation, takes_elevation);
+        let mut structure = ModalStructure::at_rest(modes, &Self::loads(values));
+        structure.set_elevation(Self::elevation(values));
         let ([az_inertia, el_inertia], [az_horizon, el_horizon]) = structure.modal_inertias_zenith_and_horizon();
         values.set_real(StructureVar::ModalInertiaAz, az_inertia);
         values.set_real(StructureVar::ModalInertiaEl, el_inertia);
@@ -264,6 +266,7 @@ impl Model for StructureModel {
         };
         let modes = Self::modes(values, &self.context).map_err(StateError::Invalid)?;
         let mut structure = ModalStructure::at_rest(modes, &Self::loads(values));
+        structure.set_elevation(Self::elevation(values));
         structure.load_state(saved).map_err(StateError::Invalid)?;
         self.structure = Some(structure);
         Ok(())

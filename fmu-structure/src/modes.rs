@@ -26,11 +26,14 @@ pub const DEFAULT_MODES_FILE: &str = "structure_modes.params";
 /// torque (modal load per N m) and the dish force (per N), the beam offsets (rad, on-sky
 /// azimuth and elevation) per unit of the modal coordinate, and the participations of the
 /// wind force resolved in the antenna's frame (per N: axial, lateral, lift), and the frequency
-/// at the horizon (Hz) of a mode whose frequency changes with elevation. The first
+/// at the horizon (Hz) of a mode whose frequency changes with elevation, and the beam's rotation
+/// about the azimuth axis (rad) per unit of the modal coordinate, which moves the beam on the
+/// sky by that angle times cos(elevation). The first
 /// [`REQUIRED_FIELDS`] are required; the others came later and are optional, so that a modes
 /// file written before them reads as it did: the resolved forces' participations default to
-/// zero, the horizon frequency to the frequency (a mode that does not change with elevation).
-pub const FIELDS: [&str; 12] = [
+/// zero, the horizon frequency to the frequency (a mode that does not change with elevation),
+/// the rotation about the azimuth axis to zero.
+pub const FIELDS: [&str; 13] = [
     "frequency",
     "damping",
     "stiffness",
@@ -43,7 +46,11 @@ pub const FIELDS: [&str; 12] = [
     "lateral_force",
     "lift_force",
     "horizon_frequency",
+    "beam_azimuth_rotation",
 ];
+
+/// The index of `beam_azimuth_rotation` in [`FIELDS`].
+const BEAM_AZIMUTH_ROTATION: usize = 12;
 
 /// The index of `horizon_frequency` in [`FIELDS`].
 const HORIZON_FREQUENCY: usize = 11;
@@ -83,11 +90,23 @@ pub struct Mode {
     /// Modal load per unit of each load of [`LOADS`]: azimuth torque (N m), elevation torque
     /// (N m), dish force (N), axial, lateral and lift force (N).
     pub participation: [f64; LOADS],
-    /// Beam offset (rad) per unit of the modal coordinate: on-sky azimuth, elevation.
+    /// Beam offset (rad) per unit of the modal coordinate: on-sky azimuth (cross-elevation),
+    /// elevation. What a finite-element model's beam sensitivity gives directly.
     pub beam: [f64; 2],
+    /// Rotation of the beam about the azimuth axis (rad) per unit of the modal coordinate: a
+    /// twist of the azimuth structure. On the sky it moves the beam by the angle times
+    /// cos(elevation), none at the zenith ([`Self::beam_on_sky`]).
+    pub beam_azimuth_rotation: f64,
 }
 
 impl Mode {
+    /// Beam offset on the sky (rad; cross-elevation, elevation) per unit of the modal
+    /// coordinate, with the dish at an elevation whose cosine is `cos_elevation`: the on-sky
+    /// offset plus the rotation about the azimuth axis projected on the sky.
+    pub fn beam_on_sky(&self, cos_elevation: f64) -> [f64; 2] {
+        [self.beam[0] + self.beam_azimuth_rotation * cos_elevation, self.beam[1]]
+    }
+
     /// Angular frequency, rad/s (at the zenith for a mode that changes with elevation: the
     /// structure steps [`Self::at_elevation`]).
     pub fn omega(&self) -> f64 {
@@ -297,8 +316,11 @@ fn mode_from_fields(
             "the mode takes no load (azimuth_torque, elevation_torque, dish_force, axial_force, lateral_force and lift_force are all zero)",
         ));
     }
-    if values[6..8].iter().all(|b| *b == 0.0) {
-        return Err(invalid(6, "the mode does not move the beam (beam_azimuth and beam_elevation are both zero)"));
+    if values[6..8].iter().chain(&values[BEAM_AZIMUTH_ROTATION..]).all(|b| *b == 0.0) {
+        return Err(invalid(
+            6,
+            "the mode does not move the beam (beam_azimuth, beam_elevation and beam_azimuth_rotation are all zero)",
+        ));
     }
     // `dish_force` weighs the drag whatever its direction; `axial_force` and `lateral_force`
     // weigh the same drag resolved in the antenna's frame. A master connects both, so a mode
@@ -318,6 +340,7 @@ fn mode_from_fields(
         stiffness: values[2],
         participation: [values[3], values[4], values[5], values[8], values[9], values[10]],
         beam: [values[6], values[7]],
+        beam_azimuth_rotation: values[BEAM_AZIMUTH_ROTATION],
     })
 }
 
@@ -333,13 +356,13 @@ pub fn read_modes(path: &Path) -> Result<Vec<Mode>, ModesError> {
     parse_modes(&text, &path.display().to_string())
 }
 
-/// The static compliance of a set of modes: beam offset (rad; on-sky azimuth, elevation) per
-/// unit of each load of [`LOADS`] (azimuth torque N m, elevation torque N m, dish, axial,
-/// lateral and lift force N).
-pub fn static_compliance(modes: &[Mode]) -> [[f64; LOADS]; 2] {
+/// The static compliance of a set of modes with the dish at an elevation whose cosine is
+/// `cos_elevation`: beam offset (rad; on-sky cross-elevation, elevation) per unit of each load
+/// of [`LOADS`] (azimuth torque N m, elevation torque N m, dish, axial, lateral and lift force N).
+pub fn static_compliance(modes: &[Mode], cos_elevation: f64) -> [[f64; LOADS]; 2] {
     let mut compliance = [[0.0; LOADS]; 2];
     for mode in modes {
-        for (row, b) in compliance.iter_mut().zip(mode.beam) {
+        for (row, b) in compliance.iter_mut().zip(mode.beam_on_sky(cos_elevation)) {
             for (entry, p) in row.iter_mut().zip(mode.participation) {
                 *entry += b * p / mode.stiffness;
             }
@@ -355,6 +378,7 @@ impl Mode {
         Some(match FIELDS.iter().position(|f| *f == field)? {
             0 => self.frequency_hz,
             HORIZON_FREQUENCY => self.horizon_frequency_hz.unwrap_or(self.frequency_hz),
+            BEAM_AZIMUTH_ROTATION => self.beam_azimuth_rotation,
             1 => self.damping_ratio,
             2 => self.stiffness,
             i @ 3..=5 => self.participation[i - 3],
@@ -369,6 +393,7 @@ impl Mode {
         match index {
             0 => self.frequency_hz = value,
             HORIZON_FREQUENCY => self.horizon_frequency_hz = Some(value),
+            BEAM_AZIMUTH_ROTATION => self.beam_azimuth_rotation = value,
             1 => self.damping_ratio = value,
             2 => self.stiffness = value,
             i @ 3..=5 => self.participation[i - 3] = value,
@@ -421,8 +446,11 @@ mod tests {
         for mode in &modes {
             assert_eq!((mode.frequency_hz, mode.damping_ratio, mode.stiffness), (6.0, 0.015, 4e8));
         }
-        let c = static_compliance(&modes);
+        // At the horizon the azimuth twist is all on the sky; at 60 deg half of it.
+        let c = static_compliance(&modes, 1.0);
         assert_eq!(c, [[2.5e-9, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 2.5e-9, 0.0, 0.0, 0.0, 0.0]]);
+        let c = static_compliance(&modes, 0.5);
+        assert_eq!(c, [[1.25e-9, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 2.5e-9, 0.0, 0.0, 0.0, 0.0]]);
     }
 
     #[test]
@@ -434,6 +462,7 @@ mod tests {
             stiffness: 2e8,
             participation: [0.5, -0.25, 3.0, 0.0, -1.5, 0.75],
             beam: [2.0, 1.0],
+            beam_azimuth_rotation: 0.0,
         };
         // The same mode with its coordinate scaled by s: K / s^2, p / s, b / s.
         let s = 7.5;
@@ -443,7 +472,7 @@ mod tests {
             beam: mode.beam.map(|b| b / s),
             ..mode.clone()
         };
-        let (a, b) = (static_compliance(&[mode]), static_compliance(&[scaled]));
+        let (a, b) = (static_compliance(&[mode], 1.0), static_compliance(&[scaled], 1.0));
         assert!((a[0][2] - 2.0 * 3.0 / 2e8).abs() < 1e-22);
         assert!((a[1][4] + 1.0 * 1.5 / 2e8).abs() < 1e-22);
         for (ra, rb) in a.iter().zip(&b) {
@@ -481,6 +510,7 @@ mod tests {
             stiffness: 4e8,
             participation: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
             beam: [1.0, 0.0],
+            beam_azimuth_rotation: 0.0,
         };
         for first in [-0.0, 0.0, 1.0e4, -3.3e3, 1e-300] {
             for resolved in [0.0, -0.0, 7.0, -7.0] {

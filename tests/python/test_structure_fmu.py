@@ -19,10 +19,21 @@ from conftest import FMU_DIRECTORY, PACKAGE_HINT
 
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 FIELDS = ("frequency", "damping", "stiffness", "azimuth_torque", "elevation_torque", "dish_force", "beam_azimuth", "beam_elevation",
-          "axial_force", "lateral_force", "lift_force", "horizon_frequency")
-# The resolved forces' participations are optional and default to zero (the horizon frequency,
-# also optional, defaults to the frequency: filled in by parse_modes).
-OPTIONAL = ("axial_force", "lateral_force", "lift_force")
+          "axial_force", "lateral_force", "lift_force", "horizon_frequency", "beam_azimuth_rotation")
+# The resolved forces' participations and the rotation about the azimuth axis are optional and
+# default to zero (the horizon frequency, also optional, defaults to the frequency: filled in by
+# parse_modes).
+OPTIONAL = ("axial_force", "lateral_force", "lift_force", "beam_azimuth_rotation")
+# The Structure FMU's elevation input's start value, deg.
+START_ELEVATION_DEG = 45.0
+
+
+def beam_on_sky(mode, axis, elevation_deg=START_ELEVATION_DEG):
+    """A mode's beam offset on the sky per unit coordinate (axis 0 cross-elevation, 1 elevation):
+    a rotation about the azimuth axis moves the beam on the sky by the angle times cos(el)."""
+    if axis == 1:
+        return mode["beam_elevation"]
+    return mode["beam_azimuth"] + mode["beam_azimuth_rotation"] * math.cos(math.radians(elevation_deg))
 
 
 def structure_path():
@@ -81,9 +92,9 @@ def test_a_step_load_settles_at_load_times_compliance_and_rings_at_each_mode_fre
     time = result["time"]
     load_vector = np.array(list(loads.values()))
     for axis, output in enumerate(("beam.azimuth_offset", "beam.elevation_offset")):
-        beam_field = ("beam_azimuth", "beam_elevation")[axis]
         expected = sum(
-            m[beam_field] * np.dot([m["azimuth_torque"], m["elevation_torque"], m["dish_force"]], load_vector) / m["stiffness"]
+            beam_on_sky(m, axis) * np.dot([m["azimuth_torque"], m["elevation_torque"], m["dish_force"]], load_vector)
+            / m["stiffness"]
             for m in modes
         ) * ARCSEC_PER_RAD
         offset = result[output]
@@ -91,7 +102,7 @@ def test_a_step_load_settles_at_load_times_compliance_and_rings_at_each_mode_fre
         assert abs(offset[-1] / expected - 1.0) < 0.01, f"{output}: {offset[-1]} arcsec against {expected}"
         # The mode this axis's load excites: its damped frequency from the zero crossings of
         # the transient about the static offset over the first 5 s.
-        mode = next(m for m in modes if m[beam_field] != 0.0 and m[("azimuth_torque", "elevation_torque")[axis]] != 0.0)
+        mode = next(m for m in modes if beam_on_sky(m, axis) != 0.0 and m[("azimuth_torque", "elevation_torque")[axis]] != 0.0)
         window = (time > 1.0) & (time < 6.0)
         transient = offset[window] - expected
         t = time[window]
