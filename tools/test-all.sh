@@ -30,6 +30,7 @@ if [ ! -x .venv/bin/python ]; then
     python3 -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/python/requirements.txt
+.venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps -e tools/fmpy_master
 .venv/bin/python -m pytest -q tests/python
 
 echo "== all tests passed"

@@ -12,9 +12,8 @@ import sys
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(__file__))
-import coupled_master  # noqa: E402
-from conftest import rust_scenario  # noqa: E402
+import coupled_master
+from conftest import rust_scenario
 
 
 def fmpy_run(folder, scenario):
@@ -97,7 +96,9 @@ def pointing_error_arcsec(trace):
 
 
 def test_fmpy_master_meets_the_tracking_jitter_requirement(tmp_path):
-    """Req. 1 judged on the fmpy master's own trace: worst 10 s RMS window below 15 arcsec."""
+    """Req. 1 judged on the fmpy master's own trace: the worst 10 s jitter after centring below
+    15 arcsec, and the same figure as the Rust report's to its printed digits; the absolute
+    error (offsets included) is larger and matches the report's absolute column."""
     folder = rust_scenario(tmp_path, "track-sidereal-el45")
     config = coupled_master.read_config(folder / "track-sidereal-el45.config")
     table = coupled_master.CommandTable.read(folder / "track-sidereal-el45.commands.csv")
@@ -106,10 +107,18 @@ def test_fmpy_master_meets_the_tracking_jitter_requirement(tmp_path):
     dt = trace[1, 0] - trace[0, 0]
     window = int(round(10.0 / dt))
     # Judge the tracking after the first 10 s in which the axes take up the track.
-    tracked = error[trace[:, 0] >= trace[0, 0] + 10.0]
-    mean_square = np.convolve(tracked**2, np.ones(window) / window, mode="valid")
-    worst_rms = np.sqrt(mean_square.max())
-    assert worst_rms < 15.0, worst_rms
+    tracked = trace[:, 0] >= trace[0, 0] + 10.0
+    mean_square = np.convolve(error[tracked] ** 2, np.ones(window) / window, mode="valid")
+    absolute = np.sqrt(mean_square.max())
+    cross = (trace[:, 1] - trace[:, 3]) * np.cos(np.radians(trace[:, 4])) * 3600.0 - trace[:, 15]
+    elevation = (trace[:, 2] - trace[:, 4]) * 3600.0 - trace[:, 16]
+    centred = coupled_master.worst_centred_rms(cross[tracked], elevation[tracked], window)
+    assert centred < 15.0 and centred < absolute, (centred, absolute)
+    header, *rows = (folder / "report" / "report.csv").read_text().splitlines()
+    row = dict(zip(header.split(","), next(r for r in rows if ",track-sidereal-el45," in r).split(",")))
+    for figure, printed in ((centred, row["centred_jitter_arcsec_rms"]), (absolute, row["absolute_rms_arcsec"])):
+        half_digit = 0.5 * 10.0 ** -len(printed.partition(".")[2])
+        assert abs(figure - float(printed)) <= half_digit, (figure, printed)
     # The axes did track: they moved by the sidereal rate over the run.
     assert np.ptp(trace[:, 3]) > 1e-3
 

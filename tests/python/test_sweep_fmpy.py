@@ -77,5 +77,6 @@ def test_a_sample_is_the_rust_masters_antenna_at_the_same_values(tmp_path, setti
     assert (files["modes"] is None) == (not settings)
     figure = fmpy_sweep.run_sample(files, seconds, fmpy_sweep.fmu_directory())
     assert abs(figure - expected) <= 1e-9 * expected, (figure, expected)
-    # The realistic antenna's beam, not the paper's drives alone (0.1 arcsec there).
-    assert figure > 3.0, figure
+    # The realistic antenna's beam (0.6 arcsec after centring), not the paper's drives alone
+    # (0.1 arcsec there, offsets included).
+    assert figure > 0.3, figure

@@ -554,9 +554,23 @@ fn the_paper_configuration_reproduces_the_drive_only_report_to_its_printed_digit
         let (_, printed) = PAPER_REPORT.iter().find(|(name, _)| *name == scenario.name).expect("every scenario listed");
         let outcome = run_scenario(&fmus, &config, &settings.apply(&scenario), &mut |_| {})
             .unwrap_or_else(|e| panic!("{}: {e}", scenario.name));
+        // That report judged the absolute error; the absolute figures are kept beside the
+        // centred ones, and must still read as printed.
+        let absolute = outcome.absolute_settling_s.unwrap_or(outcome.absolute_rms_arcsec);
         let decimals = printed.split('.').nth(1).map_or(0, str::len);
-        let ours = format!("{:.*}", decimals, outcome.figure);
-        assert_eq!(&ours, printed, "{}: {} against the printed {printed}", scenario.name, outcome.figure);
+        let ours = format!("{:.*}", decimals, absolute);
+        assert_eq!(&ours, printed, "{}: {absolute} against the printed {printed}", scenario.name);
+        // Centring can only take error away from a window: a jitter is at most the absolute
+        // RMS. (A settling instant may move either way by a millisecond or so.)
+        if outcome.settling.is_none() {
+            assert!(
+                outcome.figure <= absolute,
+                "{}: centred {} above absolute {absolute}",
+                scenario.name,
+                outcome.figure
+            );
+        }
+        println!("{}: absolute {absolute:.3}, centred {:.3}", scenario.name, outcome.figure);
     }
 }
 

@@ -124,3 +124,95 @@ fn the_default_gains_keep_their_margins_over_the_documented_stiffness_and_inerti
     let soft = figures("azimuth", 45.0, 0.7, 1.0).velocity.modulus_margin;
     assert!((nominal - soft).abs() > 1e-3, "stiffness x0.7 changed nothing: {nominal} vs {soft}");
 }
+
+/// The margins with the structure's lowest mode inside the loops, coupled both ways (the
+/// three-body model of `antenna_sim::frequency_response::structure_loop`), over the mode's
+/// documented ranges: its modal stiffness and the share of the axis's load inertia its body
+/// carries (which together set its frequency), at 15, 45 and 88 deg.
+#[test]
+fn the_margins_with_the_structure_inside_the_loops_meet_the_targets_over_the_modes_ranges() {
+    use antenna_sim::frequency_response::structure_loop::AxisWithMode;
+    use antenna_sim::frequency_response::Axis;
+    let stiffness = row("structure.stiffness");
+    let shares = [
+        ("azimuth", row("structure.azimuth_mode_inertia_share")),
+        ("elevation", row("structure.elevation_mode_inertia_share")),
+    ];
+    println!("| axis | elevation (deg) | modal stiffness (N m/rad) | inertia share | mode (Hz) | velocity PM (deg) | velocity GM (dB) | velocity modulus margin | position PM (deg) | position GM (dB) | position modulus margin |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut smallest = [f64::INFINITY; 5];
+    for (axis, share) in shares.clone() {
+        let which = if axis == "azimuth" { Axis::Azimuth } else { Axis::Elevation };
+        for el in ELEVATIONS {
+            let shipped = AxisWithMode::shipped(which, el);
+            for k in [stiffness.low, stiffness.default, stiffness.high] {
+                for s in [share.low, share.default, share.high] {
+                    let a = shipped.with_mode(k, s);
+                    let m = a.loop_margins();
+                    println!(
+                        "| {axis} | {el:.0} | {k:.2e} | {s:.2} | {:.2} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.2} |",
+                        a.mode.frequency_hz,
+                        m.velocity.phase_margin_deg,
+                        m.velocity.gain_margin_db,
+                        m.velocity.modulus_margin,
+                        m.position.phase_margin_deg,
+                        m.position.gain_margin_db,
+                        m.position.modulus_margin,
+                    );
+                    let case = format!("{axis} at {el} deg, K {k:.2e}, share {s:.2}");
+                    // The targets where the paper gives none: 45 deg, 6 dB, modulus margin 0.5.
+                    for (loop_margins, name) in [(&m.velocity, "velocity"), (&m.position, "position")] {
+                        assert!(loop_margins.phase_margin_deg >= 45.0, "{case}: {name} {loop_margins:?}");
+                        assert!(loop_margins.gain_margin_db >= 6.0, "{case}: {name} {loop_margins:?}");
+                        assert!(loop_margins.modulus_margin >= 0.5, "{case}: {name} {loop_margins:?}");
+                    }
+                    for (slot, value) in smallest.iter_mut().zip([
+                        m.velocity.phase_margin_deg,
+                        m.velocity.gain_margin_db,
+                        m.velocity.modulus_margin,
+                        m.position.phase_margin_deg,
+                        m.position.gain_margin_db,
+                    ]) {
+                        *slot = slot.min(value);
+                    }
+                }
+            }
+            // A rigid mode (a stiffness a million times the range's top) leaves the two-mass
+            // plant: the three-body margins then equal the two-mass ones, which ties this model
+            // to the table above it.
+            let rigid = shipped.with_mode(stiffness.high * 1e6, share.default).loop_margins();
+            let two_mass = figures(axis, el, 1.0, 1.0);
+            for (three, two) in [(&rigid.velocity, &two_mass.velocity), (&rigid.position, &two_mass.position)] {
+                assert!(
+                    (three.phase_margin_deg - two.phase_margin_deg).abs() < 0.05,
+                    "{axis} {el}: {three:?} against {two:?}"
+                );
+                assert!(
+                    (three.modulus_margin - two.modulus_margin).abs() < 1e-3,
+                    "{axis} {el}: {three:?} against {two:?}"
+                );
+            }
+        }
+    }
+    println!(
+        "smallest: velocity PM {:.1} deg, GM {:.1} dB, modulus margin {:.2}; position PM {:.1} deg, GM {:.1} dB",
+        smallest[0], smallest[1], smallest[2], smallest[3], smallest[4]
+    );
+    // Bode and Nichols charts at 45 deg: the shipped mode, the softest and heaviest mode of the
+    // ranges, and a rigid structure (the two-mass plant), into out/ (docs/figures holds copies).
+    let directory = antenna_fmus::workspace_root().join("out");
+    std::fs::create_dir_all(&directory).unwrap();
+    for (axis, share) in shares {
+        let which = if axis == "azimuth" { Axis::Azimuth } else { Axis::Elevation };
+        let shipped = AxisWithMode::shipped(which, 45.0);
+        let cases = vec![
+            (format!("shipped {:.1} Hz mode", shipped.mode.frequency_hz), shipped.clone()),
+            (format!("K {:.1e}, share {:.2}", stiffness.low, share.high), shipped.with_mode(stiffness.low, share.high)),
+            ("rigid structure".to_string(), shipped.with_mode(stiffness.high * 1e6, share.default)),
+        ];
+        let title = format!("{axis}, 45 deg, structure inside the loops");
+        let (bode, nichols) = antenna_sim::frequency_response::structure_loop::open_loop_figures(&title, &cases);
+        bode.save_png(directory.join(format!("servo-open-loops-{axis}-bode.png"))).unwrap();
+        nichols.save_png(directory.join(format!("servo-open-loops-{axis}-nichols.png"))).unwrap();
+    }
+}

@@ -37,8 +37,11 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "tests" / "python"))
-import coupled_master  # noqa: E402
+try:
+    import coupled_master  # installed from tools/fmpy_master (the test command does it in .venv)
+except ImportError:
+    sys.path.insert(0, str(ROOT / "tools" / "fmpy_master"))
+    import coupled_master  # noqa: E402
 
 from fmpy import read_model_description, simulate_fmu  # noqa: E402
 from fmpy.container_fmu import Configuration  # noqa: E402
@@ -263,9 +266,10 @@ def simulate(container, commands_path, end_s, step_s=1e-3):
 
 
 def jitter_arcsec(result, commands_path, window_s=10.0, after_s=10.0):
-    """The worst RMS of the beam's on-sky pointing error over `window_s` windows after the first
-    `after_s`, as the requirement report judges it: against the commands as the table gives them
-    (fmpy feeds the container its samples interpolated at its own times)."""
+    """The worst jitter after centring over `window_s` windows after the first `after_s`, as the
+    requirement report judges it: the RMS of the beam's on-sky error vector about its own mean in
+    each window, against the commands as the table gives them (fmpy feeds the container its
+    samples interpolated at its own times)."""
     table = coupled_master.CommandTable.read(commands_path)
     command = np.array([table.at(t) for t in result["time"]])
     az, el = result["AzimuthPlant.axis.position"], result["ElevationPlant.axis.position"]
@@ -273,12 +277,10 @@ def jitter_arcsec(result, commands_path, window_s=10.0, after_s=10.0):
     names = result.dtype.names
     offsets = [result[n] if n in names else 0.0 for n in ("Structure.beam.azimuth_offset", "Structure.beam.elevation_offset")]
     cross = (command[:, 0] - az) * np.cos(np.radians(el)) * 3600.0 - offsets[0]
-    error = np.hypot(cross, (command[:, 2] - el) * 3600.0 - offsets[1])
+    elevation = (command[:, 2] - el) * 3600.0 - offsets[1]
     dt = result["time"][1] - result["time"][0]
     window, skip = int(round(window_s / dt)), int(round(after_s / dt))
-    error = error[skip:]
-    energy = np.concatenate(([0.0], np.cumsum(error * error)))
-    return float(np.sqrt((energy[window:] - energy[:-window]).max() / window))
+    return coupled_master.worst_centred_rms(cross[skip:], elevation[skip:], window)
 
 
 def main():

@@ -1,6 +1,6 @@
 """A small parameter sweep over the packaged FMUs from Python, for people whose master is fmpy:
 the same Dask engine as the Rust sweeps, each task coupling the realistic antenna's six FMUs with
-the project's fmpy master (tests/python/coupled_master.py). The ranges come from the one parameter
+the project's fmpy master (tools/fmpy_master/coupled_master.py). The ranges come from the one parameter
 table, docs/parameters.csv, like `antenna sweep`'s.
 
 Each sample is the antenna `antenna --set NAME=VALUE ...` runs at the sample's values: the driver
@@ -29,7 +29,12 @@ import tempfile
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-MASTER = ROOT / "tests" / "python" / "coupled_master.py"
+MASTER = ROOT / "tools" / "fmpy_master" / "coupled_master.py"
+try:
+    import coupled_master  # installed from tools/fmpy_master (the test command does it in .venv)
+except ImportError:
+    sys.path.insert(0, str(MASTER.parent))
+    import coupled_master  # noqa: E402
 TABLE = ROOT / "docs" / "parameters.csv"
 DEFAULT_VARY = ("azimuth.pinion_stiffness", "azimuth.bearing_coulomb_friction", "elevation.load_inertia",
                 "structure.stiffness", "wind.mean_speed_factor", "wind.seed")
@@ -121,10 +126,6 @@ def export_sample(values, seconds, folder):
 def run_sample(files, seconds, fmu_dir):
     """One coupled run with fmpy of a sample's files (`export_sample`): the worst 10 s RMS of
     the beam's pointing error (arcsec) after the first 10 s."""
-    if str(MASTER.parent) not in sys.path:
-        sys.path.insert(0, str(MASTER.parent))
-    import coupled_master
-
     # The master's own default is relative to where its file is, which on a worker is a copy.
     coupled_master.FMU_DIR = fmu_dir
     config = coupled_master.parse_config(files["config"])
@@ -147,21 +148,15 @@ def run_sample(files, seconds, fmu_dir):
 
 
 def jitter_after_first_window(record, step_s):
-    """The worst 10 s RMS of the beam's on-sky pointing error (arcsec) after the first 10 s of a
-    trace in the columns of coupled_master.COLUMNS: command minus axis, less the structure's beam
-    offsets, as the Rust report judges it."""
+    """The worst 10 s jitter after centring (arcsec RMS about each window's mean) after the first
+    10 s of a trace in the columns of coupled_master.COLUMNS: command minus axis, less the
+    structure's beam offsets, on the sky, as the Rust report judges it."""
     cross = (record[:, 1] - record[:, 3]) * np.cos(np.radians(record[:, 4])) * 3600.0 - record[:, 15]
-    error = np.hypot(cross, (record[:, 2] - record[:, 4]) * 3600.0 - record[:, 16])
+    elevation = (record[:, 2] - record[:, 4]) * 3600.0 - record[:, 16]
     window = int(round(WINDOW_S / step_s))
-    return worst_window_rms(error[window:], window)
-
-
-def worst_window_rms(error, window):
-    """The largest RMS over every window of `window` consecutive samples."""
-    if len(error) < window:
+    if len(cross) < 2 * window:
         raise ValueError("the run is shorter than a jitter window after the first 10 s")
-    energy = np.concatenate(([0.0], np.cumsum(error * error)))
-    return float(np.sqrt((energy[window:] - energy[:-window]).max() / window))
+    return coupled_master.worst_centred_rms(cross[window:], elevation[window:], window)
 
 
 def run(address, samples, seed, seconds, names=DEFAULT_VARY, out=None, workers=None):

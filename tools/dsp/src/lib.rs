@@ -54,7 +54,8 @@ pub use spectral::{
 };
 pub use stats::{
     fit_percent_from_model, fit_percent_from_residual, kurtosis_excess, linear_regression, max_moving_average,
-    max_moving_rms, mean, moving_average, moving_rms, rms, sample_variance, skewness, std_dev, variance,
-    weighted_least_squares, weighted_linear_regression, window_samples, LineFit, WindowExtreme,
+    max_moving_centred_rms, max_moving_rms, mean, moving_average, moving_centred_rms, moving_rms, rms, sample_variance,
+    skewness, std_dev, variance, weighted_least_squares, weighted_linear_regression, window_samples, LineFit,
+    WindowExtreme,
 };
 pub use window::Window;

@@ -93,6 +93,39 @@ pub fn moving_rms(x: &[f64], window: usize) -> Vec<f64> {
     moving_sums(&squares, window).into_iter().map(|s| (s.max(0.0) / window as f64).sqrt()).collect()
 }
 
+/// Moving RMS of a two-component signal about each window's own mean: entry i is
+/// `sqrt(var(x[i..i + window].0) + var(x[i..i + window].1))`, the population variances. For a
+/// pointing error on the sky (cross-elevation, elevation) this is the jitter after centring:
+/// what is left when the offset that persists over the window is taken out.
+///
+/// The sums run about the whole record's mean, so that a large common offset does not cost the
+/// small variances their digits.
+pub fn moving_centred_rms(x: &[[f64; 2]], window: usize) -> Vec<f64> {
+    if window == 0 || window > x.len() {
+        return Vec::new();
+    }
+    let n = x.len() as f64;
+    let mut variance = vec![0.0; x.len() - window + 1];
+    for axis in 0..2 {
+        let overall = x.iter().map(|p| p[axis]).sum::<f64>() / n;
+        let shifted: Vec<f64> = x.iter().map(|p| p[axis] - overall).collect();
+        let squares: Vec<f64> = shifted.iter().map(|v| v * v).collect();
+        let sums = moving_sums(&shifted, window);
+        let square_sums = moving_sums(&squares, window);
+        for ((v, s), q) in variance.iter_mut().zip(&sums).zip(&square_sums) {
+            let mean = s / window as f64;
+            *v += (q / window as f64 - mean * mean).max(0.0);
+        }
+    }
+    variance.into_iter().map(f64::sqrt).collect()
+}
+
+/// Maximum of [`moving_centred_rms`] (the worst 10-s jitter after centring), or `None` if no
+/// whole window fits.
+pub fn max_moving_centred_rms(x: &[[f64; 2]], window: usize) -> Option<WindowExtreme> {
+    max_of(&moving_centred_rms(x, window))
+}
+
 /// The largest value of a windowed statistic and where its window starts.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WindowExtreme {
@@ -398,6 +431,21 @@ mod tests {
         assert_eq!(worst.start, 600);
         assert!((worst.value - 2.0).abs() < 1e-12);
         assert_eq!(moving_rms(&x, 10).len(), 991);
+    }
+
+    #[test]
+    fn centred_rms_ignores_each_windows_offset_and_counts_its_spread() {
+        // A large constant offset on both axes and a square wave of amplitude 0.5 on one: about
+        // each window's mean the RMS is the wave's 0.5 wherever the window holds whole periods.
+        let x: Vec<[f64; 2]> = (0..1000).map(|k| [1e4 + if k % 2 == 0 { 0.5 } else { -0.5 }, -3e3]).collect();
+        let centred = moving_centred_rms(&x, 100);
+        assert_eq!(centred.len(), 901);
+        assert!(centred.iter().all(|v| (v - 0.5).abs() < 1e-9), "{:?}", &centred[..3]);
+        // A step of 2 in the second component halfway through a window of 4 gives a spread of 1.
+        let step: Vec<[f64; 2]> = (0..4).map(|k| [0.0, if k < 2 { 0.0 } else { 2.0 }]).collect();
+        let worst = max_moving_centred_rms(&step, 4).unwrap();
+        assert!((worst.value - 1.0).abs() < 1e-12 && worst.start == 0);
+        assert!(max_moving_centred_rms(&step, 5).is_none());
     }
 
     #[test]

@@ -30,8 +30,18 @@ pub struct Budget {
     /// fluctuations about those means root-sum-squared, `sqrt(|sum of means|^2 + sum of
     /// variances)`. Exact when the fluctuations are uncorrelated.
     pub combined_arcsec: f64,
-    /// RMS of their vector sum: the judged figure.
+    /// RMS of their vector sum over the window: the absolute error.
     pub total_arcsec: f64,
+    /// The length of the total's mean vector over the window: the offset that centring (or a
+    /// pointing model) takes out, mostly the repeatable parts below.
+    pub offset_arcsec: f64,
+    /// The total's RMS about that mean: the jitter after centring, the judged figure.
+    pub centred_arcsec: f64,
+    /// The lengths of the repeatable parts' mean vectors over the window: the encoder's
+    /// (graduation, eccentricity: a function of the axis angles) and the structure's static
+    /// deflection (a function of the mean wind's speed and direction).
+    pub encoder_offset_arcsec: f64,
+    pub structure_static_offset_arcsec: f64,
 }
 
 impl Budget {
@@ -96,7 +106,16 @@ pub fn budget(trace: &Trace, start_s: f64, calm: Option<&Trace>) -> Budget {
         variance_sum += variance;
     }
     let combined_arcsec = (mean_sum[0].powi(2) + mean_sum[1].powi(2) + variance_sum).sqrt();
+    let (total_mean, total_variance) = mean_and_variance(&total, range.clone());
+    let offset_length = |part: &[[f64; 2]]| {
+        let (mean, _) = mean_and_variance(part, range.clone());
+        mean[0].hypot(mean[1])
+    };
     Budget {
+        offset_arcsec: total_mean[0].hypot(total_mean[1]),
+        centred_arcsec: total_variance.sqrt(),
+        encoder_offset_arcsec: offset_length(&encoder),
+        structure_static_offset_arcsec: offset_length(&structure_static),
         combined_arcsec,
         servo_arcsec,
         servo_calm_arcsec: calm.map(|c| servo_rms_arcsec(c, start_s)),

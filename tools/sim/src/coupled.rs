@@ -134,7 +134,7 @@ impl AntennaConfig {
         all
     }
 
-    /// The run as another master reads it (`tests/python/coupled_master.py --config`): the step,
+    /// The run as another master reads it (`tools/fmpy_master/coupled_master.py --config`): the step,
     /// the end, the wind, the structure's coupling and every parameter override as
     /// `<model identifier>.<variable> = value`, one `name = value` a line.
     pub fn master_config_text(&self, wind: &WindCondition, end_s: f64) -> String {
@@ -234,6 +234,12 @@ impl Trace {
     /// minus the true load-side axis position. Without a structure the offsets are zero and this
     /// is the paper's command minus true position.
     pub fn pointing_error_arcsec(&self) -> Vec<f64> {
+        self.pointing_error_sky_arcsec().into_iter().map(|[cross, d_el]| cross.hypot(d_el)).collect()
+    }
+
+    /// The beam's pointing error as an on-sky vector (cross-elevation, elevation), arcsec: the
+    /// components whose length [`Trace::pointing_error_arcsec`] is. Centring takes their means out.
+    pub fn pointing_error_sky_arcsec(&self) -> Vec<[f64; 2]> {
         (0..self.time_s.len())
             .map(|k| {
                 let d_az = self.command_azimuth_deg[k] - self.azimuth_deg[k];
@@ -241,7 +247,7 @@ impl Trace {
                 let [offset_az, offset_el] = self.beam_offset_arcsec.get(k).copied().unwrap_or_default();
                 let cross = d_az * self.elevation_deg[k].to_radians().cos() - offset_az / 3600.0;
                 let d_el = d_el - offset_el / 3600.0;
-                (cross * cross + d_el * d_el).sqrt() * 3600.0
+                [cross * 3600.0, d_el * 3600.0]
             })
             .collect()
     }

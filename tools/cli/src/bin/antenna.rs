@@ -8,7 +8,7 @@
 //!
 //! `--trace <dir>` also writes, per scenario, its command table, its configuration (wind, step
 //! and every parameter override, `name = value` lines) and its full trace as CSV, which the fmpy master
-//! (tests/python/coupled_master.py) reads to run the same scenario. `--commands <file.csv>`
+//! (tools/fmpy_master/coupled_master.py) reads to run the same scenario. `--commands <file.csv>`
 //! runs a pointing table of your own instead of the requirement scenarios, judged by the
 //! Req. 1 jitter. A failed requirement is a finding of the report, not an error: the exit code
 //! is 0 whenever the report was written.
@@ -28,10 +28,7 @@ use rayon::prelude::*;
 
 use antenna_sim::command::CommandTable;
 use antenna_sim::coupled::WindCondition;
-use antenna_sim::report::{
-    beam_spectrum_figure, beam_spectrum_peaks, budget_markdown, csv, markdown, plot, run_scenario, run_with_budget,
-    seed_spread_markdown, spread_seeds, Outcome, SeedSpread,
-};
+use antenna_sim::report::{csv, markdown, plot, run_scenario, run_with_budget, spread_seeds, Outcome, SeedSpread};
 use antenna_sim::scenario::{
     normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
 };
@@ -278,11 +275,16 @@ fn seed_spreads(
     let figures = runs
         .into_par_iter()
         .map(|(i, scenario)| {
-            let figure = run_scenario(fmus, config, &scenario, &mut |_| {})?.figure;
+            let outcome = run_scenario(fmus, config, &scenario, &mut |_| {})?;
+            let from_s = match scenario.analysis {
+                Analysis::Jitter { from_s } => from_s,
+                Analysis::Settling { jump_s, .. } => jump_s,
+            };
+            let windows = antenna_sim::metrics::centred_jitter_windows_arcsec(&outcome.trace, from_s, 1.0);
             bar.inc(1);
-            Ok((i, figure))
+            Ok((i, outcome.figure, windows))
         })
-        .collect::<anyhow::Result<Vec<(usize, f64)>>>()?;
+        .collect::<anyhow::Result<Vec<(usize, f64, Vec<f64>)>>>()?;
     bar.finish_and_clear();
     Ok(jitter
         .iter()
@@ -291,7 +293,8 @@ fn seed_spreads(
             scenario: s.name.clone(),
             requirement: s.requirement,
             seeds: spread_seeds(s, count),
-            figures: figures.iter().filter(|(j, _)| *j == i).map(|&(_, f)| f).collect(),
+            figures: figures.iter().filter(|(j, _, _)| *j == i).map(|(_, f, _)| *f).collect(),
+            windows: figures.iter().filter(|(j, _, _)| *j == i).flat_map(|(_, _, w)| w.iter().copied()).collect(),
         })
         .collect())
 }
@@ -317,7 +320,7 @@ fn write_report(
     let definitions = antenna_sim::report::definitions(config);
     println!("{definitions}");
     std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
-    let sections = extra_sections(outcomes, spreads, config, out_dir)?;
+    let sections = antenna_sim::report::sections(outcomes, spreads, config, out_dir)?;
     println!("{sections}");
     let header = format!("# Requirement report\n\n{}\n\n", definitions.replace('\n', "\n\n"));
     let report = out_dir.join("report.md");
@@ -330,81 +333,6 @@ fn write_report(
     }
     println!("wrote {} and report.csv", report.display());
     Ok(())
-}
-
-/// The report's sections after the requirement table: the pointing error budget, the figures
-/// over several gust seeds, and the beam error spectrum with the structural modes.
-fn extra_sections(
-    outcomes: &[Outcome],
-    spreads: &[SeedSpread],
-    config: &AntennaConfig,
-    out_dir: &Path,
-) -> anyhow::Result<String> {
-    let mut text = String::new();
-    if outcomes.iter().any(|o| o.budget.is_some()) {
-        text.push_str(&format!(
-            "\n## Pointing error budget\n\nThe beam's error over each jitter scenario's judged (worst) 10 s window, split into parts that add up to it exactly as on-sky vectors: the servo's error (command minus encoder reading; its wind share is sqrt(servo^2 - calm^2) with the same scenario rerun in calm air), the encoder's errors (reading minus the true axis: graduation, interpolation, eccentricity, noise and count), and the structure's deflection between encoders and beam under the wind's loads (its quasi-static part, compliance times load, and its modes ringing about it). Each is an RMS in arcsec. The plain RSS of the parts undercounts, because their mean offsets (the encoder's slowly varying errors, the structure's static deflection in the mean wind) add as vectors; the budget total adds the parts' mean offsets as vectors and their fluctuations about them in quadrature, sqrt(|sum of means|^2 + sum of variances). It explains the simulated total to within 10 % wherever the parts' fluctuations are uncorrelated; the last column shows how well.\n\n{}",
-            budget_markdown(outcomes)
-        ));
-    }
-    if !spreads.is_empty() {
-        text.push_str(&format!(
-            "\n## Over {} gust seeds\n\nEach jitter scenario rerun with its own seed and {} more (seed + 1000 k); the table above shows the first.\n\n{}",
-            spreads[0].seeds.len(),
-            spreads[0].seeds.len() - 1,
-            seed_spread_markdown(spreads)
-        ));
-    }
-    // The figure shows the worst holding scenario in normal wind, where the axes stand still
-    // and the modes ring on them; the worst tracking one is described beside it, since with
-    // the modes pushing back on tracking axes their peaks move down and flatten.
-    let worst = |holding: bool| {
-        outcomes.iter().filter(|o| o.budget.is_some() && o.scenario.name.starts_with("hold") == holding).max_by(
-            |a, b| {
-                let key = |o: &Outcome| (o.scenario.requirement == Requirement::TrackingNormalWind, o.figure);
-                key(a).partial_cmp(&key(b)).unwrap_or(std::cmp::Ordering::Equal)
-            },
-        )
-    };
-    let peak_text = |peaks: Vec<(String, f64, Option<f64>)>| -> String {
-        peaks
-            .into_iter()
-            .map(|(name, frequency, peak)| {
-                let documented = antenna_sim::report::hz_text(frequency);
-                match peak {
-                    Some(peak) => format!(
-                        " Structural {name}: spectral peak at {peak:.3} Hz ({:+.2} % from the documented {documented} Hz).",
-                        100.0 * (peak / frequency - 1.0)
-                    ),
-                    None => {
-                        format!(" Structural {name}: no spectral peak within 20 % of the documented {documented} Hz.")
-                    }
-                }
-            })
-            .collect()
-    };
-    if let Some(outcome) = worst(true).or(worst(false)) {
-        let path = out_dir.join("beam-error-spectrum.png");
-        let peaks = beam_spectrum_figure(outcome, config, &path).context("plotting the beam error spectrum failed")?;
-        text.push_str(&format!(
-            "\n## Beam error spectrum\n\n![beam error spectrum](beam-error-spectrum.png)\n\nThe beam error's spectrum in {} (Welch, Hann, 16384-sample segments at 1 kHz).{}",
-            outcome.scenario.name,
-            peak_text(peaks)
-        ));
-        if let Some(tracking) = worst(false).filter(|t| t.scenario.name != outcome.scenario.name) {
-            text.push_str(&format!(
-                " While tracking, in {}:{}",
-                tracking.scenario.name,
-                peak_text(beam_spectrum_peaks(tracking, config))
-            ));
-        }
-        if config.structure.is_some() && config.structure_feedback {
-            text.push_str(" The modes push back on the drives here: holding, the axes stand in static friction and the modes ring on them a little below the documented frequencies (those with the axes clamped at the encoders); while the axes track, sliding, the drives and their servos carry the modes, and the peaks move down and flatten (docs/structure-model.md, \"Both ways\"). `--one-way-structure` shows the modes without their reaction.");
-        }
-        text.push('\n');
-        println!("wrote {}", path.display());
-    }
-    Ok(text)
 }
 
 /// A scenario from a pointing table of the user's: run from its first to its last time stamp

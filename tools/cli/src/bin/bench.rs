@@ -37,7 +37,7 @@ struct Cli {
     /// Simulated seconds of the coupled run.
     #[arg(long, default_value_t = 300.0, value_parser = positive_seconds, allow_hyphen_values = true)]
     seconds: f64,
-    /// Also time the fmpy master (tests/python/coupled_master.py, in .venv).
+    /// Also time the fmpy master (tools/fmpy_master/coupled_master.py, in .venv).
     #[arg(long)]
     fmpy: bool,
     /// Also time parameter sweeps of this many samples (Latin hypercube, seed 1).
@@ -244,7 +244,7 @@ fn benchmark_run(seconds: f64) -> (AntennaConfig, CommandTable) {
 /// The coupled antenna, fmpy master, on the same run as the Rust master's, handed over as the
 /// files `antenna --trace` writes for another master.
 fn fmpy_master(seconds: f64) -> anyhow::Result<()> {
-    println!("\n## Coupled antenna, fmpy master (tests/python/coupled_master.py)");
+    println!("\n## Coupled antenna, fmpy master (tools/fmpy_master/coupled_master.py)");
     let root = antenna_fmus::workspace_root();
     let (config, table) = benchmark_run(seconds);
     let directory = std::env::temp_dir().join(format!("meerkat-bench-fmpy-{}", std::process::id()));
@@ -253,7 +253,7 @@ fn fmpy_master(seconds: f64) -> anyhow::Result<()> {
     std::fs::write(&config_path, config.master_config_text(&config.wind, seconds))?;
     std::fs::write(&commands_path, table.to_csv())?;
     let output = std::process::Command::new(root.join(".venv/bin/python"))
-        .arg(root.join("tests/python/coupled_master.py"))
+        .arg(root.join("tools/fmpy_master/coupled_master.py"))
         .arg("--config")
         .arg(&config_path)
         .arg("--commands")

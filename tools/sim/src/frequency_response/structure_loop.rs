@@ -35,7 +35,7 @@
 use std::f64::consts::TAU;
 
 use antenna_plot::{Figure, Panel};
-use fmu_controller::linear::{PositionLoopModel, C64};
+use fmu_controller::linear::{margins, AxisPlantResponse, Margins, PositionLoopModel, C64};
 use fmu_controller::{AzimuthController, AzimuthControllerParams, ElevationController, ElevationControllerParams};
 use fmu_plant::analytic::{current_loop_response, TwoMassParameters};
 use fmu_plant::{AzimuthParams, ElevationParams};
@@ -60,6 +60,13 @@ pub struct AxisWithMode {
     pub mode: Mode,
     /// The cascade around the drive.
     pub servo: PositionLoopModel,
+}
+
+/// The stability margins of the two loops of one axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopMargins {
+    pub velocity: Margins,
+    pub position: Margins,
 }
 
 /// Responses of the three bodies at one frequency, to the motor torque and to the wind's torque.
@@ -154,11 +161,13 @@ impl AxisWithMode {
         }
     }
 
-    /// The mode's beam participation on the axis's own beam direction, `b`.
+    /// The mode's beam participation on the sky in the axis's own beam direction, `b`: a
+    /// rotation about the azimuth axis projected with cos(el), as the Structure FMU does.
     fn beam_participation(&self) -> f64 {
+        let on_sky = self.mode.beam_on_sky(self.elevation_deg.to_radians().cos());
         match self.axis {
-            Axis::Azimuth => self.mode.beam[0],
-            Axis::Elevation => self.mode.beam[1],
+            Axis::Azimuth => on_sky[0],
+            Axis::Elevation => on_sky[1],
         }
     }
 
@@ -203,6 +212,60 @@ impl AxisWithMode {
             per_motor_torque: [inverse[(0, 0)], inverse[(1, 0)], inverse[(2, 0)]],
             per_wind_torque: [per_wind[0], per_wind[1], per_wind[2]],
         }
+    }
+
+    /// The plant as the cascade sees it with the mode inside the loops: the measured motor speed
+    /// and the encoder's axis angle per N m of motor torque, through the current loop and the
+    /// three bodies (the mode coupled both ways).
+    pub fn plant_response(&self, omega: f64) -> AxisPlantResponse {
+        let s = C64::new(0.0, omega);
+        let m = self.mechanics(s);
+        let current = current_loop_response(s, self.current_loop_bandwidth_hz);
+        AxisPlantResponse {
+            motor_speed_per_torque: current * s * m.per_motor_torque[0],
+            axis_angle_per_torque: current * m.per_motor_torque[1] / self.gear_ratio,
+        }
+    }
+
+    /// The velocity and position loops' margins with the mode inside them, over the same
+    /// frequency grids as the margins of the two-mass plant (docs/controller.md).
+    pub fn loop_margins(&self) -> LoopMargins {
+        let velocity = &self.servo.velocity;
+        LoopMargins {
+            velocity: margins(
+                |w| velocity.open_loop(w, self.plant_response(w).motor_speed_per_torque),
+                0.05,
+                499.0,
+                20_000,
+            ),
+            position: margins(|w| self.servo.open_loop(w, &self.plant_response(w)), 0.005, 100.0, 20_000),
+        }
+    }
+
+    /// The same axis with another mode: modal stiffness `stiffness` (N m/rad) and the mode's
+    /// body carrying `inertia_share` of the axis's load inertia, which sets its clamped-base
+    /// frequency `sqrt(K / (share J_load)) / 2 pi` (the parameters `structure.stiffness` and
+    /// `structure.*_mode_inertia_share` of docs/parameters.csv).
+    pub fn with_mode(&self, stiffness: f64, inertia_share: f64) -> Self {
+        let load_inertia_at_axis = self.drive.load_inertia * self.gear_ratio * self.gear_ratio;
+        let p = match self.axis {
+            Axis::Azimuth => self.mode.participation[0],
+            Axis::Elevation => self.mode.participation[1],
+        };
+        let modal_inertia = inertia_share * load_inertia_at_axis / (p * p);
+        let mut mode = self.mode.clone();
+        mode.stiffness = stiffness;
+        mode.frequency_hz = (stiffness / modal_inertia).sqrt() / TAU;
+        Self { mode, ..self.clone() }
+    }
+
+    /// The share of the axis's load inertia that the mode's body carries, `p^2 K / w^2 / J_load`.
+    pub fn inertia_share(&self) -> f64 {
+        let p = match self.axis {
+            Axis::Azimuth => self.mode.participation[0],
+            Axis::Elevation => self.mode.participation[1],
+        };
+        p * p * self.mode.inertia() / (self.drive.load_inertia * self.gear_ratio * self.gear_ratio)
     }
 
     /// The beam's pointing on the sky (rad) per N m of the wind's torque about the axis, with
@@ -349,6 +412,52 @@ pub fn resonance(response: impl Fn(f64) -> C64, low_hz: f64, high_hz: f64) -> Re
     let candidates = [(-first + root) / second, (-first - root) / second];
     let offset = if candidates[0].norm() < candidates[1].norm() { candidates[0] } else { candidates[1] };
     Resonance { peak_hz, peak_magnitude, half_power_damping, pole: j * omega + offset }
+}
+
+/// Bode and Nichols charts of the velocity and position loops' open-loop responses for each
+/// `(name, axis)` case: what a servo engineer reads the margins from. The Nichols chart marks
+/// the critical point (-180 deg, 0 dB); the distance of each curve from it is the margin.
+pub fn open_loop_figures(title: &str, cases: &[(String, AxisWithMode)]) -> (Figure, Figure) {
+    let frequency_hz: Vec<f64> = (0..=800).map(|k| 0.1 * 10f64.powf(3.3 * k as f64 / 800.0)).collect();
+    let mut responses: Vec<(String, Vec<C64>)> = Vec::new();
+    for (name, axis) in cases {
+        let velocity = &axis.servo.velocity;
+        let at = |f: &f64| TAU * f;
+        responses.push((
+            format!("{name}: velocity loop"),
+            frequency_hz
+                .iter()
+                .map(|f| velocity.open_loop(at(f), axis.plant_response(at(f)).motor_speed_per_torque))
+                .collect(),
+        ));
+        responses.push((
+            format!("{name}: position loop"),
+            frequency_hz.iter().map(|f| axis.servo.open_loop(at(f), &axis.plant_response(at(f)))).collect(),
+        ));
+    }
+    let curves: Vec<(&str, &[f64], &[C64])> =
+        responses.iter().map(|(name, h)| (name.as_str(), frequency_hz.as_slice(), h.as_slice())).collect();
+    let bode = antenna_plot::bode(&format!("{title}: open loops (Bode)"), &curves);
+    let mut nichols = Panel::new(&format!("{title}: open loops (Nichols)"))
+        .x_label("open-loop phase (deg)")
+        .y_label("open-loop gain (dB)")
+        .x_range(-540.0, 0.0)
+        .y_range(-40.0, 60.0);
+    for (name, h) in &responses {
+        let wrapped: Vec<f64> = h.iter().map(|v| v.arg().to_degrees()).collect();
+        // Unwrapped from the low-frequency end, shifted by whole turns into (-360, 0] there.
+        let mut phase = antenna_dsp::unwrap_phase_deg(&wrapped);
+        let shift = 360.0 * ((phase[0] + 360.0) / 360.0).floor();
+        phase.iter_mut().for_each(|p| *p -= shift);
+        let gain: Vec<f64> = h.iter().map(|v| 20.0 * v.norm().log10()).collect();
+        nichols = nichols.line(name, &phase, &gain);
+    }
+    let nichols = nichols.vertical_line("-180 deg", -180.0).horizontal_line("0 dB", 0.0).markers(
+        "critical point",
+        &[-180.0],
+        &[0.0],
+    );
+    (bode, Figure::new(1000, 800).panel(nichols))
 }
 
 #[cfg(test)]
