@@ -853,11 +853,7 @@ mod tests {
 
     #[test]
     fn kuka_files_are_valid_logs_as_they_are() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/kuka-robot-drive");
-        if !dir.exists() {
-            eprintln!("skipping: {} not present", dir.display());
-            return;
-        }
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/measured/kuka-robot-drive");
         for axis in 1..=3 {
             let log = MeasuredLog::read(&dir.join(format!("axis{axis}.csv"))).unwrap();
             assert_eq!(log.len(), 2501);

@@ -1,6 +1,6 @@
-//! The validate tool on the real KUKA robot drive (../shared/data/kuka-robot-drive/, beside the
-//! repository; skipped with a message when it is absent): what it finds there was not put
-//! there by anyone here, so these tests guard the tool against data nobody simulated.
+//! The validate tool on the real KUKA robot drive (tests/data/measured/kuka-robot-drive/, shipped
+//! with the repository): what it finds there was not put there by anyone here, so these tests
+//! guard the tool against data nobody simulated.
 //!
 //! The equation-error route only (no plant FMU needed): friction must be found on every axis,
 //! and the two encoders' timing skew (the load encoder read about 3 ms after the motor
@@ -12,17 +12,8 @@ use antenna_validate::parameters::ParameterSet;
 use antenna_validate::{validate, ValidateOptions};
 use std::path::{Path, PathBuf};
 
-fn kuka_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/kuka-robot-drive");
-    if dir.exists() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPED: KUKA data not found at {} (the shared/ data directory sits beside the repository)",
-            dir.display()
-        );
-        None
-    }
+fn kuka_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/measured/kuka-robot-drive")
 }
 
 fn validate_axis(dir: &Path, axis: usize) -> antenna_validate::Validation {
@@ -35,7 +26,7 @@ fn validate_axis(dir: &Path, axis: usize) -> antenna_validate::Validation {
 
 #[test]
 fn the_load_encoders_three_millisecond_lag_is_found_and_corrected_on_every_axis() {
-    let Some(dir) = kuka_dir() else { return };
+    let dir = kuka_dir();
     for axis in 1..=3 {
         let v = validate_axis(&dir, axis);
         let skew = v.encoder_skew.unwrap_or_else(|| panic!("axis {axis}: no encoder skew found"));
@@ -53,7 +44,7 @@ fn the_load_encoders_three_millisecond_lag_is_found_and_corrected_on_every_axis(
 
 #[test]
 fn friction_is_found_on_every_axis() {
-    let Some(dir) = kuka_dir() else { return };
+    let dir = kuka_dir();
     for axis in 1..=3 {
         let v = validate_axis(&dir, axis);
         let names: Vec<&str> = v.selection.found.iter().map(|f| f.kind.name()).collect();

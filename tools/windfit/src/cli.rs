@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
     // A negative number is a value to check, not an unknown flag: `--segment-s -5` is an
     // invalid setting with its reason, as the analysis states it.
     allow_negative_numbers = true,
-    after_help = "example (from the repository root):\n  cargo run --release -p antenna-cli --bin windfit -- \\\n      ../shared/data/sonic-anemometer-20hz/wind_20hz.csv --height-m 7.11"
+    after_help = "example (from the repository root):\n  cargo run --release -p antenna-cli --bin windfit -- \\\n      tests/data/measured/sonic-anemometer-20hz/wind_20hz.csv --height-m 7.11"
 )]
 pub struct WindfitArgs {
     /// The measured record: CSV with a header line, a time column in s and a speed column.

@@ -54,7 +54,7 @@ pub use statistics::{predict_gust, BlockStatistics, GustPrediction, PeriodSummar
 #[cfg(test)]
 pub(crate) mod test_records {
     //! Records for the tests of every module: synthetic ones with a known spectrum, and the
-    //! measured one when the shared data folder is present.
+    //! measured one the repository ships (tests/data/measured/).
     use crate::record::WindRecord;
     use antenna_dsp::test_signals::process_with_psd;
     use std::path::{Path, PathBuf};
@@ -75,17 +75,8 @@ pub(crate) mod test_records {
         WindRecord::from_samples(&format!("synthetic seed {seed}"), speed, sample_rate_hz)
     }
 
-    pub(crate) fn shared_wind_record() -> Option<PathBuf> {
-        let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/sonic-anemometer-20hz/wind_20hz.csv");
-        if path.exists() {
-            Some(path)
-        } else {
-            eprintln!(
-                "SKIPPED: measured wind record not found at {} (the shared/ data directory sits beside the repository)",
-                path.display()
-            );
-            None
-        }
+    /// The measured 20 Hz sonic anemometer record shipped with the repository.
+    pub(crate) fn measured_wind_record() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/measured/sonic-anemometer-20hz/wind_20hz.csv")
     }
 }

@@ -74,7 +74,7 @@ enum Command {
         /// Where the results of an existing suite go (default: the suite folder).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
-        /// The KUKA data folder (default ../shared/data/kuka-robot-drive beside the workspace).
+        /// The KUKA data folder (default tests/data/measured/kuka-robot-drive in the repository).
         #[arg(long, value_name = "DIR")]
         kuka: Option<PathBuf>,
         #[command(flatten)]
@@ -107,7 +107,7 @@ enum Command {
     /// Run the three KUKA axes with tools/validate/data/kuka/axisN.params: prints the results
     /// section and writes it to DIR/report.md with the figures.
     Kuka {
-        /// The KUKA data folder (default ../shared/data/kuka-robot-drive beside the workspace).
+        /// The KUKA data folder (default tests/data/measured/kuka-robot-drive in the repository).
         #[arg(long, value_name = "DIR")]
         kuka: Option<PathBuf>,
         /// Folder for report.md and the figures (default: the current folder).
@@ -246,7 +246,7 @@ fn text<T>(result: Result<T, String>) -> anyhow::Result<T> {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     let root = antenna_fmus::workspace_root();
-    let default_kuka = || root.parent().unwrap_or(&root).join("shared").join("data").join("kuka-robot-drive");
+    let default_kuka = || root.join("tests").join("data").join("measured").join("kuka-robot-drive");
     match cli.command {
         Command::Run { log, params, out, verbose, fmu, tuning } => {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 };
@@ -618,7 +618,7 @@ fn results_document(results: &[scoring::CaseResult], kuka: Option<&str>, timing:
     text.push_str("### All cases\n\nSize = RMS of what the effect adds to its channel over that channel's sensor noise. Output error: the scored position channel whose error dropped most, RMS over all windows in arcsec; equation error: the equation whose residual dropped most, axis-side N m.\n\n");
     text.push_str(&scoring::table_markdown(results));
     if let Some(section) = kuka {
-        text.push_str("\n## KUKA robot drive (`shared/data/kuka-robot-drive/`)\n\n");
+        text.push_str("\n## KUKA robot drive (`tests/data/measured/kuka-robot-drive/`)\n\n");
         text.push_str(section);
     }
     text
