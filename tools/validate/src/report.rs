@@ -829,7 +829,7 @@ pub fn frequency_figure(f: &FrequencyResponse, stem: &str) -> Figure {
     )
 }
 
-/// The section of docs/validation-results.md on measured logs (the KUKA axes): per axis the
+/// The section of docs/results/validation-results.md on measured logs (the KUKA axes): per axis the
 /// effects found with their parameters, the output and equation errors before and after, the
 /// confirmations that were rejected, and the figures. `rows` holds (axis, validation, run time
 /// in seconds, figure paths).
@@ -955,7 +955,7 @@ fn kuka_axis_notes(out: &mut String, axis: usize, v: &Validation, figures: &[Str
     let names: Vec<String> = figures
         .iter()
         .filter_map(|f| {
-            Path::new(f).file_name().map(|n| format!("[{}](figures/{})", n.to_string_lossy(), n.to_string_lossy()))
+            Path::new(f).file_name().map(|n| format!("[{}](../figures/{})", n.to_string_lossy(), n.to_string_lossy()))
         })
         .collect();
     let _ = writeln!(out, "Figures: {}.\n", names.join(", "));
