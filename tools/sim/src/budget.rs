@@ -187,10 +187,35 @@ pub fn plot_beam_spectrum(
         .log_y()
         .series(Series::new("cross-elevation", &frequencies, &pick(cross)).colour(PALETTE[0]))
         .series(Series::new("elevation", &frequencies, &pick(elevation)).colour(PALETTE[1]));
+    // The cumulative RMS from the lowest frequency up: where the error's variance comes from.
+    let cumulative = |psd: &[f64]| -> Vec<f64> {
+        let mut sum = 0.0;
+        (1..f.len())
+            .filter_map(|k| {
+                sum += psd[k] * (f[k] - f[k - 1]);
+                (f[k] <= 100.0).then(|| sum.max(0.0).sqrt().max(1e-6))
+            })
+            .collect()
+    };
+    let mut rms = Panel::new("cumulative RMS of the beam error (about its mean), from the lowest frequency up")
+        .x_label("frequency (Hz)")
+        .y_label("cumulative RMS (arcsec)")
+        .log_x()
+        .series(Series::new("cross-elevation", &frequencies, &cumulative(cross)).colour(PALETTE[0]))
+        .series(Series::new("elevation", &frequencies, &cumulative(elevation)).colour(PALETTE[1]));
+    // Marks of modes at nearly the same frequency would cover each other: one mark each.
+    let mut marked: Vec<(String, f64)> = Vec::new();
     for (name, frequency) in modes_hz {
-        panel = panel.vertical_line(name, *frequency);
+        match marked.iter_mut().find(|(_, f)| (f / frequency - 1.0).abs() < 0.02) {
+            Some((label, _)) => *label = format!("{label}; {name}"),
+            None => marked.push((name.clone(), *frequency)),
+        }
     }
-    Figure::new(1100, 600).panel(panel).save_png(path)
+    for (name, frequency) in &marked {
+        panel = panel.vertical_line(name, *frequency);
+        rms = rms.vertical_line("", *frequency);
+    }
+    Figure::new(1100, 900).panel(panel).panel(rms).save_png(path)
 }
 
 #[cfg(test)]

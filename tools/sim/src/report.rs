@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use super::budget::{beam_error_spectra, budget, peak_frequency_hz, plot_beam_spectrum, Budget};
 use super::coupled::{AntennaConfig, CoupledAntenna, FmuSet, ParameterValue, Trace, WindCondition};
 use super::metrics::{
-    final_window_rms_arcsec, settling, settling_absolute, worst_window_absolute_rms_arcsec,
-    worst_window_centred_jitter_arcsec, Settling, CENTRING,
+    error_centred_on_final_window_arcsec, final_window_rms_arcsec, settling, settling_absolute,
+    worst_window_absolute_rms_arcsec, worst_window_centred_jitter_arcsec, Settling, CENTRING,
 };
 use super::scenario::{Analysis, Requirement, Scenario, JITTER_LIMIT_ARCSEC, JITTER_WINDOW_S};
 use antenna_plot::{Colour, Figure, Panel, PlotError, Series, PALETTE};
@@ -636,8 +636,11 @@ fn curve_label(o: &Outcome) -> String {
     format!("{elevation}, {motion}")
 }
 
-/// One PNG per requirement: the pointing error of each scenario against time, with the
-/// 15 arcsec band and, for the settling requirements, a marker at each settling instant.
+/// One PNG per requirement, one panel per elevation: for the jitter requirements the rolling
+/// 10 s jitter after centring (solid) and the absolute RMS (dashed) from the end of start-up on,
+/// with the judged (worst) window marked; for the settling requirements the error after
+/// centring on the target, with the settling instants. Beside them the budget as stacked bars
+/// and the beam's error on the sky while holding in normal wind.
 pub fn plot(outcomes: &[Outcome], directory: &Path) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(directory)
         .map_err(|source| ReportError::CreateFolder { path: directory.to_path_buf(), source })?;
@@ -653,33 +656,172 @@ pub fn plot(outcomes: &[Outcome], directory: &Path) -> Result<Vec<PathBuf>, Repo
         if group.is_empty() {
             continue;
         }
-        let panel = requirement_panel(requirement, &group);
+        let mut elevations: Vec<f64> = group.iter().map(|o| o.scenario.elevation_deg).collect();
+        elevations.sort_by(f64::total_cmp);
+        elevations.dedup();
+        let mut figure = Figure::new(1100, 60 + 330 * elevations.len() as u32);
+        for elevation in elevations {
+            let at: Vec<&Outcome> = group.iter().copied().filter(|o| o.scenario.elevation_deg == elevation).collect();
+            figure = figure.panel(requirement_panel(requirement, elevation, &at));
+        }
         let name = requirement.label().replace(". ", "").to_lowercase();
         let path = directory.join(format!("pointing-error-{name}.png"));
-        Figure::new(1100, 600).panel(panel).save_png(&path)?;
+        figure.save_png(&path)?;
+        written.push(path);
+    }
+    if outcomes.iter().any(|o| o.budget.is_some()) {
+        let path = directory.join("pointing-budget.png");
+        budget_figure(outcomes).save_png(&path)?;
+        written.push(path);
+    }
+    let holding: Vec<&Outcome> = outcomes.iter().filter(|o| o.scenario.name.starts_with("hold")).collect();
+    if !holding.is_empty() {
+        let path = directory.join("pointing-on-the-sky.png");
+        sky_figure(&holding).save_png(&path)?;
         written.push(path);
     }
     Ok(written)
 }
 
-/// The pointing error of every scenario of one requirement, each in its own colour, with the
-/// settling instants (if any) marked in the colour of their curve.
-fn requirement_panel(requirement: Requirement, group: &[&Outcome]) -> Panel {
-    let title = match requirement {
-        Requirement::TrackingNormalWind => format!("{} pointing error on the sky (normal wind)", requirement.label()),
-        _ => format!("{} pointing error on the sky", requirement.label()),
+/// The panel of one requirement at one elevation (see [`plot`]).
+fn requirement_panel(requirement: Requirement, elevation_deg: f64, group: &[&Outcome]) -> Panel {
+    let wind = if requirement == Requirement::TrackingNormalWind { " (normal wind)" } else { "" };
+    let Some(first) = group.first() else { return Panel::new(requirement.label()) };
+    let Analysis::Jitter { from_s } = first.scenario.analysis else {
+        let mut panel = Panel::new(&format!(
+            "{} at {elevation_deg:.0} deg{wind}: pointing error after centring on the target",
+            requirement.label()
+        ))
+        .x_label("time (s)")
+        .y_label("error (arcsec)")
+        .log_y();
+        for (i, o) in group.iter().enumerate() {
+            // Decimated to 100 Hz for the plot; the figures use every sample.
+            let t: Vec<f64> = o.trace.time_s.iter().step_by(10).cloned().collect();
+            let e: Vec<f64> =
+                error_centred_on_final_window_arcsec(&o.trace).into_iter().step_by(10).map(|x| x.max(1e-3)).collect();
+            panel = panel.series(Series::new(&curve_label(o), &t, &e).colour(PALETTE[i % PALETTE.len()]));
+        }
+        for (label, instant, colour) in settling_markers(requirement, group) {
+            panel = panel.vertical_line_coloured(&label, instant, colour);
+        }
+        return panel.horizontal_line_coloured("15 arcsec", JITTER_LIMIT_ARCSEC, LIMIT_COLOUR);
     };
-    let mut panel = Panel::new(&title).x_label("time (s)").y_label("pointing error (arcsec)").log_y();
+    let mut panel = Panel::new(&format!(
+        "{} at {elevation_deg:.0} deg{wind}: rolling 10 s jitter after centring (solid) and absolute RMS (dashed)",
+        requirement.label()
+    ))
+    .x_label("end of the 10 s window (s)")
+    .y_label("arcsec RMS")
+    .log_y();
     for (i, o) in group.iter().enumerate() {
-        // Decimate to 100 Hz for the plot; the figures use every sample.
-        let t: Vec<f64> = o.trace.time_s.iter().step_by(10).cloned().collect();
-        let e: Vec<f64> = o.trace.pointing_error_arcsec().into_iter().step_by(10).map(|x| x.max(1e-3)).collect();
-        panel = panel.series(Series::new(&curve_label(o), &t, &e).colour(PALETTE[i % PALETTE.len()]));
-    }
-    for (label, instant, colour) in settling_markers(requirement, group) {
-        panel = panel.vertical_line_coloured(&label, instant, colour);
+        let colour = PALETTE[i % PALETTE.len()];
+        let trace = &o.trace;
+        let (Some(&t0), Some(&t1)) = (trace.time_s.first(), trace.time_s.get(1)) else { continue };
+        let dt = t1 - t0;
+        let window = (JITTER_WINDOW_S / dt).round() as usize;
+        let start = trace.time_s.partition_point(|&t| t < from_s);
+        let sky = trace.pointing_error_sky_arcsec();
+        let centred = antenna_dsp::moving_centred_rms(&sky[start..], window);
+        let absolute = antenna_dsp::moving_rms(&trace.pointing_error_arcsec()[start..], window);
+        let ends: Vec<f64> =
+            (0..centred.len()).step_by(10).map(|k| trace.time_s[start + k] + JITTER_WINDOW_S).collect();
+        let decimate = |v: &[f64]| v.iter().step_by(10).map(|x| x.max(1e-3)).collect::<Vec<f64>>();
+        panel = panel
+            .series(Series::new(&curve_label(o), &ends, &decimate(&centred)).colour(colour))
+            .series(Series::new("", &ends, &decimate(&absolute)).colour(colour).dashed());
+        if let Some(judged) = o.worst_window_start_s {
+            panel = panel.vertical_line_coloured(
+                &format!("judged window {judged:.1}-{:.1} s: {:.3} arcsec", judged + JITTER_WINDOW_S, o.figure),
+                judged + JITTER_WINDOW_S,
+                colour,
+            );
+        }
     }
     panel.horizontal_line_coloured("15 arcsec", JITTER_LIMIT_ARCSEC, LIMIT_COLOUR)
+}
+
+/// One part of a [`Budget`], arcsec RMS.
+type BudgetPart = fn(&Budget) -> f64;
+
+/// The budget of every jitter scenario as stacked bars of the parts' mean squares (arcsec^2:
+/// they add up to the total's mean square where the parts are uncorrelated), with the total's
+/// mean square and its offset's share beside each bar.
+fn budget_figure(outcomes: &[Outcome]) -> Figure {
+    let rows: Vec<&Budget> = outcomes.iter().filter_map(|o| o.budget.as_ref()).collect();
+    let parts: [(&str, BudgetPart); 4] = [
+        ("servo", |b| b.servo_arcsec),
+        ("encoder", |b| b.encoder_arcsec),
+        ("structure static", |b| b.structure_static_arcsec),
+        ("structure dynamic", |b| b.structure_dynamic_arcsec),
+    ];
+    let mut panel = Panel::new("Pointing error budget over each judged 10 s window: the parts' mean squares stacked; their offsets add as vectors, so the total exceeds the stack where they align")
+        .x_label("jitter scenario, numbered as the rows of the report's budget table")
+        .y_label("mean square (arcsec^2)");
+    let mut below = vec![0.0; rows.len()];
+    for (name, part) in parts {
+        let (mut x, mut lower, mut upper) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, b) in rows.iter().enumerate() {
+            let centre = (i + 1) as f64;
+            let top = below[i] + part(b).powi(2);
+            for (position, low, high) in [
+                (centre - 0.45, 0.0, 0.0),
+                (centre - 0.35, below[i], top),
+                (centre + 0.35, below[i], top),
+                (centre + 0.45, 0.0, 0.0),
+            ] {
+                x.push(position);
+                lower.push(low);
+                upper.push(high);
+            }
+            below[i] = top;
+        }
+        panel = panel.band(name, &x, &lower, &upper);
+    }
+    let centres: Vec<f64> = (1..=rows.len()).map(|i| i as f64).collect();
+    let totals: Vec<f64> = rows.iter().map(|b| b.total_arcsec.powi(2)).collect();
+    let offsets: Vec<f64> = rows.iter().map(|b| b.offset_arcsec.powi(2)).collect();
+    panel = panel.markers("simulated total (mean square)", &centres, &totals).markers(
+        "of which the offset centring removes",
+        &centres,
+        &offsets,
+    );
+    Figure::new(1200, 700).panel(panel)
+}
+
+/// The beam's on-sky error (cross-elevation against elevation) while holding in normal wind,
+/// one colour per elevation, over the judged window, with the 15 arcsec circle about the source.
+fn sky_figure(holding: &[&Outcome]) -> Figure {
+    let mut panel = Panel::new("Beam error on the sky while holding in normal wind, judged 10 s window")
+        .x_label("cross-elevation error (arcsec)")
+        .y_label("elevation error (arcsec)");
+    for (i, o) in holding.iter().enumerate() {
+        let start = o.worst_window_start_s.unwrap_or(0.0);
+        let sky = o.trace.pointing_error_sky_arcsec();
+        let (x, y): (Vec<f64>, Vec<f64>) = o
+            .trace
+            .time_s
+            .iter()
+            .zip(&sky)
+            .filter(|(t, _)| **t >= start && **t < start + JITTER_WINDOW_S)
+            .step_by(20)
+            .map(|(_, e)| (e[0], e[1]))
+            .unzip();
+        panel = panel.series(
+            Series::new(&format!("el {:.0} deg", o.scenario.elevation_deg), &x, &y)
+                .markers_only()
+                .colour(PALETTE[i % PALETTE.len()]),
+        );
+    }
+    let circle: Vec<(f64, f64)> = (0..=180)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / 180.0;
+            (JITTER_LIMIT_ARCSEC * a.cos(), JITTER_LIMIT_ARCSEC * a.sin())
+        })
+        .collect();
+    let (cx, cy): (Vec<f64>, Vec<f64>) = circle.into_iter().unzip();
+    panel = panel.series(Series::new("15 arcsec from the source", &cx, &cy).colour(LIMIT_COLOUR).dashed());
+    Figure::new(800, 800).panel(panel.x_range(-20.0, 20.0).y_range(-20.0, 20.0))
 }
 
 /// The settling markers: one per curve, except that instants closer than half a percent of the
