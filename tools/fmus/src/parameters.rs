@@ -21,6 +21,9 @@ pub enum Scale {
     Log,
     /// Uniform over the integers `low..=high` (enumerations, seeds).
     Integer,
+    /// An angle in degrees over the whole circle (`high - low = 360`), uniform: its statistics
+    /// are circular (a rank correlation on 0-360 deg would call 359 deg far from 1 deg).
+    Circular,
 }
 
 /// Whether a value comes from a publication, from the paper itself, or is an estimate.
@@ -65,7 +68,7 @@ impl UncertainParameter {
     pub fn value_at(&self, u: f64) -> f64 {
         let u = u.clamp(0.0, 1.0);
         match self.scale {
-            Scale::Linear => self.low + u * (self.high - self.low),
+            Scale::Linear | Scale::Circular => self.low + u * (self.high - self.low),
             Scale::Log => (self.low.ln() + u * (self.high.ln() - self.low.ln())).exp(),
             Scale::Integer => {
                 let span = self.high - self.low + 1.0;
@@ -131,7 +134,8 @@ fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, String> {
         "linear" => Scale::Linear,
         "log" => Scale::Log,
         "integer" => Scale::Integer,
-        other => return Err(format!("{name}: scale `{other}` is not linear, log or integer")),
+        "circular" => Scale::Circular,
+        other => return Err(format!("{name}: scale `{other}` is not linear, log, integer or circular")),
     };
     if low >= high {
         return Err(format!("{name}: the range [{low}, {high}] is empty"));
@@ -141,6 +145,9 @@ fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, String> {
     }
     if scale == Scale::Log && low <= 0.0 {
         return Err(format!("{name}: a log scale needs a positive range, not [{low}, {high}]"));
+    }
+    if scale == Scale::Circular && (high - low - 360.0).abs() > 1e-9 {
+        return Err(format!("{name}: a circular scale spans the whole circle, 360 deg, not [{low}, {high}]"));
     }
     if scale == Scale::Integer && [low, high, default].iter().any(|v| v.fract() != 0.0) {
         return Err(format!("{name}: an integer scale needs whole numbers"));
@@ -234,7 +241,7 @@ pub fn realistic_parameter_file(model_identifier: &str) -> Option<String> {
             }
             let value = match parameter.scale {
                 Scale::Integer => format!("{}", parameter.default as i64),
-                Scale::Linear | Scale::Log => format_value(parameter.default),
+                Scale::Linear | Scale::Log | Scale::Circular => format_value(parameter.default),
             };
             let unit = if parameter.unit.is_empty() || parameter.unit == "1" {
                 String::new()
@@ -292,6 +299,7 @@ pub fn render_markdown(parameters: &[UncertainParameter]) -> String {
                 Scale::Linear => "linear",
                 Scale::Log => "log",
                 Scale::Integer => "integer",
+                Scale::Circular => "circular",
             },
             targets.join("<br>"),
             match p.basis {

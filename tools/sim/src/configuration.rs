@@ -171,7 +171,7 @@ impl AntennaSetup {
                             })?;
                         let value = match parameter.scale {
                             Scale::Integer => ParameterValue::Integer(value as i32),
-                            Scale::Linear | Scale::Log => ParameterValue::Real(value),
+                            Scale::Linear | Scale::Log | Scale::Circular => ParameterValue::Real(value),
                         };
                         overrides.push((name.clone(), value));
                     }

@@ -254,12 +254,35 @@ pub fn first_order_index(x: &[f64], y: &[f64]) -> Option<f64> {
     Some(((between / total - bias) / (1.0 - bias)).max(0.0))
 }
 
+/// The circular-linear correlation of a figure `y` with an angle `x_deg` (Mardia 1976): the
+/// multiple correlation of `y` on `cos x` and `sin x`, from 0 (no dependence a sinusoid of the
+/// angle shows) to 1, the same wherever the circle is cut; and the direction (deg in [0, 360))
+/// at which that sinusoid is largest. `None` with fewer than 3 samples or a constant `y`.
+pub fn circular_linear(x_deg: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+    if x_deg.len() < 3 {
+        return None;
+    }
+    let (cos, sin): (Vec<f64>, Vec<f64>) = x_deg.iter().map(|a| (a.to_radians().cos(), a.to_radians().sin())).unzip();
+    let (rc, rs) = (pearson(&cos, y)?, pearson(&sin, y)?);
+    let rcs = pearson(&cos, &sin).unwrap_or(0.0);
+    let squared = ((rc * rc + rs * rs - 2.0 * rc * rs * rcs) / (1.0 - rcs * rcs)).max(0.0);
+    // The least-squares sinusoid y ~ a cos x + b sin x peaks at atan2(b, a); its coefficients
+    // are the correlations less the other regressor's share.
+    let a = rc - rs * rcs;
+    let b = rs - rc * rcs;
+    Some((squared.sqrt().min(1.0), b.atan2(a).to_degrees().rem_euclid(360.0)))
+}
+
 /// One parameter's influence on one requirement's figure.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Influence {
     pub parameter: usize,
+    /// Spearman's rho; for an angle over the whole circle, the circular-linear correlation
+    /// (0 to 1), with the direction of the largest figure in `worst_direction_deg`.
     pub spearman: f64,
     pub first_order: Option<f64>,
+    /// For an angle over the whole circle, the direction (deg) at which the figure peaks.
+    pub worst_direction_deg: Option<f64>,
 }
 
 impl Influence {
@@ -274,6 +297,12 @@ impl Influence {
 /// The varied parameters ranked by their [`Influence::score`] on the sample's worst figure of
 /// requirement `r`, largest first.
 pub fn sensitivity(data: &SweepData, r: usize) -> Vec<Influence> {
+    // The angles over the whole circle, whose correlation is circular.
+    let circular: Vec<String> = antenna_fmus::parameters::parameters()
+        .into_iter()
+        .filter(|p| p.scale == antenna_fmus::parameters::Scale::Circular)
+        .map(|p| p.name)
+        .collect();
     let outcomes = data.outcomes(r);
     let y: Vec<f64> = outcomes.iter().map(|(_, o)| o.worst).collect();
     let mut ranking: Vec<Influence> = data
@@ -281,8 +310,18 @@ pub fn sensitivity(data: &SweepData, r: usize) -> Vec<Influence> {
         .into_iter()
         .filter_map(|p| {
             let x: Vec<f64> = outcomes.iter().map(|(s, _)| s.values[p].unwrap_or(f64::NAN)).collect();
+            let first_order = first_order_index(&x, &y);
+            if circular.contains(&data.parameter_names[p]) {
+                let (r, direction) = circular_linear(&x, &y)?;
+                return Some(Influence {
+                    parameter: p,
+                    spearman: r,
+                    first_order,
+                    worst_direction_deg: Some(direction),
+                });
+            }
             let rho = spearman(&x, &y)?;
-            Some(Influence { parameter: p, spearman: rho, first_order: first_order_index(&x, &y) })
+            Some(Influence { parameter: p, spearman: rho, first_order, worst_direction_deg: None })
         })
         .collect();
     ranking.sort_by(|a, b| b.score().total_cmp(&a.score()));
@@ -311,6 +350,25 @@ mod tests {
         let w = [1.0, 2.0, f64::INFINITY];
         assert_eq!(percentile(&w, 0.5), 2.0);
         assert_eq!(percentile(&w, 0.9), f64::INFINITY);
+    }
+
+    #[test]
+    fn the_circular_linear_correlation_sees_a_figure_that_peaks_at_one_direction_wherever_the_circle_is_cut() {
+        // A figure largest at 350 deg: a rank correlation on 0-360 deg sees nearly nothing,
+        // since 350 and 10 deg lie at opposite ends of the range.
+        let x: Vec<f64> = (0..360).map(|k| k as f64 + 0.5).collect();
+        let y: Vec<f64> = x.iter().map(|a: &f64| (a - 350.0).to_radians().cos()).collect();
+        let (r, direction) = circular_linear(&x, &y).unwrap();
+        assert!((r - 1.0).abs() < 1e-9, "{r}");
+        assert!((direction - 350.0).abs() < 1e-6, "{direction}");
+        assert!(spearman(&x, &y).unwrap().abs() < 0.35, "{:?}", spearman(&x, &y));
+        // Shifting where the circle is cut changes nothing.
+        let shifted: Vec<f64> = x.iter().map(|a| (a + 180.0).rem_euclid(360.0) - 180.0).collect();
+        let (r2, direction2) = circular_linear(&shifted, &y).unwrap();
+        assert!((r2 - r).abs() < 1e-9 && (direction2 - direction).abs() < 1e-6);
+        // No dependence: a small correlation.
+        let flat: Vec<f64> = x.iter().map(|a| ((a * 7.3).sin() * 1e3).fract()).collect();
+        assert!(circular_linear(&x, &flat).unwrap().0 < 0.2);
     }
 
     #[test]

@@ -133,7 +133,7 @@ pub fn requirement_table(data: &SweepData) -> String {
         let q = |p| figure_text(percentile(&figures, p), &info.unit);
         let top = sensitivity(data, r).first().map_or("-".to_string(), |i| {
             let first_order = i.first_order.map_or("-".to_string(), |s| format!("{s:.2}"));
-            format!("`{}` ({:+.2}, {first_order})", data.parameter_names[i.parameter], i.spearman)
+            format!("`{}` ({}, {first_order})", data.parameter_names[i.parameter], correlation_text(i))
         });
         let _ = writeln!(
             out,
@@ -206,8 +206,17 @@ fn worst_samples(data: &SweepData, spec: &SweepSpec) -> String {
     out
 }
 
+/// A parameter's correlation as the tables print it: Spearman's rho signed, or for an angle over
+/// the whole circle the circular-linear correlation with the direction of the largest figure.
+fn correlation_text(influence: &Influence) -> String {
+    match influence.worst_direction_deg {
+        Some(direction) => format!("circular {:.2}, worst at {direction:.0} deg", influence.spearman),
+        None => format!("{:+.2}", influence.spearman),
+    }
+}
+
 fn sensitivity_section(data: &SweepData, figures: &[(usize, Vec<String>)]) -> String {
-    let mut out = String::from("## Sensitivity\n\nSpearman's rho is the rank correlation between the parameter and the sample's worst figure (positive: a larger value gives a larger, worse figure; only |rho| above about 2/sqrt(samples) stands out of the noise). The first-order index is the share of the figure's variance the parameter explains alone, also where the figure rises and falls with it, as with a phase (binned estimate from the same sample, bias removed; shown with at least 50 samples and every run settled). Parameters are ranked by the larger of the first-order index and rho squared.\n\n");
+    let mut out = String::from("## Sensitivity\n\nSpearman's rho is the rank correlation between the parameter and the sample's worst figure (positive: a larger value gives a larger, worse figure; only |rho| above about 2/sqrt(samples) stands out of the noise). The first-order index is the share of the figure's variance the parameter explains alone, also where the figure rises and falls with it, as with a phase (binned estimate from the same sample, bias removed; shown with at least 50 samples and every run settled). Parameters are ranked by the larger of the first-order index and rho squared. An angle over the whole circle (the wind's direction) has no rank order: its correlation is the circular-linear one (Mardia's, 0 to 1, the multiple correlation of the figure with the angle's cosine and sine), given with the direction where the figure peaks.\n\n");
     for (r, info) in data.requirements.iter().enumerate() {
         let ranking = sensitivity(data, r);
         let _ = writeln!(out, "### {}\n", info.label);
@@ -221,10 +230,10 @@ fn sensitivity_section(data: &SweepData, figures: &[(usize, Vec<String>)]) -> St
         for (rank, influence) in ranking.iter().take(12).enumerate() {
             let _ = writeln!(
                 out,
-                "| {} | `{}` | {:+.3} | {} |",
+                "| {} | `{}` | {} | {} |",
                 rank + 1,
                 data.parameter_names[influence.parameter],
-                influence.spearman,
+                correlation_text(influence),
                 influence.first_order.map_or("-".to_string(), |s| format!("{s:.3}"))
             );
         }
@@ -316,7 +325,7 @@ fn tornado(label: &str, data: &SweepData, ranking: &[Influence]) -> Figure {
         let y = (shown.len() - i) as f64;
         let rho = influence.spearman;
         let x = [rho.min(0.0), rho.max(0.0)];
-        let name = format!("{}. {} ({:+.2})", i + 1, data.parameter_names[influence.parameter], rho);
+        let name = format!("{}. {} ({})", i + 1, data.parameter_names[influence.parameter], correlation_text(influence));
         panel = panel.band(&name, &x, &[y - 0.35, y - 0.35], &[y + 0.35, y + 0.35]);
     }
     Figure::new(1100, 620).panel(panel.vertical_line_coloured("", 0.0, Colour::rgb(0, 0, 0)))
@@ -338,7 +347,7 @@ impl ScatterPlot<'_> {
             .title(&format!("{}: the figure against the most influential parameters", self.label));
         for influence in ranking.iter().take(2) {
             let name = &data.parameter_names[influence.parameter];
-            let mut panel = Panel::new(&format!("{name} (Spearman rho {:+.2})", influence.spearman))
+            let mut panel = Panel::new(&format!("{name} ({})", correlation_text(influence)))
                 .x_label(name)
                 .y_label(&format!("figure ({unit})"));
             if self.log_scaled.contains(&name.as_str()) {
