@@ -74,6 +74,8 @@ pub struct ModelDescription {
     pub default_stop_time: Option<f64>,
     /// Output index (1-based in ModelVariables) -> the indices it depends on.
     pub output_dependencies: Vec<(usize, Option<Vec<usize>>)>,
+    /// Initial unknown index (1-based) -> the knowns it depends on (`None`: all of them).
+    pub initial_unknown_dependencies: Vec<(usize, Option<Vec<usize>>)>,
     pub capabilities: HashMap<String, String>,
 }
 
@@ -98,10 +100,12 @@ impl ModelDescription {
             default_step_size: None,
             default_stop_time: None,
             output_dependencies: Vec::new(),
+            initial_unknown_dependencies: Vec::new(),
             capabilities: HashMap::new(),
         };
         let mut current: Option<ScalarVariable> = None;
         let mut in_outputs = false;
+        let mut in_initial_unknowns = false;
         loop {
             let event =
                 reader.read_event().map_err(|e| bad(format!("XML error at byte {}: {e}", reader.buffer_position())))?;
@@ -116,6 +120,7 @@ impl ModelDescription {
                             }
                         }
                         "Outputs" => in_outputs = false,
+                        "InitialUnknowns" => in_initial_unknowns = false,
                         _ => {}
                     }
                     (None, false)
@@ -185,12 +190,17 @@ impl ModelDescription {
                     }
                 }
                 "Outputs" => in_outputs = !is_empty,
-                "Unknown" if in_outputs => {
+                "InitialUnknowns" => in_initial_unknowns = !is_empty,
+                "Unknown" if in_outputs || in_initial_unknowns => {
                     let index =
                         get("index").and_then(|s| s.parse().ok()).ok_or_else(|| bad("Unknown without index".into()))?;
                     let deps =
                         get("dependencies").map(|d| d.split_whitespace().filter_map(|x| x.parse().ok()).collect());
-                    md.output_dependencies.push((index, deps));
+                    if in_outputs {
+                        md.output_dependencies.push((index, deps));
+                    } else {
+                        md.initial_unknown_dependencies.push((index, deps));
+                    }
                 }
                 _ => {}
             }

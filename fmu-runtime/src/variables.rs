@@ -131,6 +131,11 @@ pub struct Var {
     /// For outputs: the value references of the inputs the output depends on within the same
     /// step (direct feedthrough). Empty means the output is a function of the state only.
     pub depends_on: &'static [u32],
+    /// For outputs: the inputs the output's value at the end of initialisation depends on
+    /// (the initial state may be computed from them, a structure at rest under its start loads,
+    /// say). `None`: the same as [`Var::depends_on`]. The parameters are knowns of every initial
+    /// unknown, declared for all of them.
+    pub initial_depends_on: Option<&'static [u32]>,
 }
 
 impl Var {
@@ -143,6 +148,7 @@ impl Var {
             initial: None,
             kind,
             depends_on: &[],
+            initial_depends_on: None,
         }
     }
 
@@ -223,6 +229,18 @@ impl Var {
     pub const fn depends_on(mut self, inputs: &'static [u32]) -> Var {
         self.depends_on = inputs;
         self
+    }
+
+    /// The inputs the output's initial value depends on, where they differ from its
+    /// direct-feedthrough inputs ([`Var::depends_on`]).
+    pub const fn initially_depends_on(mut self, inputs: &'static [u32]) -> Var {
+        self.initial_depends_on = Some(inputs);
+        self
+    }
+
+    /// The inputs the value at the end of initialisation depends on.
+    pub fn initial_inputs(&self) -> &'static [u32] {
+        self.initial_depends_on.unwrap_or(self.depends_on)
     }
 
     pub const fn start(mut self, value: f64) -> Var {

@@ -78,7 +78,7 @@ pub fn validate<M: Model>() -> Result<(), String> {
         if !needs_start && has_start && var.initial == Some(crate::variables::Initial::Calculated) {
             return Err(format!("variable '{}' is calculated and must not have a start value", var.name));
         }
-        for &dep in var.depends_on {
+        for &dep in var.depends_on.iter().chain(var.initial_inputs()) {
             let target = table
                 .get(dep as usize)
                 .ok_or_else(|| format!("'{}' depends on unknown value reference {dep}", var.name))?;
@@ -86,7 +86,7 @@ pub fn validate<M: Model>() -> Result<(), String> {
                 return Err(format!("'{}' depends on '{}', which is not an input", var.name, target.name));
             }
         }
-        if !var.depends_on.is_empty() && var.causality != Causality::Output {
+        if (!var.depends_on.is_empty() || !var.initial_inputs().is_empty()) && var.causality != Causality::Output {
             return Err(format!("'{}' declares dependencies but is not an output", var.name));
         }
         let _ = i;
@@ -337,7 +337,7 @@ fn write_model_structure(w: &mut XmlWriter, table: &[Var]) {
     if !outputs.is_empty() {
         write(w, Event::Start(BytesStart::new("Outputs")));
         for (i, var) in &outputs {
-            write(w, Event::Empty(unknown(*i, var, true)));
+            write(w, Event::Empty(unknown(*i, var.depends_on, &[])));
         }
         write(w, Event::End(BytesEnd::new("Outputs")));
     }
@@ -354,27 +354,40 @@ fn write_model_structure(w: &mut XmlWriter, table: &[Var]) {
         })
         .collect();
     if !initial_unknowns.is_empty() {
+        // The knowns of initialisation are the parameters and the inputs. Every initial unknown
+        // is declared to depend on every parameter (a conservative statement: a parameter is
+        // never connected, so it cannot make a loop) and on exactly the inputs its initial value
+        // depends on, so that a master sees no loop that is not there (leaving `dependencies`
+        // out would say "depends on all knowns", every input included).
+        let parameters: Vec<u32> = table
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.causality == Causality::Parameter)
+            .map(|(i, _)| i as u32)
+            .collect();
         write(w, Event::Start(BytesStart::new("InitialUnknowns")));
         for (i, var) in &initial_unknowns {
-            // Initial values depend on parameters and start values; leaving out `dependencies`
-            // says "may depend on all knowns", which is the honest statement.
-            write(w, Event::Empty(unknown(*i, var, false)));
+            let inputs: &[u32] = if var.causality == Causality::Output { var.initial_inputs() } else { &[] };
+            write(w, Event::Empty(unknown(*i, inputs, &parameters)));
         }
         write(w, Event::End(BytesEnd::new("InitialUnknowns")));
     }
     write(w, Event::End(BytesEnd::new("ModelStructure")));
 }
 
-fn unknown(index: usize, var: &Var, with_dependencies: bool) -> BytesStart<'static> {
+/// One `Unknown` of the model structure: its index and the knowns it depends on (0-based
+/// positions in the table, written 1-based and in ascending order, as the standard asks).
+fn unknown(index: usize, inputs: &[u32], parameters: &[u32]) -> BytesStart<'static> {
     let mut e = BytesStart::new("Unknown");
     e.push_attribute(("index", (index + 1).to_string().as_str()));
-    if with_dependencies {
-        let deps: Vec<String> = var.depends_on.iter().map(|d| (d + 1).to_string()).collect();
-        e.push_attribute(("dependencies", deps.join(" ").as_str()));
-        if !deps.is_empty() {
-            let kinds = vec!["dependent"; deps.len()].join(" ");
-            e.push_attribute(("dependenciesKind", kinds.as_str()));
-        }
+    let mut knowns: Vec<u32> = inputs.iter().chain(parameters).copied().collect();
+    knowns.sort_unstable();
+    knowns.dedup();
+    let deps: Vec<String> = knowns.iter().map(|d| (d + 1).to_string()).collect();
+    e.push_attribute(("dependencies", deps.join(" ").as_str()));
+    if !deps.is_empty() {
+        let kinds = vec!["dependent"; deps.len()].join(" ");
+        e.push_attribute(("dependenciesKind", kinds.as_str()));
     }
     e
 }

@@ -51,9 +51,12 @@ declare_variables! {
             .description("Load torque on the structure about the elevation axis (the wind's pitching moment; with a drive-excited mode, also the jackscrew reaction); positive raises the dish."),
         DishForce = Var::real("force.dish", "N").input().start(0.0).min(-MAX_LOAD_FORCE).max(MAX_LOAD_FORCE)
             .description("Wind drag on the dish along the wind, whatever its direction relative to the antenna (the Wind FMU's force.drag), weighed by each mode's dish_force. One number cannot weigh a drag whose direction in the antenna's frame turns with the yaw: modes from a finite-element model should take force.axial and force.lateral instead (a mode may not take both). The default modes take no force."),
-        BeamAz = Var::real("beam.azimuth_offset", "arcsec").output()
+        // The structure starts at rest in the static deflection under its start loads, seen at
+        // the start elevation: the initial offsets depend on those inputs, the later ones only
+        // through the modes' state.
+        BeamAz = Var::real("beam.azimuth_offset", "arcsec").output().initially_depends_on(OFFSET_INPUTS)
             .description("Beam (RF boresight) pointing offset in azimuth relative to the encoder-measured axis, on the sky (cross-elevation): the sum over the modes of (beam_azimuth + beam_azimuth_rotation cos(elevation)) times the modal coordinate, with the elevation input held over the step just taken (a rotation about the azimuth axis moves the beam on the sky by the angle times cos(elevation))."),
-        BeamEl = Var::real("beam.elevation_offset", "arcsec").output()
+        BeamEl = Var::real("beam.elevation_offset", "arcsec").output().initially_depends_on(OFFSET_INPUTS)
             .description("Beam pointing offset in elevation relative to the encoder-measured axis: the sum over the modes of beam_elevation times the modal coordinate."),
         BeamAzStatic = Var::real("beam.azimuth_offset_static", "arcsec").output().depends_on(OFFSET_INPUTS)
             .description("Quasi-static part of beam.azimuth_offset: where it settles under the current loads held for ever (static compliance times load)."),
