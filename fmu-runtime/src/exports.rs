@@ -1129,7 +1129,9 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
         // The notes are the instance's, empty between calls, so that a step neither builds
         // nor drops any; the model refuses a step of more than MAX_STEP_PIECES pieces.
         instance.step_notes.enable_events(instance.category_enabled(CAT_EVENTS));
-        match instance.model.do_step(current, step, MAX_STEP_PIECES, &instance.context, &mut instance.step_notes) {
+        let model_step = grid_step(current, step);
+        match instance.model.do_step(current, model_step, MAX_STEP_PIECES, &instance.context, &mut instance.step_notes)
+        {
             Ok(()) => {
                 // Feedthrough outputs are brought up to date lazily, before the next get that
                 // reads one of them.
@@ -1150,6 +1152,35 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
             }
         }
     })
+}
+
+/// How far a master's step may lie from a short decimal step and still be taken as it, in
+/// units in the last place of the communication point.
+pub const STEP_GRID_ULPS: f64 = 4.0;
+
+/// The step the models take for a master's `step` from `current`: the decimal number with the
+/// fewest significant digits (at most nine) within [`STEP_GRID_ULPS`] units in the last place
+/// of the time, or `step` itself when there is none. Masters that keep a time and step by
+/// `h = (t + h0) - t` (OMSimulator does) pass `h0` give or take an ulp of `t`, which grows with
+/// the time; the models' results depend on the exact step (a discretisation cached by its bits,
+/// an encoder count that flips or not), so without this such a master drifts from one that
+/// passes `h0` by a few 1e-4 arcsec on the beam. A step that is no short decimal (1/3 s) is
+/// never moved: no decimal of up to nine digits lies that close to it.
+pub fn grid_step(current: f64, step: f64) -> f64 {
+    let ulp_of_time = |t: f64| {
+        let t = t.abs().max(step.abs());
+        f64::from_bits(t.to_bits() + 1) - t
+    };
+    let tolerance = STEP_GRID_ULPS * ulp_of_time(current).max(ulp_of_time(current + step));
+    let exponent = step.abs().log10().floor() as i32;
+    for digits in 1..=9 {
+        let scale = 10f64.powi(digits - 1 - exponent);
+        let decimal = (step * scale).round() / scale;
+        if decimal > 0.0 && (decimal - step).abs() <= tolerance {
+            return decimal;
+        }
+    }
+    step
 }
 
 #[cold]

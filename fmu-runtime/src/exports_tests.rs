@@ -1048,3 +1048,26 @@ fn saved_values_list_each_type_in_table_order_whatever_the_storage_order() {
     let back: Values<TestVar> = postcard::from_bytes(&bytes).unwrap();
     assert_eq!(back, values);
 }
+
+#[test]
+fn a_step_within_a_few_ulps_of_the_time_from_a_short_decimal_is_that_decimal() {
+    // OMSimulator's arithmetic: the time accumulates by the step, and each step is the
+    // difference of two communication points, the step give or take an ulp of the time.
+    for nominal in [1e-3, 2.5e-4, 0.02, 0.1] {
+        let mut time = 0.0_f64;
+        let mut moved = 0;
+        while time < 1000.0 {
+            let next = time + nominal;
+            let step = next - time;
+            moved += usize::from(step != nominal);
+            assert_eq!(grid_step(time, step).to_bits(), nominal.to_bits(), "{nominal} at {time}: {step}");
+            time = next;
+        }
+        // The arithmetic does move the steps: the rule is not vacuous.
+        assert!(moved > 1000, "{nominal}: only {moved} steps differ from the nominal");
+    }
+    // Steps that are no short decimal, or lie further away than a few ulps, stay as they are.
+    for (time, step) in [(0.0, 1.0 / 3.0), (0.0, 1e-3 * (1.0 + 1e-9)), (5.0, 0.001_234_567_890_123), (0.0, 86_400.0)] {
+        assert_eq!(grid_step(time, step).to_bits(), step.to_bits(), "{step} at {time}");
+    }
+}
