@@ -325,7 +325,8 @@ fn tornado(label: &str, data: &SweepData, ranking: &[Influence]) -> Figure {
         let y = (shown.len() - i) as f64;
         let rho = influence.spearman;
         let x = [rho.min(0.0), rho.max(0.0)];
-        let name = format!("{}. {} ({})", i + 1, data.parameter_names[influence.parameter], correlation_text(influence));
+        let name =
+            format!("{}. {} ({})", i + 1, data.parameter_names[influence.parameter], correlation_text(influence));
         panel = panel.band(&name, &x, &[y - 0.35, y - 0.35], &[y + 0.35, y + 0.35]);
     }
     Figure::new(1100, 620).panel(panel.vertical_line_coloured("", 0.0, Colour::rgb(0, 0, 0)))
