@@ -90,3 +90,28 @@ def aligned(rows, trace):
     """The engine's rows and the trace's compared columns at the points both have."""
     steps = sorted(k for k in rows if k < len(trace))
     return np.array([rows[k] for k in steps]), trace[steps][:, TRACE_COLUMNS], np.array(steps)
+
+
+def rust_trace(folder, scenario, settings=()):
+    """Runs `scenario` with the Rust master (its own gust seed only, each of `settings` a
+    NAME=VALUE for `--set`) and returns its trace; `folder` then also holds its command table."""
+    command = ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--", "--no-build",
+               "--only", scenario, "--seeds", "1", "--trace", str(folder), "--out", str(folder / "report")]
+    for setting in settings:
+        command += ["--set", setting]
+    subprocess.run(command, cwd=REPOSITORY, check=True, capture_output=True)
+    return np.loadtxt(folder / f"{scenario}.trace.csv", delimiter=",", skiprows=1)
+
+
+def jitter_arcsec(values, steps, step_s, commands_path):
+    """The requirement report's jitter figure (the worst 10 s RMS of the beam's pointing error
+    after the first 10 s) of the compared columns `values` at the points `steps`."""
+    sys.path.insert(0, str(REPOSITORY / "tools" / "fmu_container"))
+    import antenna_container
+
+    names = [f"{slave}.{name}" for slave, name, _ in WATCHED]
+    result = np.zeros(len(steps), dtype=[("time", float)] + [(name, float) for name in names])
+    result["time"] = steps * step_s
+    for i, name in enumerate(names):
+        result[name] = values[:, i]
+    return antenna_container.jitter_arcsec(result, commands_path)

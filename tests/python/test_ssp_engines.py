@@ -1,0 +1,83 @@
+"""The hold scenario at 45 deg in normal wind (Req. 5), exported with `antenna --ssp`, run by two
+third-party co-simulation engines from the Python registry, OSP's libcosim and Vico's ecos, and
+compared with the Rust master's trace of the same scenario.
+
+Both engines step the six FMUs with the same step and the same parameter values as the Rust
+master, but exchange values differently: they step every unit, then read all outputs and set all
+inputs at once, so an output that depends directly on an input (the wind's torques on the
+pointing, the structure's drive torques on the loads) reaches the next unit computed from the
+previous point's inputs. The Rust master reads those outputs after setting the inputs of the same
+point. That exchange, not the archive, is why they agree closely and not bit for bit; the
+tolerances are a little over what was measured (docs/ssp.md)."""
+
+import numpy as np
+import pytest
+
+import ssp_archives
+
+SCENARIO = "hold-el45-normal-wind"
+STEP_S, END_S = 1e-3, 70.0
+# The jitter window's start (Req. 5). Before it, while the antenna settles on its encoders in the
+# gusts, the exchange shows most: up to 4.9e-3 arcsec on the beam in the first seconds.
+WINDOW_START = 10_000
+# One count of the 25-bit encoders, deg.
+COUNT_DEG = 360.0 / 2**25
+RUNNERS = {
+    "libcosim": lambda archive: ssp_archives.run_libcosim(archive, STEP_S, END_S),
+    "ecos": lambda archive: ssp_archives.run_ecos(archive, SCENARIO, STEP_S, END_S),
+}
+
+
+@pytest.fixture(scope="module")
+def scenarios(tmp_path_factory):
+    """The archive and the Rust master's trace of the hold scenario, made once when first asked
+    for: `realistic`, the realistic antenna, and `truncating`, the same with truncating encoders
+    (`encoder.count_mode = 1`), which leaves an engine that ignores enumerations nothing to
+    ignore."""
+    made = {}
+
+    def get(kind):
+        if kind not in made:
+            folder = tmp_path_factory.mktemp(kind)
+            settings = ["encoder.count_mode=1"] if kind == "truncating" else []
+            ssp_archives.export(folder, SCENARIO, settings)
+            made[kind] = folder, ssp_archives.rust_trace(folder, SCENARIO, settings)
+        return made[kind]
+
+    return get
+
+
+def engine_run(engine, folder, trace):
+    """The engine's run of the archive in `folder`, lined up with the Rust master's `trace`, and
+    the jitter figures of both."""
+    values, rust, steps = ssp_archives.aligned(RUNNERS[engine](folder / f"{SCENARIO}.ssp"), trace)
+    jitter = [ssp_archives.jitter_arcsec(v, steps, STEP_S, folder / f"{SCENARIO}.commands.csv") for v in (values, rust)]
+    return values, rust, steps, jitter
+
+
+@pytest.mark.parametrize("engine", sorted(RUNNERS))
+def test_a_third_party_engine_runs_the_hold_archive_as_the_rust_master_up_to_its_exchange(engine, scenarios):
+    """Measured over the jitter window: the axes within 7.5e-7 deg, the encoders within a count
+    (a count flips a step earlier or later), the beam within 7.9e-4 arcsec; the jitter figure
+    within 4.5e-5 arcsec (8.728636 arcsec in both engines against 8.728593)."""
+    values, rust, steps, (engine_jitter, rust_jitter) = engine_run(engine, *scenarios("truncating"))
+    window = steps >= WINDOW_START
+    difference = np.abs(values - rust)[window].max(axis=0)
+    assert np.all(difference[:2] <= 1e-6), (engine, difference)
+    assert np.all(difference[2:4] <= COUNT_DEG * 1.001), (engine, difference)
+    assert np.all(difference[4:] <= 1e-3), (engine, difference)
+    assert abs(engine_jitter - rust_jitter) <= 1e-4, (engine, engine_jitter, rust_jitter)
+
+
+@pytest.mark.parametrize("engine", sorted(RUNNERS))
+def test_an_engine_that_ignores_enumerations_loses_the_realistic_antennas_rounding_encoder(engine, scenarios):
+    """Both engines ignore FMI 2.0 enumerations, and with them the plants' `encoder.count_mode`:
+    their encoders truncate where the realistic antenna's round, and the jitter comes out about
+    0.023 arcsec low (measured 0.0226: 8.728636 against 8.751265 arcsec). The tolerance is that
+    difference, until the settings are reachable through Integer variables."""
+    values, rust, steps, (engine_jitter, rust_jitter) = engine_run(engine, *scenarios("realistic"))
+    assert abs(engine_jitter - rust_jitter) <= 0.03, (engine, engine_jitter, rust_jitter)
+    # The beam itself still follows within the exchange's tolerance: the counts move the axes,
+    # not the structure's response to the gusts.
+    window = steps >= WINDOW_START
+    assert np.abs(values - rust)[window][:, 4:].max() <= 1e-3, engine
