@@ -77,25 +77,47 @@ def test_every_connection_joins_declared_connectors_and_every_parameter_has_its_
             assert used and used <= declared, (name, entry, used - declared)
 
 
-def system_inputs(path):
-    ssd = documents(path)["SystemStructure.ssd"]
-    return sorted(c.get("name") for c in ssd.findall("ssd:System/ssd:Connectors/ssd:Connector[@kind='input']",
-                                                     NAMESPACES))
+def start_values(path, unit):
+    """The values the archive binds to `unit`, by name."""
+    ssv = documents(path)[f"resources/{unit}.ssv"]
+    return {p.get("name"): float(p[0].get("value")) for p in ssv.findall(".//ssv:Parameter", NAMESPACES)
+            if p[0].tag.endswith("Real")}
 
 
-def test_a_held_command_is_a_start_value_and_a_moving_one_an_input_of_the_system(archives):
-    assert system_inputs(archives["hold-el45-normal-wind.ssp"]) == []
-    controller = documents(archives["hold-el45-normal-wind.ssp"])["resources/AzimuthController.ssv"]
-    held = {p.get("name"): p[0].get("value") for p in controller.findall(".//ssv:Parameter", NAMESPACES)}
-    assert float(held["command.position"]) == 30.0 and float(held["command.velocity"]) == 0.0
-    tracking = archives["track-sidereal-el45-normal-wind.ssp"]
-    assert system_inputs(tracking) == ["command.azimuth", "command.azimuth_rate", "command.elevation",
-                                       "command.elevation_rate"]
+def entries(path):
+    with zipfile.ZipFile(path) as archive:
+        return set(archive.namelist())
+
+
+def test_the_command_starts_as_the_controllers_start_values_and_a_moving_one_comes_with_its_table(archives):
+    """SSP 1.0 has no signal source: a hold is its start values, a tracking command comes with its
+    table for the engine's user to feed. No connection leaves the components, since libcosim and
+    ecos refuse connections to the system's own connectors."""
+    hold, tracking = archives["hold-el45-normal-wind.ssp"], archives["track-0.04-el45-normal-wind.ssp"]
+    for unit, position in (("AzimuthController", 30.0), ("ElevationController", 45.0)):
+        held = start_values(hold, unit)
+        assert (held["command.position"], held["command.velocity"]) == (position, 0.0), unit
+        # The Rust master's command at the first point: the table's start, at rest.
+        assert start_values(tracking, unit)["command.position"] == position, unit
+    assert "resources/commands.csv" not in entries(hold)
     with zipfile.ZipFile(tracking) as archive:
-        assert archive.read("resources/commands.csv").startswith(b"time_s,azimuth_deg,elevation_deg\n")
-    assert system_inputs(archives["plant.ssp"]) == ["azimuth.motor1.current_command",
-                                                    "azimuth.motor2.current_command",
-                                                    "elevation.motor.current_command"]
+        header, *rows = archive.read("resources/commands.csv").decode().splitlines()
+    assert header == "time_s,azimuth_deg,elevation_deg"
+    assert float(rows[-1].split(",")[1]) == pytest.approx(30.0 + 0.04 * 70.0)
+    for name, path in archives.items():
+        ssd = documents(path)["SystemStructure.ssd"]
+        for connection in ssd.findall(".//ssd:Connection", NAMESPACES):
+            assert connection.get("startElement") and connection.get("endElement"), name
+
+
+def test_the_plant_archive_leaves_the_motor_current_commands_open_for_a_controller_of_ones_own(archives):
+    ssd = documents(archives["plant.ssp"])["SystemStructure.ssd"]
+    connected = {(c.get("endElement"), c.get("endConnector")) for c in ssd.findall(".//ssd:Connection", NAMESPACES)}
+    for plant, current in (("AzimuthPlant", "motor1.current_command"), ("AzimuthPlant", "motor2.current_command"),
+                           ("ElevationPlant", "motor.current_command")):
+        component = ssd.find(f".//ssd:Component[@name='{plant}']", NAMESPACES)
+        kinds = {c.get("name"): c.get("kind") for c in component.findall("ssd:Connectors/ssd:Connector", NAMESPACES)}
+        assert kinds[current] == "input" and (plant, current) not in connected, (plant, current)
 
 
 def test_the_same_scenario_gives_the_same_archive_byte_for_byte(archives, tmp_path):

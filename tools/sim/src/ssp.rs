@@ -7,12 +7,13 @@
 //! What the Rust master sets before a run is read back from an antenna it builds for the
 //! scenario, so the archive holds the very values the master uses: its overrides, the start
 //! pose, the loads the structure starts under and the plants' load inertias less what the
-//! structure's modes carry. A constant command (a hold) is a parameter like the others; any
-//! other command comes through four inputs of the system, `command.azimuth` and
-//! `command.azimuth_rate` (and the elevation's), with the scenario's table beside them in
-//! `resources/commands.csv`: SSP 1.0 defines no signal source. The archive without the
-//! controllers is the plant for a controller of one's own: its motor current commands are
-//! inputs of the system, its encoders, motor speeds and beam offsets outputs.
+//! structure's modes carry. The command is the controllers' start values (`command.position`,
+//! `command.velocity`): the whole command of a hold; any other goes with its table in
+//! `resources/commands.csv`, and the engine's user sets those four inputs from it at every step,
+//! since SSP 1.0 defines no signal source (and libcosim and ecos refuse connections to a
+//! system's own connectors, the standard's way to leave inputs open). The archive without the
+//! controllers is the plant for a controller of one's own: its motor current commands are left
+//! unconnected, for that controller's outputs.
 //!
 //! The archive is written deterministically (entries sorted, fixed timestamps): the same
 //! scenario and FMUs give the same bytes.
@@ -71,8 +72,8 @@ struct Component<'a> {
     bindings: Vec<Binding>,
 }
 
-/// One end of a connection: an element's connector, or the system's own (`element` `None`).
-type End = (Option<&'static str>, String);
+/// One end of a connection: an element and its connector.
+type End = (&'static str, String);
 
 /// A connection and the factor its value is multiplied by on the way (`None`: none).
 struct Connection {
@@ -81,20 +82,10 @@ struct Connection {
     factor: Option<f64>,
 }
 
-/// A connector of the system itself, with the element connector it stands for (its kind and type
-/// are that connector's).
-struct SystemConnector {
-    name: String,
-    kind: &'static str,
-    element: &'static str,
-    connector: String,
-}
-
 /// The system an archive describes.
 struct System<'a> {
     components: Vec<Component<'a>>,
     connections: Vec<Connection>,
-    connectors: Vec<SystemConnector>,
 }
 
 /// The archive of `scenario` run with `config` (its wind is the scenario's): the bytes of the
@@ -110,10 +101,7 @@ pub fn archive(
     let system = system(fmus, &config, &scenario.table, extent)?;
     let mut entries: BTreeMap<String, Vec<u8>> = BTreeMap::new();
     let (start_s, _) = scenario.table.time_span();
-    let name = match extent {
-        Extent::Antenna => scenario.name.clone(),
-        Extent::Plant => format!("{}-plant", scenario.name),
-    };
+    let name = system_name(&scenario.name, extent);
     entries
         .insert("SystemStructure.ssd".into(), ssd_text(&system, &name, start_s, scenario.end_s, config.step_s)?.into());
     for component in &system.components {
@@ -121,12 +109,26 @@ pub fn archive(
         entries.insert(format!("resources/{}.fmu", component.name), std::fs::read(&fmu_path)?);
         entries.insert(format!("resources/{}.ssv", component.name), ssv_text(component, &name)?.into());
     }
-    // SSP 1.0 has no signal source: a command that changes goes in as the system's inputs, with
-    // the table that gives them beside.
+    // SSP 1.0 has no signal source: a command that changes goes with the table that gives it.
     if extent == Extent::Antenna && !constant_command(&scenario.table) {
         entries.insert("resources/commands.csv".into(), scenario.table.to_csv().into());
     }
     zip_deterministically(&entries)
+}
+
+/// The name of the archive's system description and of its parameter sets: the scenario's, as an
+/// identifier (`hold-el45-normal-wind` gives `hold_el45_normal_wind`), since OMSimulator takes it
+/// for the name of the model, which must be one; `_plant` added for the antenna without its
+/// controllers.
+pub fn system_name(scenario: &str, extent: Extent) -> String {
+    let mut name: String = scenario.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+    if !name.starts_with(|c: char| c.is_ascii_alphabetic()) {
+        name.insert(0, 's');
+    }
+    match extent {
+        Extent::Antenna => name,
+        Extent::Plant => name + "_plant",
+    }
 }
 
 /// The archive's entries as a zip: sorted by name, each with the zip format's earliest time, so
@@ -171,7 +173,6 @@ fn system<'a>(
             .collect())
     };
     let names = |set: &[(String, ParameterValue)]| set.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
-    let constant = constant_command(table);
     let mut components = Vec::new();
     let mut wanted = vec!["initial_position".to_string(), "elevation".to_string()];
     wanted.extend(names(&config.azimuth_plant));
@@ -205,11 +206,10 @@ fn system<'a>(
             let mut wanted = vec!["command.position".to_string(), "measured.position".to_string()];
             wanted.extend(names(overrides));
             let mut bindings = read_back(instance, &fmu.description, &wanted, overrides)?;
-            // The master sets the command at every step; a constant one is a start value.
-            if constant {
-                set_binding(&mut bindings, "command.position", ParameterValue::Real(command.0));
-                set_binding(&mut bindings, "command.velocity", ParameterValue::Real(command.1));
-            }
+            // The master sets the command at every step: its value at the start is the start
+            // value, the whole command of a hold.
+            set_binding(&mut bindings, "command.position", ParameterValue::Real(command.0));
+            set_binding(&mut bindings, "command.velocity", ParameterValue::Real(command.1));
             components.push(Component { name, fmu, bindings });
         }
     }
@@ -231,9 +231,8 @@ fn system<'a>(
         takes = structure_inputs_taken(structure, &fmus.wind.description, description)?;
     }
     let wind_factor = if config.wind.mean_speed_m_s <= 0.0 { 0.0 } else { config.wind_load_scale };
-    let connections = connections(extent, constant, &takes, structure_feedback, wind_factor);
-    let connectors = system_connectors(extent, constant, config.structure.is_some());
-    Ok(System { components, connections, connectors })
+    let connections = connections(extent, &takes, structure_feedback, wind_factor);
+    Ok(System { components, connections })
 }
 
 /// Puts `value` for `name` in `bindings`, in place of any value it had.
@@ -332,18 +331,17 @@ fn structure_inputs_taken(
 
 /// The connections of the Rust master (`coupled.rs`): the axes' positions to the wind unit and
 /// the elevation to the azimuth plant; the controllers' current commands to the plants and the
-/// encoders and motor speeds back (or to and from the system, without controllers); the
+/// encoders and motor speeds back (none without controllers); the
 /// wind's loads, scaled by `wind_factor`, to the structure and, where its modes push back on
 /// the drives (`structure_feedback`), the structure's drive torques to the plants, else the
 /// wind's torques. `structure_inputs` is empty without a structure.
 fn connections(
     extent: Extent,
-    constant_command: bool,
     structure_inputs: &[(&'static str, Source)],
     structure_feedback: bool,
     wind_factor: f64,
 ) -> Vec<Connection> {
-    let element = |e: &'static str, c: &str| (Some(e), c.to_string());
+    let element = |e: &'static str, c: &str| (e, c.to_string());
     let plain = |from: End, to: End| Connection { from, to, factor: None };
     let scaled = |from: End, to: End| Connection { from, to, factor: (wind_factor != 1.0).then_some(wind_factor) };
     let mut out = vec![
@@ -381,51 +379,6 @@ fn connections(
             out.push(plain(element("Structure", &format!("drive_torque.{axis}")), to));
         } else {
             out.push(scaled(element("Wind", &format!("torque.{axis}")), to));
-        }
-    }
-    for connector in system_connectors(extent, constant_command, !structure_inputs.is_empty()) {
-        let system = (None, connector.name.clone());
-        let inner = element(connector.element, &connector.connector);
-        out.push(if connector.kind == "input" { plain(system, inner) } else { plain(inner, system) });
-    }
-    out
-}
-
-/// The system's own connectors: the command where it is not constant; without controllers, the
-/// motor current commands in and the measurements and (with a structure) the beam out.
-fn system_connectors(extent: Extent, constant_command: bool, structure: bool) -> Vec<SystemConnector> {
-    let connector = |name: &str, kind, element, inner: &str| SystemConnector {
-        name: name.to_string(),
-        kind,
-        element,
-        connector: inner.to_string(),
-    };
-    let mut out = Vec::new();
-    match extent {
-        Extent::Antenna if !constant_command => {
-            out.push(connector("command.azimuth", "input", "AzimuthController", "command.position"));
-            out.push(connector("command.azimuth_rate", "input", "AzimuthController", "command.velocity"));
-            out.push(connector("command.elevation", "input", "ElevationController", "command.position"));
-            out.push(connector("command.elevation_rate", "input", "ElevationController", "command.velocity"));
-        }
-        Extent::Antenna => {}
-        Extent::Plant => {
-            out.push(connector("azimuth.motor1.current_command", "input", "AzimuthPlant", "motor1.current_command"));
-            out.push(connector("azimuth.motor2.current_command", "input", "AzimuthPlant", "motor2.current_command"));
-            out.push(connector("elevation.motor.current_command", "input", "ElevationPlant", "motor.current_command"));
-            for (axis, plant, speeds) in [
-                ("azimuth", "AzimuthPlant", &["motor1.speed", "motor2.speed"][..]),
-                ("elevation", "ElevationPlant", &["motor.speed"][..]),
-            ] {
-                out.push(connector(&format!("{axis}.encoder_position"), "output", plant, "axis.encoder_position"));
-                for speed in speeds {
-                    out.push(connector(&format!("{axis}.{speed}"), "output", plant, speed));
-                }
-            }
-            if structure {
-                out.push(connector("beam.azimuth_offset", "output", "Structure", "beam.azimuth_offset"));
-                out.push(connector("beam.elevation_offset", "output", "Structure", "beam.elevation_offset"));
-            }
         }
     }
     out
@@ -734,27 +687,6 @@ fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) 
     for component in &system.components {
         all_declarations.insert(component.name, declarations(component.fmu)?);
     }
-    if !system.connectors.is_empty() {
-        start(&mut w, "ssd:Connectors", &[])?;
-        for connector in &system.connectors {
-            let component = system
-                .components
-                .iter()
-                .find(|c| c.name == connector.element)
-                .expect("a system connector stands for a component's");
-            let variable = component.fmu.description.variable(&connector.connector)?;
-            write_connector(
-                &mut w,
-                &connector.name,
-                connector.kind,
-                variable,
-                &all_declarations[component.name],
-                &mut units,
-                &mut enumerations,
-            )?;
-        }
-        end(&mut w, "ssd:Connectors")?;
-    }
     start(&mut w, "ssd:Elements", &[])?;
     for component in &system.components {
         let source = format!("resources/{}.fmu", component.name);
@@ -763,20 +695,15 @@ fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) 
             "ssd:Component",
             &[("name", component.name), ("type", "application/x-fmu-sharedlibrary"), ("source", &source)],
         )?;
-        // Every variable that is connected or bound is a connector, in the FMU's order, but for
-        // enumerations: libcosim aborts on an enumeration connector (while the standard lets a
+        // Every input and output is a connector, connected or not (the plant's open current
+        // commands among them), and every variable bound, in the FMU's order; but no
+        // enumeration: libcosim aborts on an enumeration connector (while the standard lets a
         // binding name a variable without one).
-        let used = |n: &str| {
-            component.bindings.iter().any(|b| b.name == n)
-                || system
-                    .connections
-                    .iter()
-                    .any(|c| [&c.from, &c.to].iter().any(|(e, v)| *e == Some(component.name) && v == n))
+        let used = |v: &fmu_import::ScalarVariable| {
+            matches!(v.causality.as_str(), "input" | "output") || component.bindings.iter().any(|b| b.name == v.name)
         };
         start(&mut w, "ssd:Connectors", &[])?;
-        for variable in
-            component.fmu.description.variables.iter().filter(|v| used(&v.name) && v.type_name != "Enumeration")
-        {
+        for variable in component.fmu.description.variables.iter().filter(|v| used(v) && v.type_name != "Enumeration") {
             let declarations = &all_declarations[component.name];
             write_connector(
                 &mut w,
@@ -798,13 +725,9 @@ fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) 
     start(&mut w, "ssd:Connections", &[])?;
     for connection in &system.connections {
         let mut attributes = Vec::new();
-        if let Some(element) = connection.from.0 {
-            attributes.push(("startElement", element));
-        }
+        attributes.push(("startElement", connection.from.0));
         attributes.push(("startConnector", connection.from.1.as_str()));
-        if let Some(element) = connection.to.0 {
-            attributes.push(("endElement", element));
-        }
+        attributes.push(("endElement", connection.to.0));
         attributes.push(("endConnector", connection.to.1.as_str()));
         match connection.factor {
             Some(factor) => {
@@ -845,24 +768,20 @@ mod tests {
     use super::*;
 
     fn ends(connections: &[Connection]) -> Vec<(String, String)> {
-        let show = |(element, connector): &End| format!("{}.{connector}", element.unwrap_or("system"));
+        let show = |(element, connector): &End| format!("{element}.{connector}");
         connections.iter().map(|c| (show(&c.from), show(&c.to))).collect()
     }
 
     #[test]
-    fn the_plant_archive_takes_the_currents_from_the_system_and_has_no_controller() {
+    fn the_plant_archive_has_no_controller_and_leaves_the_current_commands_open() {
         let inputs = [("torque.azimuth", Source::Wind("torque.azimuth"))];
-        let plant = ends(&connections(Extent::Plant, true, &inputs, true, 1.0));
+        let plant = ends(&connections(Extent::Plant, &inputs, true, 1.0));
         assert!(plant.iter().all(|(a, b)| !a.contains("Controller") && !b.contains("Controller")), "{plant:?}");
-        for current in ["AzimuthPlant.motor1.current_command", "ElevationPlant.motor.current_command"] {
-            assert!(plant.iter().any(|(a, b)| a.starts_with("system.") && b == current), "{current}");
-        }
-        let antenna = ends(&connections(Extent::Antenna, true, &inputs, true, 1.0));
-        assert!(antenna.contains(&(
-            "AzimuthController.motor1.current_command".into(),
-            "AzimuthPlant.motor1.current_command".into()
-        )));
-        assert!(antenna.iter().all(|(a, _)| !a.starts_with("system.")), "a held command is no input of the system");
+        assert!(plant.iter().all(|(_, b)| !b.ends_with("current_command")), "{plant:?}");
+        let antenna = ends(&connections(Extent::Antenna, &inputs, true, 1.0));
+        let current = ("AzimuthController.motor1.current_command".into(), "AzimuthPlant.motor1.current_command".into());
+        assert!(antenna.contains(&current), "{antenna:?}");
+        assert_eq!(antenna.len(), plant.len() + 8);
     }
 
     #[test]
@@ -871,10 +790,16 @@ mod tests {
             ("torque.azimuth", Source::Wind("torque.azimuth")),
             ("axis.azimuth_speed", Source::Plant("AzimuthPlant", "axis.speed")),
         ];
-        let calm = connections(Extent::Antenna, true, &inputs, false, 0.0);
+        let calm = connections(Extent::Antenna, &inputs, false, 0.0);
         let scaled: Vec<_> = calm.iter().filter(|c| c.factor.is_some()).map(|c| c.from.1.clone()).collect();
         assert_eq!(scaled, ["torque.azimuth", "torque.azimuth", "torque.elevation"]);
-        assert!(connections(Extent::Antenna, true, &inputs, false, 1.0).iter().all(|c| c.factor.is_none()));
+        assert!(connections(Extent::Antenna, &inputs, false, 1.0).iter().all(|c| c.factor.is_none()));
+    }
+
+    #[test]
+    fn system_names_are_identifiers() {
+        assert_eq!(system_name("track-0.04-el45-normal-wind", Extent::Antenna), "track_0_04_el45_normal_wind");
+        assert_eq!(system_name("4deg", Extent::Plant), "s4deg_plant");
     }
 
     #[test]
