@@ -71,9 +71,16 @@ def load_ecos():
     return EcosSimulation
 
 
-def run_ecos(archive, set_name, step_s, end_s):
+# The controllers' command inputs, in the order of coupled_master.CommandTable.at's values.
+COMMAND_INPUTS = ("AzimuthController::command.position", "AzimuthController::command.velocity",
+                  "ElevationController::command.position", "ElevationController::command.velocity")
+
+
+def run_ecos(archive, set_name, step_s, end_s, commands=None):
     """Runs `archive` in ecos, which applies the parameter sets named `set_name` (all of the
-    archive's) at its initialisation. ecos adds its step to a floating-point time."""
+    archive's) at its initialisation. ecos adds its step to a floating-point time. With
+    `commands` (a coupled_master.CommandTable: the archive's resources/commands.csv), the
+    controllers are given the command at every point, as docs/ssp.md tells a user to."""
     EcosSimulation = load_ecos()
     simulation = EcosSimulation(ssp_path=str(archive), step_size=step_s)
     assert simulation.init(parameter_set=set_name)
@@ -81,6 +88,9 @@ def run_ecos(archive, set_name, step_s, end_s):
     rows = {}
     for k in range(int(round(end_s / step_s)) + 1):
         rows[k] = [simulation.get_real(name) for name in names]
+        if commands is not None:
+            for name, value in zip(COMMAND_INPUTS, commands.at(simulation.get_time())):
+                simulation.set_real(name, value)
         simulation.step(1)
     simulation.terminate()
     return rows
