@@ -426,14 +426,11 @@ fn read_back(
     Ok(bindings)
 }
 
-/// What an FMU's model description declares beyond its variables: its units (with the
-/// attributes of their `BaseUnit`), its enumeration types (items and values) and which
-/// enumeration type each enumeration variable has.
+/// What an FMU's model description declares beyond its variables: its units, with the attributes
+/// of their `BaseUnit`.
 #[derive(Debug, Default)]
 struct Declarations {
     units: BTreeMap<String, Vec<(String, String)>>,
-    enumerations: BTreeMap<String, Vec<(String, String)>>,
-    declared_types: BTreeMap<String, String>,
 }
 
 /// Reads the declarations of the FMU unpacked in `fmu.directory`.
@@ -443,8 +440,8 @@ fn declarations(fmu: &Fmu) -> Result<Declarations, SspError> {
         |e: String| ImportError::Description(format!("{}: modelDescription.xml: {e}", fmu.description.model_name));
     let mut reader = quick_xml::Reader::from_str(&text);
     let mut out = Declarations::default();
-    // The unit, simple type or variable being read.
-    let (mut unit, mut simple_type, mut variable) = (String::new(), String::new(), String::new());
+    // The unit being read.
+    let mut unit = String::new();
     loop {
         let event = reader.read_event().map_err(|e| bad(e.to_string()))?;
         let element = match &event {
@@ -466,12 +463,6 @@ fn declarations(fmu: &Fmu) -> Result<Declarations, SspError> {
             "Unit" => unit = get("name"),
             "BaseUnit" => {
                 out.units.insert(unit.clone(), attributes.clone());
-            }
-            "SimpleType" => simple_type = get("name"),
-            "Item" => out.enumerations.entry(simple_type.clone()).or_default().push((get("name"), get("value"))),
-            "ScalarVariable" => variable = get("name"),
-            "Enumeration" if !get("declaredType").is_empty() => {
-                out.declared_types.insert(variable.clone(), get("declaredType"));
             }
             _ => {}
         }
@@ -566,28 +557,8 @@ fn write_units(
     end(w, element)
 }
 
-/// The enumeration types named in `used`, as the FMUs declare them.
-fn write_enumerations(
-    w: &mut XmlWriter,
-    element: &str,
-    used: &BTreeMap<String, Vec<(String, String)>>,
-) -> Result<(), SspError> {
-    if used.is_empty() {
-        return Ok(());
-    }
-    start(w, element, &[])?;
-    for (name, items) in used {
-        start(w, "ssc:Enumeration", &[("name", name)])?;
-        for (item, value) in items {
-            empty(w, "ssc:Item", &[("name", item), ("value", value)])?;
-        }
-        end(w, "ssc:Enumeration")?;
-    }
-    end(w, element)
-}
-
-/// A component's parameter set, named `set_name`: every binding with its unit, and the units and
-/// enumeration types they use. Every component's set has the same name, the archive's: ecos
+/// A component's parameter set, named `set_name`: every binding with its unit, and the units
+/// they use. Every component's set has the same name, the archive's: ecos
 /// applies the sets of one name to all components at once (libcosim the first set of each).
 fn ssv_text(component: &Component, set_name: &str) -> Result<String, SspError> {
     let declarations = declarations(component.fmu)?;
@@ -599,7 +570,7 @@ fn ssv_text(component: &Component, set_name: &str) -> Result<String, SspError> {
         &[("xmlns:ssc", SSC), ("xmlns:ssv", SSV), ("version", "1.0"), ("name", set_name)],
     )?;
     start(&mut w, "ssv:Parameters", &[])?;
-    let (mut units, mut enumerations) = (BTreeMap::new(), BTreeMap::new());
+    let mut units = BTreeMap::new();
     for binding in &component.bindings {
         let variable = description.variable(&binding.name)?;
         let (kind, attributes) = ssv_value(variable, &binding.value);
@@ -607,17 +578,11 @@ fn ssv_text(component: &Component, set_name: &str) -> Result<String, SspError> {
         let attributes: Vec<(&str, &str)> = attributes.iter().map(|(k, v)| (*k, v.as_str())).collect();
         empty(&mut w, &format!("ssv:{kind}"), &attributes)?;
         end(&mut w, "ssv:Parameter")?;
-        for (key, value) in attributes {
-            if key == "unit" {
-                units.insert(value.to_string(), declarations.units.get(value).cloned().unwrap_or_default());
-            } else if key == "name" {
-                enumerations
-                    .insert(value.to_string(), declarations.enumerations.get(value).cloned().unwrap_or_default());
-            }
+        for (_, unit) in attributes.iter().filter(|(key, _)| *key == "unit") {
+            units.insert(unit.to_string(), declarations.units.get(*unit).cloned().unwrap_or_default());
         }
     }
     end(&mut w, "ssv:Parameters")?;
-    write_enumerations(&mut w, "ssv:Enumerations", &enumerations)?;
     write_units(&mut w, "ssv:Units", &units)?;
     end(&mut w, "ssv:ParameterSet")?;
     Ok(finish(w))
@@ -633,7 +598,7 @@ fn connector_kind(variable: &fmu_import::ScalarVariable) -> &'static str {
     }
 }
 
-/// A connector with its type (and unit), for a variable of `description`.
+/// A connector with its type (and unit) for a variable that is no enumeration.
 fn write_connector(
     w: &mut XmlWriter,
     name: &str,
@@ -641,7 +606,6 @@ fn write_connector(
     variable: &fmu_import::ScalarVariable,
     declarations: &Declarations,
     units: &mut BTreeMap<String, Vec<(String, String)>>,
-    enumerations: &mut BTreeMap<String, Vec<(String, String)>>,
 ) -> Result<(), SspError> {
     start(w, "ssd:Connector", &[("name", name), ("kind", kind)])?;
     match variable.type_name.as_str() {
@@ -652,20 +616,13 @@ fn write_connector(
             }
             None => empty(w, "ssc:Real", &[])?,
         },
-        "Enumeration" => {
-            let type_name = declarations.declared_types.get(&variable.name).cloned().unwrap_or_default();
-            empty(w, "ssc:Enumeration", &[("name", &type_name)])?;
-            enumerations
-                .insert(type_name.clone(), declarations.enumerations.get(&type_name).cloned().unwrap_or_default());
-        }
         other => empty(w, &format!("ssc:{other}"), &[])?,
     }
     end(w, "ssd:Connector")
 }
 
-/// `SystemStructure.ssd`: the system `name` with its components, their connectors (every
-/// variable connected or bound), parameter bindings and connections, the units and enumeration
-/// types used, and the run's start, end and step.
+/// `SystemStructure.ssd`: the system `name` with its components, their connectors, parameter
+/// bindings and connections, the units used, and the run's start, end and step.
 fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) -> Result<String, SspError> {
     let mut w = new_document()?;
     start(
@@ -682,7 +639,7 @@ fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) 
         ],
     )?;
     start(&mut w, "ssd:System", &[("name", "antenna")])?;
-    let (mut units, mut enumerations) = (BTreeMap::new(), BTreeMap::new());
+    let mut units = BTreeMap::new();
     let mut all_declarations = BTreeMap::new();
     for component in &system.components {
         all_declarations.insert(component.name, declarations(component.fmu)?);
@@ -705,15 +662,7 @@ fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) 
         start(&mut w, "ssd:Connectors", &[])?;
         for variable in component.fmu.description.variables.iter().filter(|v| used(v) && v.type_name != "Enumeration") {
             let declarations = &all_declarations[component.name];
-            write_connector(
-                &mut w,
-                &variable.name,
-                connector_kind(variable),
-                variable,
-                declarations,
-                &mut units,
-                &mut enumerations,
-            )?;
+            write_connector(&mut w, &variable.name, connector_kind(variable), variable, declarations, &mut units)?;
         }
         end(&mut w, "ssd:Connectors")?;
         start(&mut w, "ssd:ParameterBindings", &[])?;
@@ -740,7 +689,6 @@ fn ssd_text(system: &System, name: &str, start_s: f64, end_s: f64, step_s: f64) 
     }
     end(&mut w, "ssd:Connections")?;
     end(&mut w, "ssd:System")?;
-    write_enumerations(&mut w, "ssd:Enumerations", &enumerations)?;
     write_units(&mut w, "ssd:Units", &units)?;
     write_default_experiment(&mut w, start_s, end_s, step_s)?;
     end(&mut w, "ssd:SystemStructureDescription")?;
