@@ -480,18 +480,19 @@ fn xml_double(x: f64) -> String {
     }
 }
 
-/// How a value is written in an SSV parameter set: the element (`Real`, `Integer`, `Boolean` or
-/// `String`) and its attributes. The one place that decides how each FMU variable is given its
-/// value, so that another route (an Integer alias of an enumeration, for engines that ignore
-/// enumerations) changes only here.
+/// How a value is written in an SSV parameter set: the name of the parameter, the element
+/// (`Real`, `Integer`, `Boolean` or `String`) and its attributes. The one place that decides how
+/// each FMU variable is given its value, so that another route (an Integer alias of an
+/// enumeration, for engines that ignore enumerations) changes only here.
 ///
 /// An enumeration's value goes as the integer it is (FMI 2.0 sets enumerations with
-/// `fmi2SetInteger`), not as an `ssv:Enumeration` item: libcosim aborts on those.
-fn ssv_value(
+/// `fmi2SetInteger`), under its own name, not as an `ssv:Enumeration` item: libcosim aborts on
+/// those, and libcosim and ecos ignore enumeration variables whatever the value's form.
+fn ssv_parameter(
     variable: &fmu_import::ScalarVariable,
     value: &ParameterValue,
-) -> (&'static str, Vec<(&'static str, String)>) {
-    match value {
+) -> (String, &'static str, Vec<(&'static str, String)>) {
+    let (kind, attributes) = match value {
         ParameterValue::Real(x) => {
             let mut attributes = vec![("value", xml_double(*x))];
             if let Some(unit) = &variable.unit {
@@ -502,7 +503,8 @@ fn ssv_value(
         ParameterValue::Integer(i) => ("Integer", vec![("value", i.to_string())]),
         ParameterValue::Boolean(b) => ("Boolean", vec![("value", b.to_string())]),
         ParameterValue::Text(t) => ("String", vec![("value", t.clone())]),
-    }
+    };
+    (variable.name.clone(), kind, attributes)
 }
 
 type XmlWriter = Writer<Vec<u8>>;
@@ -573,8 +575,8 @@ fn ssv_text(component: &Component, set_name: &str) -> Result<String, SspError> {
     let mut units = BTreeMap::new();
     for binding in &component.bindings {
         let variable = description.variable(&binding.name)?;
-        let (kind, attributes) = ssv_value(variable, &binding.value);
-        start(&mut w, "ssv:Parameter", &[("name", &binding.name)])?;
+        let (name, kind, attributes) = ssv_parameter(variable, &binding.value);
+        start(&mut w, "ssv:Parameter", &[("name", &name)])?;
         let attributes: Vec<(&str, &str)> = attributes.iter().map(|(k, v)| (*k, v.as_str())).collect();
         empty(&mut w, &format!("ssv:{kind}"), &attributes)?;
         end(&mut w, "ssv:Parameter")?;
