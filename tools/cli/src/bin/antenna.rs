@@ -10,8 +10,9 @@
 //! and every parameter override, `name = value` lines) and its full trace as CSV, which the fmpy master
 //! (tools/fmpy_master/coupled_master.py) reads to run the same scenario. `--commands <file.csv>`
 //! runs a pointing table of your own instead of the requirement scenarios, judged by the
-//! Req. 1 jitter. A failed requirement is a finding of the report, not an error: the exit code
-//! is 0 whenever the report was written.
+//! Req. 1 jitter. `--ssp <dir>` writes each scenario as an SSP 1.0 archive for other
+//! co-simulation engines (docs/ssp.md). A failed requirement is a finding of the report, not
+//! an error: the exit code is 0 whenever the report was written.
 //!
 //! `antenna sweep ...` draws samples over the ranges of docs/parameters.csv and runs the
 //! requirement scenarios for each, on all cores or on a distributed engine, and writes the rows
@@ -32,7 +33,7 @@ use antenna_sim::report::{csv, markdown, plot, run_scenario, run_with_budget, sp
 use antenna_sim::scenario::{
     normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
 };
-use antenna_sim::sweep;
+use antenna_sim::{ssp, sweep};
 use antenna_sim::{AntennaConfig, AntennaSetup, Configuration, FmuSet, Lanes};
 
 /// Runs the coupled antenna FMUs through the requirement scenarios (Req. 1-5) and writes the
@@ -40,6 +41,7 @@ use antenna_sim::{AntennaConfig, AntennaSetup, Configuration, FmuSet, Lanes};
 #[derive(Parser)]
 // `about` is left to this doc comment: the crate description is that of all the commands.
 #[command(version, long_about = None, args_conflicts_with_subcommands = true)]
+#[command(group(clap::ArgGroup::new("exports").args(["trace", "ssp"]).multiple(true)))]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -88,9 +90,15 @@ struct Cli {
     /// (repeatable; the names of `antenna sweep --fix`): the report at one point of the ranges.
     #[arg(long, value_name = "NAME=VALUE", value_parser = parse_fix)]
     set: Vec<(String, f64)>,
-    /// Write what another master needs for each scenario (its command table and configuration,
-    /// into --trace) and run nothing.
-    #[arg(long, requires = "trace")]
+    /// Also write each scenario as an SSP 1.0 archive (<scenario>.ssp: the FMUs, their
+    /// connections and parameters) here, and plant.ssp, the first scenario's antenna without
+    /// its controllers (docs/ssp.md).
+    #[arg(long, value_name = "DIR")]
+    ssp: Option<PathBuf>,
+    /// Write what another master needs for each scenario (its command table and configuration
+    /// into --trace, its SSP archive into --ssp) and run nothing; the archives take the FMUs
+    /// packaged in target/fmu (or $MEERKAT_FMU_DIR) as they are.
+    #[arg(long, requires = "exports")]
     export_only: bool,
 }
 
@@ -165,20 +173,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         let path = modes.canonicalize().with_context(|| format!("--modes {}", modes.display()))?;
         structure.push(("modes_file".into(), antenna_sim::ParameterValue::Text(path.display().to_string())));
     }
-    if cli.export_only {
-        let dir = cli.trace.as_deref().expect("clap requires --trace with --export-only");
+    if !cli.export_only && !cli.no_build {
+        eprintln!("building and packaging the FMUs ...");
+        xtask::build_and_package(xtask::Pgo::Off).context("packaging failed")?;
+    }
+    if let (true, Some(dir)) = (cli.export_only, cli.trace.as_deref()) {
         for scenario in &scenarios {
             write_inputs(dir, &config, scenario)
                 .with_context(|| format!("cannot write {}'s files into {}", scenario.name, dir.display()))?;
         }
+    }
+    let open_fmus = || {
+        FmuSet::open(&antenna_fmus::fmu_directory())
+            .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))
+    };
+    if let Some(dir) = &cli.ssp {
+        write_ssp(&open_fmus()?, dir, &config, &scenarios)
+            .with_context(|| format!("--ssp: cannot write the archives into {}", dir.display()))?;
+    }
+    if cli.export_only {
         return Ok(());
     }
-    if !cli.no_build {
-        eprintln!("building and packaging the FMUs ...");
-        xtask::build_and_package(xtask::Pgo::Off).context("packaging failed")?;
-    }
-    let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
-        .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
+    let fmus = open_fmus()?;
     let started = Instant::now();
     // One scenario alone would leave every core but one idle: its azimuth lane takes a second
     // while that is faster on this machine (the same results bit for bit; many scenarios keep
@@ -372,6 +388,24 @@ fn write_trace(dir: &Path, config: &AntennaConfig, outcome: &Outcome) -> std::io
     let s = &outcome.scenario;
     write_inputs(dir, config, s)?;
     std::fs::write(dir.join(format!("{}.trace.csv", s.name)), outcome.trace.to_csv())
+}
+
+/// Writes each scenario's SSP archive (`<name>.ssp`) and the first one's antenna without its
+/// controllers (`plant.ssp`) into `dir`.
+fn write_ssp(fmus: &FmuSet, dir: &Path, config: &AntennaConfig, scenarios: &[Scenario]) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let fmu_dir = antenna_fmus::fmu_directory();
+    for scenario in scenarios {
+        let bytes = ssp::archive(fmus, &fmu_dir, config, scenario, ssp::Extent::Antenna)
+            .with_context(|| format!("scenario {}", scenario.name))?;
+        std::fs::write(dir.join(format!("{}.ssp", scenario.name)), bytes)?;
+    }
+    if let Some(first) = scenarios.first() {
+        let bytes = ssp::archive(fmus, &fmu_dir, config, first, ssp::Extent::Plant)
+            .with_context(|| format!("the plant of scenario {}", first.name))?;
+        std::fs::write(dir.join("plant.ssp"), bytes)?;
+    }
+    Ok(())
 }
 
 /// Writes a scenario's command table and configuration, what another master needs to run it.
