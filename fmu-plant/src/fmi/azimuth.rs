@@ -229,6 +229,8 @@ declare_variables! {
             .description(T::SAMPLE_PERIOD),
         StiffnessVariation = Var::real("pinion.stiffness_variation", "1").parameter().start(0.0).min(-0.9).max(0.9)
             .description("Relative change of both paths' stiffness over the elevation travel, linear in elevation: the stiffness at el is pinion<k>.stiffness times 1 + v (el - 51.5 deg) / 73 deg (1 - v/2 at 15 deg, 1 + v/2 at 88 deg). The paper measured anti-resonance mismatches implying up to 30 % over the travel (sign and shape unknown); 0, the paper's single K_s, by default."),
+        EncoderCountModeNumber = Var::integer("encoder.count_mode_number").parameter().start_integer(0).range_integer(0, 2)
+            .description(T::COUNT_MODE_NUMBER),
     }
 }
 
@@ -287,6 +289,7 @@ const NUMERICS: NumericsVars<AzVar> = NumericsVars {
 
 const SENSORS: SensorVars<AzVar, 2> = SensorVars {
     count_mode: AzVar::EncoderCountMode,
+    count_mode_number: AzVar::EncoderCountModeNumber,
     graduation: [
         (AzVar::Graduation1Amplitude, AzVar::Graduation1Harmonic, AzVar::Graduation1Phase),
         (AzVar::Graduation2Amplitude, AzVar::Graduation2Harmonic, AzVar::Graduation2Phase),

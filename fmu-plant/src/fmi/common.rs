@@ -237,6 +237,7 @@ pub static COUNT_MODE: EnumerationType = EnumerationType {
 
 /// Descriptions shared by the two plants' sensor variables (one text, two tables).
 pub mod sensor_text {
+    pub const COUNT_MODE_NUMBER: &str = "encoder.count_mode as an Integer, for masters that ignore FMI enumerations (libcosim and ecos do): 1 truncate, 2 round; 0 (the default) leaves the choice to encoder.count_mode. When it is not 0 it wins.";
     pub const ENCODER_ERROR: &str =
         "Encoder reading minus true axis angle: the sum of the encoder's errors and its count, for an error budget.";
     pub const GRADUATION_AMPLITUDE: &str = "Amplitude of one harmonic of the graduation error A sin(n theta + phi) of the encoder ring (theta the true axis angle); 0 is off. Heidenhain ring encoders: graduation accuracy +/-1.5 to +/-1.9 arcsec (docs/plant-model.md, Sensors).";
@@ -266,6 +267,9 @@ pub const MAX_SPEED_NOISE: f64 = 1000.0;
 /// The value references of an axis's sensor parameters (`P` motors).
 pub struct SensorVars<V, const P: usize> {
     pub count_mode: V,
+    /// The same setting as an Integer, for masters that ignore enumerations (0: as
+    /// `count_mode` says).
+    pub count_mode_number: V,
     /// Amplitude, harmonic number and phase of each graduation harmonic.
     pub graduation: [(V, V, V); 3],
     pub line_count: V,
@@ -288,7 +292,11 @@ impl<V: VariableSet, const P: usize> SensorVars<V, P> {
         let lines = f64::from(v.integer(self.line_count));
         SensorParams {
             encoder: EncoderErrors {
-                count_mode: CountMode::from_index(v.integer(self.count_mode)).unwrap_or_default(),
+                count_mode: CountMode::from_index(match v.integer(self.count_mode_number) {
+                    0 => v.integer(self.count_mode),
+                    number => number,
+                })
+                .unwrap_or_default(),
                 graduation: self.graduation.map(|(a, n, p)| periodic(a, f64::from(v.integer(n)), p)),
                 interpolation: [0, 1].map(|k| {
                     let (a, p) = self.interpolation[k];

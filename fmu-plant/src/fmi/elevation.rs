@@ -201,6 +201,8 @@ declare_variables! {
         SensorSeed = Var::integer("sensors.seed").parameter().start_integer(1).description(T::SEED),
         SensorSamplePeriod = Var::real("sensors.sample_period", "s").parameter().start(1e-3).min(1e-6).max(1.0)
             .description(T::SAMPLE_PERIOD),
+        EncoderCountModeNumber = Var::integer("encoder.count_mode_number").parameter().start_integer(0).range_integer(0, 2)
+            .description(T::COUNT_MODE_NUMBER),
     }
 }
 
@@ -247,6 +249,7 @@ const NUMERICS: NumericsVars<ElVar> = NumericsVars {
 
 const SENSORS: SensorVars<ElVar, 1> = SensorVars {
     count_mode: ElVar::EncoderCountMode,
+    count_mode_number: ElVar::EncoderCountModeNumber,
     graduation: [
         (ElVar::Graduation1Amplitude, ElVar::Graduation1Harmonic, ElVar::Graduation1Phase),
         (ElVar::Graduation2Amplitude, ElVar::Graduation2Harmonic, ElVar::Graduation2Phase),

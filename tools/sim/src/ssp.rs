@@ -421,6 +421,12 @@ fn read_back(
                 None => ParameterValue::Text(instance.get_string(&vr)?.remove(0)),
             },
         };
+        // Engines that ignore enumerations (libcosim, ecos) would lose this setting: where the
+        // FMU offers the same choice as an Integer, `<name>_number`, it is bound too.
+        let twin = format!("{name}_number");
+        if variable.type_name == "Enumeration" && description.variable(&twin).is_ok_and(|t| t.type_name == "Integer") {
+            bindings.push(Binding { name: twin, value: value.clone() });
+        }
         bindings.push(Binding { name: name.clone(), value });
     }
     Ok(bindings)
