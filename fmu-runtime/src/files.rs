@@ -1,6 +1,7 @@
 //! The one way an FMU reads a file a master names (parameter files, the wind's coefficient
-//! table, the structure's modes file): only a regular file, only up to a declared size, into
-//! memory reserved fallibly.
+//! table, the structure's modes file), and the tools a file a user names (command tables, logs,
+//! parameter sets, sweep files, wind records): only a regular file, only up to a declared size,
+//! into memory reserved fallibly.
 //!
 //! A master may name anything: a FIFO, whose `open` or `read` would block the call for ever;
 //! `/dev/zero`, which never ends; a file of gigabytes, whose buffer would abort the process
@@ -36,15 +37,12 @@ pub fn read_regular_file(path: &Path, max_bytes: u64, what: &str) -> Result<Stri
     let metadata = file.metadata().map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
     if !metadata.is_file() {
         return Err(format!(
-            "{what} {shown} is not a regular file ({}); only regular files are read, so that a FIFO or a device cannot block or flood the FMU",
+            "{what} {shown} is not a regular file ({}); only regular files are read, so that a FIFO or a device cannot block or flood the reader",
             describe_file_type(&metadata)
         ));
     }
     if metadata.len() > max_bytes {
-        return Err(format!(
-            "{what} {shown} has {} bytes, more than the {max_bytes} bytes an FMU reads",
-            metadata.len()
-        ));
+        return Err(format!("{what} {shown} has {} bytes, more than the {max_bytes} bytes read", metadata.len()));
     }
     read_bounded(file, max_bytes).map_err(|e| format!("cannot read {what} {shown}: {e}"))
 }

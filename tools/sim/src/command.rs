@@ -45,8 +45,8 @@ pub enum CommandError {
     OutsideTravel { row: usize, elevation_deg: f64 },
     #[error("command row {row}: time {time_s} s goes backwards")]
     TimeGoesBackwards { row: usize, time_s: f64 },
-    #[error("cannot read {}", path.display())]
-    Read { path: PathBuf, source: std::io::Error },
+    #[error("{reason}")]
+    Read { reason: String },
     #[error("{}", path.display())]
     Csv { path: PathBuf, source: csv::Error },
     #[error("{}:{line}: expected the header `time_s,azimuth_deg,elevation_deg`, found `{found}`", path.display())]
@@ -56,6 +56,9 @@ pub enum CommandError {
     #[error("{}:{line}: {column} `{cell}` is not a number", path.display())]
     NotANumber { path: PathBuf, line: u64, column: &'static str, cell: String },
 }
+
+/// The largest command table read, bytes (64 MiB: a day's table at 10 Hz is about 30 MB).
+pub const MAX_COMMAND_FILE_BYTES: u64 = 64 << 20;
 
 /// A validated command table, split into continuous segments at jumps.
 #[derive(Debug, Clone, PartialEq)]
@@ -117,13 +120,14 @@ impl CommandTable {
     /// Reads a CSV table with columns `time_s,azimuth_deg,elevation_deg` (a header row first;
     /// `#` comment lines and blank lines allowed; cells may be padded with spaces).
     pub fn from_csv(path: &Path) -> Result<Self, CommandError> {
-        let file = std::fs::File::open(path).map_err(|source| CommandError::Read { path: path.into(), source })?;
+        let text = fmu_runtime::files::read_regular_file(path, MAX_COMMAND_FILE_BYTES, "command table")
+            .map_err(|reason| CommandError::Read { reason })?;
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
-            .from_reader(file);
+            .from_reader(text.as_bytes());
         let mut points = Vec::new();
         let mut header_seen = false;
         for record in reader.records() {

@@ -175,6 +175,10 @@ pub enum LogErrorKind {
     NotANumber(String),
     #[error("value is not finite: '{0}'")]
     NotFinite(String),
+    #[error("value {0} is beyond {MAX_ABS_VALUE:e} in SI units: no sensor of a drive reads that; the file is damaged or a unit is wrong")]
+    Implausible(String),
+    #[error("the median sample interval is {0:e} s, outside {MIN_SAMPLE_INTERVAL_S:e} to {MAX_SAMPLE_INTERVAL_S} s: the time column is not in seconds, or damaged")]
+    ImplausibleSampleInterval(f64),
     #[error("the file has a header but no data rows")]
     NoRows,
     #[error("a log needs at least two samples")]
@@ -222,6 +226,19 @@ pub struct MeasuredLog {
     /// Things worth telling the user that are not errors (ignored columns, uneven sampling).
     pub notes: Vec<String>,
 }
+
+/// The largest magnitude of a logged value in SI units (rad, rad/s, N m, A, m, N): a billion is
+/// beyond any drive's sensor, and a value of 1e300 is a damaged file that would make the fits
+/// run for minutes on numbers without meaning.
+pub const MAX_ABS_VALUE: f64 = 1e9;
+
+/// The plausible range of a log's median sample interval, s: 1 MHz to one sample in 10 s.
+pub const MIN_SAMPLE_INTERVAL_S: f64 = 1e-6;
+pub const MAX_SAMPLE_INTERVAL_S: f64 = 10.0;
+
+/// The largest log read, bytes (512 MiB: an hour at 2 kHz with a dozen columns is about 1 GB
+/// of numbers at full precision, a minute some 20 MB).
+pub const MAX_LOG_BYTES: u64 = 512 << 20;
 
 impl MeasuredLog {
     /// Number of samples.
@@ -396,13 +413,12 @@ impl MeasuredLog {
         Some(log)
     }
 
-    /// Reads and parses a log file.
+    /// Reads and parses a log file (a regular file of at most [`MAX_LOG_BYTES`]).
     pub fn read(path: &Path) -> Result<MeasuredLog, LogError> {
-        let bytes = std::fs::read(path).map_err(|e| {
-            let kind = LogErrorKind::Read { path: path.display().to_string(), reason: e.to_string() };
-            LogError::at(None, None, kind)
+        let text = fmu_runtime::files::read_regular_file(path, MAX_LOG_BYTES, "log").map_err(|reason| {
+            LogError::at(None, None, LogErrorKind::Read { path: path.display().to_string(), reason })
         })?;
-        parse_bytes(&bytes)
+        parse_bytes(text.as_bytes())
     }
 
     /// Writes the log in the measured-log format, in the units given per signal (SI when the
@@ -672,11 +688,15 @@ fn read_rows(
             return Err(LogError::at(Some(line), None, kind));
         }
         for (j, cell) in record.iter().enumerate() {
-            let ColumnKind::Known { factor, .. } = &header.kinds[j] else { continue };
+            let ColumnKind::Known { factor, signal, .. } = &header.kinds[j] else { continue };
             let error = |kind| LogError::at(Some(line), Some(&header.names[j]), kind);
             let value: f64 = cell.parse().map_err(|_| error(LogErrorKind::NotANumber(truncate(cell, 40))))?;
             if !value.is_finite() {
                 return Err(error(LogErrorKind::NotFinite(truncate(cell, 40))));
+            }
+            // Times may be clock readings (a Unix time is 1.7e9 s): their sample interval is checked.
+            if *signal != Signal::Time && (value * factor).abs() > MAX_ABS_VALUE {
+                return Err(error(LogErrorKind::Implausible(truncate(cell, 40))));
             }
             columns[j].push(value * factor);
         }
@@ -750,6 +770,9 @@ fn assemble(
     }
     let mut log = MeasuredLog { metadata, time, channels, notes };
     let dt = log.sample_interval();
+    if !(MIN_SAMPLE_INTERVAL_S..=MAX_SAMPLE_INTERVAL_S).contains(&dt) {
+        return Err(LogError::at(None, Some(&names[time_index]), LogErrorKind::ImplausibleSampleInterval(dt)));
+    }
     // A gap many times the usual interval is a record stitched from separate runs (or a
     // logger that stalled): the analyses assume one continuous run, and resampling across the
     // gap would invent data (and, for a long gap, exhaust memory). Say where to split it.

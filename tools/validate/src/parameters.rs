@@ -528,8 +528,8 @@ pub enum ParameterError {
     /// A set the plant FMU cannot be configured from.
     #[error("{message}")]
     Unusable { message: String },
-    #[error("cannot read {path}")]
-    Read { path: std::path::PathBuf, source: std::io::Error },
+    #[error("cannot read {path}: {reason}")]
+    Read { path: std::path::PathBuf, reason: String },
     #[error("cannot write {path}")]
     Write { path: std::path::PathBuf, source: std::io::Error },
     /// An error inside a file, with the file's path.
@@ -762,8 +762,9 @@ impl ParameterSet {
     }
 
     pub fn read(path: &Path) -> Result<ParameterSet, ParameterError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ParameterError::Read { path: path.to_path_buf(), source })?;
+        let text =
+            fmu_runtime::files::read_regular_file(path, fmu_runtime::files::MAX_PARAMETER_FILE_BYTES, "parameter set")
+                .map_err(|reason| ParameterError::Read { path: path.to_path_buf(), reason })?;
         ParameterSet::parse(&text).map_err(|e| ParameterError::InFile { path: path.to_path_buf(), source: Box::new(e) })
     }
 

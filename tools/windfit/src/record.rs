@@ -153,10 +153,14 @@ pub fn parse_wind_csv(
     })
 }
 
+/// The largest wind record read, bytes (256 MiB: a day at 20 Hz with five columns is about
+/// 150 MB).
+pub const MAX_WIND_RECORD_BYTES: u64 = 256 << 20;
+
 /// Reads a wind record from a CSV file (see [`parse_wind_csv`]).
 pub fn read_wind_csv(path: &Path, time_column: &str, speed_column: &str) -> Result<WindRecord, WindFitError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| WindFitError::Io { path: path.display().to_string(), message: e.to_string() })?;
+    let text = fmu_runtime::files::read_regular_file(path, MAX_WIND_RECORD_BYTES, "wind record")
+        .map_err(|message| WindFitError::Io { path: path.display().to_string(), message })?;
     parse_wind_csv(&text, &path.display().to_string(), time_column, speed_column)
 }
 

@@ -353,9 +353,20 @@ fn write_report(
 
 /// A scenario from a pointing table of the user's: run from its first to its last time stamp
 /// and judged by the worst 10 s RMS pointing error after the first 10 s.
+/// The longest pointing table `--commands` runs, s (two hours: a trace of 7.2 million steps,
+/// about 1.5 GB in memory).
+const MAX_COMMAND_SPAN_S: f64 = 7200.0;
+
 fn user_scenario(path: &Path, wind: Wind, seed: i32) -> anyhow::Result<Scenario> {
     let table = CommandTable::from_csv(path)?;
     let (start, end) = table.time_span();
+    // The run keeps a trace of every 1 ms step (about 200 bytes each): a day is 17 GB.
+    if end - start > MAX_COMMAND_SPAN_S || start.abs() > MAX_COMMAND_SPAN_S {
+        bail!(
+            "{}: the table runs from {start:e} s to {end:e} s; a run spans at most {MAX_COMMAND_SPAN_S} s (its trace is kept in memory) and starts within {MAX_COMMAND_SPAN_S} s of 0",
+            path.display()
+        );
+    }
     if end - start < 2.0 * JITTER_WINDOW_S {
         bail!(
             "{}: the table spans {:.1} s; at least {:.0} s are needed for a jitter window after the first {:.0} s",
@@ -606,13 +617,34 @@ fn sweep(args: SweepArgs) -> anyhow::Result<()> {
     sweep_report(&sweep, &out_dir, Some(timing))
 }
 
-/// Reads DIR/sweep.csv, writes sweep.md and the figures, prints the pass probabilities.
+/// Reads DIR/sweep.csv, writes sweep.md and the figures, prints the pass probabilities. A file
+/// with fewer samples than the command line plans (cut short, or written by another command
+/// line) is refused, and a sweep in which runs failed ends in an error saying how many, after
+/// the report that names the first failure.
 fn sweep_report(sweep: &sweep::Sweep, out_dir: &Path, timing: Option<sweep::report::Timing>) -> anyhow::Result<()> {
     let path = out_dir.join("sweep.csv");
+    if !path.is_file() {
+        bail!("{} is not a regular file", path.display());
+    }
     let file = std::fs::File::open(&path).with_context(|| format!("cannot read {}", path.display()))?;
     let data = sweep::analysis::SweepData::read(std::io::BufReader::new(file), &path.display().to_string())?;
+    let read = data.samples.len() as u64 + data.failed_samples;
+    if read != sweep.len() {
+        bail!(
+            "{} holds {read} samples where this command line plans {}: it was cut short or written by another command line; run the sweep again, or give the command line that wrote it",
+            path.display(),
+            sweep.len()
+        );
+    }
     let report = sweep::report::write_report(&data, sweep, timing, out_dir).context("cannot write the report")?;
     println!("{}", sweep::report::requirement_table(&data));
     println!("wrote {}", report.display());
+    if data.failed_samples > 0 {
+        bail!(
+            "{} of {read} samples had a run that failed (the first: {}); the report leaves them out",
+            data.failed_samples,
+            data.first_failure.as_deref().unwrap_or("no message")
+        );
+    }
     Ok(())
 }

@@ -168,17 +168,18 @@ impl ThreadArgs {
 /// The validation's settings a user may change.
 #[derive(Args, Clone)]
 struct TuningArgs {
-    /// Family-wise significance level of the effect search.
-    #[arg(long, value_name = "P")]
+    /// Family-wise significance level of the effect search, in (0, 0.5].
+    #[arg(long, value_name = "P", value_parser = probability)]
     alpha: Option<f64>,
-    /// Smallest effect, relative to the noise, that is claimed.
-    #[arg(long, value_name = "RATIO")]
+    /// Smallest effect, relative to the noise, that is claimed, in [0, 1000].
+    #[arg(long, value_name = "RATIO", value_parser = effect_to_noise)]
     min_effect_to_noise: Option<f64>,
-    /// Output-error window length (default: from the motor speed's autocorrelation).
-    #[arg(long, value_name = "SECONDS")]
+    /// Output-error window length, 0.01 to 600 s (default: from the motor speed's
+    /// autocorrelation).
+    #[arg(long, value_name = "SECONDS", value_parser = window_seconds)]
     window: Option<f64>,
-    /// Length of the pieces the twist is simulated on.
-    #[arg(long, value_name = "SECONDS")]
+    /// Length of the pieces the twist is simulated on, 0.01 to 600 s.
+    #[arg(long, value_name = "SECONDS", value_parser = window_seconds)]
     drive_window: Option<f64>,
     /// Do not refit the parameters on the output error.
     #[arg(long)]
@@ -189,6 +190,31 @@ struct TuningArgs {
     /// Do not re-estimate the effect families the starting set already holds.
     #[arg(long)]
     no_reestimate: bool,
+}
+
+/// A number within `[low, high]` (`low` itself excluded when `open_low`), or the reason it is
+/// refused, which clap prints naming the option (exit 2).
+fn number_within(text: &str, low: f64, high: f64, open_low: bool) -> Result<f64, String> {
+    let value: f64 = text.trim().parse().map_err(|_| format!("`{text}` is not a number"))?;
+    let above_low = if open_low { value > low } else { value >= low };
+    if value.is_finite() && above_low && value <= high {
+        Ok(value)
+    } else {
+        let bracket = if open_low { "(" } else { "[" };
+        Err(format!("{} is outside {bracket}{low}, {high}]", text.trim()))
+    }
+}
+
+fn probability(text: &str) -> Result<f64, String> {
+    number_within(text, 0.0, 0.5, true)
+}
+
+fn effect_to_noise(text: &str) -> Result<f64, String> {
+    number_within(text, 0.0, 1000.0, false)
+}
+
+fn window_seconds(text: &str) -> Result<f64, String> {
+    number_within(text, 0.01, 600.0, false)
 }
 
 impl TuningArgs {

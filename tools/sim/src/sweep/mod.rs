@@ -89,8 +89,8 @@ pub fn shell_quote(text: &str) -> String {
 /// Why a sweep cannot be set up.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
-    #[error("cannot read the sweep file {path}")]
-    ReadSweepFile { path: String, source: std::io::Error },
+    #[error("cannot read the sweep file {path}: {reason}")]
+    ReadSweepFile { path: String, reason: String },
     #[error(transparent)]
     Table(#[from] ParameterTableError),
     #[error("--{option} {name}: no parameter of the table has this name or group; the parameters are: {known}")]
@@ -200,8 +200,9 @@ impl Sweep {
 fn table_with_overrides(sweep_file: Option<&Path>) -> Result<Vec<UncertainParameter>, SweepError> {
     let mut table = parameters();
     if let Some(path) = sweep_file {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| SweepError::ReadSweepFile { path: path.display().to_string(), source })?;
+        let text =
+            fmu_runtime::files::read_regular_file(path, fmu_runtime::files::MAX_PARAMETER_FILE_BYTES, "sweep file")
+                .map_err(|reason| SweepError::ReadSweepFile { path: path.display().to_string(), reason })?;
         for row in parse_parameters(&text, &path.display().to_string())? {
             match table.iter_mut().find(|p| p.name == row.name) {
                 Some(existing) => *existing = row,
