@@ -521,6 +521,7 @@ pub unsafe fn instantiate(
             last_step_status: Status::Ok,
             needs_initialize: true,
             stale_feedthrough: 0,
+            grid_step_cache: ((0, 0, 0), 0.0),
             feedthrough_groups: model.feedthrough_groups(),
             step_notes: Notes::default(),
             context,
@@ -1129,7 +1130,15 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
         // The notes are the instance's, empty between calls, so that a step neither builds
         // nor drops any; the model refuses a step of more than MAX_STEP_PIECES pieces.
         instance.step_notes.enable_events(instance.category_enabled(CAT_EVENTS));
-        let model_step = grid_step(current, step);
+        // The rule's tolerance depends on the times only through their binary exponents.
+        let key = (step.to_bits(), current.to_bits() >> 52, (current + step).to_bits() >> 52);
+        let model_step = if instance.grid_step_cache.0 == key {
+            instance.grid_step_cache.1
+        } else {
+            let model_step = grid_step(current, step);
+            instance.grid_step_cache = (key, model_step);
+            model_step
+        };
         match instance.model.do_step(current, model_step, MAX_STEP_PIECES, &instance.context, &mut instance.step_notes)
         {
             Ok(()) => {

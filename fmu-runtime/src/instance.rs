@@ -598,6 +598,10 @@ pub struct Instance {
     /// (a set of inputs, or a step that moved what they act on mark every group): a group's
     /// outputs are recomputed before the next get that reads one of them. Only ever non-zero
     /// for a model that has such outputs.
+    /// The last step a master passed, the binary exponents (with the signs) of the times it
+    /// stepped from and to, and the step the models took for them (`exports::grid_step`): a
+    /// master that keeps its step pays the rule once, not at every step.
+    pub grid_step_cache: ((u64, u64, u64), f64),
     pub stale_feedthrough: u32,
     /// The feedthrough groups of the model's outputs (`DynModel::feedthrough_groups`, kept
     /// here because every set and step asks; 0 for a model without feedthrough).

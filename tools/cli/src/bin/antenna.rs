@@ -100,6 +100,12 @@ struct Cli {
     /// packaged in target/fmu (or $MEERKAT_FMU_DIR) as they are.
     #[arg(long, requires = "exports")]
     export_only: bool,
+    /// Threads one coupled run uses, 1 or 2 (with 2 the azimuth lane runs on a second thread,
+    /// bit for bit as on one; docs/performance.md). Default: 2 when a single scenario runs on a
+    /// machine of two cores or more, else 1 (several scenarios keep the cores busy with whole
+    /// runs).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=2))]
+    threads: Option<u8>,
 }
 
 /// The antenna configurations of docs/parameters.csv.
@@ -199,7 +205,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     // One scenario alone would leave every core but one idle: its azimuth lane takes a second
     // while that is faster on this machine (the same results bit for bit; many scenarios keep
     // the cores busy with whole runs).
-    let lanes = if scenarios.len() == 1 && rayon::current_num_threads() > 1 { Lanes::Auto } else { Lanes::One };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = cli.threads.unwrap_or(if scenarios.len() == 1 && cores > 1 { 2 } else { 1 });
+    let lanes = if threads == 2 { Lanes::Two } else { Lanes::One };
     let outcomes = run_all(&fmus, &AntennaConfig { lanes, ..config.clone() }, &scenarios, cli.trace.as_deref())?;
     // Each windy jitter scenario also ran in calm air for its budget.
     let calm_twins: f64 = outcomes
