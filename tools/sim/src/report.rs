@@ -338,15 +338,7 @@ pub fn margins_section() -> String {
             let mut smallest = [f64::INFINITY; 6];
             for k in stiffness {
                 for s in share {
-                    let m = shipped.with_mode(k, s).loop_margins();
-                    let values = [
-                        m.velocity.phase_margin_deg,
-                        m.velocity.gain_margin_db,
-                        m.velocity.modulus_margin,
-                        m.position.phase_margin_deg,
-                        m.position.gain_margin_db,
-                        m.position.modulus_margin,
-                    ];
+                    let values = shipped.with_mode(k, s).loop_margins().figures();
                     for (slot, value) in smallest.iter_mut().zip(values) {
                         *slot = slot.min(value);
                     }

@@ -69,6 +69,15 @@ pub struct LoopMargins {
     pub position: Margins,
 }
 
+impl LoopMargins {
+    /// The six figures a margins table shows, in its order: the velocity loop's phase margin
+    /// (deg), gain margin (dB) and modulus margin, then the position loop's.
+    pub fn figures(&self) -> [f64; 6] {
+        let (v, p) = (&self.velocity, &self.position);
+        [v.phase_margin_deg, v.gain_margin_db, v.modulus_margin, p.phase_margin_deg, p.gain_margin_db, p.modulus_margin]
+    }
+}
+
 /// Responses of the three bodies at one frequency, to the motor torque and to the wind's torque.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MechanicalResponse {
