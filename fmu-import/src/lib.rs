@@ -79,6 +79,46 @@ pub struct ModelDescription {
     pub capabilities: HashMap<String, String>,
 }
 
+/// The attributes of an XML element, normalised as XML 1.0 says (entities and whitespace).
+fn element_attributes(e: &quick_xml::events::BytesStart) -> Result<HashMap<String, String>, String> {
+    let mut attrs = HashMap::new();
+    for a in e.attributes() {
+        let a = a.map_err(|err| format!("bad attribute: {err}"))?;
+        let key = a.key.into_inner().to_string();
+        let value = a
+            .normalized_value(quick_xml::XmlVersion::Explicit1_0)
+            .map_err(|err| format!("bad attribute value: {err}"))?
+            .to_string();
+        attrs.insert(key, value);
+    }
+    Ok(attrs)
+}
+
+impl ScalarVariable {
+    /// A variable from the attributes of its `ScalarVariable` element; the type element inside it
+    /// fills in the type, start value, unit and range.
+    fn from_attributes(attrs: &HashMap<String, String>) -> Result<ScalarVariable, String> {
+        let get = |k: &str| attrs.get(k).cloned();
+        let name = get("name").ok_or_else(|| "ScalarVariable without name".to_string())?;
+        let value_reference = get("valueReference")
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| format!("variable {name} has no valid valueReference"))?;
+        Ok(ScalarVariable {
+            name,
+            value_reference,
+            description: get("description").unwrap_or_default(),
+            causality: get("causality").unwrap_or_else(|| "local".into()),
+            variability: get("variability").unwrap_or_else(|| "continuous".into()),
+            initial: get("initial"),
+            type_name: String::new(),
+            start: None,
+            unit: None,
+            min: None,
+            max: None,
+        })
+    }
+}
+
 impl ModelDescription {
     /// Whether the FMU's library may hold several instances in one process
     /// (`canBeInstantiatedOnlyOncePerProcess` is false, its default).
@@ -86,6 +126,8 @@ impl ModelDescription {
         self.capabilities.get("canBeInstantiatedOnlyOncePerProcess").is_none_or(|v| v != "true" && v != "1")
     }
 
+    /// Reads a `modelDescription.xml`: the header, the co-simulation capabilities, the default
+    /// experiment, the variables and the model structure's dependencies.
     pub fn parse(xml: &str) -> Result<ModelDescription, ImportError> {
         let bad = |m: String| ImportError::Description(format!("modelDescription.xml: {m}"));
         let mut reader = Reader::from_str(xml);
@@ -129,16 +171,7 @@ impl ModelDescription {
                 _ => (None, false),
             };
             let Some(e) = element else { continue };
-            let mut attrs = HashMap::new();
-            for a in e.attributes() {
-                let a = a.map_err(|err| bad(format!("bad attribute: {err}")))?;
-                let key = a.key.into_inner().to_string();
-                let value = a
-                    .normalized_value(quick_xml::XmlVersion::Explicit1_0)
-                    .map_err(|err| bad(format!("bad attribute value: {err}")))?
-                    .to_string();
-                attrs.insert(key, value);
-            }
+            let attrs = element_attributes(&e).map_err(bad)?;
             let get = |k: &str| attrs.get(k).cloned();
             match e.name().into_inner() {
                 "fmiModelDescription" => {
@@ -157,23 +190,7 @@ impl ModelDescription {
                     md.default_stop_time = get("stopTime").and_then(|s| s.parse().ok());
                 }
                 "ScalarVariable" => {
-                    let name = get("name").ok_or_else(|| bad("ScalarVariable without name".into()))?;
-                    let vr = get("valueReference")
-                        .and_then(|s| s.parse().ok())
-                        .ok_or_else(|| bad(format!("variable {name} has no valid valueReference")))?;
-                    let v = ScalarVariable {
-                        name,
-                        value_reference: vr,
-                        description: get("description").unwrap_or_default(),
-                        causality: get("causality").unwrap_or_else(|| "local".into()),
-                        variability: get("variability").unwrap_or_else(|| "continuous".into()),
-                        initial: get("initial"),
-                        type_name: String::new(),
-                        start: None,
-                        unit: None,
-                        min: None,
-                        max: None,
-                    };
+                    let v = ScalarVariable::from_attributes(&attrs).map_err(bad)?;
                     if is_empty {
                         md.variables.push(v);
                     } else {

@@ -18,7 +18,7 @@ pub fn check_values<V: VariableSet>(values: &Values<V>) -> Result<(), String> {
                 if !x.is_finite() {
                     return Err(format!("'{}' = {x} is not finite", var.name));
                 }
-                if settable && crate::instance::is_subnormal(x) {
+                if settable && crate::variables::is_subnormal(x) {
                     return Err(format!("'{}' = {x:e} is subnormal", var.name));
                 }
                 if settable && (min.is_some_and(|lo| x < lo) || max.is_some_and(|hi| x > hi)) {

@@ -10,7 +10,7 @@ use crate::ffi::{fmi2CallbackFunctions, Status};
 use crate::model::{Context, Model, Notes};
 use crate::phase::{Phase, CAT_ERROR, LOG_CATEGORIES};
 use crate::state::{InstanceState, StateError, StateHeader};
-use crate::variables::{all_finite, BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
+use crate::variables::{all_finite, is_subnormal, BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
 
 /// Guards against a stray or freed pointer being used as an instance.
 pub const INSTANCE_MAGIC: u64 = 0x4D4B_4154_5F46_4D55; // "MKAT_FMU"
@@ -507,14 +507,6 @@ fn too_many_pieces(step: f64, pieces: f64, what: &str, max_pieces: f64) -> Strin
     format!(
         "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {max_pieces:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
     )
-}
-
-/// Whether a number is subnormal (nonzero and smaller in magnitude than the smallest normal
-/// double, 2.2e-308). No physical quantity of these models is one: a master that sends 4.9e-324
-/// means 0 or has a bug, and dividing by one overflows.
-#[inline]
-pub fn is_subnormal(value: f64) -> bool {
-    value != 0.0 && value.abs() < f64::MIN_POSITIVE
 }
 
 /// Checks a Real value a master (or a parameter file) wants to set: finite, not subnormal,

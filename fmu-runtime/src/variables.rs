@@ -723,3 +723,11 @@ macro_rules! declare_variables {
         }
     };
 }
+
+/// Whether a number is subnormal (nonzero and smaller in magnitude than the smallest normal
+/// double, 2.2e-308). No physical quantity of these models is one: a master that sends 4.9e-324
+/// means 0 or has a bug, and dividing by one overflows.
+#[inline]
+pub fn is_subnormal(value: f64) -> bool {
+    value != 0.0 && value.abs() < f64::MIN_POSITIVE
+}

@@ -1,10 +1,8 @@
 //! The coupled master on two threads (`Lanes::Two`: the azimuth plant, its controller and the
-//! structure on a second thread; `Lanes::Auto`: whichever of one and two is faster, timed as it
-//! runs) against the same master on one: the same values exchanged, so the same run bit for
-//! bit, and a unit's error ends the run with that error on either thread instead of leaving the
+//! structure on a second thread) against the same master on one: the same values exchanged, so
+//! the same run bit for bit, and a unit's error ends the run with that error on either thread instead of leaving the
 //! other waiting.
 
-use antenna_sim::coupled::{AUTO_PROBE_STEPS_ONE, AUTO_PROBE_STEPS_TWO, AUTO_RUN_STEPS};
 use antenna_sim::scenario::{normal_wind, step_table, tracking_table, SIDEREAL_RATE_DEG_PER_S};
 use antenna_sim::{AntennaConfig, CommandTable, Configuration, CoupledAntenna, FmuSet, Lanes, Trace};
 
@@ -45,8 +43,7 @@ fn a_run_in_steps_equals_one_run_whatever_the_lanes_of_each_piece() {
     let table = tracking_table((30.0, 45.0), (rate, rate), 2.0);
     let whole = trace(&fmus, &config, &table, 1.0, Lanes::One);
     let pieces = [1, 299, 200, 500];
-    for lanes in [[Lanes::One; 4], [Lanes::Two; 4], [Lanes::Auto; 4], [Lanes::Two, Lanes::One, Lanes::Auto, Lanes::Two]]
-    {
+    for lanes in [[Lanes::One; 4], [Lanes::Two; 4], [Lanes::Two, Lanes::One, Lanes::One, Lanes::Two]] {
         let mut antenna = CoupledAntenna::new(&fmus, &config, &table).unwrap();
         let mut traced = Trace::default();
         for (steps, lanes) in pieces.into_iter().zip(lanes) {
@@ -60,20 +57,6 @@ fn a_run_in_steps_equals_one_run_whatever_the_lanes_of_each_piece() {
             first_difference(&whole, &traced)
         );
     }
-}
-
-#[test]
-fn the_automatic_lanes_probe_and_switch_without_changing_a_long_run() {
-    let fmus = fmus();
-    let config = AntennaConfig { wind: normal_wind(30.0, 13), ..Configuration::Realistic.antenna_config() };
-    let rate = SIDEREAL_RATE_DEG_PER_S;
-    // Long enough for two rounds of probes and runs.
-    let seconds = (2 * (AUTO_PROBE_STEPS_TWO + AUTO_PROBE_STEPS_ONE + AUTO_RUN_STEPS)) as f64 * config.step_s;
-    let table = tracking_table((30.0, 45.0), (rate, rate), seconds + 1.0);
-    let one = trace(&fmus, &config, &table, seconds, Lanes::One);
-    let auto = trace(&fmus, &config, &table, seconds, Lanes::Auto);
-    assert_eq!(auto.time_s.len() as u64, 2 * (AUTO_PROBE_STEPS_TWO + AUTO_PROBE_STEPS_ONE + AUTO_RUN_STEPS));
-    assert!(one == auto, "the traces differ (first row: {:?})", first_difference(&one, &auto));
 }
 
 #[test]
@@ -92,7 +75,7 @@ fn an_error_in_either_lane_or_in_the_wind_exchange_ends_the_run_with_that_error(
         ("elevation plant", |a| drop(a.elevation_plant.terminate())),
         ("wind", |a| drop(a.wind.terminate())),
     ];
-    for lanes in [Lanes::One, Lanes::Two, Lanes::Auto] {
+    for lanes in [Lanes::One, Lanes::Two] {
         for (unit, break_it) in breakers {
             let mut antenna = CoupledAntenna::new(&fmus, &config, &table).unwrap();
             antenna.set_lanes(lanes);

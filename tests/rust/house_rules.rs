@@ -1,7 +1,7 @@
 //! The repository's rules, checked on its sources (after rust-analyzer's "repo rules as tests"):
 //! crates depend only on what ARCHITECTURE.md allows, `unsafe` stays on the FMI boundary with a
 //! reason at every block, every crate opts into the workspace lints, every module says what it
-//! is for, and the model crates never print.
+//! is for, the model crates never print, and no modules of a crate depend on each other in a circle.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -14,97 +14,146 @@ fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
 }
 
-/// The workspace members' folders, from the root Cargo.toml.
+/// One workspace crate as `cargo metadata` describes it: its folder relative to the workspace
+/// root, its package name, and the names of its dependencies by kind.
+struct Member {
+    folder: String,
+    name: String,
+    /// Normal and build dependencies: what the crate itself is built from.
+    dependencies: BTreeSet<String>,
+    /// Dev-dependencies: what only its tests, examples and benchmarks use.
+    dev_dependencies: BTreeSet<String>,
+}
+
+/// The workspace members, read through `cargo metadata` (never by parsing manifests by hand:
+/// cargo resolves `workspace = true`, renames and targets the same way it builds).
+fn members_with_dependencies() -> Vec<Member> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let output = std::process::Command::new(cargo)
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .current_dir(workspace_root())
+        .output()
+        .expect("cargo metadata runs");
+    assert!(output.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&output.stderr));
+    let metadata: serde_json::Value = serde_json::from_slice(&output.stdout).expect("cargo metadata prints JSON");
+    let root = workspace_root();
+    let mut members: Vec<Member> = metadata["packages"]
+        .as_array()
+        .expect("a packages list")
+        .iter()
+        .map(|package| {
+            let manifest = PathBuf::from(package["manifest_path"].as_str().expect("a manifest path"));
+            let folder = manifest.parent().and_then(|f| f.strip_prefix(&root).ok()).expect("a member below the root");
+            let mut member = Member {
+                folder: folder.to_string_lossy().replace('\\', "/"),
+                name: package["name"].as_str().expect("a package name").to_string(),
+                dependencies: BTreeSet::new(),
+                dev_dependencies: BTreeSet::new(),
+            };
+            for dependency in package["dependencies"].as_array().expect("a dependency list") {
+                let name = dependency["name"].as_str().expect("a dependency name").to_string();
+                match dependency["kind"].as_str() {
+                    Some("dev") => member.dev_dependencies.insert(name),
+                    _ => member.dependencies.insert(name),
+                };
+            }
+            member
+        })
+        .collect();
+    members.sort_by(|a, b| a.folder.cmp(&b.folder));
+    members
+}
+
+/// The workspace members' folders.
 fn members() -> Vec<String> {
-    let manifest = read(&workspace_root().join("Cargo.toml"));
-    let start = manifest.find("members = [").expect("a members list in the root Cargo.toml");
-    let end = start + manifest[start..].find(']').expect("the end of the members list");
-    manifest[start..end]
-        .lines()
-        .filter_map(|line| line.trim().strip_prefix('"').and_then(|l| l.split('"').next()))
-        .map(str::to_string)
-        .collect()
+    members_with_dependencies().into_iter().map(|m| m.folder).collect()
 }
 
-/// A member's package name and the names of its normal and build dependencies.
-fn package_and_dependencies(member: &str) -> (String, BTreeSet<String>) {
-    let manifest = read(&workspace_root().join(member).join("Cargo.toml"));
-    let mut name = None;
-    let mut section = String::new();
-    let mut dependencies = BTreeSet::new();
-    for line in manifest.lines().map(str::trim) {
-        if line.starts_with('[') {
-            section = line.to_string();
-            continue;
-        }
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let key = line.split(['=', '.', ' ']).next().unwrap_or("").trim().to_string();
-        if section == "[package]" && key == "name" {
-            name = line.split('"').nth(1).map(str::to_string);
-        }
-        if section == "[dependencies]" || section == "[build-dependencies]" {
-            dependencies.insert(key);
-        }
-    }
-    (name.unwrap_or_else(|| panic!("{member}/Cargo.toml has no package name")), dependencies)
+/// What one row of ARCHITECTURE.md's crate table allows (`None` for "any").
+struct Allowed {
+    dependencies: Option<BTreeSet<String>>,
+    /// What its tests may use besides (dev-dependencies).
+    in_tests: BTreeSet<String>,
 }
 
-/// The crate table of ARCHITECTURE.md: crate name -> the workspace crates it may depend on
-/// (`None` for "any").
-fn documented_layers() -> BTreeMap<String, Option<BTreeSet<String>>> {
+/// The crate table of ARCHITECTURE.md: crate name -> the workspace crates it may depend on,
+/// and those its tests may use besides.
+fn documented_layers() -> BTreeMap<String, Allowed> {
     let text = read(&workspace_root().join("ARCHITECTURE.md"));
     let mut layers = BTreeMap::new();
     for line in text.lines().filter(|l| l.starts_with("| `")) {
         let cells: Vec<&str> = line.split('|').map(str::trim).collect();
-        if cells.len() < 6 {
+        if cells.len() < 7 {
             continue;
         }
-        let crate_cell = cells[2];
-        let allowed_cell = cells[4];
         let names = |cell: &str| -> BTreeSet<String> {
             cell.split('`').skip(1).step_by(2).map(str::to_string).collect::<BTreeSet<_>>()
         };
-        let allowed = if allowed_cell == "any" { None } else { Some(names(allowed_cell)) };
-        for name in names(crate_cell) {
-            layers.insert(name, allowed.clone());
+        let allowed = Allowed {
+            dependencies: if cells[4] == "any" { None } else { Some(names(cells[4])) },
+            in_tests: names(cells[5]),
+        };
+        for name in names(cells[2]) {
+            layers.insert(
+                name,
+                Allowed { dependencies: allowed.dependencies.clone(), in_tests: allowed.in_tests.clone() },
+            );
         }
     }
     layers
 }
 
 #[test]
-fn every_crate_depends_only_on_the_workspace_crates_architecture_md_allows() {
+fn every_crate_and_its_tests_depend_only_on_the_workspace_crates_architecture_md_allows() {
     let layers = documented_layers();
-    let packages: BTreeMap<String, (String, BTreeSet<String>)> = members()
-        .into_iter()
-        .map(|m| (package_and_dependencies(&m).0, (m.clone(), package_and_dependencies(&m).1)))
-        .collect();
-    let workspace_crates: BTreeSet<&String> = packages.keys().collect();
+    let members = members_with_dependencies();
+    let workspace_crates: BTreeSet<&String> = members.iter().map(|m| &m.name).collect();
     let mut violations = Vec::new();
-    for (name, (member, dependencies)) in &packages {
-        // The three cdylib crates share one row, `fmu-*-cdylib`: their own model crate and the runtime.
-        let allowed = if name.ends_with("-cdylib") {
+    for member in &members {
+        let name = &member.name;
+        // The cdylib crates share one row, `fmu-*-cdylib`: their own model crate and the runtime.
+        let (allowed, in_tests) = if name.ends_with("-cdylib") {
             let model = name.trim_end_matches("-cdylib").to_string();
-            Some([model, "fmu-runtime".to_string()].into_iter().collect())
+            (Some([model, "fmu-runtime".to_string()].into_iter().collect::<BTreeSet<_>>()), BTreeSet::new())
         } else {
             match layers.get(name) {
-                Some(allowed) => allowed.clone(),
+                Some(row) => (row.dependencies.clone(), row.in_tests.clone()),
                 None => {
-                    violations.push(format!("{name} ({member}) has no row in ARCHITECTURE.md's crate table"));
+                    violations.push(format!("{name} ({}) has no row in ARCHITECTURE.md's crate table", member.folder));
                     continue;
                 }
             }
         };
         let Some(allowed) = allowed else { continue };
-        for dependency in dependencies.iter().filter(|d| workspace_crates.contains(d)) {
+        for dependency in member.dependencies.iter().filter(|d| workspace_crates.contains(d)) {
             if !allowed.contains(dependency) {
                 violations.push(format!("{name} depends on {dependency}, which ARCHITECTURE.md does not allow"));
             }
         }
+        for dependency in member.dev_dependencies.iter().filter(|d| workspace_crates.contains(d)) {
+            if !allowed.contains(dependency) && !in_tests.contains(dependency) {
+                violations.push(format!(
+                    "the tests of {name} use {dependency}, which ARCHITECTURE.md's column \"its tests may also use\" does not list"
+                ));
+            }
+        }
     }
     assert!(violations.is_empty(), "{}", violations.join("\n"));
+}
+
+#[test]
+fn the_crate_table_catches_a_test_only_dependency_it_does_not_list() {
+    // The check above must not pass vacuously: every workspace crate has a row, and the table's
+    // test column is read (fmu-wind's tests plot through antenna-plot, and the table says so).
+    let layers = documented_layers();
+    let members = members_with_dependencies();
+    for member in members.iter().filter(|m| !m.name.ends_with("-cdylib")) {
+        assert!(layers.contains_key(&member.name), "{} has no row", member.name);
+    }
+    let wind = members.iter().find(|m| m.name == "fmu-wind").expect("fmu-wind is a member");
+    assert!(wind.dev_dependencies.contains("antenna-plot"), "cargo metadata reports dev-dependencies");
+    assert!(layers["fmu-wind"].in_tests.contains("antenna-plot"), "the table's test column is read");
+    assert!(!layers["fmu-wind"].dependencies.as_ref().expect("a list").contains("antenna-plot"));
 }
 
 #[test]
@@ -255,19 +304,77 @@ fn module_references(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
     references
 }
 
-#[test]
-fn no_two_modules_of_a_crate_depend_on_each_other() {
-    let mut cycles = Vec::new();
-    for member in members() {
-        let src = workspace_root().join(&member).join("src");
-        let references = module_references(&src);
-        for (module, uses) in &references {
-            for other in uses {
-                if module < other && references.get(other).is_some_and(|back| back.contains(module)) {
-                    cycles.push(format!("{member}: {module} <-> {other}"));
+/// A circle of references through `start` (the modules in order, `start` first), if any: a
+/// depth-first search from `start` that looks for a way back to it, of any length.
+fn circle_through(start: &str, references: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn search(
+        path: &mut Vec<String>,
+        visited: &mut BTreeSet<String>,
+        start: &str,
+        references: &BTreeMap<String, BTreeSet<String>>,
+    ) -> bool {
+        let current = path.last().expect("the path starts at `start`").clone();
+        for next in references.get(&current).into_iter().flatten() {
+            if next == start {
+                return true;
+            }
+            if visited.insert(next.clone()) {
+                path.push(next.clone());
+                if search(path, visited, start, references) {
+                    return true;
                 }
+                path.pop();
+            }
+        }
+        false
+    }
+    let mut path = vec![start.to_string()];
+    let mut visited = BTreeSet::from([start.to_string()]);
+    search(&mut path, &mut visited, start, references).then_some(path)
+}
+
+/// Every circle of module references in `references`, each reported once (from its smallest
+/// module) as "a -> b -> c -> a".
+fn module_circles(references: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    let mut reported: BTreeSet<BTreeSet<String>> = BTreeSet::new();
+    let mut circles = Vec::new();
+    for module in references.keys() {
+        if let Some(circle) = circle_through(module, references) {
+            let members: BTreeSet<String> = circle.iter().cloned().collect();
+            if reported.insert(members) {
+                circles.push(format!("{} -> {module}", circle.join(" -> ")));
             }
         }
     }
-    assert!(cycles.is_empty(), "modules that use each other:\n{}", cycles.join("\n"));
+    circles
+}
+
+#[test]
+fn no_modules_of_a_crate_depend_on_each_other_through_a_circle_of_any_length() {
+    let mut circles = Vec::new();
+    for member in members() {
+        let references = module_references(&workspace_root().join(&member).join("src"));
+        circles.extend(module_circles(&references).into_iter().map(|c| format!("{member}: {c}")));
+    }
+    assert!(circles.is_empty(), "modules that depend on each other in a circle:\n{}", circles.join("\n"));
+}
+
+#[test]
+fn the_circle_check_finds_circles_of_two_three_and_four_modules_and_no_false_ones() {
+    let graph = |edges: &[(&str, &str)]| -> BTreeMap<String, BTreeSet<String>> {
+        let mut references: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (from, to) in edges {
+            references.entry(from.to_string()).or_default().insert(to.to_string());
+            references.entry(to.to_string()).or_default();
+        }
+        references
+    };
+    assert_eq!(module_circles(&graph(&[("a", "b"), ("b", "a")])), ["a -> b -> a"]);
+    assert_eq!(module_circles(&graph(&[("checks", "instance"), ("instance", "state"), ("state", "checks")])).len(), 1);
+    assert_eq!(
+        module_circles(&graph(&[("a", "b"), ("b", "c"), ("c", "d"), ("d", "a"), ("x", "a")])),
+        ["a -> b -> c -> d -> a"]
+    );
+    // A diamond is layered, not circular.
+    assert!(module_circles(&graph(&[("a", "b"), ("a", "c"), ("b", "d"), ("c", "d")])).is_empty());
 }

@@ -32,7 +32,6 @@
 //! bit.
 
 use std::path::Path;
-use std::time::Instant;
 
 use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
 
@@ -800,47 +799,13 @@ impl CoupledAntenna {
         &mut self,
         table: &CommandTable,
         steps: u64,
-        mut trace: Option<&mut Trace>,
+        trace: Option<&mut Trace>,
         progress: &mut dyn FnMut(f64),
     ) -> Result<(), ImportError> {
-        if self.lanes != Lanes::Auto {
-            return self.run_lanes(table, steps, trace, self.lanes, progress, 0).map(|_| ());
-        }
-        if steps < AUTO_PROBE_STEPS_TWO + AUTO_PROBE_STEPS_ONE {
-            // Too short to time both: the second thread's start alone would cost more than it
-            // could save (and `step` would start one per step).
-            return self.run_lanes(table, steps, trace, Lanes::One, progress, 0).map(|_| ());
-        }
-        // Two lanes pay only while the second thread has a core of its own: on a busy machine
-        // every meeting waits for the scheduler, and a step can take a hundred times longer.
-        // So both are timed on this machine now, in probes, the faster runs on, and the probes
-        // are repeated from time to time. A probe times its steps after a warm-up: the first
-        // thousand steps of two new lanes take about twice as long as the later ones (the
-        // second core wakes up, the azimuth units' memory moves to it), and probes timed from
-        // their start chose one thread where two ran 1.8 times as fast (README, "Speed").
-        let start = self.steps_done;
-        let mut chunk = |antenna: &mut Self, n: u64, lanes: Lanes, warm_up: u64, trace: Option<&mut Trace>| {
-            let first = antenna.steps_done - start;
-            let n = n.min(steps - first);
-            let warm_up = warm_up.min(n / 2);
-            let started = Instant::now();
-            let mut report = |fraction: f64| progress((first as f64 + fraction * n as f64) / steps as f64);
-            let warm = antenna.run_lanes(table, n, trace, lanes, &mut report, warm_up)?.unwrap_or(started);
-            Ok::<f64, ImportError>(warm.elapsed().as_secs_f64() / (n - warm_up).max(1) as f64)
-        };
-        let mut run_steps = AUTO_RUN_STEPS;
-        while self.steps_done - start < steps {
-            let two = chunk(self, AUTO_PROBE_STEPS_TWO, Lanes::Two, AUTO_WARM_UP_STEPS_TWO, trace.as_deref_mut())?;
-            let one = chunk(self, AUTO_PROBE_STEPS_ONE, Lanes::One, AUTO_WARM_UP_STEPS_ONE, trace.as_deref_mut())?;
-            let faster = if two < one { Lanes::Two } else { Lanes::One };
-            chunk(self, run_steps, faster, 0, trace.as_deref_mut())?;
-            run_steps = auto_run_steps_after(faster, run_steps);
-        }
-        Ok(())
+        self.run_lanes(table, steps, trace, self.lanes, progress)
     }
 
-    /// [`Self::run_steps`] on the given lanes (one or two); returns when the first `warm_up`
-    /// steps were done (`None` for 0).
+    /// [`Self::run_steps`] on the given lanes.
     fn run_lanes(
         &mut self,
         table: &CommandTable,
@@ -848,11 +813,8 @@ impl CoupledAntenna {
         trace: Option<&mut Trace>,
         lanes: Lanes,
         progress: &mut dyn FnMut(f64),
-        warm_up: u64,
-    ) -> Result<Option<Instant>, ImportError> {
+    ) -> Result<(), ImportError> {
         let mut master = Master {
-            warm_up,
-            warm_at: None,
             table,
             start_time_s: self.start_time_s,
             step_s: self.step_s,
@@ -874,12 +836,10 @@ impl CoupledAntenna {
         };
         let (done, result) = match lanes {
             Lanes::Two => master.run_on_two_threads(&mut azimuth, &mut elevation, &mut self.wind, steps, progress),
-            Lanes::One | Lanes::Auto => {
-                master.run_on_one_thread(&mut azimuth, &mut elevation, &mut self.wind, steps, progress)
-            }
+            Lanes::One => master.run_on_one_thread(&mut azimuth, &mut elevation, &mut self.wind, steps, progress),
         };
         self.steps_done += done;
-        result.map(|()| master.warm_at)
+        result
     }
 
     /// Runs until `end_time_s`, recording every communication point; `progress` is called
@@ -915,39 +875,6 @@ pub enum Lanes {
     /// unit stepped on the lane and exchanged with here made a step 1.4 times as long, README
     /// "Speed").
     Two,
-    /// Two lanes while they are faster than one on this machine: both are timed in probes
-    /// ([`AUTO_PROBE_STEPS_TWO`], [`AUTO_PROBE_STEPS_ONE`], each timed after a warm-up) every
-    /// [`AUTO_RUN_STEPS`] or more, and the faster runs on.
-    Auto,
-}
-
-/// The steps of [`Lanes::Auto`]'s probe of two lanes (two seconds of simulated time, about two
-/// milliseconds of computing), of which the first [`AUTO_WARM_UP_STEPS_TWO`] are not timed.
-pub const AUTO_PROBE_STEPS_TWO: u64 = 2_000;
-/// The steps of a probe of two lanes before the timed ones.
-pub const AUTO_WARM_UP_STEPS_TWO: u64 = 1_000;
-/// The steps of [`Lanes::Auto`]'s probe of one lane, of which the first
-/// [`AUTO_WARM_UP_STEPS_ONE`] (the azimuth units' memory coming back) are not timed.
-pub const AUTO_PROBE_STEPS_ONE: u64 = 1_000;
-/// The steps of a probe of one lane before the timed ones.
-pub const AUTO_WARM_UP_STEPS_ONE: u64 = 200;
-// Every probe times some steps after its warm-up.
-const _: () = assert!(AUTO_WARM_UP_STEPS_TWO < AUTO_PROBE_STEPS_TWO && AUTO_WARM_UP_STEPS_ONE < AUTO_PROBE_STEPS_ONE);
-/// The steps [`Lanes::Auto`] runs on the faster lanes before it probes again (some 25-50
-/// milliseconds of computing: a machine's load changes on that scale), twice as many after
-/// each round one lane won, up to 16 times.
-pub const AUTO_RUN_STEPS: u64 = 40_000;
-
-/// The steps [`Lanes::Auto`] runs before its next probes, after a round that `faster` won and
-/// that ran `run_steps`: after a round one lane won, twice as many (up to 16 times
-/// [`AUTO_RUN_STEPS`]), since where the second core is busy its probe is the slow part of a
-/// round; after a round two lanes won, [`AUTO_RUN_STEPS`] again.
-fn auto_run_steps_after(faster: Lanes, run_steps: u64) -> u64 {
-    if faster == Lanes::Two {
-        AUTO_RUN_STEPS
-    } else {
-        (2 * run_steps).min(16 * AUTO_RUN_STEPS)
-    }
 }
 
 /// The wind's loads on the antenna now, scaled by `scale` (torque about azimuth, about
@@ -1186,6 +1113,77 @@ fn step_time(start_time_s: f64, step_s: f64, n: u64) -> f64 {
     start_time_s + n as f64 * step_s
 }
 
+/// The azimuth lane's thread in [`Master::run_on_two_threads`]: what it owns (its copy of the
+/// command table) and the handoffs through which it meets the master.
+struct LaneThread<'h> {
+    table: CommandTable,
+    to_azimuth: &'h Handoff<(), AZIMUTH_LOADS_WORDS>,
+    from_azimuth: &'h Handoff<ImportError, AZIMUTH_OUTPUT_WORDS>,
+    /// The elevation drive's torque from the structure, where the modes push back on the drives.
+    elevation_torque: &'h Handoff<ImportError, 1>,
+    start_time_s: f64,
+    step_s: f64,
+    first_step: u64,
+    steps: u64,
+    first_az: [f64; 7],
+    first_command: [f64; 2],
+    /// Whether the structure's modes feed back on the drives (the lane sends the elevation torque).
+    feedback: bool,
+}
+
+impl LaneThread<'_> {
+    /// Runs the azimuth lane for every step the master hands it, answering each with its outputs
+    /// and the next step's command, until the steps are done, the master stops, or it fails.
+    fn run(self, azimuth: &mut AzimuthLane) {
+        let (table, h, steps, feedback) = (&self.table, self.step_s, self.steps, self.feedback);
+        let (from_azimuth, to_azimuth, elevation_torque) = (self.from_azimuth, self.to_azimuth, self.elevation_torque);
+        // Tells the master if this thread ends without answering (a panic).
+        let _closing = from_azimuth.closing_on_drop();
+        let _closing_torque = elevation_torque.closing_on_drop();
+        let time = |k: u64| step_time(self.start_time_s, h, self.first_step + k);
+        // The controller's part of step k is done before the loads of step k arrive
+        // (see `AzimuthLane`); a failure there answers step k.
+        let control = |azimuth: &mut AzimuthLane, k: u64, command: [f64; 2], az: &[f64; 7]| {
+            azimuth.control(time(k), h, command, az)
+        };
+        let mut az = self.first_az;
+        let mut controller = match control(azimuth, 0, self.first_command, &az) {
+            Ok(controller) => controller,
+            Err(error) => return from_azimuth.send_failure(error),
+        };
+        for k in 0..steps {
+            // Looked up while the master exchanges with the wind.
+            let next_command = if k + 1 < steps { table.at(time(k + 1)) } else { Command::default() };
+            let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
+            let (t, loads) = AzimuthLoads::from_words(&words);
+            let (beam, drive) = match azimuth.exchange_structure(&loads) {
+                Ok(exchanged) => exchanged,
+                // The master waits for the elevation torque first where it needs it.
+                Err(error) if feedback => return elevation_torque.send_failure(error),
+                Err(error) => return from_azimuth.send_failure(error),
+            };
+            if let Some([_, torque_el]) = drive {
+                elevation_torque.send(&[torque_el]);
+            }
+            let torque_az = drive.map_or(loads.wind_torque_nm, |[az, _]| az);
+            match azimuth.drive(t, h, &controller, torque_az, loads.elevation_deg) {
+                Ok(plant_next) => {
+                    let output = AzimuthLaneOutput { controller, beam, plant_next };
+                    from_azimuth.send(&output.to_words(&next_command));
+                    az = plant_next;
+                }
+                Err(error) => return from_azimuth.send_failure(error),
+            }
+            if k + 1 < steps {
+                match control(azimuth, k + 1, Master::azimuth_command(&next_command), &az) {
+                    Ok(next) => controller = next,
+                    Err(error) => return from_azimuth.send_failure(error),
+                }
+            }
+        }
+    }
+}
+
 /// The master's side of a run: the clock, the command, the wind exchange, and the trace.
 struct Master<'a, 't> {
     table: &'a CommandTable,
@@ -1196,10 +1194,6 @@ struct Master<'a, 't> {
     wind_scale: f64,
     ports: &'a Ports,
     trace: Option<&'t mut Trace>,
-    /// After how many steps of this run [`Self::warm_at`] is taken (0: never).
-    warm_up: u64,
-    /// When the first `warm_up` steps were done.
-    warm_at: Option<Instant>,
 }
 
 impl Master<'_, '_> {
@@ -1207,14 +1201,6 @@ impl Master<'_, '_> {
     /// runs do not drift.
     fn time(&self, k: u64) -> f64 {
         step_time(self.start_time_s, self.step_s, self.first_step + k)
-    }
-
-    /// Takes the time when the warm-up's last step is done.
-    #[inline]
-    fn note_done(&mut self, done: u64) {
-        if done == self.warm_up {
-            self.warm_at = Some(Instant::now());
-        }
     }
 
     /// The exchange that comes before the lanes: the command, and the wind unit told where the
@@ -1315,7 +1301,6 @@ impl Master<'_, '_> {
                 self.record(&point, &az, &el, &a, &e);
                 (az, el) = (a.plant_next, e.plant_next);
                 done = k + 1;
-                self.note_done(done);
                 if k % 1000 == 0 {
                     progress(k as f64 / steps as f64);
                 }
@@ -1367,53 +1352,20 @@ impl Master<'_, '_> {
         };
         std::thread::scope(|scope| {
             let (to_azimuth, from_azimuth, elevation_torque) = (&to_azimuth, &from_azimuth, &elevation_torque);
-            scope.spawn(move || {
-                let (table, azimuth) = (worker_table, &mut lane);
-                // Tells the master if this thread ends without answering (a panic).
-                let _closing = from_azimuth.closing_on_drop();
-                let _closing_torque = elevation_torque.closing_on_drop();
-                let time = |k: u64| step_time(start_time_s, h, first_step + k);
-                // The controller's part of step k is done before the loads of step k arrive
-                // (see `AzimuthLane`); a failure there answers step k.
-                let control = |azimuth: &mut AzimuthLane, k: u64, command: [f64; 2], az: &[f64; 7]| {
-                    azimuth.control(time(k), h, command, az)
-                };
-                let mut az = first_az;
-                let mut controller = match control(azimuth, 0, first_command, &az) {
-                    Ok(controller) => controller,
-                    Err(error) => return from_azimuth.send_failure(error),
-                };
-                for k in 0..steps {
-                    // Looked up while the master exchanges with the wind.
-                    let next_command = if k + 1 < steps { table.at(time(k + 1)) } else { Command::default() };
-                    let Received::Values(words) = to_azimuth.receive(k + 1) else { return };
-                    let (t, loads) = AzimuthLoads::from_words(&words);
-                    let (beam, drive) = match azimuth.exchange_structure(&loads) {
-                        Ok(exchanged) => exchanged,
-                        // The master waits for the elevation torque first where it needs it.
-                        Err(error) if feedback => return elevation_torque.send_failure(error),
-                        Err(error) => return from_azimuth.send_failure(error),
-                    };
-                    if let Some([_, torque_el]) = drive {
-                        elevation_torque.send(&[torque_el]);
-                    }
-                    let torque_az = drive.map_or(loads.wind_torque_nm, |[az, _]| az);
-                    match azimuth.drive(t, h, &controller, torque_az, loads.elevation_deg) {
-                        Ok(plant_next) => {
-                            let output = AzimuthLaneOutput { controller, beam, plant_next };
-                            from_azimuth.send(&output.to_words(&next_command));
-                            az = plant_next;
-                        }
-                        Err(error) => return from_azimuth.send_failure(error),
-                    }
-                    if k + 1 < steps {
-                        match control(azimuth, k + 1, Self::azimuth_command(&next_command), &az) {
-                            Ok(next) => controller = next,
-                            Err(error) => return from_azimuth.send_failure(error),
-                        }
-                    }
-                }
-            });
+            let thread = LaneThread {
+                table: worker_table,
+                to_azimuth,
+                from_azimuth,
+                elevation_torque,
+                start_time_s,
+                step_s: h,
+                first_step,
+                steps,
+                first_az,
+                first_command,
+                feedback,
+            };
+            scope.spawn(move || thread.run(&mut lane));
             let _closing = to_azimuth.closing_on_drop();
             let mut done = 0;
             let mut body = || -> Result<(), ImportError> {
@@ -1477,7 +1429,6 @@ impl Master<'_, '_> {
                     self.record(&point, &az, &el, &a, &e);
                     (az, el) = (a.plant_next, e.plant_next);
                     done = k + 1;
-                    self.note_done(done);
                     if k % 1000 == 0 {
                         progress(k as f64 / steps as f64);
                     }
@@ -1488,22 +1439,5 @@ impl Master<'_, '_> {
             let result = body();
             (done, result)
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn automatic_lanes_probe_less_often_while_one_lane_wins_and_as_often_as_ever_once_two_win() {
-        let mut run_steps = AUTO_RUN_STEPS;
-        let mut lengths = Vec::new();
-        for _ in 0..6 {
-            run_steps = auto_run_steps_after(Lanes::One, run_steps);
-            lengths.push(run_steps / AUTO_RUN_STEPS);
-        }
-        assert_eq!(lengths, [2, 4, 8, 16, 16, 16], "doubling, capped at 16 runs");
-        assert_eq!(auto_run_steps_after(Lanes::Two, run_steps), AUTO_RUN_STEPS);
     }
 }

@@ -103,7 +103,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         return coupled(&fmus, cli.seconds, cli.runs.unwrap_or(1) as usize, &[lanes]);
     }
     if !cli.only_sweep {
-        coupled(&fmus, cli.seconds, cli.runs.unwrap_or(3) as usize, &[Lanes::One, Lanes::Two, Lanes::Auto])?;
+        coupled(&fmus, cli.seconds, cli.runs.unwrap_or(3) as usize, &[Lanes::One, Lanes::Two])?;
         single_calls(&fmus)?;
         if cli.fmpy {
             fmpy_master(cli.seconds)?;
@@ -121,7 +121,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// The coupled antenna, Rust master: simulated seconds per wall-clock second, best of `runs`,
-/// for each of `lanes` (one thread, the azimuth lane on a second one, or the faster of the two).
+/// for each of `lanes` (one thread, or the azimuth lane on a second one).
 fn coupled(fmus: &FmuSet, seconds: f64, runs: usize, lanes: &[Lanes]) -> anyhow::Result<()> {
     println!("## Coupled antenna, Rust master through the C ABI");
     let (config, table) = benchmark_run(seconds);
@@ -167,7 +167,6 @@ fn lanes_name(lanes: Lanes) -> &'static str {
     match lanes {
         Lanes::One => "one thread",
         Lanes::Two => "two threads",
-        Lanes::Auto => "one or two threads, timed as it runs",
     }
 }
 
@@ -181,7 +180,7 @@ fn coupled_series(fmus: &FmuSet, seconds: f64, runs: usize, rounds: u32, pause_s
     println!("## Coupled antenna, Rust master through the C ABI: {rounds} rounds, {pause_s} s apart");
     let (config, table) = benchmark_run(seconds);
     let steps = (seconds / config.step_s).round() as u64;
-    let choices = [Lanes::One, Lanes::Two, Lanes::Auto];
+    let choices = [Lanes::One, Lanes::Two];
     let mut factors: Vec<Vec<f64>> = vec![Vec::new(); choices.len()];
     for round in 0..rounds {
         if round > 0 {
