@@ -8,6 +8,87 @@
 
 use std::f64::consts::PI;
 
+/// Davenport's length scale in Eq. 2, `x = L n / v_m` with `L = 1200 m`.
+pub const LENGTH_SCALE_M: f64 = 1200.0;
+
+/// The surface drag coefficient `kappa = 1 / (2.5 ln(z / z0))^2` at height `z` over roughness
+/// length `z0` (both m).
+pub fn kappa_for_roughness(z: f64, z0: f64) -> f64 {
+    1.0 / (2.5 * (z / z0).ln()).powi(2)
+}
+
+/// Eq. 2, the one place it is written: the one-sided spectrum of the along-wind gust per hertz
+/// at `n_hz`, `S(n) = 4 kappa v_m^2 x^2 / (n (1 + x^2)^(4/3))`, `x = L n / v_m`, for the mean
+/// speed `v_mean` (m/s) and surface drag coefficient `kappa`; zero at and below 0 Hz.
+pub fn spectrum_per_hz(v_mean: f64, kappa: f64, n_hz: f64) -> f64 {
+    if n_hz <= 0.0 {
+        return 0.0;
+    }
+    let x = LENGTH_SCALE_M * n_hz / v_mean;
+    // 4 kappa v^2 x^2 / n = 4 L kappa v x, so S = 4 L kappa v F(x) with F the normalised shape.
+    4.0 * LENGTH_SCALE_M * v_mean * kappa * crate::prototype::davenport_shape(x)
+}
+
+/// Spectral moments of a wind speed averaged over a gust window within an averaging period, the
+/// one place the gust integral is computed.
+///
+/// Within one averaging period `T0` the period's own mean removes the eddies slower than it (the
+/// high-pass `1 - sinc^2(pi n T0)`), and the moving average of length `tau` adds the low-pass
+/// `sinc^2(pi n tau)`. The integrals run by composite Simpson in `u = ln n` from `1e-4 / T0` to
+/// `upper_hz`, dense enough to follow the sinc oscillations (60,000 intervals).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GustMoments {
+    /// Variance of the speed about the period mean, `int S (1 - sinc^2(pi n T0)) dn`, (m/s)^2.
+    pub record_variance: f64,
+    /// Variance of the gust-window average about the period mean (its zeroth moment), (m/s)^2.
+    pub m0: f64,
+    /// Second spectral moment of the gust-window average, (m/s)^2 Hz^2.
+    pub m2: f64,
+}
+
+impl GustMoments {
+    /// The moments of the one-sided spectrum `psd` (per Hz) for gusts of `gust_duration` within
+    /// `averaging_period` (both s), integrated up to `upper_hz`.
+    pub fn of_spectrum(psd: &dyn Fn(f64) -> f64, gust_duration: f64, averaging_period: f64, upper_hz: f64) -> Self {
+        let (tau, t0) = (gust_duration, averaging_period);
+        let sinc2 = |a: f64| if a.abs() < 1e-8 { 1.0 } else { (a.sin() / a).powi(2) };
+        let (u_lo, u_hi) = ((1e-4 / t0).ln(), upper_hz.ln());
+        let intervals = 60_000usize;
+        let du = (u_hi - u_lo) / intervals as f64;
+        let (mut record, mut m0, mut m2) = (0.0, 0.0, 0.0);
+        for k in 0..=intervals {
+            let n = (u_lo + k as f64 * du).exp();
+            let simpson = if k == 0 || k == intervals {
+                1.0
+            } else if k % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            let in_record = psd(n) * (1.0 - sinc2(PI * n * t0)) * n;
+            let averaged = in_record * sinc2(PI * n * tau);
+            record += simpson * in_record;
+            m0 += simpson * averaged;
+            m2 += simpson * averaged * n * n;
+        }
+        let scale = du / 3.0;
+        Self { record_variance: record * scale, m0: m0 * scale, m2: m2 * scale }
+    }
+
+    /// The zero up-crossing rate `sqrt(m2 / m0)` of the gust-window average, Hz.
+    pub fn crossing_rate_hz(&self) -> f64 {
+        (self.m2 / self.m0).sqrt()
+    }
+}
+
+/// Davenport's (1964) peak factor `g = sqrt(2 ln(nu T0)) + 0.5772 / sqrt(2 ln(nu T0))` for a
+/// Gaussian process of zero up-crossing rate `nu` over a period `T0`. It assumes `nu T0` well
+/// above 1 and is clamped at `nu T0 = e` (g = 1.73) below that.
+pub fn peak_factor(crossing_rate_hz: f64, averaging_period: f64) -> f64 {
+    let a = (2.0 * (crossing_rate_hz * averaging_period).max(std::f64::consts::E).ln()).sqrt();
+    a + 0.5772 / a
+}
+
 /// Davenport's spectrum for a mean wind speed `v_mean` (m/s) at height `z` (m) over terrain of
 /// roughness length `z0` (m).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,7 +122,7 @@ impl Davenport {
 
     /// The surface drag coefficient `kappa = 1 / (2.5 ln(z / z0))^2`.
     pub fn kappa(&self) -> f64 {
-        1.0 / (2.5 * (self.z / self.z0).ln()).powi(2)
+        kappa_for_roughness(self.z, self.z0)
     }
 
     /// Davenport's gust variance `6 kappa v_m^2`, the integral of Eq. 2 over `n`.
@@ -66,8 +147,7 @@ impl Davenport {
 
     /// One-sided spectrum per hertz at frequency `n_hz`, in (m/s)^2/Hz.
     pub fn psd_one_sided_per_hz(&self, n_hz: f64) -> f64 {
-        let x = 1200.0 * n_hz / self.v_mean;
-        4800.0 * self.v_mean * self.kappa() * crate::prototype::davenport_shape(x)
+        spectrum_per_hz(self.v_mean, self.kappa(), n_hz)
     }
 
     /// Eq. 2 as written in the paper, at angular frequency `omega` (rad/s).
@@ -75,8 +155,7 @@ impl Davenport {
     /// It is the same number as [`Davenport::psd_one_sided_per_hz`] at `n = omega / 2 pi`: a
     /// density per hertz indexed by angular frequency.
     pub fn psd_at_omega(&self, omega: f64) -> f64 {
-        let bw = self.beta() * omega;
-        4800.0 * self.v_mean * self.kappa() * bw / (1.0 + bw * bw).powf(4.0 / 3.0)
+        spectrum_per_hz(self.v_mean, self.kappa(), omega / (2.0 * PI))
     }
 }
 
@@ -108,38 +187,17 @@ pub struct GustEstimate {
 /// assumes `nu T0` well above 1; it is clamped at `nu T0 = e` (g = 1.73) below that.
 pub fn expected_gust(d: &Davenport, gust_duration: f64, averaging_period: f64) -> GustEstimate {
     let (tau, t0) = (gust_duration, averaging_period);
-    let sinc2 = |a: f64| if a.abs() < 1e-8 { 1.0 } else { (a.sin() / a).powi(2) };
-    let weight = |n: f64| sinc2(PI * n * tau) * (1.0 - sinc2(PI * n * t0));
-    // Composite Simpson in u = ln n, dense enough to resolve the sinc oscillations up to the
-    // upper limit (about 30 points per period at 10 / tau).
-    let (u_lo, u_hi) = ((1e-4 / t0).ln(), (1e3 / tau).ln());
-    let intervals = 60_000usize;
-    let du = (u_hi - u_lo) / intervals as f64;
-    let (mut m0, mut m2) = (0.0, 0.0);
-    for k in 0..=intervals {
-        let n = (u_lo + k as f64 * du).exp();
-        let c = if k == 0 || k == intervals {
-            1.0
-        } else if k % 2 == 1 {
-            4.0
-        } else {
-            2.0
-        };
-        let f = d.psd_one_sided_per_hz(n) * weight(n) * n;
-        m0 += c * f;
-        m2 += c * f * n * n;
-    }
-    m0 *= du / 3.0;
-    m2 *= du / 3.0;
+    // Up to 10 / tau's hundredfold (1e3 / tau), about 30 points per sinc period at 10 / tau.
+    let upper_hz = 1e3 / tau;
+    let mut moments = GustMoments::of_spectrum(&|n| d.psd_one_sided_per_hz(n), tau, t0, upper_hz);
     // Beyond the upper limit n_max, S ~ 4800 v kappa (1200 n / v)^(-5/3) and sinc^2 averages to
     // 1 / (2 pi^2 n^2 tau^2); m2's tail decays only as n_max^(-2/3), so add it analytically.
-    let n_max = u_hi.exp();
-    let amplitude = 4800.0 * d.v_mean * d.kappa() * (1200.0 / d.v_mean).powf(-5.0 / 3.0) / (2.0 * PI * PI * tau * tau);
-    m2 += amplitude * 1.5 * n_max.powf(-2.0 / 3.0);
-    let nu = (m2 / m0).sqrt();
-    let a = (2.0 * (nu * t0).max(std::f64::consts::E).ln()).sqrt();
-    let g = a + 0.5772 / a;
-    let sigma_band = m0.sqrt();
+    let amplitude = 4.0 * LENGTH_SCALE_M * d.v_mean * d.kappa() * (LENGTH_SCALE_M / d.v_mean).powf(-5.0 / 3.0)
+        / (2.0 * PI * PI * tau * tau);
+    moments.m2 += amplitude * 1.5 * upper_hz.powf(-2.0 / 3.0);
+    let nu = moments.crossing_rate_hz();
+    let g = peak_factor(nu, t0);
+    let sigma_band = moments.m0.sqrt();
     let gust_speed = d.v_mean + g * sigma_band;
     GustEstimate { gust_speed, gust_factor: gust_speed / d.v_mean, peak_factor: g, sigma_band, crossing_rate_hz: nu }
 }

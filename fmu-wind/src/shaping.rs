@@ -87,7 +87,9 @@ impl ShapingFilter {
         let n = prototype.poles.len() as i32;
         let zeros: Vec<f64> = prototype.zeros.iter().map(|z| z / beta).collect();
         let poles: Vec<f64> = prototype.poles.iter().map(|p| p / beta).collect();
-        let gain = (4800.0 * d.v_mean * d.kappa()).sqrt() * prototype.gain * beta.powi(1 + m - n);
+        let gain = (4.0 * crate::davenport::LENGTH_SCALE_M * d.v_mean * d.kappa()).sqrt()
+            * prototype.gain
+            * beta.powi(1 + m - n);
         let residues = factored_residues(gain, &zeros, &poles);
         let mut filter = Self {
             kind: FilterKind::Davenport(*d),

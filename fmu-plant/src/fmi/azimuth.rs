@@ -1,14 +1,14 @@
 //! The azimuth plant as an FMI 2.0 co-simulation model: its variables and how they map onto
 //! [`AzimuthParams`], [`AzimuthInputs`] and [`AzimuthOutputs`].
 
-use fmu_runtime::{declare_variables, Context, Model, ModelInfo, Notes, StateError, Values};
+use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
 use crate::drivetrain::DriveState;
 
 use super::common::{
-    model_info, plant_step_pieces, sensor_text as T, FrictionVars, MotorVars, NumericsVars, SensorVars, COUNT_MODE,
-    MAX_CURRENT_LOOP_BANDWIDTH, MAX_ENCODER_ERROR_ARCSEC, MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MAX_SPEED_NOISE,
-    MIN_MOTOR_INERTIA, TINY,
+    model_info, plant_step_pieces, plant_variables, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
+    SensorVars, MAX_CURRENT_LOOP_BANDWIDTH, MAX_PATH_DAMPING, MAX_PATH_STIFFNESS, MAX_SPEED_NOISE, MIN_MOTOR_INERTIA,
+    TINY,
 };
 use super::common::{
     MAX_BACKLASH_ARCSEC, MAX_COGGING, MAX_COGGING_PERIOD, MAX_CURRENT, MAX_GEAR_RATIO, MAX_LOAD_INERTIA,
@@ -20,217 +20,181 @@ use crate::{AzimuthInputs, AzimuthParams, AzimuthPlant};
 
 const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 
-declare_variables! {
+plant_variables! {
     /// Variables of the azimuth plant FMU. Motor-side quantities are at the motor shaft;
     /// stiffness, damping, inertia and load torques are about the azimuth axis.
     pub enum AzVar {
-        // Inputs.
-        Current1Command = Var::real("motor1.current_command", "A").input().start(0.0).min(-MAX_CURRENT).max(MAX_CURRENT)
-            .description("Current command to drive 1, before its current loop; clamped to motor1.current_limit."),
-        Current2Command = Var::real("motor2.current_command", "A").input().start(0.0).min(-MAX_CURRENT).max(MAX_CURRENT)
-            .description("Current command to drive 2, before its current loop; clamped to motor2.current_limit."),
-        DisturbanceTorque = Var::real("load.disturbance_torque", "N.m").input().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
-            .description("External torque about the azimuth axis (wind); positive drives positive azimuth."),
-        Elevation = Var::real("elevation", "deg").input().start(45.0).min(-10.0).max(120.0)
-            .description("Elevation angle of the dish, which sets the load inertia about the azimuth axis."),
-        // Outputs.
-        EncoderPosition = Var::real("axis.encoder_position", "deg").output()
-            .description("Azimuth encoder reading: the true angle plus the encoder errors (encoder.*), counted to encoder.bits per turn as encoder.count_mode says."),
-        AxisPosition = Var::real("axis.position", "deg").output()
-            .description("True azimuth angle of the load (not quantised)."),
-        AxisSpeed = Var::real("axis.speed", "deg/s").output().description("Azimuth speed of the load."),
-        Motor1Speed = Var::real("motor1.speed", "rad/s").output().description("Speed signal of motor 1 at its shaft: the true speed plus motor1.speed_noise_rms noise (none by default)."),
-        Motor2Speed = Var::real("motor2.speed", "rad/s").output().description("Speed signal of motor 2 at its shaft: the true speed plus motor2.speed_noise_rms noise (none by default)."),
-        Motor1Current = Var::real("motor1.current", "A").output().description("Current of motor 1 (output of its current loop)."),
-        Motor2Current = Var::real("motor2.current", "A").output().description("Current of motor 2 (output of its current loop)."),
-        Motor1Torque = Var::real("motor1.torque", "N.m").output().description("Electromagnetic torque of motor 1, K_phi times its current."),
-        Motor2Torque = Var::real("motor2.torque", "N.m").output().description("Electromagnetic torque of motor 2, K_phi times its current."),
-        Pinion1Torque = Var::real("pinion1.torque", "N.m").output().description("Torque pinion 1 puts on the bull gear, about the azimuth axis."),
-        Pinion2Torque = Var::real("pinion2.torque", "N.m").output().description("Torque pinion 2 puts on the bull gear, about the azimuth axis."),
-        Pinion1Flank = Var::integer("pinion1.flank").output()
-            .description("Flank of pinion 1 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
-        Pinion2Flank = Var::integer("pinion2.flank").output()
-            .description("Flank of pinion 2 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
-        LoadInertia = Var::real("load.inertia", "kg.m2").output().depends_on(&[AzVar::Elevation as u32])
-            .description("Inertia about the azimuth axis that the dynamics use at the current elevation input: its value at the centre of the input's parameter-grid cell (numerics.parameter_grid_cell)."),
-        AntiResonance = Var::real("drive.anti_resonance_frequency", "Hz").output().depends_on(&[AzVar::Elevation as u32])
-            .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive that the dynamics use at the current elevation input: stiffness and inertia at the centre of the input's parameter-grid cell."),
-        // Gearing and paths.
-        GearRatio = Var::real("gear.ratio", "1").parameter().start(9000.0).min(1.0).max(MAX_GEAR_RATIO)
-            .description("Gear ratio of each drive, motor rad per axis rad (gearbox times bull gear over pinion)."),
-        Pinion1Stiffness = Var::real("pinion1.stiffness", "N.m/rad").parameter().start(7.3e9).min(TINY).max(MAX_PATH_STIFFNESS)
-            .description("Stiffness of drive path 1 about the axis (gearbox, pinion, teeth, bull gear); the paper measured up to 30 % spread. Must be positive."),
-        Pinion2Stiffness = Var::real("pinion2.stiffness", "N.m/rad").parameter().start(7.3e9).min(TINY).max(MAX_PATH_STIFFNESS)
-            .description("Stiffness of drive path 2 about the axis. Must be positive."),
-        Pinion1Damping = Var::real("pinion1.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0).max(MAX_PATH_DAMPING)
-            .description("Viscous damping of drive path 1 about the axis (the paper's K_cv, per path). With backlash it must be positive, and at least the stiffness times 1e-10 s (the spring relaxes through it in the gap)."),
-        Pinion2Damping = Var::real("pinion2.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0).max(MAX_PATH_DAMPING)
-            .description("Viscous damping of drive path 2 about the axis. With backlash it must be positive, and at least the stiffness times 1e-10 s."),
-        Pinion1Backlash = Var::real("pinion1.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0).max(MAX_BACKLASH_ARCSEC)
-            .description("Total free play of pinion 1 on the bull gear, about the axis."),
-        Pinion2Backlash = Var::real("pinion2.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0).max(MAX_BACKLASH_ARCSEC)
-            .description("Total free play of pinion 2 on the bull gear, about the axis."),
-        // Load.
-        TurningHeadInertia = Var::real("load.turning_head_inertia", "kg.m2").parameter().start(5.5e5).min(0.0).max(MAX_LOAD_INERTIA)
-            .description("Inertia of the turning head (yoke, drives, cable wrap) about the azimuth axis. It and the smaller of the two elevation-structure inertias must not both be 0."),
-        CrossInertia = Var::real("load.elevation_structure_cross_inertia", "kg.m2").parameter().start(2.0e5).min(0.0).max(MAX_LOAD_INERTIA)
-            .description("Inertia of the elevation structure about its axis perpendicular to boresight and elevation axis (vertical at 0 deg elevation)."),
-        BoresightInertia = Var::real("load.elevation_structure_boresight_inertia", "kg.m2").parameter().start(4.0e5).min(0.0).max(MAX_LOAD_INERTIA)
-            .description("Inertia of the elevation structure about its boresight (vertical at 90 deg elevation)."),
-        BearingCoulomb = Var::real("bearing.coulomb_friction", "N.m").parameter().start(1500.0).min(0.0).max(MAX_LOAD_TORQUE)
-            .description("Sliding friction of the azimuth bearing and cable wrap, about the axis."),
-        BearingStatic = Var::real("bearing.static_friction", "N.m").parameter().start(2000.0).min(0.0).max(MAX_LOAD_TORQUE)
-            .description("Breakaway friction of the azimuth bearing and cable wrap (at least the sliding friction)."),
-        BearingStribeck = Var::real("bearing.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
-            .description("Stribeck velocity of the bearing friction at the axis; 0 switches the Stribeck curve off."),
-        BearingAsymmetry = Var::real("bearing.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
-            .description("Direction asymmetry a of the bearing friction: (1+a) times nominal moving positive, (1-a) moving negative."),
-        BearingViscous = Var::real("bearing.viscous_friction", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
-            .description("Viscous friction of the azimuth bearing about the axis (0 in the paper's model)."),
-        TorqueOffset = Var::real("load.torque_offset", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
-            .description("Constant torque on the load about the axis (for example a cable-wrap preload)."),
-        PeriodicAmplitude = Var::real("load.periodic_torque_amplitude", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
-            .description("Amplitude of a torque on the load that repeats with the azimuth angle (gear ripple, tilted-axis unbalance); 0 is off."),
-        PeriodicPeriod = Var::real("load.periodic_torque_period", "deg").parameter().start(360.0).min(1e-6).max(MAX_PERIOD_DEG)
-            .description("Period of the position-periodic load torque in axis degrees."),
-        PeriodicPhase = Var::real("load.periodic_torque_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description("Phase of the position-periodic load torque at azimuth 0."),
-        // Motor 1.
-        M1Inertia = Var::real("motor1.inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
-            .description("Inertia J_M of motor 1 with its gearbox input stage."),
-        M1Viscous = Var::real("motor1.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0).max(MAX_MOTOR_VISCOUS)
-            .description("Viscous friction B_M of motor 1 and its gearbox, at the motor."),
-        M1Coulomb = Var::real("motor1.coulomb_friction", "N.m").parameter().start(0.3).min(0.0).max(MAX_MOTOR_FRICTION)
-            .description("Sliding friction of motor 1 and its gearbox, at the motor."),
-        M1Static = Var::real("motor1.static_friction", "N.m").parameter().start(0.4).min(0.0).max(MAX_MOTOR_FRICTION)
-            .description("Breakaway friction of motor 1 and its gearbox, at the motor (at least the sliding friction)."),
-        M1Stribeck = Var::real("motor1.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
-            .description("Stribeck velocity of motor 1's friction; 0 switches the Stribeck curve off."),
-        M1Asymmetry = Var::real("motor1.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
-            .description("Direction asymmetry of motor 1's friction."),
-        M1TorqueConstant = Var::real("motor1.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
-            .description("Torque constant K_phi of motor 1."),
-        M1TorqueScale = Var::real("motor1.torque_constant_scale", "1").parameter().start(1.0).min(TINY).max(MAX_TORQUE_CONSTANT_SCALE)
-            .description("Multiplier on motor 1's torque constant (a torque-constant error); 1 is nominal."),
-        M1CurrentLimit = Var::real("motor1.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
-            .description("Current limit of drive 1: the command is clamped to +/- this."),
-        M1Bandwidth = Var::real("motor1.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
-            .description("Closed-loop bandwidth of drive 1's current loop (first-order lag)."),
-        M1Delay = Var::real("motor1.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
-            .description("Pure time delay on motor 1's current command; 0 is off."),
-        M1CoggingAmplitude = Var::real("motor1.cogging_amplitude", "N.m").parameter().start(0.0).min(-MAX_COGGING).max(MAX_COGGING)
-            .description("Amplitude of motor 1's cogging torque; 0 is off."),
-        M1CoggingPeriod = Var::real("motor1.cogging_period", "1").parameter().start(1.0).min(1e-9).max(MAX_COGGING_PERIOD)
-            .description("Period of motor 1's cogging torque in motor revolutions (1/48 for 48 slots)."),
-        M1CoggingPhase = Var::real("motor1.cogging_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description("Phase of motor 1's cogging torque at motor angle 0."),
-        // Motor 2.
-        M2Inertia = Var::real("motor2.inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
-            .description("Inertia J_M of motor 2 with its gearbox input stage."),
-        M2Viscous = Var::real("motor2.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0).max(MAX_MOTOR_VISCOUS)
-            .description("Viscous friction B_M of motor 2 and its gearbox, at the motor."),
-        M2Coulomb = Var::real("motor2.coulomb_friction", "N.m").parameter().start(0.3).min(0.0).max(MAX_MOTOR_FRICTION)
-            .description("Sliding friction of motor 2 and its gearbox, at the motor."),
-        M2Static = Var::real("motor2.static_friction", "N.m").parameter().start(0.4).min(0.0).max(MAX_MOTOR_FRICTION)
-            .description("Breakaway friction of motor 2 and its gearbox, at the motor (at least the sliding friction)."),
-        M2Stribeck = Var::real("motor2.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
-            .description("Stribeck velocity of motor 2's friction; 0 switches the Stribeck curve off."),
-        M2Asymmetry = Var::real("motor2.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
-            .description("Direction asymmetry of motor 2's friction."),
-        M2TorqueConstant = Var::real("motor2.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
-            .description("Torque constant K_phi of motor 2."),
-        M2TorqueScale = Var::real("motor2.torque_constant_scale", "1").parameter().start(1.0).min(TINY).max(MAX_TORQUE_CONSTANT_SCALE)
-            .description("Multiplier on motor 2's torque constant (a torque-constant error); 1 is nominal."),
-        M2CurrentLimit = Var::real("motor2.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
-            .description("Current limit of drive 2: the command is clamped to +/- this."),
-        M2Bandwidth = Var::real("motor2.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
-            .description("Closed-loop bandwidth of drive 2's current loop (first-order lag)."),
-        M2Delay = Var::real("motor2.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
-            .description("Pure time delay on motor 2's current command; 0 is off."),
-        M2CoggingAmplitude = Var::real("motor2.cogging_amplitude", "N.m").parameter().start(0.0).min(-MAX_COGGING).max(MAX_COGGING)
-            .description("Amplitude of motor 2's cogging torque; 0 is off."),
-        M2CoggingPeriod = Var::real("motor2.cogging_period", "1").parameter().start(1.0).min(1e-9).max(MAX_COGGING_PERIOD)
-            .description("Period of motor 2's cogging torque in motor revolutions."),
-        M2CoggingPhase = Var::real("motor2.cogging_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description("Phase of motor 2's cogging torque at motor angle 0."),
-        // Sensing, configuration and numerics.
-        EncoderBits = Var::integer("encoder.bits").parameter().start_integer(25).range_integer(0, 40)
-            .description("Resolution of the azimuth encoder in bits per turn; 0 means unquantised."),
-        InitialPosition = Var::real("initial_position", "deg").parameter().start(0.0).min(-185.0).max(275.0)
-            .description("Azimuth at which the axis starts, at rest, pinions centred in their backlash."),
-        Linear = Var::boolean("linear_configuration").parameter().start_boolean(false)
-            .description("If true, the plant is exactly the paper's linear Eq. 1 model: Coulomb/static friction, backlash, saturation, delay, cogging, extra torques, quantisation and all sensor errors are ignored."),
-        ParameterFile = Var::string("parameter_file").parameter().start_string("")
-            .description("A parameter file (name = value lines) applied when this is set; relative paths are looked up in the FMU's resources folder (for example linear.params)."),
-        GridCell = Var::real("numerics.parameter_grid_cell", "deg").parameter().start(0.25).min(1e-6).max(10.0)
-            .description("Elevation cell within which the load inertia is frozen at the cell centre (error measured in docs/plant-model.md)."),
-        NonlinearSubstep = Var::real("numerics.nonlinear_substep", "s").parameter().start(1e-4).min(1e-7).max(1.0)
-            .description("Internal sub-step over which Stribeck, cogging and periodic torques are held constant (used only when those are on)."),
-        EventResolution = Var::real("numerics.event_time_resolution", "s").parameter().start(1e-6).min(1e-9).max(1e-3)
-            .description("Time resolution to which stick/slip and backlash contact events are localised."),
-        EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-6).max(1.0)
-            .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
-        CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 4096)
-            .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
-        // Presliding friction of the motors (appended: existing value references keep their numbers).
-        M1PreslidingStiffness = Var::real("motor1.presliding_stiffness", "N.m/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_STIFFNESS)
-            .description("Presliding (bristle) stiffness of motor 1's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
-        M1PreslidingDamping = Var::real("motor1.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
-            .description("Damping of motor 1's presliding spring (used only with a presliding stiffness)."),
-        M2PreslidingStiffness = Var::real("motor2.presliding_stiffness", "N.m/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_STIFFNESS)
-            .description("Presliding (bristle) stiffness of motor 2's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
-        M2PreslidingDamping = Var::real("motor2.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
-            .description("Damping of motor 2's presliding spring (used only with a presliding stiffness)."),
-        // Sensors (appended: existing value references keep their numbers). Every default is the
-        // ideal encoder and noise-free speed signals, which reproduce the plant before the sensor model.
-        EncoderError = Var::real("axis.encoder_error", "arcsec").output().description(T::ENCODER_ERROR),
-        EncoderCountMode = Var::enumeration("encoder.count_mode", &COUNT_MODE).parameter().start_integer(1)
-            .description("How the encoder counts: truncate (round down, as before the sensor model) or round to the nearest count."),
-        Graduation1Amplitude = Var::real("encoder.graduation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::GRADUATION_AMPLITUDE),
-        Graduation1Harmonic = Var::integer("encoder.graduation_error1_harmonic").parameter().start_integer(2).range_integer(1, 100_000_000)
-            .description(T::GRADUATION_HARMONIC),
-        Graduation1Phase = Var::real("encoder.graduation_error1_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description(T::GRADUATION_PHASE),
-        Graduation2Amplitude = Var::real("encoder.graduation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::GRADUATION_AMPLITUDE),
-        Graduation2Harmonic = Var::integer("encoder.graduation_error2_harmonic").parameter().start_integer(3).range_integer(1, 100_000_000)
-            .description(T::GRADUATION_HARMONIC),
-        Graduation2Phase = Var::real("encoder.graduation_error2_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description(T::GRADUATION_PHASE),
-        Graduation3Amplitude = Var::real("encoder.graduation_error3_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::GRADUATION_AMPLITUDE),
-        Graduation3Harmonic = Var::integer("encoder.graduation_error3_harmonic").parameter().start_integer(4).range_integer(1, 100_000_000)
-            .description(T::GRADUATION_HARMONIC),
-        Graduation3Phase = Var::real("encoder.graduation_error3_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description(T::GRADUATION_PHASE),
-        LineCount = Var::integer("encoder.line_count").parameter().start_integer(32768).range_integer(1, 100_000_000)
-            .description(T::LINE_COUNT),
-        Interpolation1Amplitude = Var::real("encoder.interpolation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::INTERPOLATION1_AMPLITUDE),
-        Interpolation1Phase = Var::real("encoder.interpolation_error1_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description(T::INTERPOLATION_PHASE),
-        Interpolation2Amplitude = Var::real("encoder.interpolation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::INTERPOLATION2_AMPLITUDE),
-        Interpolation2Phase = Var::real("encoder.interpolation_error2_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description(T::INTERPOLATION_PHASE),
-        EccentricityAmplitude = Var::real("encoder.eccentricity_error_amplitude", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::ECCENTRICITY_AMPLITUDE),
-        EccentricityPhase = Var::real("encoder.eccentricity_error_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
-            .description(T::ECCENTRICITY_PHASE),
-        EncoderNoise = Var::real("encoder.noise_rms", "arcsec").parameter().start(0.0).min(0.0).max(MAX_ENCODER_ERROR_ARCSEC)
-            .description(T::ENCODER_NOISE),
-        M1SpeedNoise = Var::real("motor1.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
-            .description(T::SPEED_NOISE),
-        M2SpeedNoise = Var::real("motor2.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
-            .description(T::SPEED_NOISE),
-        SensorSeed = Var::integer("sensors.seed").parameter().start_integer(1).description(T::SEED),
-        SensorSamplePeriod = Var::real("sensors.sample_period", "s").parameter().start(1e-3).min(1e-6).max(1.0)
-            .description(T::SAMPLE_PERIOD),
-        StiffnessVariation = Var::real("pinion.stiffness_variation", "1").parameter().start(0.0).min(-0.9).max(0.9)
-            .description("Relative change of both paths' stiffness over the elevation travel, linear in elevation: the stiffness at el is pinion<k>.stiffness times 1 + v (el - 51.5 deg) / 73 deg (1 - v/2 at 15 deg, 1 + v/2 at 88 deg). The paper measured anti-resonance mismatches implying up to 30 % over the travel (sign and shape unknown); 0, the paper's single K_s, by default."),
-        EncoderCountModeNumber = Var::integer("encoder.count_mode_number").parameter().start_integer(0).range_integer(0, 2)
-            .description(T::COUNT_MODE_NUMBER),
+        own {
+            // Inputs.
+            Current1Command = Var::real("motor1.current_command", "A").input().start(0.0).min(-MAX_CURRENT).max(MAX_CURRENT)
+                .description("Current command to drive 1, before its current loop; clamped to motor1.current_limit."),
+            Current2Command = Var::real("motor2.current_command", "A").input().start(0.0).min(-MAX_CURRENT).max(MAX_CURRENT)
+                .description("Current command to drive 2, before its current loop; clamped to motor2.current_limit."),
+            DisturbanceTorque = Var::real("load.disturbance_torque", "N.m").input().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
+                .description("External torque about the azimuth axis (wind); positive drives positive azimuth."),
+            Elevation = Var::real("elevation", "deg").input().start(45.0).min(-10.0).max(120.0)
+                .description("Elevation angle of the dish, which sets the load inertia about the azimuth axis."),
+            // Outputs.
+            EncoderPosition = Var::real("axis.encoder_position", "deg").output()
+                .description("Azimuth encoder reading: the true angle plus the encoder errors (encoder.*), counted to encoder.bits per turn as encoder.count_mode says."),
+            AxisPosition = Var::real("axis.position", "deg").output()
+                .description("True azimuth angle of the load (not quantised)."),
+            AxisSpeed = Var::real("axis.speed", "deg/s").output().description("Azimuth speed of the load."),
+            Motor1Speed = Var::real("motor1.speed", "rad/s").output().description("Speed signal of motor 1 at its shaft: the true speed plus motor1.speed_noise_rms noise (none by default)."),
+            Motor2Speed = Var::real("motor2.speed", "rad/s").output().description("Speed signal of motor 2 at its shaft: the true speed plus motor2.speed_noise_rms noise (none by default)."),
+            Motor1Current = Var::real("motor1.current", "A").output().description("Current of motor 1 (output of its current loop)."),
+            Motor2Current = Var::real("motor2.current", "A").output().description("Current of motor 2 (output of its current loop)."),
+            Motor1Torque = Var::real("motor1.torque", "N.m").output().description("Electromagnetic torque of motor 1, K_phi times its current."),
+            Motor2Torque = Var::real("motor2.torque", "N.m").output().description("Electromagnetic torque of motor 2, K_phi times its current."),
+            Pinion1Torque = Var::real("pinion1.torque", "N.m").output().description("Torque pinion 1 puts on the bull gear, about the azimuth axis."),
+            Pinion2Torque = Var::real("pinion2.torque", "N.m").output().description("Torque pinion 2 puts on the bull gear, about the azimuth axis."),
+            Pinion1Flank = Var::integer("pinion1.flank").output()
+                .description("Flank of pinion 1 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
+            Pinion2Flank = Var::integer("pinion2.flank").output()
+                .description("Flank of pinion 2 in contact: +1 driving positive, -1 driving negative, 0 in the backlash gap."),
+            LoadInertia = Var::real("load.inertia", "kg.m2").output().depends_on(&[AzVar::Elevation as u32])
+                .description("Inertia about the azimuth axis that the dynamics use at the current elevation input: its value at the centre of the input's parameter-grid cell (numerics.parameter_grid_cell)."),
+            AntiResonance = Var::real("drive.anti_resonance_frequency", "Hz").output().depends_on(&[AzVar::Elevation as u32])
+                .description("Undamped anti-resonance sqrt(K_s/J_L)/(2 pi) of the drive that the dynamics use at the current elevation input: stiffness and inertia at the centre of the input's parameter-grid cell."),
+            // Gearing and paths.
+            GearRatio = Var::real("gear.ratio", "1").parameter().start(9000.0).min(1.0).max(MAX_GEAR_RATIO)
+                .description("Gear ratio of each drive, motor rad per axis rad (gearbox times bull gear over pinion)."),
+            Pinion1Stiffness = Var::real("pinion1.stiffness", "N.m/rad").parameter().start(7.3e9).min(TINY).max(MAX_PATH_STIFFNESS)
+                .description("Stiffness of drive path 1 about the axis (gearbox, pinion, teeth, bull gear); the paper measured up to 30 % spread. Must be positive."),
+            Pinion2Stiffness = Var::real("pinion2.stiffness", "N.m/rad").parameter().start(7.3e9).min(TINY).max(MAX_PATH_STIFFNESS)
+                .description("Stiffness of drive path 2 about the axis. Must be positive."),
+            Pinion1Damping = Var::real("pinion1.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0).max(MAX_PATH_DAMPING)
+                .description("Viscous damping of drive path 1 about the axis (the paper's K_cv, per path). With backlash it must be positive, and at least the stiffness times 1e-10 s (the spring relaxes through it in the gap)."),
+            Pinion2Damping = Var::real("pinion2.damping", "N.m.s/rad").parameter().start(5.3e6).min(0.0).max(MAX_PATH_DAMPING)
+                .description("Viscous damping of drive path 2 about the axis. With backlash it must be positive, and at least the stiffness times 1e-10 s."),
+            Pinion1Backlash = Var::real("pinion1.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0).max(MAX_BACKLASH_ARCSEC)
+                .description("Total free play of pinion 1 on the bull gear, about the axis."),
+            Pinion2Backlash = Var::real("pinion2.backlash", "arcsec").parameter().start(20.626480624709636).min(0.0).max(MAX_BACKLASH_ARCSEC)
+                .description("Total free play of pinion 2 on the bull gear, about the axis."),
+            // Load.
+            TurningHeadInertia = Var::real("load.turning_head_inertia", "kg.m2").parameter().start(5.5e5).min(0.0).max(MAX_LOAD_INERTIA)
+                .description("Inertia of the turning head (yoke, drives, cable wrap) about the azimuth axis. It and the smaller of the two elevation-structure inertias must not both be 0."),
+            CrossInertia = Var::real("load.elevation_structure_cross_inertia", "kg.m2").parameter().start(2.0e5).min(0.0).max(MAX_LOAD_INERTIA)
+                .description("Inertia of the elevation structure about its axis perpendicular to boresight and elevation axis (vertical at 0 deg elevation)."),
+            BoresightInertia = Var::real("load.elevation_structure_boresight_inertia", "kg.m2").parameter().start(4.0e5).min(0.0).max(MAX_LOAD_INERTIA)
+                .description("Inertia of the elevation structure about its boresight (vertical at 90 deg elevation)."),
+            BearingCoulomb = Var::real("bearing.coulomb_friction", "N.m").parameter().start(1500.0).min(0.0).max(MAX_LOAD_TORQUE)
+                .description("Sliding friction of the azimuth bearing and cable wrap, about the axis."),
+            BearingStatic = Var::real("bearing.static_friction", "N.m").parameter().start(2000.0).min(0.0).max(MAX_LOAD_TORQUE)
+                .description("Breakaway friction of the azimuth bearing and cable wrap (at least the sliding friction)."),
+            BearingStribeck = Var::real("bearing.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
+                .description("Stribeck velocity of the bearing friction at the axis; 0 switches the Stribeck curve off."),
+            BearingAsymmetry = Var::real("bearing.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
+                .description("Direction asymmetry a of the bearing friction: (1+a) times nominal moving positive, (1-a) moving negative."),
+            BearingViscous = Var::real("bearing.viscous_friction", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
+                .description("Viscous friction of the azimuth bearing about the axis (0 in the paper's model)."),
+            TorqueOffset = Var::real("load.torque_offset", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
+                .description("Constant torque on the load about the axis (for example a cable-wrap preload)."),
+            PeriodicAmplitude = Var::real("load.periodic_torque_amplitude", "N.m").parameter().start(0.0).min(-MAX_LOAD_TORQUE).max(MAX_LOAD_TORQUE)
+                .description("Amplitude of a torque on the load that repeats with the azimuth angle (gear ripple, tilted-axis unbalance); 0 is off."),
+            PeriodicPeriod = Var::real("load.periodic_torque_period", "deg").parameter().start(360.0).min(1e-6).max(MAX_PERIOD_DEG)
+                .description("Period of the position-periodic load torque in axis degrees."),
+            PeriodicPhase = Var::real("load.periodic_torque_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
+                .description("Phase of the position-periodic load torque at azimuth 0."),
+            // Motor 1.
+            M1Inertia = Var::real("motor1.inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
+                .description("Inertia J_M of motor 1 with its gearbox input stage."),
+            M1Viscous = Var::real("motor1.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0).max(MAX_MOTOR_VISCOUS)
+                .description("Viscous friction B_M of motor 1 and its gearbox, at the motor."),
+            M1Coulomb = Var::real("motor1.coulomb_friction", "N.m").parameter().start(0.3).min(0.0).max(MAX_MOTOR_FRICTION)
+                .description("Sliding friction of motor 1 and its gearbox, at the motor."),
+            M1Static = Var::real("motor1.static_friction", "N.m").parameter().start(0.4).min(0.0).max(MAX_MOTOR_FRICTION)
+                .description("Breakaway friction of motor 1 and its gearbox, at the motor (at least the sliding friction)."),
+            M1Stribeck = Var::real("motor1.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
+                .description("Stribeck velocity of motor 1's friction; 0 switches the Stribeck curve off."),
+            M1Asymmetry = Var::real("motor1.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
+                .description("Direction asymmetry of motor 1's friction."),
+            M1TorqueConstant = Var::real("motor1.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
+                .description("Torque constant K_phi of motor 1."),
+            M1TorqueScale = Var::real("motor1.torque_constant_scale", "1").parameter().start(1.0).min(TINY).max(MAX_TORQUE_CONSTANT_SCALE)
+                .description("Multiplier on motor 1's torque constant (a torque-constant error); 1 is nominal."),
+            M1CurrentLimit = Var::real("motor1.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
+                .description("Current limit of drive 1: the command is clamped to +/- this."),
+            M1Bandwidth = Var::real("motor1.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
+                .description("Closed-loop bandwidth of drive 1's current loop (first-order lag)."),
+            M1Delay = Var::real("motor1.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
+                .description("Pure time delay on motor 1's current command; 0 is off."),
+            M1CoggingAmplitude = Var::real("motor1.cogging_amplitude", "N.m").parameter().start(0.0).min(-MAX_COGGING).max(MAX_COGGING)
+                .description("Amplitude of motor 1's cogging torque; 0 is off."),
+            M1CoggingPeriod = Var::real("motor1.cogging_period", "1").parameter().start(1.0).min(1e-9).max(MAX_COGGING_PERIOD)
+                .description("Period of motor 1's cogging torque in motor revolutions (1/48 for 48 slots)."),
+            M1CoggingPhase = Var::real("motor1.cogging_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
+                .description("Phase of motor 1's cogging torque at motor angle 0."),
+            // Motor 2.
+            M2Inertia = Var::real("motor2.inertia", "kg.m2").parameter().start(0.006).min(MIN_MOTOR_INERTIA).max(MAX_MOTOR_INERTIA)
+                .description("Inertia J_M of motor 2 with its gearbox input stage."),
+            M2Viscous = Var::real("motor2.viscous_friction", "N.m.s/rad").parameter().start(1.0e-3).min(0.0).max(MAX_MOTOR_VISCOUS)
+                .description("Viscous friction B_M of motor 2 and its gearbox, at the motor."),
+            M2Coulomb = Var::real("motor2.coulomb_friction", "N.m").parameter().start(0.3).min(0.0).max(MAX_MOTOR_FRICTION)
+                .description("Sliding friction of motor 2 and its gearbox, at the motor."),
+            M2Static = Var::real("motor2.static_friction", "N.m").parameter().start(0.4).min(0.0).max(MAX_MOTOR_FRICTION)
+                .description("Breakaway friction of motor 2 and its gearbox, at the motor (at least the sliding friction)."),
+            M2Stribeck = Var::real("motor2.stribeck_velocity", "rad/s").parameter().start(0.0).min(0.0).max(MAX_STRIBECK_VELOCITY)
+                .description("Stribeck velocity of motor 2's friction; 0 switches the Stribeck curve off."),
+            M2Asymmetry = Var::real("motor2.friction_asymmetry", "1").parameter().start(0.0).min(-0.99).max(0.99)
+                .description("Direction asymmetry of motor 2's friction."),
+            M2TorqueConstant = Var::real("motor2.torque_constant", "N.m/A").parameter().start(0.8).min(TINY).max(MAX_TORQUE_CONSTANT)
+                .description("Torque constant K_phi of motor 2."),
+            M2TorqueScale = Var::real("motor2.torque_constant_scale", "1").parameter().start(1.0).min(TINY).max(MAX_TORQUE_CONSTANT_SCALE)
+                .description("Multiplier on motor 2's torque constant (a torque-constant error); 1 is nominal."),
+            M2CurrentLimit = Var::real("motor2.current_limit", "A").parameter().start(15.0).min(TINY).max(MAX_CURRENT)
+                .description("Current limit of drive 2: the command is clamped to +/- this."),
+            M2Bandwidth = Var::real("motor2.current_loop_bandwidth", "Hz").parameter().start(100.0).min(TINY).max(MAX_CURRENT_LOOP_BANDWIDTH)
+                .description("Closed-loop bandwidth of drive 2's current loop (first-order lag)."),
+            M2Delay = Var::real("motor2.command_delay", "s").parameter().start(0.0).min(0.0).max(1.0)
+                .description("Pure time delay on motor 2's current command; 0 is off."),
+            M2CoggingAmplitude = Var::real("motor2.cogging_amplitude", "N.m").parameter().start(0.0).min(-MAX_COGGING).max(MAX_COGGING)
+                .description("Amplitude of motor 2's cogging torque; 0 is off."),
+            M2CoggingPeriod = Var::real("motor2.cogging_period", "1").parameter().start(1.0).min(1e-9).max(MAX_COGGING_PERIOD)
+                .description("Period of motor 2's cogging torque in motor revolutions."),
+            M2CoggingPhase = Var::real("motor2.cogging_phase", "deg").parameter().start(0.0).min(-MAX_PHASE_DEG).max(MAX_PHASE_DEG)
+                .description("Phase of motor 2's cogging torque at motor angle 0."),
+            // Sensing, configuration and numerics.
+            EncoderBits = Var::integer("encoder.bits").parameter().start_integer(25).range_integer(0, 40)
+                .description("Resolution of the azimuth encoder in bits per turn; 0 means unquantised."),
+            InitialPosition = Var::real("initial_position", "deg").parameter().start(0.0).min(-185.0).max(275.0)
+                .description("Azimuth at which the axis starts, at rest, pinions centred in their backlash."),
+            Linear = Var::boolean("linear_configuration").parameter().start_boolean(false)
+                .description("If true, the plant is exactly the paper's linear Eq. 1 model: Coulomb/static friction, backlash, saturation, delay, cogging, extra torques, quantisation and all sensor errors are ignored."),
+            ParameterFile = Var::string("parameter_file").parameter().start_string("")
+                .description("A parameter file (name = value lines) applied when this is set; relative paths are looked up in the FMU's resources folder (for example linear.params)."),
+            GridCell = Var::real("numerics.parameter_grid_cell", "deg").parameter().start(0.25).min(1e-6).max(10.0)
+                .description("Elevation cell within which the load inertia is frozen at the cell centre (error measured in docs/plant-model.md)."),
+            NonlinearSubstep = Var::real("numerics.nonlinear_substep", "s").parameter().start(1e-4).min(1e-7).max(1.0)
+                .description("Internal sub-step over which Stribeck, cogging and periodic torques are held constant (used only when those are on)."),
+            EventResolution = Var::real("numerics.event_time_resolution", "s").parameter().start(1e-6).min(1e-9).max(1e-3)
+                .description("Time resolution to which stick/slip and backlash contact events are localised."),
+            EventCheckInterval = Var::real("numerics.event_check_interval", "s").parameter().start(1e-3).min(1e-6).max(1.0)
+                .description("Longest interval between checks for mode switches, at least numerics.event_time_resolution; longer communication steps are cut into pieces (at 1e-6 s a 1 ms step is already 1000 of them)."),
+            CacheCapacity = Var::integer("numerics.cache_capacity").parameter().start_integer(64).range_integer(8, 4096)
+                .description("Discretisations kept per cache generation (memory stays bounded whatever the step sizes)."),
+            // Presliding friction of the motors (appended: existing value references keep their numbers).
+            M1PreslidingStiffness = Var::real("motor1.presliding_stiffness", "N.m/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_STIFFNESS)
+                .description("Presliding (bristle) stiffness of motor 1's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
+            M1PreslidingDamping = Var::real("motor1.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
+                .description("Damping of motor 1's presliding spring (used only with a presliding stiffness)."),
+            M2PreslidingStiffness = Var::real("motor2.presliding_stiffness", "N.m/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_STIFFNESS)
+                .description("Presliding (bristle) stiffness of motor 2's friction: while sticking, the motor is held by this spring to a friction anchor and slips when its torque reaches the breakaway level; 0 is a rigid stick."),
+            M2PreslidingDamping = Var::real("motor2.presliding_damping", "N.m.s/rad").parameter().start(0.0).min(0.0).max(MAX_PATH_DAMPING)
+                .description("Damping of motor 2's presliding spring (used only with a presliding stiffness)."),
+            // Sensors (appended: existing value references keep their numbers). Every default is the
+            // ideal encoder and noise-free speed signals, which reproduce the plant before the sensor model.
+        }
+        speed_noise {
+            M1SpeedNoise = Var::real("motor1.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
+                .description(T::SPEED_NOISE),
+            M2SpeedNoise = Var::real("motor2.speed_noise_rms", "rad/s").parameter().start(0.0).min(0.0).max(MAX_SPEED_NOISE)
+                .description(T::SPEED_NOISE),
+        }
+        more {
+            StiffnessVariation = Var::real("pinion.stiffness_variation", "1").parameter().start(0.0).min(-0.9).max(0.9)
+                .description("Relative change of both paths' stiffness over the elevation travel, linear in elevation: the stiffness at el is pinion<k>.stiffness times 1 + v (el - 51.5 deg) / 73 deg (1 - v/2 at 15 deg, 1 + v/2 at 88 deg). The paper measured anti-resonance mismatches implying up to 30 % over the travel (sign and shape unknown); 0, the paper's single K_s, by default."),
+        }
     }
 }
 

@@ -311,3 +311,69 @@ impl<V: VariableSet, const P: usize> SensorVars<V, P> {
         }
     }
 }
+
+/// Declares a plant's variable table with the sensor variables both axes share written here once
+/// (the encoder's errors, counting and noise, the sensors' seed and sample period, the count
+/// mode's Integer twin). The groups keep every value reference where it was when the sensor model
+/// was appended to each table: the axis's `own` variables, the shared encoder block, the axis's
+/// `speed_noise` variables (one per motor), the seed and sample period, `more` of the axis's own,
+/// and the Integer twin last.
+macro_rules! plant_variables {
+    ($(#[$meta:meta])* pub enum $name:ident {
+        own { $($own:tt)* }
+        speed_noise { $($speed_noise:tt)* }
+        more { $($more:tt)* }
+    }) => {
+        fmu_runtime::declare_variables! {
+            $(#[$meta])*
+            pub enum $name {
+                $($own)*
+                EncoderError = Var::real("axis.encoder_error", "arcsec").output().description($crate::fmi::common::sensor_text::ENCODER_ERROR),
+                EncoderCountMode = Var::enumeration("encoder.count_mode", &$crate::fmi::common::COUNT_MODE).parameter().start_integer(1)
+                    .description("How the encoder counts: truncate (round down, as before the sensor model) or round to the nearest count."),
+                Graduation1Amplitude = Var::real("encoder.graduation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_AMPLITUDE),
+                Graduation1Harmonic = Var::integer("encoder.graduation_error1_harmonic").parameter().start_integer(2).range_integer(1, 100_000_000)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_HARMONIC),
+                Graduation1Phase = Var::real("encoder.graduation_error1_phase", "deg").parameter().start(0.0).min(-$crate::fmi::common::MAX_PHASE_DEG).max($crate::fmi::common::MAX_PHASE_DEG)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_PHASE),
+                Graduation2Amplitude = Var::real("encoder.graduation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_AMPLITUDE),
+                Graduation2Harmonic = Var::integer("encoder.graduation_error2_harmonic").parameter().start_integer(3).range_integer(1, 100_000_000)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_HARMONIC),
+                Graduation2Phase = Var::real("encoder.graduation_error2_phase", "deg").parameter().start(0.0).min(-$crate::fmi::common::MAX_PHASE_DEG).max($crate::fmi::common::MAX_PHASE_DEG)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_PHASE),
+                Graduation3Amplitude = Var::real("encoder.graduation_error3_amplitude", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_AMPLITUDE),
+                Graduation3Harmonic = Var::integer("encoder.graduation_error3_harmonic").parameter().start_integer(4).range_integer(1, 100_000_000)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_HARMONIC),
+                Graduation3Phase = Var::real("encoder.graduation_error3_phase", "deg").parameter().start(0.0).min(-$crate::fmi::common::MAX_PHASE_DEG).max($crate::fmi::common::MAX_PHASE_DEG)
+                    .description($crate::fmi::common::sensor_text::GRADUATION_PHASE),
+                LineCount = Var::integer("encoder.line_count").parameter().start_integer(32768).range_integer(1, 100_000_000)
+                    .description($crate::fmi::common::sensor_text::LINE_COUNT),
+                Interpolation1Amplitude = Var::real("encoder.interpolation_error1_amplitude", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::INTERPOLATION1_AMPLITUDE),
+                Interpolation1Phase = Var::real("encoder.interpolation_error1_phase", "deg").parameter().start(0.0).min(-$crate::fmi::common::MAX_PHASE_DEG).max($crate::fmi::common::MAX_PHASE_DEG)
+                    .description($crate::fmi::common::sensor_text::INTERPOLATION_PHASE),
+                Interpolation2Amplitude = Var::real("encoder.interpolation_error2_amplitude", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::INTERPOLATION2_AMPLITUDE),
+                Interpolation2Phase = Var::real("encoder.interpolation_error2_phase", "deg").parameter().start(0.0).min(-$crate::fmi::common::MAX_PHASE_DEG).max($crate::fmi::common::MAX_PHASE_DEG)
+                    .description($crate::fmi::common::sensor_text::INTERPOLATION_PHASE),
+                EccentricityAmplitude = Var::real("encoder.eccentricity_error_amplitude", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::ECCENTRICITY_AMPLITUDE),
+                EccentricityPhase = Var::real("encoder.eccentricity_error_phase", "deg").parameter().start(0.0).min(-$crate::fmi::common::MAX_PHASE_DEG).max($crate::fmi::common::MAX_PHASE_DEG)
+                    .description($crate::fmi::common::sensor_text::ECCENTRICITY_PHASE),
+                EncoderNoise = Var::real("encoder.noise_rms", "arcsec").parameter().start(0.0).min(0.0).max($crate::fmi::common::MAX_ENCODER_ERROR_ARCSEC)
+                    .description($crate::fmi::common::sensor_text::ENCODER_NOISE),
+                $($speed_noise)*
+                SensorSeed = Var::integer("sensors.seed").parameter().start_integer(1).description($crate::fmi::common::sensor_text::SEED),
+                SensorSamplePeriod = Var::real("sensors.sample_period", "s").parameter().start(1e-3).min(1e-6).max(1.0)
+                    .description($crate::fmi::common::sensor_text::SAMPLE_PERIOD),
+                $($more)*
+                EncoderCountModeNumber = Var::integer("encoder.count_mode_number").parameter().start_integer(0).range_integer(0, 2)
+                    .description($crate::fmi::common::sensor_text::COUNT_MODE_NUMBER),
+            }
+        }
+    };
+}
+pub(crate) use plant_variables;

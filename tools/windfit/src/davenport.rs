@@ -1,15 +1,17 @@
 //! The Davenport spectrum of the paper's Eq. 2 in the form the fits need (parametrised by
-//! kappa), with its closed-form variance, peaks and inertial-subrange level.
+//! kappa), with its closed-form variance, peaks and inertial-subrange level. Eq. 2 itself is
+//! written once, in `fmu_wind::davenport`; this is a view of it.
+
+use fmu_wind::davenport::{kappa_for_roughness, spectrum_per_hz};
 
 /// Davenport's length scale in Eq. 2 (x = L n / v_m), m.
-pub const DAVENPORT_LENGTH_M: f64 = 1200.0;
+pub const DAVENPORT_LENGTH_M: f64 = fmu_wind::davenport::LENGTH_SCALE_M;
 
 /// The Davenport spectrum of the paper's Eq. 2, one-sided per Hz:
 /// S(n) = 4 kappa v_m^2 x^2 / (n (1 + x^2)^(4/3)), x = L n / v_m, L = 1200 m.
 ///
-/// Kept local (a few lines) because the fitting works with kappa directly, where
-/// `fmu_wind::davenport::Davenport` is parametrised by z and z0; both implement the same
-/// formula, and [`compare_generator`] checks the fmu-wind filter against it.
+/// The fits work with kappa directly, where `fmu_wind::davenport::Davenport` is parametrised by
+/// z and z0; both evaluate `fmu_wind::davenport::spectrum_per_hz`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DavenportSpectrum {
     /// Mean wind speed, m/s.
@@ -21,7 +23,7 @@ pub struct DavenportSpectrum {
 impl DavenportSpectrum {
     /// kappa for height `z_m` and roughness length `z0_m`.
     pub fn kappa_for_roughness(z_m: f64, z0_m: f64) -> f64 {
-        1.0 / (2.5 * (z_m / z0_m).ln()).powi(2)
+        kappa_for_roughness(z_m, z0_m)
     }
 
     /// The roughness length z0 that gives `kappa` at height `z_m` (inverse of
@@ -44,11 +46,7 @@ impl DavenportSpectrum {
 
     /// One-sided PSD per Hz at frequency `n_hz` ((m/s)^2/Hz).
     pub fn psd(&self, n_hz: f64) -> f64 {
-        if n_hz <= 0.0 {
-            return 0.0;
-        }
-        let x = DAVENPORT_LENGTH_M * n_hz / self.v_mean_m_s;
-        4.0 * self.kappa * self.v_mean_m_s.powi(2) * x * x / (n_hz * (1.0 + x * x).powf(4.0 / 3.0))
+        spectrum_per_hz(self.v_mean_m_s, self.kappa, n_hz)
     }
 
     /// Total variance, the integral of the PSD: 6 kappa v_m^2.

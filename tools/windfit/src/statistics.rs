@@ -9,6 +9,7 @@ use antenna_dsp as dsp;
 use antenna_dsp::{
     self, autocorrelation, kurtosis_excess, max_moving_average, moving_average, skewness, window_samples,
 };
+use fmu_wind::davenport::{peak_factor, GustMoments};
 
 /// One-number statistics of the record.
 #[derive(Debug, Clone, PartialEq)]
@@ -77,8 +78,8 @@ pub struct GustPrediction {
 /// `sinc^2(pi n tau)`. The expected maximum is `v_m + g sigma_tau`, with Davenport's (1964)
 /// peak factor `g = sqrt(2 ln(nu T)) + 0.5772 / sqrt(2 ln(nu T))` and `nu` the zero
 /// up-crossing rate `sqrt(m2 / m0)` of the averaged process (clamped at `nu T = e`).
-/// This is the same formulation as fmu_wind::davenport::expected_gust, so a generator's PSD
-/// passed here is comparable with the measured row.
+/// The integral is `fmu_wind::davenport::GustMoments`, the one behind `expected_gust`, so a
+/// generator's PSD passed here is comparable with the measured row.
 pub fn predict_gust(
     label: &str,
     psd: &dyn Fn(f64) -> f64,
@@ -87,42 +88,12 @@ pub fn predict_gust(
     gust_window_s: f64,
     upper_hz: f64,
 ) -> GustPrediction {
-    let sinc2 = |a: f64| {
-        if a.abs() < 1e-8 {
-            1.0
-        } else {
-            (a.sin() / a).powi(2)
-        }
-    };
-    let pi = std::f64::consts::PI;
-    // Composite Simpson in u = ln n, from far below the record's high-pass corner to the upper
-    // limit, fine enough to follow the sinc^2 oscillations.
-    let (u_low, u_high) = ((1e-4 / period_s).ln(), upper_hz.ln());
-    let intervals = 40_000usize;
-    let du = (u_high - u_low) / intervals as f64;
-    let (mut m_record, mut m0, mut m2) = (0.0, 0.0, 0.0);
-    for k in 0..=intervals {
-        let n = (u_low + k as f64 * du).exp();
-        let simpson = if k == 0 || k == intervals {
-            1.0
-        } else if k % 2 == 1 {
-            4.0
-        } else {
-            2.0
-        };
-        let in_record = psd(n) * (1.0 - sinc2(pi * n * period_s)) * n;
-        let averaged = in_record * sinc2(pi * n * gust_window_s);
-        m_record += simpson * in_record;
-        m0 += simpson * averaged;
-        m2 += simpson * averaged * n * n;
-    }
-    let scale = du / 3.0;
-    let (m_record, m0, m2) = (m_record * scale, m0 * scale, m2 * scale);
-    let crossing_rate_hz = (m2 / m0).sqrt();
-    let a = (2.0 * (crossing_rate_hz * period_s).max(std::f64::consts::E).ln()).sqrt();
-    let peak_factor = a + 0.5772 / a;
-    let gust_window_sigma_m_s = m0.sqrt();
+    let moments = GustMoments::of_spectrum(psd, gust_window_s, period_s, upper_hz);
+    let crossing_rate_hz = moments.crossing_rate_hz();
+    let peak_factor = peak_factor(crossing_rate_hz, period_s);
+    let gust_window_sigma_m_s = moments.m0.sqrt();
     let gust_m_s = v_mean_m_s + peak_factor * gust_window_sigma_m_s;
+    let m_record = moments.record_variance;
     GustPrediction {
         label: label.to_string(),
         kappa: f64::NAN,
