@@ -131,6 +131,20 @@ declare_variables! {
             .description("Mean part of the side force, C_S 0.5 rho A v_m^2."),
         CSide = Var::real("coefficient.side", "1").output().depends_on(&[WindVar::Azimuth as u32, WindVar::Elevation as u32])
             .description("Side force coefficient C_S = C_L0 cos^2(el) sin(2 yaw) at the current pointing: the horizontal part of the cross-flow force whose vertical part is the lift (estimate, docs/wind-model.md)."),
+        // The enumerations' Integer twins (appended: existing value references keep their numbers).
+        SpectrumNumber = Var::integer("spectrum_number").parameter().start_integer(0).range_integer(0, 3)
+            .description("spectrum as an Integer, for masters that ignore FMI enumerations (libcosim and ecos do): 1 davenport, 2 paper, 3 off; 0 (the default) leaves the choice to spectrum. When it is not 0 it wins."),
+        FormNumber = Var::integer("torque_form_number").parameter().start_integer(0).range_integer(0, 2)
+            .description("torque_form as an Integer, for masters that ignore FMI enumerations: 1 quadratic, 2 linearised; 0 (the default) leaves the choice to torque_form. When it is not 0 it wins."),
+    }
+}
+
+/// An enumeration's item, where its Integer twin (for masters that ignore enumerations) wins
+/// unless it is 0.
+fn enumeration_or_twin(values: &Values<WindVar>, enumeration: WindVar, twin: WindVar) -> i32 {
+    match values.integer(twin) {
+        0 => values.integer(enumeration),
+        number => number,
     }
 }
 
@@ -145,7 +159,7 @@ pub struct WindModel {
 
 impl WindModel {
     fn spectrum_item(values: &Values<WindVar>) -> &'static str {
-        SPECTRUM.name_of(values.integer(WindVar::Spectrum)).unwrap_or("davenport")
+        SPECTRUM.name_of(enumeration_or_twin(values, WindVar::Spectrum, WindVar::SpectrumNumber)).unwrap_or("davenport")
     }
 
     fn build(
@@ -168,7 +182,11 @@ impl WindModel {
         };
         let generator = filter.map(|f| GustGenerator::with_admittance(f, admittance, seed));
         let table = Self::coefficients(values.string(WindVar::CoefficientFile), context)?;
-        let form = if values.integer(WindVar::Form) == 2 { TorqueForm::Linearised } else { TorqueForm::Quadratic };
+        let form = if enumeration_or_twin(values, WindVar::Form, WindVar::FormNumber) == 2 {
+            TorqueForm::Linearised
+        } else {
+            TorqueForm::Quadratic
+        };
         let forces = ForceCoefficients {
             drag_face_on: values.real(WindVar::DragCoefficient),
             lift_max: values.real(WindVar::LiftCoefficient),

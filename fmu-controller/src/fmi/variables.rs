@@ -102,6 +102,10 @@ macro_rules! controller_variables {
                 RestTime = Var::real("anti_limit_cycle.rest_time", "s").parameter().start(0.25).min(0.0).max(60.0)
                     .description("The axis must have been at rest this long before the hold engages: friction sticks an axis for good, while a wind-driven axis only passes through zero speed and a noisy speed signal dips below the rest speed for single samples. Estimate, range 0.05-1 s."),
                 $($own)*
+                // The mode's Integer twin (appended after every axis's own variables, so that
+                // existing value references keep their numbers).
+                ModeNumber = Var::integer("mode_number").input().start_integer(0).range_integer(0, 3)
+                    .description("mode as an Integer, for masters that ignore FMI enumerations (libcosim and ecos do): 1 position, 2 velocity, 3 open_loop_current; 0 (the default) leaves the choice to mode. When it is not 0 it wins."),
             }
         }
 
@@ -153,9 +157,13 @@ macro_rules! controller_variables {
                 holding: $name::StatusHolding,
             };
 
-            /// The control mode input.
+            /// The control mode input (its Integer twin wins unless it is 0).
             pub fn mode(values: &fmu_runtime::Values<$name>) -> $crate::ControlMode {
-                $crate::ControlMode::from_index(values.integer($name::Mode)).unwrap_or($crate::ControlMode::Position)
+                let index = match values.integer($name::ModeNumber) {
+                    0 => values.integer($name::Mode),
+                    number => number,
+                };
+                $crate::ControlMode::from_index(index).unwrap_or($crate::ControlMode::Position)
             }
         }
     };
