@@ -150,3 +150,51 @@ fn truth_variants_log_a_command_a_noiseless_current_and_a_linear_axis() {
     assert!((torque / plain.noise.torque_sigma(&plain.plant) - 1.0).abs() < 1e-12);
     assert!(noiseless.noise.torque_sigma(&noiseless.plant) < 0.1 * torque);
 }
+
+#[test]
+fn the_corrected_set_keeps_the_simpler_law_where_the_data_cannot_tell_two_apart() {
+    // An offset over 6 deg of stroke: the search names the offset, and an unbalance reproduces
+    // it over the log ("offset or unbalance: the data cannot tell"). The offset is the simpler
+    // law (one parameter against two), so the corrected set is the search's own.
+    let mut config =
+        TruthConfig { duration: 30.0, effects: vec![Effect::TorqueOffset(1500.0)], seed: 8, ..TruthConfig::default() };
+    config.trajectory.min_position = 40f64.to_radians();
+    config.trajectory.max_position = 46f64.to_radians();
+    let start = config.plant.starting_parameters();
+    let mut validation =
+        antenna_validate::validate_with(&simulate(&config).log, &start, &ValidateOptions::default(), None).unwrap();
+    let found: Vec<Kind> = validation.selection.found.iter().map(|f| f.kind).collect();
+    assert_eq!(found, [Kind::Offset]);
+    let unbalance = validation
+        .indistinct
+        .iter()
+        .position(|a| a.alternative == Kind::Unbalance)
+        .expect("an unbalance reproduces the offset over 6 deg");
+    let kept = validation.kept_parameters();
+    assert!(kept.cannot_tell.is_empty(), "{:?}", kept.cannot_tell);
+    assert_eq!(kept.parameters, validation.selection.corrected);
+
+    // Had the search named the unbalance (its fitted set, the offset as the alternative that
+    // reproduces it), the corrected set would keep the offset and list the unbalance.
+    let offset_set = validation.selection.corrected.clone();
+    let alternative = validation.indistinct.remove(unbalance);
+    validation.selection.corrected = alternative.parameters.clone();
+    validation.selection.found[0].kind = Kind::Unbalance;
+    validation.indistinct = vec![observability::Indistinct {
+        found: Kind::Unbalance,
+        alternative: Kind::Offset,
+        parameters: offset_set.clone(),
+        ..alternative
+    }];
+    let kept = validation.kept_parameters();
+    assert_eq!(kept.cannot_tell.len(), 1, "{:?}", kept.cannot_tell);
+    assert!(kept.cannot_tell[0].starts_with("unbalance or offset: the data cannot tell"), "{}", kept.cannot_tell[0]);
+    assert!(kept.cannot_tell[0].contains("offset (1 parameter) is kept"), "{}", kept.cannot_tell[0]);
+    assert!(
+        kept.cannot_tell[0].contains(names::UNBALANCE_TORQUE),
+        "the unbalance's fit is listed: {}",
+        kept.cannot_tell[0]
+    );
+    assert_eq!(kept.parameters, offset_set, "the offset's set, the unbalance at its starting value");
+    assert_eq!(kept.parameters.value(names::UNBALANCE_TORQUE), start.value(names::UNBALANCE_TORQUE));
+}

@@ -219,7 +219,62 @@ impl Hint {
     }
 }
 
+/// The parameter set a validation hands on, with what the data could not decide.
+#[derive(Debug, Clone)]
+pub struct KeptParameters {
+    /// The corrected set, with the simpler law wherever the data cannot tell two apart.
+    pub parameters: ParameterSet,
+    /// One line per found effect replaced by a simpler law that reproduces it over the log:
+    /// "X or Y: the data cannot tell; Y (n parameters) is kept, X's fit was: ...".
+    pub cannot_tell: Vec<String>,
+}
+
 impl Validation {
+    /// The corrected parameters as a user should take them: where a found effect has an
+    /// alternative with fewer parameters that reproduces it over this log ("X or Y: the data
+    /// cannot tell"), the simpler law is kept and the found one listed, since the log supports
+    /// no more than the simpler one. Without such an alternative it is the selection's corrected
+    /// set.
+    pub fn kept_parameters(&self) -> KeptParameters {
+        let structure = self.data.structure;
+        let mut parameters = self.selection.corrected.clone();
+        let mut cannot_tell = Vec::new();
+        for found in &self.selection.found {
+            let simplest = self
+                .indistinct
+                .iter()
+                .filter(|a| a.found == found.kind)
+                .filter(|a| parameter_count(a.alternative, structure) < parameter_count(found.kind, structure))
+                .min_by_key(|a| parameter_count(a.alternative, structure));
+            let Some(alternative) = simplest else { continue };
+            // The alternative's set is the corrected one with the alternative in place of the
+            // found effect: what it changes is carried over (replacements of different found
+            // effects touch different parameters, so they compose).
+            let corrected = &self.selection.corrected;
+            for name in alternative.parameters.names() {
+                if alternative.parameters.get(name) != corrected.get(name) {
+                    parameters.set(name, alternative.parameters.value(name));
+                }
+            }
+            let without = selection::without_effect(found.kind, corrected, &self.start);
+            cannot_tell.push(format!(
+                "{} or {}: the data cannot tell (what {} leaves of {} is {:.1} % RMS, chi-square {:.1}); {} ({} parameter{}) is kept, {}'s fit was {}",
+                found.kind.name(),
+                alternative.alternative.name(),
+                alternative.alternative.name(),
+                found.kind.name(),
+                100.0 * alternative.misfit,
+                alternative.chi2,
+                alternative.alternative.name(),
+                parameter_count(alternative.alternative, structure),
+                if parameter_count(alternative.alternative, structure) == 1 { "" } else { "s" },
+                found.kind.name(),
+                observability::changes(corrected, &without),
+            ));
+        }
+        KeptParameters { parameters, cannot_tell }
+    }
+
     /// Index of the equation-error channel where the fit reduced the error most (relative):
     /// the equation the found effect shows in.
     pub fn most_improved_channel(&self) -> usize {

@@ -142,6 +142,17 @@ fn effects_section(out: &mut String, v: &Validation) {
             );
         }
     }
+    let kept = v.kept_parameters();
+    if !kept.cannot_tell.is_empty() {
+        let _ = writeln!(
+            out,
+            "**The corrected parameter set keeps the simpler law** where the data cannot tell two apart (the log supports no more than it):\n"
+        );
+        for line in &kept.cannot_tell {
+            let _ = writeln!(out, "- {line}");
+        }
+        let _ = writeln!(out);
+    }
 }
 
 /// The families the start holds that the re-estimation tested and left as they were: the

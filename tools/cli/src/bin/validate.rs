@@ -58,9 +58,9 @@ enum Command {
         tuning: TuningArgs,
     },
     /// Validate and score a generated suite: with --generate, generate it (truthgen) first,
-    /// run the KUKA axes and regenerate docs/validation-results.md, docs/validation-detection.csv,
-    /// the figures under docs/figures/; with a suite folder,
-    /// write results.md, detection.csv and detection.png into --out (default the folder).
+    /// run the KUKA axes and write results/validation-results.md, results/validation-detection.csv
+    /// and the figures under figures/ of --docs (`cargo xtask docs` gives docs/); with a suite
+    /// folder, write results.md, detection.csv and detection.png into --out (default the folder).
     Suite {
         /// An existing suite folder (log_NNN.csv with .truth sidecars and start.params).
         #[arg(required_unless_present = "generate")]
@@ -77,6 +77,10 @@ enum Command {
         /// The KUKA data folder (default tests/data/measured/kuka-robot-drive in the repository).
         #[arg(long, value_name = "DIR")]
         kuka: Option<PathBuf>,
+        /// With --generate: the documentation folder the results go into, as results/ and
+        /// figures/ (default out/validation; `cargo xtask docs` passes the repository's docs/).
+        #[arg(long, value_name = "DIR", requires = "generate")]
+        docs: Option<PathBuf>,
         #[command(flatten)]
         threads: ThreadArgs,
         #[command(flatten)]
@@ -85,14 +89,18 @@ enum Command {
         tuning: TuningArgs,
     },
     /// Generate the holdout suites (other sensors, log rates, noise, drives and seeds than the
-    /// main suite), validate and score them, and write each suite's section into its document:
-    /// docs/results/validation-holdout-variants.md for the sensor variants of issue 16 (coarse load
-    /// encoder, current command, noiseless current, linear axis, short stroke),
-    /// docs/results/validation-holdout.md for the others.
+    /// main suite), validate and score them, and write each suite's section into its document
+    /// under results/ of --docs: validation-holdout-variants.md for the sensor variants (coarse
+    /// load encoder, current command, noiseless current, linear axis, short stroke),
+    /// validation-holdout.md for the others.
     Holdout {
         /// Where the holdout suites are generated (default target/validation-holdout).
         #[arg(long, value_name = "DIR")]
         suite: Option<PathBuf>,
+        /// The documentation folder the documents go into, as results/ (default out/validation;
+        /// `cargo xtask docs` passes the repository's docs/).
+        #[arg(long, value_name = "DIR")]
+        docs: Option<PathBuf>,
         /// Only these holdout suites (comma-separated names): their sections are replaced in
         /// their documents, and every other section is kept.
         #[arg(long, value_delimiter = ',', value_name = "NAMES")]
@@ -278,19 +286,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 };
             run_log(&log, &params, out.as_deref(), verbose, &settings)
         }
-        Command::Suite { dir, generate, suite, out, kuka, threads, fmu, tuning } => {
+        Command::Suite { dir, generate, suite, out, kuka, docs, threads, fmu, tuning } => {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: threads.count() };
             if generate {
                 let dir = suite.unwrap_or_else(|| root.join("target").join("validation-suite"));
-                generate_suite(&root, &dir, &kuka.unwrap_or_else(default_kuka), &settings)
+                let docs = docs.unwrap_or_else(|| root.join("out").join("validation"));
+                generate_suite(&docs, &dir, &kuka.unwrap_or_else(default_kuka), &settings)
             } else {
                 let dir = dir.context("expected a suite folder (or --generate)")?;
                 score_existing_suite(&dir, &out.unwrap_or_else(|| dir.clone()), &settings)
             }
         }
-        Command::Holdout { suite, only, threads, fmu, tuning } => {
+        Command::Holdout { suite, docs, only, threads, fmu, tuning } => {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: threads.count() };
-            holdout(&root, &suite.unwrap_or_else(|| root.join("target").join("validation-holdout")), &only, &settings)
+            let docs = docs.unwrap_or_else(|| root.join("out").join("validation"));
+            holdout(&docs, &suite.unwrap_or_else(|| root.join("target").join("validation-holdout")), &only, &settings)
         }
         Command::Kuka { kuka, out, fmu, tuning } => {
             let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 };
@@ -344,17 +354,19 @@ fn check_finite(v: &Validation) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `validate suite --generate`: the suite, its scores, the KUKA axes and the documents.
-fn generate_suite(root: &Path, dir: &Path, kuka_dir: &Path, settings: &Settings) -> anyhow::Result<()> {
+/// `validate suite --generate`: the suite, its scores, the KUKA axes and the documents, under
+/// the documentation folder `docs`.
+fn generate_suite(docs: &Path, dir: &Path, kuka_dir: &Path, settings: &Settings) -> anyhow::Result<()> {
     let clock = Instant::now();
     text(suite::write_suite_parallel(dir, &SuiteConfig::default(), settings.threads, &|line| println!("{line}")))?;
     let generation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let results = score_suite(dir, settings)?;
     let scoring_time = clock.elapsed().as_secs_f64();
-    let docs = root.join("docs");
     let figures = docs.join("figures");
     std::fs::create_dir_all(&figures).with_context(|| format!("cannot create {}", figures.display()))?;
+    let results_folder = docs.join("results");
+    std::fs::create_dir_all(&results_folder).with_context(|| format!("cannot create {}", results_folder.display()))?;
     let clock = Instant::now();
     let kuka = if kuka_dir.is_dir() { Some(run_kuka(kuka_dir, &figures, settings)?) } else { None };
     let kuka_time = clock.elapsed().as_secs_f64();
@@ -409,8 +421,9 @@ fn holdout_document(suite: &str) -> &'static str {
     }
 }
 
-/// `validate holdout`: the holdout suites and their documents.
-fn holdout(root: &Path, dir: &Path, only: &[String], settings: &Settings) -> anyhow::Result<()> {
+/// `validate holdout`: the holdout suites and their documents, under results/ of the
+/// documentation folder `docs`.
+fn holdout(docs: &Path, dir: &Path, only: &[String], settings: &Settings) -> anyhow::Result<()> {
     let known: Vec<&str> = suite::holdout_suites().iter().map(|s| s.0).collect();
     if let Some(unknown) = only.iter().find(|name| !known.contains(&name.as_str())) {
         bail!("no holdout suite '{unknown}' (known: {})", known.join(", "));
@@ -440,7 +453,9 @@ fn holdout(root: &Path, dir: &Path, only: &[String], settings: &Settings) -> any
         // so that neither an --only run nor an interrupted full run loses the suites it did
         // not run. Each document lists and orders the suites it holds.
         let file = holdout_document(name);
-        let path = root.join("docs").join("results").join(file);
+        let folder = docs.join("results");
+        std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+        let path = folder.join(file);
         let order: Vec<&str> = known.iter().copied().filter(|suite| holdout_document(suite) == file).collect();
         let existing = match std::fs::read_to_string(&path) {
             Ok(text) => text,
@@ -566,14 +581,19 @@ fn write_outputs(
     let report_path = dir.join(format!("{stem}_report.md"));
     std::fs::write(&report_path, report::markdown(validation, &log_path.display().to_string()))
         .with_context(|| format!("cannot write {}", report_path.display()))?;
-    let header = format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display());
-    validation.selection.corrected.write(
+    let kept = validation.kept_parameters();
+    let mut header = format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display());
+    for line in &kept.cannot_tell {
+        header.push('\n');
+        header.push_str(line);
+    }
+    kept.parameters.write(
         &dir.join(format!("{stem}_corrected_axis.params")),
         &format!("{header}\nSingle-axis parameter set (validate's own form; usable as a starting set)."),
     )?;
     if let Some(o) = &validation.output {
         let fmu_text = fmu_parameter_text(
-            &validation.selection.corrected,
+            &kept.parameters,
             &o.config,
             &format!("{header}\nAzimuthPlant parameter file: load it through the FMU's parameter_file variable.\nMapping from the single-axis set: docs/validation.md, validate::parameters::FMU_MAPPING."),
         )?;
@@ -619,7 +639,7 @@ fn run_kuka(data_dir: &Path, figures: &Path, settings: &Settings) -> anyhow::Res
 /// The generated results document (docs/results/validation-results.md).
 fn results_document(results: &[scoring::CaseResult], kuka: Option<&str>, timing: &str) -> String {
     let mut text = String::from(
-        "# Validation results (generated)\n\nRegenerated by `cargo run --release -p antenna-cli --bin validate -- suite --generate` \
+        "# Validation results (generated)\n\nRegenerated by `cargo xtask docs --only validation` \
          (package the FMUs first). Method and reading: docs/validation.md.\n\n",
     );
     text.push_str(&format!("{timing}\n\n## Generated suite\n\n"));
@@ -653,6 +673,18 @@ fn print_summary(v: &Validation) {
                 alike.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
             );
         }
+        for alternative in v.indistinct.iter().filter(|a| a.found == found.kind) {
+            println!(
+                "    {} or {}: the data cannot tell ({} reproduces it within {:.1} % RMS over this log)",
+                found.kind.name(),
+                alternative.alternative.name(),
+                alternative.alternative.name(),
+                100.0 * alternative.misfit
+            );
+        }
+    }
+    for line in v.kept_parameters().cannot_tell {
+        println!("corrected set: {line}");
     }
     for (b, a) in v.before.iter().zip(&v.after) {
         println!(
