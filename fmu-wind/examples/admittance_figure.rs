@@ -1,9 +1,9 @@
-//! Draws `docs/figures/wind-admittance.png`: Vickery's aerodynamic admittance `chi^2(n)` (the
+//! Draws `wind-admittance.png` (into out/, or the path given; `cargo xtask docs` writes docs/figures): Vickery's aerodynamic admittance `chi^2(n)` (the
 //! formula as Holmes gives it) and the stored rational fit the Wind FMU uses, for the 13.5 m
 //! dish at the requirement scenarios' mean speeds, with the fit's dB error; prints the standard
 //! deviation of the load gust against the point gust's (the numbers in docs/wind-model.md).
 //!
-//! `cargo run --release -p fmu-wind --example admittance_figure [output.png]`
+//! `cargo run --release -p fmu-wind --example admittance_figure [output.png]` (default out/wind-admittance.png)
 use antenna_plot::{Figure, LegendPosition, Panel};
 use fmu_wind::admittance::{
     davenport_size_chi_squared_db, vickery_chi_squared_db, AdmittanceFilter, AdmittanceSpec, VICKERY,
@@ -16,7 +16,7 @@ use fmu_wind::shaping::ShapingFilter;
 const DIAMETER: f64 = 13.5;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let output = std::env::args().nth(1).unwrap_or_else(|| "docs/figures/wind-admittance.png".into());
+    let output = std::env::args().nth(1).unwrap_or_else(|| "out/wind-admittance.png".into());
     let frequency = log_grid(1e-3, 30.0, 801);
     let mut response = Panel::new("Vickery's admittance chi^2(n) = 1 / [1 + (2 n sqrt(A) / U)^(4/3)]^2 (Holmes) and the FMU's rational fit, D = 13.5 m")
         .x_label("n (Hz)")
@@ -54,6 +54,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .line("|G(j 2 pi x)|^2 - chi^2(x)", &x, &error)
         .horizontal_line("+0.06 dB", 0.06)
         .horizontal_line("-0.06 dB", -0.06);
+    if let Some(folder) = std::path::Path::new(&output).parent().filter(|f| !f.as_os_str().is_empty()) {
+        std::fs::create_dir_all(folder)?;
+    }
     Figure::new(1100, 1100).panel(response).panel(errors).save_png(&output)?;
     println!("wrote {output}");
     println!(

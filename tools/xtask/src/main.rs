@@ -1,11 +1,14 @@
 //! The project's build tasks as one command, `cargo xtask <task>` (the alias is in
 //! `.cargo/config.toml`): `package` builds and packages the FMUs into `target/fmu/`,
 //! `package-into` into another folder, `codegen` regenerates or checks `modelDescription/`,
-//! `pgo` records the profile the libraries are optimised with.
+//! `pgo` records the profile the libraries are optimised with, `docs` regenerates the generated
+//! parts of `docs/` (the only way they are written).
 //!
 //! Exit codes: 0 done; 1 a check that ran and failed (stale generated files, packages that
 //! differ between two builds); 2 bad usage or a task that could not be carried out (with
 //! `--pgo`, a profile that is missing or that another compiler recorded).
+
+mod docs;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -45,6 +48,13 @@ enum Task {
     /// Record the PGO profile of the FMUs' libraries (an instrumented build running the main
     /// job) into tools/xtask/pgo/fmus.profdata.zip. Needs `rustup component add llvm-tools`.
     Pgo,
+    /// Package the FMUs and regenerate the generated parts of docs/ (the requirement report,
+    /// the figures, the validation results) with the project's own commands.
+    Docs {
+        /// Only these parts (comma-separated); every part by default.
+        #[arg(long, value_delimiter = ',', value_name = "PARTS")]
+        only: Vec<docs::DocsPart>,
+    },
     /// Regenerate modelDescription/*.xml from the variable tables.
     Codegen {
         /// Only check: list the stale files and exit 1 if there are any, writing nothing.
@@ -87,6 +97,12 @@ fn run(cli: Cli) -> anyhow::Result<Outcome> {
             Ok(Outcome::Done)
         }
         Task::Codegen { check } => codegen(check),
+        Task::Docs { only } => {
+            xtask::build_and_package(xtask::Pgo::Off).context("packaging failed")?;
+            let parts = if only.is_empty() { docs::DocsPart::ALL.to_vec() } else { only };
+            docs::regenerate(&antenna_fmus::workspace_root(), &parts)?;
+            Ok(Outcome::Done)
+        }
         Task::Pgo => {
             let archive = xtask::record_pgo_profile().context("recording the PGO profile failed")?;
             let size = std::fs::metadata(&archive).map(|m| m.len()).unwrap_or(0);

@@ -1,7 +1,7 @@
 //! Runs the seed paper's frequency-domain identification (Figs. 6 and 8) on the packaged plant
 //! FMUs and writes the Bode figures for the README, measured H1 against the corrected Eq. 1:
 //! `plant-bode-azimuth-15deg.png`, `plant-bode-elevation-15deg.png` and the summary
-//! `plant-bode.md`, into `docs/figures/` or the folder given.
+//! `plant-bode.md`, into `out/plant-bode/` or the folder given (`cargo xtask docs` regenerates docs/figures).
 //!
 //! Package the FMUs first (`cargo xtask package`). The excitation is seeded, so the figures
 //! are reproducible for a given build.
@@ -23,7 +23,7 @@ use antenna_sim::frequency_response::Axis;
 // `about` is left to this doc comment: the crate description is that of all the commands.
 #[command(version, long_about = None)]
 struct Cli {
-    /// Folder for the figures and plant-bode.md [default: docs/figures].
+    /// Folder for the figures and plant-bode.md [default: out/plant-bode; `cargo xtask docs` writes docs/figures].
     #[arg(value_name = "OUTPUT FOLDER")]
     output: Option<PathBuf>,
     /// Couple the packaged Structure FMU both ways, as the antenna does: the figures
@@ -45,7 +45,7 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
-    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
+    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("out").join("plant-bode"));
     std::fs::create_dir_all(&output).with_context(|| format!("cannot create {}", output.display()))?;
     let mut results = Vec::new();
     for axis in Axis::BOTH {

@@ -2,7 +2,7 @@
 //! controller FMU in velocity mode on the plant FMU, white-noise velocity command on a constant
 //! speed, H1 and coherence) and draws it against the analytic closed loop:
 //! `velocity-loop-bode-azimuth-15deg.png` and `velocity-loop-bode-elevation-15deg.png`, into
-//! `docs/figures/` or the folder given. Prints the -3 dB bandwidths, measured and analytic (the
+//! `out/velocity-bode/` or the folder given (`cargo xtask docs`: docs/figures). Prints the -3 dB bandwidths, measured and analytic (the
 //! paper: 10-15 Hz), and the largest magnitude and phase differences.
 //!
 //! Package the FMUs first (`cargo xtask package`). The excitation is seeded, so the figures
@@ -27,7 +27,7 @@ const FIGURE_MAX_FREQUENCY_HZ: f64 = 100.0;
 // `about` is left to this doc comment: the crate description is that of all the commands.
 #[command(version, long_about = None)]
 struct Cli {
-    /// Folder for the figures [default: docs/figures].
+    /// Folder for the figures [default: out/velocity-bode; `cargo xtask docs` writes docs/figures].
     #[arg(value_name = "OUTPUT FOLDER")]
     output: Option<PathBuf>,
 }
@@ -44,7 +44,7 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
-    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
+    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("out").join("velocity-bode"));
     std::fs::create_dir_all(&output).with_context(|| format!("cannot create {}", output.display()))?;
     for axis in Axis::BOTH {
         let config = VelocityBodeConfig::paper(axis);

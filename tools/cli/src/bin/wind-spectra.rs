@@ -7,7 +7,7 @@
 //! * the largest error of our filter against Eq. 2 over 0.001-30 rad/s at 0.5-25 m/s, and how
 //!   the paper's filters compare.
 //!
-//! The figures go into `docs/figures/` or the folder given. Package the FMUs first (`cargo
+//! The figures go into `out/wind-spectra/` or the folder given (`cargo xtask docs`: docs/figures). Package the FMUs first (`cargo
 //! xtask package`). The records are seeded, so the figures are reproducible for a given build.
 
 use std::path::{Path, PathBuf};
@@ -39,14 +39,14 @@ const RECORDS: [(f64, i32); 2] = [(3.0, 1), (9.5, 2)];
 // `about` is left to this doc comment: the crate description is that of all the commands.
 #[command(version, long_about = None)]
 struct Cli {
-    /// Folder for the figures [default: docs/figures].
+    /// Folder for the figures [default: out/wind-spectra; `cargo xtask docs` writes docs/figures].
     #[arg(value_name = "OUTPUT FOLDER")]
     output: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("docs").join("figures"));
+    let output = cli.output.unwrap_or_else(|| antenna_fmus::workspace_root().join("out").join("wind-spectra"));
     match run(&output) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,0 +1,135 @@
+//! `cargo xtask docs`: regenerates the generated parts of `docs/` (the requirement report, the
+//! figures, the validation results) by running the project's own commands with `docs/` as their
+//! output. The user commands never write into `docs/` by themselves; this task is the one place
+//! that does, so that what a document shows is what the committed code produces.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context};
+
+/// A generated part of `docs/`, regenerated as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DocsPart {
+    /// docs/results/requirement-report/: the main job's report, CSV and figures (about 5 min).
+    Report,
+    /// The Bode plots of the plants and velocity loops, the wind filters and admittance.
+    Figures,
+    /// The servo figures with the structure in the loops (the margins' Bode and Nichols plots,
+    /// the wind-to-beam responses), from the tests that check them.
+    Servo,
+    /// The measured wind record's spectrum against Eq. 2 (docs/figures/measured-wind-psd.png).
+    MeasuredWind,
+    /// docs/results/validation-*.md and their figures: the validation suite, the holdout suites
+    /// and the KUKA axes (long: 20-40 min on two cores).
+    Validation,
+}
+
+impl DocsPart {
+    /// Every part, in the order they run.
+    pub const ALL: [DocsPart; 5] =
+        [DocsPart::Report, DocsPart::Figures, DocsPart::Servo, DocsPart::MeasuredWind, DocsPart::Validation];
+}
+
+/// `cargo run --release -p PACKAGE --bin BIN -- ARGS` (or `--example`), from the workspace root.
+fn run_cargo(root: &Path, what: &[&str], args: &[&str]) -> anyhow::Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let mut command = Command::new(cargo);
+    command.current_dir(root).args(["run", "--release", "--quiet"]).args(what);
+    if !args.is_empty() {
+        command.arg("--").args(args);
+    }
+    let shown = format!("cargo run --release {} -- {}", what.join(" "), args.join(" "));
+    println!("xtask docs: {shown}");
+    let status = command.status().with_context(|| format!("cannot start {shown}"))?;
+    if !status.success() {
+        bail!("{shown} failed ({status})");
+    }
+    Ok(())
+}
+
+/// Runs the named integration tests of `antenna-tests`, which write their figures into `out/`.
+fn run_tests(root: &Path, tests: &[&str]) -> anyhow::Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let mut command = Command::new(cargo);
+    command.current_dir(root).args(["test", "--release", "--quiet", "-p", "antenna-tests"]);
+    for test in tests {
+        command.args(["--test", test]);
+    }
+    println!("xtask docs: cargo test --release -p antenna-tests --test {}", tests.join(" --test "));
+    let status = command.status().context("cannot start cargo test")?;
+    if !status.success() {
+        bail!("the tests that draw the servo figures failed ({status})");
+    }
+    Ok(())
+}
+
+/// Copies `from` (relative to the root) to `to` (relative to the root).
+fn copy(root: &Path, from: &str, to: &str) -> anyhow::Result<()> {
+    let (from, to): (PathBuf, PathBuf) = (root.join(from), root.join(to));
+    std::fs::copy(&from, &to).with_context(|| format!("cannot copy {} to {}", from.display(), to.display()))?;
+    println!("xtask docs: {}", to.display());
+    Ok(())
+}
+
+/// Regenerates `parts` of `docs/` under the workspace `root`. The FMUs are packaged first by
+/// the caller (the commands run the packaged units).
+pub fn regenerate(root: &Path, parts: &[DocsPart]) -> anyhow::Result<()> {
+    let figures = "docs/figures";
+    for part in parts {
+        match part {
+            DocsPart::Report => run_cargo(
+                root,
+                &["-p", "antenna-cli", "--bin", "antenna"],
+                &["--out", "docs/results/requirement-report"],
+            )?,
+            DocsPart::Figures => {
+                for bin in ["plant-bode", "velocity-bode", "wind-spectra"] {
+                    run_cargo(root, &["-p", "antenna-cli", "--bin", bin], &[figures])?;
+                }
+                run_cargo(root, &["-p", "antenna-cli", "--bin", "plant-bode"], &[figures, "--structure"])?;
+                run_cargo(
+                    root,
+                    &["-p", "fmu-wind", "--example", "admittance_figure"],
+                    &["docs/figures/wind-admittance.png"],
+                )?;
+            }
+            DocsPart::Servo => {
+                run_tests(root, &["loop_margins", "structure_servo"])?;
+                for name in [
+                    "servo-open-loops-azimuth-bode.png",
+                    "servo-open-loops-azimuth-nichols.png",
+                    "servo-open-loops-elevation-bode.png",
+                    "servo-open-loops-elevation-nichols.png",
+                    "structure-servo-45deg.png",
+                    "structure-servo-elevation.png",
+                ] {
+                    copy(root, &format!("out/{name}"), &format!("{figures}/{name}"))?;
+                }
+            }
+            DocsPart::MeasuredWind => {
+                run_cargo(
+                    root,
+                    &["-p", "antenna-cli", "--bin", "windfit"],
+                    &[
+                        "tests/data/measured/sonic-anemometer-20hz/wind_20hz.csv",
+                        "--height-m",
+                        "7.11",
+                        "--out-dir",
+                        "out/windfit",
+                    ],
+                )?;
+                copy(root, "out/windfit/psd.png", "docs/figures/measured-wind-psd.png")?;
+            }
+            DocsPart::Validation => {
+                run_cargo(
+                    root,
+                    &["-p", "antenna-cli", "--bin", "validate"],
+                    &["suite", "--generate", "--docs", "docs"],
+                )?;
+                run_cargo(root, &["-p", "antenna-cli", "--bin", "validate"], &["holdout", "--docs", "docs"])?;
+            }
+        }
+    }
+    Ok(())
+}
