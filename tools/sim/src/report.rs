@@ -672,7 +672,92 @@ pub fn plot(outcomes: &[Outcome], directory: &Path) -> Result<Vec<PathBuf>, Repo
         sky_figure(&holding).save_png(&path)?;
         written.push(path);
     }
+    let slews: Vec<&Outcome> = outcomes
+        .iter()
+        .filter(|o| matches!(o.scenario.requirement, Requirement::SlewSettling | Requirement::LargeStepSettling))
+        .collect();
+    if !slews.is_empty() {
+        let path = directory.join("axis-rates-and-currents.png");
+        axis_limits_figure(&slews).save_png(&path)?;
+        written.push(path);
+    }
     Ok(written)
+}
+
+/// A Real variable's start value in a model's variable table.
+fn start_value(var: &fmu_runtime::Var) -> f64 {
+    match var.kind {
+        fmu_runtime::variables::Kind::Real { start: Some(start), .. } => start,
+        _ => f64::NAN,
+    }
+}
+
+/// The slews' and the 4 deg steps' axis rates and motor currents against the limits the units
+/// hold them to: the profiled slew speed (the controllers' `profiler.max_velocity`) and each
+/// motor's current limit (the plants' `motor*.current_limit`), one colour per scenario. The rates are
+/// the axes' true speeds (differences of the load angles), the currents those the motors carry.
+fn axis_limits_figure(slews: &[&Outcome]) -> Figure {
+    use fmu_controller::fmi::azimuth::AzCtrlVar;
+    use fmu_controller::fmi::elevation::ElCtrlVar;
+    use fmu_runtime::VariableSet;
+    let speed_limits =
+        [start_value(AzCtrlVar::ProfilerMaxVelocity.var()), start_value(ElCtrlVar::ProfilerMaxVelocity.var())];
+    let azimuth = fmu_plant::AzimuthParams::default();
+    let elevation = fmu_plant::ElevationParams::default();
+    let current_limits = [azimuth.motors[0].current_limit_a, elevation.motor.current_limit_a];
+    let mut rates = [
+        Panel::new("Azimuth axis rate in the 90 deg slews (Req. 2) and 4 deg steps (Req. 3)")
+            .x_label("time (s)")
+            .y_label("deg/s"),
+        Panel::new("Elevation axis rate in the slews and steps").x_label("time (s)").y_label("deg/s"),
+    ];
+    let mut currents = [
+        Panel::new("Azimuth motor currents (motor 1 solid, motor 2 dashed)").x_label("time (s)").y_label("A"),
+        Panel::new("Elevation motor current").x_label("time (s)").y_label("A"),
+    ];
+    for (i, o) in slews.iter().enumerate() {
+        let colour = PALETTE[i % PALETTE.len()];
+        let label = o.scenario.name.clone();
+        let trace = &o.trace;
+        // Every tenth sample: rates as differences over 10 ms, currents as they are.
+        let t: Vec<f64> = trace.time_s.iter().step_by(10).copied().collect();
+        let rate = |angles: &[f64]| -> Vec<f64> {
+            let decimated: Vec<f64> = angles.iter().step_by(10).copied().collect();
+            let mut out: Vec<f64> =
+                decimated.windows(2).zip(t.windows(2)).map(|(a, t)| (a[1] - a[0]) / (t[1] - t[0])).collect();
+            out.push(out.last().copied().unwrap_or(0.0));
+            out
+        };
+        let [rates_az, rates_el] = &mut rates;
+        *rates_az = std::mem::replace(rates_az, Panel::new(""))
+            .series(Series::new(&label, &t, &rate(&trace.azimuth_deg)).colour(colour));
+        *rates_el = std::mem::replace(rates_el, Panel::new(""))
+            .series(Series::new(&label, &t, &rate(&trace.elevation_deg)).colour(colour));
+        let motor = |k: usize| trace.current_azimuth_a.iter().step_by(10).map(|c| c[k]).collect::<Vec<f64>>();
+        let [currents_az, currents_el] = &mut currents;
+        *currents_az = std::mem::replace(currents_az, Panel::new(""))
+            .series(Series::new(&label, &t, &motor(0)).colour(colour))
+            .series(Series::new("", &t, &motor(1)).colour(colour).dashed());
+        let el_current: Vec<f64> = trace.current_elevation_a.iter().step_by(10).copied().collect();
+        *currents_el =
+            std::mem::replace(currents_el, Panel::new("")).series(Series::new(&label, &t, &el_current).colour(colour));
+    }
+    let mut figure = Figure::new(1100, 1380);
+    for (axis, (rate, current)) in rates.into_iter().zip(currents).enumerate() {
+        let speed = speed_limits[axis];
+        let amps = current_limits[axis];
+        figure = figure
+            .panel(
+                rate.horizontal_line_coloured(&format!("slew speed {speed} deg/s"), speed, LIMIT_COLOUR)
+                    .horizontal_line_coloured("", -speed, LIMIT_COLOUR),
+            )
+            .panel(
+                current
+                    .horizontal_line_coloured(&format!("current limit {amps} A"), amps, LIMIT_COLOUR)
+                    .horizontal_line_coloured("", -amps, LIMIT_COLOUR),
+            );
+    }
+    figure
 }
 
 /// The panel of one requirement at one elevation (see [`plot`]).
