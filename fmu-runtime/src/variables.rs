@@ -677,7 +677,9 @@ impl<'de, V: VariableSet> Deserialize<'de> for Values<V> {
 /// Declares the variables of a model: an enum (one variant per variable, the value reference
 /// being its position) and its [`VariableSet`] table.
 ///
-/// ```ignore
+/// ```
+/// use fmu_runtime::Var;
+///
 /// fmu_runtime::declare_variables! {
 ///     pub enum PlantVar {
 ///         CurrentCommand = Var::real("motor.current_command", "A").input().start(0.0)

@@ -53,10 +53,7 @@ fn two_hour_sample_std_over_many_seeds_stays_in_the_interval_the_record_allows()
 }
 
 #[test]
-#[cfg_attr(
-    debug_assertions,
-    ignore = "long without optimisation: 2 h records at 1 ms (5.9 s in release); run with --release"
-)]
+#[ignore = "long: 2 h records at 1, 10 and 100 ms, 15 s in release (tools/test-all.sh --long); the Wind FMU's own 1/10/100 ms test runs in the test command"]
 fn two_hour_records_at_1_10_and_100_ms_have_the_same_variance_and_spectrum() {
     let d = Davenport::new(3.0, 10.0, 0.4).unwrap();
     let filter = ShapingFilter::davenport(&d);

@@ -65,3 +65,9 @@ def fmu_path(request):
 def plant(request):
     """The model identifier and path of each plant FMU."""
     return request.param, plant_path(request.param)
+
+
+def pytest_configure(config):
+    """The long tier: tests that `tools/test-all.sh --long` adds to the test command (the test
+    command deselects them with `-m "not long"`)."""
+    config.addinivalue_line("markers", "long: a long check, run by tools/test-all.sh --long")

@@ -24,8 +24,9 @@ def fmpy_run(folder, scenario):
 
 
 @pytest.mark.parametrize("scenario,configuration", [
-    ("track-sidereal-el45", "realistic"),
-    ("step-30arcmin-el15", "realistic"),
+    # The realistic antenna tracking and stepping take 84 s and 25 s under fmpy: long tier.
+    pytest.param("track-sidereal-el45", "realistic", marks=pytest.mark.long),
+    pytest.param("step-30arcmin-el15", "realistic", marks=pytest.mark.long),
     ("hold-el45-normal-wind", "realistic"),
     ("track-sidereal-el45", "paper"),
 ])

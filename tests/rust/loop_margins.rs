@@ -4,7 +4,7 @@
 //! included), at 15, 45 and 88 deg. The controller is designed on the nominal plant and does
 //! not know which one it drives, as on the real antenna.
 //!
-//! `cargo test --release -p antenna-tests --test loop_margins -- --nocapture` prints the table
+//! `cargo test --release -p antenna-tests --test integration -- loop_margins:: --nocapture` prints the table
 //! docs/controller.md section 7 shows.
 
 use antenna_fmus::parameters::{parameters, UncertainParameter};

@@ -4,7 +4,7 @@
 //! its seed and does not depend on the communication step, and the shipped
 //! `realistic_sensors.params` loads into both plants.
 //!
-//! Run with `cargo test --release -p antenna-tests --test plant_sensors`.
+//! Run with `cargo test --release -p antenna-tests --test integration -- plant_sensors::`.
 
 use antenna_tests::{open, real, reals, set_reals, PLANTS};
 use fmu_import::{Fmu, Instance};

@@ -12,7 +12,7 @@
 //! the sine overpowers, the motion converges as the numerics are refined, and the remaining
 //! dependence is that of the default event check interval and resolution.
 //!
-//! Run with `cargo test --release -p antenna-tests --test plant_step_size -- --nocapture`.
+//! Run with `cargo test --release -p antenna-tests --test integration -- plant_step_size:: --nocapture`.
 
 use antenna_tests::{error_relative_to_range, open, reals, set_reals, test_signal};
 use fmu_import::{Fmu, Instance};

@@ -11,7 +11,7 @@
 //! turns.
 //!
 //! Figures for docs/structure-model.md: `cargo test --release -p antenna-tests --test
-//! structure_fmu -- --nocapture`.
+//! integration -- structure_fmu:: --nocapture`.
 
 use std::io::Read;
 use std::path::PathBuf;

@@ -9,7 +9,7 @@
 //! second-order rational function over the mode's band, whose pole gives the peak's frequency
 //! and damping. The model is not tuned to the run; both take the shipped parameters.
 //!
-//! `cargo test --release -p antenna-tests --test structure_servo -- --nocapture` prints the
+//! `cargo test --release -p antenna-tests --test integration -- structure_servo:: --nocapture` prints the
 //! figures of docs/structure-model.md ("The mode under the servo").
 
 use std::f64::consts::TAU;

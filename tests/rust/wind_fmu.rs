@@ -14,8 +14,8 @@
 //! included. The number of bands outside their confidence interval is then binomial, and its
 //! limit follows from the confidence level and the number of bands.
 //!
-//! Figures for docs/wind-fmu-tests.md: `cargo test --release -p antenna-tests --test wind_fmu
-//! -- --nocapture`. The 256-seed and 2 h at 1 ms runs take about 16 s together in release and
+//! Figures for docs/wind-fmu-tests.md: `cargo test --release -p antenna-tests --test integration
+//! -- wind_fmu:: --nocapture`. The 256-seed and 2 h at 1 ms runs take about 16 s together in release and
 //! run there; an unoptimised build ignores them (they would take minutes).
 
 use std::f64::consts::PI;
@@ -418,10 +418,7 @@ fn sample_std_over_sixty_four_seeds_stays_in_the_interval_the_record_length_allo
 }
 
 #[test]
-#[cfg_attr(
-    debug_assertions,
-    ignore = "long without optimisation: 256 seeds x 2 h at 3 and 9.5 m/s through the FMU (about 10 s in release); run with --release"
-)]
+#[ignore = "long: 256 seeds x 2 h at 3 and 9.5 m/s through the FMU, 16 s in release (tools/test-all.sh --long); the 64-seed test above runs in the test command"]
 fn sample_std_over_256_seeds_stays_in_the_interval_the_record_length_allows() {
     check_sample_std_over_seeds(3.0, 1000..1256, TWO_HOURS);
     check_sample_std_over_seeds(9.5, 2000..2256, TWO_HOURS);

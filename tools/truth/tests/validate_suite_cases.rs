@@ -101,6 +101,7 @@ fn suite_cases_meet_the_issue_criteria_at_twenty_times_the_noise() {
 }
 
 #[test]
+#[ignore = "long: tools/test-all.sh --long"]
 fn logs_with_other_sensors_get_no_false_claim_and_their_effect_named() {
     // A speed signal instead of the motor encoder (integrated, its slow drift a nuisance) and
     // two motors' currents with a 2 A torque bias, as an antenna's azimuth drive logs them (the
@@ -132,6 +133,7 @@ fn logs_with_other_sensors_get_no_false_claim_and_their_effect_named() {
 }
 
 #[test]
+#[ignore = "long: tools/test-all.sh --long"]
 fn a_pair_that_predicts_worse_than_the_model_it_extends_is_not_taken() {
     // A torque-constant change at 10 times the noise on the coarse-load-encoder holdout's drive
     // (a 22-bit load encoder, an 18 Hz anti-resonance). The torque constant is found first;
@@ -149,6 +151,7 @@ fn a_pair_that_predicts_worse_than_the_model_it_extends_is_not_taken() {
 }
 
 #[test]
+#[ignore = "long: tools/test-all.sh --long"]
 fn a_load_encoder_log_accounts_for_the_delay_and_stiffness_it_cannot_show() {
     // With the load encoder alone the drive is treated as rigid, smoothed to a third of its
     // anti-resonance: a stiffness change cannot be set up at all, and a 9 ms delay of the

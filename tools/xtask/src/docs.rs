@@ -48,15 +48,17 @@ fn run_cargo(root: &Path, what: &[&str], args: &[&str]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs the named integration tests of `antenna-tests`, which write their figures into `out/`.
-fn run_tests(root: &Path, tests: &[&str]) -> anyhow::Result<()> {
+/// Runs the named modules of `antenna-tests`'s integration tests, which write their figures into
+/// `out/`.
+fn run_tests(root: &Path, modules: &[&str]) -> anyhow::Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let filters: Vec<String> = modules.iter().map(|m| format!("{m}::")).collect();
     let mut command = Command::new(cargo);
-    command.current_dir(root).args(["test", "--release", "--quiet", "-p", "antenna-tests"]);
-    for test in tests {
-        command.args(["--test", test]);
-    }
-    println!("xtask docs: cargo test --release -p antenna-tests --test {}", tests.join(" --test "));
+    command
+        .current_dir(root)
+        .args(["test", "--release", "--quiet", "-p", "antenna-tests", "--test", "integration", "--"])
+        .args(&filters);
+    println!("xtask docs: cargo test --release -p antenna-tests --test integration -- {}", filters.join(" "));
     let status = command.status().context("cannot start cargo test")?;
     if !status.success() {
         bail!("the tests that draw the servo figures failed ({status})");
