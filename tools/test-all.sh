@@ -25,9 +25,25 @@ if ! command -v cargo >/dev/null 2>&1; then
     exit 1
 fi
 
-echo "== formatting (cargo fmt --check) and lints (clippy, warnings are errors)"
+# Steps that wait on the network or leave a core idle run beside others: the Python environment
+# is installed while the FMUs build, and clippy (a build of its own, about 5 minutes from a
+# fresh clone) checks the code while the fmpy tests, which keep one core busy, run. Their
+# output is kept in target/test-all/ and shown when they end; either failing fails the command.
+logs=target/test-all
+mkdir -p "$logs"
+
+echo "== formatting (cargo fmt --check)"
 cargo fmt --all --check
-cargo clippy --release --workspace --all-targets --quiet -- -D warnings
+
+echo "== the Python environment (.venv), installed in the background"
+(
+    if [ ! -x .venv/bin/python ]; then
+        python3 -m venv .venv
+    fi
+    .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/python/requirements.txt
+    .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps -e tools/fmpy_master
+) >"$logs/venv.log" 2>&1 &
+venv=$!
 
 echo "== generated files are fresh"
 cargo xtask codegen --check
@@ -47,16 +63,35 @@ else
     cargo test --release --workspace --quiet
 fi
 
-echo "== Python tests with fmpy"
-if [ ! -x .venv/bin/python ]; then
-    python3 -m venv .venv
+if ! wait "$venv"; then
+    cat "$logs/venv.log" >&2
+    echo "the Python environment could not be installed" >&2
+    exit 1
 fi
-.venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/python/requirements.txt
-.venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps -e tools/fmpy_master
+
+echo "== lints (clippy, warnings are errors), beside the Python tests"
+# Its own target folder: the fmpy tests run `cargo run` meanwhile, which would wait for the lock
+# of a shared one.
+CARGO_TARGET_DIR=target/clippy cargo clippy --release --workspace --all-targets --quiet -- -D warnings \
+    >"$logs/clippy.log" 2>&1 &
+clippy=$!
+
+echo "== Python tests with fmpy"
+python_status=0
 if [ "$long" = 1 ]; then
-    .venv/bin/python -m pytest -q tests/python
+    .venv/bin/python -m pytest -q tests/python || python_status=$?
 else
-    .venv/bin/python -m pytest -q -m "not long" tests/python
+    .venv/bin/python -m pytest -q -m "not long" tests/python || python_status=$?
+fi
+
+clippy_status=0
+wait "$clippy" || clippy_status=$?
+if [ "$clippy_status" != 0 ]; then
+    cat "$logs/clippy.log" >&2
+    echo "clippy found problems (above)" >&2
+fi
+if [ "$python_status" != 0 ] || [ "$clippy_status" != 0 ]; then
+    exit 1
 fi
 
 echo "== all tests passed"
