@@ -40,6 +40,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::error::WindError;
 use crate::prototype::{damped_update, Update};
 use std::f64::consts::{LN_10, PI};
 
@@ -318,20 +319,15 @@ pub struct AdmittanceFilter {
 impl AdmittanceFilter {
     /// The filter for mean speed `v_mean` (m/s) and the prototype's length scale `length` (m):
     /// the prototype's normalised frequency is `n length / v_mean`.
-    pub fn with_length_scale(prototype: &AdmittancePrototype, v_mean: f64, length: f64) -> Result<Self, String> {
+    pub fn with_length_scale(prototype: &AdmittancePrototype, v_mean: f64, length: f64) -> Result<Self, WindError> {
         if !(v_mean.is_finite() && v_mean > 0.0 && length.is_finite() && length > 0.0) {
-            return Err(format!(
-                "the admittance needs a positive mean speed and length scale, got {v_mean} m/s and {length} m"
-            ));
+            return Err(WindError::AdmittanceScale { v_mean, length });
         }
         if prototype.poles.len() <= prototype.zeros.len() {
-            return Err("an admittance prototype must have more poles than zeros".into());
+            return Err(WindError::AdmittanceNotProper { poles: prototype.poles.len(), zeros: prototype.zeros.len() });
         }
         if prototype.poles.len() > MAX_ORDER {
-            return Err(format!(
-                "an admittance prototype may have at most {MAX_ORDER} poles, got {}",
-                prototype.poles.len()
-            ));
+            return Err(WindError::AdmittanceOrder { poles: prototype.poles.len(), max: MAX_ORDER });
         }
         let scale = v_mean / length;
         let rates: Vec<f64> = prototype.poles.iter().map(|p| p * scale).collect();
@@ -353,16 +349,16 @@ impl AdmittanceFilter {
 
     /// Vickery's admittance (the stored fit) for `v_mean` and a dish of diameter `diameter`:
     /// length scale `sqrt(A)`, `A = pi D^2 / 4`.
-    pub fn vickery(v_mean: f64, diameter: f64) -> Result<Self, String> {
+    pub fn vickery(v_mean: f64, diameter: f64) -> Result<Self, WindError> {
         Self::with_length_scale(&VICKERY.to_prototype(), v_mean, aperture_root(diameter))
     }
 
     /// Davenport's square-plate size factor (the stored fit) for `v_mean`, a dish of diameter
     /// `diameter` (the square of equal area) and the coherence decay constant `decay` (`C`):
     /// length scale `C sqrt(A)`.
-    pub fn davenport_size(v_mean: f64, diameter: f64, decay: f64) -> Result<Self, String> {
+    pub fn davenport_size(v_mean: f64, diameter: f64, decay: f64) -> Result<Self, WindError> {
         if !(decay.is_finite() && decay > 0.0) {
-            return Err(format!("the coherence decay constant must be positive, got {decay}"));
+            return Err(WindError::CoherenceDecay { decay });
         }
         Self::with_length_scale(&DAVENPORT_SIZE.to_prototype(), v_mean, decay * aperture_root(diameter))
     }

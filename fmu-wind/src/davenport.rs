@@ -6,6 +6,7 @@
 //! integral over `n` from 0 to infinity is Davenport's variance `6 kappa v_m^2`. Read as a
 //! density per rad/s it would be wrong by `2 pi`.
 
+use crate::error::WindError;
 use std::f64::consts::PI;
 
 /// Davenport's length scale in Eq. 2, `x = L n / v_m` with `L = 1200 m`.
@@ -100,22 +101,22 @@ pub struct Davenport {
 
 impl Davenport {
     /// Checks the parameters: a positive mean speed, and `0 < z0 < z`.
-    pub fn new(v_mean: f64, z: f64, z0: f64) -> Result<Self, String> {
+    pub fn new(v_mean: f64, z: f64, z0: f64) -> Result<Self, WindError> {
         let d = Self { v_mean, z, z0 };
         d.validate()?;
         Ok(d)
     }
 
     /// The checks of [`Davenport::new`], for values built with a struct literal.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), WindError> {
         if !(self.v_mean.is_finite() && self.v_mean > 0.0) {
-            return Err(format!("mean wind speed must be positive and finite, got {} m/s", self.v_mean));
+            return Err(WindError::MeanSpeed { v_mean: self.v_mean });
         }
         if !(self.z.is_finite() && self.z > 0.0) {
-            return Err(format!("reference height z must be positive and finite, got {} m", self.z));
+            return Err(WindError::ReferenceHeight { z: self.z });
         }
         if !(self.z0.is_finite() && self.z0 > 0.0 && self.z0 < self.z) {
-            return Err(format!("roughness length z0 must satisfy 0 < z0 < z = {} m, got {} m", self.z, self.z0));
+            return Err(WindError::RoughnessLength { z: self.z, z0: self.z0 });
         }
         Ok(())
     }
@@ -212,17 +213,20 @@ pub fn roughness_for_gust_factor(
     target_gust_factor: f64,
     gust_duration: f64,
     averaging_period: f64,
-) -> Result<f64, String> {
-    let factor = |z0: f64| -> Result<f64, String> {
+) -> Result<f64, WindError> {
+    let factor = |z0: f64| -> Result<f64, WindError> {
         let d = Davenport::new(v_mean, z, z0)?;
         Ok(expected_gust(&d, gust_duration, averaging_period).gust_factor)
     };
     let (mut lo, mut hi) = (1e-6f64.ln(), (z / std::f64::consts::E).ln());
     let (f_lo, f_hi) = (factor(lo.exp())?, factor(hi.exp())?);
     if !(f_lo..=f_hi).contains(&target_gust_factor) {
-        return Err(format!(
-            "gust factor {target_gust_factor} is outside the range {f_lo:.3}..{f_hi:.3} reachable with 1e-6 m <= z0 <= z/e at v_m = {v_mean} m/s"
-        ));
+        return Err(WindError::GustFactorOutOfRange {
+            target: target_gust_factor,
+            reachable_lo: f_lo,
+            reachable_hi: f_hi,
+            v_mean,
+        });
     }
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);

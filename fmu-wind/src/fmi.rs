@@ -167,9 +167,12 @@ impl WindModel {
         context: &Context,
     ) -> Result<(Option<GustGenerator>, WindTorqueModel, f64), String> {
         let v_mean = values.real(WindVar::MeanSpeed);
-        let davenport = Davenport::new(v_mean, values.real(WindVar::Height), values.real(WindVar::Roughness))?;
+        let davenport = Davenport::new(v_mean, values.real(WindVar::Height), values.real(WindVar::Roughness))
+            .map_err(|e| e.to_string())?;
         let filter = match Self::spectrum_item(values) {
-            "paper" => Some(ShapingFilter::paper_at_site(v_mean, davenport.z, davenport.z0)?),
+            "paper" => {
+                Some(ShapingFilter::paper_at_site(v_mean, davenport.z, davenport.z0).map_err(|e| e.to_string())?)
+            }
             "off" => None,
             _ => Some(ShapingFilter::davenport(&davenport)),
         };
@@ -177,8 +180,11 @@ impl WindModel {
         let diameter = values.real(WindVar::Diameter);
         let admittance = match values.integer(WindVar::Admittance) {
             0 => None,
-            2 => Some(AdmittanceFilter::davenport_size(v_mean, diameter, values.real(WindVar::CoherenceDecay))?),
-            _ => Some(AdmittanceFilter::vickery(v_mean, diameter)?),
+            2 => Some(
+                AdmittanceFilter::davenport_size(v_mean, diameter, values.real(WindVar::CoherenceDecay))
+                    .map_err(|e| e.to_string())?,
+            ),
+            _ => Some(AdmittanceFilter::vickery(v_mean, diameter).map_err(|e| e.to_string())?),
         };
         let generator = filter.map(|f| GustGenerator::with_admittance(f, admittance, seed));
         let table = Self::coefficients(values.string(WindVar::CoefficientFile), context)?;
@@ -191,7 +197,9 @@ impl WindModel {
             drag_face_on: values.real(WindVar::DragCoefficient),
             lift_max: values.real(WindVar::LiftCoefficient),
         };
-        let torque = WindTorqueModel::new(table, values.real(WindVar::Density), diameter, form)?.with_forces(forces)?;
+        let torque = WindTorqueModel::new(table, values.real(WindVar::Density), diameter, form)
+            .and_then(|model| model.with_forces(forces))
+            .map_err(|e| e.to_string())?;
         Ok((generator, torque, davenport.kappa()))
     }
 

@@ -12,6 +12,7 @@
 //! * [`torque`]: azimuth and elevation torques, quadratic or linearised, split into mean and
 //!   gust parts.
 //! * [`site`]: site constants (air density, roughness lengths for the requirement scenarios).
+//! * [`error`]: the typed errors of the constructors above.
 //! * [`analysis`]: autocovariance and finite-record statistics for the tests, the examples and
 //!   the wind-spectra tool (spectral estimates come from `antenna_dsp`).
 //!
@@ -23,6 +24,7 @@ pub mod admittance;
 pub mod analysis;
 pub mod coefficients;
 pub mod davenport;
+pub mod error;
 pub mod fmi;
 pub mod gust;
 pub mod prototype;

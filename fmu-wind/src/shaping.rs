@@ -20,6 +20,7 @@
 //! form would be hopelessly ill-conditioned.
 
 use crate::davenport::Davenport;
+use crate::error::WindError;
 use crate::prototype::{Prototype, PROTOTYPE};
 use nalgebra::DMatrix;
 use std::f64::consts::PI;
@@ -112,29 +113,27 @@ impl ShapingFilter {
     /// derives from kappa does (the normalised gust dv0, the linearised torque gain k_t, the
     /// comparison with Eq. 2), so another site would pair the paper's spectrum with a kappa it
     /// was never fitted to, silently.
-    pub fn paper_at_site(v_mean: f64, z: f64, z0: f64) -> Result<Self, String> {
+    pub fn paper_at_site(v_mean: f64, z: f64, z0: f64) -> Result<Self, WindError> {
         let filter = Self::paper(v_mean)?;
         if z != PAPER_REFERENCE_HEIGHT || z0 != PAPER_ROUGHNESS_LENGTH {
-            return Err(format!(
-                "spectrum mode 'paper': H3 and H10 are the paper's fits for reference height z = {PAPER_REFERENCE_HEIGHT} m \
-                 and roughness length z0 = {PAPER_ROUGHNESS_LENGTH} m; got z = {z} m, z0 = {z0} m. \
-                 Use the default Davenport mode for another site."
-            ));
+            return Err(WindError::PaperSite {
+                z,
+                z0,
+                paper_z: PAPER_REFERENCE_HEIGHT,
+                paper_z0: PAPER_ROUGHNESS_LENGTH,
+            });
         }
         Ok(filter)
     }
 
     /// The seed paper's filter for `v_mean`: H3 for 3 m/s, H10 for 9.5 m/s, an error otherwise.
-    pub fn paper(v_mean: f64) -> Result<Self, String> {
+    pub fn paper(v_mean: f64) -> Result<Self, WindError> {
         let (num, den) = if v_mean == 3.0 {
             (PAPER_H3.0.to_vec(), PAPER_H3.1.to_vec())
         } else if v_mean == 9.5 {
             (PAPER_H10.0.to_vec(), PAPER_H10.1.to_vec())
         } else {
-            return Err(format!(
-                "spectrum mode 'paper' has filters only for v_m = 3 m/s (H3) and 9.5 m/s (H10); got v_m = {v_mean} m/s. \
-                 Use the default Davenport mode for other mean speeds."
-            ));
+            return Err(WindError::PaperSpeed { v_mean });
         };
         let rates = real_pole_rates(&den)?;
         let residues = rates.iter().map(|&p| polyval(&num, -p) / polyval(&polyder(&den), -p)).collect();
@@ -275,7 +274,7 @@ fn polyder(coefficients: &[f64]) -> Vec<f64> {
 ///
 /// Roots from the companion matrix's eigenvalues, polished by Newton's method on the
 /// polynomial itself; anything else (complex, repeated or unstable roots) is an error.
-fn real_pole_rates(den: &[f64]) -> Result<Vec<f64>, String> {
+fn real_pole_rates(den: &[f64]) -> Result<Vec<f64>, WindError> {
     let degree = den.len() - 1;
     let lead = den[0];
     let mut companion = DMatrix::<f64>::zeros(degree, degree);
@@ -285,8 +284,7 @@ fn real_pole_rates(den: &[f64]) -> Result<Vec<f64>, String> {
             companion[(k + 1, k)] = 1.0;
         }
     }
-    let roots =
-        companion.eigenvalues().ok_or("denominator has complex roots: the modal realisation needs real poles")?;
+    let roots = companion.eigenvalues().ok_or(WindError::ComplexPoles)?;
     let derivative = polyder(den);
     let mut rates = Vec::with_capacity(degree);
     for &root in roots.iter() {
@@ -299,13 +297,13 @@ fn real_pole_rates(den: &[f64]) -> Result<Vec<f64>, String> {
             }
         }
         if s >= 0.0 {
-            return Err(format!("denominator has a root at {s}: the filter is not stable"));
+            return Err(WindError::UnstablePole { root: s });
         }
         rates.push(-s);
     }
     rates.sort_by(f64::total_cmp);
     if rates.windows(2).any(|w| w[1] - w[0] <= 1e-9 * w[1]) {
-        return Err("denominator has repeated roots: the modal realisation needs distinct poles".into());
+        return Err(WindError::RepeatedPoles);
     }
     Ok(rates)
 }
@@ -390,7 +388,7 @@ mod tests {
 
     #[test]
     fn paper_mode_rejects_other_speeds_with_a_clear_message() {
-        let err = ShapingFilter::paper(5.0).unwrap_err();
+        let err = ShapingFilter::paper(5.0).unwrap_err().to_string();
         assert!(err.contains("3 m/s") && err.contains("9.5 m/s") && err.contains("5"));
         assert!(ShapingFilter::paper(3.0).is_ok() && ShapingFilter::paper(9.5).is_ok());
     }
@@ -398,7 +396,7 @@ mod tests {
     #[test]
     fn paper_mode_rejects_a_site_other_than_the_papers_naming_z_and_z0() {
         for (z, z0) in [(15.0, 0.4), (10.0, 0.026), (2.0, 0.1)] {
-            let err = ShapingFilter::paper_at_site(3.0, z, z0).unwrap_err();
+            let err = ShapingFilter::paper_at_site(3.0, z, z0).unwrap_err().to_string();
             assert!(
                 err.contains("z = 10 m")
                     && err.contains("z0 = 0.4 m")
@@ -407,7 +405,7 @@ mod tests {
             );
         }
         // The speed check still comes first, and the paper's own site is accepted.
-        assert!(ShapingFilter::paper_at_site(5.0, 15.0, 0.4).unwrap_err().contains("9.5 m/s"));
+        assert!(ShapingFilter::paper_at_site(5.0, 15.0, 0.4).unwrap_err().to_string().contains("9.5 m/s"));
         assert_eq!(ShapingFilter::paper_at_site(9.5, 10.0, 0.4).unwrap(), ShapingFilter::paper(9.5).unwrap());
     }
 

@@ -26,6 +26,7 @@
 //! which is what a structural mode's participation weighs.
 
 use crate::coefficients::CoefficientTable;
+use crate::error::WindError;
 use std::f64::consts::PI;
 
 /// Which torque law to use.
@@ -226,20 +227,20 @@ impl WindTorqueModel {
         air_density: f64,
         dish_diameter: f64,
         form: TorqueForm,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, WindError> {
         if !(air_density.is_finite() && air_density > 0.0) {
-            return Err(format!("air density must be positive and finite, got {air_density} kg/m^3"));
+            return Err(WindError::AirDensity { density: air_density });
         }
         if !(dish_diameter.is_finite() && dish_diameter > 0.0) {
-            return Err(format!("dish diameter must be positive and finite, got {dish_diameter} m"));
+            return Err(WindError::DishDiameter { diameter: dish_diameter });
         }
         Ok(Self { coefficients, air_density, dish_diameter, form, forces: ForceCoefficients::default() })
     }
 
     /// The same model with these force coefficients (finite, checked).
-    pub fn with_forces(mut self, forces: ForceCoefficients) -> Result<Self, String> {
+    pub fn with_forces(mut self, forces: ForceCoefficients) -> Result<Self, WindError> {
         if !(forces.drag_face_on.is_finite() && forces.lift_max.is_finite()) {
-            return Err(format!("force coefficients must be finite, got {forces:?}"));
+            return Err(WindError::ForceCoefficients { forces });
         }
         self.forces = forces;
         Ok(self)

@@ -83,8 +83,46 @@ impl UncertainParameter {
 pub enum ParameterTableError {
     #[error("{origin}: {source}")]
     Csv { origin: String, source: csv::Error },
-    #[error("{origin}:{line}: {message}")]
-    Row { origin: String, line: u64, message: String },
+    /// The header does not name the ten columns in order.
+    #[error("{origin}:{line}: the header must be `{}`", COLUMNS.join(","))]
+    Header { origin: String, line: u64 },
+    /// A second row names a parameter that an earlier row already defined.
+    #[error("{origin}:{line}: `{name}` appears twice")]
+    Duplicate { origin: String, line: u64, name: String },
+    /// One row is malformed; the problem says which field and why.
+    #[error("{origin}:{line}: {problem}")]
+    Row { origin: String, line: u64, problem: RowError },
+}
+
+/// What is wrong with one row of the table; every variant names the row's parameter.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RowError {
+    #[error("{parameter}: {column} = `{text}` is not a number")]
+    NotANumber { parameter: String, column: &'static str, text: String },
+    #[error("{parameter}: {column} = `{text}` is not finite")]
+    NotFinite { parameter: String, column: &'static str, text: String },
+    #[error("{parameter}: scale `{scale}` is not linear, log, integer or circular")]
+    UnknownScale { parameter: String, scale: String },
+    #[error("{parameter}: the range [{low}, {high}] is empty")]
+    EmptyRange { parameter: String, low: f64, high: f64 },
+    #[error("{parameter}: the default {default} lies outside the range [{low}, {high}]")]
+    DefaultOutsideRange { parameter: String, default: f64, low: f64, high: f64 },
+    #[error("{parameter}: a log scale needs a positive range, not [{low}, {high}]")]
+    LogScaleNotPositive { parameter: String, low: f64, high: f64 },
+    #[error("{parameter}: a circular scale spans the whole circle, 360 deg, not [{low}, {high}]")]
+    CircularScaleSpan { parameter: String, low: f64, high: f64 },
+    #[error("{parameter}: an integer scale needs whole numbers, got default {default} in [{low}, {high}]")]
+    IntegerScaleFractional { parameter: String, default: f64, low: f64, high: f64 },
+    #[error("{parameter}: no targets")]
+    NoTargets { parameter: String },
+    #[error("{parameter}: target `{target}` is not <FMU>:<variable>")]
+    TargetForm { parameter: String, target: String },
+    #[error("{parameter}: target `{target}` names no variable")]
+    TargetWithoutVariable { parameter: String, target: String },
+    #[error("{parameter}: basis `{basis}` is not source, paper or estimate")]
+    UnknownBasis { parameter: String, basis: String },
+    #[error("{parameter}: every parameter names its source or why it is an estimate")]
+    NoSource { parameter: String },
 }
 
 const COLUMNS: [&str; 10] = ["name", "unit", "paper", "default", "low", "high", "scale", "targets", "basis", "source"];
@@ -96,36 +134,43 @@ pub fn parse_parameters(text: &str, origin: &str) -> Result<Vec<UncertainParamet
     let mut reader = csv::ReaderBuilder::new().comment(Some(b'#')).trim(csv::Trim::All).from_reader(text.as_bytes());
     let header = reader.headers().map_err(csv_error)?.clone();
     if header.iter().collect::<Vec<_>>() != COLUMNS {
-        return Err(ParameterTableError::Row {
+        return Err(ParameterTableError::Header {
             origin: origin.to_string(),
             line: header.position().map_or(1, |p| p.line()),
-            message: format!("the header must be `{}`", COLUMNS.join(",")),
         });
     }
     let mut parameters: Vec<UncertainParameter> = Vec::new();
     for record in reader.records() {
         let record = record.map_err(csv_error)?;
         let line = record.position().map_or(0, |p| p.line());
-        let row_error = |message: String| ParameterTableError::Row { origin: origin.to_string(), line, message };
-        let parameter = parse_row(&record).map_err(row_error)?;
+        let parameter = parse_row(&record).map_err(|problem| ParameterTableError::Row {
+            origin: origin.to_string(),
+            line,
+            problem,
+        })?;
         if parameters.iter().any(|p| p.name == parameter.name) {
-            return Err(row_error(format!("`{}` appears twice", parameter.name)));
+            return Err(ParameterTableError::Duplicate { origin: origin.to_string(), line, name: parameter.name });
         }
         parameters.push(parameter);
     }
     Ok(parameters)
 }
 
-fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, String> {
+fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, RowError> {
     let field = |i: usize| record.get(i).unwrap_or("");
     let name = field(0).to_string();
-    let number = |i: usize| -> Result<f64, String> {
+    let parameter = || name.clone();
+    let number = |i: usize| -> Result<f64, RowError> {
         let text = field(i);
-        let value: f64 = text.parse().map_err(|_| format!("{name}: {} = `{text}` is not a number", COLUMNS[i]))?;
+        let value: f64 = text.parse().map_err(|_| RowError::NotANumber {
+            parameter: parameter(),
+            column: COLUMNS[i],
+            text: text.to_string(),
+        })?;
         if value.is_finite() {
             Ok(value)
         } else {
-            Err(format!("{name}: {} = `{text}` is not finite", COLUMNS[i]))
+            Err(RowError::NotFinite { parameter: parameter(), column: COLUMNS[i], text: text.to_string() })
         }
     };
     let paper = if field(2).is_empty() { None } else { Some(number(2)?) };
@@ -135,36 +180,36 @@ fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, String> {
         "log" => Scale::Log,
         "integer" => Scale::Integer,
         "circular" => Scale::Circular,
-        other => return Err(format!("{name}: scale `{other}` is not linear, log, integer or circular")),
+        other => return Err(RowError::UnknownScale { parameter: parameter(), scale: other.to_string() }),
     };
     if low >= high {
-        return Err(format!("{name}: the range [{low}, {high}] is empty"));
+        return Err(RowError::EmptyRange { parameter: parameter(), low, high });
     }
     if !(low..=high).contains(&default) {
-        return Err(format!("{name}: the default {default} lies outside the range [{low}, {high}]"));
+        return Err(RowError::DefaultOutsideRange { parameter: parameter(), default, low, high });
     }
     if scale == Scale::Log && low <= 0.0 {
-        return Err(format!("{name}: a log scale needs a positive range, not [{low}, {high}]"));
+        return Err(RowError::LogScaleNotPositive { parameter: parameter(), low, high });
     }
     if scale == Scale::Circular && (high - low - 360.0).abs() > 1e-9 {
-        return Err(format!("{name}: a circular scale spans the whole circle, 360 deg, not [{low}, {high}]"));
+        return Err(RowError::CircularScaleSpan { parameter: parameter(), low, high });
     }
     if scale == Scale::Integer && [low, high, default].iter().any(|v| v.fract() != 0.0) {
-        return Err(format!("{name}: an integer scale needs whole numbers"));
+        return Err(RowError::IntegerScaleFractional { parameter: parameter(), default, low, high });
     }
     let targets = field(7).split_whitespace().map(|t| parse_target(&name, t)).collect::<Result<Vec<_>, _>>()?;
     if targets.is_empty() {
-        return Err(format!("{name}: no targets"));
+        return Err(RowError::NoTargets { parameter: parameter() });
     }
     let basis = match field(8) {
         "source" => Basis::Source,
         "paper" => Basis::Paper,
         "estimate" => Basis::Estimate,
-        other => return Err(format!("{name}: basis `{other}` is not source, paper or estimate")),
+        other => return Err(RowError::UnknownBasis { parameter: parameter(), basis: other.to_string() }),
     };
     let source = field(9).to_string();
     if source.is_empty() {
-        return Err(format!("{name}: every parameter names its source or why it is an estimate"));
+        return Err(RowError::NoSource { parameter: parameter() });
     }
     Ok(UncertainParameter {
         name,
@@ -180,11 +225,12 @@ fn parse_row(record: &csv::StringRecord) -> Result<UncertainParameter, String> {
     })
 }
 
-fn parse_target(name: &str, text: &str) -> Result<Target, String> {
-    let (unit, variable) =
-        text.split_once(':').ok_or_else(|| format!("{name}: target `{text}` is not <FMU>:<variable>"))?;
+fn parse_target(name: &str, text: &str) -> Result<Target, RowError> {
+    let (unit, variable) = text
+        .split_once(':')
+        .ok_or_else(|| RowError::TargetForm { parameter: name.to_string(), target: text.to_string() })?;
     if variable.is_empty() {
-        return Err(format!("{name}: target `{text}` names no variable"));
+        return Err(RowError::TargetWithoutVariable { parameter: name.to_string(), target: text.to_string() });
     }
     Ok(match unit {
         "scenario" => Target::Scenario { name: variable.to_string() },

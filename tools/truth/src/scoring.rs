@@ -4,16 +4,40 @@
 //!
 //! Only this module reads the `.truth` sidecars; the validation itself never sees them.
 
-use crate::suite::{parse_truth, CaseTruth};
+use crate::suite::{parse_truth, CaseTruth, SuiteError};
 use crate::Effect;
 use antenna_validate::measured_log::MeasuredLog;
 use antenna_validate::output_error::PlantSimulator;
-use antenna_validate::parameters::{names, ParameterSet};
+use antenna_validate::parameters::{names, ParameterError, ParameterSet};
 use antenna_validate::plant_fmu::FmuSimulator;
 use antenna_validate::{validate_with, ValidateOptions, Validation};
 use rayon::prelude::*;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Why a suite could not be scored or its figure drawn. A validation that fails on one log is
+/// not one of these: it is recorded in that case's [`CaseResult::error`].
+#[derive(Debug, thiserror::Error)]
+pub enum ScoringError {
+    /// A truth file or the suite folder could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read { path: PathBuf, source: std::io::Error },
+    /// A truth file is malformed.
+    #[error("{}: {source}", path.display())]
+    Truth { path: PathBuf, source: SuiteError },
+    /// The suite's starting parameter set could not be read.
+    #[error(transparent)]
+    StartParameters(#[from] ParameterError),
+    /// The worker threads could not be started.
+    #[error("cannot start {threads} threads: {source}")]
+    Threads { threads: usize, source: rayon::ThreadPoolBuildError },
+    /// A worker could not open its plant FMU.
+    #[error(transparent)]
+    Fmu(#[from] antenna_validate::plant_fmu::PlantFmuError),
+    /// The detection figure could not be written.
+    #[error("cannot write the detection figure {}: {source}", path.display())]
+    Figure { path: PathBuf, source: antenna_plot::PlotError },
+}
 
 /// The outcome of one case.
 #[derive(Debug, Clone)]
@@ -309,11 +333,11 @@ pub fn run_case(
     start: &ParameterSet,
     options: &ValidateOptions,
     simulator: Option<&mut dyn PlantSimulator>,
-) -> Result<CaseResult, String> {
+) -> Result<CaseResult, ScoringError> {
     let truth_path = path.with_extension("truth");
-    let text =
-        std::fs::read_to_string(&truth_path).map_err(|e| format!("cannot read {}: {e}", truth_path.display()))?;
-    let truth = parse_truth(&text)?;
+    let text = std::fs::read_to_string(&truth_path)
+        .map_err(|source| ScoringError::Read { path: truth_path.clone(), source })?;
+    let truth = parse_truth(&text).map_err(|source| ScoringError::Truth { path: truth_path.clone(), source })?;
     let clock = std::time::Instant::now();
     let mut linear = false;
     let result = MeasuredLog::read(path).map_err(|e| e.to_string()).and_then(|log| {
@@ -359,10 +383,10 @@ pub fn run_suite(
     fmu: Option<&Path>,
     threads: usize,
     progress: &(dyn Fn(&CaseResult) + Sync),
-) -> Result<Vec<CaseResult>, String> {
+) -> Result<Vec<CaseResult>, ScoringError> {
     let start = ParameterSet::read(&dir.join("start.params"))?;
     let mut logs: Vec<_> = std::fs::read_dir(dir)
-        .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
+        .map_err(|source| ScoringError::Read { path: dir.to_path_buf(), source })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         // The suite's own logs only: the results a previous run wrote into the same folder
         // (detection.csv) are not logs.
@@ -376,15 +400,15 @@ pub fn run_suite(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()
-        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        .map_err(|source| ScoringError::Threads { threads, source })?;
     // Each worker opens its own plant FMU instance; a case's result does not depend on which
     // worker ran it, and the results are collected in the sorted log order.
-    let results: Vec<Result<CaseResult, String>> = pool.install(|| {
+    let results: Vec<Result<CaseResult, ScoringError>> = pool.install(|| {
         logs.par_iter()
             .map_init(
                 || fmu.map(FmuSimulator::open).transpose(),
                 |simulator, path| {
-                    let simulator = simulator.as_mut().map_err(|e| e.clone())?;
+                    let simulator = simulator.as_mut().map_err(|e| ScoringError::Fmu(e.clone()))?;
                     let result =
                         run_case(path, &start, options, simulator.as_mut().map(|s| s as &mut dyn PlantSimulator))?;
                     bar.suspend(|| progress(&result));
@@ -724,7 +748,7 @@ pub fn detection_csv(results: &[CaseResult]) -> String {
 }
 
 /// The detection curve as a PNG.
-pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), String> {
+pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), ScoringError> {
     use antenna_plot::{Figure, Panel, Series};
     let curve = detection_curve(results);
     let x: Vec<f64> = curve.iter().map(|c| c.size).collect();
@@ -758,7 +782,7 @@ pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), Strin
                 ),
         )
         .save_png(path)
-        .map_err(|e| e.to_string())
+        .map_err(|source| ScoringError::Figure { path: path.to_path_buf(), source })
 }
 
 #[cfg(test)]
@@ -857,6 +881,6 @@ mod tests {
         std::fs::write(dir.join("detection.csv"), "size,rate\n10,1\n").unwrap();
         let results = run_suite(&dir, &ValidateOptions::default(), None, 1, &|_| {});
         std::fs::remove_dir_all(&dir).unwrap();
-        assert_eq!(results.map(|r| r.len()), Ok(0));
+        assert_eq!(results.map(|r| r.len()).map_err(|e| e.to_string()), Ok(0));
     }
 }

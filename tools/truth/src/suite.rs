@@ -8,11 +8,53 @@
 //! for scoring; the log itself declares nothing.
 
 use super::{simulate, CleanSignals, CurrentLog, Effect, MotorSensor, SpeedSensor, TruthConfig};
+use antenna_validate::parameters::ParameterError;
 use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Why a case could not be generated, a suite could not be written or a truth file not read.
+#[derive(Debug, thiserror::Error)]
+pub enum SuiteError {
+    /// No delay up to the searched maximum changes the torque by the requested multiple of the
+    /// noise.
+    #[error("a delay of {max_delay} s does not reach {ratio} times the noise")]
+    DelayUnreachable { max_delay: f64, ratio: f64 },
+    /// The effect kind is none of [`EFFECT_KINDS`].
+    #[error("unknown effect kind '{kind}' (known: {})", EFFECT_KINDS.join(", "))]
+    UnknownEffectKind { kind: String },
+    /// The truth simulation with the effects produced a non-finite value.
+    #[error("the closed loop is unstable with this effect (the truth simulation diverged)")]
+    Diverged,
+    /// A file or folder of the suite could not be created, read, written or removed.
+    #[error("cannot {action} {}: {source}", path.display())]
+    Io { action: &'static str, path: PathBuf, source: std::io::Error },
+    /// The worker threads could not be started.
+    #[error("cannot start {threads} threads: {source}")]
+    Threads { threads: usize, source: rayon::ThreadPoolBuildError },
+    /// The starting parameter set could not be written.
+    #[error(transparent)]
+    Parameters(#[from] ParameterError),
+    /// A line of a truth file is not `key = value`.
+    #[error("bad truth line '{line}'")]
+    TruthLine { line: String },
+    /// A truth file lacks a key.
+    #[error("truth file lacks '{key}'")]
+    TruthKeyMissing { key: String },
+    /// A truth file's value is not a number.
+    #[error("truth '{key}' is not a number, got '{value}'")]
+    TruthNotANumber { key: String, value: String },
+    /// An effect in a truth file has fewer values than its kind needs.
+    #[error("effect{index} ({kind}) has too few values: {found}")]
+    TruthTooFewValues { index: usize, kind: String, found: usize },
+}
+
+/// The [`SuiteError::Io`] of `action` on `path`.
+fn io_error<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> SuiteError + 'a {
+    move |source| SuiteError::Io { action, path: path.to_path_buf(), source }
+}
 
 /// Every effect kind the generator knows, in table order.
 pub const EFFECT_KINDS: [&str; 11] = [
@@ -182,7 +224,7 @@ pub fn sized_effect(
     clean: &CleanSignals,
     config: &TruthConfig,
     rng: &mut impl rand::Rng,
-) -> Result<Effect, String> {
+) -> Result<Effect, SuiteError> {
     let plant = &config.plant;
     let sigma_torque = config.noise.size_torque_sigma(plant);
     let sigma_twist = config.noise.twist_sigma(plant);
@@ -243,7 +285,7 @@ pub fn sized_effect(
             };
             let (mut lo, mut hi) = (0.0, 0.2);
             if change(hi) < target {
-                return Err(format!("a delay of {hi} s does not reach {ratio} times the noise"));
+                return Err(SuiteError::DelayUnreachable { max_delay: hi, ratio });
             }
             for _ in 0..50 {
                 let mid = 0.5 * (lo + hi);
@@ -267,7 +309,7 @@ pub fn sized_effect(
             let phase = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
             Effect::Cogging { amplitude: target * std::f64::consts::SQRT_2, period, phase }
         }
-        other => return Err(format!("unknown effect kind '{other}' (known: {})", EFFECT_KINDS.join(", "))),
+        other => return Err(SuiteError::UnknownEffectKind { kind: other.to_string() }),
     })
 }
 
@@ -278,7 +320,7 @@ pub fn generate_case(
     kinds: &[(String, f64)],
     log_file: &str,
     clean_cache: &mut BTreeMap<u64, CleanSignals>,
-) -> Result<(String, CaseTruth), String> {
+) -> Result<(String, CaseTruth), SuiteError> {
     let mut config = base.clone();
     config.seed = seed;
     config.effects.clear();
@@ -300,7 +342,7 @@ pub fn generate_case(
     config.effects = effects.iter().map(|e| e.2).collect();
     let run = simulate(&config);
     if run.log.channels.iter().any(|c| c.values.iter().any(|v| !v.is_finite())) {
-        return Err("the closed loop is unstable with this effect (the truth simulation diverged)".into());
+        return Err(SuiteError::Diverged);
     }
     let text = run.log.to_csv(config.log_units());
     let truth = CaseTruth {
@@ -342,8 +384,12 @@ fn suite_cases(suite: &SuiteConfig) -> Vec<(u64, Vec<(String, f64)>)> {
 }
 
 /// Writes the suite: `log_NNN.csv` with `log_NNN.truth` beside it, and `start.params`.
-pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<CaseTruth>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+pub fn write_suite(
+    dir: &Path,
+    suite: &SuiteConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<CaseTruth>, SuiteError> {
+    std::fs::create_dir_all(dir).map_err(io_error("create", dir))?;
     let cases = suite_cases(suite);
     let mut clean_cache = BTreeMap::new();
     let mut truths = Vec::new();
@@ -358,9 +404,10 @@ pub fn write_suite(dir: &Path, suite: &SuiteConfig, progress: &mut dyn FnMut(&st
                 continue;
             }
         };
-        std::fs::write(dir.join(format!("{name}.csv")), text).map_err(|e| format!("cannot write log: {e}"))?;
-        std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth))
-            .map_err(|e| format!("cannot write truth: {e}"))?;
+        let log_path = dir.join(format!("{name}.csv"));
+        std::fs::write(&log_path, text).map_err(io_error("write", &log_path))?;
+        let truth_path = dir.join(format!("{name}.truth"));
+        std::fs::write(&truth_path, truth_text(&truth)).map_err(io_error("write", &truth_path))?;
         progress(&format!("{name}: {}", describe(&truth)));
         truths.push(truth);
     }
@@ -380,12 +427,13 @@ pub fn write_suite_parallel(
     suite: &SuiteConfig,
     threads: usize,
     progress: &(dyn Fn(&str) + Sync),
-) -> Result<Vec<CaseTruth>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    for entry in std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?.flatten() {
+) -> Result<Vec<CaseTruth>, SuiteError> {
+    std::fs::create_dir_all(dir).map_err(io_error("create", dir))?;
+    for entry in std::fs::read_dir(dir).map_err(io_error("read", dir))?.flatten() {
         let name = entry.file_name().to_string_lossy().to_string();
         if name.starts_with("log_") && (name.ends_with(".csv") || name.ends_with(".truth")) {
-            std::fs::remove_file(entry.path()).map_err(|e| format!("cannot remove {}: {e}", entry.path().display()))?;
+            let path = entry.path();
+            std::fs::remove_file(&path).map_err(io_error("remove", &path))?;
         }
     }
     let cases = suite_cases(suite);
@@ -393,10 +441,10 @@ pub fn write_suite_parallel(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .build()
-        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        .map_err(|source| SuiteError::Threads { threads, source })?;
     // Each worker keeps its own cache of clean runs; a case depends only on its seed and
     // effects, so the files are the same whichever worker generates it.
-    let generated: Vec<Result<Option<CaseTruth>, String>> = pool.install(|| {
+    let generated: Vec<Result<Option<CaseTruth>, SuiteError>> = pool.install(|| {
         cases
             .par_iter()
             .enumerate()
@@ -404,9 +452,10 @@ pub fn write_suite_parallel(
                 let name = format!("log_{:03}", index + 1);
                 let outcome = match generate_case(&suite.base, *seed, kinds, &format!("{name}.csv"), clean_cache) {
                     Ok((text, truth)) => {
-                        std::fs::write(dir.join(format!("{name}.csv")), text)
-                            .and_then(|()| std::fs::write(dir.join(format!("{name}.truth")), truth_text(&truth)))
-                            .map_err(|e| format!("cannot write {name}: {e}"))?;
+                        let log_path = dir.join(format!("{name}.csv"));
+                        std::fs::write(&log_path, text).map_err(io_error("write", &log_path))?;
+                        let truth_path = dir.join(format!("{name}.truth"));
+                        std::fs::write(&truth_path, truth_text(&truth)).map_err(io_error("write", &truth_path))?;
                         bar.suspend(|| progress(&format!("{name}: {}", describe(&truth))));
                         Some(truth)
                     }
@@ -474,19 +523,21 @@ pub fn truth_text(truth: &CaseTruth) -> String {
 }
 
 /// Reads a sidecar back.
-pub fn parse_truth(text: &str) -> Result<CaseTruth, String> {
+pub fn parse_truth(text: &str) -> Result<CaseTruth, SuiteError> {
     let mut map = BTreeMap::new();
     for line in text.lines() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
-        let (k, v) = line.split_once('=').ok_or_else(|| format!("bad truth line '{line}'"))?;
+        let (k, v) = line.split_once('=').ok_or_else(|| SuiteError::TruthLine { line: line.to_string() })?;
         map.insert(k.trim().to_string(), v.trim().to_string());
     }
-    let get = |k: &str| map.get(k).cloned().ok_or_else(|| format!("truth file lacks '{k}'"));
-    let num =
-        |k: &str| -> Result<f64, String> { get(k)?.parse::<f64>().map_err(|_| format!("truth '{k}' is not a number")) };
+    let get = |k: &str| map.get(k).cloned().ok_or_else(|| SuiteError::TruthKeyMissing { key: k.to_string() });
+    let num = |k: &str| -> Result<f64, SuiteError> {
+        let value = get(k)?;
+        value.parse::<f64>().map_err(|_| SuiteError::TruthNotANumber { key: k.to_string(), value })
+    };
     let count = num("effects")? as usize;
     let mut effects = Vec::new();
     for i in 0..count {
@@ -494,7 +545,13 @@ pub fn parse_truth(text: &str) -> Result<CaseTruth, String> {
         let size = num(&format!("effect{i}.size"))?;
         let values: Vec<f64> =
             get(&format!("effect{i}.values"))?.split_whitespace().filter_map(|v| v.parse().ok()).collect();
-        let v = |j: usize| values.get(j).copied().ok_or_else(|| format!("effect{i} has too few values"));
+        let v = |j: usize| {
+            values.get(j).copied().ok_or_else(|| SuiteError::TruthTooFewValues {
+                index: i,
+                kind: kind.clone(),
+                found: values.len(),
+            })
+        };
         let effect = match kind.as_str() {
             "coulomb" => Effect::Coulomb(v(0)?),
             "stribeck" => Effect::Stribeck(v(0)?),
@@ -507,7 +564,7 @@ pub fn parse_truth(text: &str) -> Result<CaseTruth, String> {
             "delay" => Effect::Delay(v(0)?),
             "torque_constant" => Effect::TorqueConstantScale(v(0)?),
             "cogging" => Effect::Cogging { amplitude: v(0)?, period: v(1)?, phase: v(2)? },
-            other => return Err(format!("unknown effect kind '{other}'")),
+            other => return Err(SuiteError::UnknownEffectKind { kind: other.to_string() }),
         };
         effects.push((kind, size, effect));
     }

@@ -9,7 +9,9 @@
 use antenna_truth::TruthPlant;
 use antenna_validate::equation_error::{model_channels, prepare, EquationOptions};
 use antenna_validate::measured_log::{Channel, MeasuredLog, Signal};
-use antenna_validate::output_error::{output_error, ChannelKind, OutputData, PlantSimulator, WindowPlan, WindowStart};
+use antenna_validate::output_error::{
+    output_error, ChannelKind, OutputData, PlantSimulator, SimulatorError, WindowPlan, WindowStart,
+};
 use antenna_validate::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use antenna_validate::plant_fmu::{FmuSimulator, PlantFmu};
 
@@ -174,7 +176,7 @@ fn windows_restarted_from_an_fmu_generated_log_reproduce_it() {
 struct FromFile(FmuSimulator);
 
 impl PlantSimulator for FromFile {
-    fn configure(&mut self, _: &ParameterSet, _: &FmuConfig) -> Result<(), String> {
+    fn configure(&mut self, _: &ParameterSet, _: &FmuConfig) -> Result<(), SimulatorError> {
         Ok(())
     }
 
@@ -184,7 +186,7 @@ impl PlantSimulator for FromFile {
         commands: &[[f64; 2]],
         disturbance: &[f64],
         dt: f64,
-    ) -> Result<antenna_validate::output_error::SimulatedOutputs, String> {
+    ) -> Result<antenna_validate::output_error::SimulatedOutputs, SimulatorError> {
         self.0.simulate(start, commands, disturbance, dt)
     }
 }

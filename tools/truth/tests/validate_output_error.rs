@@ -151,7 +151,7 @@ impl PlantSimulator for NanSpeedAfter {
         &mut self,
         params: &ParameterSet,
         config: &antenna_validate::parameters::FmuConfig,
-    ) -> Result<(), String> {
+    ) -> Result<(), SimulatorError> {
         self.inner.configure(params, config)
     }
 
@@ -161,7 +161,7 @@ impl PlantSimulator for NanSpeedAfter {
         commands: &[[f64; 2]],
         disturbance: &[f64],
         dt: f64,
-    ) -> Result<SimulatedOutputs, String> {
+    ) -> Result<SimulatedOutputs, SimulatorError> {
         let mut outputs = self.inner.simulate(start, commands, disturbance, dt)?;
         if self.window_time >= self.bad_start {
             outputs.motor_vel[1] = f64::NAN;

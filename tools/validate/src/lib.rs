@@ -87,7 +87,7 @@ pub struct ValidateOptions {
 
 /// Why a log could not be validated. Never a result with NaN in it: a non-finite value in the
 /// log, the parameters or anything computed from them stops the validation with its cause.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum ValidationError {
     #[error(transparent)]
     Prepare(#[from] PrepareError),

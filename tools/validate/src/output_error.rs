@@ -18,17 +18,35 @@ use super::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use crate::finite::{check_series, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
 use antenna_dsp::conditioning::SavitzkyGolay;
+use std::sync::Arc;
+
+/// Why a [`PlantSimulator`] could not be configured or could not simulate a window.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum SimulatorError {
+    /// The packaged plant FMU failed (see [`crate::plant_fmu::PlantFmuError`]).
+    #[error(transparent)]
+    Fmu(#[from] crate::plant_fmu::PlantFmuError),
+    /// The parameter set could not be written as the FMU's parameter file.
+    #[error("the parameter set cannot be written for the FMU: {0}")]
+    Parameters(Arc<crate::parameters::ParameterError>),
+    /// A window was simulated before any parameter set was configured.
+    #[error("the simulator is not configured")]
+    NotConfigured,
+    /// A simulator other than the FMU refused, for a reason of its own.
+    #[error("{reason}")]
+    Refused { reason: String },
+}
 
 /// Why the output error of a parameter set could not be computed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum SimulationError {
     #[error("the log has no current or torque")]
     NoCommand,
     #[error("the log has no position output")]
     NoPosition,
-    /// The simulator refused the parameter set or a window (its own message).
-    #[error("{0}")]
-    Simulator(String),
+    /// The simulator refused the parameter set or a window.
+    #[error(transparent)]
+    Simulator(#[from] SimulatorError),
     /// The simulation of a window (or of a drive-path piece) stopped short or left the finite
     /// numbers.
     #[error("the simulation of the {what} at {time:.3} s failed")]
@@ -94,7 +112,7 @@ impl SimulatedOutputs {
 /// A plant that can be simulated over a window with a log's inputs.
 pub trait PlantSimulator {
     /// Sets the model to a parameter set (once per set; the windows reuse it).
-    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String>;
+    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), SimulatorError>;
     /// Simulates one window from `start`, one step of `dt` per command (per FMU motor, held
     /// over the step), with the load disturbance held likewise.
     fn simulate(
@@ -103,7 +121,7 @@ pub trait PlantSimulator {
         commands: &[[f64; 2]],
         disturbance: &[f64],
         dt: f64,
-    ) -> Result<SimulatedOutputs, String>;
+    ) -> Result<SimulatedOutputs, SimulatorError>;
 }
 
 /// The log's inputs and measured outputs, aligned with the equation-error data's analysed
@@ -950,7 +968,7 @@ pub struct RigidReferenceSimulator {
 }
 
 impl PlantSimulator for RigidReferenceSimulator {
-    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String> {
+    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), SimulatorError> {
         self.params = params.clone();
         let per_motor = match config.input {
             FmuInput::Current => params.value(names::TORQUE_CONSTANT),
@@ -970,13 +988,15 @@ impl PlantSimulator for RigidReferenceSimulator {
         commands: &[[f64; 2]],
         disturbance: &[f64],
         dt: f64,
-    ) -> Result<SimulatedOutputs, String> {
+    ) -> Result<SimulatedOutputs, SimulatorError> {
         use super::equation_error::static_friction_curve;
         let params = &self.params;
         let gear = params.value(names::GEAR_RATIO);
         let inertia = params.value(names::MOTOR_INERTIA) * gear * gear + params.value(names::LOAD_INERTIA);
         if inertia <= 0.0 {
-            return Err("the parameter set has no inertia".into());
+            return Err(SimulatorError::Refused {
+                reason: format!("the parameter set has no inertia ({inertia} kg m^2)"),
+            });
         }
         let scale = params.value(names::TORQUE_CONSTANT_SCALE) * gear * self.torque_per_command;
         let vs = params.value(names::STRIBECK_VELOCITY).max(1e-9);

@@ -17,14 +17,50 @@
 //! error, not a wrong simulation. One instance serves all windows of a parameter set;
 //! restoring a state costs one plant construction (tens of microseconds).
 
-use super::output_error::{PlantSimulator, SimulatedOutputs, WindowStart};
+use super::output_error::{PlantSimulator, SimulatedOutputs, SimulatorError, WindowStart};
 use super::parameters::{fmu_parameter_text, FmuConfig, ParameterSet};
-use fmu_import::{Fmu, Instance};
+use fmu_import::{Fmu, ImportError, Instance};
 use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
 use fmu_plant::{Mesh, Motion};
-use fmu_runtime::InstanceState;
+use fmu_runtime::{InstanceState, StateError};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+/// Why the packaged plant FMU could not be opened, configured or stepped. Clone (the I/O
+/// errors are shared through an `Arc`) so that a simulation error can be cached and repeated.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum PlantFmuError {
+    #[error("{} is missing: package the FMUs first (cargo xtask package)", path.display())]
+    Missing { path: PathBuf },
+    #[error("cannot open {}: {source}", path.display())]
+    Open { path: PathBuf, source: ImportError },
+    #[error("{} is {model_identifier}, not the AzimuthPlant FMU", path.display())]
+    NotThePlant { path: PathBuf, model_identifier: String },
+    #[error("cannot write {}: {source}", path.display())]
+    WriteParameterFile { path: PathBuf, source: Arc<std::io::Error> },
+    #[error("cannot find {}: {source}", path.display())]
+    FindParameterFile { path: PathBuf, source: Arc<std::io::Error> },
+    #[error("the parameter file path {} is not UTF-8", path.display())]
+    ParameterFileNotUtf8 { path: PathBuf },
+    #[error("the plant FMU rejects the parameter set: {0}")]
+    ParametersRejected(ImportError),
+    #[error("the plant FMU does not initialise: {0}")]
+    Initialise(ImportError),
+    #[error("unexpected plant FMU state: {0}")]
+    StateDecode(StateError),
+    #[error("the plant FMU state has no plant (not initialised)")]
+    StateWithoutPlant,
+    #[error("the plant FMU state has {states} states and {paths} paths; this tool knows {STATES} and {PATHS}")]
+    StateLayout { states: usize, paths: usize },
+    #[error("the plant FMU rejects the window's start state: {0}")]
+    StartStateRejected(ImportError),
+    #[error("plant FMU step {step}: {source}")]
+    Step { step: usize, source: ImportError },
+    /// Any other call of the FMU (a variable lookup, an instantiation, a get or set) failed.
+    #[error(transparent)]
+    Call(#[from] ImportError),
+}
 
 const PATHS: usize = 2;
 const STATES: usize = 2 + 4 * PATHS;
@@ -42,46 +78,45 @@ impl PlantFmu {
         antenna_fmus::fmu_path("AzimuthPlant")
     }
 
-    pub fn open(path: &Path) -> Result<PlantFmu, String> {
+    pub fn open(path: &Path) -> Result<PlantFmu, PlantFmuError> {
         if !path.is_file() {
-            return Err(format!("{} is missing: package the FMUs first (cargo xtask package)", path.display()));
+            return Err(PlantFmuError::Missing { path: path.to_path_buf() });
         }
-        let fmu = Fmu::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        let fmu = Fmu::open(path).map_err(|source| PlantFmuError::Open { path: path.to_path_buf(), source })?;
         if fmu.description.model_identifier != "AzimuthPlant" {
-            return Err(format!(
-                "{} is {}, not the AzimuthPlant FMU",
-                path.display(),
-                fmu.description.model_identifier
-            ));
+            return Err(PlantFmuError::NotThePlant {
+                path: path.to_path_buf(),
+                model_identifier: fmu.description.model_identifier.clone(),
+            });
         }
         Ok(PlantFmu { fmu })
     }
 
     /// An instance configured by a parameter-file text (written to a temporary file, loaded
     /// through `parameter_file`, removed).
-    pub fn session(&self, parameter_text: &str) -> Result<Session, String> {
+    pub fn session(&self, parameter_text: &str) -> Result<Session, PlantFmuError> {
         let path = std::env::temp_dir().join(format!(
             "validate-{}-{}.params",
             std::process::id(),
             FILE_COUNTER.fetch_add(1, Ordering::Relaxed)
         ));
-        std::fs::write(&path, parameter_text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        std::fs::write(&path, parameter_text)
+            .map_err(|e| PlantFmuError::WriteParameterFile { path: path.clone(), source: Arc::new(e) })?;
         let session = self.session_from_file(&path);
         let _ = std::fs::remove_file(&path);
         session
     }
 
     /// An instance configured by a parameter file on disk (absolute path).
-    pub fn session_from_file(&self, path: &Path) -> Result<Session, String> {
+    pub fn session_from_file(&self, path: &Path) -> Result<Session, PlantFmuError> {
         let description = &self.fmu.description;
-        let vr = |name: &str| description.vr(name).map_err(|e| e.to_string());
-        let mut instance = self.fmu.instantiate("validate", false).map_err(|e| e.to_string())?;
-        let absolute = std::fs::canonicalize(path).map_err(|e| format!("cannot find {}: {e}", path.display()))?;
-        let file = absolute.to_str().ok_or("the parameter file path is not UTF-8")?;
-        instance
-            .set_string(&[vr("parameter_file")?], &[file])
-            .map_err(|e| format!("the plant FMU rejects the parameter set: {e}"))?;
-        instance.initialize(0.0, &[]).map_err(|e| format!("the plant FMU does not initialise: {e}"))?;
+        let vr = |name: &str| description.vr(name);
+        let mut instance = self.fmu.instantiate("validate", false)?;
+        let absolute = std::fs::canonicalize(path)
+            .map_err(|e| PlantFmuError::FindParameterFile { path: path.to_path_buf(), source: Arc::new(e) })?;
+        let file = absolute.to_str().ok_or_else(|| PlantFmuError::ParameterFileNotUtf8 { path: absolute.clone() })?;
+        instance.set_string(&[vr("parameter_file")?], &[file]).map_err(PlantFmuError::ParametersRejected)?;
+        instance.initialize(0.0, &[]).map_err(PlantFmuError::Initialise)?;
         let parameters = [
             vr("gear.ratio")?,
             vr("pinion1.backlash")?,
@@ -94,7 +129,7 @@ impl PlantFmu {
             vr("motor2.torque_constant_scale")?,
         ];
         let mut values = [0.0; 9];
-        instance.get_real(&parameters, &mut values).map_err(|e| e.to_string())?;
+        instance.get_real(&parameters, &mut values)?;
         let template = StateTemplate::capture(&mut instance)?;
         Ok(Session {
             instance,
@@ -116,19 +151,14 @@ struct StateTemplate {
 }
 
 impl StateTemplate {
-    fn capture(instance: &mut Instance) -> Result<StateTemplate, String> {
-        let saved = instance.get_state().map_err(|e| e.to_string())?;
-        let bytes = instance.serialize_state(&saved).map_err(|e| e.to_string())?;
-        instance.free_state(saved).map_err(|e| e.to_string())?;
-        let state = InstanceState::<AzimuthPlantModel>::decode(&bytes)
-            .map_err(|e| format!("unexpected plant FMU state: {e}"))?;
-        let drive = state.model.as_ref().ok_or("the plant FMU state has no plant (not initialised)")?;
+    fn capture(instance: &mut Instance) -> Result<StateTemplate, PlantFmuError> {
+        let saved = instance.get_state()?;
+        let bytes = instance.serialize_state(&saved)?;
+        instance.free_state(saved)?;
+        let state = InstanceState::<AzimuthPlantModel>::decode(&bytes).map_err(PlantFmuError::StateDecode)?;
+        let drive = state.model.as_ref().ok_or(PlantFmuError::StateWithoutPlant)?;
         if drive.x.len() != STATES || drive.paths.len() != PATHS {
-            return Err(format!(
-                "the plant FMU state has {} states and {} paths; this tool knows {STATES} and {PATHS}",
-                drive.x.len(),
-                drive.paths.len()
-            ));
+            return Err(PlantFmuError::StateLayout { states: drive.x.len(), paths: drive.paths.len() });
         }
         let values = &state.values;
         let has_friction = |coulomb: AzVar, stat: AzVar| values.real(coulomb) > 0.0 || values.real(stat) > 0.0;
@@ -241,14 +271,11 @@ impl Session {
         commands: &[[f64; 2]],
         disturbance: &[f64],
         dt: f64,
-    ) -> Result<SimulatedOutputs, String> {
+    ) -> Result<SimulatedOutputs, PlantFmuError> {
         let bytes = self.state_bytes(start);
-        let state = self
-            .instance
-            .deserialize_state(&bytes)
-            .map_err(|e| format!("the plant FMU rejects the window's start state: {e}"))?;
-        let set = self.instance.set_state(&state).map_err(|e| e.to_string());
-        self.instance.free_state(state).map_err(|e| e.to_string())?;
+        let state = self.instance.deserialize_state(&bytes).map_err(PlantFmuError::StartStateRejected)?;
+        let set = self.instance.set_state(&state);
+        self.instance.free_state(state)?;
         set?;
         let n = self.gear_ratio;
         let steps = commands.len();
@@ -259,9 +286,9 @@ impl Session {
         let mut values = [0.0; 4];
         for (j, command) in commands.iter().enumerate() {
             let inputs = [command[0], command[1], disturbance.get(j).copied().unwrap_or(0.0)];
-            self.instance.set_real(&self.inputs, &inputs).map_err(|e| e.to_string())?;
-            self.instance.do_step(j as f64 * dt, dt).map_err(|e| format!("plant FMU step {j}: {e}"))?;
-            self.instance.get_real(&self.outputs, &mut values).map_err(|e| e.to_string())?;
+            self.instance.set_real(&self.inputs, &inputs)?;
+            self.instance.do_step(j as f64 * dt, dt).map_err(|source| PlantFmuError::Step { step: j, source })?;
+            self.instance.get_real(&self.outputs, &mut values)?;
             let speed = 0.5 * (values[2] + values[3]) / n;
             // The FMU has no motor-angle output: the angle is the trapezoidal integral of the
             // motor speed, whose error over a step is dt^3/12 times the speed's second
@@ -286,12 +313,12 @@ impl FmuSimulator {
         FmuSimulator { fmu, session: None }
     }
 
-    pub fn open(path: &Path) -> Result<Self, String> {
+    pub fn open(path: &Path) -> Result<Self, PlantFmuError> {
         Ok(Self::new(PlantFmu::open(path)?))
     }
 
     /// Configures the simulator from a parameter file on disk (for checking a written file).
-    pub fn configure_from_file(&mut self, path: &Path) -> Result<(), String> {
+    pub fn configure_from_file(&mut self, path: &Path) -> Result<(), PlantFmuError> {
         let session = self.fmu.session_from_file(path)?;
         self.session = Some((format!("file:{}", path.display()), session));
         Ok(())
@@ -299,8 +326,9 @@ impl FmuSimulator {
 }
 
 impl PlantSimulator for FmuSimulator {
-    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), String> {
-        let text = fmu_parameter_text(params, config, "written by validate for an output-error run")?;
+    fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), SimulatorError> {
+        let text = fmu_parameter_text(params, config, "written by validate for an output-error run")
+            .map_err(|e| SimulatorError::Parameters(Arc::new(e)))?;
         if self.session.as_ref().is_some_and(|(t, _)| *t == text) {
             return Ok(());
         }
@@ -315,8 +343,8 @@ impl PlantSimulator for FmuSimulator {
         commands: &[[f64; 2]],
         disturbance: &[f64],
         dt: f64,
-    ) -> Result<SimulatedOutputs, String> {
-        let (_, session) = self.session.as_mut().ok_or("the simulator is not configured")?;
-        session.run(start, commands, disturbance, dt)
+    ) -> Result<SimulatedOutputs, SimulatorError> {
+        let (_, session) = self.session.as_mut().ok_or(SimulatorError::NotConfigured)?;
+        Ok(session.run(start, commands, disturbance, dt)?)
     }
 }

@@ -358,7 +358,7 @@ fn check_finite(v: &Validation) -> anyhow::Result<()> {
 /// the documentation folder `docs`.
 fn generate_suite(docs: &Path, dir: &Path, kuka_dir: &Path, settings: &Settings) -> anyhow::Result<()> {
     let clock = Instant::now();
-    text(suite::write_suite_parallel(dir, &SuiteConfig::default(), settings.threads, &|line| println!("{line}")))?;
+    suite::write_suite_parallel(dir, &SuiteConfig::default(), settings.threads, &|line| println!("{line}"))?;
     let generation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let results = score_suite(dir, settings)?;
@@ -381,7 +381,7 @@ fn generate_suite(docs: &Path, dir: &Path, kuka_dir: &Path, settings: &Settings)
     let csv_path = docs.join("results").join("validation-detection.csv");
     std::fs::write(&csv_path, scoring::detection_csv(&results))
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
-    text(scoring::detection_figure(&results, &figures.join("validation-detection.png")))?;
+    scoring::detection_figure(&results, &figures.join("validation-detection.png"))?;
     println!("{}", scoring::summary_markdown(&results));
     println!("{timing}");
     println!("wrote {}", results_path.display());
@@ -400,7 +400,7 @@ fn score_existing_suite(dir: &Path, out: &Path, settings: &Settings) -> anyhow::
         .with_context(|| format!("cannot write into {}", out.display()))?;
     std::fs::write(out.join("detection.csv"), scoring::detection_csv(&results))
         .with_context(|| format!("cannot write into {}", out.display()))?;
-    text(scoring::detection_figure(&results, &out.join("detection.png")))?;
+    scoring::detection_figure(&results, &out.join("detection.png"))?;
     println!("{}", scoring::summary_markdown(&results));
     println!("wrote {}", out.join("results.md").display());
     Ok(())
@@ -434,7 +434,7 @@ fn holdout(docs: &Path, dir: &Path, only: &[String], settings: &Settings) -> any
         }
         let sub = dir.join(name);
         let clock = Instant::now();
-        text(suite::write_suite_parallel(&sub, &config, settings.threads, &|line| println!("{name} {line}")))?;
+        suite::write_suite_parallel(&sub, &config, settings.threads, &|line| println!("{name} {line}"))?;
         let generation = clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         let results = score_suite(&sub, settings)?;
@@ -472,7 +472,7 @@ fn holdout(docs: &Path, dir: &Path, only: &[String], settings: &Settings) -> any
 /// The floor investigation: what limits the residuals of the right model on clean logs.
 fn floor(seed: u64, settings: &Settings) -> anyhow::Result<()> {
     use antenna_truth::{simulate, NoiseConfig, TruthConfig};
-    let mut simulator = text(settings.fmu.as_deref().map(FmuSimulator::open).transpose())?;
+    let mut simulator = settings.fmu.as_deref().map(FmuSimulator::open).transpose()?;
     println!("| truth variant (seed {seed}) | torque equation RMS (axis N m) | load equation RMS (N m) | output error: axis position (arcsec) | twist (arcsec) | load side driven by the motor encoder (arcsec) |");
     println!("|---|---|---|---|---|---|");
     let quiet = NoiseConfig {
@@ -559,7 +559,7 @@ fn stem_of(path: &Path) -> String {
 fn run_one(log_path: &Path, params_path: &Path, settings: &Settings) -> anyhow::Result<Validation> {
     let log = MeasuredLog::read(log_path).with_context(|| format!("{}", log_path.display()))?;
     let start = ParameterSet::read(params_path)?;
-    let mut simulator = text(settings.fmu.as_deref().map(FmuSimulator::open).transpose())?;
+    let mut simulator = settings.fmu.as_deref().map(FmuSimulator::open).transpose()?;
     let validation = validate::validate_with(
         &log,
         &start,
@@ -604,7 +604,7 @@ fn write_outputs(
 }
 
 fn score_suite(dir: &Path, settings: &Settings) -> anyhow::Result<Vec<scoring::CaseResult>> {
-    text(scoring::run_suite(dir, &settings.options, settings.fmu.as_deref(), settings.threads, &|r| {
+    Ok(scoring::run_suite(dir, &settings.options, settings.fmu.as_deref(), settings.threads, &|r| {
         let truth = suite::describe(&r.truth);
         let found =
             r.error.clone().unwrap_or_else(|| if r.found.is_empty() { "none".into() } else { r.found.join(", ") });
@@ -615,7 +615,7 @@ fn score_suite(dir: &Path, settings: &Settings) -> anyhow::Result<Vec<scoring::C
             "{}: {truth} -> {found} (output error after/before {ratio} most-improved channel, {summed} all scored channels; response error {response}; {:.1} s)",
             r.truth.log_file, r.seconds
         );
-    }))
+    })?)
 }
 
 /// Runs the KUKA axes and returns the markdown section; figures go to `figures`.

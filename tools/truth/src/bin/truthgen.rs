@@ -7,7 +7,7 @@
 
 use antenna_truth::suite::{self, SuiteConfig};
 use antenna_truth::{CurrentLog, MotorSensor, SpeedSensor, TruthConfig};
-use anyhow::{anyhow, bail, Context};
+use anyhow::{bail, Context};
 use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -250,14 +250,13 @@ fn run(cli: Cli, matches: &ArgMatches) -> anyhow::Result<()> {
                 config.pairs.clear();
             }
             config.base = truth.config()?;
-            let truths = suite::write_suite(&out, &config, &mut |line| println!("{line}")).map_err(|e| anyhow!(e))?;
+            let truths = suite::write_suite(&out, &config, &mut |line| println!("{line}"))?;
             println!("wrote {} logs to {}", truths.len(), out.display());
         }
         Command::One { out, effects, sizes, seed, truth } => {
             let effects = pair_sizes(matches.subcommand_matches("one"), effects, &sizes)?;
             let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-            let (text, truth) = suite::generate_case(&truth.config()?, seed, &effects, &name, &mut BTreeMap::new())
-                .map_err(|e| anyhow!(e))?;
+            let (text, truth) = suite::generate_case(&truth.config()?, seed, &effects, &name, &mut BTreeMap::new())?;
             std::fs::write(&out, text).with_context(|| format!("cannot write {}", out.display()))?;
             let truth_path = out.with_extension("truth");
             std::fs::write(&truth_path, suite::truth_text(&truth))
