@@ -7,8 +7,10 @@
 #
 # `--long` adds the long tier: the statistical and end-to-end checks that do not fit in the
 # test command's 15 minutes (the Rust tests marked `#[ignore = "long: ..."]`, the Python tests
-# marked `long`), and the rebuild of the FMUs from a copy of the sources at another path that
-# must give byte-identical archives.
+# marked `long`), the rebuild of the FMUs from a copy of the sources at another path that
+# must give byte-identical archives, and the FMUs' win64 binaries run under wine beside their
+# linux64 ones. The last needs Debian's rustc-web, rust-web-src, gcc-mingw-w64-x86-64 and
+# wine64, which `--long` installs with apt-get when it runs as root and they are missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -49,8 +51,19 @@ echo "== generated files are fresh"
 cargo xtask codegen --check
 
 if [ "$long" = 1 ]; then
-    echo "== build and package the FMUs into target/fmu/, and again from a copy at another path: byte-identical"
-    cargo xtask package --reproducibility-check
+    if ! command -v x86_64-w64-mingw32-gcc >/dev/null 2>&1 || [ ! -x /usr/lib/wine/wine64 ] \
+        || [ ! -d /usr/lib/rustlib/src/rust/library/std ]; then
+        if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+            echo "== the win64 tools (Debian: rustc-web, rust-web-src, gcc-mingw-w64-x86-64, wine64)"
+            apt-get install -y -q --no-install-recommends rustc-web rust-web-src gcc-mingw-w64-x86-64 wine64 >/dev/null
+        else
+            echo "--long needs rustc-web, rust-web-src, gcc-mingw-w64-x86-64 and wine64 (apt install as root)" >&2
+            exit 1
+        fi
+    fi
+    echo "== build and package the FMUs into target/fmu/, and again from a copy at another path: byte-identical;"
+    echo "   and with win64 binaries beside the linux64 ones into target/fmu-linux64-win64/"
+    cargo xtask package --reproducibility-check --win64
 else
     echo "== build and package the FMUs into target/fmu/"
     cargo xtask package

@@ -12,7 +12,6 @@
 
 use std::fs::{File, OpenOptions};
 use std::io::Read;
-use std::os::unix::fs::OpenOptionsExt;
 use std::path::Path;
 
 /// The largest parameter file an FMU reads, bytes (1 MiB): a parameter file holds a few
@@ -21,19 +20,25 @@ use std::path::Path;
 pub const MAX_PARAMETER_FILE_BYTES: u64 = 1 << 20;
 
 /// Opening flag that makes `open` of a FIFO return at once instead of waiting for a writer
-/// (`O_NONBLOCK` of Linux, the one platform the FMUs are built for; the value is fixed by the
-/// kernel's ABI). Regular files ignore it.
+/// (`O_NONBLOCK` of Linux; the value is fixed by the kernel's ABI). Regular files ignore it.
+#[cfg(unix)]
 const O_NONBLOCK: i32 = 0o4000;
+
+/// Opens `path` for reading without waiting on a FIFO's writer (on Windows a file opens without
+/// such a wait, and the regular-file check below refuses pipes and devices alike).
+fn open_without_blocking(path: &Path) -> std::io::Result<File> {
+    let mut options = OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, O_NONBLOCK);
+    options.open(path)
+}
 
 /// Reads the whole of `path` as UTF-8 text, if it is a regular file of at most `max_bytes`
 /// bytes. `what` names the file in the error ("parameter file", "modes file").
 pub fn read_regular_file(path: &Path, max_bytes: u64, what: &str) -> Result<String, String> {
     let shown = path.display();
-    let file = OpenOptions::new()
-        .read(true)
-        .custom_flags(O_NONBLOCK)
-        .open(path)
-        .map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
+    let file = open_without_blocking(path).map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
     let metadata = file.metadata().map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
     if !metadata.is_file() {
         return Err(format!(
@@ -59,6 +64,7 @@ fn read_bounded(file: File, max_bytes: u64) -> Result<String, String> {
     String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text ({e})"))
 }
 
+#[cfg(unix)]
 fn describe_file_type(metadata: &std::fs::Metadata) -> &'static str {
     use std::os::unix::fs::FileTypeExt;
     let ty = metadata.file_type();
@@ -72,6 +78,16 @@ fn describe_file_type(metadata: &std::fs::Metadata) -> &'static str {
         "a block device"
     } else if ty.is_socket() {
         "a socket"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// What a file that is not a regular one is (Windows tells directories from the rest).
+#[cfg(not(unix))]
+fn describe_file_type(metadata: &std::fs::Metadata) -> &'static str {
+    if metadata.is_dir() {
+        "a directory"
     } else {
         "not a regular file"
     }

@@ -47,6 +47,10 @@ pub enum XtaskError {
     NoProfile(PathBuf),
     #[error("{0}")]
     ProfileUnusable(String),
+    #[error(
+        "win64 binaries need a compiler with the standard library's sources and the mingw-w64 linker: {0} (on Debian: apt install rustc-web rust-web-src gcc-mingw-w64-x86-64)"
+    )]
+    Win64ToolchainMissing(String),
     #[error("the second build (from a copy of the sources) failed")]
     SecondBuild(#[source] Box<XtaskError>),
 }
@@ -271,15 +275,93 @@ fn cargo_build_libraries(
 
 /// Packages every FMU from the libraries in `target_dir/<LIBRARY_PROFILE>` into `output`.
 pub fn package_all(target_dir: &Path, output: &Path) -> Result<Vec<PathBuf>, XtaskError> {
+    package_all_platforms(target_dir, None, output)
+}
+
+/// [`package_all`], with each FMU's win64 library from `win64_target_dir` (built by
+/// [`build_win64_libraries`]) beside its linux64 one when given.
+pub fn package_all_platforms(
+    target_dir: &Path,
+    win64_target_dir: Option<&Path>,
+    output: &Path,
+) -> Result<Vec<PathBuf>, XtaskError> {
     std::fs::create_dir_all(output).map_err(|source| XtaskError::Write { path: output.to_path_buf(), source })?;
     let mut written = Vec::new();
     for spec in all_fmus() {
         let library = target_dir.join(LIBRARY_PROFILE).join(format!("lib{}.so", spec.library_name));
+        let windows = win64_target_dir
+            .map(|dir| dir.join(WIN64_TARGET).join(LIBRARY_PROFILE).join(format!("{}.dll", spec.library_name)));
         let path = output.join(format!("{}.fmu", spec.model_identifier));
-        write_fmu(&spec, &library, &path)?;
+        write_fmu_platforms(&spec, &library, windows.as_deref(), &path)?;
         written.push(path);
     }
     Ok(written)
+}
+
+/// The Rust target of the win64 binaries: Windows on x86-64 with the GNU tools (mingw-w64),
+/// which a Linux machine can link.
+pub const WIN64_TARGET: &str = "x86_64-pc-windows-gnu";
+
+/// The compiler of the win64 binaries: `MEERKAT_WIN64_RUSTC`, or Debian's rustc-web
+/// (`/usr/bin/rustc`). It must have its standard library's sources (Debian's rust-web-src),
+/// from which cargo builds the standard library for the target: the project's machines cannot
+/// fetch rustup's prebuilt one.
+fn win64_rustc() -> Result<PathBuf, XtaskError> {
+    let rustc = std::env::var_os("MEERKAT_WIN64_RUSTC").map(PathBuf::from).unwrap_or_else(|| "/usr/bin/rustc".into());
+    let sysroot = Command::new(&rustc)
+        .args(["--print", "sysroot"])
+        .output()
+        .map_err(|e| XtaskError::Win64ToolchainMissing(format!("cannot run {}: {e}", rustc.display())))?;
+    let sysroot = PathBuf::from(String::from_utf8_lossy(&sysroot.stdout).trim());
+    let sources = sysroot.join("lib/rustlib/src/rust/library/std");
+    if !sources.is_dir() {
+        return Err(XtaskError::Win64ToolchainMissing(format!(
+            "{} has no standard library sources at {}",
+            rustc.display(),
+            sources.display()
+        )));
+    }
+    let linker = Command::new("x86_64-w64-mingw32-gcc").arg("--version").output();
+    if !linker.is_ok_and(|o| o.status.success()) {
+        return Err(XtaskError::Win64ToolchainMissing("x86_64-w64-mingw32-gcc cannot be run".into()));
+    }
+    Ok(rustc)
+}
+
+/// Builds the FMUs' win64 libraries into `target_dir/x86_64-pc-windows-gnu/fmu-release/` with
+/// the compiler of [`win64_rustc`], the standard library built from its sources
+/// (`-Z build-std`, allowed on a stable compiler by `RUSTC_BOOTSTRAP`), linked by mingw-w64
+/// without a time stamp in the PE header, so that the same sources give the same bytes.
+pub fn build_win64_libraries(target_dir: &Path) -> Result<(), XtaskError> {
+    let rustc = win64_rustc()?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let mut packages: Vec<&str> = all_fmus().iter().map(|s| package_of(s.library_name)).collect();
+    packages.sort();
+    packages.dedup();
+    let mut command = Command::new(cargo);
+    command
+        .current_dir(workspace_root())
+        .args(["build", "--quiet", "--profile", LIBRARY_PROFILE, "--target", WIN64_TARGET])
+        .args(["-Z", "build-std=std,panic_unwind"])
+        .arg("--target-dir")
+        .arg(target_dir)
+        .env("RUSTC", &rustc)
+        .env("RUSTC_BOOTSTRAP", "1")
+        .env("CARGO_TARGET_X86_64_PC_WINDOWS_GNU_LINKER", "x86_64-w64-mingw32-gcc")
+        .env("CARGO_TARGET_X86_64_PC_WINDOWS_GNU_RUSTFLAGS", "-Clink-arg=-Wl,--no-insert-timestamp")
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS");
+    for p in &packages {
+        command.args(["-p", p]);
+    }
+    let status = command.status().map_err(XtaskError::CargoNotRunnable)?;
+    if !status.success() {
+        return Err(XtaskError::BuildFailed {
+            packages: format!("{} for {WIN64_TARGET}", packages.join(", ")),
+            status,
+        });
+    }
+    Ok(())
 }
 
 /// The packaged FMUs and what their build reported.
@@ -298,6 +380,22 @@ pub fn build_and_package(pgo: Pgo) -> Result<Packaged, XtaskError> {
     let target = workspace_root().join("target");
     let build = build_libraries(&target, pgo)?;
     Ok(Packaged { files: package_all(&target, &fmu_directory())?, build })
+}
+
+/// Where `cargo xtask package --win64` writes the FMUs with both platforms' binaries; the
+/// linux64-only ones stay in [`fmu_directory`], which the main job and the tests repackage.
+pub fn multi_platform_directory() -> PathBuf {
+    workspace_root().join("target").join("fmu-linux64-win64")
+}
+
+/// Builds the win64 libraries (into `target/win64/`) and packages every FMU with its linux64
+/// and win64 binaries into [`multi_platform_directory`]; the linux64 libraries must have been
+/// built by [`build_and_package`].
+pub fn package_win64() -> Result<Vec<PathBuf>, XtaskError> {
+    let target = workspace_root().join("target");
+    let win64_target = target.join("win64");
+    build_win64_libraries(&win64_target)?;
+    package_all_platforms(&target, Some(&win64_target), &multi_platform_directory())
 }
 
 /// Records the profile that the FMUs' libraries are optimised with and writes it zipped to
@@ -458,6 +556,16 @@ pub fn codegen(check: bool) -> Result<Vec<String>, XtaskError> {
 /// 00:00 (the zip epoch), permissions are fixed, and nothing about the build machine (paths,
 /// user, clock) goes in.
 pub fn write_fmu(spec: &FmuSpec, shared_library: &Path, output: &Path) -> Result<(), XtaskError> {
+    write_fmu_platforms(spec, shared_library, None, output)
+}
+
+/// [`write_fmu`] with the win64 library (`binaries/win64/<id>.dll`) when given.
+pub fn write_fmu_platforms(
+    spec: &FmuSpec,
+    shared_library: &Path,
+    win64_library: Option<&Path>,
+    output: &Path,
+) -> Result<(), XtaskError> {
     (spec.validate)().map_err(|e| XtaskError::InvalidVariableTable {
         model_identifier: spec.model_identifier.to_string(),
         message: e.to_string(),
@@ -468,6 +576,10 @@ pub fn write_fmu(spec: &FmuSpec, shared_library: &Path, output: &Path) -> Result
         ("modelDescription.xml".to_string(), (spec.model_description)().into_bytes(), 0o644),
         (format!("binaries/linux64/{}.so", spec.model_identifier), binary, 0o755),
     ];
+    if let Some(path) = win64_library {
+        let bytes = std::fs::read(path).map_err(|source| XtaskError::Read { path: path.to_path_buf(), source })?;
+        entries.push((format!("binaries/win64/{}.dll", spec.model_identifier), bytes, 0o755));
+    }
     let mut resources = (spec.resources)();
     if let Some(text) = antenna_fmus::parameters::realistic_parameter_file(spec.model_identifier) {
         resources.push((antenna_fmus::parameters::REALISTIC_PARAMETER_FILE.to_string(), text.into_bytes()));

@@ -36,6 +36,10 @@ enum Task {
         /// the code gives a warning). Off by default: the numbers are the same either way.
         #[arg(long)]
         pgo: bool,
+        /// Also build win64 libraries (with Debian's rustc-web and rust-web-src, and mingw-w64)
+        /// and write FMUs with both platforms' binaries into target/fmu-linux64-win64/.
+        #[arg(long)]
+        win64: bool,
     },
     /// Build the shared libraries in $CARGO_TARGET_DIR (or target/) and write every .fmu into DIR.
     PackageInto {
@@ -83,7 +87,16 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<Outcome> {
     match cli.task {
-        Task::Package { reproducibility_check, pgo } => package(reproducibility_check, pgo_choice(pgo)),
+        Task::Package { reproducibility_check, pgo, win64 } => {
+            let outcome = package(reproducibility_check, pgo_choice(pgo))?;
+            if win64 && matches!(outcome, Outcome::Done) {
+                for path in xtask::package_win64().context("win64 packaging failed")? {
+                    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+                    println!("{} ({} bytes, linux64 and win64)", path.display(), size);
+                }
+            }
+            Ok(outcome)
+        }
         Task::PackageInto { dir, pgo } => {
             let target = std::env::var("CARGO_TARGET_DIR")
                 .map(PathBuf::from)
