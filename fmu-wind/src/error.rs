@@ -4,8 +4,6 @@
 //! The FMI layer ([`crate::fmi`]) turns these into the `String` that `fmu-runtime` reports to
 //! the importer; the Display texts below are therefore what a user of the FMU reads.
 
-use crate::torque::ForceCoefficients;
-
 /// Why a part of the wind model refused its parameters.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum WindError {
@@ -80,6 +78,6 @@ pub enum WindError {
     DishDiameter { diameter: f64 },
 
     /// A force coefficient is not finite.
-    #[error("force coefficients must be finite, got {forces:?}")]
-    ForceCoefficients { forces: ForceCoefficients },
+    #[error("force coefficients must be finite, got drag {drag_face_on} and lift {lift_max}")]
+    ForceCoefficients { drag_face_on: f64, lift_max: f64 },
 }

@@ -240,7 +240,7 @@ impl WindTorqueModel {
     /// The same model with these force coefficients (finite, checked).
     pub fn with_forces(mut self, forces: ForceCoefficients) -> Result<Self, WindError> {
         if !(forces.drag_face_on.is_finite() && forces.lift_max.is_finite()) {
-            return Err(WindError::ForceCoefficients { forces });
+            return Err(WindError::ForceCoefficients { drag_face_on: forces.drag_face_on, lift_max: forces.lift_max });
         }
         self.forces = forces;
         Ok(self)

@@ -250,7 +250,7 @@ pub fn instantiate(
     residual: &[Vec<f64>],
     channel_weights: &[f64],
     mode: Mode,
-) -> Result<Instance, String> {
+) -> Result<Instance, NotApplicable> {
     let two_mass = data.structure == Structure::TwoMass;
     let stiffness = params.value(names::STIFFNESS);
     let cx = Setup {
@@ -331,7 +331,7 @@ pub fn instantiate(
         Kind::Stiffness => stiffness_instance(&cx),
         Kind::Backlash => {
             if !two_mass {
-                return Err("needs two encoders and a stiffness in the parameter set".into());
+                return Err(NotApplicable::NeedsTwoEncodersAndStiffness);
             }
             let signs = backlash_sign(data, params);
             let motor: Vec<f64> = signs.iter().map(|s| -0.5 * stiffness * s).collect();
@@ -388,10 +388,10 @@ fn column(label: &str, unit: &str, channels: Vec<Vec<f64>>) -> Column {
 }
 
 /// Stiffness and damping: their columns in both equations.
-fn stiffness_instance(cx: &Setup) -> Result<Instance, String> {
+fn stiffness_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let (data, params, n, stiffness, ratio) = (cx.data, cx.params, cx.n, cx.stiffness, cx.ratio);
     if !cx.two_mass {
-        return Err("needs two encoders and a stiffness in the parameter set".into());
+        return Err(NotApplicable::NeedsTwoEncodersAndStiffness);
     }
     let load_inertia = params.value(names::LOAD_INERTIA);
     let damping = params.value(names::DAMPING);
@@ -418,7 +418,7 @@ fn stiffness_instance(cx: &Setup) -> Result<Instance, String> {
 
 /// The Stribeck hump: its level as a column, its velocity by grid search (Search) or as a
 /// Gauss-Newton column (Refine).
-fn stribeck_instance(cx: &Setup) -> Result<Instance, String> {
+fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let (kind, mode, data, params, channels) = (cx.kind, cx.mode, cx.data, cx.params, cx.channels);
     let (weights, target) = (&cx.weights, &cx.target);
     let torque_only = |values: Vec<f64>| cx.torque_only(values);
@@ -455,7 +455,7 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, String> {
     let mut speeds: Vec<f64> =
         data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
     if speeds.len() < 10 {
-        return Err("too few moving samples".into());
+        return Err(NotApplicable::TooFewMovingSamples);
     }
     speeds.sort_by(|a, b| a.total_cmp(b));
     let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
@@ -495,7 +495,7 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, String> {
 
 /// The delay of the applied torque: by grid search in tenths of a sample (Search), or as the
 /// torque-rate column (Refine).
-fn delay_instance(cx: &Setup) -> Result<Instance, String> {
+fn delay_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let (kind, mode, data, channels) = (cx.kind, cx.mode, cx.data, cx.channels);
     let (weights, target) = (&cx.weights, &cx.target);
     let delay = cx.params.value(names::DELAY);
@@ -553,7 +553,7 @@ fn delay_instance(cx: &Setup) -> Result<Instance, String> {
 
 /// The position-periodic (cogging) torque: its period by search ([`cogging`]), or its sin, cos
 /// and period columns at the current parameters (Refine).
-fn cogging_instance(cx: &Setup) -> Result<Instance, String> {
+fn cogging_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let (kind, mode, data, params, channels, n) = (cx.kind, cx.mode, cx.data, cx.params, cx.channels, cx.n);
     let weights = &cx.weights;
     let target = &cx.target;
@@ -565,7 +565,7 @@ fn cogging_instance(cx: &Setup) -> Result<Instance, String> {
     let two_pi = 2.0 * std::f64::consts::PI;
     if mode == Mode::Refine {
         if period <= 0.0 {
-            return Err("no cogging period to refine".into());
+            return Err(NotApplicable::NoCoggingPeriod);
         }
         let (a0, b0) = (amplitude * phase.cos(), amplitude * phase.sin());
         let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q / period).sin()).collect::<Vec<_>>());
@@ -624,12 +624,12 @@ fn cogging(
     weights: &[f64],
     torque_only: &dyn Fn(Vec<f64>) -> Vec<Vec<f64>>,
     kind: Kind,
-) -> Result<Instance, String> {
+) -> Result<Instance, NotApplicable> {
     let mask = &channels[data.torque_channel()].mask;
     let angles: Vec<f64> = data.motor_pos.iter().zip(mask).filter(|(_, m)| **m).map(|(q, _)| *q).collect();
     let torque_rows = angles.len();
     if torque_rows < 20 {
-        return Err("too few moving samples".into());
+        return Err(NotApplicable::TooFewMovingSamples);
     }
     let (lo, hi) = angles.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), q| (a.min(*q), b.max(*q)));
     let range = hi - lo;
@@ -642,7 +642,7 @@ fn cogging(
     f_high = f_high.min(f_low + 5000.0 * step);
     let count = ((f_high - f_low) / step).floor() as usize + 1;
     if count < 2 {
-        return Err("the angle range is too small for a period search".into());
+        return Err(NotApplicable::AngleRangeTooSmall);
     }
     // Only the torque channel's rows matter: the other channels get zero columns.
     let r = &target[..torque_rows];
@@ -815,13 +815,46 @@ pub fn apply(instance: &Instance, beta: &[f64], data: &EquationData, params: &mu
     }
 }
 
+/// Why a candidate cannot be set up on a log.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NotApplicable {
+    #[error("needs two encoders and a stiffness in the parameter set")]
+    NeedsTwoEncodersAndStiffness,
+    #[error("too few moving samples")]
+    TooFewMovingSamples,
+    #[error("no cogging period to refine")]
+    NoCoggingPeriod,
+    #[error("the angle range is too small for a period search")]
+    AngleRangeTooSmall,
+}
+
+/// Why a fitted parameter set is physically inadmissible ([`admissible`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Inadmissible {
+    #[error("{name} would be negative ({value:.4e})")]
+    Negative { name: &'static str, value: f64 },
+    #[error("{} would not be positive", names::STIFFNESS)]
+    StiffnessNotPositive,
+    #[error("{name} would be {scale:.3}, outside 0.5 to 2", name = names::TORQUE_CONSTANT_SCALE)]
+    TorqueConstantScale { scale: f64 },
+    #[error(
+        "{} would be {value:.3e} rad/s, outside the measured speeds (0 to {fastest:.3e})",
+        names::STRIBECK_VELOCITY
+    )]
+    StribeckVelocity { value: f64, fastest: f64 },
+    #[error("{name} would be negative ({delay:.3e} s)", name = names::DELAY)]
+    NegativeDelay { delay: f64 },
+    #[error("{} would be below {}", names::STATIC, names::COULOMB)]
+    StaticBelowCoulomb,
+}
+
 /// Physical admissibility of a parameter set after an effect was fitted: inertias, friction
 /// levels, damping and backlash not negative, stiffness positive, the torque-constant scale
 /// within a factor 2 (a larger error is a units mistake, not an effect), a Stribeck velocity
 /// within the speeds the data covers (above them the hump is indistinguishable from Coulomb
 /// friction), a delay not negative, breakaway friction not below sliding friction (the plant FMU accepts nothing else). A fit that leaves this region has found
 /// a collinear direction of the data, not an effect.
-pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), String> {
+pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), Inadmissible> {
     let nonnegative = [
         names::MOTOR_INERTIA,
         names::LOAD_INERTIA,
@@ -833,30 +866,27 @@ pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), Stri
     ];
     for name in nonnegative {
         if params.get(name).is_some_and(|v| v < 0.0) {
-            return Err(format!("{name} would be negative ({:.4e})", params.value(name)));
+            return Err(Inadmissible::Negative { name, value: params.value(name) });
         }
     }
     if params.get(names::STIFFNESS).is_some_and(|k| k <= 0.0) && data.structure == Structure::TwoMass {
-        return Err(format!("{} would not be positive", names::STIFFNESS));
+        return Err(Inadmissible::StiffnessNotPositive);
     }
     let scale = params.value(names::TORQUE_CONSTANT_SCALE);
     if !(0.5..=2.0).contains(&scale) {
-        return Err(format!("{} would be {scale:.3}, outside 0.5 to 2", names::TORQUE_CONSTANT_SCALE));
+        return Err(Inadmissible::TorqueConstantScale { scale });
     }
     let fastest = data.motor_vel.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let vs = params.value(names::STRIBECK_VELOCITY);
     if params.value(names::STATIC) != params.value(names::COULOMB) && !(vs > 0.0 && vs <= fastest) {
-        return Err(format!(
-            "{} would be {vs:.3e} rad/s, outside the measured speeds (0 to {fastest:.3e})",
-            names::STRIBECK_VELOCITY
-        ));
+        return Err(Inadmissible::StribeckVelocity { value: vs, fastest });
     }
     if params.value(names::DELAY) < 0.0 {
-        return Err(format!("{} would be negative ({:.3e} s)", names::DELAY, params.value(names::DELAY)));
+        return Err(Inadmissible::NegativeDelay { delay: params.value(names::DELAY) });
     }
     // The plant FMU's friction law needs the breakaway level at least the sliding level.
     if params.get(names::STATIC).is_some_and(|fs| fs < params.value(names::COULOMB)) {
-        return Err(format!("{} would be below {}", names::STATIC, names::COULOMB));
+        return Err(Inadmissible::StaticBelowCoulomb);
     }
     Ok(())
 }

@@ -23,9 +23,11 @@ use std::sync::Arc;
 /// Why a [`PlantSimulator`] could not be configured or could not simulate a window.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum SimulatorError {
-    /// The packaged plant FMU failed (see [`crate::plant_fmu::PlantFmuError`]).
+    /// The simulated unit failed: for the packaged plant FMU, a `plant_fmu::PlantFmuError`
+    /// (held as any error, so that this module, which the FMU simulator implements, does not
+    /// depend on it in turn).
     #[error(transparent)]
-    Fmu(#[from] crate::plant_fmu::PlantFmuError),
+    Fmu(Arc<dyn std::error::Error + Send + Sync>),
     /// The parameter set could not be written as the FMU's parameter file.
     #[error("the parameter set cannot be written for the FMU: {0}")]
     Parameters(Arc<crate::parameters::ParameterError>),

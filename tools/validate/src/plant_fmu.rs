@@ -62,6 +62,12 @@ pub enum PlantFmuError {
     Call(#[from] ImportError),
 }
 
+impl From<PlantFmuError> for SimulatorError {
+    fn from(error: PlantFmuError) -> Self {
+        SimulatorError::Fmu(Arc::new(error))
+    }
+}
+
 const PATHS: usize = 2;
 const STATES: usize = 2 + 4 * PATHS;
 

@@ -765,7 +765,7 @@ pub fn fit_candidate(
     accepted: &[Kind],
     kind: Kind,
     options: &SelectionOptions,
-) -> Result<ParameterSet, String> {
+) -> Result<ParameterSet, CandidateFitError> {
     let channels = model_channels(data, params);
     let unit = vec![1.0; channels.len()];
     let first = fit(&channels, &baseline_columns(data, params), &[], &unit);
@@ -789,6 +789,15 @@ pub fn fit_candidate(
     let (refined, _, _) = refine(data, next, &trial, &weights, options.max_iterations);
     candidates::admissible(&refined, data)?;
     Ok(refined)
+}
+
+/// Why [`fit_candidate`] gives no parameter set.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CandidateFitError {
+    #[error("the candidate does not apply to this log: {0}")]
+    NotApplicable(#[from] candidates::NotApplicable),
+    #[error("the fitted set is not admissible: {0}")]
+    Inadmissible(#[from] candidates::Inadmissible),
 }
 
 /// Runs the search on conditioned data from a starting parameter set.
@@ -988,7 +997,7 @@ fn score_candidates(
         ) {
             Ok(instance) => instance,
             Err(reason) => {
-                scores.push(Score::not_applicable(kind, reason));
+                scores.push(Score::not_applicable(kind, reason.to_string()));
                 continue;
             }
         };
@@ -1100,7 +1109,7 @@ fn choose_confirmed(
         // The refined effect must still be at least the noise: a search can pick a
         // direction that the joint refit then shrinks to nothing.
         let size = refined_effect_to_noise(data, kind, &refined, params, noise);
-        let check = candidates::admissible(&refined, data).and_then(|()| {
+        let check = candidates::admissible(&refined, data).map_err(|e| e.to_string()).and_then(|()| {
             if size >= options.min_effect_to_noise {
                 Ok(())
             } else {
