@@ -224,6 +224,14 @@ fn unpack_profile(archive: &Path, folder: &Path) -> Result<PathBuf, XtaskError> 
     Ok(path)
 }
 
+/// The cargo packages that build the FMUs' shared libraries, each once.
+fn library_packages() -> Vec<&'static str> {
+    let mut packages: Vec<&str> = all_fmus().iter().map(|s| package_of(s.library_name)).collect();
+    packages.sort();
+    packages.dedup();
+    packages
+}
+
 /// Runs `cargo build` of the model crates with `extra_rustflags` added to the caller's own, and
 /// returns what the compiler wrote to stderr (also passed on to this process's stderr).
 fn cargo_build_libraries(
@@ -231,11 +239,8 @@ fn cargo_build_libraries(
     target_dir: &Path,
     extra_rustflags: &[String],
 ) -> Result<String, XtaskError> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
-    let mut packages: Vec<&str> = all_fmus().iter().map(|s| package_of(s.library_name)).collect();
-    packages.sort();
-    packages.dedup();
-    let mut command = Command::new(cargo);
+    let packages = library_packages();
+    let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string()));
     command
         .current_dir(source_root)
         .args(["build", "--profile", LIBRARY_PROFILE, "--quiet"])
@@ -334,11 +339,8 @@ fn win64_rustc() -> Result<PathBuf, XtaskError> {
 /// without a time stamp in the PE header, so that the same sources give the same bytes.
 pub fn build_win64_libraries(target_dir: &Path) -> Result<(), XtaskError> {
     let rustc = win64_rustc()?;
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
-    let mut packages: Vec<&str> = all_fmus().iter().map(|s| package_of(s.library_name)).collect();
-    packages.sort();
-    packages.dedup();
-    let mut command = Command::new(cargo);
+    let packages = library_packages();
+    let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string()));
     command
         .current_dir(workspace_root())
         .args(["build", "--quiet", "--profile", LIBRARY_PROFILE, "--target", WIN64_TARGET])
