@@ -37,7 +37,8 @@ fn fmu_log(sim: &mut FmuSimulator, params: &ParameterSet) -> MeasuredLog {
     let time: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
     let current: Vec<f64> =
         time.iter().map(|&t| 2.6 * (2.0 * std::f64::consts::PI * 0.15 * t).sin() + 0.6 * wobble(t)).collect();
-    let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: dt };
+    let config =
+        FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: dt, length_unit: 1.0 };
     sim.configure(params, &config).unwrap();
     let held: Vec<[f64; 2]> = current.windows(2).map(|w| [0.5 * (w[0] + w[1]); 2]).collect();
     let start = WindowStart {
@@ -192,6 +193,42 @@ impl PlantSimulator for FromFile {
 }
 
 #[test]
+fn a_linear_axis_simulates_the_same_motion_in_any_fmu_length_unit() {
+    // The FMU length unit is a change of units, not of physics: the outputs, back in the log's
+    // units, must not depend on it beyond rounding.
+    let params = TruthPlant::default().starting_parameters();
+    let dt = 0.002;
+    let n = 2_000;
+    let held: Vec<[f64; 2]> = (0..n).map(|i| [2.6 * (i as f64 * dt).sin() + 0.6 * wobble(i as f64 * dt); 2]).collect();
+    let start = WindowStart {
+        load_angle: 0.8,
+        load_speed: 1e-3,
+        motor_angle: 0.8 + 2e-6,
+        motor_speed: 1e-3,
+        twist: 2e-6,
+        currents: held[0],
+        history: Vec::new(),
+    };
+    let run = |unit: f64| {
+        let mut sim = simulator();
+        let config =
+            FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: dt, length_unit: unit };
+        sim.configure(&params, &config).unwrap();
+        sim.simulate(&start, &held, &vec![150.0; n], dt).unwrap()
+    };
+    let (metre, centimetre) = (run(1.0), run(0.01));
+    for (a, b) in [
+        (&metre.load_pos, &centimetre.load_pos),
+        (&metre.motor_vel, &centimetre.motor_vel),
+        (&metre.load_vel, &centimetre.load_vel),
+    ] {
+        let range = a.iter().fold(0f64, |m, x| m.max(x.abs()));
+        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        assert!(worst <= 1e-9 * range, "the length unit changed the motion by {worst:e} of {range:e}");
+    }
+}
+
+#[test]
 fn the_written_parameter_file_reproduces_the_corrected_models_output_error_in_the_packaged_fmu() {
     use antenna_truth::{simulate, Effect, TruthConfig};
     use antenna_validate::parameters::fmu_parameter_text;
@@ -210,7 +247,7 @@ fn the_written_parameter_file_reproduces_the_corrected_models_output_error_in_th
     let path = std::env::temp_dir().join(format!("validate-roundtrip-{}.params", std::process::id()));
     std::fs::write(&path, text).unwrap();
     let mut fresh = simulator();
-    fresh.configure_from_file(&path).unwrap();
+    fresh.configure_from_file(&path, report.config.length_unit).unwrap();
     let _ = std::fs::remove_file(&path);
     let data = prepare(&log, &start, &EquationOptions::default()).unwrap();
     let out = OutputData::new(&log, &data, &start).unwrap();

@@ -14,7 +14,7 @@
 //! ABI, [`RigidReferenceSimulator`] a small native stand-in for tests of the windowing.
 
 use super::equation_error::{twist_centres, EquationData, Structure};
-use super::parameters::{names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
+use super::parameters::{fmu_length_unit, names, FmuConfig, FmuDrive, FmuInput, ParameterSet};
 use crate::finite::{check_series, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
 use antenna_dsp::conditioning::SavitzkyGolay;
@@ -237,7 +237,12 @@ impl OutputData {
         }
         let state_load_acc = estimate(&load_pos, &sg.second);
         Ok(OutputData {
-            config: FmuConfig { drive, input, sample_interval: data.dt },
+            config: FmuConfig {
+                drive,
+                input,
+                sample_interval: data.dt,
+                length_unit: fmu_length_unit(log.is_linear(), start),
+            },
             structure: data.structure,
             dt: data.dt,
             first_sample: data.first_sample,

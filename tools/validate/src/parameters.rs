@@ -51,33 +51,37 @@ pub struct ParameterInfo {
     pub description: &'static str,
     /// The value that means "effect absent".
     pub neutral: f64,
+    /// The power of length in the parameter's unit on a linear axis (kg m^2 is kg at unit
+    /// radius: 2; N m is N: 1; rad/s is m/s: -1): how its value changes when the plant FMU
+    /// measures a linear axis's travel in another length unit ([`in_fmu_length_unit`]).
+    pub length_power: i32,
 }
 
 /// Every parameter the model knows, in the order the files list them.
 pub const PARAMETERS: [ParameterInfo; 23] = [
-    ParameterInfo { name: names::GEAR_RATIO, unit: "-", description: "gear ratio, motor turns per axis turn", neutral: 1.0 },
-    ParameterInfo { name: names::MOTOR_INERTIA, unit: "kg m^2", description: "motor rotor inertia (motor side, all motors together)", neutral: 0.0 },
-    ParameterInfo { name: names::TORQUE_CONSTANT, unit: "N m/A", description: "motor torque constant (per motor)", neutral: 1.0 },
-    ParameterInfo { name: names::LOAD_INERTIA, unit: "kg m^2", description: "load inertia about the axis", neutral: 0.0 },
-    ParameterInfo { name: names::STIFFNESS, unit: "N m/rad", description: "drive path stiffness, axis side", neutral: 0.0 },
-    ParameterInfo { name: names::DAMPING, unit: "N m s/rad", description: "drive path damping, axis side", neutral: 0.0 },
-    ParameterInfo { name: names::VISCOUS, unit: "N m s/rad", description: "viscous friction at the motor, referred to the axis", neutral: 0.0 },
-    ParameterInfo { name: names::COULOMB, unit: "N m", description: "Coulomb friction at the motor, referred to the axis", neutral: 0.0 },
-    ParameterInfo { name: names::STATIC, unit: "N m", description: "breakaway (static) friction level; equal to Coulomb means no Stribeck hump", neutral: 0.0 },
-    ParameterInfo { name: names::STRIBECK_VELOCITY, unit: "rad/s", description: "Stribeck velocity of exp(-(w/ws)^2), axis side", neutral: 0.01 },
-    ParameterInfo { name: names::ASYMMETRY, unit: "-", description: "friction asymmetry a (the plant FMU's form): both friction levels are (1 + a) times nominal moving forward and (1 - a) times moving backward", neutral: 0.0 },
-    ParameterInfo { name: names::TORQUE_OFFSET, unit: "N m", description: "constant torque the drive must supply to the load (cable drag, preload, sensor offset), axis side; the FMU's load.torque_offset is its negative", neutral: 0.0 },
-    ParameterInfo { name: names::UNBALANCE_TORQUE, unit: "N m", description: "unbalance torque amplitude m g r: the load needs T = A cos(angle + phase) to hold it", neutral: 0.0 },
-    ParameterInfo { name: names::UNBALANCE_PHASE, unit: "rad", description: "unbalance phase; the angle is the axis (load) angle", neutral: 0.0 },
-    ParameterInfo { name: names::DELAY, unit: "s", description: "delay of the applied torque behind the logged current/torque", neutral: 0.0 },
-    ParameterInfo { name: names::TORQUE_CONSTANT_SCALE, unit: "-", description: "true torque constant / nominal torque constant", neutral: 1.0 },
-    ParameterInfo { name: names::COGGING_AMPLITUDE, unit: "N m", description: "position-periodic torque amplitude: T = A sin(2 pi angle/period + phase), angle = motor angle referred to the axis", neutral: 0.0 },
-    ParameterInfo { name: names::COGGING_PERIOD, unit: "rad", description: "period of the position-periodic torque in axis-referred motor angle", neutral: 0.0 },
-    ParameterInfo { name: names::COGGING_PHASE, unit: "rad", description: "phase of the position-periodic torque", neutral: 0.0 },
-    ParameterInfo { name: names::BACKLASH_WIDTH, unit: "rad", description: "total lost motion (dead zone width) of the drive path, axis side", neutral: 0.0 },
-    ParameterInfo { name: names::PRESLIDING_STIFFNESS, unit: "N m/rad", description: "presliding (bristle) stiffness of the motor friction while it sticks, referred to the axis; 0 is a rigid stick", neutral: 0.0 },
-    ParameterInfo { name: names::PRESLIDING_DAMPING, unit: "N m s/rad", description: "damping of the presliding spring, referred to the axis", neutral: 0.0 },
-    ParameterInfo { name: names::CURRENT_LOOP_BANDWIDTH, unit: "Hz", description: "bandwidth of the drive's current loop (first order); used only when the log holds the current command, to turn it into the current the motors carried", neutral: 0.0 },
+    ParameterInfo { name: names::GEAR_RATIO, unit: "-", description: "gear ratio, motor turns per axis turn", neutral: 1.0, length_power: 0 },
+    ParameterInfo { name: names::MOTOR_INERTIA, unit: "kg m^2", description: "motor rotor inertia (motor side, all motors together)", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::TORQUE_CONSTANT, unit: "N m/A", description: "motor torque constant (per motor)", neutral: 1.0, length_power: 1 },
+    ParameterInfo { name: names::LOAD_INERTIA, unit: "kg m^2", description: "load inertia about the axis", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::STIFFNESS, unit: "N m/rad", description: "drive path stiffness, axis side", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::DAMPING, unit: "N m s/rad", description: "drive path damping, axis side", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::VISCOUS, unit: "N m s/rad", description: "viscous friction at the motor, referred to the axis", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::COULOMB, unit: "N m", description: "Coulomb friction at the motor, referred to the axis", neutral: 0.0, length_power: 1 },
+    ParameterInfo { name: names::STATIC, unit: "N m", description: "breakaway (static) friction level; equal to Coulomb means no Stribeck hump", neutral: 0.0, length_power: 1 },
+    ParameterInfo { name: names::STRIBECK_VELOCITY, unit: "rad/s", description: "Stribeck velocity of exp(-(w/ws)^2), axis side", neutral: 0.01, length_power: -1 },
+    ParameterInfo { name: names::ASYMMETRY, unit: "-", description: "friction asymmetry a (the plant FMU's form): both friction levels are (1 + a) times nominal moving forward and (1 - a) times moving backward", neutral: 0.0, length_power: 0 },
+    ParameterInfo { name: names::TORQUE_OFFSET, unit: "N m", description: "constant torque the drive must supply to the load (cable drag, preload, sensor offset), axis side; the FMU's load.torque_offset is its negative", neutral: 0.0, length_power: 1 },
+    ParameterInfo { name: names::UNBALANCE_TORQUE, unit: "N m", description: "unbalance torque amplitude m g r: the load needs T = A cos(angle + phase) to hold it", neutral: 0.0, length_power: 1 },
+    ParameterInfo { name: names::UNBALANCE_PHASE, unit: "rad", description: "unbalance phase; the angle is the axis (load) angle", neutral: 0.0, length_power: 0 },
+    ParameterInfo { name: names::DELAY, unit: "s", description: "delay of the applied torque behind the logged current/torque", neutral: 0.0, length_power: 0 },
+    ParameterInfo { name: names::TORQUE_CONSTANT_SCALE, unit: "-", description: "true torque constant / nominal torque constant", neutral: 1.0, length_power: 0 },
+    ParameterInfo { name: names::COGGING_AMPLITUDE, unit: "N m", description: "position-periodic torque amplitude: T = A sin(2 pi angle/period + phase), angle = motor angle referred to the axis", neutral: 0.0, length_power: 1 },
+    ParameterInfo { name: names::COGGING_PERIOD, unit: "rad", description: "period of the position-periodic torque in axis-referred motor angle", neutral: 0.0, length_power: -1 },
+    ParameterInfo { name: names::COGGING_PHASE, unit: "rad", description: "phase of the position-periodic torque", neutral: 0.0, length_power: 0 },
+    ParameterInfo { name: names::BACKLASH_WIDTH, unit: "rad", description: "total lost motion (dead zone width) of the drive path, axis side", neutral: 0.0, length_power: -1 },
+    ParameterInfo { name: names::PRESLIDING_STIFFNESS, unit: "N m/rad", description: "presliding (bristle) stiffness of the motor friction while it sticks, referred to the axis; 0 is a rigid stick", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::PRESLIDING_DAMPING, unit: "N m s/rad", description: "damping of the presliding spring, referred to the axis", neutral: 0.0, length_power: 2 },
+    ParameterInfo { name: names::CURRENT_LOOP_BANDWIDTH, unit: "Hz", description: "bandwidth of the drive's current loop (first order); used only when the log holds the current command, to turn it into the current the motors carried", neutral: 0.0, length_power: 0 },
 ];
 
 /// Looks up the description of a known parameter.
@@ -117,6 +121,11 @@ pub struct FmuConfig {
     /// above the log's bandwidth because the log holds the measured (not commanded) current,
     /// and the stiffness that emulates a rigid drive when the set has none.
     pub sample_interval: f64,
+    /// The log's length (metres of a linear axis's travel; radians of a rotary one) that one
+    /// radian of the FMU stands for: 1 for a rotary axis, a power of ten chosen by
+    /// [`fmu_length_unit`] for a linear one, so that a carriage's mass and friction fall within
+    /// the ranges the FMU declares for a motor.
+    pub length_unit: f64,
 }
 
 impl FmuConfig {
@@ -136,6 +145,50 @@ impl FmuConfig {
     pub fn rigid_mode_hz(&self) -> f64 {
         5.0 / self.sample_interval
     }
+}
+
+/// The FMU length unit for a log ([`FmuConfig::length_unit`]). A rotary axis is simulated in
+/// its own radians. A linear axis is read as an axis of unit radius (1 m is 1 rad), where a
+/// 95 kg carriage on a direct drive becomes a 95 kg m^2 "motor", beyond any motor the FMU
+/// declares; simulated with its travel in units of 0.1 m, 1 cm, ... instead (the same motion
+/// in another length unit: masses times the unit squared, forces times the unit), it is an
+/// ordinary drive. The unit is the largest power of ten at most 1 m for which the motor's
+/// inertia, viscous friction and friction levels, as the FMU gets them, stay under a tenth of
+/// the maxima it declares.
+pub fn fmu_length_unit(linear: bool, params: &ParameterSet) -> f64 {
+    if !linear {
+        return 1.0;
+    }
+    let gear = params.value(names::GEAR_RATIO).abs().max(f64::MIN_POSITIVE);
+    let coulomb = params.value(names::COULOMB).abs();
+    let friction = params.get(names::STATIC).map_or(coulomb, f64::abs).max(coulomb);
+    // (motor-side value at a unit of 1 m, the power of the unit it scales with, FMU variable)
+    let motor_side = [
+        (params.value(names::MOTOR_INERTIA).abs() / 2.0, 2, "motor1.inertia"),
+        (params.value(names::VISCOUS).abs() / (2.0 * gear * gear), 2, "motor1.viscous_friction"),
+        (friction / (2.0 * gear), 1, "motor1.static_friction"),
+    ];
+    let fits = |unit: f64| {
+        motor_side.iter().all(|&(value, power, variable)| value * unit.powi(power) <= 0.1 * declared_maximum(variable))
+    };
+    (0..=6).map(|k| 10f64.powi(-k)).find(|&unit| fits(unit)).unwrap_or(1e-6)
+}
+
+/// The parameter set with its values in an FMU length unit of `unit` (see
+/// [`FmuConfig::length_unit`]): each value times the unit to the power of length in its unit
+/// ([`ParameterInfo::length_power`]); the gear ratio and the dimensionless and time values
+/// stay.
+pub fn in_fmu_length_unit(params: &ParameterSet, unit: f64) -> ParameterSet {
+    let mut scaled = params.clone();
+    if unit == 1.0 {
+        return scaled;
+    }
+    for (name, value, _) in scaled.entries.iter_mut() {
+        if let Some(info) = info(name) {
+            *value *= unit.powi(info.length_power);
+        }
+    }
+    scaled
 }
 
 /// The maximum the `AzimuthPlant` variable table declares for a real variable (infinite when
@@ -248,6 +301,8 @@ pub type FmuEntry = (String, fmu_runtime::params::ParameterValue, String);
 /// the FMU rejects (for example static friction below Coulomb friction).
 pub fn fmu_parameter_entries(params: &ParameterSet, config: &FmuConfig) -> Result<Vec<FmuEntry>, ParameterError> {
     use fmu_runtime::params::ParameterValue::Number;
+    let scaled = in_fmu_length_unit(params, config.length_unit);
+    let params = &scaled;
     let gear = params
         .get(names::GEAR_RATIO)
         .ok_or(ParameterError::Missing { name: names::GEAR_RATIO, reason: "the parameter set has no gear.ratio" })?;
@@ -321,8 +376,9 @@ fn fmu_torque_constant(params: &ParameterSet, config: &FmuConfig) -> Result<f64,
     Ok(match (config.input, config.drive) {
         (FmuInput::Current, FmuDrive::Mirrored) => logged()? / 2.0,
         (FmuInput::Current, FmuDrive::TwoMotors) => logged()?,
-        (FmuInput::Torque, FmuDrive::Mirrored) => 0.5,
-        (FmuInput::Torque, FmuDrive::TwoMotors) => 1.0,
+        // A logged torque in N m is config.length_unit FMU torque units per N m.
+        (FmuInput::Torque, FmuDrive::Mirrored) => 0.5 * config.length_unit,
+        (FmuInput::Torque, FmuDrive::TwoMotors) => config.length_unit,
     })
 }
 
@@ -495,6 +551,12 @@ pub fn fmu_parameter_text(params: &ParameterSet, config: &FmuConfig, header: &st
     let mut text = String::new();
     for line in header.lines() {
         text.push_str(&format!("# {line}\n"));
+    }
+    if config.length_unit != 1.0 {
+        text.push_str(&format!(
+            "# A linear axis, simulated with its travel in units of {} m: one FMU radian is that length, FMU torques are newtons times it, inertias kilograms times its square.\n",
+            config.length_unit
+        ));
     }
     text.push_str(&fmu_runtime::params::format(&fmu_parameter_entries(params, config)?));
     Ok(text)
@@ -869,13 +931,48 @@ mod tests {
     }
 
     #[test]
+    fn a_carriage_beyond_the_fmus_motor_ranges_is_simulated_in_a_smaller_length_unit() {
+        // The EMPS benchmark's published model (Janot et al. 2019): a 95.1 kg carriage on a
+        // direct drive, 203.5 N s/m viscous and 20.4 N Coulomb friction, as a linear axis of
+        // gear ratio 1 whose "motor" is the carriage.
+        use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
+        let mut carriage = ParameterSet::new();
+        carriage.set(names::GEAR_RATIO, 1.0);
+        carriage.set(names::MOTOR_INERTIA, 95.1);
+        carriage.set(names::TORQUE_CONSTANT, 35.15);
+        carriage.set(names::VISCOUS, 203.5);
+        carriage.set(names::COULOMB, 20.4);
+        carriage.set(names::TORQUE_OFFSET, -3.4);
+        let accepted = |unit: f64| {
+            let config = FmuConfig {
+                drive: FmuDrive::Mirrored,
+                input: FmuInput::Current,
+                sample_interval: 1e-3,
+                length_unit: unit,
+            };
+            let text = fmu_parameter_text(&carriage, &config, "test").unwrap();
+            let mut values = fmu_runtime::Values::<AzVar>::at_start();
+            fmu_runtime::params::apply::<AzimuthPlantModel>(&text, "test", &mut values).is_ok()
+        };
+        assert!(!accepted(1.0), "at unit radius the carriage is beyond the FMU's motor ranges");
+        let unit = fmu_length_unit(true, &carriage);
+        assert_eq!(unit, 0.01);
+        assert!(accepted(unit));
+        assert_eq!(fmu_length_unit(false, &carriage), 1.0, "a rotary axis keeps its radians");
+        let scaled = in_fmu_length_unit(&carriage, unit);
+        assert!((scaled.value(names::MOTOR_INERTIA) - 95.1e-4).abs() < 1e-12);
+        assert!((scaled.value(names::COULOMB) - 0.204).abs() < 1e-12);
+        assert_eq!(scaled.value(names::GEAR_RATIO), 1.0);
+    }
+
+    #[test]
     fn the_written_fmu_parameter_file_is_accepted_by_the_plant_variable_table() {
         // The file goes through the same checks as the FMU's parameter_file loading: known
         // names, settable, types, ranges and the model's own checks.
         use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
         for drive in [FmuDrive::Mirrored, FmuDrive::TwoMotors] {
             for input in [FmuInput::Current, FmuInput::Torque] {
-                let config = FmuConfig { drive, input, sample_interval: 0.002 };
+                let config = FmuConfig { drive, input, sample_interval: 0.002, length_unit: 1.0 };
                 let text = fmu_parameter_text(&axis_set(), &config, "test").unwrap();
                 let mut values = fmu_runtime::Values::<AzVar>::at_start();
                 let count = fmu_runtime::params::apply::<AzimuthPlantModel>(&text, "test", &mut values).unwrap();
@@ -892,7 +989,8 @@ mod tests {
         // the conversions of FMU_MAPPING, checked against the axis set one by one.
         use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
         let axis = axis_set();
-        let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: 0.002 };
+        let config =
+            FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Current, sample_interval: 0.002, length_unit: 1.0 };
         let mut values = fmu_runtime::Values::<AzVar>::at_start();
         fmu_runtime::params::apply::<AzimuthPlantModel>(
             &fmu_parameter_text(&axis, &config, "").unwrap(),

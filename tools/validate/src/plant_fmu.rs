@@ -312,21 +312,25 @@ impl Session {
 pub struct FmuSimulator {
     fmu: PlantFmu,
     session: Option<(String, Session)>,
+    /// The log's length per FMU radian of the configured set ([`FmuConfig::length_unit`]).
+    length_unit: f64,
 }
 
 impl FmuSimulator {
     pub fn new(fmu: PlantFmu) -> Self {
-        FmuSimulator { fmu, session: None }
+        FmuSimulator { fmu, session: None, length_unit: 1.0 }
     }
 
     pub fn open(path: &Path) -> Result<Self, PlantFmuError> {
         Ok(Self::new(PlantFmu::open(path)?))
     }
 
-    /// Configures the simulator from a parameter file on disk (for checking a written file).
-    pub fn configure_from_file(&mut self, path: &Path) -> Result<(), PlantFmuError> {
+    /// Configures the simulator from a parameter file on disk (for checking a written file),
+    /// written for the FMU length unit `length_unit` ([`FmuConfig::length_unit`]).
+    pub fn configure_from_file(&mut self, path: &Path, length_unit: f64) -> Result<(), PlantFmuError> {
         let session = self.fmu.session_from_file(path)?;
         self.session = Some((format!("file:{}", path.display()), session));
+        self.length_unit = length_unit;
         Ok(())
     }
 }
@@ -340,6 +344,7 @@ impl PlantSimulator for FmuSimulator {
         }
         let session = self.fmu.session(&text)?;
         self.session = Some((text, session));
+        self.length_unit = config.length_unit;
         Ok(())
     }
 
@@ -351,6 +356,26 @@ impl PlantSimulator for FmuSimulator {
         dt: f64,
     ) -> Result<SimulatedOutputs, SimulatorError> {
         let (_, session) = self.session.as_mut().ok_or(SimulatorError::NotConfigured)?;
-        Ok(session.run(start, commands, disturbance, dt)?)
+        let unit = self.length_unit;
+        if unit == 1.0 {
+            return Ok(session.run(start, commands, disturbance, dt)?);
+        }
+        // The same motion with lengths in the FMU's unit: angles and speeds over it, the load
+        // disturbance (a force) times it; the commands' scale is in the FMU's torque constant.
+        let scaled = WindowStart {
+            load_angle: start.load_angle / unit,
+            load_speed: start.load_speed / unit,
+            motor_angle: start.motor_angle / unit,
+            motor_speed: start.motor_speed / unit,
+            twist: start.twist / unit,
+            currents: start.currents,
+            history: start.history.clone(),
+        };
+        let disturbance: Vec<f64> = disturbance.iter().map(|d| d * unit).collect();
+        let mut out = session.run(&scaled, commands, &disturbance, dt)?;
+        for series in [&mut out.load_pos, &mut out.load_vel, &mut out.motor_pos, &mut out.motor_vel] {
+            series.iter_mut().for_each(|x| *x *= unit);
+        }
+        Ok(out)
     }
 }

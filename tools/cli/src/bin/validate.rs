@@ -16,6 +16,7 @@ use antenna_validate::measured_log::MeasuredLog;
 use antenna_validate::output_error::PlantSimulator;
 use antenna_validate::parameters::{fmu_parameter_text, ParameterSet};
 use antenna_validate::plant_fmu::{FmuSimulator, PlantFmu};
+use antenna_validate::report::axis_unit;
 use antenna_validate::{self as validate, documents, report, ValidateOptions, Validation};
 use anyhow::{anyhow, bail, Context};
 use clap::{Args, Parser, Subcommand};
@@ -655,6 +656,7 @@ fn results_document(results: &[scoring::CaseResult], kuka: Option<&str>, timing:
 }
 
 fn print_summary(v: &Validation) {
+    let linear = v.data.linear;
     if v.selection.found.is_empty() {
         println!("no significant missing effect");
     }
@@ -664,6 +666,7 @@ fn print_summary(v: &Validation) {
     for found in &v.selection.found {
         println!("found {} ({})", found.kind.name(), found.kind.description());
         for (name, value, sd, unit) in &found.parameters {
+            let unit = if name.starts_with("motor.") { unit.as_str() } else { axis_unit(unit, linear) };
             println!("    {name} = {value:.6e} +- {sd:.2e} {unit}");
         }
         let alike = v.selection.equally_consistent(found.kind);
@@ -688,8 +691,15 @@ fn print_summary(v: &Validation) {
     }
     for (b, a) in v.before.iter().zip(&v.after) {
         println!(
-            "{}: RMS {:.4} -> {:.4} N m (axis side), fit {:.1} -> {:.1} %, whiteness p {:.1e} -> {:.1e}",
-            b.name, b.rms, a.rms, b.fit_percent, a.fit_percent, b.whiteness_p, a.whiteness_p
+            "{}: RMS {:.4} -> {:.4} {} (axis side), fit {:.1} -> {:.1} %, whiteness p {:.1e} -> {:.1e}",
+            b.name,
+            b.rms,
+            a.rms,
+            axis_unit("N m", linear),
+            b.fit_percent,
+            a.fit_percent,
+            b.whiteness_p,
+            a.whiteness_p
         );
     }
     if let Some(o) = &v.output {
@@ -706,7 +716,7 @@ fn print_summary(v: &Validation) {
                 b.kind.name(),
                 b.rms,
                 a.rms,
-                b.kind.unit(),
+                axis_unit(b.kind.unit(), linear),
                 b.fit_percent,
                 a.fit_percent
             );

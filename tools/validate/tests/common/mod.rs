@@ -55,7 +55,8 @@ pub fn log_csv(truth: &ParameterSet, frequencies: [f64; 3]) -> String {
         })
         .collect();
     let mut simulator = RigidReferenceSimulator::default();
-    let config = FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Torque, sample_interval: DT };
+    let config =
+        FmuConfig { drive: FmuDrive::Mirrored, input: FmuInput::Torque, sample_interval: DT, length_unit: 1.0 };
     simulator.configure(truth, &config).unwrap();
     let start = WindowStart {
         load_angle: 0.0,
