@@ -145,3 +145,56 @@ fn a_residual_that_overflows_is_an_error_not_a_result() {
     assert!(matches!(&error, ValidationError::NonFinite(NonFinite::Result { .. })), "{error:?}");
     assert!(error.to_string().contains("torque balance"), "{error}");
 }
+
+/// A clean truth log with a load-encoder error added to its load encoder: `e(q)` of the given
+/// RMS (rad) from harmonics 1, 2, 4, 8, 16 and 36 per turn.
+fn with_encoder_error(rms: f64, seed: u64) -> (antenna_validate::measured_log::MeasuredLog, ParameterSet, Vec<f64>) {
+    use antenna_validate::measured_log::Signal;
+    let config = TruthConfig { duration: 30.0, seed, ..TruthConfig::default() };
+    let start = config.plant.starting_parameters();
+    let mut log = simulate(&config).log;
+    let error = |q: f64| {
+        [(1.0, 0.9, 0.3), (2.0, 0.6, 1.1), (4.0, 0.8, 2.0), (8.0, 0.5, 0.4), (16.0, 0.7, 2.9), (36.0, 0.9, 1.7)]
+            .iter()
+            .map(|(k, a, p)| a * (k * q + p).sin())
+            .sum::<f64>()
+    };
+    let channel = log.channels.iter_mut().find(|c| c.signal == Signal::LoadPos).unwrap();
+    let raw: Vec<f64> = channel.values.iter().map(|&q| error(q)).collect();
+    let mean = raw.iter().sum::<f64>() / raw.len() as f64;
+    let scale = rms / (raw.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / raw.len() as f64).sqrt();
+    let added: Vec<f64> = raw.iter().map(|e| e * scale).collect();
+    for (q, e) in channel.values.iter_mut().zip(&added) {
+        *q += e;
+    }
+    (log, start, added)
+}
+
+#[test]
+fn a_load_encoder_error_is_found_and_taken_out_before_the_search() {
+    use antenna_validate::sensor_errors::load_encoder_error;
+    use antenna_validate::twist::TwistOptions;
+    let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
+    let (log, start, added) = with_encoder_error(5.0 * arcsec, 8);
+    let data = prepare(&log, &start, &EquationOptions::default()).unwrap();
+    let error = load_encoder_error(&data, &start, &TwistOptions::default()).expect("a 5 arcsec encoder error is found");
+    // What is left of the injected error after the correction, over the logged angles (the
+    // constant part is the encoders' zero offset, which the twist offset takes).
+    let load = log.signal(antenna_validate::measured_log::Signal::LoadPos).unwrap();
+    let left: Vec<f64> = load.iter().zip(&added).map(|(q, e)| e - error.at(*q)).collect();
+    let mean = left.iter().sum::<f64>() / left.len() as f64;
+    let left_rms = (left.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / left.len() as f64).sqrt();
+    assert!(left_rms < 0.1 * 5.0 * arcsec, "{:.3} arcsec of 5 left", left_rms / arcsec);
+    // The search on the corrected log is back at the clean log's residual.
+    let corrected = prepare(&error.correct(&log), &start, &EquationOptions::default()).unwrap();
+    let selection = select(&corrected, &start, &SelectionOptions::default());
+    assert!(selection.found.is_empty(), "claimed {:?}", selection.found.iter().map(|f| f.kind).collect::<Vec<_>>());
+    let (clean_log, _, _) = with_encoder_error(0.0, 8);
+    let clean = prepare(&clean_log, &start, &EquationOptions::default()).unwrap();
+    assert_eq!(load_encoder_error(&clean, &start, &TwistOptions::default()), None, "no encoder error on a clean log");
+    let clean_selection = select(&clean, &start, &SelectionOptions::default());
+    for channel in 0..2 {
+        let (after, reference) = (selection.before.sigma[channel], clean_selection.before.sigma[channel]);
+        assert!(after < 1.2 * reference, "channel {channel}: {after} against the clean log's {reference}");
+    }
+}

@@ -24,6 +24,7 @@ pub mod reestimate;
 pub mod refit;
 pub mod report;
 pub mod selection;
+pub mod sensor_errors;
 pub mod signals;
 pub mod stats;
 pub mod twist;
@@ -182,6 +183,9 @@ pub struct Validation {
     pub twist: Option<twist::TwistAnalysis>,
     /// The timing skew the load encoder was corrected by (s), when one was found.
     pub encoder_skew: Option<f64>,
+    /// The load encoder's position-dependent error, taken out of the data before the search,
+    /// when one was found ([`sensor_errors`]).
+    pub load_encoder_error: Option<sensor_errors::LoadEncoderError>,
     /// Effects not claimed that the output error alone would confirm.
     pub hints: Vec<Hint>,
     /// Candidates that reproduce a found effect over this log ("X or Y: the data cannot
@@ -394,11 +398,26 @@ pub fn validate_with(
     let log = from_command.as_ref().unwrap_or(log);
     let integrated = log.with_motor_position_from_speed();
     let log = integrated.as_ref().unwrap_or(log);
-    let (observable, unobservable) = observable_candidates(log, options);
+    // The load encoder's own error is found and taken out before any physical effect is
+    // judged, or it would raise every residual and detection limit ([`sensor_errors`]).
+    let encoder_error = load_encoder_error(log, start, options)?;
+    let encoder_corrected = encoder_error.as_ref().map(|e| e.correct(log));
+    let log = encoder_corrected.as_ref().unwrap_or(log);
+    let (observable, mut unobservable) = observable_candidates(log, options);
+    if let Some(error) = &encoder_error {
+        unobservable.insert(
+            0,
+            format!(
+                "{}; taken out of the load encoder before the search (a sensor error, not an effect of the plant)",
+                error.describe()
+            ),
+        );
+    }
     let options = &observable;
     // The reborrow shortens the trait object's lifetime so the simulator can serve both passes.
     let reborrowed = simulator.as_mut().map(|s| &mut **s as &mut dyn PlantSimulator);
     let mut first = validate_once(log, start, options, reborrowed)?;
+    first.load_encoder_error = encoder_error.clone();
     first.notes.extend(unobservable.iter().cloned());
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
@@ -416,7 +435,19 @@ pub fn validate_with(
     second.notes.extend(unobservable);
     second.twist = first.twist;
     second.encoder_skew = Some(skew);
+    second.load_encoder_error = encoder_error;
     Ok(second)
+}
+
+/// The load encoder's error in `log` with the starting set, when the log shows one
+/// ([`sensor_errors::load_encoder_error`]).
+fn load_encoder_error(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+) -> Result<Option<sensor_errors::LoadEncoderError>, ValidationError> {
+    let data = equation_error::prepare(log, start, &options.equation)?;
+    Ok(sensor_errors::load_encoder_error(&data, start, &options.twist))
 }
 
 /// The options with the candidates a log's signals cannot observe taken out, and a note for
@@ -499,6 +530,7 @@ fn validate_once(
         frequency,
         twist: None,
         encoder_skew: None,
+        load_encoder_error: None,
         hints,
         indistinct,
         collinear,

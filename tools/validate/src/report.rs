@@ -79,6 +79,9 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     recheck_section(&mut out, v);
     collinear_section(&mut out, v);
     detection_section(&mut out, v);
+    if let Some(error) = &v.load_encoder_error {
+        sensor_section(&mut out, error);
+    }
     if let Some(t) = &v.twist {
         twist_section(&mut out, t, v.encoder_skew, d.linear);
     }
@@ -208,6 +211,17 @@ fn detection_section(out: &mut String, v: &Validation) {
         );
     }
     let _ = writeln!(out);
+}
+
+/// The load encoder's error, found and taken out of the data before the search.
+fn sensor_section(out: &mut String, error: &crate::sensor_errors::LoadEncoderError) {
+    let _ = writeln!(
+        out,
+        "\n## Sensor errors taken out before the search\n\nThe twist less what the motor side explains (the shaft torque over the stiffness, the lost motion, a timing skew) holds a function of the load angle that no torque explains: the load encoder's error (eccentricity, graduation; a gear's transmission error enters the equations the same way). It was estimated on the sliding samples (a polynomial of degree 6 over the angle range {:.3} to {:.3} deg, and harmonics of the angle with at least 1.5 periods in that range, each kept at a 5-sigma level divided by the orders tried and at least 3 times the twist's noise) and subtracted from the load encoder before the effects were searched. Over a short range, neighbouring harmonic orders (within about 360 deg / range) are not told apart: the function is what is estimated, not the orders.\n\n{}.\n",
+        error.low.to_degrees(),
+        error.high.to_degrees(),
+        error.describe()
+    );
 }
 
 /// A detection limit's size in the units an engineer reads: backlash in arcsec (mm on a linear
@@ -886,6 +900,12 @@ fn kuka_row(out: &mut String, axis: usize, v: &Validation, seconds: f64) {
         found.insert(
             0,
             format!("**encoder skew**: load encoder {:.2} ms behind the motor encoder (data corrected)", skew * 1e3),
+        );
+    }
+    if let Some(error) = &v.load_encoder_error {
+        found.insert(
+            0,
+            format!("**load encoder error**: {:.2} arcsec RMS over the log (data corrected)", error.rms * ARCSEC),
         );
     }
     let found = if found.is_empty() { "none".to_string() } else { found.join("; ") };

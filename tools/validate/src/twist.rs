@@ -232,13 +232,13 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
 /// The twist the model does not explain, and the columns that regress it: a constant (encoder
 /// offsets), the axis speed (a timing skew between the encoders), the shaft torque (a
 /// compliance), the contact sign (lost motion) and three Legendre polynomials of the angle.
-struct TwistRegression {
-    target: Vec<f64>,
-    columns: Vec<Vec<f64>>,
+pub(crate) struct TwistRegression {
+    pub(crate) target: Vec<f64>,
+    pub(crate) columns: Vec<Vec<f64>>,
     two_mass: bool,
 }
 
-fn twist_regression(data: &EquationData, params: &ParameterSet) -> TwistRegression {
+pub(crate) fn twist_regression(data: &EquationData, params: &ParameterSet) -> TwistRegression {
     let n = data.len();
     let shaft = motor_side_shaft_torque(data, params);
     // The model's own twist: the path deflection under the shaft torque for a two-mass set,
