@@ -215,6 +215,10 @@ pub struct CaseTruth {
     pub torque_sigma: f64,
     pub twist_sigma: f64,
     pub sample_interval: f64,
+    /// The log's hidden conditions beyond its effects (`TruthConfig::hidden_conditions`:
+    /// encoder error, skews, tacho drift, cogging per motor revolution, three masses), by key;
+    /// empty for the suite's own logs.
+    pub conditions: BTreeMap<String, String>,
 }
 
 /// Sizes an effect of `kind` so that it adds `ratio` times the channel noise, from a clean run.
@@ -305,7 +309,12 @@ pub fn sized_effect(
             Effect::TorqueConstantScale(1.0 / (1.0 + s * relative))
         }
         "cogging" => {
-            let period = rng.random_range(0.2f64.ln()..2f64.ln()).exp().to_radians();
+            // The motor's poles set the period when the plant says how many cycles a motor
+            // revolution has; otherwise it is drawn between 0.2 and 2 deg at the axis.
+            let period = match plant.cogging_period() {
+                Some(period) => period,
+                None => rng.random_range(0.2f64.ln()..2f64.ln()).exp().to_radians(),
+            };
             let phase = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
             Effect::Cogging { amplitude: target * std::f64::consts::SQRT_2, period, phase }
         }
@@ -352,6 +361,7 @@ pub fn generate_case(
         torque_sigma: config.noise.size_torque_sigma(&config.plant),
         twist_sigma: config.noise.twist_sigma(&config.plant),
         sample_interval: 1.0 / config.log_rate,
+        conditions: config.hidden_conditions().into_iter().collect(),
     };
     Ok((text, truth))
 }
@@ -519,6 +529,9 @@ pub fn truth_text(truth: &CaseTruth) -> String {
             values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(" ")
         );
     }
+    for (key, value) in &truth.conditions {
+        let _ = writeln!(out, "condition.{key} = {value}");
+    }
     out
 }
 
@@ -575,6 +588,10 @@ pub fn parse_truth(text: &str) -> Result<CaseTruth, SuiteError> {
         torque_sigma: num("torque_sigma")?,
         twist_sigma: num("twist_sigma")?,
         sample_interval: num("sample_interval")?,
+        conditions: map
+            .iter()
+            .filter_map(|(k, v)| k.strip_prefix("condition.").map(|key| (key.to_string(), v.clone())))
+            .collect(),
     })
 }
 
@@ -594,6 +611,7 @@ mod tests {
             torque_sigma: 30.0,
             twist_sigma: 1e-7,
             sample_interval: 0.002,
+            conditions: [("cogging_per_motor_rev".to_string(), "5".to_string())].into_iter().collect(),
         };
         assert_eq!(parse_truth(&truth_text(&truth)).unwrap(), truth);
     }
