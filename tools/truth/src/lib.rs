@@ -1292,6 +1292,193 @@ mod tests {
         assert!(quiet.fastest_rate(0.03) * 5e-5 > 10.0, "the default bristles must need substeps at full speed");
     }
 
+    /// FNV-1a, a hash whose value no library or compiler version changes.
+    fn fnv1a(bytes: &[u8]) -> u64 {
+        bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3))
+    }
+
+    #[test]
+    fn the_default_log_is_bit_for_bit_that_of_the_generator_before_the_options() {
+        // The hash and length of `truthgen one --seed 7 --duration 2` written by the generator
+        // of commit 8df7695, before the encoder error, skews, drift, pole cogging and three
+        // masses existed.
+        let config = TruthConfig { duration: 2.0, seed: 7, ..TruthConfig::default() };
+        let text = simulate(&config).log.to_csv(config.log_units());
+        assert_eq!((fnv1a(text.as_bytes()), text.len()), (0x7e0b_526e_1d77_cbd8, 76479));
+        assert!(config.hidden_conditions().is_empty());
+    }
+
+    /// A run without load-encoder noise and with a fine count, so what the log adds to the
+    /// load angle is the encoder error alone.
+    fn exact_load_encoder(duration: f64) -> TruthConfig {
+        let mut config = TruthConfig { duration, ..TruthConfig::default() };
+        config.noise.load_encoder_sigma = 0.0;
+        config.noise.load_encoder_counts = 2f64.powi(40);
+        config
+    }
+
+    #[test]
+    fn the_load_encoder_error_is_in_the_logged_load_position_with_its_rms() {
+        let mut config = exact_load_encoder(8.0);
+        let rms_asked = 3.0_f64.to_radians() / 3600.0;
+        config.noise.load_encoder_error = EncoderError { rms: rms_asked, ..EncoderError::default() };
+        let run = simulate(&config);
+        let logged = run.log.signal(Signal::LoadPos).unwrap();
+        let terms = config.noise.load_encoder_error.terms(config.seed);
+        assert!((sensors::harmonics_rms(&terms) / rms_asked - 1.0).abs() < 1e-12);
+        let error: Vec<f64> = logged.iter().zip(&run.clean.load_pos).map(|(m, q)| m - q).collect();
+        let miss: Vec<f64> =
+            error.iter().zip(&run.clean.load_pos).map(|(e, q)| e - sensors::encoder_error(&terms, *q)).collect();
+        // The logged error is the harmonics' sum at the true angle, up to the fine count.
+        assert!(rms(&miss) < 1e-3 * rms(&error), "miss {:e} of {:e}", rms(&miss), rms(&error));
+        // Over the log's part of a revolution the low orders need not average to the RMS of a
+        // whole one, but the size is the asked one's.
+        assert!(rms(&error) > 0.3 * rms_asked && rms(&error) < 2.0 * rms_asked, "{:e}", rms(&error));
+    }
+
+    /// The lag (log samples, within +-`span`) at which the first differences of `a` and `b`
+    /// correlate best: `a[k]` is most like `b[k + lag]`.
+    fn best_lag(a: &[f64], b: &[f64], span: i64) -> i64 {
+        let (da, db): (Vec<f64>, Vec<f64>) =
+            (a.windows(2).map(|w| w[1] - w[0]).collect(), b.windows(2).map(|w| w[1] - w[0]).collect());
+        let n = da.len() as i64;
+        let correlation =
+            |lag: i64| -> f64 { (span..n - span).map(|k| da[k as usize] * db[(k + lag) as usize]).sum::<f64>() };
+        (-span..=span).max_by(|x, y| correlation(*x).total_cmp(&correlation(*y))).unwrap()
+    }
+
+    #[test]
+    fn a_load_encoder_skew_reads_the_load_angle_that_much_later() {
+        let plain = exact_load_encoder(4.0);
+        let mut skewed = plain.clone();
+        skewed.noise.load_encoder_skew = 0.006;
+        let (a, b) = (simulate(&plain), simulate(&skewed));
+        let (a_load, b_load) = (a.log.signal(Signal::LoadPos).unwrap(), b.log.signal(Signal::LoadPos).unwrap());
+        // Six milliseconds are three rows at 500 Hz: row k of the skewed log is row k + 3 of
+        // the plain one (up to the fine count, the interpolation between internal steps).
+        let worst = (0..a_load.len() - 3).map(|k| (b_load[k] - a_load[k + 3]).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-9, "{worst:e}");
+        // The position is smooth: its acceleration (the differences of its differences)
+        // carries the noise injection's sharp structure.
+        let speed = |x: &[f64]| -> Vec<f64> { x.windows(2).map(|w| w[1] - w[0]).collect() };
+        assert_eq!(best_lag(&speed(b_load), &speed(&a.clean.load_pos), 8), 3);
+        // The motion and the other columns are those of the plain run.
+        assert_eq!(a.log.signal(Signal::MotorPos), b.log.signal(Signal::MotorPos));
+        assert_eq!(a.log.signal(Signal::MotorCurrent), b.log.signal(Signal::MotorCurrent));
+        assert_eq!(a.clean.load_pos, b.clean.load_pos);
+    }
+
+    #[test]
+    fn a_current_skew_moves_the_cross_correlation_peak_by_its_time() {
+        // With the suite's current noise, against the true applied torque (no delay effect,
+        // so the torque is the actual current times the gear and the torque constant).
+        for (skew, lag) in [(0.004, 2), (-0.006, -3), (0.0, 0)] {
+            let mut config = TruthConfig { duration: 6.0, ..TruthConfig::default() };
+            config.noise.current_skew = skew;
+            let run = simulate(&config);
+            let current = run.log.signal(Signal::MotorCurrent).unwrap();
+            assert_eq!(best_lag(current, &run.clean.applied_torque, 8), lag, "skew {skew}");
+        }
+    }
+
+    #[test]
+    fn a_drifting_tacho_adds_a_slow_bias_with_the_asked_rms() {
+        let mut plain = TruthConfig { duration: 6.0, ..TruthConfig::default() };
+        plain.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
+        let mut drifting = plain.clone();
+        let asked = 3.0e-6;
+        drifting.noise.motor_sensor = MotorSensor::Speed(SpeedSensor { drift: asked, ..SpeedSensor::default() });
+        let (a, b) = (simulate(&plain), simulate(&drifting));
+        let (a_speed, b_speed) = (a.log.signal(Signal::MotorVel).unwrap(), b.log.signal(Signal::MotorVel).unwrap());
+        let drift: Vec<f64> = b_speed.iter().zip(a_speed).map(|(b, a)| b - a).collect();
+        assert!((rms(&drift) / asked - 1.0).abs() < 1e-6, "{:e}", rms(&drift));
+        // Slow: successive samples differ by a small part of the drift's size.
+        let steps: Vec<f64> = drift.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(rms(&steps) < 0.1 * asked);
+        assert_eq!(a.log.signal(Signal::LoadPos), b.log.signal(Signal::LoadPos));
+        assert_eq!(b.clean.motor_vel, a.clean.motor_vel);
+    }
+
+    #[test]
+    fn the_cogging_period_is_two_pi_over_the_gear_ratio_times_the_cycles_per_motor_rev() {
+        let mut config = TruthConfig { duration: 2.0, ..TruthConfig::default() };
+        assert_eq!(config.plant.cogging_period(), None);
+        config.plant.cogging_per_motor_rev = Some(5);
+        let expected = 2.0 * std::f64::consts::PI / (1200.0 * 5.0);
+        assert_eq!(config.plant.cogging_period(), Some(expected));
+        let clean = simulate(&config).clean;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+        let Ok(Effect::Cogging { period, .. }) = suite::sized_effect("cogging", 10.0, &clean, &config, &mut rng) else {
+            panic!("no cogging")
+        };
+        assert_eq!(period, expected);
+        // The hidden logs' drive: 5 cycles per motor revolution on a 9000:1 gear.
+        config.plant.gear_ratio = 9000.0;
+        assert!((config.plant.cogging_period().unwrap() - 1.396e-4).abs() < 1e-7);
+        let conditions = config.hidden_conditions();
+        assert!(conditions.contains(&("cogging_per_motor_rev".to_string(), "5".to_string())));
+    }
+
+    #[test]
+    fn a_three_mass_drive_with_a_rigid_second_compliance_is_the_two_mass_drive() {
+        let two = TruthConfig { duration: 8.0, ..TruthConfig::default() };
+        let with = |share: f64| {
+            let mut config = two.clone();
+            config.plant.three_mass =
+                Some(ThreeMass { inertia_fraction: 0.2, gearbox_compliance_share: share, second_damping_ratio: 0.04 });
+            simulate(&config).clean
+        };
+        let reference = simulate(&two).clean;
+        let worst = |c: &CleanSignals| {
+            (0..c.load_pos.len())
+                .map(|i| {
+                    (c.load_pos[i] - reference.load_pos[i]).abs().max((c.motor_pos[i] - reference.motor_pos[i]).abs())
+                })
+                .fold(0.0, f64::max)
+        };
+        // A second compliance 1e5 times stiffer than the path: the intermediate inertia moves
+        // with the load, and the drive is the two-mass one to well below the encoder noise.
+        let rigid = worst(&with(1.0 - 1e-5));
+        assert!(rigid < 1e-8, "{rigid:e} rad");
+        // A real second mode (30 Hz) moves the drive by more than that.
+        let three = ThreeMass::with_second_mode(&two.plant, 0.2, 30.0).unwrap();
+        assert!((three.second_mode(&two.plant) - 30.0).abs() < 1e-9);
+        let soft = worst(&with(three.gearbox_compliance_share));
+        assert!(soft > 100.0 * rigid.max(1e-12), "{soft:e} rad");
+        assert!(ThreeMass::with_second_mode(&two.plant, 0.2, 10.0).is_err());
+    }
+
+    #[test]
+    fn two_khz_logs_hold_a_row_per_controller_sample() {
+        let config = TruthConfig { duration: 1.0, log_rate: 2000.0, ..TruthConfig::default() };
+        let run = simulate(&config);
+        assert_eq!(run.log.time.len(), 2001);
+        assert!(run.log.time.windows(2).all(|w| (w[1] - w[0] - 5e-4).abs() < 1e-12));
+        let current = run.log.signal(Signal::MotorCurrent).unwrap();
+        assert_eq!(current.len(), 2001);
+        assert!(current.iter().all(|c| c.is_finite()));
+    }
+
+    #[test]
+    fn a_noiseless_current_at_2_khz_takes_a_sub_millisecond_delay() {
+        let mut config = TruthConfig { duration: 6.0, log_rate: 2000.0, ..TruthConfig::default() };
+        config.noise.current_sigma = 0.0;
+        config.noise.size_current_sigma = Some(0.0125);
+        let clean = simulate(&config).clean;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let Ok(Effect::Delay(delay)) = suite::sized_effect("delay", 1.0, &clean, &config, &mut rng) else {
+            panic!("no delay")
+        };
+        // Once the suite's current noise is a delay of a few tenths of a millisecond.
+        assert!(delay > 1e-4 && delay < 8e-4, "{delay:e} s");
+        config.effects = vec![Effect::Delay(delay)];
+        let run = simulate(&config);
+        let current = run.log.signal(Signal::MotorCurrent).unwrap();
+        // No noise: every logged current is a whole number of 1 mA steps.
+        assert!(current.iter().all(|c| ((c / 1e-3) - (c / 1e-3).round()).abs() < 1e-6));
+        assert!(run.clean.applied_torque.iter().zip(&clean.applied_torque).any(|(a, b)| a != b));
+    }
+
     #[test]
     fn an_unbalance_raises_the_torque_by_its_size() {
         let clean = simulate(&short(vec![]));
