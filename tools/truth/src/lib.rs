@@ -100,10 +100,11 @@ pub struct ThreeMass {
 }
 
 impl ThreeMass {
-    /// The split that puts the intermediate inertia's own mode (motor and load held), sqrt((K1
-    /// + K2) / J_i) / 2 pi, at `hz`, with the intermediate inertia a `fraction` of the load
-    /// inertia and the gearbox taking the larger share of the compliance. With the series
-    /// constraint 1/K1 + 1/K2 = 1/K the shares s and 1 - s satisfy s (1 - s) = K / (J_i w^2).
+    /// The split that puts the intermediate inertia's own mode (motor and load held),
+    /// sqrt((K1 + K2) / J_i) / 2 pi, at `hz`, with the intermediate inertia a `fraction` of
+    /// the load inertia and the gearbox taking the larger share of the compliance. With the
+    /// series constraint 1/K1 + 1/K2 = 1/K the shares s and 1 - s satisfy
+    /// s (1 - s) = K / (J_i w^2).
     pub fn with_second_mode(plant: &TruthPlant, fraction: f64, hz: f64) -> Result<ThreeMass, TruthError> {
         if !(fraction > 0.0 && fraction < 1.0) {
             return Err(TruthError::IntermediateFraction { fraction });
@@ -112,7 +113,8 @@ impl ThreeMass {
         let omega = 2.0 * std::f64::consts::PI * hz;
         let product = plant.stiffness / (fraction * plant.load_inertia * omega * omega);
         // Written so that NaN is refused too.
-        if !(product <= 0.25) {
+        let reachable = product <= 0.25;
+        if !reachable {
             return Err(TruthError::SecondModeTooLow { hz, lowest });
         }
         let share = 0.5 * (1.0 + (1.0 - 4.0 * product).sqrt());

@@ -286,7 +286,8 @@ impl TruthArgs {
         ] {
             if let Some(skew) = skew {
                 // A skew longer than a second would be a broken log, not a skew.
-                if !(skew.abs() < 1.0) {
+                let plausible = skew.abs() < 1.0;
+                if !plausible {
                     bail!("{flag} needs a number of seconds between -1 and 1, not {skew}");
                 }
                 *slot = skew;
@@ -297,7 +298,8 @@ impl TruthArgs {
                 sensor.drift = positive(drift, "--tacho-drift")?;
             }
             if let Some(scale) = self.tacho_scale_error {
-                if !(scale.abs() < 0.5) {
+                let plausible = scale.abs() < 0.5;
+                if !plausible {
                     bail!("--tacho-scale-error needs a number between -0.5 and 0.5, not {scale}");
                 }
                 sensor.scale_error = scale;
