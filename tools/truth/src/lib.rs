@@ -12,6 +12,7 @@
 //! parameter set; each effect is added only in the truth.
 
 pub mod scoring;
+pub mod sensors;
 pub mod suite;
 mod trajectory;
 
@@ -21,7 +22,22 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::collections::BTreeMap;
 
+pub use sensors::{EncoderError, Harmonic, DEFAULT_ENCODER_HARMONICS};
 pub use trajectory::{Trajectory, TrajectoryConfig};
+
+/// Why a truth configuration cannot be built as asked.
+#[derive(Debug, thiserror::Error)]
+pub enum TruthError {
+    /// The intermediate inertia of a three-mass drive must be a fraction strictly between 0
+    /// and 1 of the load inertia.
+    #[error("the intermediate inertia must be a fraction between 0 and 1 of the load inertia, not {fraction}")]
+    IntermediateFraction { fraction: f64 },
+    /// Two compliances in series with the nominal path's cannot put the intermediate mode this
+    /// low: its frequency is at least twice the locked-motor anti-resonance over the square
+    /// root of the intermediate inertia's fraction.
+    #[error("a second mode at {hz} Hz is below the lowest two compliances in series reach, {lowest:.3} Hz")]
+    SecondModeTooLow { hz: f64, lowest: f64 },
+}
 
 /// A progress bar on stderr for a run over `len` items; it draws nothing when stderr is not a
 /// terminal (indicatif's default target), so logs and pipes stay clean.
@@ -58,6 +74,59 @@ pub struct TruthPlant {
     pub presliding_displacement: f64,
     /// LuGre micro-damping ratio of the bristle-inertia mode. Truth only.
     pub bristle_damping_ratio: f64,
+    /// Cogging cycles per motor revolution (from the motor's poles and slots, e.g. 2p or 6p
+    /// for p pole pairs): when set, a cogging effect's period is the motor physics' 2 pi /
+    /// (N K) at the axis instead of one drawn from the seed. Off (`None`) by default.
+    pub cogging_per_motor_rev: Option<u32>,
+    /// A third mass: the path splits into a gearbox compliance, an intermediate inertia and a
+    /// second compliance before the load. Off (`None`, the two-mass drive) by default.
+    pub three_mass: Option<ThreeMass>,
+}
+
+/// A three-mass drive: motor, gearbox compliance, intermediate inertia, second compliance,
+/// load. The two compliances in series are the nominal path's (so the static twist and the
+/// locked-motor anti-resonance the two-mass model knows stay nearly what they were) and the
+/// intermediate inertia is taken from the load's (so the total inertia is unchanged): the
+/// two-mass model is wrong only by the extra mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThreeMass {
+    /// The intermediate inertia as a fraction of the load inertia; the load keeps the rest.
+    pub inertia_fraction: f64,
+    /// The gearbox's share of the path's compliance (between 0 and 1): the gearbox stiffness
+    /// is K / share, the second compliance's K / (1 - share).
+    pub gearbox_compliance_share: f64,
+    /// Damping ratio of the second compliance over the intermediate and load inertias.
+    pub second_damping_ratio: f64,
+}
+
+impl ThreeMass {
+    /// The split that puts the intermediate inertia's own mode (motor and load held),
+    /// sqrt((K1 + K2) / J_i) / 2 pi, at `hz`, with the intermediate inertia a `fraction` of
+    /// the load inertia and the gearbox taking the larger share of the compliance. With the
+    /// series constraint 1/K1 + 1/K2 = 1/K the shares s and 1 - s satisfy
+    /// s (1 - s) = K / (J_i w^2).
+    pub fn with_second_mode(plant: &TruthPlant, fraction: f64, hz: f64) -> Result<ThreeMass, TruthError> {
+        if !(fraction > 0.0 && fraction < 1.0) {
+            return Err(TruthError::IntermediateFraction { fraction });
+        }
+        let lowest = 2.0 * plant.anti_resonance() / fraction.sqrt();
+        let omega = 2.0 * std::f64::consts::PI * hz;
+        let product = plant.stiffness / (fraction * plant.load_inertia * omega * omega);
+        // Written so that NaN is refused too.
+        let reachable = product <= 0.25;
+        if !reachable {
+            return Err(TruthError::SecondModeTooLow { hz, lowest });
+        }
+        let share = 0.5 * (1.0 + (1.0 - 4.0 * product).sqrt());
+        Ok(ThreeMass { inertia_fraction: fraction, gearbox_compliance_share: share, second_damping_ratio: 0.04 })
+    }
+
+    /// The intermediate inertia's own mode (Hz) on this plant, motor and load held.
+    pub fn second_mode(&self, plant: &TruthPlant) -> f64 {
+        let share = self.gearbox_compliance_share;
+        let springs = plant.stiffness / share + plant.stiffness / (1.0 - share);
+        (springs / (self.inertia_fraction * plant.load_inertia)).sqrt() / (2.0 * std::f64::consts::PI)
+    }
 }
 
 impl Default for TruthPlant {
@@ -80,11 +149,21 @@ impl Default for TruthPlant {
             stribeck_velocity: 0.002,
             presliding_displacement: 1.0e-7,
             bristle_damping_ratio: 1.0,
+            cogging_per_motor_rev: None,
+            three_mass: None,
         }
     }
 }
 
 impl TruthPlant {
+    /// The cogging period at the axis (rad) the motor's poles give, 2 pi / (N K), when
+    /// `cogging_per_motor_rev` sets K.
+    pub fn cogging_period(&self) -> Option<f64> {
+        self.cogging_per_motor_rev
+            .filter(|k| *k > 0)
+            .map(|k| 2.0 * std::f64::consts::PI / (self.gear_ratio * f64::from(k)))
+    }
+
     /// Motor inertia referred to the axis side.
     pub fn reflected_motor_inertia(&self) -> f64 {
         self.motor_inertia * self.gear_ratio * self.gear_ratio
@@ -215,6 +294,16 @@ pub struct NoiseConfig {
     /// logged current's own (a noiseless sensor or a logged command have none, and "ten times
     /// no noise" is no size): `None` is the log's own.
     pub size_current_sigma: Option<f64>,
+    /// The load encoder's graduation and eccentricity error, in what the controller reads
+    /// and what the log holds (none by default).
+    pub load_encoder_error: EncoderError,
+    /// How much later (s) than the motor encoder the load encoder is read: a log row stamped
+    /// t holds the load angle at t + skew (negative: read earlier). 0 by default.
+    pub load_encoder_skew: f64,
+    /// How much later (s) than the encoders the current (or its command) is read: a row
+    /// stamped t holds the current at t + skew. 0 by default. The controller is not affected:
+    /// a skew is a matter of the log's time stamps.
+    pub current_skew: f64,
 }
 
 /// What a log's current column holds.
@@ -240,20 +329,23 @@ pub enum MotorSensor {
 
 /// A motor speed signal instead of a motor encoder, as a servo amplifier's analogue speed
 /// output (the paper's identification logged these): the true motor speed referred to the axis
-/// times (1 + scale_error), plus a bias and white noise, all axis side.
+/// times (1 + scale_error), plus a bias, a drift of that bias and white noise, all axis side.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpeedSensor {
     /// White noise at the log instants (rad/s).
     pub sigma: f64,
     pub bias: f64,
     pub scale_error: f64,
+    /// RMS over the log (rad/s) of a bias drift, a random walk from the log's seed (a tacho
+    /// whose offset wanders with temperature); 0 is no drift.
+    pub drift: f64,
 }
 
 impl Default for SpeedSensor {
     /// A digital drive's speed estimate through an analogue output: 2e-6 rad/s at the axis
     /// (0.023 rpm at a 1200:1 motor), a bias of a tenth of that and a 0.5 % scale tolerance.
     fn default() -> Self {
-        SpeedSensor { sigma: 2.0e-6, bias: 2.0e-7, scale_error: 5.0e-3 }
+        SpeedSensor { sigma: 2.0e-6, bias: 2.0e-7, scale_error: 5.0e-3, drift: 0.0 }
     }
 }
 
@@ -270,6 +362,9 @@ impl Default for NoiseConfig {
             current_bias: 0.0,
             current_log: CurrentLog::Measured,
             size_current_sigma: None,
+            load_encoder_error: EncoderError::default(),
+            load_encoder_skew: 0.0,
+            current_skew: 0.0,
         }
     }
 }
@@ -380,6 +475,50 @@ struct Actual {
     unbalance: (f64, f64),
     delay: f64,
     cogging: (f64, f64, f64),
+    /// The three-mass drive's path, when the plant has one.
+    stage: Option<Stage>,
+}
+
+/// The path of a three-mass drive with the effects applied: the gearbox spring and damper
+/// (k1, c1, with the backlash), the intermediate inertia, the second spring and damper (k2,
+/// c2) and the load's remaining inertia.
+#[derive(Debug, Clone, Copy)]
+struct Stage {
+    k1: f64,
+    c1: f64,
+    intermediate_inertia: f64,
+    k2: f64,
+    c2: f64,
+    load_inertia: f64,
+}
+
+impl Stage {
+    /// The split of the path `p` (effects applied). The gearbox damper keeps the path's loss
+    /// factor c/K; the second damper gets its own damping ratio over the two inertias.
+    fn new(p: &TruthPlant, three: &ThreeMass) -> Stage {
+        let share = three.gearbox_compliance_share;
+        let intermediate_inertia = three.inertia_fraction * p.load_inertia;
+        let load_inertia = p.load_inertia - intermediate_inertia;
+        let k2 = p.stiffness / (1.0 - share);
+        let reduced = intermediate_inertia * load_inertia / p.load_inertia;
+        Stage {
+            k1: p.stiffness / share,
+            c1: p.damping / share,
+            intermediate_inertia,
+            k2,
+            c2: 2.0 * three.second_damping_ratio * (k2 * reduced).sqrt(),
+            load_inertia,
+        }
+    }
+
+    /// A bound on the rates of the intermediate mass's motion: its mode with both sides held
+    /// and its dampers' relaxation.
+    fn fastest_rate(&self) -> f64 {
+        let j = self.intermediate_inertia;
+        ((self.k1 + self.k2) / j + self.k2 / self.load_inertia).sqrt()
+            + (self.c1 + self.c2) / j
+            + self.c2 / self.load_inertia
+    }
 }
 
 impl Actual {
@@ -393,6 +532,7 @@ impl Actual {
             unbalance: (0.0, 0.0),
             delay: 0.0,
             cogging: (0.0, 1.0, 0.0),
+            stage: None,
         };
         for effect in &config.effects {
             match *effect {
@@ -412,6 +552,7 @@ impl Actual {
                 Effect::Cogging { amplitude, period, phase } => a.cogging = (amplitude, period, phase),
             }
         }
+        a.stage = config.plant.three_mass.as_ref().map(|three| Stage::new(&a.p, three));
         a
     }
 
@@ -419,16 +560,25 @@ impl Actual {
     /// are rounded over a tenth of the width (a Hertz-like soft contact rather than the model's
     /// sharp dead zone). With no backlash it is the linear spring and damper.
     fn shaft_torque(&self, twist: f64, twist_rate: f64) -> f64 {
+        match &self.stage {
+            Some(stage) => self.contact_torque(stage.k1, stage.c1, twist, twist_rate),
+            None => self.contact_torque(self.p.stiffness, self.p.damping, twist, twist_rate),
+        }
+    }
+
+    /// The contact law of [`Actual::shaft_torque`] for a spring `stiffness` and damper
+    /// `damping`.
+    fn contact_torque(&self, stiffness: f64, damping: f64, twist: f64, twist_rate: f64) -> f64 {
         let h = 0.5 * self.backlash;
         if h <= 0.0 {
-            return self.p.stiffness * twist + self.p.damping * twist_rate;
+            return stiffness * twist + damping * twist_rate;
         }
         let eps = 0.1 * self.backlash;
         let r1 = ((twist - h).powi(2) + eps * eps).sqrt();
         let r2 = ((twist + h).powi(2) + eps * eps).sqrt();
         let deflection = 0.5 * (twist - h + r1) + 0.5 * (twist + h - r2);
         let contact = 0.5 * (1.0 + (twist - h) / r1) + 0.5 * (1.0 - (twist + h) / r2);
-        self.p.stiffness * deflection + self.p.damping * twist_rate * contact
+        stiffness * deflection + damping * twist_rate * contact
     }
 
     /// The fastest rate (1/s) of the friction dynamics at motor speed `v`: the bristle
@@ -442,7 +592,11 @@ impl Actual {
             (p.coulomb.min(p.static_friction) - self.asymmetry.abs()).max(1e-6 * p.static_friction.max(1.0));
         let motor = p.reflected_motor_inertia();
         let sigma1 = 2.0 * p.bristle_damping_ratio * (sigma0 * motor).sqrt();
-        sigma0 * v.abs() / lowest_level + sigma1 / motor + (sigma0 / motor).sqrt()
+        let friction = sigma0 * v.abs() / lowest_level + sigma1 / motor + (sigma0 / motor).sqrt();
+        match &self.stage {
+            Some(stage) => friction + stage.fastest_rate(),
+            None => friction,
+        }
     }
 
     /// LuGre friction (Canudas de Wit et al. 1995) with a Stribeck curve, velocity-dependent
@@ -462,20 +616,29 @@ impl Actual {
 }
 
 impl Actual {
-    /// The state derivative with the applied torque held, the shaft torque and the load
-    /// acceleration. State: motor angle, motor speed, load angle, load speed (axis side),
-    /// LuGre bristle z, actual current (whose derivative the caller sets).
-    fn derivative(&self, x: &[f64; 6], applied: f64) -> ([f64; 6], f64, f64) {
+    /// The state derivative with the applied torque held, the shaft torque (at the motor) and
+    /// the load acceleration. State: motor angle, motor speed, load angle, load speed (axis
+    /// side), LuGre bristle z, actual current (whose derivative the caller sets), and the
+    /// intermediate inertia's angle and speed (constant in a two-mass drive).
+    fn derivative(&self, x: &[f64; STATES], applied: f64) -> ([f64; STATES], f64, f64) {
         let two_pi = 2.0 * std::f64::consts::PI;
-        let twist = x[0] - x[2];
-        let shaft = self.shaft_torque(twist, x[1] - x[3]);
+        // The motor's spring ends at the intermediate inertia in a three-mass drive.
+        let (far, far_speed) = if self.stage.is_some() { (x[6], x[7]) } else { (x[2], x[3]) };
+        let twist = x[0] - far;
+        let shaft = self.shaft_torque(twist, x[1] - far_speed);
         let (friction, dz) = self.lugre(x[1], x[4]);
         let (amp, period, phase) = self.cogging;
         let cogging = if amp != 0.0 { amp * (two_pi * x[0] / period + phase).sin() } else { 0.0 };
         let unbalance = self.unbalance.0 * (x[2] + self.unbalance.1).cos();
         let motor_acc = (applied - shaft - friction - self.offset - cogging) / self.p.reflected_motor_inertia();
+        if let Some(stage) = &self.stage {
+            let second = stage.k2 * (x[6] - x[2]) + stage.c2 * (x[7] - x[3]);
+            let middle_acc = (shaft - second) / stage.intermediate_inertia;
+            let load_acc = (second - unbalance) / stage.load_inertia;
+            return ([x[1], motor_acc, x[3], load_acc, dz, 0.0, x[7], middle_acc], shaft, load_acc);
+        }
         let load_acc = (shaft - unbalance) / self.p.load_inertia;
-        ([x[1], motor_acc, x[3], load_acc, dz, 0.0], shaft, load_acc)
+        ([x[1], motor_acc, x[3], load_acc, dz, 0.0, 0.0, 0.0], shaft, load_acc)
     }
 }
 
@@ -566,6 +729,11 @@ struct Recorder {
     reference: Vec<f64>,
     motor: Vec<f64>,
     load: Vec<f64>,
+    /// The white noise drawn for each logged current and load reading, kept so that a skewed
+    /// reading carries the same noise as the unskewed one would.
+    current_noise: Vec<f64>,
+    current_2_noise: Vec<f64>,
+    load_noise: Vec<f64>,
     clean: CleanSignals,
 }
 
@@ -579,7 +747,47 @@ impl Recorder {
             reference: Vec::with_capacity(samples),
             motor: Vec::with_capacity(samples),
             load: Vec::with_capacity(samples),
+            current_noise: Vec::with_capacity(samples),
+            current_2_noise: Vec::new(),
+            load_noise: Vec::with_capacity(samples),
             clean: CleanSignals { fine_dt, ..Default::default() },
+        }
+    }
+
+    /// The noise-free truth at a log instant: state `x` with the `applied` torque.
+    fn push_clean(&mut self, x: &[f64; STATES], applied: f64, actual: &Actual) {
+        let (_, shaft, load_acc) = actual.derivative(x, applied);
+        let clean = &mut self.clean;
+        clean.motor_pos.push(x[0]);
+        clean.motor_vel.push(x[1]);
+        clean.load_pos.push(x[2]);
+        clean.load_vel.push(x[3]);
+        clean.load_acc.push(load_acc);
+        clean.applied_torque.push(applied);
+        clean.shaft_torque.push(shaft);
+    }
+
+    /// Reads the load encoder and the currents again at the instants their skews shift them
+    /// to, from the true signals at the internal rate (not from the log), with the noise each
+    /// row drew.
+    fn read_skewed(&mut self, fine: &FineTrace, sensors: &Sensors, config: &TruthConfig, motors: usize) {
+        let dt = self.clean.fine_dt;
+        let (load_skew, current_skew) = (config.noise.load_encoder_skew, config.noise.current_skew);
+        let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
+        for (row, &t) in self.time.iter().enumerate() {
+            if load_skew != 0.0 {
+                let q = sensors::sample_linear(&fine.load, dt, t + load_skew);
+                self.load[row] = sensors.load(q, self.load_noise[row]);
+            }
+            if current_skew != 0.0 {
+                let at = t + current_skew;
+                let actual = sensors::sample_linear(&fine.current, dt, at);
+                let command = sensors::sample_held(&fine.command, dt, at);
+                self.current[row] = sensors.current(actual, command, motors, bias, self.current_noise[row]);
+                if motors == 2 {
+                    self.current_2[row] = sensors.current(actual, command, motors, -bias, self.current_2_noise[row]);
+                }
+            }
         }
     }
 
@@ -649,8 +857,8 @@ impl CurrentHistory {
 /// internal rate: the step is cut into as many RK4 substeps as keep the fastest rate times the
 /// substep at or below one (accurate, and well inside RK4's stability limit of 2.8), so stiff
 /// bristles cost time only while the motor slides fast.
-fn rk4_step(x: &mut [f64; 6], applied: f64, i_cmd: f64, tau_current: f64, h: f64, actual: &Actual) {
-    let f = |s: &[f64; 6]| {
+fn rk4_step(x: &mut [f64; STATES], applied: f64, i_cmd: f64, tau_current: f64, h: f64, actual: &Actual) {
+    let f = |s: &[f64; STATES]| {
         let (mut d, _, _) = actual.derivative(s, applied);
         d[5] = (i_cmd - s[5]) / tau_current;
         d
@@ -662,7 +870,7 @@ fn rk4_step(x: &mut [f64; 6], applied: f64, i_cmd: f64, tau_current: f64, h: f64
         let k2 = f(&add(x, &k1, 0.5 * hs));
         let k3 = f(&add(x, &k2, 0.5 * hs));
         let k4 = f(&add(x, &k3, hs));
-        for i in 0..6 {
+        for i in 0..STATES {
             x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
     }
@@ -686,45 +894,47 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     let tc = control_every as f64 * h;
     let (n_ratio, kt) = (config.plant.gear_ratio, config.plant.torque_constant);
     let two_pi = 2.0 * std::f64::consts::PI;
-    let load_step = two_pi / config.noise.load_encoder_counts;
-    let motor_step = two_pi / (config.noise.motor_encoder_counts * n_ratio);
-    let quantise = |x: f64, step: f64| (x / step).round() * step;
+    let sensors = Sensors::new(config);
     let tau_current = 1.0 / (two_pi * config.current_bandwidth);
 
     // State: motor angle, motor speed, load angle, load speed (axis side), LuGre bristle z,
-    // actual current. Start at rest in equilibrium with gravity through the shaft.
+    // actual current, intermediate angle and speed. Start at rest in equilibrium with gravity
+    // through the path.
     let start = trajectory.position(0.0);
-    let mut x = [start, 0.0, start, 0.0, 0.0, 0.0];
+    let mut x = [start, 0.0, start, 0.0, 0.0, 0.0, 0.0, 0.0];
     let unbalance0 = actual.unbalance.0 * (start + actual.unbalance.1).cos();
     x[0] += unbalance0 / actual.p.stiffness.max(1.0);
-    let mut controller = Controller::new(config, tc, unbalance0, quantise(x[0], motor_step));
+    if let Some(stage) = &actual.stage {
+        x[6] = start + unbalance0 / stage.k2.max(1.0);
+    }
+    let mut controller = Controller::new(config, tc, unbalance0, sensors.motor(x[0]));
     x[5] = controller.i_cmd;
     let mut history = CurrentHistory::new(actual.delay / h, controller.i_cmd);
     let mut record = Recorder::new(steps / log_every + 1, motors, h);
+    // The true signals at every internal step, only when a skewed reading needs them.
+    let skewed = config.noise.load_encoder_skew != 0.0 || config.noise.current_skew != 0.0;
+    let mut fine = skewed.then(|| FineTrace::with_capacity(steps + 1));
 
     for step in 0..=steps {
         let t = step as f64 * h;
         if step % control_every == 0 {
-            let load_meas = quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step);
-            let motor_meas = quantise(x[0], motor_step);
+            let load_meas = sensors.load(x[2], config.noise.load_encoder_sigma * unit_normal.sample(&mut rng));
+            let motor_meas = sensors.motor(x[0]);
             controller.sample(t, load_meas, motor_meas, &trajectory, unit_normal.sample(&mut rng));
         }
+        if let Some(fine) = &mut fine {
+            fine.push(x[2], x[5], controller.i_cmd);
+        }
         if step % log_every == 0 {
-            let share = x[5] / motors as f64;
             let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
-            let noisy = share + bias + config.noise.current_sigma * unit_normal.sample(&mut rng);
-            let measured_current = match config.noise.current_log {
-                CurrentLog::Measured => quantise(noisy, config.noise.current_step),
-                CurrentLog::Command => quantise(controller.i_cmd / motors as f64 + bias, config.noise.current_step),
-            };
+            let noise = config.noise.current_sigma * unit_normal.sample(&mut rng);
             record.time.push(t);
-            record.current.push(measured_current);
+            record.current.push(sensors.current(x[5], controller.i_cmd, motors, bias, noise));
+            record.current_noise.push(noise);
             if motors == 2 {
-                let noisy = share - bias + config.noise.current_sigma * unit_normal.sample(&mut sensor_rng);
-                record.current_2.push(match config.noise.current_log {
-                    CurrentLog::Measured => quantise(noisy, config.noise.current_step),
-                    CurrentLog::Command => quantise(controller.i_cmd / 2.0 - bias, config.noise.current_step),
-                });
+                let noise = config.noise.current_sigma * unit_normal.sample(&mut sensor_rng);
+                record.current_2.push(sensors.current(x[5], controller.i_cmd, motors, -bias, noise));
+                record.current_2_noise.push(noise);
             }
             if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
                 for speeds in record.speeds.iter_mut() {
@@ -736,20 +946,12 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
                 }
             }
             record.reference.push(trajectory.position(t));
-            record.motor.push(quantise(x[0], motor_step));
-            record
-                .load
-                .push(quantise(x[2] + config.noise.load_encoder_sigma * unit_normal.sample(&mut rng), load_step));
+            record.motor.push(sensors.motor(x[0]));
+            let noise = config.noise.load_encoder_sigma * unit_normal.sample(&mut rng);
+            record.load.push(sensors.load(x[2], noise));
+            record.load_noise.push(noise);
             let applied = history.applied(actual.k_scale * n_ratio * kt);
-            let (_, shaft, load_acc) = actual.derivative(&x, applied);
-            let clean = &mut record.clean;
-            clean.motor_pos.push(x[0]);
-            clean.motor_vel.push(x[1]);
-            clean.load_pos.push(x[2]);
-            clean.load_vel.push(x[3]);
-            clean.load_acc.push(load_acc);
-            clean.applied_torque.push(applied);
-            clean.shaft_torque.push(shaft);
+            record.push_clean(&x, applied, &actual);
         }
         if step == steps {
             break;
@@ -761,7 +963,91 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
         rk4_step(&mut x, applied, controller.i_cmd, tau_current, h, &actual);
         history.push(x[5]);
     }
+    if let Some(fine) = &fine {
+        record.read_skewed(fine, &sensors, config, motors);
+    }
+    if let MotorSensor::Speed(sensor) = &config.noise.motor_sensor {
+        if sensor.drift > 0.0 {
+            for (column, speeds) in record.speeds.iter_mut().enumerate() {
+                let drift = sensors::random_walk_drift(speeds.len(), sensor.drift, config.seed, column as u64);
+                speeds.iter_mut().zip(drift).for_each(|(speed, d)| *speed += d);
+            }
+        }
+    }
     record.into_run(config, motors)
+}
+
+/// How the log's sensors read the true signals: quantisation steps, the load encoder's error
+/// harmonics and the current's form.
+struct Sensors {
+    load_step: f64,
+    motor_step: f64,
+    current_step: f64,
+    current_log: CurrentLog,
+    encoder_terms: Vec<Harmonic>,
+}
+
+/// `x` rounded to the nearest multiple of `step`.
+fn quantise(x: f64, step: f64) -> f64 {
+    (x / step).round() * step
+}
+
+impl Sensors {
+    fn new(config: &TruthConfig) -> Sensors {
+        let two_pi = 2.0 * std::f64::consts::PI;
+        Sensors {
+            load_step: two_pi / config.noise.load_encoder_counts,
+            motor_step: two_pi / (config.noise.motor_encoder_counts * config.plant.gear_ratio),
+            current_step: config.noise.current_step,
+            current_log: config.noise.current_log,
+            encoder_terms: config.noise.load_encoder_error.terms(config.seed),
+        }
+    }
+
+    /// The load encoder's reading of the true load angle `q` with the white `noise` (rad).
+    fn load(&self, q: f64, noise: f64) -> f64 {
+        // Without an error the sum is left out, so the default logs keep every bit.
+        let read = if self.encoder_terms.is_empty() { q } else { q + sensors::encoder_error(&self.encoder_terms, q) };
+        quantise(read + noise, self.load_step)
+    }
+
+    /// The motor encoder's reading of the motor angle (axis side).
+    fn motor(&self, q: f64) -> f64 {
+        quantise(q, self.motor_step)
+    }
+
+    /// One motor's logged current: its share of the `actual` current with `bias` and `noise`,
+    /// or its share of the `command` with the bias.
+    fn current(&self, actual: f64, command: f64, motors: usize, bias: f64, noise: f64) -> f64 {
+        match self.current_log {
+            CurrentLog::Measured => quantise(actual / motors as f64 + bias + noise, self.current_step),
+            CurrentLog::Command => quantise(command / motors as f64 + bias, self.current_step),
+        }
+    }
+}
+
+/// The true load angle, actual current and current command at every internal step, for
+/// readings at instants skewed against the log's time stamps.
+struct FineTrace {
+    load: Vec<f64>,
+    current: Vec<f64>,
+    command: Vec<f64>,
+}
+
+impl FineTrace {
+    fn with_capacity(samples: usize) -> FineTrace {
+        FineTrace {
+            load: Vec::with_capacity(samples),
+            current: Vec::with_capacity(samples),
+            command: Vec::with_capacity(samples),
+        }
+    }
+
+    fn push(&mut self, load: f64, current: f64, command: f64) {
+        self.load.push(load);
+        self.current.push(current);
+        self.command.push(command);
+    }
 }
 
 /// The applied torque now: the actual current `delay_steps` internal steps ago (interpolated),
@@ -774,9 +1060,13 @@ fn applied_torque(history: &[f64], head: usize, delay_steps: f64, gain: f64) -> 
     gain * ((1.0 - frac) * at(whole) + frac * at(whole + 1))
 }
 
-fn add(x: &[f64; 6], k: &[f64; 6], h: f64) -> [f64; 6] {
+/// The length of the state vector: the two-mass drive's six and the intermediate inertia's
+/// angle and speed.
+const STATES: usize = 8;
+
+fn add(x: &[f64; STATES], k: &[f64; STATES], h: f64) -> [f64; STATES] {
     let mut out = *x;
-    for i in 0..6 {
+    for i in 0..STATES {
         out[i] += h * k[i];
     }
     out
@@ -822,6 +1112,50 @@ impl TruthConfig {
             set.set(names::CURRENT_LOOP_BANDWIDTH, self.current_bandwidth);
         }
         set
+    }
+
+    /// The log's hidden conditions beyond its effects, for the `.truth` sidecar: every
+    /// option that is on and that the parameter set has no name for (the load encoder's
+    /// error harmonics, skews, a drifting speed signal, the cogging's cycles per motor
+    /// revolution, a three-mass drive). Empty with every such option off, so the default
+    /// sidecars are what they were.
+    pub fn hidden_conditions(&self) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let mut put = |key: &str, value: String| out.push((key.to_string(), value));
+        let noise = &self.noise;
+        if noise.load_encoder_error.is_on() {
+            put("load_encoder_error_rms", format!("{:e}", noise.load_encoder_error.rms));
+            let terms = noise.load_encoder_error.terms(self.seed);
+            let listed: Vec<String> =
+                terms.iter().map(|t| format!("{}:{:e}:{:e}", t.order, t.amplitude, t.phase)).collect();
+            put("load_encoder_harmonics", listed.join(" "));
+        }
+        if noise.load_encoder_skew != 0.0 {
+            put("load_encoder_skew", format!("{:e}", noise.load_encoder_skew));
+        }
+        if noise.current_skew != 0.0 {
+            put("current_skew", format!("{:e}", noise.current_skew));
+        }
+        if let MotorSensor::Speed(sensor) = &noise.motor_sensor {
+            if sensor.drift > 0.0 {
+                put("tacho_drift", format!("{:e}", sensor.drift));
+                put("tacho_bias", format!("{:e}", sensor.bias));
+                put("tacho_scale_error", format!("{:e}", sensor.scale_error));
+            }
+        }
+        if let (Some(k), Some(period)) = (self.plant.cogging_per_motor_rev, self.plant.cogging_period()) {
+            put("cogging_per_motor_rev", k.to_string());
+            put("cogging_period", format!("{period:e}"));
+        }
+        if let Some(three) = &self.plant.three_mass {
+            put("three_mass_inertia_fraction", format!("{:e}", three.inertia_fraction));
+            put("three_mass_gearbox_compliance_share", format!("{:e}", three.gearbox_compliance_share));
+            put("three_mass_second_mode_hz", format!("{:e}", three.second_mode(&self.plant)));
+        }
+        if self.controller_rate != TruthConfig::default().controller_rate {
+            put("controller_rate", format!("{:e}", self.controller_rate));
+        }
+        out
     }
 }
 
@@ -958,6 +1292,193 @@ mod tests {
         assert!(stiff_motor < 1e-7 && stiff_twist < 1e-7);
         let quiet = Actual::new(&short(vec![]));
         assert!(quiet.fastest_rate(0.03) * 5e-5 > 10.0, "the default bristles must need substeps at full speed");
+    }
+
+    /// FNV-1a, a hash whose value no library or compiler version changes.
+    fn fnv1a(bytes: &[u8]) -> u64 {
+        bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3))
+    }
+
+    #[test]
+    fn the_default_log_is_bit_for_bit_that_of_the_generator_before_the_options() {
+        // The hash and length of `truthgen one --seed 7 --duration 2` written by the generator
+        // of commit 8df7695, before the encoder error, skews, drift, pole cogging and three
+        // masses existed.
+        let config = TruthConfig { duration: 2.0, seed: 7, ..TruthConfig::default() };
+        let text = simulate(&config).log.to_csv(config.log_units());
+        assert_eq!((fnv1a(text.as_bytes()), text.len()), (0x7e0b_526e_1d77_cbd8, 76479));
+        assert!(config.hidden_conditions().is_empty());
+    }
+
+    /// A run without load-encoder noise and with a fine count, so what the log adds to the
+    /// load angle is the encoder error alone.
+    fn exact_load_encoder(duration: f64) -> TruthConfig {
+        let mut config = TruthConfig { duration, ..TruthConfig::default() };
+        config.noise.load_encoder_sigma = 0.0;
+        config.noise.load_encoder_counts = 2f64.powi(40);
+        config
+    }
+
+    #[test]
+    fn the_load_encoder_error_is_in_the_logged_load_position_with_its_rms() {
+        let mut config = exact_load_encoder(8.0);
+        let rms_asked = 3.0_f64.to_radians() / 3600.0;
+        config.noise.load_encoder_error = EncoderError { rms: rms_asked, ..EncoderError::default() };
+        let run = simulate(&config);
+        let logged = run.log.signal(Signal::LoadPos).unwrap();
+        let terms = config.noise.load_encoder_error.terms(config.seed);
+        assert!((sensors::harmonics_rms(&terms) / rms_asked - 1.0).abs() < 1e-12);
+        let error: Vec<f64> = logged.iter().zip(&run.clean.load_pos).map(|(m, q)| m - q).collect();
+        let miss: Vec<f64> =
+            error.iter().zip(&run.clean.load_pos).map(|(e, q)| e - sensors::encoder_error(&terms, *q)).collect();
+        // The logged error is the harmonics' sum at the true angle, up to the fine count.
+        assert!(rms(&miss) < 1e-3 * rms(&error), "miss {:e} of {:e}", rms(&miss), rms(&error));
+        // Over the log's part of a revolution the low orders need not average to the RMS of a
+        // whole one, but the size is the asked one's.
+        assert!(rms(&error) > 0.3 * rms_asked && rms(&error) < 2.0 * rms_asked, "{:e}", rms(&error));
+    }
+
+    /// The lag (log samples, within +-`span`) at which the first differences of `a` and `b`
+    /// correlate best: `a[k]` is most like `b[k + lag]`.
+    fn best_lag(a: &[f64], b: &[f64], span: i64) -> i64 {
+        let (da, db): (Vec<f64>, Vec<f64>) =
+            (a.windows(2).map(|w| w[1] - w[0]).collect(), b.windows(2).map(|w| w[1] - w[0]).collect());
+        let n = da.len() as i64;
+        let correlation =
+            |lag: i64| -> f64 { (span..n - span).map(|k| da[k as usize] * db[(k + lag) as usize]).sum::<f64>() };
+        (-span..=span).max_by(|x, y| correlation(*x).total_cmp(&correlation(*y))).unwrap()
+    }
+
+    #[test]
+    fn a_load_encoder_skew_reads_the_load_angle_that_much_later() {
+        let plain = exact_load_encoder(4.0);
+        let mut skewed = plain.clone();
+        skewed.noise.load_encoder_skew = 0.006;
+        let (a, b) = (simulate(&plain), simulate(&skewed));
+        let (a_load, b_load) = (a.log.signal(Signal::LoadPos).unwrap(), b.log.signal(Signal::LoadPos).unwrap());
+        // Six milliseconds are three rows at 500 Hz: row k of the skewed log is row k + 3 of
+        // the plain one (up to the fine count, the interpolation between internal steps).
+        let worst = (0..a_load.len() - 3).map(|k| (b_load[k] - a_load[k + 3]).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-9, "{worst:e}");
+        // The position is smooth: its acceleration (the differences of its differences)
+        // carries the noise injection's sharp structure.
+        let speed = |x: &[f64]| -> Vec<f64> { x.windows(2).map(|w| w[1] - w[0]).collect() };
+        assert_eq!(best_lag(&speed(b_load), &speed(&a.clean.load_pos), 8), 3);
+        // The motion and the other columns are those of the plain run.
+        assert_eq!(a.log.signal(Signal::MotorPos), b.log.signal(Signal::MotorPos));
+        assert_eq!(a.log.signal(Signal::MotorCurrent), b.log.signal(Signal::MotorCurrent));
+        assert_eq!(a.clean.load_pos, b.clean.load_pos);
+    }
+
+    #[test]
+    fn a_current_skew_moves_the_cross_correlation_peak_by_its_time() {
+        // With the suite's current noise, against the true applied torque (no delay effect,
+        // so the torque is the actual current times the gear and the torque constant).
+        for (skew, lag) in [(0.004, 2), (-0.006, -3), (0.0, 0)] {
+            let mut config = TruthConfig { duration: 6.0, ..TruthConfig::default() };
+            config.noise.current_skew = skew;
+            let run = simulate(&config);
+            let current = run.log.signal(Signal::MotorCurrent).unwrap();
+            assert_eq!(best_lag(current, &run.clean.applied_torque, 8), lag, "skew {skew}");
+        }
+    }
+
+    #[test]
+    fn a_drifting_tacho_adds_a_slow_bias_with_the_asked_rms() {
+        let mut plain = TruthConfig { duration: 6.0, ..TruthConfig::default() };
+        plain.noise.motor_sensor = MotorSensor::Speed(SpeedSensor::default());
+        let mut drifting = plain.clone();
+        let asked = 3.0e-6;
+        drifting.noise.motor_sensor = MotorSensor::Speed(SpeedSensor { drift: asked, ..SpeedSensor::default() });
+        let (a, b) = (simulate(&plain), simulate(&drifting));
+        let (a_speed, b_speed) = (a.log.signal(Signal::MotorVel).unwrap(), b.log.signal(Signal::MotorVel).unwrap());
+        let drift: Vec<f64> = b_speed.iter().zip(a_speed).map(|(b, a)| b - a).collect();
+        assert!((rms(&drift) / asked - 1.0).abs() < 1e-6, "{:e}", rms(&drift));
+        // Slow: successive samples differ by a small part of the drift's size.
+        let steps: Vec<f64> = drift.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(rms(&steps) < 0.1 * asked);
+        assert_eq!(a.log.signal(Signal::LoadPos), b.log.signal(Signal::LoadPos));
+        assert_eq!(b.clean.motor_vel, a.clean.motor_vel);
+    }
+
+    #[test]
+    fn the_cogging_period_is_two_pi_over_the_gear_ratio_times_the_cycles_per_motor_rev() {
+        let mut config = TruthConfig { duration: 2.0, ..TruthConfig::default() };
+        assert_eq!(config.plant.cogging_period(), None);
+        config.plant.cogging_per_motor_rev = Some(5);
+        let expected = 2.0 * std::f64::consts::PI / (1200.0 * 5.0);
+        assert_eq!(config.plant.cogging_period(), Some(expected));
+        let clean = simulate(&config).clean;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+        let Ok(Effect::Cogging { period, .. }) = suite::sized_effect("cogging", 10.0, &clean, &config, &mut rng) else {
+            panic!("no cogging")
+        };
+        assert_eq!(period, expected);
+        // The hidden logs' drive: 5 cycles per motor revolution on a 9000:1 gear.
+        config.plant.gear_ratio = 9000.0;
+        assert!((config.plant.cogging_period().unwrap() - 1.396e-4).abs() < 1e-7);
+        let conditions = config.hidden_conditions();
+        assert!(conditions.contains(&("cogging_per_motor_rev".to_string(), "5".to_string())));
+    }
+
+    #[test]
+    fn a_three_mass_drive_with_a_rigid_second_compliance_is_the_two_mass_drive() {
+        let two = TruthConfig { duration: 8.0, ..TruthConfig::default() };
+        let with = |share: f64| {
+            let mut config = two.clone();
+            config.plant.three_mass =
+                Some(ThreeMass { inertia_fraction: 0.2, gearbox_compliance_share: share, second_damping_ratio: 0.04 });
+            simulate(&config).clean
+        };
+        let reference = simulate(&two).clean;
+        let worst = |c: &CleanSignals| {
+            (0..c.load_pos.len())
+                .map(|i| {
+                    (c.load_pos[i] - reference.load_pos[i]).abs().max((c.motor_pos[i] - reference.motor_pos[i]).abs())
+                })
+                .fold(0.0, f64::max)
+        };
+        // A second compliance 1e5 times stiffer than the path: the intermediate inertia moves
+        // with the load, and the drive is the two-mass one to well below the encoder noise.
+        let rigid = worst(&with(1.0 - 1e-5));
+        assert!(rigid < 1e-8, "{rigid:e} rad");
+        // A real second mode (30 Hz) moves the drive by more than that.
+        let three = ThreeMass::with_second_mode(&two.plant, 0.2, 30.0).unwrap();
+        assert!((three.second_mode(&two.plant) - 30.0).abs() < 1e-9);
+        let soft = worst(&with(three.gearbox_compliance_share));
+        assert!(soft > 100.0 * rigid.max(1e-12), "{soft:e} rad");
+        assert!(ThreeMass::with_second_mode(&two.plant, 0.2, 10.0).is_err());
+    }
+
+    #[test]
+    fn two_khz_logs_hold_a_row_per_controller_sample() {
+        let config = TruthConfig { duration: 1.0, log_rate: 2000.0, ..TruthConfig::default() };
+        let run = simulate(&config);
+        assert_eq!(run.log.time.len(), 2001);
+        assert!(run.log.time.windows(2).all(|w| (w[1] - w[0] - 5e-4).abs() < 1e-12));
+        let current = run.log.signal(Signal::MotorCurrent).unwrap();
+        assert_eq!(current.len(), 2001);
+        assert!(current.iter().all(|c| c.is_finite()));
+    }
+
+    #[test]
+    fn a_noiseless_current_at_2_khz_takes_a_sub_millisecond_delay() {
+        let mut config = TruthConfig { duration: 6.0, log_rate: 2000.0, ..TruthConfig::default() };
+        config.noise.current_sigma = 0.0;
+        config.noise.size_current_sigma = Some(0.0125);
+        let clean = simulate(&config).clean;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let Ok(Effect::Delay(delay)) = suite::sized_effect("delay", 1.0, &clean, &config, &mut rng) else {
+            panic!("no delay")
+        };
+        // Once the suite's current noise is a delay of a few tenths of a millisecond.
+        assert!(delay > 1e-4 && delay < 8e-4, "{delay:e} s");
+        config.effects = vec![Effect::Delay(delay)];
+        let run = simulate(&config);
+        let current = run.log.signal(Signal::MotorCurrent).unwrap();
+        // No noise: every logged current is a whole number of 1 mA steps.
+        assert!(current.iter().all(|c| ((c / 1e-3) - (c / 1e-3).round()).abs() < 1e-6));
+        assert!(run.clean.applied_torque.iter().zip(&clean.applied_torque).any(|(a, b)| a != b));
     }
 
     #[test]

@@ -798,6 +798,7 @@ mod tests {
             torque_sigma: 1.0,
             twist_sigma: 1.0,
             sample_interval: 0.002,
+            conditions: Default::default(),
         };
         let results: Vec<CaseResult> = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0]
             .iter()
@@ -847,6 +848,7 @@ mod tests {
                 torque_sigma: 1.0,
                 twist_sigma: 1.0,
                 sample_interval: 0.002,
+                conditions: Default::default(),
             },
             found: Vec::new(),
             parameters: Vec::new(),

@@ -7,7 +7,9 @@
 //! the same thing for every effect. Each log gets an opaque name and a sidecar `.truth` file
 //! for scoring; the log itself declares nothing.
 
-use super::{simulate, CleanSignals, CurrentLog, Effect, MotorSensor, SpeedSensor, TruthConfig};
+use super::{
+    simulate, CleanSignals, CurrentLog, Effect, EncoderError, MotorSensor, SpeedSensor, ThreeMass, TruthConfig,
+};
 use antenna_validate::parameters::ParameterError;
 use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
@@ -202,6 +204,67 @@ pub fn holdout_suites() -> Vec<(&'static str, &'static str, SuiteConfig)> {
             holdout(vec![23, 24], (205..=208).collect(), 250.0, 0.5, 2.5, 1.2e5),
         ),
     ]
+    .into_iter()
+    .chain(hidden_log_suites())
+    .collect()
+}
+
+/// The holdout suites with what hidden logs from another generator had: a load encoder with
+/// graduation and eccentricity error, skewed signals, a drifting tacho, cogging at the motor's
+/// pole period, a three-mass drive, and 2 kHz logs of a noiseless current. (name, what
+/// differs, suite)
+fn hidden_log_suites() -> Vec<(&'static str, &'static str, SuiteConfig)> {
+    let variant = |seeds: Vec<u64>, clean_seeds: Vec<u64>, change: &dyn Fn(&mut TruthConfig)| {
+        let mut base = TruthConfig::default();
+        change(&mut base);
+        SuiteConfig { sizes: vec![10.0, 20.0], seeds, clean_seeds, pairs: Vec::new(), base, ..SuiteConfig::default() }
+    };
+    let suite_current_sigma = TruthConfig::default().noise.current_sigma;
+    vec![
+        (
+            "load-encoder-error",
+            "a load encoder with 1 arcsec RMS of eccentricity and graduation error (harmonics 1, 2, 4, 8, 16 and 36 per revolution), which the controller reads too",
+            variant(vec![39, 40], (237..=240).collect(), &|base| {
+                base.noise.load_encoder_error = EncoderError { rms: 1f64.to_radians() / 3600.0, ..EncoderError::default() };
+            }),
+        ),
+        (
+            "skews",
+            "the load encoder read 1 ms after the motor encoder and the current 0.5 ms before the encoders",
+            variant(vec![41, 42], (241..=244).collect(), &|base| {
+                base.noise.load_encoder_skew = 1.0e-3;
+                base.noise.current_skew = -0.5e-3;
+            }),
+        ),
+        (
+            "drifting-tacho",
+            "a motor speed signal instead of the motor encoder whose bias drifts as a random walk of 1e-6 rad/s RMS (half its white noise); one motor",
+            variant(vec![43, 44], (245..=248).collect(), &|base| {
+                base.noise.motor_sensor = MotorSensor::Speed(SpeedSensor { drift: 1.0e-6, ..SpeedSensor::default() });
+            }),
+        ),
+        (
+            "motor-pole-cogging",
+            "cogging at 5 cycles per motor revolution, a period of 2 pi/(1200 x 5) = 1.05e-3 rad (0.06 deg) at the axis instead of one between 0.2 and 2 deg",
+            variant(vec![45, 46], (249..=252).collect(), &|base| base.plant.cogging_per_motor_rev = Some(5)),
+        ),
+        (
+            "three-mass",
+            "a three-mass drive: a fifth of the load inertia between the gearbox compliance and a second one, with its own mode at 30 Hz; the two in series are the suite's path",
+            variant(vec![47, 48], (253..=256).collect(), &|base| {
+                base.plant.three_mass = ThreeMass::with_second_mode(&base.plant, 0.2, 30.0).ok();
+            }),
+        ),
+        (
+            "2khz-noiseless-current",
+            "logged at 2 kHz, the controller's rate, with a current sensor without noise (rounded to 1 mA); sizes against the suite's current noise",
+            variant(vec![49, 50], (257..=260).collect(), &|base| {
+                base.log_rate = 2000.0;
+                base.noise.current_sigma = 0.0;
+                base.noise.size_current_sigma = Some(suite_current_sigma);
+            }),
+        ),
+    ]
 }
 
 /// The hidden truth of one generated log.
@@ -215,6 +278,10 @@ pub struct CaseTruth {
     pub torque_sigma: f64,
     pub twist_sigma: f64,
     pub sample_interval: f64,
+    /// The log's hidden conditions beyond its effects (`TruthConfig::hidden_conditions`:
+    /// encoder error, skews, tacho drift, cogging per motor revolution, three masses), by key;
+    /// empty for the suite's own logs.
+    pub conditions: BTreeMap<String, String>,
 }
 
 /// Sizes an effect of `kind` so that it adds `ratio` times the channel noise, from a clean run.
@@ -305,7 +372,12 @@ pub fn sized_effect(
             Effect::TorqueConstantScale(1.0 / (1.0 + s * relative))
         }
         "cogging" => {
-            let period = rng.random_range(0.2f64.ln()..2f64.ln()).exp().to_radians();
+            // The motor's poles set the period when the plant says how many cycles a motor
+            // revolution has; otherwise it is drawn between 0.2 and 2 deg at the axis.
+            let period = match plant.cogging_period() {
+                Some(period) => period,
+                None => rng.random_range(0.2f64.ln()..2f64.ln()).exp().to_radians(),
+            };
             let phase = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
             Effect::Cogging { amplitude: target * std::f64::consts::SQRT_2, period, phase }
         }
@@ -352,6 +424,7 @@ pub fn generate_case(
         torque_sigma: config.noise.size_torque_sigma(&config.plant),
         twist_sigma: config.noise.twist_sigma(&config.plant),
         sample_interval: 1.0 / config.log_rate,
+        conditions: config.hidden_conditions().into_iter().collect(),
     };
     Ok((text, truth))
 }
@@ -519,6 +592,9 @@ pub fn truth_text(truth: &CaseTruth) -> String {
             values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(" ")
         );
     }
+    for (key, value) in &truth.conditions {
+        let _ = writeln!(out, "condition.{key} = {value}");
+    }
     out
 }
 
@@ -575,6 +651,10 @@ pub fn parse_truth(text: &str) -> Result<CaseTruth, SuiteError> {
         torque_sigma: num("torque_sigma")?,
         twist_sigma: num("twist_sigma")?,
         sample_interval: num("sample_interval")?,
+        conditions: map
+            .iter()
+            .filter_map(|(k, v)| k.strip_prefix("condition.").map(|key| (key.to_string(), v.clone())))
+            .collect(),
     })
 }
 
@@ -594,6 +674,7 @@ mod tests {
             torque_sigma: 30.0,
             twist_sigma: 1e-7,
             sample_interval: 0.002,
+            conditions: [("cogging_per_motor_rev".to_string(), "5".to_string())].into_iter().collect(),
         };
         assert_eq!(parse_truth(&truth_text(&truth)).unwrap(), truth);
     }
@@ -636,11 +717,16 @@ mod tests {
                 || h.noise.load_encoder_counts != m.noise.load_encoder_counts
                 || h.noise.current_log != m.noise.current_log
                 || h.noise.current_sigma != m.noise.current_sigma
+                || h.noise.load_encoder_error != m.noise.load_encoder_error
+                || h.noise.load_encoder_skew != m.noise.load_encoder_skew
+                || h.noise.current_skew != m.noise.current_skew
                 || h.linear != m.linear;
+            let other_physics = h.plant.cogging_per_motor_rev != m.plant.cogging_per_motor_rev
+                || h.plant.three_mass != m.plant.three_mass;
             let other_motion = h.trajectory.max_position - h.trajectory.min_position
                 != m.trajectory.max_position - m.trajectory.min_position;
             assert!(
-                other_log && other_drive || other_sensors || other_motion,
+                other_log && other_drive || other_sensors || other_motion || other_physics,
                 "{name}: the same log rate, noise, drive, sensors and motion as the main suite"
             );
             // Every effect kind, except an unbalance where the suite is about its absence or
@@ -649,5 +735,39 @@ mod tests {
                 EFFECT_KINDS.iter().copied().filter(|k| !((other_motion || h.linear) && *k == "unbalance")).collect();
             assert_eq!(holdout.kinds, expected, "{name}: every effect kind");
         }
+    }
+
+    #[test]
+    fn holdout_suites_share_no_seed_with_each_other() {
+        let suites = holdout_suites();
+        let mut seen = std::collections::BTreeSet::new();
+        for (name, _, suite) in &suites {
+            for seed in suite.seeds.iter().chain(&suite.clean_seeds) {
+                assert!(seen.insert(*seed), "{name} reuses seed {seed}");
+            }
+        }
+        let names: Vec<&str> = suites.iter().map(|s| s.0).collect();
+        for name in [
+            "load-encoder-error",
+            "skews",
+            "drifting-tacho",
+            "motor-pole-cogging",
+            "three-mass",
+            "2khz-noiseless-current",
+        ] {
+            assert!(names.contains(&name), "{name}");
+        }
+        // Each hidden-log suite has its option on and the options it is not about off.
+        let base = |name: &str| suites.iter().find(|s| s.0 == name).map(|s| s.2.base.clone()).unwrap();
+        assert!(base("load-encoder-error").noise.load_encoder_error.is_on());
+        assert!(base("skews").noise.load_encoder_skew > 0.0 && base("skews").noise.current_skew < 0.0);
+        assert!(
+            matches!(base("drifting-tacho").noise.motor_sensor, MotorSensor::Speed(SpeedSensor { drift, .. }) if drift > 0.0)
+        );
+        assert_eq!(base("motor-pole-cogging").plant.cogging_per_motor_rev, Some(5));
+        assert!(base("three-mass").plant.three_mass.is_some());
+        let fast = base("2khz-noiseless-current");
+        assert!(fast.log_rate == 2000.0 && fast.noise.current_sigma == 0.0 && fast.noise.size_current_sigma.is_some());
+        assert!(!base("three-mass").noise.load_encoder_error.is_on() && base("skews").plant.three_mass.is_none());
     }
 }

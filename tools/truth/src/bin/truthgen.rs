@@ -6,7 +6,7 @@
 //! that channel's sensor noise. Exit codes: 0 ok, 2 bad usage or bad input.
 
 use antenna_truth::suite::{self, SuiteConfig};
-use antenna_truth::{CurrentLog, MotorSensor, SpeedSensor, TruthConfig};
+use antenna_truth::{CurrentLog, MotorSensor, SpeedSensor, ThreeMass, TruthConfig};
 use anyhow::{bail, Context};
 use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::collections::BTreeMap;
@@ -127,6 +127,50 @@ struct TruthArgs {
     /// The trajectory's stroke: from 40 deg over this many degrees (default 15 to 85 deg).
     #[arg(long, value_name = "DEG")]
     stroke: Option<f64>,
+    /// The controller's sample rate (default 2 kHz); the log rate may not exceed it and the
+    /// internal rate must be at least it.
+    #[arg(long, value_name = "HZ")]
+    controller_rate: Option<f64>,
+    /// Effect sizes measured against this current noise (A) instead of the log's own (with
+    /// --current-noise or --current-command: the suite's 0.0125 A).
+    #[arg(long, value_name = "A")]
+    size_current_noise: Option<f64>,
+    /// Graduation and eccentricity error of the load encoder: RMS over a revolution (arcsec,
+    /// default 0: none), summed over the harmonics of --load-encoder-harmonics with amplitudes
+    /// and phases drawn from the seed. The controller reads it too.
+    #[arg(long, value_name = "ARCSEC")]
+    load_encoder_error: Option<f64>,
+    /// Orders of the load encoder's error harmonics, cycles per load revolution (default
+    /// 1,2,4,8,16,36: eccentricity and graduation).
+    #[arg(long, value_name = "K,...", value_delimiter = ',', requires = "load_encoder_error")]
+    load_encoder_harmonics: Option<Vec<u32>>,
+    /// Read the load encoder this much later than the motor encoder (s, default 0; negative is
+    /// earlier): a row stamped t holds the load angle at t + skew.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    load_encoder_skew: Option<f64>,
+    /// Read the current this much later than the encoders (s, default 0; negative is earlier).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    current_skew: Option<f64>,
+    /// With --motor-speed: a drift of the speed signal's bias, a random walk with this RMS over
+    /// the log (axis side, default 0: none).
+    #[arg(long, value_name = "RAD_PER_S", requires = "motor_speed")]
+    tacho_drift: Option<f64>,
+    /// With --motor-speed: the speed signal's scale error (default 0.005).
+    #[arg(long, value_name = "X", requires = "motor_speed", allow_negative_numbers = true)]
+    tacho_scale_error: Option<f64>,
+    /// Cogging cycles per motor revolution (e.g. 2p or 6p for p pole pairs): a cogging
+    /// effect's period is then 2 pi / (N K) at the axis (default: drawn, 0.2 to 2 deg).
+    #[arg(long, value_name = "K")]
+    cogging_per_motor_rev: Option<u32>,
+    /// A three-mass drive: an intermediate inertia between the gearbox compliance and a second
+    /// compliance, whose own mode (motor and load held) is at this frequency (default: the
+    /// two-mass drive).
+    #[arg(long, value_name = "HZ")]
+    three_mass: Option<f64>,
+    /// The three-mass drive's intermediate inertia as a fraction of the load inertia (default
+    /// 0.2; the load keeps the rest).
+    #[arg(long, value_name = "FRACTION", requires = "three_mass")]
+    three_mass_fraction: Option<f64>,
 }
 
 /// A positive finite number, or an error naming the option.
@@ -142,6 +186,15 @@ impl TruthArgs {
     /// The truth configuration: the suite's, changed by the options given.
     fn config(&self) -> anyhow::Result<TruthConfig> {
         let mut base = TruthConfig::default();
+        if let Some(rate) = self.controller_rate {
+            base.controller_rate = positive(rate, "--controller-rate")?;
+            if base.controller_rate > base.internal_rate && self.internal_rate.is_none() {
+                bail!("--controller-rate must not exceed the internal rate");
+            }
+            if self.log_rate.is_none() && base.log_rate > base.controller_rate {
+                bail!("--controller-rate must be at least the log rate");
+            }
+        }
         if let Some(displacement) = self.presliding {
             base.plant.presliding_displacement = positive(displacement, "--presliding")?;
         }
@@ -208,9 +261,69 @@ impl TruthArgs {
         if let Some(duration) = self.duration {
             base.duration = duration;
         }
+        self.hidden_log_options(&mut base)?;
         Ok(base)
     }
+
+    /// The options of what hidden logs from other generators had: encoder error, skews, a
+    /// drifting tacho, motor-pole cogging, a three-mass drive, the size reference.
+    fn hidden_log_options(&self, base: &mut TruthConfig) -> anyhow::Result<()> {
+        if let Some(sigma) = self.size_current_noise {
+            base.noise.size_current_sigma = Some(positive(sigma, "--size-current-noise")?);
+        }
+        if let Some(arcsec) = self.load_encoder_error {
+            base.noise.load_encoder_error.rms = positive(arcsec, "--load-encoder-error")?.to_radians() / 3600.0;
+        }
+        if let Some(orders) = &self.load_encoder_harmonics {
+            if orders.is_empty() || orders.contains(&0) {
+                bail!("--load-encoder-harmonics needs orders of at least 1");
+            }
+            base.noise.load_encoder_error.harmonics = orders.clone();
+        }
+        for (skew, flag, slot) in [
+            (self.load_encoder_skew, "--load-encoder-skew", &mut base.noise.load_encoder_skew),
+            (self.current_skew, "--current-skew", &mut base.noise.current_skew),
+        ] {
+            if let Some(skew) = skew {
+                // A skew longer than a second would be a broken log, not a skew.
+                let plausible = skew.abs() < 1.0;
+                if !plausible {
+                    bail!("{flag} needs a number of seconds between -1 and 1, not {skew}");
+                }
+                *slot = skew;
+            }
+        }
+        if let MotorSensor::Speed(sensor) = &mut base.noise.motor_sensor {
+            if let Some(drift) = self.tacho_drift {
+                sensor.drift = positive(drift, "--tacho-drift")?;
+            }
+            if let Some(scale) = self.tacho_scale_error {
+                let plausible = scale.abs() < 0.5;
+                if !plausible {
+                    bail!("--tacho-scale-error needs a number between -0.5 and 0.5, not {scale}");
+                }
+                sensor.scale_error = scale;
+            }
+        }
+        if let Some(k) = self.cogging_per_motor_rev {
+            if k == 0 {
+                bail!("--cogging-per-motor-rev needs at least 1");
+            }
+            base.plant.cogging_per_motor_rev = Some(k);
+        }
+        if let Some(hz) = self.three_mass {
+            let fraction = self.three_mass_fraction.unwrap_or(DEFAULT_THREE_MASS_FRACTION);
+            base.plant.three_mass =
+                Some(ThreeMass::with_second_mode(&base.plant, fraction, positive(hz, "--three-mass")?)?);
+        }
+        Ok(())
+    }
 }
+
+/// The three-mass drive's intermediate inertia when `--three-mass-fraction` is not given: a
+/// fifth of the load's, as a gearbox output stage, pinions and bull gear with part of the
+/// structure are beside the reflector.
+const DEFAULT_THREE_MASS_FRACTION: f64 = 0.2;
 
 /// Each `--size` sets the size of the `--effect` given last before it (10 without one), by the
 /// options' positions on the command line.
