@@ -235,9 +235,8 @@ pub fn load_encoder_error(
         current = fit(&with_motor_torques(&columns, &angle, &motor_torques), &target);
     }
     let smooth_range = base..base + SMOOTH_DEGREE;
-    let smooth_shape: Vec<f64> = (0..angle.len())
-        .map(|i| smooth_range.clone().map(|j| current.beta[j] * columns[j][i]).sum::<f64>())
-        .collect();
+    let smooth_shape: Vec<f64> =
+        (0..angle.len()).map(|i| smooth_range.clone().map(|j| current.beta[j] * columns[j][i]).sum::<f64>()).collect();
     let smooth_significant =
         antenna_dsp::distributions::chi_squared_sf(wald(&current, smooth_range.clone()), SMOOTH_DEGREE as f64) < level
             && load_side.confirms_shape(&smooth_shape, level);
