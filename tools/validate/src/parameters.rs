@@ -529,7 +529,7 @@ pub enum ParameterError {
     #[error("{message}")]
     Unusable { message: String },
     #[error("cannot read {path}: {reason}")]
-    Read { path: std::path::PathBuf, reason: String },
+    Read { path: std::path::PathBuf, reason: fmu_runtime::files::FileError },
     #[error("cannot write {path}")]
     Write { path: std::path::PathBuf, source: std::io::Error },
     /// An error inside a file, with the file's path.
