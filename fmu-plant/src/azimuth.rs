@@ -481,8 +481,6 @@ impl AzimuthPlant {
     }
 }
 
-/// The error of a step that produced a non-finite state and was undone.
-
 #[cfg(test)]
 mod tests {
     use super::*;
