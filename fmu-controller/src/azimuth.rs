@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cascade::{Cascade, CascadeInput, CascadeState, ControlMode};
 use crate::linear::{PositionLoopModel, VelocityLoopModel};
-use crate::params::{AzimuthControllerParams, SamplingParams};
+use crate::params::{AzimuthControllerParams, ParameterError, SamplingParams};
 use crate::status::AxisStatus;
 use crate::timing::SampledController;
 use crate::torque_bias::{differential_gain, differential_torque, split_torque};
@@ -69,7 +69,7 @@ pub struct AzimuthController {
 
 impl AzimuthController {
     /// Validates the parameters and designs the gains.
-    pub fn new(params: AzimuthControllerParams) -> Result<Self, String> {
+    pub fn new(params: AzimuthControllerParams) -> Result<Self, ParameterError> {
         params.validate()?;
         let v = &params.cascade.velocity_loop;
         let velocity = VelocityGains::design(

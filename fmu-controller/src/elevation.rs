@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::cascade::{Cascade, CascadeInput, CascadeState, ControlMode};
 use crate::friction_feedforward::friction_feedforward;
 use crate::linear::{PositionLoopModel, VelocityLoopModel};
-use crate::params::{ElevationControllerParams, SamplingParams};
+use crate::params::{ElevationControllerParams, ParameterError, SamplingParams};
 use crate::status::AxisStatus;
 use crate::timing::SampledController;
 use crate::velocity_loop::VelocityGains;
@@ -71,7 +71,7 @@ impl PartialEq for ElevationController {
 
 impl ElevationController {
     /// Validates the parameters.
-    pub fn new(params: ElevationControllerParams) -> Result<Self, String> {
+    pub fn new(params: ElevationControllerParams) -> Result<Self, ParameterError> {
         params.validate()?;
         let cascade = Cascade::new(&params.cascade, params.drive.torque_limit_nm());
         Ok(Self { params, cascade, scheduled: None })

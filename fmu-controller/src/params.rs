@@ -656,7 +656,7 @@ impl Default for AzimuthControllerParams {
 
 impl AzimuthControllerParams {
     /// Checks every field; the message names each offending field and its constraint.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParameterError> {
         let mut errors = Vec::new();
         self.cascade.validate(&mut errors);
         self.drive.validate(&mut errors);
@@ -711,7 +711,7 @@ impl Default for ElevationControllerParams {
 
 impl ElevationControllerParams {
     /// Checks every field; the message names each offending field and its constraint.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParameterError> {
         let mut errors = Vec::new();
         self.cascade.validate(&mut errors);
         self.drive.validate(&mut errors);
@@ -741,11 +741,20 @@ fn non_negative(name: &str, value: f64, errors: &mut Vec<String>) {
     }
 }
 
-fn into_result(what: &str, errors: Vec<String>) -> Result<(), String> {
-    if errors.is_empty() {
+/// Why a controller's parameters are refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParameterError {
+    /// Fields that break their constraints; each problem names the field and the constraint
+    /// it must meet (`differential_loop.bandwidth_hz (0) must be finite and positive`).
+    #[error("invalid {controller} parameters: {}", .problems.join("; "))]
+    Invalid { controller: &'static str, problems: Vec<String> },
+}
+
+fn into_result(controller: &'static str, problems: Vec<String>) -> Result<(), ParameterError> {
+    if problems.is_empty() {
         Ok(())
     } else {
-        Err(format!("invalid {what} parameters: {}", errors.join("; ")))
+        Err(ParameterError::Invalid { controller, problems })
     }
 }
 
@@ -764,13 +773,13 @@ mod tests {
         let mut p = AzimuthControllerParams::default();
         p.cascade.profiler.velocity_gain_per_s = 3.0 * p.cascade.profiler.approach_gain_per_s;
         p.torque_bias.fade_end_torque_nm = p.torque_bias.fade_start_torque_nm + p.torque_bias.bias_torque_nm;
-        let message = p.validate().unwrap_err();
+        let message = p.validate().unwrap_err().to_string();
         assert!(message.contains("profiler.velocity_gain_per_s"), "{message}");
         assert!(message.contains("torque_bias.fade_end_torque_nm"), "{message}");
 
         let mut e = ElevationControllerParams::default();
         e.cascade.anti_limit_cycle.hold_release_error_deg = e.cascade.anti_limit_cycle.hold_entry_error_deg;
-        let message = e.validate().unwrap_err();
+        let message = e.validate().unwrap_err().to_string();
         assert!(message.contains("anti_limit_cycle.hold_release_error_deg"), "{message}");
     }
 }

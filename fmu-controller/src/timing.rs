@@ -39,6 +39,17 @@ use serde::{Deserialize, Serialize};
 
 use crate::params::SamplingParams;
 
+/// A sample clock that lies before the step it is asked to run (restored from a state of
+/// another time): catching up would take an unbounded number of samples.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("the controller's next sample is at {next} s, before the step that starts at {time} s: the sample clock does not belong to this time")]
+pub struct ClockError {
+    /// The next sample instant, s.
+    pub next: f64,
+    /// The start of the refused step, s.
+    pub time: f64,
+}
+
 /// A discrete-time controller that executes one sample at a time.
 pub trait SampledController {
     type Inputs;
@@ -105,13 +116,11 @@ impl<O: Clone> SampleScheduler<O> {
     /// Whether the sample clock belongs to a step that starts at `time`: a scheduler whose next
     /// sample lies before it (restored from a state of another time) would have to catch up an
     /// unbounded number of samples, so the FMU refuses the step.
-    pub fn check_clock(&self, time: f64) -> Result<(), String> {
+    pub fn check_clock(&self, time: f64) -> Result<(), ClockError> {
         let next = self.sample_instant(self.next_sample);
         let slack = 1e-6 * self.sample_time + 1e-9 * time.abs() + self.sample_time;
         if next < time - slack {
-            return Err(format!(
-                "the controller's next sample is at {next} s, before the step that starts at {time} s: the sample clock does not belong to this time"
-            ));
+            return Err(ClockError { next, time });
         }
         Ok(())
     }
@@ -330,7 +339,7 @@ mod tests {
         let sampling = SamplingParams { sample_time_s: 1e-3, delay_samples: 1 };
         let c = Counter { sampling, count: 0 };
         let s = SampleScheduler::new(-1e6, &sampling, c.idle_outputs());
-        let error = s.check_clock(0.0).unwrap_err();
+        let error = s.check_clock(0.0).unwrap_err().to_string();
         assert!(error.contains("does not belong to this time"), "{error}");
         assert!(SampleScheduler::new(0.0, &sampling, c.idle_outputs()).check_clock(0.0).is_ok());
     }

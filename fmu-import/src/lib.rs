@@ -25,6 +25,9 @@ pub enum ImportError {
     Archive(String),
     #[error("{0}")]
     Description(String),
+    /// A variable or element of the model description whose attributes do not read.
+    #[error("modelDescription.xml: {0}")]
+    Attributes(#[from] AttributeError),
     #[error("{0}")]
     Library(String),
     /// An fmi2 call returned an error status; `messages` are what the FMU logged during the call.
@@ -79,16 +82,26 @@ pub struct ModelDescription {
     pub capabilities: HashMap<String, String>,
 }
 
+/// Why the attributes of a model description's element do not read.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum AttributeError {
+    #[error("bad attribute: {0}")]
+    Syntax(quick_xml::events::attributes::AttrError),
+    #[error("bad attribute value: {0}")]
+    Value(quick_xml::Error),
+    #[error("ScalarVariable without name")]
+    NoName,
+    #[error("variable {name} has no valid valueReference")]
+    NoValueReference { name: String },
+}
+
 /// The attributes of an XML element, normalised as XML 1.0 says (entities and whitespace).
-fn element_attributes(e: &quick_xml::events::BytesStart) -> Result<HashMap<String, String>, String> {
+fn element_attributes(e: &quick_xml::events::BytesStart) -> Result<HashMap<String, String>, AttributeError> {
     let mut attrs = HashMap::new();
     for a in e.attributes() {
-        let a = a.map_err(|err| format!("bad attribute: {err}"))?;
+        let a = a.map_err(AttributeError::Syntax)?;
         let key = a.key.into_inner().to_string();
-        let value = a
-            .normalized_value(quick_xml::XmlVersion::Explicit1_0)
-            .map_err(|err| format!("bad attribute value: {err}"))?
-            .to_string();
+        let value = a.normalized_value(quick_xml::XmlVersion::Explicit1_0).map_err(AttributeError::Value)?.to_string();
         attrs.insert(key, value);
     }
     Ok(attrs)
@@ -97,12 +110,12 @@ fn element_attributes(e: &quick_xml::events::BytesStart) -> Result<HashMap<Strin
 impl ScalarVariable {
     /// A variable from the attributes of its `ScalarVariable` element; the type element inside it
     /// fills in the type, start value, unit and range.
-    fn from_attributes(attrs: &HashMap<String, String>) -> Result<ScalarVariable, String> {
+    fn from_attributes(attrs: &HashMap<String, String>) -> Result<ScalarVariable, AttributeError> {
         let get = |k: &str| attrs.get(k).cloned();
-        let name = get("name").ok_or_else(|| "ScalarVariable without name".to_string())?;
-        let value_reference = get("valueReference")
-            .and_then(|s| s.parse().ok())
-            .ok_or_else(|| format!("variable {name} has no valid valueReference"))?;
+        let name = get("name").ok_or(AttributeError::NoName)?;
+        let Some(value_reference) = get("valueReference").and_then(|s| s.parse().ok()) else {
+            return Err(AttributeError::NoValueReference { name });
+        };
         Ok(ScalarVariable {
             name,
             value_reference,
@@ -171,7 +184,7 @@ impl ModelDescription {
                 _ => (None, false),
             };
             let Some(e) = element else { continue };
-            let attrs = element_attributes(&e).map_err(bad)?;
+            let attrs = element_attributes(&e)?;
             let get = |k: &str| attrs.get(k).cloned();
             match e.name().into_inner() {
                 "fmiModelDescription" => {
@@ -190,7 +203,7 @@ impl ModelDescription {
                     md.default_stop_time = get("stopTime").and_then(|s| s.parse().ok());
                 }
                 "ScalarVariable" => {
-                    let v = ScalarVariable::from_attributes(&attrs).map_err(bad)?;
+                    let v = ScalarVariable::from_attributes(&attrs)?;
                     if is_empty {
                         md.variables.push(v);
                     } else {

@@ -217,11 +217,24 @@ impl RationalFunction {
     /// and contributes `r e^{p t}` with `r` from the derivative of the denominator. The poles
     /// are the eigenvalues of the companion matrix, polished by Newton's method. Nothing here
     /// uses a matrix exponential, so it is an independent check of the simulator.
-    pub fn step_response(&self) -> Result<ModalResponse, String> {
+    pub fn step_response(&self) -> Result<ModalResponse, PartialFractionError> {
         let mut denominator = vec![0.0];
         denominator.extend_from_slice(&self.denominator);
         ModalResponse::inverse_laplace(&self.numerator, &denominator)
     }
+}
+
+/// Why a rational function has no closed-form response by partial fractions.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PartialFractionError {
+    #[error("denominator is zero")]
+    ZeroDenominator,
+    #[error("the rational function is not strictly proper")]
+    NotStrictlyProper,
+    #[error("leading coefficient is zero")]
+    ZeroLeadingCoefficient,
+    #[error("repeated root near {near}: partial fractions need simple poles")]
+    RepeatedRoot { near: C64 },
 }
 
 /// A time response written as `sum_j c_j t^j + Re sum_k r_k e^{p_k t}`.
@@ -237,12 +250,12 @@ pub struct ModalResponse {
 
 impl ModalResponse {
     /// Inverse Laplace transform of a strictly proper `numerator / denominator`.
-    pub fn inverse_laplace(numerator: &[f64], denominator: &[f64]) -> Result<Self, String> {
+    pub fn inverse_laplace(numerator: &[f64], denominator: &[f64]) -> Result<Self, PartialFractionError> {
         let origin_multiplicity = denominator.iter().take_while(|&&c| c == 0.0).count();
         let reduced = &denominator[origin_multiplicity..];
-        let degree = reduced.len().checked_sub(1).ok_or("denominator is zero")?;
+        let degree = reduced.len().checked_sub(1).ok_or(PartialFractionError::ZeroDenominator)?;
         if numerator.len() > origin_multiplicity + degree {
-            return Err("the rational function is not strictly proper".into());
+            return Err(PartialFractionError::NotStrictlyProper);
         }
         // Taylor coefficients of G = numerator / reduced at s = 0, as many as the origin's
         // multiplicity: they are the coefficients of the principal part at the origin.
@@ -286,11 +299,11 @@ impl ModalResponse {
 /// Eigenvalues of the companion matrix give the roots to about machine precision relative to
 /// the largest; a few Newton steps on the original polynomial then make small roots accurate
 /// relative to themselves, which matters for the slow rigid-body pole.
-pub fn polynomial_roots(coefficients: &[f64]) -> Result<Vec<C64>, String> {
+pub fn polynomial_roots(coefficients: &[f64]) -> Result<Vec<C64>, PartialFractionError> {
     let n = coefficients.len() - 1;
     let leading = coefficients[n];
     if leading == 0.0 {
-        return Err("leading coefficient is zero".into());
+        return Err(PartialFractionError::ZeroLeadingCoefficient);
     }
     if n == 0 {
         return Ok(Vec::new());
@@ -328,7 +341,7 @@ pub fn polynomial_roots(coefficients: &[f64]) -> Result<Vec<C64>, String> {
         for j in 0..i {
             let scale = roots[i].norm().max(roots[j].norm());
             if (roots[i] - roots[j]).norm() <= 1e-7 * scale {
-                return Err(format!("repeated root near {}: partial fractions need simple poles", roots[i]));
+                return Err(PartialFractionError::RepeatedRoot { near: roots[i] });
             }
         }
     }

@@ -10,6 +10,8 @@
 
 use fmu_runtime::state::StateError;
 
+use crate::error::PlantError;
+
 use crate::drivetrain::DriveState;
 use crate::floor::floor;
 use crate::sensors::{SampleClock, SensorParams, Sensors, ARCSEC, AZIMUTH_STREAMS};
@@ -135,7 +137,7 @@ impl AzimuthParams {
     }
 
     /// Checks every field; the message names each offending field and its constraint.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), PlantError> {
         let mut errors = Vec::new();
         finite_positive("gear_ratio", self.gear_ratio, &mut errors);
         for k in 0..PATHS {
@@ -340,7 +342,7 @@ pub struct AzimuthPlant {
 
 impl AzimuthPlant {
     /// Validates the parameters and builds the plant at rest at 0 deg azimuth.
-    pub fn new(params: AzimuthParams) -> Result<Self, String> {
+    pub fn new(params: AzimuthParams) -> Result<Self, PlantError> {
         params.validate()?;
         let cell = params.cell_of(90.0);
         let core = DriveCore::new(params.core_config(), cell, params.cell_model(cell));
@@ -358,9 +360,9 @@ impl AzimuthPlant {
     /// Puts the axis at rest at `axis_angle_rad`: untwisted paths, both pinions centred in
     /// their backlash (taking it up is the controller's torque bias), zero currents, sticking
     /// bodies where there is friction, time zero.
-    pub fn set_initial_state(&mut self, axis_angle_rad: f64) -> Result<(), String> {
+    pub fn set_initial_state(&mut self, axis_angle_rad: f64) -> Result<(), PlantError> {
         if !axis_angle_rad.is_finite() {
-            return Err(format!("initial azimuth angle ({axis_angle_rad}) must be finite"));
+            return Err(PlantError::InitialAngleNotFinite { axis: "azimuth", angle: axis_angle_rad });
         }
         self.core.set_at_rest(axis_angle_rad * self.params.gear_ratio);
         self.sensors.set_clock(SampleClock::default());
@@ -370,15 +372,15 @@ impl AzimuthPlant {
     /// Advances by `h` seconds with the inputs held constant over `[t, t + h)`. On an error
     /// the state is unchanged: also when the step itself produced a non-finite state (extreme
     /// parameters or inputs), which is then undone and reported with its likely cause.
-    pub fn step(&mut self, inputs: &AzimuthInputs, h: f64) -> Result<(), String> {
+    pub fn step(&mut self, inputs: &AzimuthInputs, h: f64) -> Result<(), PlantError> {
         if !(h.is_finite() && h > 0.0) {
-            return Err(format!("step size ({h}) must be finite and positive"));
+            return Err(PlantError::StepNotPositive { h });
         }
         let finite_inputs = inputs.current_command_a.iter().all(|c| c.is_finite())
             && inputs.disturbance_torque_nm.is_finite()
             && inputs.elevation_deg.is_finite();
         if !finite_inputs {
-            return Err(format!("azimuth inputs must be finite: {inputs:?}"));
+            return Err(PlantError::InputsNotFinite { axis: "azimuth", inputs: Box::new(*inputs) });
         }
         let checkpoint = self.core.checkpoint();
         let cell = self.params.cell_of(inputs.elevation_deg);
@@ -396,7 +398,7 @@ impl AzimuthPlant {
             let cause = self.core.likely_cause_of_non_finite_state(&inputs.current_command_a, load_torque);
             let params = &self.params;
             self.core.rollback(checkpoint, |cell| params.cell_model(cell));
-            return Err(non_finite_step_message("azimuth", self.core.time(), h, &cause));
+            return Err(PlantError::NonFiniteStep { axis: "azimuth", time: self.core.time(), h, cause });
         }
         self.sensors.advance(h);
         Ok(())
@@ -477,14 +479,6 @@ impl AzimuthPlant {
     pub(crate) fn core(&self) -> &DriveCore<PATHS, STATES, INPUTS> {
         &self.core
     }
-}
-
-/// The error of a step that produced a non-finite state and was undone.
-pub(crate) fn non_finite_step_message(axis: &str, time: f64, h: f64, cause: &str) -> String {
-    format!(
-        "the {axis} step of {h} s from t = {time} s produced a non-finite state (NaN or infinity) and was undone: \
-         the plant is as it was before the step. Likely cause: {cause}"
-    )
 }
 
 #[cfg(test)]
@@ -616,7 +610,7 @@ mod tests {
         let expected = p.path_stiffness_at(p.cell_centre_deg(cell))[0] / (p.gear_ratio * p.gear_ratio);
         assert_eq!(model.stiffness[0], expected);
         let bad = AzimuthParams { stiffness_variation_over_elevation: 1.5, ..AzimuthParams::default() };
-        assert!(bad.validate().unwrap_err().contains("stiffness_variation_over_elevation"));
+        assert!(bad.validate().unwrap_err().to_string().contains("stiffness_variation_over_elevation"));
     }
 
     #[test]
@@ -747,7 +741,7 @@ mod tests {
             ),
         ];
         for (what, params, source) in cases {
-            let error = AzimuthPlant::new(params).expect_err(what);
+            let error = AzimuthPlant::new(params).expect_err(what).to_string();
             assert!(error.contains(source) && error.contains("fastest rate"), "{what}: {error}");
         }
         // The defaults are seven decades below the bound.
@@ -794,7 +788,7 @@ mod tests {
             let before = postcard::to_allocvec(&plant.save_state()).unwrap();
             let outputs = plant.outputs();
             if let Err(error) = plant.step(&inputs, 1e-3) {
-                failure = Some((k, error, before, outputs));
+                failure = Some((k, error.to_string(), before, outputs));
                 break;
             }
         }

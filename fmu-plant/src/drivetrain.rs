@@ -41,6 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache::{BoundedCache, DiscretisationKey};
 use crate::delay::DelayLine;
+use crate::error::PlantError;
 use crate::floor::ceil;
 use crate::params::FrictionParams;
 use crate::sensors::SampleClock;
@@ -701,18 +702,17 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
 
     /// Checks that the dynamics of each of `models` (the cells where the owner's parameters
     /// are most extreme) are no faster than [`MAX_RATE_PER_S`].
-    pub fn check_rates(&self, axis: &str, models: impl IntoIterator<Item = CellModel<P>>) -> Result<(), String> {
-        let Some((rate, source)) =
+    pub fn check_rates(
+        &self,
+        axis: &'static str,
+        models: impl IntoIterator<Item = CellModel<P>>,
+    ) -> Result<(), PlantError> {
+        let Some((rate, rate_of)) =
             models.into_iter().map(|m| self.fastest_rate_of(&m)).find(|(rate, _)| too_fast(*rate))
         else {
             return Ok(());
         };
-        Err(format!(
-            "invalid {axis} parameters: the drive's fastest rate, {source}, is {rate:.3e} 1/s, above the {MAX_RATE_PER_S:e} 1/s \
-             up to which the exact discretisation keeps about 1e-9 relative accuracy (the default drive's fastest is \
-             about 1.4e3 1/s; docs/plant-model.md, section 7): a stiffness, damping or current-loop bandwidth \
-             this large, an inertia this small, or a damping this small beside backlash, is outside any real drive"
-        ))
+        Err(PlantError::TooFast { axis, rate_of, rate, max_rate: MAX_RATE_PER_S })
     }
 
     /// Why a step may have produced a non-finite state, for the error message: the fastest

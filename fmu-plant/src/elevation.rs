@@ -21,11 +21,12 @@
 
 use fmu_runtime::state::StateError;
 
+use crate::error::PlantError;
+
 use crate::drivetrain::DriveState;
 use nalgebra::SVector;
 
 use crate::analytic::TwoMassParameters;
-use crate::azimuth::non_finite_step_message;
 use crate::drivetrain::{
     current_index, motor_speed_index, twist_index, BodyFriction, CellModel, CoreConfig, DriveCore, NumericsStatistics,
     LOAD_ANGLE, LOAD_SPEED,
@@ -290,7 +291,7 @@ impl ElevationParams {
     }
 
     /// Checks every field; the message names each offending field and its constraint.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), PlantError> {
         let mut errors = Vec::new();
         self.motor.validate("motor", &mut errors);
         finite_positive("dish_inertia_kg_m2", self.dish_inertia_kg_m2, &mut errors);
@@ -600,7 +601,7 @@ impl ElevationPlant {
     pub const STOW_ELEVATION_DEG: f64 = 90.0;
 
     /// Validates the parameters and builds the plant at rest at the stow elevation.
-    pub fn new(params: ElevationParams) -> Result<Self, String> {
+    pub fn new(params: ElevationParams) -> Result<Self, PlantError> {
         params.validate()?;
         let cell = params.cell_of(Self::STOW_ELEVATION_DEG);
         let core = DriveCore::new(params.core_config(), cell, params.cell_model(cell));
@@ -622,9 +623,9 @@ impl ElevationPlant {
 
     /// Puts the axis at rest at `axis_angle_rad`: untwisted drive, nut centred in any backlash,
     /// zero current, sticking bodies where there is friction, time zero.
-    pub fn set_initial_state(&mut self, axis_angle_rad: f64) -> Result<(), String> {
+    pub fn set_initial_state(&mut self, axis_angle_rad: f64) -> Result<(), PlantError> {
         if !axis_angle_rad.is_finite() {
-            return Err(format!("initial elevation angle ({axis_angle_rad}) must be finite"));
+            return Err(PlantError::InitialAngleNotFinite { axis: "elevation", angle: axis_angle_rad });
         }
         let cell = self.params.cell_of(axis_angle_rad.to_degrees());
         self.core.set_cell(cell, self.params.cell_model(cell));
@@ -642,12 +643,12 @@ impl ElevationPlant {
 
     /// Advances by `h` seconds with the inputs held constant over `[t, t + h)`. The parameter
     /// cell follows the angle at the start of the step. On an error the state is unchanged.
-    pub fn step(&mut self, inputs: &ElevationInputs, h: f64) -> Result<(), String> {
+    pub fn step(&mut self, inputs: &ElevationInputs, h: f64) -> Result<(), PlantError> {
         if !(h.is_finite() && h > 0.0) {
-            return Err(format!("step size ({h}) must be finite and positive"));
+            return Err(PlantError::StepNotPositive { h });
         }
         if !(inputs.current_command_a.is_finite() && inputs.disturbance_torque_nm.is_finite()) {
-            return Err(format!("elevation inputs must be finite: {inputs:?}"));
+            return Err(PlantError::InputsNotFinite { axis: "elevation", inputs: Box::new(*inputs) });
         }
         let checkpoint = self.core.checkpoint();
         let cell = self.params.cell_of(self.angle_rad.to_degrees());
@@ -681,7 +682,7 @@ impl ElevationPlant {
             let params = &self.params;
             self.core.rollback(checkpoint, |cell| params.cell_model(cell));
             self.update_derived();
-            return Err(non_finite_step_message("elevation", self.core.time(), h, &cause));
+            return Err(PlantError::NonFiniteStep { axis: "elevation", time: self.core.time(), h, cause });
         }
         self.sensors.advance(h);
         Ok(())
@@ -855,11 +856,11 @@ mod tests {
         let mut stiff = d;
         stiff.jackscrew.series_stiffness_n_per_m = 1e300;
         stiff.jackscrew.screw_axial_rigidity_n = 1e300;
-        let error = ElevationPlant::new(stiff).expect_err("a stiffness of 1e300 N/m");
+        let error = ElevationPlant::new(stiff).expect_err("a stiffness of 1e300 N/m").to_string();
         assert!(error.contains("fastest rate") && error.contains("stiffness"), "{error}");
         let mut fast = d;
         fast.motor.current_loop_bandwidth_hz = 1e300;
-        let error = ElevationPlant::new(fast).expect_err("a bandwidth of 1e300 Hz");
+        let error = ElevationPlant::new(fast).expect_err("a bandwidth of 1e300 Hz").to_string();
         assert!(error.contains("current-loop bandwidth"), "{error}");
 
         // A disturbance of 1e308 N m until the state overflows: that step is undone.
@@ -871,7 +872,7 @@ mod tests {
             let before = postcard::to_allocvec(&plant.save_state()).unwrap();
             let outputs = plant.outputs();
             if let Err(error) = plant.step(&inputs, 1e-3) {
-                failure = Some((k, error, before, outputs));
+                failure = Some((k, error.to_string(), before, outputs));
                 break;
             }
         }

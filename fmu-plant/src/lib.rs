@@ -32,6 +32,7 @@ mod cache;
 mod delay;
 mod drivetrain;
 pub mod elevation;
+pub mod error;
 mod floor;
 pub mod params;
 pub mod sensors;
@@ -39,6 +40,7 @@ pub mod sensors;
 pub use azimuth::{AzimuthInputs, AzimuthOutputs, AzimuthParams, AzimuthPlant};
 pub use drivetrain::{DriveState, Mesh, Motion, NumericsStatistics, PathState};
 pub use elevation::{ElevationInputs, ElevationOutputs, ElevationParams, ElevationPlant, JackscrewParams};
+pub use error::PlantError;
 pub use params::{CoggingParams, FrictionParams, MotorParams, NumericsParams, PeriodicTorqueParams};
 pub use sensors::{CountMode, EncoderErrors, PeriodicError, SampleClock, SensorParams};
 

@@ -5,6 +5,8 @@
 //! curve, asymmetry, cogging, position-periodic torques, torque-constant error, command delay)
 //! have a neutral value that switches them off, and that value is the default.
 
+use crate::error::PlantError;
+
 /// One friction element acting on a body: Coulomb and static levels, optionally a Stribeck
 /// curve between them and a direction asymmetry.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -312,11 +314,11 @@ pub(crate) fn finite_non_negative(name: &str, value: f64, errors: &mut Vec<Strin
 }
 
 /// Turns collected validation messages into the `Result` the constructors return.
-pub(crate) fn into_result(what: &str, errors: Vec<String>) -> Result<(), String> {
-    if errors.is_empty() {
+pub(crate) fn into_result(axis: &'static str, problems: Vec<String>) -> Result<(), PlantError> {
+    if problems.is_empty() {
         Ok(())
     } else {
-        Err(format!("invalid {what} parameters: {}", errors.join("; ")))
+        Err(PlantError::InvalidParameters { axis, problems })
     }
 }
 

@@ -390,16 +390,16 @@ fn a_saved_elevation_state_reproduces_the_future_bitwise_across_grid_cells() {
 fn invalid_parameters_are_rejected_with_the_offending_field_named() {
     let mut az = AzimuthParams { gear_ratio: -1.0, ..AzimuthParams::default() };
     az.motors[1].friction = FrictionParams { coulomb_nm: 1.0, static_nm: 0.5, ..FrictionParams::NONE };
-    let message = AzimuthPlant::new(az).unwrap_err();
+    let message = AzimuthPlant::new(az).unwrap_err().to_string();
     assert!(message.contains("gear_ratio") && message.contains("motors[1].friction.static_nm"), "{message}");
     let mut el = ElevationParams::default();
     el.jackscrew.nut_offset_m = 0.0;
-    let message = ElevationPlant::new(el).unwrap_err();
+    let message = ElevationPlant::new(el).unwrap_err().to_string();
     assert!(message.contains("nut"), "{message}");
     let mut el = ElevationParams::default();
     el.jackscrew.axial_backlash_m = 1e-4;
     el.jackscrew.axial_damping_n_s_per_m = 0.0;
-    assert!(ElevationPlant::new(el).unwrap_err().contains("axial_damping"));
+    assert!(ElevationPlant::new(el).unwrap_err().to_string().contains("axial_damping"));
 }
 
 #[test]

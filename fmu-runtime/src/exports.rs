@@ -20,8 +20,9 @@ use std::panic::{self, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::sync::Once;
 
+use crate::call_error::{ArgumentError, CallError, InstantiateError, StepError, UriError};
 use crate::ffi::*;
-use crate::instance::{DynModel, Instance, ModelSlot, SavedState, INSTANCE_MAGIC, STATE_MAGIC};
+use crate::instance::{DynModel, Instance, InstanceError, ModelSlot, SavedState, INSTANCE_MAGIC, STATE_MAGIC};
 use crate::model::{Context, Model, ModelInfo, Notes};
 use crate::phase::{legal, Phase, CAT_CALLS, CAT_DISCARD, CAT_ERROR, CAT_EVENTS, CAT_WARNING, LOG_CATEGORIES};
 use crate::variables::SetPhase;
@@ -30,7 +31,7 @@ use crate::variables::SetPhase;
 pub struct ModelEntry {
     pub info: fn() -> ModelInfo,
     pub guid: fn() -> String,
-    pub create: fn(&Context) -> Result<Box<dyn DynModel>, String>,
+    pub create: fn(&Context) -> Result<Box<dyn DynModel>, InstanceError>,
 }
 
 impl ModelEntry {
@@ -39,7 +40,7 @@ impl ModelEntry {
     }
 }
 
-fn create_model<M: Model>(context: &Context) -> Result<Box<dyn DynModel>, String> {
+fn create_model<M: Model>(context: &Context) -> Result<Box<dyn DynModel>, InstanceError> {
     Ok(Box::new(ModelSlot::<M>::create(context, crate::xml::guid::<M>())?))
 }
 
@@ -83,11 +84,18 @@ fn install_panic_hook() {
     });
 }
 
-/// Runs `f`, turning a panic into `Err(message)`. The panic hook must be installed
+/// A panic caught in a call, with the message (and place) the panic hook kept of it.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+struct Panicked {
+    message: String,
+}
+
+/// Runs `f`, turning a panic into `Err` with its message. The panic hook must be installed
 /// ([`install_panic_hook`], done by fmi2Instantiate) for the message to be kept.
 #[inline(always)]
-fn catch<R>(f: impl FnOnce() -> R) -> Result<R, String> {
-    panic::catch_unwind(AssertUnwindSafe(f)).map_err(|_| panic_message())
+fn catch<R>(f: impl FnOnce() -> R) -> Result<R, Panicked> {
+    panic::catch_unwind(AssertUnwindSafe(f)).map_err(|_| Panicked { message: panic_message() })
 }
 
 /// The message the hook kept of the panic just caught.
@@ -127,7 +135,7 @@ fn with_instance(
     instance: Option<&mut Instance>,
     function: &'static str,
     allowed: u32,
-    body: impl FnOnce(&mut Instance) -> Result<Status, String>,
+    body: impl FnOnce(&mut Instance) -> Result<Status, CallError>,
 ) -> fmi2Status {
     let Some(instance) = instance else { return fmi2Error };
     if instance.category_enabled(CAT_CALLS) {
@@ -139,8 +147,8 @@ fn with_instance(
     let borrowed: &mut Instance = &mut *instance;
     match catch(move || body(borrowed)) {
         Ok(Ok(status)) => status as fmi2Status,
-        Ok(Err(message)) => failed_call(instance, function, message),
-        Err(panic_message) => panicked_call(instance, function, panic_message),
+        Ok(Err(error)) => failed_call(instance, function, error),
+        Err(panicked) => panicked_call(instance, function, panicked),
     }
 }
 
@@ -171,8 +179,8 @@ fn illegal_call(instance: &mut Instance, function: &str, allowed: u32) -> fmi2St
 /// A call whose body failed: logged, and the instance moves to the Error phase.
 #[cold]
 #[inline(never)]
-fn failed_call(instance: &mut Instance, function: &str, message: String) -> fmi2Status {
-    instance.error(function, &message);
+fn failed_call(instance: &mut Instance, function: &str, error: CallError) -> fmi2Status {
+    instance.error(function, &error.to_string());
     instance.phase = Phase::Error;
     fmi2Error
 }
@@ -180,8 +188,8 @@ fn failed_call(instance: &mut Instance, function: &str, message: String) -> fmi2
 /// A call whose body panicked: logged, and the instance moves to the Error phase.
 #[cold]
 #[inline(never)]
-fn panicked_call(instance: &mut Instance, function: &str, panic_message: String) -> fmi2Status {
-    instance.error(function, &format!("internal error (panic): {panic_message}"));
+fn panicked_call(instance: &mut Instance, function: &str, panicked: Panicked) -> fmi2Status {
+    instance.error(function, &format!("internal error (panic): {panicked}"));
     instance.phase = Phase::Error;
     // A step that panicked may have left notes behind; they are not the next step's.
     instance.step_notes = Notes::default();
@@ -195,7 +203,7 @@ fn panicked_call(instance: &mut Instance, function: &str, panic_message: String)
 /// `pointer` is NULL or points to `n` initialised elements that stay valid and unchanged while
 /// the slice is used (FMI 2.0 calling convention for arrays).
 #[inline(always)]
-unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &'static str) -> Result<&'a [T], String> {
+unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &'static str) -> Result<&'a [T], ArgumentError> {
     if n == 0 {
         return Ok(&[]);
     }
@@ -214,7 +222,7 @@ unsafe fn slice<'a, T>(pointer: *const T, n: usize, what: &'static str) -> Resul
 /// `pointer` is NULL or points to `n` elements that may be written and are not accessed
 /// otherwise while the slice is used.
 #[inline(always)]
-unsafe fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &'static str) -> Result<&'a mut [T], String> {
+unsafe fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &'static str) -> Result<&'a mut [T], ArgumentError> {
     if n == 0 {
         return Ok(&mut []);
     }
@@ -228,8 +236,8 @@ unsafe fn slice_mut<'a, T>(pointer: *mut T, n: usize, what: &'static str) -> Res
 /// Why an array argument is refused.
 #[cold]
 #[inline(never)]
-fn null_array(what: &str, n: usize) -> String {
-    format!("{what} is NULL but {n} elements were announced")
+fn null_array(what: &'static str, n: usize) -> ArgumentError {
+    ArgumentError::NullArray { what, n }
 }
 
 /// Copies a C string; the caller's buffer may be freed after the call returns.
@@ -237,13 +245,13 @@ fn null_array(what: &str, n: usize) -> String {
 /// # Safety
 ///
 /// `pointer` is NULL or a NUL-terminated string valid during the call.
-unsafe fn copy_string(pointer: fmi2String, what: &str) -> Result<String, String> {
+unsafe fn copy_string(pointer: fmi2String, what: &str) -> Result<String, ArgumentError> {
     if pointer.is_null() {
-        return Err(format!("{what} is NULL"));
+        return Err(ArgumentError::NullString { what: what.into() });
     }
     // SAFETY: non-null, so by this function's contract a NUL-terminated string.
     let c = unsafe { CStr::from_ptr(pointer) };
-    c.to_str().map(str::to_string).map_err(|_| format!("{what} is not valid UTF-8"))
+    c.to_str().map(str::to_string).map_err(|_| ArgumentError::NotUtf8 { what: what.into() })
 }
 
 /// The one rule for `fmi2Boolean` arguments, the same in every call that takes one
@@ -251,17 +259,15 @@ unsafe fn copy_string(pointer: fmi2String, what: &str) -> Result<String, String>
 /// `fmi2False` (0) is false, `fmi2True` (1) is true, and any other value is refused with
 /// fmi2Error, because FMI 2.0 defines only these two and a master that passes 2 or -1 has a bug
 /// that a silent "non-zero is true" would hide.
-pub fn fmi_boolean(value: fmi2Boolean, what: &str) -> Result<bool, String> {
+pub fn fmi_boolean(value: fmi2Boolean, what: &str) -> Result<bool, ArgumentError> {
     match value {
         0 => Ok(false),
         1 => Ok(true),
-        other => {
-            Err(format!("{what} = {other} is not an fmi2Boolean: only fmi2False (0) and fmi2True (1) are accepted"))
-        }
+        other => Err(ArgumentError::NotBoolean { what: what.into(), value: other }),
     }
 }
 
-fn set_phase(instance: &Instance) -> Result<SetPhase, String> {
+fn set_phase(instance: &Instance) -> Result<SetPhase, CallError> {
     match instance.phase {
         Phase::Instantiated => Ok(SetPhase::BeforeInitialization),
         Phase::InitializationMode => Ok(SetPhase::Initialization),
@@ -272,8 +278,8 @@ fn set_phase(instance: &Instance) -> Result<SetPhase, String> {
 
 #[cold]
 #[inline(never)]
-fn not_settable_in(phase: Phase) -> String {
-    format!("values cannot be set in phase {}", phase.name())
+fn not_settable_in(phase: Phase) -> CallError {
+    CallError::NotSettableIn(phase)
 }
 
 #[inline]
@@ -314,7 +320,7 @@ fn log_notes_slow(instance: &Instance, notes: Notes) -> Status {
 /// coupled antenna never reads the azimuth plant's inertia) does not pay for them, and the
 /// pending update waits, still marked, for the first get that needs it.
 #[inline]
-fn ensure_initialized(instance: &mut Instance, vrs: &[u32]) -> Result<Status, String> {
+fn ensure_initialized(instance: &mut Instance, vrs: &[u32]) -> Result<Status, CallError> {
     // The common case, nothing pending, decided without a call.
     if instance.stale_feedthrough == 0 && !instance.needs_initialize {
         return Ok(Status::Ok);
@@ -322,7 +328,7 @@ fn ensure_initialized(instance: &mut Instance, vrs: &[u32]) -> Result<Status, St
     ensure_initialized_slow(instance, vrs)
 }
 
-fn ensure_initialized_slow(instance: &mut Instance, vrs: &[u32]) -> Result<Status, String> {
+fn ensure_initialized_slow(instance: &mut Instance, vrs: &[u32]) -> Result<Status, CallError> {
     if instance.stale_feedthrough != 0 && instance.phase == Phase::StepComplete {
         let groups = instance.stale_feedthrough & instance.model.feedthrough_groups_read(vrs);
         if groups != 0 {
@@ -380,10 +386,10 @@ pub unsafe fn set_debug_logging(
         for &name in names {
             // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
             let name = unsafe { copy_string(name, "category name") }?;
-            let index = LOG_CATEGORIES.iter().position(|(n, _)| *n == name).ok_or_else(|| {
-                let known: Vec<&str> = LOG_CATEGORIES.iter().map(|(n, _)| *n).collect();
-                format!("unknown log category '{name}' (known: {})", known.join(", "))
-            })?;
+            let index = LOG_CATEGORIES
+                .iter()
+                .position(|(n, _)| *n == name)
+                .ok_or_else(|| CallError::UnknownCategory { name: name.clone() })?;
             indices.push(index);
         }
         for index in indices {
@@ -399,13 +405,13 @@ pub unsafe fn set_debug_logging(
 
 /// Decodes a `file:` URI (RFC 8089 forms `file:///p`, `file://localhost/p`, `file:/p`) into a
 /// path, percent-decoding it. Other schemes are not usable by a shared library.
-pub fn resource_path_from_uri(uri: &str) -> Result<PathBuf, String> {
+pub fn resource_path_from_uri(uri: &str) -> Result<PathBuf, UriError> {
     let rest = uri
         .strip_prefix("file://localhost/")
         .map(|r| format!("/{r}"))
         .or_else(|| uri.strip_prefix("file:///").map(|r| format!("/{r}")))
         .or_else(|| uri.strip_prefix("file:/").filter(|r| !r.starts_with('/')).map(|r| format!("/{r}")))
-        .ok_or_else(|| format!("resource location '{uri}' is not a local file URI"))?;
+        .ok_or_else(|| UriError::NotAFileUri { uri: uri.into() })?;
     let bytes = rest.as_bytes();
     let mut decoded = Vec::with_capacity(bytes.len());
     let mut i = 0;
@@ -419,14 +425,13 @@ pub fn resource_path_from_uri(uri: &str) -> Result<PathBuf, String> {
                     i += 3;
                     continue;
                 }
-                None => return Err(format!("resource location '{uri}' has a malformed percent escape")),
+                None => return Err(UriError::MalformedEscape { uri: uri.into() }),
             }
         }
         decoded.push(bytes[i]);
         i += 1;
     }
-    let text =
-        String::from_utf8(decoded).map_err(|_| format!("resource location '{uri}' is not UTF-8 once decoded"))?;
+    let text = String::from_utf8(decoded).map_err(|_| UriError::NotUtf8 { uri: uri.into() })?;
     Ok(PathBuf::from(text))
 }
 
@@ -465,41 +470,35 @@ pub unsafe fn instantiate(
     let callbacks = unsafe { *functions };
     // Before any call of this library can panic (see `install_panic_hook`).
     install_panic_hook();
-    let result = catch(|| -> Result<Box<Instance>, (CString, String)> {
+    let result = catch(|| -> Result<Box<Instance>, (CString, InstantiateError)> {
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let name = match unsafe { copy_string(instance_name, "instanceName") } {
             Ok(n) if !n.is_empty() => n,
-            Ok(_) => return Err((c"?".into(), "fmi2Instantiate: instanceName is empty".into())),
-            Err(e) => return Err((c"?".into(), format!("fmi2Instantiate: {e}"))),
+            Ok(_) => return Err((c"?".into(), InstantiateError::EmptyName)),
+            Err(e) => return Err((c"?".into(), e.into())),
         };
         let c_name = CString::new(name.clone()).unwrap_or_default();
-        let fail = |message: String| (c_name.clone(), format!("fmi2Instantiate: {message}"));
+        let fail = |error: InstantiateError| (c_name.clone(), error);
         if fmu_type != fmi2CoSimulation {
-            return Err(fail(format!(
-                "fmuType {fmu_type} requested, but this FMU supports co-simulation (fmi2CoSimulation = 1) only"
-            )));
+            return Err(fail(InstantiateError::NotCoSimulation(fmu_type)));
         }
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
-        let guid = unsafe { copy_string(guid, "fmuGUID") }.map_err(fail)?;
+        let guid = unsafe { copy_string(guid, "fmuGUID") }.map_err(|e| fail(e.into()))?;
         let entry = models.iter().find(|m| (m.guid)() == guid).ok_or_else(|| {
-            let known: Vec<String> =
-                models.iter().map(|m| format!("{} {}", (m.info)().model_identifier, (m.guid)())).collect();
-            fail(format!(
-                "GUID {guid} does not match this binary's model description(s) ({}); the modelDescription.xml and the binary come from different builds",
-                known.join("; ")
-            ))
+            let known = models.iter().map(|m| format!("{} {}", (m.info)().model_identifier, (m.guid)())).collect();
+            fail(InstantiateError::UnknownGuid { guid: guid.clone(), known })
         })?;
         let resource_dir = if resource_location.is_null() {
             None
         } else {
             // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
-            let uri = unsafe { copy_string(resource_location, "fmuResourceLocation") }.map_err(fail)?;
-            Some(resource_path_from_uri(&uri).map_err(fail)?)
+            let uri = unsafe { copy_string(resource_location, "fmuResourceLocation") }.map_err(|e| fail(e.into()))?;
+            Some(resource_path_from_uri(&uri).map_err(|e| fail(e.into()))?)
         };
-        fmi_boolean(visible, "visible").map_err(fail)?;
-        let on = fmi_boolean(logging_on, "loggingOn").map_err(fail)?;
+        fmi_boolean(visible, "visible").map_err(|e| fail(e.into()))?;
+        let on = fmi_boolean(logging_on, "loggingOn").map_err(|e| fail(e.into()))?;
         let context = Context { instance_name: name, resource_dir };
-        let model = (entry.create)(&context).map_err(fail)?;
+        let model = (entry.create)(&context).map_err(|e| fail(e.into()))?;
         let mut categories = [on; LOG_CATEGORIES.len()];
         // Errors and warnings are reported even without debug logging: a master needs to know
         // why a call failed. A master can still switch them off with fmi2SetDebugLogging.
@@ -532,16 +531,12 @@ pub unsafe fn instantiate(
     });
     match result {
         Ok(Ok(instance)) => Box::into_raw(instance) as fmi2Component,
-        Ok(Err((name, message))) => {
-            log_without_instance(&callbacks, &name, &message);
+        Ok(Err((name, error))) => {
+            log_without_instance(&callbacks, &name, &format!("fmi2Instantiate: {error}"));
             std::ptr::null_mut()
         }
-        Err(panic_message) => {
-            log_without_instance(
-                &callbacks,
-                c"?",
-                &format!("fmi2Instantiate: internal error (panic): {panic_message}"),
-            );
+        Err(panicked) => {
+            log_without_instance(&callbacks, c"?", &format!("fmi2Instantiate: internal error (panic): {panicked}"));
             std::ptr::null_mut()
         }
     }
@@ -580,11 +575,11 @@ pub unsafe fn setup_experiment(
         fmi_boolean(tolerance_defined, "toleranceDefined")?;
         let stop_defined = fmi_boolean(stop_time_defined, "stopTimeDefined")?;
         if !start_time.is_finite() {
-            return Err(format!("startTime {start_time} is not finite"));
+            return Err(CallError::StartNotFinite { start: start_time });
         }
         let stop = if stop_defined {
             if !stop_time.is_finite() || stop_time < start_time {
-                return Err(format!("stopTime {stop_time} must be finite and not before startTime {start_time}"));
+                return Err(CallError::BadStopTime { start: start_time, stop: stop_time });
             }
             Some(stop_time)
         } else {
@@ -859,7 +854,7 @@ pub unsafe fn set_boolean(
             values.push(match b {
                 0 => false,
                 1 => true,
-                other => return Err(fmi_boolean(other, &format!("value[{i}]")).unwrap_err()),
+                other => return Err(ArgumentError::NotBoolean { what: format!("value[{i}]"), value: other }.into()),
             });
         }
         instance.model.set_boolean(vrs, &values, phase)?;
@@ -909,15 +904,15 @@ pub unsafe fn set_string(
 ///
 /// `state` is NULL or a state that this library created and that is not yet freed (the
 /// standard allows nothing else). The reference must not outlive the call it is used in.
-unsafe fn saved_state<'a>(state: fmi2FMUstate) -> Result<&'a mut SavedState, String> {
+unsafe fn saved_state<'a>(state: fmi2FMUstate) -> Result<&'a mut SavedState, CallError> {
     if state.is_null() {
-        return Err("FMUstate is NULL".into());
+        return Err(CallError::NullState);
     }
     // SAFETY: non-null, so by this function's contract a state created by fmi2GetFMUstate or
     // fmi2DeSerializeFMUstate of this library; the magic number catches other pointers.
     let saved = unsafe { &mut *(state as *mut SavedState) };
     if saved.magic != STATE_MAGIC {
-        return Err("FMUstate does not point to a state of this FMU".into());
+        return Err(CallError::ForeignState);
     }
     Ok(saved)
 }
@@ -932,9 +927,9 @@ pub unsafe fn get_fmu_state(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2S
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetFMUstate", legal::FMU_STATE, |instance| {
         if state.is_null() {
-            return Err("FMUstate pointer is NULL".into());
+            return Err(CallError::NullStatePointer);
         }
-        let bytes = instance.save_state().map_err(|e| e.to_string())?;
+        let bytes = instance.save_state()?;
         // SAFETY: `state` is a valid pointer to the master's FMUstate variable.
         let existing = unsafe { *state };
         if existing.is_null() {
@@ -960,7 +955,7 @@ pub unsafe fn set_fmu_state(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status
     with_instance(instance, "fmi2SetFMUstate", legal::FMU_STATE, |instance| {
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let bytes = unsafe { saved_state(state) }?.bytes.clone();
-        instance.load_state(&bytes).map_err(|e| e.to_string())?;
+        instance.load_state(&bytes)?;
         Ok(Status::Ok)
     })
 }
@@ -1006,7 +1001,7 @@ pub unsafe fn serialized_fmu_state_size(c: fmi2Component, state: fmi2FMUstate, s
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let saved = unsafe { saved_state(state) }?;
         if size.is_null() {
-            return Err("size is NULL".into());
+            return Err(CallError::NullSize);
         }
         // SAFETY: non-null pointer to the master's size variable.
         unsafe { *size = saved.bytes.len() };
@@ -1031,10 +1026,7 @@ pub unsafe fn serialize_fmu_state(
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let saved = unsafe { saved_state(state) }?;
         if size != saved.bytes.len() {
-            return Err(format!(
-                "buffer has {size} bytes, the state needs exactly {} (fmi2SerializedFMUstateSize)",
-                saved.bytes.len()
-            ));
+            return Err(CallError::BufferSize { size, needed: saved.bytes.len() });
         }
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let out = unsafe { slice_mut(bytes as *mut u8, size, "serializedState") }?;
@@ -1060,9 +1052,9 @@ pub unsafe fn deserialize_fmu_state(
         // SAFETY: the pointer is the caller's, valid as this function's `# Safety` requires.
         let data = unsafe { slice(bytes as *const u8, size, "serializedState") }?.to_vec();
         if state.is_null() {
-            return Err("FMUstate pointer is NULL".into());
+            return Err(CallError::NullStatePointer);
         }
-        instance.check_state(&data).map_err(|e| format!("serialized state rejected: {e}"))?;
+        instance.check_state(&data).map_err(CallError::StateRejected)?;
         // SAFETY: non-null pointer to the master's FMUstate variable.
         let existing = unsafe { *state };
         if existing.is_null() {
@@ -1113,18 +1105,18 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
     with_instance(instance, "fmi2DoStep", legal::DO_STEP, |instance| {
         // One test for the usual call (NaN fails every comparison); the reasons on the cold path.
         if !(step > 0.0 && step <= MAX_STEP_SIZE && current.abs() <= f64::MAX) {
-            return Err(step_arguments_error(current, step));
+            return Err(step_arguments_error(current, step).into());
         }
         if no_set_prior != fmi2True && no_set_prior != fmi2False {
             fmi_boolean(no_set_prior, "noSetFMUStatePriorToCurrentPoint")?;
         }
         if (current - instance.time).abs() > TIME_TOLERANCE * instance.time.abs().max(1.0) {
-            return Err(not_contiguous(current, instance.time));
+            return Err(StepError::NotContiguous { current, time: instance.time }.into());
         }
         if let Some(stop) = instance.stop_time {
             let end = current + step;
             if end > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
-                return Err(after_stop_time(current, step, end, stop));
+                return Err(StepError::AfterStopTime { current, step, end, stop }.into());
             }
         }
         // The notes are the instance's, empty between calls, so that a step neither builds
@@ -1157,7 +1149,7 @@ pub unsafe fn do_step(c: fmi2Component, current: fmi2Real, step: fmi2Real, no_se
                     instance.step_notes = Notes::default();
                 }
                 instance.last_step_status = Status::Error;
-                Err(e)
+                Err(e.into())
             }
         }
     })
@@ -1192,32 +1184,17 @@ pub fn grid_step(current: f64, step: f64) -> f64 {
     step
 }
 
-#[cold]
-#[inline(never)]
-fn not_contiguous(current: f64, time: f64) -> String {
-    format!(
-        "currentCommunicationPoint {current} is not where the instance is ({time}); steps must be contiguous (use fmi2SetFMUstate to go back)"
-    )
-}
-
-#[cold]
-#[inline(never)]
-fn after_stop_time(current: f64, step: f64, end: f64, stop: f64) -> String {
-    format!("the step from {current} by {step} s ends at {end}, after the stopTime {stop} given in fmi2SetupExperiment")
-}
-
 /// Why `fmi2DoStep`'s step size or communication point is refused (one of them is).
 #[cold]
-fn step_arguments_error(current: f64, step: f64) -> String {
+#[inline(never)]
+fn step_arguments_error(current: f64, step: f64) -> StepError {
     if !step.is_finite() || step <= 0.0 {
-        return format!("communicationStepSize must be positive and finite, got {step}");
+        return StepError::StepNotPositive { step };
     }
     if step > MAX_STEP_SIZE {
-        return format!(
-            "communicationStepSize {step} s is longer than the longest step this FMU takes, {MAX_STEP_SIZE} s (one day): a step is computed in pieces of about a millisecond, so a longer one would keep the call busy for minutes or for ever; take several steps"
-        );
+        return StepError::StepTooLong { step, max: MAX_STEP_SIZE };
     }
-    format!("currentCommunicationPoint {current} is not finite")
+    StepError::PointNotFinite { current }
 }
 
 /// # Safety
@@ -1238,7 +1215,7 @@ pub unsafe fn get_status(c: fmi2Component, kind: fmi2StatusKind, value: *mut fmi
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetStatus", legal::STATUS, |instance| {
         if value.is_null() {
-            return Err("value is NULL".into());
+            return Err(CallError::NullValue);
         }
         if kind == fmi2DoStepStatus {
             // SAFETY: non-null pointer to the master's status variable.
@@ -1264,7 +1241,7 @@ pub unsafe fn get_real_status(c: fmi2Component, kind: fmi2StatusKind, value: *mu
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetRealStatus", legal::STATUS, |instance| {
         if value.is_null() {
-            return Err("value is NULL".into());
+            return Err(CallError::NullValue);
         }
         if kind == fmi2LastSuccessfulTime {
             // SAFETY: non-null pointer to the master's variable.
@@ -1290,7 +1267,7 @@ pub unsafe fn get_integer_status(c: fmi2Component, kind: fmi2StatusKind, value: 
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetIntegerStatus", legal::STATUS, |instance| {
         if value.is_null() {
-            return Err("value is NULL".into());
+            return Err(CallError::NullValue);
         }
         instance.log(
             Status::Discard,
@@ -1310,7 +1287,7 @@ pub unsafe fn get_boolean_status(c: fmi2Component, kind: fmi2StatusKind, value: 
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetBooleanStatus", legal::STATUS, |instance| {
         if value.is_null() {
-            return Err("value is NULL".into());
+            return Err(CallError::NullValue);
         }
         if kind == fmi2Terminated {
             // The model never asks the master to stop.
@@ -1337,7 +1314,7 @@ pub unsafe fn get_string_status(c: fmi2Component, kind: fmi2StatusKind, value: *
     let instance = unsafe { instance_from(c) };
     with_instance(instance, "fmi2GetStringStatus", legal::STATUS, |instance| {
         if value.is_null() {
-            return Err("value is NULL".into());
+            return Err(CallError::NullValue);
         }
         instance.log(
             Status::Discard,

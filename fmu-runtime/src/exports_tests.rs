@@ -230,8 +230,19 @@ struct TestModel {
     state: f64,
 }
 
+/// The test model's own refusals.
+#[derive(Debug, thiserror::Error)]
+enum TestError {
+    #[error("13 is unlucky")]
+    Unlucky,
+    #[error(transparent)]
+    Params(#[from] crate::params::ParamsError),
+}
+
 impl Model for TestModel {
     type Var = TestVar;
+
+    type Error = TestError;
 
     fn info() -> ModelInfo {
         ModelInfo {
@@ -244,7 +255,7 @@ impl Model for TestModel {
         }
     }
 
-    fn new(_values: &Values<TestVar>, _context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<TestVar>, _context: &Context) -> Result<Self, TestError> {
         Ok(TestModel { state: 0.0 })
     }
 
@@ -253,7 +264,7 @@ impl Model for TestModel {
         values: &mut Values<TestVar>,
         _context: &Context,
         notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), TestError> {
         values.set_real(TestVar::DoubleGain, 2.0 * values.real(TestVar::Gain));
         values.set_real(TestVar::Output, self.state);
         notes.event("initialised with 100% of the gain");
@@ -266,7 +277,7 @@ impl Model for TestModel {
         _time: f64,
         step: f64,
         notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), TestError> {
         if values.boolean(TestVar::PanicOnStep) {
             notes.warning("about to panic");
             panic!("deliberate panic with 50% probability");
@@ -301,14 +312,19 @@ impl Model for TestModel {
         }
     }
 
-    fn check_real(var: TestVar, value: f64, _values: &Values<TestVar>) -> Result<(), String> {
+    fn check_real(var: TestVar, value: f64, _values: &Values<TestVar>) -> Result<(), TestError> {
         if var == TestVar::Gain && value == 13.0 {
-            return Err("13 is unlucky".into());
+            return Err(TestError::Unlucky);
         }
         Ok(())
     }
 
-    fn string_changed(&mut self, var: TestVar, values: &mut Values<TestVar>, _context: &Context) -> Result<(), String> {
+    fn string_changed(
+        &mut self,
+        var: TestVar,
+        values: &mut Values<TestVar>,
+        _context: &Context,
+    ) -> Result<(), TestError> {
         if var == TestVar::ParameterFile && !values.string(var).is_empty() {
             let text = values.string(var).replace(';', "\n");
             crate::params::apply::<TestModel>(&text, "inline", values)?;

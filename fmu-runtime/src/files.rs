@@ -12,7 +12,7 @@
 
 use std::fs::{File, OpenOptions};
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The largest parameter file an FMU reads, bytes (1 MiB): a parameter file holds a few
 /// hundred assignments of a few dozen bytes each, so this is a thousand times the largest
@@ -34,34 +34,57 @@ fn open_without_blocking(path: &Path) -> std::io::Result<File> {
     options.open(path)
 }
 
+/// Why a file was not read; `what` names the file ("parameter file", "modes file").
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    #[error("cannot read {what} {}: {source}", .path.display())]
+    Open { what: &'static str, path: PathBuf, source: std::io::Error },
+    #[error("{what} {} is not a regular file ({kind}); only regular files are read, so that a FIFO or a device cannot block or flood the reader", .path.display())]
+    NotRegular { what: &'static str, path: PathBuf, kind: &'static str },
+    #[error("{what} {} has {len} bytes, more than the {max_bytes} bytes read", .path.display())]
+    TooLarge { what: &'static str, path: PathBuf, len: u64, max_bytes: u64 },
+    #[error("cannot read {what} {}: {source}", .path.display())]
+    Read { what: &'static str, path: PathBuf, source: ReadError },
+}
+
+/// Why the bytes of an open regular file could not be taken as text.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    #[error("cannot reserve {bytes} bytes: {source}")]
+    Reserve { bytes: u64, source: std::collections::TryReserveError },
+    #[error("{0}")]
+    Io(#[source] std::io::Error),
+    #[error("the file grew beyond {max_bytes} bytes while it was read")]
+    Grew { max_bytes: u64 },
+    #[error("not UTF-8 text ({0})")]
+    NotUtf8(#[source] std::string::FromUtf8Error),
+}
+
 /// Reads the whole of `path` as UTF-8 text, if it is a regular file of at most `max_bytes`
 /// bytes. `what` names the file in the error ("parameter file", "modes file").
-pub fn read_regular_file(path: &Path, max_bytes: u64, what: &str) -> Result<String, String> {
-    let shown = path.display();
-    let file = open_without_blocking(path).map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
-    let metadata = file.metadata().map_err(|e| format!("cannot read {what} {shown}: {e}"))?;
+pub fn read_regular_file(path: &Path, max_bytes: u64, what: &'static str) -> Result<String, FileError> {
+    let open = |source| FileError::Open { what, path: path.to_path_buf(), source };
+    let file = open_without_blocking(path).map_err(open)?;
+    let metadata = file.metadata().map_err(open)?;
     if !metadata.is_file() {
-        return Err(format!(
-            "{what} {shown} is not a regular file ({}); only regular files are read, so that a FIFO or a device cannot block or flood the reader",
-            describe_file_type(&metadata)
-        ));
+        return Err(FileError::NotRegular { what, path: path.to_path_buf(), kind: describe_file_type(&metadata) });
     }
     if metadata.len() > max_bytes {
-        return Err(format!("{what} {shown} has {} bytes, more than the {max_bytes} bytes read", metadata.len()));
+        return Err(FileError::TooLarge { what, path: path.to_path_buf(), len: metadata.len(), max_bytes });
     }
-    read_bounded(file, max_bytes).map_err(|e| format!("cannot read {what} {shown}: {e}"))
+    read_bounded(file, max_bytes).map_err(|source| FileError::Read { what, path: path.to_path_buf(), source })
 }
 
 /// Reads at most `max_bytes` from an open regular file into a buffer reserved fallibly.
-fn read_bounded(file: File, max_bytes: u64) -> Result<String, String> {
+fn read_bounded(file: File, max_bytes: u64) -> Result<String, ReadError> {
     let mut bytes = Vec::new();
     let expected = file.metadata().map(|m| m.len()).unwrap_or(0).min(max_bytes);
-    bytes.try_reserve_exact(expected as usize + 1).map_err(|e| format!("cannot reserve {expected} bytes: {e}"))?;
-    file.take(max_bytes + 1).read_to_end(&mut bytes).map_err(|e| e.to_string())?;
+    bytes.try_reserve_exact(expected as usize + 1).map_err(|source| ReadError::Reserve { bytes: expected, source })?;
+    file.take(max_bytes + 1).read_to_end(&mut bytes).map_err(ReadError::Io)?;
     if bytes.len() as u64 > max_bytes {
-        return Err(format!("the file grew beyond {max_bytes} bytes while it was read"));
+        return Err(ReadError::Grew { max_bytes });
     }
-    String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text ({e})"))
+    String::from_utf8(bytes).map_err(ReadError::NotUtf8)
 }
 
 #[cfg(unix)]
@@ -102,7 +125,7 @@ mod tests {
         for (path, kind) in
             [("/dev/zero", "character device"), ("/dev/null", "character device"), ("/tmp", "directory")]
         {
-            let error = read_regular_file(Path::new(path), 1024, "test file").unwrap_err();
+            let error = read_regular_file(Path::new(path), 1024, "test file").unwrap_err().to_string();
             assert!(error.contains(kind) && error.contains("not a regular file"), "{path}: {error}");
         }
     }
@@ -119,7 +142,7 @@ mod tests {
             return;
         }
         let started = std::time::Instant::now();
-        let error = read_regular_file(&fifo, 1024, "test file").unwrap_err();
+        let error = read_regular_file(&fifo, 1024, "test file").unwrap_err().to_string();
         assert!(error.contains("FIFO"), "{error}");
         assert!(started.elapsed().as_secs_f64() < 1.0);
         let _ = std::fs::remove_dir_all(&dir);
@@ -130,7 +153,7 @@ mod tests {
         let path = std::env::temp_dir().join(format!("fmu-runtime-limit-{}", std::process::id()));
         std::fs::write(&path, "a = 1\n").unwrap();
         assert_eq!(read_regular_file(&path, 6, "test file").unwrap(), "a = 1\n");
-        let error = read_regular_file(&path, 5, "test file").unwrap_err();
+        let error = read_regular_file(&path, 5, "test file").unwrap_err().to_string();
         assert!(error.contains("more than the 5 bytes"), "{error}");
         let _ = std::fs::remove_file(&path);
     }

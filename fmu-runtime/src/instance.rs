@@ -10,7 +10,10 @@ use crate::ffi::{fmi2CallbackFunctions, Status};
 use crate::model::{Context, Model, Notes};
 use crate::phase::{Phase, CAT_ERROR, LOG_CATEGORIES};
 use crate::state::{InstanceState, StateError, StateHeader};
-use crate::variables::{all_finite, is_subnormal, BaseType, Kind, SetPhase, Values, Var, VariableSet, WrittenIndices};
+use crate::variables::{
+    all_finite, is_subnormal, BaseType, Kind, ModelRefusal, SetPhase, Values, Var, VariableError, VariableSet,
+    WrittenIndices,
+};
 
 /// Guards against a stray or freed pointer being used as an instance.
 pub const INSTANCE_MAGIC: u64 = 0x4D4B_4154_5F46_4D55; // "MKAT_FMU"
@@ -22,29 +25,63 @@ pub struct SavedState {
     pub bytes: Vec<u8>,
 }
 
+/// Why a call on an instance's model failed; the runtime logs its text with `fmi2Error`.
+#[derive(Debug, thiserror::Error)]
+pub enum InstanceError {
+    /// A value reference or value the variable table refuses.
+    #[error(transparent)]
+    Variable(#[from] VariableError),
+    /// The model's own error ([`Model::Error`]) from creating, initialising or stepping it or
+    /// from a String set.
+    #[error(transparent)]
+    Model(ModelRefusal),
+    /// A get would hand out a value that is not finite.
+    #[error("'{name}' (value reference {vr}) would be {value}, which the model cannot give; the inputs or parameters are outside what it can compute")]
+    NonFiniteRead { name: &'static str, vr: u32, value: f64 },
+    /// Initialisation computed a value that is not finite; it was undone.
+    #[error("initialisation gives {name} = {value}: the parameters do not describe a model that can run")]
+    InitialisationNotFinite { name: &'static str, value: f64 },
+    /// A step computed a value that is not finite; it was undone.
+    #[error("the step from {time} s by {step} s would give {name} = {value}; it was undone and the instance is as before the step (a parameter or input outside what the model can compute, or a step too long for it)")]
+    StepNotFinite { time: f64, step: f64, name: &'static str, value: f64 },
+    /// A step would take too many internal pieces ([`Model::step_pieces`]).
+    #[error("the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {max_pieces:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces")]
+    TooManyPieces { step: f64, pieces: f64, what: &'static str, max_pieces: f64 },
+    /// Undoing a failed step or initialisation could not restore the model's state before it.
+    #[error(transparent)]
+    Undo(StateError),
+}
+
+impl InstanceError {
+    /// Boxes a model's own error.
+    fn model<E: std::error::Error + Send + Sync + 'static>(error: E) -> InstanceError {
+        InstanceError::Model(Box::new(error))
+    }
+}
+
 /// The type-erased part of an instance: a model and its values.
 pub trait DynModel: Send {
     fn model_identifier(&self) -> &'static str;
     fn guid(&self) -> &str;
-    fn get(&self, vr: u32, ty: BaseType) -> Result<&'static Var, String>;
+    fn get(&self, vr: u32, ty: BaseType) -> Result<&'static Var, InstanceError>;
     /// Reads Reals. The feedthrough groups in `stale` (bit `g` for group `g`, see
     /// [`Model::feedthrough_group`]) are brought up to date first where one of `vrs` is an output
     /// of them; returns the groups that were.
-    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], stale: u32) -> Result<u32, String>;
-    fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), String>;
-    fn get_boolean(&self, vrs: &[u32], out: &mut [bool]) -> Result<(), String>;
-    fn get_string(&self, vrs: &[u32]) -> Result<Vec<String>, String>;
-    fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), String>;
-    fn set_integer(&mut self, vrs: &[u32], values: &[i32], phase: SetPhase) -> Result<(), String>;
-    fn set_boolean(&mut self, vrs: &[u32], values: &[bool], phase: SetPhase) -> Result<(), String>;
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], stale: u32) -> Result<u32, InstanceError>;
+    fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), InstanceError>;
+    fn get_boolean(&self, vrs: &[u32], out: &mut [bool]) -> Result<(), InstanceError>;
+    fn get_string(&self, vrs: &[u32]) -> Result<Vec<String>, InstanceError>;
+    fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), InstanceError>;
+    fn set_integer(&mut self, vrs: &[u32], values: &[i32], phase: SetPhase) -> Result<(), InstanceError>;
+    fn set_boolean(&mut self, vrs: &[u32], values: &[bool], phase: SetPhase) -> Result<(), InstanceError>;
     fn set_string(
         &mut self,
         vrs: &[u32],
         values: Vec<String>,
         phase: SetPhase,
         context: &Context,
-    ) -> Result<(), String>;
-    fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String>;
+    ) -> Result<(), InstanceError>;
+    fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), InstanceError>;
     /// Brings the feedthrough outputs of `groups` up to date.
     fn update_feedthrough(&mut self, groups: u32);
     /// The feedthrough groups of the model's outputs (0: no output depends directly on an input).
@@ -62,7 +99,7 @@ pub trait DynModel: Send {
         max_pieces: f64,
         context: &Context,
         notes: &mut Notes,
-    ) -> Result<(), String>;
+    ) -> Result<(), InstanceError>;
     /// The bytes of a state: `header`, then the values and the model's state.
     fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError>;
     /// Restores a state of this model (checked by identifier and GUID) and returns its header.
@@ -164,9 +201,9 @@ pub struct ModelSlot<M: Model> {
 }
 
 impl<M: Model> ModelSlot<M> {
-    pub fn create(context: &Context, guid: String) -> Result<Self, String> {
+    pub fn create(context: &Context, guid: String) -> Result<Self, InstanceError> {
         let values = Values::<M::Var>::at_start();
-        let model = M::new(&values, context)?;
+        let model = M::new(&values, context).map_err(InstanceError::model)?;
         let access = M::Var::TABLE.iter().map(Access::of).collect();
         let real_reads: Vec<u32> = (0..M::Var::TABLE.len()).map(real_read::<M>).collect();
         let feedthrough_groups = real_reads.iter().fold(0, |groups, read| groups | read >> GROUP_SHIFT);
@@ -186,13 +223,11 @@ impl<M: Model> ModelSlot<M> {
         })
     }
 
-    fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), String> {
+    fn lookup(vr: u32, ty: BaseType) -> Result<(usize, &'static Var), VariableError> {
         let index = vr as usize;
-        let var = M::Var::TABLE.get(index).ok_or_else(|| {
-            format!("unknown value reference {vr} (this model has {} variables)", M::Var::TABLE.len())
-        })?;
+        let var = M::Var::TABLE.get(index).ok_or(VariableError::UnknownReference { vr, count: M::Var::TABLE.len() })?;
         if var.base_type() != ty {
-            return Err(format!("value reference {vr} ('{}') is of type {}, not {ty}", var.name, var.base_type()));
+            return Err(VariableError::WrongType { vr, name: var.name, actual: var.base_type(), requested: ty });
         }
         Ok((index, var))
     }
@@ -201,8 +236,8 @@ impl<M: Model> ModelSlot<M> {
     /// and cold, so that the loops of the hot gets and sets keep few registers.
     #[cold]
     #[inline(never)]
-    fn not_a_real(vr: u32) -> String {
-        Self::lookup(vr, BaseType::Real).err().unwrap_or_else(|| format!("value reference {vr} is not a Real"))
+    fn not_a_real(vr: u32) -> VariableError {
+        Self::lookup(vr, BaseType::Real).err().unwrap_or(VariableError::NotAReal { vr })
     }
 
     /// The declaration's checks of a Real set, one by one, for a value the packed check
@@ -210,7 +245,7 @@ impl<M: Model> ModelSlot<M> {
     /// [`Self::not_a_real`].
     #[cold]
     #[inline(never)]
-    fn check_real_by_declaration(&self, vr: u32, value: f64, phase: SetPhase) -> Result<(), String> {
+    fn check_real_by_declaration(&self, vr: u32, value: f64, phase: SetPhase) -> Result<(), VariableError> {
         let (_, decl) = Self::lookup(vr, BaseType::Real)?;
         Self::check_settable(decl, vr, phase)?;
         check_real_value::<M>(M::Var::from_index(vr as usize).expect("index checked"), value, &self.values)
@@ -218,9 +253,9 @@ impl<M: Model> ModelSlot<M> {
 
     /// Puts back the values and the model as they were before a step (or an initialisation).
     #[cold]
-    fn undo_step(&mut self, model_before: M::State, context: &Context) -> Result<(), String> {
-        let mut model = M::new(&self.before_step, context)?;
-        model.load_state(model_before, &self.before_step).map_err(|e| e.to_string())?;
+    fn undo_step(&mut self, model_before: M::State, context: &Context) -> Result<(), InstanceError> {
+        let mut model = M::new(&self.before_step, context).map_err(InstanceError::model)?;
+        model.load_state(model_before, &self.before_step).map_err(InstanceError::Undo)?;
         self.model = model;
         self.values.copy_numbers_from(&self.before_step);
         Ok(())
@@ -230,10 +265,10 @@ impl<M: Model> ModelSlot<M> {
     /// inputs are the master's and a step does not change them, so the values are then as
     /// before the step.
     #[cold]
-    fn undo_written(&mut self, model_before: M::State, context: &Context) -> Result<(), String> {
+    fn undo_written(&mut self, model_before: M::State, context: &Context) -> Result<(), InstanceError> {
         self.values.copy_written_from(&self.before_step, &self.written);
-        let mut model = M::new(&self.values, context)?;
-        model.load_state(model_before, &self.values).map_err(|e| e.to_string())?;
+        let mut model = M::new(&self.values, context).map_err(InstanceError::model)?;
+        model.load_state(model_before, &self.values).map_err(InstanceError::Undo)?;
         self.model = model;
         Ok(())
     }
@@ -252,13 +287,13 @@ impl<M: Model> ModelSlot<M> {
     /// Why a get was refused: which value is not finite.
     #[cold]
     #[inline(never)]
-    fn non_finite_read(&self, vrs: &[u32], out: &[f64]) -> String {
+    fn non_finite_read(&self, vrs: &[u32], out: &[f64]) -> InstanceError {
         let (vr, value) = vrs.iter().zip(out).find(|(_, x)| !x.is_finite()).map(|(&v, &x)| (v, x)).unwrap_or((0, 0.0));
         let name = M::Var::TABLE.get(vr as usize).map_or("?", |v| v.name);
-        format!("'{name}' (value reference {vr}) would be {value}, which the model cannot give; the inputs or parameters are outside what it can compute")
+        InstanceError::NonFiniteRead { name, vr, value }
     }
 
-    fn check_settable(var: &Var, vr: u32, phase: SetPhase) -> Result<(), String> {
+    fn check_settable(var: &Var, vr: u32, phase: SetPhase) -> Result<(), VariableError> {
         if var.settable_in(phase) {
             return Ok(());
         }
@@ -266,12 +301,13 @@ impl<M: Model> ModelSlot<M> {
             SetPhase::Stepping => "after initialisation only inputs and tunable parameters may be set",
             _ => "only inputs and variables with initial=\"exact\" or \"approx\" may be set",
         };
-        Err(format!(
-            "'{}' (value reference {vr}, causality {}, variability {}) cannot be set now: {why}",
-            var.name,
-            var.causality.xml_name(),
-            var.variability.xml_name()
-        ))
+        Err(VariableError::NotSettable {
+            name: var.name,
+            vr,
+            causality: var.causality.xml_name(),
+            variability: var.variability.xml_name(),
+            why,
+        })
     }
 }
 
@@ -284,11 +320,11 @@ impl<M: Model> DynModel for ModelSlot<M> {
         &self.guid
     }
 
-    fn get(&self, vr: u32, ty: BaseType) -> Result<&'static Var, String> {
-        Self::lookup(vr, ty).map(|(_, v)| v)
+    fn get(&self, vr: u32, ty: BaseType) -> Result<&'static Var, InstanceError> {
+        Ok(Self::lookup(vr, ty).map(|(_, v)| v)?)
     }
 
-    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], stale: u32) -> Result<u32, String> {
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64], stale: u32) -> Result<u32, InstanceError> {
         // Copy while checking every reference (and noting the feedthrough groups read); if a
         // group read is stale (its inputs changed), bring that group up to date and copy again:
         // no value is read stale. One pass for the common get, which reads no stale group (a
@@ -302,7 +338,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
             reads |= read;
             match self.values.reals_by_slot().get((read & SLOT_BITS) as usize) {
                 Some(&value) => *slot = value,
-                None => return Err(Self::not_a_real(vr)),
+                None => return Err(Self::not_a_real(vr).into()),
             }
         }
         let refreshed = stale & reads >> GROUP_SHIFT;
@@ -320,7 +356,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Ok(refreshed)
     }
 
-    fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), String> {
+    fn get_integer(&self, vrs: &[u32], out: &mut [i32]) -> Result<(), InstanceError> {
         for (slot, &vr) in out.iter_mut().zip(vrs) {
             let (i, _) = Self::lookup(vr, BaseType::Integer)?;
             *slot = self.values.integer_at(i);
@@ -328,7 +364,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Ok(())
     }
 
-    fn get_boolean(&self, vrs: &[u32], out: &mut [bool]) -> Result<(), String> {
+    fn get_boolean(&self, vrs: &[u32], out: &mut [bool]) -> Result<(), InstanceError> {
         for (slot, &vr) in out.iter_mut().zip(vrs) {
             let (i, _) = Self::lookup(vr, BaseType::Boolean)?;
             *slot = self.values.boolean_at(i);
@@ -336,13 +372,13 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Ok(())
     }
 
-    fn get_string(&self, vrs: &[u32]) -> Result<Vec<String>, String> {
+    fn get_string(&self, vrs: &[u32]) -> Result<Vec<String>, InstanceError> {
         vrs.iter()
-            .map(|&vr| Self::lookup(vr, BaseType::String).map(|(i, _)| self.values.string_at(i).to_string()))
+            .map(|&vr| Ok(Self::lookup(vr, BaseType::String).map(|(i, _)| self.values.string_at(i).to_string())?))
             .collect()
     }
 
-    fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), String> {
+    fn set_real(&mut self, vrs: &[u32], values: &[f64], phase: SetPhase) -> Result<(), InstanceError> {
         // Check everything first, then write: a rejected call changes nothing.
         let phase_index = usize::from(phase == SetPhase::Stepping);
         for (&vr, &value) in vrs.iter().zip(values) {
@@ -362,7 +398,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Ok(())
     }
 
-    fn set_integer(&mut self, vrs: &[u32], values: &[i32], phase: SetPhase) -> Result<(), String> {
+    fn set_integer(&mut self, vrs: &[u32], values: &[i32], phase: SetPhase) -> Result<(), InstanceError> {
         for (&vr, &value) in vrs.iter().zip(values) {
             let (_, var) = Self::lookup(vr, BaseType::Integer)?;
             Self::check_settable(var, vr, phase)?;
@@ -374,7 +410,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         Ok(())
     }
 
-    fn set_boolean(&mut self, vrs: &[u32], values: &[bool], phase: SetPhase) -> Result<(), String> {
+    fn set_boolean(&mut self, vrs: &[u32], values: &[bool], phase: SetPhase) -> Result<(), InstanceError> {
         for &vr in vrs {
             let (_, var) = Self::lookup(vr, BaseType::Boolean)?;
             Self::check_settable(var, vr, phase)?;
@@ -391,7 +427,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         values: Vec<String>,
         phase: SetPhase,
         context: &Context,
-    ) -> Result<(), String> {
+    ) -> Result<(), InstanceError> {
         for &vr in vrs {
             let (_, var) = Self::lookup(vr, BaseType::String)?;
             Self::check_settable(var, vr, phase)?;
@@ -405,25 +441,25 @@ impl<M: Model> DynModel for ModelSlot<M> {
             let typed = M::Var::from_index(vr as usize).expect("index checked");
             if let Err(e) = self.model.string_changed(typed, &mut self.values, context) {
                 self.values = before;
-                return Err(e);
+                return Err(InstanceError::model(e));
             }
         }
         Ok(())
     }
 
-    fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), String> {
+    fn initialize(&mut self, context: &Context, notes: &mut Notes) -> Result<(), InstanceError> {
         // As a step: kept to be undone, so that a failed initialisation leaves no NaN behind
         // (a state taken afterwards must be one that can be restored).
         self.keep_values_before();
         let model_before = self.model.save_state();
         if let Err(e) = self.model.initialize(&mut self.values, context, notes) {
             self.undo_step(model_before, context)?;
-            return Err(e);
+            return Err(InstanceError::model(e));
         }
         let Some(index) = self.values.first_non_finite_real() else { return Ok(()) };
         let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
         self.undo_step(model_before, context)?;
-        Err(format!("initialisation gives {name} = {value}: the parameters do not describe a model that can run"))
+        Err(InstanceError::InitialisationNotFinite { name, value })
     }
 
     fn update_feedthrough(&mut self, groups: u32) {
@@ -446,7 +482,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         max_pieces: f64,
         context: &Context,
         notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), InstanceError> {
         let (pieces, what) = M::step_pieces(&self.values, step);
         // NaN pieces (a model's arithmetic gone wrong) are refused too.
         if pieces.is_nan() || pieces > max_pieces {
@@ -466,15 +502,13 @@ impl<M: Model> DynModel for ModelSlot<M> {
             // Models leave their data untouched on an error; undoing makes sure of it.
             let model_before = self.model_before_step.take().expect("kept just above");
             self.undo_written(model_before, context)?;
-            return Err(e);
+            return Err(InstanceError::model(e));
         }
         let Some(index) = self.values.first_non_finite_written(&self.written) else { return Ok(()) };
         let (name, value) = (M::Var::TABLE[index].name, self.values.real_at(index));
         let model_before = self.model_before_step.take().expect("kept above");
         self.undo_written(model_before, context)?;
-        Err(format!(
-            "the step from {time} s by {step} s would give {name} = {value}; it was undone and the instance is as before the step (a parameter or input outside what the model can compute, or a step too long for it)"
-        ))
+        Err(InstanceError::StepNotFinite { time, step, name, value })
     }
 
     fn save(&self, header: &StateHeader) -> Result<Vec<u8>, StateError> {
@@ -485,7 +519,7 @@ impl<M: Model> DynModel for ModelSlot<M> {
         // Build the restored model aside and swap it in only when everything was read.
         let InstanceState { header, values, model: state } =
             crate::state::decode::<M>(bytes, M::info().model_identifier, &self.guid)?;
-        let mut model = M::new(&values, context).map_err(StateError::Invalid)?;
+        let mut model = M::new(&values, context).map_err(StateError::model)?;
         // A state taken while parameters await initialisation (set after the model last
         // initialised) holds a model state that the next initialisation replaces, built from
         // the values: it may not fit them (a parameter the model then refuses), so it is not
@@ -503,35 +537,30 @@ impl<M: Model> DynModel for ModelSlot<M> {
 /// Why a step is refused for its count of internal pieces.
 #[cold]
 #[inline(never)]
-fn too_many_pieces(step: f64, pieces: f64, what: &str, max_pieces: f64) -> String {
-    format!(
-        "the step of {step} s would be computed in {pieces:.3e} pieces ({what}), more than the {max_pieces:e} one call may take (about ten seconds of computing); take shorter steps or longer pieces"
-    )
+fn too_many_pieces(step: f64, pieces: f64, what: &'static str, max_pieces: f64) -> InstanceError {
+    InstanceError::TooManyPieces { step, pieces, what, max_pieces }
 }
 
 /// Checks a Real value a master (or a parameter file) wants to set: finite, not subnormal,
 /// within the declared range, and accepted by the model's own check.
-pub fn check_real_value<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), String> {
+pub fn check_real_value<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), VariableError> {
     let decl = var.var();
-    let vr = var.vr();
+    let (name, vr) = (decl.name, var.vr());
     if !value.is_finite() {
-        return Err(format!("'{}' (value reference {vr}) cannot be set to {value}: values must be finite", decl.name));
+        return Err(VariableError::NotFinite { name, vr, value });
     }
     if is_subnormal(value) {
-        return Err(format!(
-            "'{}' (value reference {vr}) cannot be set to {value:e}: subnormal numbers are refused (give 0 or a normal number)",
-            decl.name
-        ));
+        return Err(VariableError::Subnormal { name, vr, value });
     }
     if let Kind::Real { min, max, unit, .. } = decl.kind {
-        if let Some(lo) = min {
-            if value < lo {
-                return Err(format!("'{}' = {value} {unit} is below its minimum {lo} {unit}", decl.name));
+        if let Some(min) = min {
+            if value < min {
+                return Err(VariableError::BelowMinimum { name, value, unit, min });
             }
         }
-        if let Some(hi) = max {
-            if value > hi {
-                return Err(format!("'{}' = {value} {unit} is above its maximum {hi} {unit}", decl.name));
+        if let Some(max) = max {
+            if value > max {
+                return Err(VariableError::AboveMaximum { name, value, unit, max });
             }
         }
     }
@@ -539,36 +568,29 @@ pub fn check_real_value<M: Model>(var: M::Var, value: f64, values: &Values<M::Va
 }
 
 /// The model's own check of a Real value, after the declaration's.
-fn check_model_real<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), String> {
-    M::check_real(var, value, values).map_err(|e| format!("'{}' = {value}: {e}", var.var().name))
+fn check_model_real<M: Model>(var: M::Var, value: f64, values: &Values<M::Var>) -> Result<(), VariableError> {
+    M::check_real(var, value, values).map_err(|e| VariableError::RealRefused {
+        name: var.var().name,
+        value,
+        source: Box::new(e),
+    })
 }
 
 /// Checks an Integer (or enumeration) value against its declared range or items and the
 /// model's own check.
-pub fn check_integer_value<M: Model>(var: M::Var, value: i32, values: &Values<M::Var>) -> Result<(), String> {
+pub fn check_integer_value<M: Model>(var: M::Var, value: i32, values: &Values<M::Var>) -> Result<(), VariableError> {
     let decl = var.var();
+    let name = decl.name;
     match decl.kind {
         Kind::Integer { min, max, .. } if min.is_some_and(|lo| value < lo) || max.is_some_and(|hi| value > hi) => {
-            return Err(format!(
-                "'{}' = {value} is outside its range [{}, {}]",
-                decl.name,
-                min.map_or("-inf".into(), |v| v.to_string()),
-                max.map_or("inf".into(), |v| v.to_string())
-            ));
+            return Err(VariableError::IntegerOutOfRange { name, value, min, max });
         }
         Kind::Enumeration { declared_type, .. } if declared_type.name_of(value).is_none() => {
-            let items: Vec<String> =
-                declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
-            return Err(format!(
-                "'{}' = {value} is not an item of {} ({})",
-                decl.name,
-                declared_type.name,
-                items.join(", ")
-            ));
+            return Err(VariableError::NotAnItem { name, value, declared_type });
         }
         _ => {}
     }
-    M::check_integer(var, value, values).map_err(|e| format!("'{}' = {value}: {e}", decl.name))
+    M::check_integer(var, value, values).map_err(|e| VariableError::IntegerRefused { name, value, source: Box::new(e) })
 }
 
 /// An FMU instance as the C API sees it.
@@ -604,7 +626,7 @@ pub struct Instance {
     pub context: Context,
     pub model: Box<dyn DynModel>,
     /// Rebuilds the model for fmi2Reset.
-    pub create: fn(&Context) -> Result<Box<dyn DynModel>, String>,
+    pub create: fn(&Context) -> Result<Box<dyn DynModel>, InstanceError>,
     /// Strings handed out by fmi2GetString stay valid until the next call of it.
     pub returned_strings: Vec<CString>,
 }
@@ -675,7 +697,7 @@ impl Instance {
     /// Checks that bytes are a state of this model, without applying them: a trial load into a
     /// throw-away model catches corrupt states at deserialisation time.
     pub fn check_state(&self, bytes: &[u8]) -> Result<(), StateError> {
-        let mut scratch = (self.create)(&self.context).map_err(StateError::Invalid)?;
+        let mut scratch = (self.create)(&self.context).map_err(StateError::model)?;
         scratch.load(bytes, &self.context).map(|_| ())
     }
 }

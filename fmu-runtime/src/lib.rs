@@ -5,6 +5,7 @@
 //! With the importer (`fmu-import`) this is where C meets Rust, the only crates with `unsafe`.
 //! Model crates implement [`model::Model`] in safe Rust and call [`export_fmi2!`].
 
+pub mod call_error;
 pub mod checks;
 pub mod exports;
 pub mod files;

@@ -93,10 +93,15 @@ pub trait Model: Sized + Send + 'static {
     /// The variables, declared with [`crate::declare_variables!`].
     type Var: VariableSet;
 
+    /// Why the model refuses a value, a parameter set or a step. The runtime logs its
+    /// `Display` text with the call's `fmi2Error`, so the message should say what is wrong and
+    /// how to fix it.
+    type Error: std::error::Error + Send + Sync + 'static;
+
     fn info() -> ModelInfo;
 
     /// A new instance; the values are at their start values.
-    fn new(values: &Values<Self::Var>, context: &Context) -> Result<Self, String>;
+    fn new(values: &Values<Self::Var>, context: &Context) -> Result<Self, Self::Error>;
 
     /// Parameters are final (or the master asked for initial values during initialisation):
     /// build what depends on them and compute the initial outputs and calculated parameters.
@@ -106,7 +111,7 @@ pub trait Model: Sized + Send + 'static {
         values: &mut Values<Self::Var>,
         context: &Context,
         notes: &mut Notes,
-    ) -> Result<(), String>;
+    ) -> Result<(), Self::Error>;
 
     /// Advances the model from `time` to `time + step`, inputs held constant over the step,
     /// and writes the outputs at `time + step`.
@@ -116,7 +121,7 @@ pub trait Model: Sized + Send + 'static {
         time: f64,
         step: f64,
         notes: &mut Notes,
-    ) -> Result<(), String>;
+    ) -> Result<(), Self::Error>;
 
     /// The work of a step of `step` seconds with these values, in the model's internal pieces
     /// (sub-steps, controller samples), and what sets the length of a piece, so that the runtime
@@ -150,12 +155,12 @@ pub trait Model: Sized + Send + 'static {
     }
 
     /// Extra checks on a Real value a master wants to set, beyond range and finiteness.
-    fn check_real(_var: Self::Var, _value: f64, _values: &Values<Self::Var>) -> Result<(), String> {
+    fn check_real(_var: Self::Var, _value: f64, _values: &Values<Self::Var>) -> Result<(), Self::Error> {
         Ok(())
     }
 
     /// Extra checks on an Integer value (enumerations included), beyond the declared range.
-    fn check_integer(_var: Self::Var, _value: i32, _values: &Values<Self::Var>) -> Result<(), String> {
+    fn check_integer(_var: Self::Var, _value: i32, _values: &Values<Self::Var>) -> Result<(), Self::Error> {
         Ok(())
     }
 
@@ -166,7 +171,7 @@ pub trait Model: Sized + Send + 'static {
         _var: Self::Var,
         _values: &mut Values<Self::Var>,
         _context: &Context,
-    ) -> Result<(), String> {
+    ) -> Result<(), Self::Error> {
         Ok(())
     }
 

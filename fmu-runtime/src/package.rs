@@ -11,7 +11,7 @@ pub struct FmuSpec {
     /// The cargo library name whose `lib<name>.so` is the binary (several FMUs may share one).
     pub library_name: &'static str,
     pub model_description: fn() -> String,
-    pub validate: fn() -> Result<(), String>,
+    pub validate: fn() -> Result<(), crate::xml::DescriptionError>,
     /// Files under `resources/`: (relative path, contents).
     pub resources: fn() -> Vec<(String, Vec<u8>)>,
 }

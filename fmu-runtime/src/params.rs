@@ -12,8 +12,9 @@
 
 use std::fmt;
 
+use crate::files::FileError;
 use crate::model::Model;
-use crate::variables::{BaseType, SetPhase, Values, VariableSet};
+use crate::variables::{BaseType, SetPhase, Values, VariableError, VariableSet};
 
 /// One value in a parameter file.
 #[derive(Debug, Clone, PartialEq)]
@@ -161,8 +162,8 @@ pub fn parse_assignments(text: &str) -> Result<Vec<Assignment>, ParseError> {
 }
 
 /// Parses a parameter file. Errors name the origin (usually the file path) and the line.
-pub fn parse(text: &str, origin: &str) -> Result<Vec<Assignment>, String> {
-    parse_assignments(text).map_err(|e| format!("{origin}:{}: {}", e.line, e.kind))
+pub fn parse(text: &str, origin: &str) -> Result<Vec<Assignment>, ParamsError> {
+    parse_assignments(text).map_err(|error| ParamsError::Syntax { origin: origin.into(), error })
 }
 
 /// Splits a line at its `#` comment, leaving `#` inside a quoted string alone.
@@ -213,39 +214,70 @@ pub fn parse_value(text: &str) -> Result<ParameterValue, ValueError> {
     Ok(ParameterValue::Number(x))
 }
 
+/// Why a parameter file was not applied: where (origin, usually the file path, and line) and
+/// what to change there.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsError {
+    #[error("{origin}:{}: {}", .error.line, .error.kind)]
+    Syntax { origin: String, error: ParseError },
+    #[error("{origin}:{line}: unknown variable `{name}`")]
+    UnknownVariable { origin: String, line: usize, name: String },
+    #[error("{origin}:{line}: `{name}` is a {causality} and cannot be set from a parameter file")]
+    NotSettable { origin: String, line: usize, name: String, causality: &'static str },
+    #[error("{origin}:{line}: `{name}` is of type {expected}, the file gives `{value}`")]
+    TypeMismatch { origin: String, line: usize, name: String, expected: BaseType, value: ParameterValue },
+    #[error("{origin}:{line}: `{name}` needs an integer, the file gives {value}")]
+    NotAnInteger { origin: String, line: usize, name: String, value: f64 },
+    #[error("{origin}:{line}: `{item}` is not an item of {type_name}")]
+    NotAnItem { origin: String, line: usize, item: String, type_name: &'static str },
+    /// The value is refused by the checks a master's set gets (range, the model's own).
+    #[error("{origin}:{line}: {source}")]
+    Refused { origin: String, line: usize, source: VariableError },
+    #[error(transparent)]
+    File(#[from] FileError),
+}
+
 /// Applies a parameter file to a model's values with the checks a master's set would get
 /// (known name, type, settable before initialisation, range, the model's own checks). Nothing
 /// changes unless every assignment is valid. Returns how many values were set.
-pub fn apply<M: Model>(text: &str, origin: &str, values: &mut Values<M::Var>) -> Result<usize, String> {
+pub fn apply<M: Model>(text: &str, origin: &str, values: &mut Values<M::Var>) -> Result<usize, ParamsError> {
     let assignments = parse(text, origin)?;
     let mut updated = values.clone();
     for a in &assignments {
-        let var =
-            M::Var::by_name(&a.name).ok_or_else(|| format!("{origin}:{}: unknown variable `{}`", a.line, a.name))?;
+        let (line, name) = (a.line, || a.name.clone());
+        let origin = || origin.to_string();
+        let var = M::Var::by_name(&a.name).ok_or_else(|| ParamsError::UnknownVariable {
+            origin: origin(),
+            line,
+            name: name(),
+        })?;
         let decl = var.var();
         if !decl.settable_in(SetPhase::Initialization) {
-            return Err(format!(
-                "{origin}:{}: `{}` is a {} and cannot be set from a parameter file",
-                a.line,
-                a.name,
-                decl.causality.xml_name()
-            ));
+            return Err(ParamsError::NotSettable {
+                origin: origin(),
+                line,
+                name: name(),
+                causality: decl.causality.xml_name(),
+            });
         }
-        let mismatch = || {
-            format!("{origin}:{}: `{}` is of type {}, the file gives `{}`", a.line, a.name, decl.base_type(), a.value)
+        let mismatch = || ParamsError::TypeMismatch {
+            origin: origin(),
+            line,
+            name: name(),
+            expected: decl.base_type(),
+            value: a.value.clone(),
         };
+        let refused = |source| ParamsError::Refused { origin: origin(), line, source };
         match (decl.base_type(), &a.value) {
             (BaseType::Real, ParameterValue::Number(x)) => {
-                crate::instance::check_real_value::<M>(var, *x, &updated)
-                    .map_err(|e| format!("{origin}:{}: {e}", a.line))?;
+                crate::instance::check_real_value::<M>(var, *x, &updated).map_err(refused)?;
                 updated.set_real(var, *x);
             }
             (BaseType::Integer, ParameterValue::Number(x)) => {
                 if x.fract() != 0.0 || *x < f64::from(i32::MIN) || *x > f64::from(i32::MAX) {
-                    return Err(format!("{origin}:{}: `{}` needs an integer, the file gives {x}", a.line, a.name));
+                    return Err(ParamsError::NotAnInteger { origin: origin(), line, name: name(), value: *x });
                 }
-                crate::instance::check_integer_value::<M>(var, *x as i32, &updated)
-                    .map_err(|e| format!("{origin}:{}: {e}", a.line))?;
+                crate::instance::check_integer_value::<M>(var, *x as i32, &updated).map_err(refused)?;
                 updated.set_integer(var, *x as i32);
             }
             (BaseType::Integer, ParameterValue::Text(item)) => {
@@ -253,9 +285,12 @@ pub fn apply<M: Model>(text: &str, origin: &str, values: &mut Values<M::Var>) ->
                 let crate::variables::Kind::Enumeration { declared_type, .. } = decl.kind else {
                     return Err(mismatch());
                 };
-                let value = declared_type
-                    .value_of(item)
-                    .ok_or_else(|| format!("{origin}:{}: `{item}` is not an item of {}", a.line, declared_type.name))?;
+                let value = declared_type.value_of(item).ok_or_else(|| ParamsError::NotAnItem {
+                    origin: origin(),
+                    line,
+                    item: item.clone(),
+                    type_name: declared_type.name,
+                })?;
                 updated.set_integer(var, value);
             }
             (BaseType::Boolean, ParameterValue::Boolean(b)) => updated.set_boolean(var, *b),
@@ -288,7 +323,7 @@ pub fn load_file<M: Model>(
     file_var: M::Var,
     values: &mut Values<M::Var>,
     context: &crate::model::Context,
-) -> Result<(), String> {
+) -> Result<(), ParamsError> {
     let name = values.string(file_var).to_string();
     if name.is_empty() {
         return Ok(());
@@ -328,7 +363,7 @@ mod tests {
             ("a = 1\na = 2", "assigned twice"),
             ("my var = 1", "invalid variable name"),
         ] {
-            let err = parse(text, "t").unwrap_err();
+            let err = parse(text, "t").unwrap_err().to_string();
             assert!(err.contains(needle), "{text:?} gave {err:?}");
         }
     }

@@ -145,12 +145,12 @@ pub(crate) fn decode<M: Model>(bytes: &[u8], identifier: &str, guid: &str) -> Re
     }
     check_header(&header)?;
     let (values, rest) = take::<Values<M::Var>>(rest, "variable values")?;
-    crate::checks::check_values::<M::Var>(&values).map_err(StateError::Invalid)?;
+    crate::checks::check_values::<M::Var>(&values)?;
     let (model, rest) = take::<M::State>(rest, "model state")?;
     if !rest.is_empty() {
         return Err(StateError::TrailingBytes(rest.len()));
     }
-    crate::checks::check_finite_numbers(&model).map_err(|e| StateError::Invalid(format!("model state: {e}")))?;
+    crate::checks::check_finite_numbers(&model).map_err(StateError::ModelNumbers)?;
     Ok(InstanceState { header, values, model })
 }
 

@@ -138,6 +138,54 @@ pub struct Var {
     pub initial_depends_on: Option<&'static [u32]>,
 }
 
+/// A model's own reason for refusing a value ([`crate::Model::check_real`] and the like), boxed
+/// so that one runtime serves models with different error types.
+pub type ModelRefusal = Box<dyn std::error::Error + Send + Sync + 'static>;
+
+/// Why a value reference cannot be read or a value cannot be set: the checks the variable
+/// table drives, worded for the master's log.
+#[derive(Debug, thiserror::Error)]
+pub enum VariableError {
+    #[error("unknown value reference {vr} (this model has {count} variables)")]
+    UnknownReference { vr: u32, count: usize },
+    #[error("value reference {vr} ('{name}') is of type {actual}, not {requested}")]
+    WrongType { vr: u32, name: &'static str, actual: BaseType, requested: BaseType },
+    #[error("value reference {vr} is not a Real")]
+    NotAReal { vr: u32 },
+    #[error(
+        "'{name}' (value reference {vr}, causality {causality}, variability {variability}) cannot be set now: {why}"
+    )]
+    NotSettable { name: &'static str, vr: u32, causality: &'static str, variability: &'static str, why: &'static str },
+    #[error("'{name}' (value reference {vr}) cannot be set to {value}: values must be finite")]
+    NotFinite { name: &'static str, vr: u32, value: f64 },
+    #[error("'{name}' (value reference {vr}) cannot be set to {value:e}: subnormal numbers are refused (give 0 or a normal number)")]
+    Subnormal { name: &'static str, vr: u32, value: f64 },
+    #[error("'{name}' = {value} {unit} is below its minimum {min} {unit}")]
+    BelowMinimum { name: &'static str, value: f64, unit: &'static str, min: f64 },
+    #[error("'{name}' = {value} {unit} is above its maximum {max} {unit}")]
+    AboveMaximum { name: &'static str, value: f64, unit: &'static str, max: f64 },
+    #[error("'{name}' = {value} is outside its range [{}, {}]", bound_text(*.min, "-inf"), bound_text(*.max, "inf"))]
+    IntegerOutOfRange { name: &'static str, value: i32, min: Option<i32>, max: Option<i32> },
+    #[error("'{name}' = {value} is not an item of {} ({})", .declared_type.name, item_list(.declared_type))]
+    NotAnItem { name: &'static str, value: i32, declared_type: &'static EnumerationType },
+    #[error("'{name}' = {value}: {source}")]
+    RealRefused { name: &'static str, value: f64, source: ModelRefusal },
+    #[error("'{name}' = {value}: {source}")]
+    IntegerRefused { name: &'static str, value: i32, source: ModelRefusal },
+}
+
+/// An integer bound as the messages show it, `-inf` or `inf` when there is none.
+fn bound_text(bound: Option<i32>, none: &str) -> String {
+    bound.map_or(none.into(), |v| v.to_string())
+}
+
+/// The items of an enumeration as the messages list them: `1 = name, 2 = name`.
+fn item_list(declared_type: &EnumerationType) -> String {
+    let items: Vec<String> =
+        declared_type.items.iter().enumerate().map(|(i, (n, _))| format!("{} = {n}", i + 1)).collect();
+    items.join(", ")
+}
+
 impl Var {
     const fn with_kind(name: &'static str, kind: Kind) -> Var {
         Var {

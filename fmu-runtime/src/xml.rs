@@ -45,51 +45,75 @@ fn guid_of(text: &str) -> String {
 }
 
 /// Problems a model table can have that a master would trip over; checked by [`validate`].
-pub fn validate<M: Model>() -> Result<(), String> {
+/// Each names the variable, so that the fix is in that line of the table.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DescriptionError {
+    #[error("variable name '{name}' is declared twice")]
+    DuplicateName { name: &'static str },
+    #[error("variable '{name}' has no description")]
+    NoDescription { name: &'static str },
+    #[error("variable '{name}' uses unit '{unit}', which is not in units::UNITS")]
+    UnknownUnit { name: &'static str, unit: &'static str },
+    #[error("variable '{name}' has min {min} > max {max}")]
+    EmptyRange { name: &'static str, min: f64, max: f64 },
+    #[error("variable '{name}' has its start {start} outside [min, max]")]
+    StartOutsideRange { name: &'static str, start: f64 },
+    #[error("variable '{name}' ({causality}) needs a start value")]
+    MissingStart { name: &'static str, causality: &'static str },
+    #[error("variable '{name}' is calculated and must not have a start value")]
+    CalculatedWithStart { name: &'static str },
+    #[error("'{name}' depends on unknown value reference {vr}")]
+    UnknownDependency { name: &'static str, vr: u32 },
+    #[error("'{name}' depends on '{target}', which is not an input")]
+    DependencyNotInput { name: &'static str, target: &'static str },
+    #[error("'{name}' declares dependencies but is not an output")]
+    DependenciesOfNonOutput { name: &'static str },
+}
+
+/// Checks a model's variable table for the problems of [`DescriptionError`].
+pub fn validate<M: Model>() -> Result<(), DescriptionError> {
     let table = M::Var::TABLE;
     let mut names = std::collections::BTreeSet::new();
-    for (i, var) in table.iter().enumerate() {
+    for var in table {
+        let name = var.name;
         if !names.insert(var.name) {
-            return Err(format!("variable name '{}' is declared twice", var.name));
+            return Err(DescriptionError::DuplicateName { name });
         }
         if var.description.is_empty() {
-            return Err(format!("variable '{}' has no description", var.name));
+            return Err(DescriptionError::NoDescription { name });
         }
         if let Kind::Real { unit, start, min, max, .. } = var.kind {
             if units::lookup(unit).is_none() {
-                return Err(format!("variable '{}' uses unit '{unit}', which is not in units::UNITS", var.name));
+                return Err(DescriptionError::UnknownUnit { name, unit });
             }
-            if let (Some(lo), Some(hi)) = (min, max) {
-                if lo > hi {
-                    return Err(format!("variable '{}' has min {lo} > max {hi}", var.name));
+            if let (Some(min), Some(max)) = (min, max) {
+                if min > max {
+                    return Err(DescriptionError::EmptyRange { name, min, max });
                 }
             }
-            if let Some(s) = start {
-                if min.is_some_and(|lo| s < lo) || max.is_some_and(|hi| s > hi) {
-                    return Err(format!("variable '{}' has its start {s} outside [min, max]", var.name));
+            if let Some(start) = start {
+                if min.is_some_and(|lo| start < lo) || max.is_some_and(|hi| start > hi) {
+                    return Err(DescriptionError::StartOutsideRange { name, start });
                 }
             }
         }
         let needs_start = matches!(var.causality, Causality::Parameter | Causality::Input);
         let has_start = start_attribute(var).is_some();
         if needs_start && !has_start {
-            return Err(format!("variable '{}' ({}) needs a start value", var.name, var.causality.xml_name()));
+            return Err(DescriptionError::MissingStart { name, causality: var.causality.xml_name() });
         }
         if !needs_start && has_start && var.initial == Some(crate::variables::Initial::Calculated) {
-            return Err(format!("variable '{}' is calculated and must not have a start value", var.name));
+            return Err(DescriptionError::CalculatedWithStart { name });
         }
-        for &dep in var.depends_on.iter().chain(var.initial_inputs()) {
-            let target = table
-                .get(dep as usize)
-                .ok_or_else(|| format!("'{}' depends on unknown value reference {dep}", var.name))?;
+        for &vr in var.depends_on.iter().chain(var.initial_inputs()) {
+            let target = table.get(vr as usize).ok_or(DescriptionError::UnknownDependency { name, vr })?;
             if target.causality != Causality::Input {
-                return Err(format!("'{}' depends on '{}', which is not an input", var.name, target.name));
+                return Err(DescriptionError::DependencyNotInput { name, target: target.name });
             }
         }
         if (!var.depends_on.is_empty() || !var.initial_inputs().is_empty()) && var.causality != Causality::Output {
-            return Err(format!("'{}' declares dependencies but is not an output", var.name));
+            return Err(DescriptionError::DependenciesOfNonOutput { name });
         }
-        let _ = i;
     }
     Ok(())
 }

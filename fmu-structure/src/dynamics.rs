@@ -8,6 +8,20 @@ use serde::{Deserialize, Serialize};
 
 use crate::modes::{Mode, LOADS};
 
+/// Why the modal structure refuses a step or a saved state.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StructureError {
+    /// A step whose modal coordinates came out NaN or infinite; nothing changed.
+    #[error("mode {mode} of the structure left the finite numbers over a step of {step} s (loads {loads:?}); the state is unchanged")]
+    NonFiniteStep { mode: usize, step: f64, loads: [f64; LOADS] },
+    #[error("the state holds {state} modes, the modes file {modes}")]
+    ModeCount { state: usize, modes: usize },
+    #[error("the state holds a non-finite modal coordinate")]
+    NonFiniteCoordinate,
+    #[error("the state holds a non-finite axis speed, step or acceleration")]
+    NonFiniteMotion,
+}
+
 /// Radians to arcseconds.
 pub const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
@@ -229,7 +243,7 @@ impl ModalStructure {
     /// over it are extrapolated from the speeds' last changes ([`Self::held_accelerations`]),
     /// whose inertial loads the modes feel as the drives swing the structure. A step whose
     /// result is not finite (loads far beyond any structure) changes nothing and is an error.
-    pub fn step(&mut self, loads: &[f64; LOADS], speeds: &[f64; 2], step: f64) -> Result<(), String> {
+    pub fn step(&mut self, loads: &[f64; LOADS], speeds: &[f64; 2], step: f64) -> Result<(), StructureError> {
         let key = step.to_bits();
         if self.cache.as_ref().is_none_or(|(k, _)| *k != key) {
             self.cache = Some((key, self.modes.iter().map(|m| ModeStep::new(m, step)).collect()));
@@ -245,10 +259,7 @@ impl ModalStructure {
         }));
         if let Some(k) = next.iter().position(|x| !x.iter().all(|v| v.is_finite())) {
             self.next_states = next;
-            return Err(format!(
-                "mode {} of the structure left the finite numbers over a step of {step} s (loads {loads:?}); the state is unchanged",
-                k + 1
-            ));
+            return Err(StructureError::NonFiniteStep { mode: k + 1, step, loads: *loads });
         }
         self.next_states = std::mem::replace(&mut self.states, next);
         self.earlier_accelerations = self.previous_speeds.map(|(_, length)| (last, length));
@@ -362,12 +373,12 @@ impl ModalStructure {
     }
 
     /// Restores a saved state into a structure with the same number of modes.
-    pub fn load_state(&mut self, state: ModalState) -> Result<(), String> {
+    pub fn load_state(&mut self, state: ModalState) -> Result<(), StructureError> {
         if state.states.len() != self.modes.len() {
-            return Err(format!("the state holds {} modes, the modes file {}", state.states.len(), self.modes.len()));
+            return Err(StructureError::ModeCount { state: state.states.len(), modes: self.modes.len() });
         }
         if !state.states.iter().flatten().all(|v| v.is_finite()) {
-            return Err("the state holds a non-finite modal coordinate".into());
+            return Err(StructureError::NonFiniteCoordinate);
         }
         let speeds_finite =
             state.previous_speeds.is_none_or(|(v, h)| v.iter().all(|x| x.is_finite()) && h.is_finite() && h > 0.0);
@@ -375,7 +386,7 @@ impl ModalStructure {
             .earlier_accelerations
             .is_none_or(|(a, h)| a.iter().all(|x| x.is_finite()) && h.is_finite() && h > 0.0);
         if !speeds_finite || !earlier_finite || !state.accelerations.iter().all(|a| a.is_finite()) {
-            return Err("the state holds a non-finite axis speed, step or acceleration".into());
+            return Err(StructureError::NonFiniteMotion);
         }
         self.states = state.states;
         self.previous_speeds = state.previous_speeds;
@@ -529,7 +540,7 @@ mod tests {
             earlier_accelerations: None,
             accelerations: [0.0; 2],
         };
-        let error = s.load_state(state).unwrap_err();
+        let error = s.load_state(state).unwrap_err().to_string();
         assert!(error.contains("2 modes"), "{error}");
     }
 

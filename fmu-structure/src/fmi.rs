@@ -7,8 +7,24 @@ use fmu_runtime::package::{default_parameter_file, FmuSpec};
 use fmu_runtime::{declare_variables, Context, DefaultExperiment, Model, ModelInfo, Notes, StateError, Values};
 use serde::{Deserialize, Serialize};
 
-use crate::dynamics::{ModalState, ModalStructure, ARCSEC_PER_RAD};
-use crate::modes::{parse_modes, read_modes, Mode, DEFAULT_MODES, DEFAULT_MODES_FILE, LOADS};
+use crate::dynamics::{ModalState, ModalStructure, StructureError, ARCSEC_PER_RAD};
+use crate::modes::{parse_modes, read_modes, Mode, ModesError, DEFAULT_MODES, DEFAULT_MODES_FILE, LOADS};
+
+/// Why the structure FMU refuses a call; logged with `fmi2Error`.
+#[derive(Debug, thiserror::Error)]
+pub enum StructureFmuError {
+    /// The modes file named by `modes_file` cannot be read or holds no valid modes.
+    #[error(transparent)]
+    Modes(#[from] ModesError),
+    /// A step left the finite numbers.
+    #[error(transparent)]
+    Structure(#[from] StructureError),
+    #[error("too many modes")]
+    TooManyModes { count: usize },
+    /// A step before fmi2ExitInitializationMode built the structure.
+    #[error("the structure model is not initialised")]
+    NotInitialised,
+}
 
 /// Largest load torque about an axis, N m (either sign): some hundred times the survival wind
 /// torque of a 13.5 m dish (estimate, order 1e6 N m), as the plants declare it.
@@ -125,9 +141,9 @@ impl StructureModel {
 
     /// The modes named by `modes_file`: relative names are looked up in the resources folder;
     /// the shipped default is also built in, so the FMU works without one.
-    fn modes(values: &Values<StructureVar>, context: &Context) -> Result<Vec<Mode>, String> {
+    fn modes(values: &Values<StructureVar>, context: &Context) -> Result<Vec<Mode>, ModesError> {
         let name = values.string(StructureVar::ModesFile);
-        let builtin = || parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE).map_err(|e| e.to_string());
+        let builtin = || parse_modes(DEFAULT_MODES, DEFAULT_MODES_FILE);
         if name.is_empty() {
             return builtin();
         }
@@ -137,7 +153,7 @@ impl StructureModel {
             (None, false) if name == DEFAULT_MODES_FILE => return builtin(),
             _ => path,
         };
-        read_modes(&path).map_err(|e| e.to_string())
+        read_modes(&path)
     }
 
     /// The elevation the modes are taken at, deg.
@@ -160,6 +176,7 @@ impl StructureModel {
 
 impl Model for StructureModel {
     type Var = StructureVar;
+    type Error = StructureFmuError;
 
     fn info() -> ModelInfo {
         ModelInfo {
@@ -172,7 +189,7 @@ impl Model for StructureModel {
         }
     }
 
-    fn new(_values: &Values<StructureVar>, context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<StructureVar>, context: &Context) -> Result<Self, StructureFmuError> {
         Ok(StructureModel { context: context.clone(), structure: None })
     }
 
@@ -183,9 +200,9 @@ impl Model for StructureModel {
         values: &mut Values<StructureVar>,
         context: &Context,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), StructureFmuError> {
         let modes = Self::modes(values, context)?;
-        let count = i32::try_from(modes.len()).map_err(|_| "too many modes".to_string())?;
+        let count = i32::try_from(modes.len()).map_err(|_| StructureFmuError::TooManyModes { count: modes.len() })?;
         // Which forces the modes take (participations 2.. of `LOADS`), so that a master can
         // leave the others unset.
         let takes = |load: usize| modes.iter().any(|mode| mode.participation[load] != 0.0);
@@ -215,8 +232,8 @@ impl Model for StructureModel {
         _time: f64,
         step: f64,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
-        let structure = self.structure.as_mut().ok_or("the structure model is not initialised")?;
+    ) -> Result<(), StructureFmuError> {
+        let structure = self.structure.as_mut().ok_or(StructureFmuError::NotInitialised)?;
         structure.set_elevation(Self::elevation(values));
         structure.step(&Self::loads(values), &Self::speeds(values), step)?;
         self.write_offsets(values);
@@ -239,7 +256,7 @@ impl Model for StructureModel {
         var: StructureVar,
         values: &mut Values<StructureVar>,
         context: &Context,
-    ) -> Result<(), String> {
+    ) -> Result<(), StructureFmuError> {
         if var == StructureVar::ModesFile {
             Self::modes(values, context)?;
         }
@@ -267,10 +284,10 @@ impl Model for StructureModel {
             self.structure = None;
             return Ok(());
         };
-        let modes = Self::modes(values, &self.context).map_err(StateError::Invalid)?;
+        let modes = Self::modes(values, &self.context).map_err(StateError::model)?;
         let mut structure = ModalStructure::at_rest(modes, &Self::loads(values));
         structure.set_elevation(Self::elevation(values));
-        structure.load_state(saved).map_err(StateError::Invalid)?;
+        structure.load_state(saved).map_err(StateError::model)?;
         self.structure = Some(structure);
         Ok(())
     }

@@ -12,7 +12,8 @@
 
 use std::path::Path;
 
-use fmu_runtime::params::{self, ParameterValue};
+use fmu_runtime::files::FileError;
+use fmu_runtime::params::{self, ParameterValue, ParamsError};
 
 /// The modes file shipped in the FMU's resources, also built in so that the FMU works without
 /// a resources folder.
@@ -189,12 +190,12 @@ impl Mode {
 
 /// What is wrong with a modes file; every message names the file and, where there is one, the
 /// line.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum ModesError {
     #[error("cannot read modes file {path}: {reason}")]
-    Unreadable { path: String, reason: String },
+    Unreadable { path: String, reason: FileError },
     #[error("{0}")]
-    Syntax(String),
+    Syntax(ParamsError),
     #[error("{origin}:{line}: `{name}` is not a mode field: expected mode<k>.<field> with k = 1, 2, ... and field one of {fields}")]
     UnknownName { origin: String, line: usize, name: String, fields: String },
     #[error("{origin}:{line}: `{name}` needs a number, the file gives {value}")]

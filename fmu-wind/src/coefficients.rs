@@ -314,7 +314,7 @@ impl CoefficientTable {
         const MAX_LINES: usize = 2000;
         let path = path.as_ref();
         let text = fmu_runtime::files::read_regular_file(path, MAX_FILE_BYTES, "coefficient file")
-            .map_err(CoefficientError::general)?;
+            .map_err(|e| CoefficientError::general(e.to_string()))?;
         let lines = text.lines().count();
         if lines > MAX_LINES {
             return Err(CoefficientError::general(format!(

@@ -1,8 +1,9 @@
 //! Why a wind unit model could not be built: the typed errors of the spectrum, admittance,
 //! shaping filter and torque constructors.
 //!
-//! The FMI layer ([`crate::fmi`]) turns these into the `String` that `fmu-runtime` reports to
-//! the importer; the Display texts below are therefore what a user of the FMU reads.
+//! The FMI layer ([`crate::fmi`]) wraps these in its `WindFmuError`, whose Display text
+//! `fmu-runtime` reports to the importer; the texts below are therefore what a user of the FMU
+//! reads.
 
 /// Why a part of the wind model refused its parameters.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

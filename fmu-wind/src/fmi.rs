@@ -9,13 +9,41 @@ use fmu_runtime::{
 };
 
 use crate::admittance::AdmittanceFilter;
-use crate::coefficients::{CoefficientTable, DEFAULT_TABLE_CSV};
+use crate::coefficients::{CoefficientError, CoefficientTable, DEFAULT_TABLE_CSV};
 use crate::davenport::Davenport;
+use crate::error::WindError;
 use crate::gust::{GustGenerator, GustState};
 use crate::shaping::ShapingFilter;
 use crate::torque::{normalised_gust, ForceCoefficients, TorqueForm, WindTorqueModel};
+use fmu_runtime::params::ParamsError;
 use fmu_runtime::seed::seed_from_fmi_integer;
 use serde::{Deserialize, Serialize};
+
+/// Why the wind FMU refuses a call; logged with `fmi2Error`.
+#[derive(Debug, thiserror::Error)]
+pub enum WindFmuError {
+    /// A part of the wind model refused its parameters.
+    #[error(transparent)]
+    Wind(#[from] WindError),
+    /// The built-in coefficient table did not read (a defect of the build, not of the user's
+    /// parameters).
+    #[error(transparent)]
+    DefaultTable(CoefficientError),
+    /// The coefficient table named by `coefficient_file` cannot be read.
+    #[error("{}: {table}", .path.display())]
+    CoefficientFile { path: std::path::PathBuf, table: CoefficientError },
+    /// An output would not be finite; the step or initialisation is refused.
+    #[error(
+        "'{name}' would be {value} (v_m = {v_mean} m/s, D = {diameter} m, rho = {density} kg/m3): the step is refused"
+    )]
+    NonFiniteOutput { name: &'static str, value: f64, v_mean: f64, diameter: f64, density: f64 },
+    /// A step before fmi2ExitInitializationMode built the model.
+    #[error("the wind model is not initialised")]
+    NotInitialised,
+    /// The parameter file named by `parameter_file` cannot be applied.
+    #[error(transparent)]
+    Parameters(#[from] ParamsError),
+}
 
 static SPECTRUM: EnumerationType = EnumerationType {
     name: "SpectrumMode",
@@ -165,14 +193,11 @@ impl WindModel {
     fn build(
         values: &Values<WindVar>,
         context: &Context,
-    ) -> Result<(Option<GustGenerator>, WindTorqueModel, f64), String> {
+    ) -> Result<(Option<GustGenerator>, WindTorqueModel, f64), WindFmuError> {
         let v_mean = values.real(WindVar::MeanSpeed);
-        let davenport = Davenport::new(v_mean, values.real(WindVar::Height), values.real(WindVar::Roughness))
-            .map_err(|e| e.to_string())?;
+        let davenport = Davenport::new(v_mean, values.real(WindVar::Height), values.real(WindVar::Roughness))?;
         let filter = match Self::spectrum_item(values) {
-            "paper" => {
-                Some(ShapingFilter::paper_at_site(v_mean, davenport.z, davenport.z0).map_err(|e| e.to_string())?)
-            }
+            "paper" => Some(ShapingFilter::paper_at_site(v_mean, davenport.z, davenport.z0)?),
             "off" => None,
             _ => Some(ShapingFilter::davenport(&davenport)),
         };
@@ -180,11 +205,8 @@ impl WindModel {
         let diameter = values.real(WindVar::Diameter);
         let admittance = match values.integer(WindVar::Admittance) {
             0 => None,
-            2 => Some(
-                AdmittanceFilter::davenport_size(v_mean, diameter, values.real(WindVar::CoherenceDecay))
-                    .map_err(|e| e.to_string())?,
-            ),
-            _ => Some(AdmittanceFilter::vickery(v_mean, diameter).map_err(|e| e.to_string())?),
+            2 => Some(AdmittanceFilter::davenport_size(v_mean, diameter, values.real(WindVar::CoherenceDecay))?),
+            _ => Some(AdmittanceFilter::vickery(v_mean, diameter)?),
         };
         let generator = filter.map(|f| GustGenerator::with_admittance(f, admittance, seed));
         let table = Self::coefficients(values.string(WindVar::CoefficientFile), context)?;
@@ -198,26 +220,25 @@ impl WindModel {
             lift_max: values.real(WindVar::LiftCoefficient),
         };
         let torque = WindTorqueModel::new(table, values.real(WindVar::Density), diameter, form)
-            .and_then(|model| model.with_forces(forces))
-            .map_err(|e| e.to_string())?;
+            .and_then(|model| model.with_forces(forces))?;
         Ok((generator, torque, davenport.kappa()))
     }
 
     /// The coefficient table named by the parameter: relative names are looked up in the
     /// resources folder; the shipped default is also built in, so the FMU works without one.
-    fn coefficients(name: &str, context: &Context) -> Result<CoefficientTable, String> {
+    fn coefficients(name: &str, context: &Context) -> Result<CoefficientTable, WindFmuError> {
         if name.is_empty() {
-            return CoefficientTable::from_csv_str(DEFAULT_TABLE_CSV).map_err(|e| e.to_string());
+            return CoefficientTable::from_csv_str(DEFAULT_TABLE_CSV).map_err(WindFmuError::DefaultTable);
         }
         let path = std::path::PathBuf::from(name);
         let path = match (&context.resource_dir, path.is_absolute()) {
             (Some(dir), false) => dir.join(path),
             (None, false) if name == "wind_coefficients.csv" => {
-                return CoefficientTable::from_csv_str(DEFAULT_TABLE_CSV).map_err(|e| e.to_string())
+                return CoefficientTable::from_csv_str(DEFAULT_TABLE_CSV).map_err(WindFmuError::DefaultTable)
             }
             _ => path,
         };
-        CoefficientTable::from_file(&path).map_err(|e| format!("{}: {e}", path.display()))
+        CoefficientTable::from_file(&path).map_err(|table| WindFmuError::CoefficientFile { path, table })
     }
 
     /// The outputs that depend on the gust only.
@@ -236,7 +257,7 @@ impl WindModel {
     }
 
     /// An error naming the first output that is not finite, if any: the FMU never hands one out.
-    fn check_outputs_finite(values: &Values<WindVar>) -> Result<(), String> {
+    fn check_outputs_finite(values: &Values<WindVar>) -> Result<(), WindFmuError> {
         let outputs = [
             WindVar::Speed,
             WindVar::Gust,
@@ -248,14 +269,13 @@ impl WindModel {
             WindVar::Lift,
         ];
         match outputs.iter().find(|v| !values.real(**v).is_finite()) {
-            Some(v) => Err(format!(
-                "'{}' would be {} (v_m = {} m/s, D = {} m, rho = {} kg/m3): the step is refused",
-                v.var().name,
-                values.real(*v),
-                values.real(WindVar::MeanSpeed),
-                values.real(WindVar::Diameter),
-                values.real(WindVar::Density)
-            )),
+            Some(v) => Err(WindFmuError::NonFiniteOutput {
+                name: v.var().name,
+                value: values.real(*v),
+                v_mean: values.real(WindVar::MeanSpeed),
+                diameter: values.real(WindVar::Diameter),
+                density: values.real(WindVar::Density),
+            }),
             None => Ok(()),
         }
     }
@@ -336,6 +356,7 @@ const FORCE_OUTPUTS: [WindVar; 13] = [
 
 impl Model for WindModel {
     type Var = WindVar;
+    type Error = WindFmuError;
 
     fn info() -> ModelInfo {
         ModelInfo {
@@ -348,7 +369,7 @@ impl Model for WindModel {
         }
     }
 
-    fn new(_values: &Values<WindVar>, context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<WindVar>, context: &Context) -> Result<Self, WindFmuError> {
         Ok(WindModel { context: context.clone(), generator: None, torque: None, kappa: 0.0 })
     }
 
@@ -357,7 +378,7 @@ impl Model for WindModel {
         values: &mut Values<WindVar>,
         context: &Context,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), WindFmuError> {
         let (generator, torque, kappa) = Self::build(values, context)?;
         let v_mean = values.real(WindVar::MeanSpeed);
         let sigma = generator.as_ref().map_or(0.0, |g| g.filter().stationary_variance().sqrt());
@@ -386,9 +407,9 @@ impl Model for WindModel {
         _time: f64,
         step: f64,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), WindFmuError> {
         if self.torque.is_none() {
-            return Err("the wind model is not initialised".into());
+            return Err(WindFmuError::NotInitialised);
         }
         if let Some(generator) = &mut self.generator {
             generator.step(step);
@@ -425,7 +446,12 @@ impl Model for WindModel {
         }
     }
 
-    fn string_changed(&mut self, var: WindVar, values: &mut Values<WindVar>, context: &Context) -> Result<(), String> {
+    fn string_changed(
+        &mut self,
+        var: WindVar,
+        values: &mut Values<WindVar>,
+        context: &Context,
+    ) -> Result<(), WindFmuError> {
         if var == WindVar::ParameterFile {
             fmu_runtime::params::load_file::<Self>(var, values, context)?;
         }
@@ -456,7 +482,7 @@ impl Model for WindModel {
             self.torque = None;
             return Ok(());
         };
-        let (generator, torque, kappa) = Self::build(values, &self.context).map_err(StateError::Invalid)?;
+        let (generator, torque, kappa) = Self::build(values, &self.context).map_err(StateError::model)?;
         let generator = match (generator, gusts) {
             (Some(mut g), Some(saved)) => {
                 g.load_state(saved)?;
@@ -501,11 +527,11 @@ mod tests {
         let mut values = Values::<WindVar>::at_start();
         assert!(WindModel::check_outputs_finite(&values).is_ok());
         values.set_real(WindVar::Drag, f64::INFINITY);
-        let error = WindModel::check_outputs_finite(&values).unwrap_err();
+        let error = WindModel::check_outputs_finite(&values).unwrap_err().to_string();
         assert!(error.contains("'force.drag' would be inf") && error.contains("D = 13.5 m"), "{error}");
         values.set_real(WindVar::Drag, 0.0);
         values.set_real(WindVar::LoadGust, f64::NAN);
-        assert!(WindModel::check_outputs_finite(&values).unwrap_err().contains("wind.load_gust"));
+        assert!(WindModel::check_outputs_finite(&values).unwrap_err().to_string().contains("wind.load_gust"));
     }
 
     #[test]

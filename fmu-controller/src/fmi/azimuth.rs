@@ -7,6 +7,7 @@ use super::common::{
     MAX_AXIS_INERTIA, MAX_CURRENT, MAX_GEAR_RATIO, MAX_LOOP_FREQUENCY, MAX_MOTOR_INERTIA, MAX_MOTOR_SPEED,
     MAX_MOTOR_TORQUE, MAX_SPEED_GAIN, MAX_TORQUE_CONSTANT, MIN_MOTOR_INERTIA, TINY,
 };
+use super::ControllerFmuError;
 use crate::params::{AzimuthControllerParams, CascadeParams};
 use crate::timing::SampleScheduler;
 use crate::{AzimuthController, AzimuthInputs, AzimuthOutputs, SampledController};
@@ -108,6 +109,7 @@ impl AzimuthControllerModel {
 
 impl Model for AzimuthControllerModel {
     type Var = AzCtrlVar;
+    type Error = ControllerFmuError;
 
     fn info() -> ModelInfo {
         model_info(
@@ -116,7 +118,7 @@ impl Model for AzimuthControllerModel {
         )
     }
 
-    fn new(_values: &Values<AzCtrlVar>, _context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<AzCtrlVar>, _context: &Context) -> Result<Self, ControllerFmuError> {
         Ok(AzimuthControllerModel { controller: None, scheduler: None })
     }
 
@@ -125,7 +127,7 @@ impl Model for AzimuthControllerModel {
         values: &mut Values<AzCtrlVar>,
         _context: &Context,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), ControllerFmuError> {
         let controller = AzimuthController::new(azimuth_controller_params(values))?;
         Self::write_outputs(&controller.idle_outputs(), values);
         self.controller = Some(controller);
@@ -139,8 +141,8 @@ impl Model for AzimuthControllerModel {
         time: f64,
         step: f64,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
-        let controller = self.controller.as_mut().ok_or("the controller is not initialised")?;
+    ) -> Result<(), ControllerFmuError> {
+        let controller = self.controller.as_mut().ok_or(ControllerFmuError::NotInitialised)?;
         // The sample grid starts at the first communication point.
         let scheduler = self.scheduler.get_or_insert_with(|| {
             SampleScheduler::new(time, &controller.params().cascade.sampling, controller.idle_outputs())
@@ -178,7 +180,7 @@ impl Model for AzimuthControllerModel {
         let ControllerState { cascade, scheduler } = state;
         let controller = match cascade {
             Some(cascade) => {
-                let mut c = AzimuthController::new(azimuth_controller_params(values)).map_err(StateError::Invalid)?;
+                let mut c = AzimuthController::new(azimuth_controller_params(values)).map_err(StateError::model)?;
                 c.load_state(cascade)?;
                 Some(c)
             }

@@ -7,6 +7,7 @@ use super::common::{
     MAX_AXIS_INERTIA, MAX_AXIS_SPEED_DEG_PER_S, MAX_CURRENT, MAX_GEAR_RATIO, MAX_MOTOR_INERTIA, MAX_MOTOR_SPEED,
     MAX_MOTOR_TORQUE, MAX_TORQUE_CONSTANT, MIN_MOTOR_INERTIA, TINY,
 };
+use super::ControllerFmuError;
 use crate::params::{CascadeParams, ElevationControllerParams};
 use crate::timing::SampleScheduler;
 use crate::{ElevationController, ElevationInputs, ElevationOutputs, SampledController};
@@ -109,6 +110,7 @@ impl ElevationControllerModel {
 
 impl Model for ElevationControllerModel {
     type Var = ElCtrlVar;
+    type Error = ControllerFmuError;
 
     fn info() -> ModelInfo {
         model_info(
@@ -117,7 +119,7 @@ impl Model for ElevationControllerModel {
         )
     }
 
-    fn new(_values: &Values<ElCtrlVar>, _context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<ElCtrlVar>, _context: &Context) -> Result<Self, ControllerFmuError> {
         Ok(ElevationControllerModel { controller: None, scheduler: None })
     }
 
@@ -126,7 +128,7 @@ impl Model for ElevationControllerModel {
         values: &mut Values<ElCtrlVar>,
         _context: &Context,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
+    ) -> Result<(), ControllerFmuError> {
         let controller = ElevationController::new(elevation_controller_params(values))?;
         Self::write_outputs(&controller.idle_outputs(), values);
         self.controller = Some(controller);
@@ -140,8 +142,8 @@ impl Model for ElevationControllerModel {
         time: f64,
         step: f64,
         _notes: &mut Notes,
-    ) -> Result<(), String> {
-        let controller = self.controller.as_mut().ok_or("the controller is not initialised")?;
+    ) -> Result<(), ControllerFmuError> {
+        let controller = self.controller.as_mut().ok_or(ControllerFmuError::NotInitialised)?;
         // The sample grid starts at the first communication point.
         let scheduler = self.scheduler.get_or_insert_with(|| {
             SampleScheduler::new(time, &controller.params().cascade.sampling, controller.idle_outputs())
@@ -179,8 +181,7 @@ impl Model for ElevationControllerModel {
         let ControllerState { cascade, scheduler } = state;
         let controller = match cascade {
             Some(cascade) => {
-                let mut c =
-                    ElevationController::new(elevation_controller_params(values)).map_err(StateError::Invalid)?;
+                let mut c = ElevationController::new(elevation_controller_params(values)).map_err(StateError::model)?;
                 c.load_state(cascade)?;
                 Some(c)
             }

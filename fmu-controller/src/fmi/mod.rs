@@ -11,6 +11,21 @@ pub use azimuth::{AzCtrlVar, AzimuthControllerModel};
 pub use elevation::{ElCtrlVar, ElevationControllerModel};
 
 use fmu_runtime::package::{default_parameter_file, FmuSpec};
+
+use crate::params::ParameterError;
+use crate::timing::ClockError;
+
+/// Why a controller FMU refuses a call; logged with `fmi2Error`.
+#[derive(Debug, thiserror::Error)]
+pub enum ControllerFmuError {
+    #[error(transparent)]
+    Parameters(#[from] ParameterError),
+    #[error(transparent)]
+    Clock(#[from] ClockError),
+    /// A step before fmi2ExitInitializationMode built the controller.
+    #[error("the controller is not initialised")]
+    NotInitialised,
+}
 use fmu_runtime::EnumerationType;
 
 /// The controller's modes, as an FMI enumeration (values match `ControlMode::index`).

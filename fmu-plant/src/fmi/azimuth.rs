@@ -3,7 +3,9 @@
 
 use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
+use super::PlantFmuError;
 use crate::drivetrain::DriveState;
+use crate::error::PlantError;
 
 use super::common::{
     model_info, plant_step_pieces, plant_variables, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
@@ -353,7 +355,7 @@ impl AzimuthPlantModel {
         self.feedthrough_elevation = Some(elevation.to_bits());
     }
 
-    fn build(v: &Values<AzVar>) -> Result<AzimuthPlant, String> {
+    fn build(v: &Values<AzVar>) -> Result<AzimuthPlant, PlantError> {
         let mut plant = AzimuthPlant::new(azimuth_params(v))?;
         plant.set_initial_state(v.real(AzVar::InitialPosition).to_radians())?;
         Ok(plant)
@@ -362,6 +364,7 @@ impl AzimuthPlantModel {
 
 impl Model for AzimuthPlantModel {
     type Var = AzVar;
+    type Error = PlantFmuError;
 
     fn info() -> ModelInfo {
         model_info(
@@ -370,11 +373,16 @@ impl Model for AzimuthPlantModel {
         )
     }
 
-    fn new(_values: &Values<AzVar>, _context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<AzVar>, _context: &Context) -> Result<Self, PlantFmuError> {
         Ok(AzimuthPlantModel { plant: None, feedthrough_elevation: None })
     }
 
-    fn initialize(&mut self, values: &mut Values<AzVar>, _context: &Context, _notes: &mut Notes) -> Result<(), String> {
+    fn initialize(
+        &mut self,
+        values: &mut Values<AzVar>,
+        _context: &Context,
+        _notes: &mut Notes,
+    ) -> Result<(), PlantFmuError> {
         let plant = Self::build(values)?;
         Self::write_outputs(&plant, values);
         self.plant = Some(plant);
@@ -383,8 +391,14 @@ impl Model for AzimuthPlantModel {
         Ok(())
     }
 
-    fn do_step(&mut self, values: &mut Values<AzVar>, _time: f64, step: f64, notes: &mut Notes) -> Result<(), String> {
-        let plant = self.plant.as_mut().ok_or("the plant is not initialised")?;
+    fn do_step(
+        &mut self,
+        values: &mut Values<AzVar>,
+        _time: f64,
+        step: f64,
+        notes: &mut Notes,
+    ) -> Result<(), PlantFmuError> {
+        let plant = self.plant.as_mut().ok_or(PlantFmuError::NotInitialised)?;
         let inputs = AzimuthInputs {
             current_command_a: [values.real(AzVar::Current1Command), values.real(AzVar::Current2Command)],
             disturbance_torque_nm: values.real(AzVar::DisturbanceTorque),
@@ -423,7 +437,12 @@ impl Model for AzimuthPlantModel {
         self.write_feedthrough(values);
     }
 
-    fn string_changed(&mut self, var: AzVar, values: &mut Values<AzVar>, context: &Context) -> Result<(), String> {
+    fn string_changed(
+        &mut self,
+        var: AzVar,
+        values: &mut Values<AzVar>,
+        context: &Context,
+    ) -> Result<(), PlantFmuError> {
         if var == AzVar::ParameterFile {
             fmu_runtime::params::load_file::<Self>(var, values, context)?;
         }
@@ -446,7 +465,7 @@ impl Model for AzimuthPlantModel {
 
     fn load_state(&mut self, state: Option<DriveState>, values: &Values<AzVar>) -> Result<(), StateError> {
         self.plant = if let Some(state) = state {
-            let mut plant = Self::build(values).map_err(StateError::Invalid)?;
+            let mut plant = Self::build(values).map_err(StateError::model)?;
             plant.load_state(state)?;
             Some(plant)
         } else {

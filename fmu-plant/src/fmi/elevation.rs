@@ -3,7 +3,9 @@
 
 use fmu_runtime::{Context, Model, ModelInfo, Notes, StateError, Values};
 
+use super::PlantFmuError;
 use crate::drivetrain::DriveState;
+use crate::error::PlantError;
 
 use super::common::{
     model_info, plant_step_pieces, plant_variables, sensor_text as T, FrictionVars, MotorVars, NumericsVars,
@@ -312,7 +314,7 @@ impl ElevationPlantModel {
         v.set_real(ElVar::AntiResonance, plant.two_mass_in_use().anti_resonance_hz());
     }
 
-    fn build(v: &Values<ElVar>) -> Result<ElevationPlant, String> {
+    fn build(v: &Values<ElVar>) -> Result<ElevationPlant, PlantError> {
         let mut plant = ElevationPlant::new(elevation_params(v))?;
         plant.set_initial_state(v.real(ElVar::InitialPosition).to_radians())?;
         Ok(plant)
@@ -321,6 +323,7 @@ impl ElevationPlantModel {
 
 impl Model for ElevationPlantModel {
     type Var = ElVar;
+    type Error = PlantFmuError;
 
     fn info() -> ModelInfo {
         model_info(
@@ -329,19 +332,30 @@ impl Model for ElevationPlantModel {
         )
     }
 
-    fn new(_values: &Values<ElVar>, _context: &Context) -> Result<Self, String> {
+    fn new(_values: &Values<ElVar>, _context: &Context) -> Result<Self, PlantFmuError> {
         Ok(ElevationPlantModel { plant: None })
     }
 
-    fn initialize(&mut self, values: &mut Values<ElVar>, _context: &Context, _notes: &mut Notes) -> Result<(), String> {
+    fn initialize(
+        &mut self,
+        values: &mut Values<ElVar>,
+        _context: &Context,
+        _notes: &mut Notes,
+    ) -> Result<(), PlantFmuError> {
         let plant = Self::build(values)?;
         Self::write_outputs(&plant, values);
         self.plant = Some(plant);
         Ok(())
     }
 
-    fn do_step(&mut self, values: &mut Values<ElVar>, _time: f64, step: f64, _notes: &mut Notes) -> Result<(), String> {
-        let plant = self.plant.as_mut().ok_or("the plant is not initialised")?;
+    fn do_step(
+        &mut self,
+        values: &mut Values<ElVar>,
+        _time: f64,
+        step: f64,
+        _notes: &mut Notes,
+    ) -> Result<(), PlantFmuError> {
+        let plant = self.plant.as_mut().ok_or(PlantFmuError::NotInitialised)?;
         let inputs = ElevationInputs {
             current_command_a: values.real(ElVar::CurrentCommand),
             disturbance_torque_nm: values.real(ElVar::DisturbanceTorque),
@@ -365,7 +379,12 @@ impl Model for ElevationPlantModel {
         )
     }
 
-    fn string_changed(&mut self, var: ElVar, values: &mut Values<ElVar>, context: &Context) -> Result<(), String> {
+    fn string_changed(
+        &mut self,
+        var: ElVar,
+        values: &mut Values<ElVar>,
+        context: &Context,
+    ) -> Result<(), PlantFmuError> {
         if var == ElVar::ParameterFile {
             fmu_runtime::params::load_file::<Self>(var, values, context)?;
         }
@@ -388,7 +407,7 @@ impl Model for ElevationPlantModel {
 
     fn load_state(&mut self, state: Option<DriveState>, values: &Values<ElVar>) -> Result<(), StateError> {
         self.plant = if let Some(state) = state {
-            let mut plant = Self::build(values).map_err(StateError::Invalid)?;
+            let mut plant = Self::build(values).map_err(StateError::model)?;
             plant.load_state(state)?;
             Some(plant)
         } else {

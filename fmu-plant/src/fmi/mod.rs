@@ -11,6 +11,24 @@ pub use azimuth::{AzVar, AzimuthPlantModel};
 pub use elevation::{ElVar, ElevationPlantModel};
 
 use fmu_runtime::package::{default_parameter_file, FmuSpec};
+use fmu_runtime::params::ParamsError;
+
+use crate::error::PlantError;
+
+/// Why a plant FMU refuses a call; logged with `fmi2Error`.
+#[derive(Debug, thiserror::Error)]
+pub enum PlantFmuError {
+    /// The parameters, the initial position or a step's inputs do not describe a drive that
+    /// can run.
+    #[error(transparent)]
+    Plant(#[from] PlantError),
+    /// The parameter file named by `parameter_file` cannot be applied.
+    #[error(transparent)]
+    Parameters(#[from] ParamsError),
+    /// A step before fmi2ExitInitializationMode built the plant.
+    #[error("the plant is not initialised")]
+    NotInitialised,
+}
 
 /// Files shipped in each plant FMU's `resources/` folder: the default parameter set (generated
 /// from the variable table), the linear Eq. 1 configuration and the realistic sensors.
@@ -248,6 +266,7 @@ mod tests {
                 // The geometry's parameters bound each other; at a declared bound the plant
                 // runs or refuses at construction (initialisation), naming the geometry.
                 if let Err(e) = &built {
+                    let e = e.to_string();
                     assert!(e.contains("geometry") || e.contains("travel"), "{name} = {bound}: {e}");
                     continue;
                 }

@@ -46,7 +46,7 @@ pub enum CommandError {
     #[error("command row {row}: time {time_s} s goes backwards")]
     TimeGoesBackwards { row: usize, time_s: f64 },
     #[error("{reason}")]
-    Read { reason: String },
+    Read { reason: fmu_runtime::files::FileError },
     #[error("{}", path.display())]
     Csv { path: PathBuf, source: csv::Error },
     #[error("{}:{line}: expected the header `time_s,azimuth_deg,elevation_deg`, found `{found}`", path.display())]

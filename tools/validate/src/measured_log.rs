@@ -416,7 +416,11 @@ impl MeasuredLog {
     /// Reads and parses a log file (a regular file of at most [`MAX_LOG_BYTES`]).
     pub fn read(path: &Path) -> Result<MeasuredLog, LogError> {
         let text = fmu_runtime::files::read_regular_file(path, MAX_LOG_BYTES, "log").map_err(|reason| {
-            LogError::at(None, None, LogErrorKind::Read { path: path.display().to_string(), reason })
+            LogError::at(
+                None,
+                None,
+                LogErrorKind::Read { path: path.display().to_string(), reason: reason.to_string() },
+            )
         })?;
         parse_bytes(text.as_bytes())
     }

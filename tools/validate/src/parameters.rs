@@ -591,7 +591,7 @@ pub enum ParameterError {
     #[error("{message}")]
     Unusable { message: String },
     #[error("cannot read {path}: {reason}")]
-    Read { path: std::path::PathBuf, reason: String },
+    Read { path: std::path::PathBuf, reason: Box<fmu_runtime::files::FileError> },
     #[error("cannot write {path}")]
     Write { path: std::path::PathBuf, source: std::io::Error },
     /// An error inside a file, with the file's path.
@@ -826,7 +826,7 @@ impl ParameterSet {
     pub fn read(path: &Path) -> Result<ParameterSet, ParameterError> {
         let text =
             fmu_runtime::files::read_regular_file(path, fmu_runtime::files::MAX_PARAMETER_FILE_BYTES, "parameter set")
-                .map_err(|reason| ParameterError::Read { path: path.to_path_buf(), reason })?;
+                .map_err(|reason| ParameterError::Read { path: path.to_path_buf(), reason: Box::new(reason) })?;
         ParameterSet::parse(&text).map_err(|e| ParameterError::InFile { path: path.to_path_buf(), source: Box::new(e) })
     }
 

@@ -160,7 +160,7 @@ pub const MAX_WIND_RECORD_BYTES: u64 = 256 << 20;
 /// Reads a wind record from a CSV file (see [`parse_wind_csv`]).
 pub fn read_wind_csv(path: &Path, time_column: &str, speed_column: &str) -> Result<WindRecord, WindFitError> {
     let text = fmu_runtime::files::read_regular_file(path, MAX_WIND_RECORD_BYTES, "wind record")
-        .map_err(|message| WindFitError::Io { path: path.display().to_string(), message })?;
+        .map_err(|e| WindFitError::Io { path: path.display().to_string(), message: e.to_string() })?;
     parse_wind_csv(&text, &path.display().to_string(), time_column, speed_column)
 }
 

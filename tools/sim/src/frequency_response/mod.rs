@@ -63,7 +63,7 @@ pub enum IdentificationError {
     ModelMismatch(String),
     /// The library controller the analytic model is built from refused its parameters.
     #[error("controller parameters: {0}")]
-    Controller(String),
+    Controller(fmu_controller::params::ParameterError),
 }
 
 /// A real variable of an initialised instance, by name.

@@ -90,7 +90,7 @@ pub fn shell_quote(text: &str) -> String {
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
     #[error("cannot read the sweep file {path}: {reason}")]
-    ReadSweepFile { path: String, reason: String },
+    ReadSweepFile { path: String, reason: fmu_runtime::files::FileError },
     #[error(transparent)]
     Table(#[from] ParameterTableError),
     #[error("--{option} {name}: no parameter of the table has this name or group; the parameters are: {known}")]
