@@ -682,8 +682,47 @@ fn cogging(
     }
     let frequencies: Vec<f64> = (0..count).map(|k| f_low + k as f64 * step).collect();
     let frequency_sigma = profile_sigma(&frequencies, &chi2, best);
-    let period = 1.0 / frequency;
-    let period_sigma = frequency_sigma / (frequency * frequency);
+    let mut period = 1.0 / frequency;
+    let mut period_sigma = frequency_sigma / (frequency * frequency);
+    // Below the grid, at the periods a motor has: m cycles per motor revolution.
+    let motor_periods = motor_cycle_periods(data, 1.0 / f_high);
+    let mut shortest = 1.0 / f_high;
+    if let Some(&(_, last)) = motor_periods.last() {
+        shortest = last;
+        let explained = |period: f64| -> f64 {
+            let column = |f: fn(f64) -> f64| -> Vec<f64> {
+                let smoothed =
+                    data.smooth(&data.motor_pos_inner.iter().map(|q| f(two_pi * q / period)).collect::<Vec<_>>());
+                smoothed.iter().zip(mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect()
+            };
+            let (sin, cos) = (column(f64::sin), column(f64::cos));
+            let (mut rc, mut rs, mut cc, mut ss, mut cs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for i in 0..torque_rows {
+                rc += w[i] * r[i] * cos[i];
+                rs += w[i] * r[i] * sin[i];
+                cc += w[i] * cos[i] * cos[i];
+                ss += w[i] * sin[i] * sin[i];
+                cs += w[i] * cos[i] * sin[i];
+            }
+            let det = cc * ss - cs * cs;
+            if det > 0.0 {
+                (ss * rc * rc - 2.0 * cs * rc * rs + cc * rs * rs) / det
+            } else {
+                0.0
+            }
+        };
+        let (best_motor, gain) = motor_periods
+            .iter()
+            .map(|&(_, p)| (p, explained(p)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((period, 0.0));
+        if total - gain < chi2[best] {
+            // A motor's period is exact (a whole number of cycles a revolution).
+            period = best_motor;
+            period_sigma = 0.0;
+        }
+    }
+    let frequency = 1.0 / period;
     let sin = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q * frequency).sin()).collect::<Vec<_>>());
     let cos = data.smooth(&data.motor_pos_inner.iter().map(|q| (two_pi * q * frequency).cos()).collect::<Vec<_>>());
     Ok(Instance {
@@ -699,13 +738,32 @@ fn cogging(
             unit: "rad".into(),
             value: period,
             sigma: period_sigma,
-            range: (1.0 / f_high, 1.0 / f_low),
+            range: (shortest, 1.0 / f_low),
         }],
-        // The grid oversamples the spatial-frequency resolution 1/range by 8.
-        trials: (count as f64 / 8.0).max(1.0),
+        // The grid oversamples the spatial-frequency resolution 1/range by 8; each motor
+        // period is one more trial.
+        trials: (count as f64 / 8.0).max(1.0) + motor_periods.len() as f64,
         extra_parameters: 1,
     })
 }
+
+/// The periods (axis-referred motor angle, rad) of m cycles per motor revolution, 2 pi /
+/// (N m), that are shorter than `shorter_than` (the continuous grid's shortest): a cogging
+/// torque (slots and poles), a torque ripple (six per electrical period) or a motor encoder's
+/// error repeat a whole number of times a motor revolution, so below the grid the search tries
+/// those periods only, m up to 64, with columns evaluated on the unsmoothed angle and smoothed
+/// as the torque is, so they are seen wherever the motor turns slowly enough for the filter to
+/// pass them. (m, period), longest first.
+fn motor_cycle_periods(data: &EquationData, shorter_than: f64) -> Vec<(u32, f64)> {
+    let revolution = 2.0 * std::f64::consts::PI / data.gear_ratio.abs().max(f64::MIN_POSITIVE);
+    (1..=MAX_CYCLES_PER_MOTOR_REVOLUTION)
+        .map(|m| (m, revolution / m as f64))
+        .filter(|&(_, p)| p < shorter_than)
+        .collect()
+}
+
+/// The most cycles per motor revolution the cogging search tries ([`motor_cycle_periods`]).
+pub const MAX_CYCLES_PER_MOTOR_REVOLUTION: u32 = 64;
 
 /// How large an effect is in physical terms: the change of its leading parameter from
 /// `before` to `after` (name, change, unit): the friction level, the offset, the width, the

@@ -110,12 +110,13 @@ impl LoadEncoderError {
 fn legendre(x: f64) -> [f64; SMOOTH_DEGREE] {
     let mut p = [0.0; SMOOTH_DEGREE];
     let (mut previous, mut current) = (1.0, x);
-    p[0] = x;
-    for n in 1..SMOOTH_DEGREE {
-        let next = ((2 * n + 1) as f64 * x * current - n as f64 * previous) / (n + 1) as f64;
-        previous = current;
-        current = next;
-        p[n] = next;
+    for (n, value) in p.iter_mut().enumerate() {
+        if n > 0 {
+            let next = ((2 * n + 1) as f64 * x * current - n as f64 * previous) / (n + 1) as f64;
+            previous = current;
+            current = next;
+        }
+        *value = current;
     }
     p
 }
@@ -178,7 +179,8 @@ pub fn load_encoder_error(
     let angle = pick(&data.load_pos);
     let (low, high) = angle.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &q| (a.min(q), b.max(q)));
     let span = high - low;
-    if !(span > 0.0) {
+    // Written so that a NaN span returns too.
+    if span.is_nan() || span <= 0.0 {
         return None;
     }
     // The twist terms of the two-encoder check (constant, skew, compliance, lost motion), the
@@ -328,7 +330,7 @@ impl LoadSide {
         let load = fit(&columns, &self.target);
         let end = columns.len();
         let sd = (load.inverse[(end - 1, end - 1)] * load.scale).sqrt();
-        if !(sd < 0.25) {
+        if sd.is_nan() || sd >= 0.25 {
             return true;
         }
         let coefficient = load.beta[end - 1];
