@@ -8,7 +8,25 @@
 use crate::distributions::{chi_squared_sf, standard_normal_quantile};
 use crate::error::{check_finite, DspError};
 use rustfft::num_complex::Complex64;
-use rustfft::FftPlanner;
+use rustfft::{Fft, FftPlanner};
+use std::cell::RefCell;
+use std::sync::Arc;
+
+thread_local! {
+    /// One planner per thread, which keeps the plans (and their twiddle factors) of every
+    /// length it was asked for: the validation correlates records of the same few lengths
+    /// thousands of times, and planning cost as much as the transforms. A planner returns the
+    /// same algorithm for a length every time, so the results do not change.
+    static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
+}
+
+/// The forward and inverse transforms of `len` points from this thread's planner.
+fn plans(len: usize) -> (Arc<dyn Fft<f64>>, Arc<dyn Fft<f64>>) {
+    PLANNER.with(|planner| {
+        let mut planner = planner.borrow_mut();
+        (planner.plan_fft_forward(len), planner.plan_fft_inverse(len))
+    })
+}
 
 /// Normalised cross-correlation of two records at lags `-max_lag..=max_lag`.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,16 +68,22 @@ fn raw_cross_products(x: &[f64], y: &[f64]) -> (Vec<f64>, usize) {
         buffer.resize(padded, Complex64::new(0.0, 0.0));
         buffer
     };
-    let mut planner = FftPlanner::<f64>::new();
-    let forward = planner.plan_fft_forward(padded);
+    let (forward, inverse) = plans(padded);
     let mut fx = to_complex(x, mean_x);
-    let mut fy = to_complex(y, mean_y);
     forward.process(&mut fx);
-    forward.process(&mut fy);
+    // An autocorrelation transforms its record once (the second transform would be the same).
+    let same = std::ptr::eq(x, y);
+    let fy = if same {
+        None
+    } else {
+        let mut fy = to_complex(y, mean_y);
+        forward.process(&mut fy);
+        Some(fy)
+    };
     // conj(X) Y transforms back to sum_t x[t] y[t + k]: the zero padding to at least 2N keeps
     // the circular correlation from wrapping around.
-    let mut product: Vec<Complex64> = fx.iter().zip(&fy).map(|(a, b)| a.conj() * b).collect();
-    planner.plan_fft_inverse(padded).process(&mut product);
+    let mut product: Vec<Complex64> = fx.iter().zip(fy.as_ref().unwrap_or(&fx)).map(|(a, b)| a.conj() * b).collect();
+    inverse.process(&mut product);
     (product.iter().map(|c| c.re / padded as f64).collect(), padded)
 }
 

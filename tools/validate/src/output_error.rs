@@ -18,6 +18,7 @@ use super::parameters::{fmu_length_unit, names, FmuConfig, FmuDrive, FmuInput, P
 use crate::finite::{check_series, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
 use antenna_dsp::conditioning::SavitzkyGolay;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Why a [`PlantSimulator`] could not be configured or could not simulate a window.
@@ -124,6 +125,21 @@ pub trait PlantSimulator {
         disturbance: &[f64],
         dt: f64,
     ) -> Result<SimulatedOutputs, SimulatorError>;
+    /// Simulates independent windows with the configured parameter set, one result per job in
+    /// the jobs' order. Each window starts from its own state, so a simulator may run them in
+    /// any order or side by side (the plant FMU does, on one instance per thread) as long as a
+    /// window's result does not depend on what ran before it; by default one after another.
+    fn simulate_all(&mut self, jobs: &[WindowJob<'_>], dt: f64) -> Vec<Result<SimulatedOutputs, SimulatorError>> {
+        jobs.iter().map(|job| self.simulate(&job.start, job.commands, job.disturbance, dt)).collect()
+    }
+}
+
+/// One window (or drive-path piece) to simulate: its start and the inputs held over its steps.
+#[derive(Debug, Clone)]
+pub struct WindowJob<'a> {
+    pub start: WindowStart,
+    pub commands: &'a [[f64; 2]],
+    pub disturbance: &'a [f64],
 }
 
 /// The log's inputs and measured outputs, aligned with the equation-error data's analysed
@@ -586,6 +602,12 @@ fn equilibrium_deflection(out: &OutputData, i: usize, params: &ParameterSet) -> 
 }
 
 /// Simulates every window with a parameter set and collects the output errors.
+///
+/// The windows (and the drive-path pieces) are handed to the simulator together
+/// ([`PlantSimulator::simulate_all`]), which may run them side by side; the load-side
+/// simulations run on the rayon pool. Every window starts from its own measured state, so the
+/// results are the same whatever the number of threads, and they are checked and collected in
+/// window order, so the first failure reported is the same as one window after another gives.
 pub fn output_error(
     simulator: &mut dyn PlantSimulator,
     params: &ParameterSet,
@@ -600,50 +622,119 @@ pub fn output_error(
     if load_side {
         kinds.push((ChannelKind::LoadSide, false));
     }
-    let mut measured: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
-    let mut simulated: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
-    let mut window_sse: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
-    let mut spread: Vec<f64> = vec![0.0; kinds.len()];
-    let mut time = Vec::new();
     let length = plan.length;
+    // The drive-path channel on its shorter pieces, each restarted from the measured state
+    // (none when the pieces are the window, whose own simulation then gives the twist).
+    let pieces = if plan.drive_length < length && kinds.iter().any(|(k, _)| *k == ChannelKind::Twist) {
+        plan.drive_pieces()
+    } else {
+        Vec::new()
+    };
+    let jobs = window_jobs(out, params, plan, &centres, &pieces);
+    let mut results = simulator.simulate_all(&jobs, out.dt).into_iter();
+    drop(jobs);
+    let load_side_sims: Vec<Vec<f64>> = if load_side {
+        plan.starts.par_iter().map(|&i0| simulate_load_side(out, params, &centres, i0, length)).collect()
+    } else {
+        Vec::new()
+    };
+    let mut collected = Collected::new(kinds.len());
+    for (w, &i0) in plan.starts.iter().enumerate() {
+        let sim = checked(results.next(), length, "window", out.time[i0])?;
+        let drive_twist: Option<Vec<f64>> = if pieces.is_empty() {
+            None
+        } else {
+            let mut twist = Vec::with_capacity(length);
+            for &(offset, piece) in &pieces {
+                let piece_sim = checked(results.next(), piece, "drive-path piece", out.time[i0 + offset])?;
+                twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
+            }
+            Some(twist)
+        };
+        let load_side_sim = load_side_sims.get(w).map_or(&[][..], Vec::as_slice);
+        collected.add_window(out, &kinds, i0, length, &sim, drive_twist.as_deref(), load_side_sim)?;
+    }
+    Ok(collected.finish(&kinds, plan, &centres))
+}
+
+/// The simulations of every window in order: the window, then its drive-path pieces.
+fn window_jobs<'a>(
+    out: &'a OutputData,
+    params: &ParameterSet,
+    plan: &WindowPlan,
+    centres: &[f64],
+    pieces: &[(usize, usize)],
+) -> Vec<WindowJob<'a>> {
+    let steps = plan.length - 1;
+    let mut jobs = Vec::with_capacity(plan.starts.len() * (1 + pieces.len()));
     for &i0 in &plan.starts {
         let k0 = out.first_sample + i0;
-        let start = window_start(out, i0, params, centres[i0]);
-        let steps = length - 1;
-        let sim = simulator
-            .simulate(&start, &out.held[k0..k0 + steps], &out.disturbance_held[k0..k0 + steps], out.dt)
-            .map_err(SimulationError::Simulator)?;
-        if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
-            return Err(SimulationError::Window { what: "window", time: out.time[i0] });
+        jobs.push(WindowJob {
+            start: window_start(out, i0, params, centres[i0]),
+            commands: &out.held[k0..k0 + steps],
+            disturbance: &out.disturbance_held[k0..k0 + steps],
+        });
+        for &(offset, piece) in pieces {
+            let (i, k) = (i0 + offset, k0 + offset);
+            jobs.push(WindowJob {
+                start: window_start(out, i, params, centres[i]),
+                commands: &out.held[k..k + piece - 1],
+                disturbance: &out.disturbance_held[k..k + piece - 1],
+            });
         }
-        // The drive-path channel on its shorter pieces, each restarted from the measured state
-        // (the window's own simulation when the pieces are the window).
-        let drive_twist: Option<Vec<f64>> =
-            if plan.drive_length < length && kinds.iter().any(|(k, _)| *k == ChannelKind::Twist) {
-                let mut twist = Vec::with_capacity(length);
-                for (offset, piece) in plan.drive_pieces() {
-                    let (i, k) = (i0 + offset, k0 + offset);
-                    let piece_start = window_start(out, i, params, centres[i]);
-                    let piece_sim = simulator
-                        .simulate(
-                            &piece_start,
-                            &out.held[k..k + piece - 1],
-                            &out.disturbance_held[k..k + piece - 1],
-                            out.dt,
-                        )
-                        .map_err(SimulationError::Simulator)?;
-                    if piece_sim.len() != piece
-                        || piece_sim.load_pos.iter().chain(&piece_sim.motor_pos).any(|v| !v.is_finite())
-                    {
-                        return Err(SimulationError::Window { what: "drive-path piece", time: out.time[i] });
-                    }
-                    twist.extend(piece_sim.motor_pos.iter().zip(&piece_sim.load_pos).map(|(m, l)| m - l));
-                }
-                Some(twist)
-            } else {
-                None
-            };
-        let load_side_sim = if load_side { simulate_load_side(out, params, &centres, i0, length) } else { Vec::new() };
+    }
+    jobs
+}
+
+/// A simulated window (or piece) of `length` samples at `time`, or why it failed: the
+/// simulator's error, or a simulation that stopped short or left the finite numbers.
+fn checked(
+    result: Option<Result<SimulatedOutputs, SimulatorError>>,
+    length: usize,
+    what: &'static str,
+    time: f64,
+) -> Result<SimulatedOutputs, SimulationError> {
+    let sim = result.ok_or(SimulationError::Window { what, time })?.map_err(SimulationError::Simulator)?;
+    if sim.len() != length || sim.load_pos.iter().chain(&sim.motor_pos).any(|v| !v.is_finite()) {
+        return Err(SimulationError::Window { what, time });
+    }
+    Ok(sim)
+}
+
+/// The channels' measured and simulated values, window after window.
+struct Collected {
+    measured: Vec<Vec<f64>>,
+    simulated: Vec<Vec<f64>>,
+    window_sse: Vec<Vec<f64>>,
+    spread: Vec<f64>,
+    time: Vec<f64>,
+}
+
+impl Collected {
+    fn new(channels: usize) -> Collected {
+        Collected {
+            measured: vec![Vec::new(); channels],
+            simulated: vec![Vec::new(); channels],
+            window_sse: vec![Vec::new(); channels],
+            spread: vec![0.0; channels],
+            time: Vec::new(),
+        }
+    }
+
+    /// Adds the window from analysed sample `i0`: its simulation, the twist of its drive-path
+    /// pieces (when the twist is scored on them) and the load side's axis position.
+    #[allow(clippy::too_many_arguments)]
+    fn add_window(
+        &mut self,
+        out: &OutputData,
+        kinds: &[(ChannelKind, bool)],
+        i0: usize,
+        length: usize,
+        sim: &SimulatedOutputs,
+        drive_twist: Option<&[f64]>,
+        load_side_sim: &[f64],
+    ) -> Result<(), SimulationError> {
+        let k0 = out.first_sample + i0;
         // Positions are compared as the logged values against the simulation started at the
         // smoothed measured state; speeds against the zero-phase derivative of the positions.
         for (c, (kind, _)) in kinds.iter().enumerate() {
@@ -656,7 +747,7 @@ pub fn output_error(
                         ChannelKind::MotorPosition => (out.motor_pos[k], sim.motor_pos[j]),
                         ChannelKind::Twist => (
                             out.motor_pos[k] - out.load_pos[k],
-                            drive_twist.as_ref().map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j]),
+                            drive_twist.map_or(sim.motor_pos[j] - sim.load_pos[j], |t| t[j]),
                         ),
                         ChannelKind::LoadSide => (out.load_pos[k], load_side_sim[j]),
                         ChannelKind::AxisSpeed => (out.state_load_vel[i], sim.load_vel[j]),
@@ -665,38 +756,48 @@ pub fn output_error(
                 })
                 .unzip();
             let mean = m.iter().sum::<f64>() / length as f64;
-            spread[c] += m.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+            self.spread[c] += m.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
             let sse: f64 = m.iter().zip(&s).map(|(a, b)| (a - b).powi(2)).sum();
             crate::finite::check_value(
                 &format!("the output error of the {}", kind.name()),
                 sse,
                 &format!("in the window at {:.3} s", out.time[i0]),
             )?;
-            window_sse[c].push(sse);
-            measured[c].extend(m);
-            simulated[c].extend(s);
+            self.window_sse[c].push(sse);
+            self.measured[c].extend(m);
+            self.simulated[c].extend(s);
         }
-        time.extend_from_slice(&out.time[i0..i0 + length]);
+        self.time.extend_from_slice(&out.time[i0..i0 + length]);
+        Ok(())
     }
-    let channels = kinds
-        .iter()
-        .enumerate()
-        .map(|(c, (kind, scored))| {
-            let sse: f64 = window_sse[c].iter().sum();
-            let count = measured[c].len().max(1) as f64;
-            OutputChannel {
-                kind: *kind,
-                scored: *scored,
-                criterion: *scored || *kind == ChannelKind::LoadSide,
-                measured: std::mem::take(&mut measured[c]),
-                simulated: std::mem::take(&mut simulated[c]),
-                window_sse: std::mem::take(&mut window_sse[c]),
-                rms: (sse / count).sqrt(),
-                fit_percent: if spread[c] > 0.0 { 100.0 * (1.0 - (sse / spread[c]).sqrt()) } else { f64::NAN },
-            }
-        })
-        .collect();
-    Ok(OutputError { plan: plan.clone(), channels, twist_centre: centres.first().copied().unwrap_or(0.0), time })
+
+    fn finish(mut self, kinds: &[(ChannelKind, bool)], plan: &WindowPlan, centres: &[f64]) -> OutputError {
+        let channels = kinds
+            .iter()
+            .enumerate()
+            .map(|(c, (kind, scored))| {
+                let sse: f64 = self.window_sse[c].iter().sum();
+                let count = self.measured[c].len().max(1) as f64;
+                let spread = self.spread[c];
+                OutputChannel {
+                    kind: *kind,
+                    scored: *scored,
+                    criterion: *scored || *kind == ChannelKind::LoadSide,
+                    measured: std::mem::take(&mut self.measured[c]),
+                    simulated: std::mem::take(&mut self.simulated[c]),
+                    window_sse: std::mem::take(&mut self.window_sse[c]),
+                    rms: (sse / count).sqrt(),
+                    fit_percent: if spread > 0.0 { 100.0 * (1.0 - (sse / spread).sqrt()) } else { f64::NAN },
+                }
+            })
+            .collect();
+        OutputError {
+            plan: plan.clone(),
+            channels,
+            twist_centre: centres.first().copied().unwrap_or(0.0),
+            time: self.time,
+        }
+    }
 }
 
 /// The load side of a two-mass model alone, driven by the measured motor motion: the axis
@@ -739,18 +840,14 @@ pub fn simulate_load_side(
         Negative,
         Gap,
     }
-    // The motor side (axis rad, rad/s) at fraction s of log interval j of the window.
-    let motor = |j: usize, s: f64| -> (f64, f64) {
+    // The motor side (axis rad, rad/s) at fraction s of log interval j of the window, s one of
+    // the substeps' points whose Hermite weights `basis` holds (computed once: they do not
+    // depend on the interval).
+    let motor = |j: usize, (s, w): (f64, HermiteWeights)| -> (f64, f64) {
         let (p0, p1) = (out.state_motor_pos[i0 + j], out.state_motor_pos[i0 + j + 1]);
         let (v0, v1) = (out.state_motor_vel[i0 + j] * dt, out.state_motor_vel[i0 + j + 1] * dt);
-        let (s2, s3) = (s * s, s * s * s);
-        let position =
-            (2.0 * s3 - 3.0 * s2 + 1.0) * p0 + (s3 - 2.0 * s2 + s) * v0 + (-2.0 * s3 + 3.0 * s2) * p1 + (s3 - s2) * v1;
-        let speed = ((6.0 * s2 - 6.0 * s) * p0
-            + (3.0 * s2 - 4.0 * s + 1.0) * v0
-            + (-6.0 * s2 + 6.0 * s) * p1
-            + (3.0 * s2 - 2.0 * s) * v1)
-            / dt;
+        let position = w.position[0] * p0 + w.position[1] * v0 + w.position[2] * p1 + w.position[3] * v1;
+        let speed = (w.speed[0] * p0 + w.speed[1] * v0 + w.speed[2] * p1 + w.speed[3] * v1) / dt;
         let centre = centres[i0 + j] + s * (centres[(i0 + j + 1).min(centres.len() - 1)] - centres[i0 + j]);
         (position - centre, speed)
     };
@@ -776,34 +873,38 @@ pub fn simulate_load_side(
     positions.push(angle);
     let substeps = 20;
     let h = dt / substeps as f64;
+    let basis = hermite_points(substeps);
     for j in 0..length - 1 {
         let disturbance = out.disturbance_held[k0 + j];
-        for m in 0..substeps {
-            // Derivatives of (angle, speed, deflection) at motor sample fraction s.
-            let derivative = |s: f64, x: [f64; 3]| -> [f64; 3] {
-                let (motor_angle, motor_speed) = motor(j, s);
+        for points in &basis {
+            // The motor side at the substep's start, middle and end: the middle serves the
+            // second and third stages, the end the fourth and the mode change.
+            let at = points.map(|point| motor(j, point));
+            // Derivatives of (angle, speed, deflection) with the motor side at `(motor_angle,
+            // motor_speed)`. Without an unbalance its cosine is not taken (it would be
+            // multiplied by zero).
+            let derivative = |(motor_angle, motor_speed): (f64, f64), x: [f64; 3]| -> [f64; 3] {
                 let d = motor_angle - x[0];
                 let (torque, deflection_rate) = match contact_position(flank) {
                     Some(beta) => (contact_torque(d, motor_speed - x[1], beta), 0.0),
                     None => (0.0, if relaxation.is_finite() { -relaxation * x[2] } else { 0.0 }),
                 };
-                let load_torque = torque - amplitude * (x[0] + phase).cos() - offset + disturbance;
+                let unbalance = if amplitude == 0.0 { 0.0 } else { amplitude * (x[0] + phase).cos() };
+                let load_torque = torque - unbalance - offset + disturbance;
                 [x[1], load_torque / inertia, deflection_rate]
             };
-            let s = m as f64 / substeps as f64;
-            let ds = 1.0 / substeps as f64;
             let x = [angle, speed, deflection];
-            let k1 = derivative(s, x);
-            let k2 = derivative(s + 0.5 * ds, [x[0] + 0.5 * h * k1[0], x[1] + 0.5 * h * k1[1], x[2] + 0.5 * h * k1[2]]);
-            let k3 = derivative(s + 0.5 * ds, [x[0] + 0.5 * h * k2[0], x[1] + 0.5 * h * k2[1], x[2] + 0.5 * h * k2[2]]);
-            let k4 = derivative(s + ds, [x[0] + h * k3[0], x[1] + h * k3[1], x[2] + h * k3[2]]);
+            let k1 = derivative(at[0], x);
+            let k2 = derivative(at[1], [x[0] + 0.5 * h * k1[0], x[1] + 0.5 * h * k1[1], x[2] + 0.5 * h * k1[2]]);
+            let k3 = derivative(at[1], [x[0] + 0.5 * h * k2[0], x[1] + 0.5 * h * k2[1], x[2] + 0.5 * h * k2[2]]);
+            let k4 = derivative(at[2], [x[0] + h * k3[0], x[1] + h * k3[1], x[2] + h * k3[2]]);
             angle += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
             speed += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
             deflection += h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
             if half_gap > 0.0 {
                 // Mode changes at the substep: leave a flank that would pull, meet a flank
                 // that the gap has closed on.
-                let (motor_angle, motor_speed) = motor(j, s + ds);
+                let (motor_angle, motor_speed) = at[2];
                 let d = motor_angle - angle;
                 match contact_position(flank) {
                     Some(beta) => {
@@ -827,6 +928,36 @@ pub fn simulate_load_side(
         positions.push(angle);
     }
     positions
+}
+
+/// The cubic Hermite basis at one point of a log interval: the weights of (p0, v0 dt, p1, v1 dt)
+/// in the position and, times dt, in the speed.
+#[derive(Debug, Clone, Copy)]
+struct HermiteWeights {
+    position: [f64; 4],
+    speed: [f64; 4],
+}
+
+impl HermiteWeights {
+    fn at(s: f64) -> HermiteWeights {
+        let (s2, s3) = (s * s, s * s * s);
+        HermiteWeights {
+            position: [2.0 * s3 - 3.0 * s2 + 1.0, s3 - 2.0 * s2 + s, -2.0 * s3 + 3.0 * s2, s3 - s2],
+            speed: [6.0 * s2 - 6.0 * s, 3.0 * s2 - 4.0 * s + 1.0, -6.0 * s2 + 6.0 * s, 3.0 * s2 - 2.0 * s],
+        }
+    }
+}
+
+/// The points of each of `substeps` RK4 substeps of a log interval: its start, middle and end
+/// (fractions of the interval, formed as the substeps step through it), with their weights.
+fn hermite_points(substeps: usize) -> Vec<[(f64, HermiteWeights); 3]> {
+    let ds = 1.0 / substeps as f64;
+    (0..substeps)
+        .map(|m| {
+            let s = m as f64 / substeps as f64;
+            [s, s + 0.5 * ds, s + ds].map(|point| (point, HermiteWeights::at(point)))
+        })
+        .collect()
 }
 
 /// The paired comparison of two models' output errors over the same windows.

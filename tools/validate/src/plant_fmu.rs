@@ -17,12 +17,13 @@
 //! error, not a wrong simulation. One instance serves all windows of a parameter set;
 //! restoring a state costs one plant construction (tens of microseconds).
 
-use super::output_error::{PlantSimulator, SimulatedOutputs, SimulatorError, WindowStart};
+use super::output_error::{PlantSimulator, SimulatedOutputs, SimulatorError, WindowJob, WindowStart};
 use super::parameters::{fmu_parameter_text, FmuConfig, ParameterSet};
 use fmu_import::{Fmu, ImportError, Instance};
 use fmu_plant::fmi::{AzVar, AzimuthPlantModel};
 use fmu_plant::{Mesh, Motion};
 use fmu_runtime::{InstanceState, StateError};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -307,18 +308,30 @@ impl Session {
     }
 }
 
-/// The plant FMU as a [`PlantSimulator`]: one session per parameter set, reused for every
-/// window of that set.
+/// The plant FMU as a [`PlantSimulator`]: sessions of one parameter set, reused for every
+/// window of that set; one session per thread when windows run side by side
+/// ([`PlantSimulator::simulate_all`]).
 pub struct FmuSimulator {
     fmu: PlantFmu,
-    session: Option<(String, Session)>,
+    /// The configured parameter set, which every session of the pool is made from.
+    source: Option<Source>,
+    /// The sessions of that set: the first made by the configuration, the others when windows
+    /// first ran on more threads.
+    sessions: Vec<Session>,
     /// The log's length per FMU radian of the configured set ([`FmuConfig::length_unit`]).
     length_unit: f64,
 }
 
+/// Where a configuration's parameters come from.
+#[derive(Debug, Clone, PartialEq)]
+enum Source {
+    Text(String),
+    File(PathBuf),
+}
+
 impl FmuSimulator {
     pub fn new(fmu: PlantFmu) -> Self {
-        FmuSimulator { fmu, session: None, length_unit: 1.0 }
+        FmuSimulator { fmu, source: None, sessions: Vec::new(), length_unit: 1.0 }
     }
 
     pub fn open(path: &Path) -> Result<Self, PlantFmuError> {
@@ -328,10 +341,31 @@ impl FmuSimulator {
     /// Configures the simulator from a parameter file on disk (for checking a written file),
     /// written for the FMU length unit `length_unit` ([`FmuConfig::length_unit`]).
     pub fn configure_from_file(&mut self, path: &Path, length_unit: f64) -> Result<(), PlantFmuError> {
-        let session = self.fmu.session_from_file(path)?;
-        self.session = Some((format!("file:{}", path.display()), session));
+        let source = Source::File(path.to_path_buf());
+        let session = self.session(&source)?;
+        self.source = Some(source);
+        self.sessions = vec![session];
         self.length_unit = length_unit;
         Ok(())
+    }
+
+    fn session(&self, source: &Source) -> Result<Session, PlantFmuError> {
+        match source {
+            Source::Text(text) => self.fmu.session(text),
+            Source::File(path) => self.fmu.session_from_file(path),
+        }
+    }
+
+    /// Sessions of the configured set until there are `count` (fewer if one cannot be made:
+    /// the windows then share the ones there are).
+    fn grow_pool(&mut self, count: usize) {
+        let Some(source) = self.source.clone() else { return };
+        while self.sessions.len() < count {
+            match self.session(&source) {
+                Ok(session) => self.sessions.push(session),
+                Err(_) => break,
+            }
+        }
     }
 }
 
@@ -339,11 +373,13 @@ impl PlantSimulator for FmuSimulator {
     fn configure(&mut self, params: &ParameterSet, config: &FmuConfig) -> Result<(), SimulatorError> {
         let text = fmu_parameter_text(params, config, "written by validate for an output-error run")
             .map_err(|e| SimulatorError::Parameters(Arc::new(e)))?;
-        if self.session.as_ref().is_some_and(|(t, _)| *t == text) {
+        let source = Source::Text(text);
+        if self.source.as_ref() == Some(&source) && !self.sessions.is_empty() {
             return Ok(());
         }
-        let session = self.fmu.session(&text)?;
-        self.session = Some((text, session));
+        let session = self.session(&source)?;
+        self.source = Some(source);
+        self.sessions = vec![session];
         self.length_unit = config.length_unit;
         Ok(())
     }
@@ -355,27 +391,102 @@ impl PlantSimulator for FmuSimulator {
         disturbance: &[f64],
         dt: f64,
     ) -> Result<SimulatedOutputs, SimulatorError> {
-        let (_, session) = self.session.as_mut().ok_or(SimulatorError::NotConfigured)?;
         let unit = self.length_unit;
-        if unit == 1.0 {
-            return Ok(session.run(start, commands, disturbance, dt)?);
-        }
-        // The same motion with lengths in the FMU's unit: angles and speeds over it, the load
-        // disturbance (a force) times it; the commands' scale is in the FMU's torque constant.
-        let scaled = WindowStart {
-            load_angle: start.load_angle / unit,
-            load_speed: start.load_speed / unit,
-            motor_angle: start.motor_angle / unit,
-            motor_speed: start.motor_speed / unit,
-            twist: start.twist / unit,
-            currents: start.currents,
-            history: start.history.clone(),
-        };
-        let disturbance: Vec<f64> = disturbance.iter().map(|d| d * unit).collect();
-        let mut out = session.run(&scaled, commands, &disturbance, dt)?;
-        for series in [&mut out.load_pos, &mut out.load_vel, &mut out.motor_pos, &mut out.motor_vel] {
-            series.iter_mut().for_each(|x| *x *= unit);
-        }
-        Ok(out)
+        let session = self.sessions.first_mut().ok_or(SimulatorError::NotConfigured)?;
+        Ok(run_in_length_unit(session, start, commands, disturbance, dt, unit)?)
     }
+
+    /// The windows split into one contiguous run per thread of the rayon pool, of about equal
+    /// numbers of steps, each on its own session. A session restores the whole FMU state at
+    /// every window start, so a window's result does not depend on the session or on what it
+    /// ran before: the results are the same for any number of threads.
+    fn simulate_all(&mut self, jobs: &[WindowJob<'_>], dt: f64) -> Vec<Result<SimulatedOutputs, SimulatorError>> {
+        if self.sessions.is_empty() {
+            return jobs.iter().map(|_| Err(SimulatorError::NotConfigured)).collect();
+        }
+        self.grow_pool(rayon::current_num_threads().min(jobs.len()).max(1));
+        let runs = split_by_steps(jobs, self.sessions.len());
+        let results: Vec<Vec<Result<SimulatedOutputs, SimulatorError>>> = self.sessions[..runs.len()]
+            .par_iter_mut()
+            .zip(runs.par_iter())
+            .map(|(session, run)| run_windows(session, run, dt, self.length_unit))
+            .collect();
+        results.into_iter().flatten().collect()
+    }
+}
+
+/// The jobs cut into at most `parts` contiguous runs of about equal numbers of steps (a
+/// window's cost is about proportional to its steps), none empty.
+fn split_by_steps<'j, 'a>(jobs: &'j [WindowJob<'a>], parts: usize) -> Vec<&'j [WindowJob<'a>]> {
+    let total: usize = jobs.iter().map(|job| job.commands.len() + 1).sum();
+    let mut runs = Vec::with_capacity(parts);
+    let (mut first, mut done) = (0, 0);
+    for (index, job) in jobs.iter().enumerate() {
+        done += job.commands.len() + 1;
+        // The run ends once it reaches its share of the total steps.
+        if done * parts >= total * (runs.len() + 1) {
+            runs.push(&jobs[first..=index]);
+            first = index + 1;
+        }
+    }
+    if first < jobs.len() {
+        runs.push(&jobs[first..]);
+    }
+    runs
+}
+
+/// Simulates a run of windows on one session, in order. After a failure the rest of the run
+/// repeats the error instead of simulating: the output error stops at the first failure in
+/// window order, so what follows it is never read.
+fn run_windows(
+    session: &mut Session,
+    run: &[WindowJob<'_>],
+    dt: f64,
+    unit: f64,
+) -> Vec<Result<SimulatedOutputs, SimulatorError>> {
+    let mut results = Vec::with_capacity(run.len());
+    let mut failure: Option<SimulatorError> = None;
+    for job in run {
+        let result = match &failure {
+            Some(error) => Err(error.clone()),
+            None => run_in_length_unit(session, &job.start, job.commands, job.disturbance, dt, unit)
+                .map_err(SimulatorError::from),
+        };
+        if let Err(error) = &result {
+            failure.get_or_insert_with(|| error.clone());
+        }
+        results.push(result);
+    }
+    results
+}
+
+/// One window on a session whose FMU measures lengths in `unit` of the log's
+/// ([`FmuConfig::length_unit`]): the same motion with angles and speeds over the unit and the
+/// load disturbance (a force) times it; the commands' scale is in the FMU's torque constant.
+fn run_in_length_unit(
+    session: &mut Session,
+    start: &WindowStart,
+    commands: &[[f64; 2]],
+    disturbance: &[f64],
+    dt: f64,
+    unit: f64,
+) -> Result<SimulatedOutputs, PlantFmuError> {
+    if unit == 1.0 {
+        return session.run(start, commands, disturbance, dt);
+    }
+    let scaled = WindowStart {
+        load_angle: start.load_angle / unit,
+        load_speed: start.load_speed / unit,
+        motor_angle: start.motor_angle / unit,
+        motor_speed: start.motor_speed / unit,
+        twist: start.twist / unit,
+        currents: start.currents,
+        history: start.history.clone(),
+    };
+    let disturbance: Vec<f64> = disturbance.iter().map(|d| d * unit).collect();
+    let mut out = session.run(&scaled, commands, &disturbance, dt)?;
+    for series in [&mut out.load_pos, &mut out.load_vel, &mut out.motor_pos, &mut out.motor_vel] {
+        series.iter_mut().for_each(|x| *x *= unit);
+    }
+    Ok(out)
 }

@@ -571,13 +571,28 @@ fn run_one(log_path: &Path, params_path: &Path, settings: &Settings) -> anyhow::
     let log = MeasuredLog::read(log_path).with_context(|| format!("{}", log_path.display()))?;
     let start = ParameterSet::read(params_path)?;
     let mut simulator = settings.fmu.as_deref().map(FmuSimulator::open).transpose()?;
+    let spinner = progress_spinner(&format!("validating {}", log_path.display()));
     let validation = validate::validate_with(
         &log,
         &start,
         &settings.options,
         simulator.as_mut().map(|s| s as &mut dyn PlantSimulator),
-    )?;
-    Ok(validation)
+    );
+    spinner.finish_and_clear();
+    Ok(validation?)
+}
+
+/// A spinner with the elapsed time on stderr while one log is validated (tens of seconds for a
+/// minute of a 1 kHz log), ticking on its own thread since the validation reports no steps.
+/// Silent when stderr is not a terminal (indicatif draws nothing there), so piped output and
+/// the reports stay as they were.
+fn progress_spinner(message: &str) -> indicatif::ProgressBar {
+    let spinner = indicatif::ProgressBar::new_spinner().with_message(message.to_string());
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})") {
+        spinner.set_style(style);
+    }
+    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    spinner
 }
 
 /// Writes the report, the corrected parameter sets and the figures of one validation.
