@@ -616,7 +616,8 @@ fn cogging_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
 /// The period grid is uniform in spatial frequency with a step of 1/8 cycle over the angle
 /// range, so a true period is never more than 1/16 cycle of phase drift from a grid point.
 /// Periods run from a third of the angle range down to the shortest the filter passes at the
-/// median speed, and never more than 5000 grid points (a documented search limit).
+/// median speed, and never more than 5000 grid points (a documented search limit); below
+/// that, the periods of m cycles per motor revolution ([`motor_cycle_periods`]).
 fn cogging(
     data: &EquationData,
     channels: &[ChannelData],
@@ -685,7 +686,7 @@ fn cogging(
     let mut period = 1.0 / frequency;
     let mut period_sigma = frequency_sigma / (frequency * frequency);
     // Below the grid, at the periods a motor has: m cycles per motor revolution.
-    let motor_periods = motor_cycle_periods(data, 1.0 / f_high);
+    let motor_periods = motor_cycle_periods(data, 1.0 / f_high, &speeds);
     let mut shortest = 1.0 / f_high;
     if let Some(&(_, last)) = motor_periods.last() {
         shortest = last;
@@ -753,12 +754,16 @@ fn cogging(
 /// error repeat a whole number of times a motor revolution, so below the grid the search tries
 /// those periods only, m up to 64, with columns evaluated on the unsmoothed angle and smoothed
 /// as the torque is, so they are seen wherever the motor turns slowly enough for the filter to
-/// pass them. (m, period), longest first.
-fn motor_cycle_periods(data: &EquationData, shorter_than: f64) -> Vec<(u32, f64)> {
+/// pass them: a period is tried only when at least a twentieth of the moving samples
+/// (`sorted_speeds`, axis-referred motor speeds in ascending order) are that slow (their
+/// cycles at most half the cut-off frequency), since every period tried makes the test of
+/// every candidate stricter. (m, period), longest first.
+fn motor_cycle_periods(data: &EquationData, shorter_than: f64, sorted_speeds: &[f64]) -> Vec<(u32, f64)> {
     let revolution = 2.0 * std::f64::consts::PI / data.gear_ratio.abs().max(f64::MIN_POSITIVE);
+    let slow_speed = sorted_speeds.get(sorted_speeds.len() / 20).copied().unwrap_or(f64::INFINITY);
     (1..=MAX_CYCLES_PER_MOTOR_REVOLUTION)
         .map(|m| (m, revolution / m as f64))
-        .filter(|&(_, p)| p < shorter_than)
+        .filter(|&(_, p)| p < shorter_than && slow_speed <= 0.5 * data.cutoff_hz * p)
         .collect()
 }
 
