@@ -81,6 +81,21 @@ pub struct Outcome {
     /// The pointing error budget over the judged window (jitter scenarios run through
     /// [`run_with_budget`]).
     pub budget: Option<Budget>,
+    /// The same jitter scenario rerun with the configuration's pointing model applied (through
+    /// [`run_with_budget`], when the configuration has one).
+    pub after_pointing_model: Option<AfterPointingModel>,
+}
+
+/// A jitter scenario's figures with the pointing model applied, each over its own worst window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AfterPointingModel {
+    /// The absolute pointing error, arcsec RMS, offsets included.
+    pub absolute_rms_arcsec: f64,
+    /// The jitter after centring, arcsec RMS.
+    pub centred_jitter_arcsec: f64,
+    /// The length of the error's mean over the judged window of the run without the model: the
+    /// offset the model leaves, arcsec.
+    pub offset_arcsec: f64,
 }
 
 /// Why a scenario could not be run or its report not written.
@@ -123,6 +138,7 @@ pub fn run_scenario(
         trace: Trace::default(),
         wall_s,
         budget: None,
+        after_pointing_model: None,
     };
     match scenario.analysis {
         Analysis::Jitter { from_s } => {
@@ -149,24 +165,59 @@ pub fn run_scenario(
 }
 
 /// Runs one scenario and, for a jitter scenario, its pointing error budget over the judged
-/// window, with the same scenario in calm air for the wind's share of the servo error.
+/// window, with the same scenario in calm air for the wind's share of the servo error. The
+/// figures are those without a pointing model; where the configuration has one, a jitter
+/// scenario runs again with it applied ([`Outcome::after_pointing_model`]).
 pub fn run_with_budget(
     fmus: &FmuSet,
     config: &AntennaConfig,
     scenario: &Scenario,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Outcome, ReportError> {
-    let mut outcome = run_scenario(fmus, config, scenario, progress)?;
+    let without = AntennaConfig { pointing_model: None, ..config.clone() };
+    let mut outcome = run_scenario(fmus, &without, scenario, progress)?;
     if let Some(start) = outcome.worst_window_start_s {
         let calm = if scenario.wind.mean_speed_m_s > 0.0 {
             let calm_scenario = Scenario { wind: WindCondition::CALM, ..scenario.clone() };
-            Some(run_scenario(fmus, config, &calm_scenario, &mut |_| {})?.trace)
+            Some(run_scenario(fmus, &without, &calm_scenario, &mut |_| {})?.trace)
         } else {
             None
         };
         outcome.budget = Some(budget(&outcome.trace, start, calm.as_ref()));
+        if config.pointing_model.is_some() {
+            let corrected = run_scenario(fmus, config, scenario, &mut |_| {})?;
+            outcome.after_pointing_model = Some(AfterPointingModel {
+                absolute_rms_arcsec: corrected.absolute_rms_arcsec,
+                centred_jitter_arcsec: corrected.centred_jitter_arcsec,
+                offset_arcsec: budget(&corrected.trace, start, None).offset_arcsec,
+            });
+        }
     }
     Ok(outcome)
+}
+
+/// The section of the report that compares each jitter scenario with and without the pointing
+/// model, or nothing when no scenario ran with one.
+pub fn pointing_model_markdown(outcomes: &[Outcome]) -> String {
+    if outcomes.iter().all(|o| o.after_pointing_model.is_none()) {
+        return String::new();
+    }
+    let mut out = String::from("\n## After the pointing model\n\nEach jitter scenario rerun with the pointing-model table (`--pointing-model`) applied as an antenna control unit applies one: the commanded azimuth and elevation moved by the error the table predicts from the commanded angles and the scenario's mean wind speed and direction (a weather station's figures, never the gust). The table holds the repeatable parts of the budget, derived from separate runs (`antenna pointing-model`: calm scans for the encoders' graduation and eccentricity errors against the axis angles, holds in a steady wind without gusts for the static flexure against the mean wind's speed, its direction relative to the dish and the elevation). What is left after it is the jitter (the gusts' swing of the deflection, the servo, the modes), the encoders' interpolation error (too fine for a table) and what the table's interpolation misses; the centred jitter, which the requirements judge, stays as it was.\n\n| Req. | scenario | absolute RMS (arcsec) | absolute RMS after pointing model | offset after pointing model | centred jitter | centred jitter after pointing model |\n|---|---|---|---|---|---|---|\n");
+    for o in outcomes {
+        let Some(after) = &o.after_pointing_model else { continue };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            o.scenario.requirement.label(),
+            o.scenario.name,
+            o.absolute_rms_arcsec,
+            after.absolute_rms_arcsec,
+            after.offset_arcsec,
+            o.centred_jitter_arcsec,
+            after.centred_jitter_arcsec,
+        );
+    }
+    out
 }
 
 /// The judged figure of a jitter scenario over several gust records.
@@ -255,6 +306,7 @@ pub fn sections(
             budget_markdown(outcomes)
         ));
     }
+    text.push_str(&pointing_model_markdown(outcomes));
     if !spreads.is_empty() {
         text.push_str(&format!(
             "\n## Over {} gust seeds\n\nEach jitter scenario rerun with its own seed and {} more (seed + 1000 k); the table above shows the first. Beside the worst window of each run, the distribution of the jitter after centring over every 10 s window a second apart after start-up, all seeds together: the tracks a site would see in the condition, judged at the {STATED_PERCENTILE:.0}th percentile.\n\n{}",
@@ -557,7 +609,7 @@ fn figure_csv(o: &Outcome) -> String {
 /// millisecond (the communication step), pointing errors to three significant digits (the
 /// report's markdown shows the same figures with fewer).
 pub fn csv(outcomes: &[Outcome]) -> String {
-    const HEADER: [&str; 17] = [
+    let header = [
         "requirement",
         "scenario",
         "elevation_deg",
@@ -576,13 +628,21 @@ pub fn csv(outcomes: &[Outcome]) -> String {
         "peak_following_error_arcsec",
         "peak_error_after_arrival_arcsec",
     ];
+    // The columns of the runs with a pointing model, only where there were some: without
+    // one the table is the one it always was.
+    let with_model = outcomes.iter().any(|o| o.after_pointing_model.is_some());
+    let model_header = ["absolute_rms_after_pointing_model_arcsec", "centred_jitter_after_pointing_model_arcsec_rms"];
     let mut writer = csv::Writer::from_writer(Vec::new());
     let mut write = || -> Result<(), csv::Error> {
-        writer.write_record(HEADER)?;
+        let mut names: Vec<&str> = header.to_vec();
+        if with_model {
+            names.extend(model_header);
+        }
+        writer.write_record(names)?;
         for o in outcomes {
             let r = o.scenario.requirement;
             let settling = |f: fn(&Settling) -> f64| o.settling.as_ref().map_or(f64::NAN, f);
-            writer.write_record([
+            let mut row = vec![
                 r.label().to_string(),
                 o.scenario.name.clone(),
                 o.scenario.elevation_deg.to_string(),
@@ -600,7 +660,13 @@ pub fn csv(outcomes: &[Outcome]) -> String {
                 milliseconds(settling(|s| s.after_profile_s)),
                 significant(settling(|s| s.peak_following_error_arcsec), 3),
                 significant(settling(|s| s.peak_error_after_arrival_arcsec), 3),
-            ])?;
+            ];
+            if with_model {
+                let after = o.after_pointing_model;
+                row.push(significant(after.map_or(f64::NAN, |a| a.absolute_rms_arcsec), 3));
+                row.push(significant(after.map_or(f64::NAN, |a| a.centred_jitter_arcsec), 3));
+            }
+            writer.write_record(row)?;
         }
         writer.flush()?;
         Ok(())
