@@ -108,7 +108,7 @@ impl Grid {
             let mut weight = 1.0;
             let mut point = Vec::with_capacity(cells.len());
             for (d, &(i, w)) in cells.iter().enumerate() {
-                let upper = corner >> d & 1 == 1;
+                let upper = (corner >> d) & 1 == 1;
                 weight *= if upper { w } else { 1.0 - w };
                 point.push(if upper { (i + 1).min(self.axes[d].len() - 1) } else { i });
             }
@@ -398,7 +398,7 @@ mod tests {
     fn bad_tables_are_refused_with_what_is_wrong() {
         let good = small_model().to_csv("");
         let error = |text: &str| PointingModel::from_csv_text(text, "t.csv").unwrap_err().to_string();
-        let missing = good.replace("elevation_error_arcsec", "elevation_arcsec");
+        let missing = good.replace("arcsec,elevation_error_arcsec", "arcsec,elevation_arcsec");
         assert!(error(&missing).contains("missing column `elevation_error_arcsec`"), "{}", error(&missing));
         let nan = good.replacen("encoder,0,15,,,0.0000", "encoder,0,15,,,NaN", 1);
         assert!(error(&nan).contains("is not a finite number"), "{}", error(&nan));

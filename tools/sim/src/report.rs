@@ -38,11 +38,28 @@ pub fn definitions(config: &AntennaConfig) -> String {
             ParameterValue::Real(v) => format!("{v}"),
             other => format!("{other:?}"),
         });
+    // The feed support's drag, where the wind unit is given one (the paper's model has none).
+    let feed = config
+        .wind_unit
+        .iter()
+        .rfind(|(name, _)| name == "feed.drag_area")
+        .and_then(|(_, value)| match value {
+            ParameterValue::Real(area) if *area > 0.0 => {
+                Some(format!(" and on the feed support (arm and sub-reflector, drag area {area} m2)"))
+            }
+            _ => None,
+        })
+        .unwrap_or_default();
+    let outside = if config.pointing_model.is_some() {
+        "thermal and gravity deformation and atmospheric refraction are outside the servo model, and the pointing model is the table given, applied in the reruns of section 'After the pointing model'"
+    } else {
+        "thermal and gravity deformation, the pointing model and atmospheric refraction are outside the servo model"
+    };
     format!(
         "Pointing error = the beam's on-sky error vector (cross, d_el), where cross = (command - axis azimuth) cos el - beam azimuth offset and d_el = command - axis elevation - beam elevation offset: the axes' true (load-side) positions plus the structure's deflection between the encoders and the RF beam (none in the paper configuration; the structure's rotations about the azimuth axis are projected on the sky with cos el).
 Jitter (judged, Req. 1 and 5) = the worst over sliding 10 s windows of the error {CENTRING}. The requirement asks for the jitter 'after centering the Beam Axis on a reference source': centring measures and removes the offset that persists while the beam dwells on the source (the encoder's repeatable errors there, the structure's static deflection under the mean wind), so what is judged is the spread about it; a drift within the window still counts. The absolute RMS column keeps the whole error, offsets included (its own worst window): what the beam misses by without centring or a pointing model.
 Settling (Req. 2-4) = until the error after centring on the target stays within 15 arcsec for the next 10 s; the centring offset is the error's mean over the run's last 10 s, resting on the target (Req. 3 and 4 centre on the target before moving away, and return to the same offsets). Judged from the command for Req. 3 and 4 (the step must return and settle within the limit) and from the end of the slew at maximum speed (the last instant the profiled reference moves at 99 % of its top speed) for Req. 2. The same figure on the absolute error is in report.csv (settling_absolute_s). The issue's own figure, from the moment the profiled command reaches the target, is the column 'after profile arrival': it is near zero whenever the loops follow the profile within the band, which the peak following error shows.
-What the model holds and leaves out: {structure}; the wind is one gust record over the dish, with an aerodynamic admittance where the wind unit applies one; the azimuth drive's stiffness changes over the elevation travel by the fraction {STIFFNESS_VARIATION} = {stiffness_variation} (0: not at all) and not over the azimuth travel; thermal and gravity deformation, the pointing model and atmospheric refraction are outside the servo model."
+What the model holds and leaves out: {structure}; the wind is one gust record over the dish{feed}, with an aerodynamic admittance where the wind unit applies one; the azimuth drive's stiffness changes over the elevation travel by the fraction {STIFFNESS_VARIATION} = {stiffness_variation} (0: not at all) and not over the azimuth travel; {outside}."
     )
 }
 
