@@ -685,6 +685,17 @@ struct Pointing {
     wind_direction_deg: f64,
 }
 
+impl Pointing {
+    /// The configuration's pointing model, told the run's mean wind; `None` without one.
+    fn of(config: &AntennaConfig) -> Option<Pointing> {
+        config.pointing_model.clone().map(|model| Pointing {
+            model,
+            wind_speed_m_s: config.wind.mean_speed_m_s.max(0.0),
+            wind_direction_deg: config.wind.direction_deg,
+        })
+    }
+}
+
 /// The command the controllers are sent for the target `target`: corrected by the pointing
 /// model, if there is one.
 fn corrected(pointing: Option<&Pointing>, target: Command) -> Command {
@@ -824,11 +835,7 @@ impl CoupledAntenna {
             steps_done: 0,
             wind_scale,
             lanes: config.lanes,
-            pointing: config.pointing_model.clone().map(|model| Pointing {
-                model,
-                wind_speed_m_s: w.mean_speed_m_s.max(0.0),
-                wind_direction_deg: w.direction_deg,
-            }),
+            pointing: Pointing::of(config),
         };
         Ok(antenna)
     }
