@@ -81,4 +81,8 @@ pub enum WindError {
     /// A force coefficient is not finite.
     #[error("force coefficients must be finite, got drag {drag_face_on} and lift {lift_max}")]
     ForceCoefficients { drag_face_on: f64, lift_max: f64 },
+
+    /// The feed-support drag is not finite, or its drag area is negative.
+    #[error("the feed-support drag must be finite with a drag area not negative, got drag area {drag_area} m^2, boresight distance {boresight_distance} m, offset {offset} m")]
+    FeedDrag { drag_area: f64, boresight_distance: f64, offset: f64 },
 }

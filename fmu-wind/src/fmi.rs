@@ -14,7 +14,7 @@ use crate::davenport::Davenport;
 use crate::error::WindError;
 use crate::gust::{GustGenerator, GustState};
 use crate::shaping::ShapingFilter;
-use crate::torque::{normalised_gust, ForceCoefficients, TorqueForm, WindTorqueModel};
+use crate::torque::{normalised_gust, FeedDrag, ForceCoefficients, TorqueForm, WindTorqueModel};
 use fmu_runtime::params::ParamsError;
 use fmu_runtime::seed::seed_from_fmi_integer;
 use serde::{Deserialize, Serialize};
@@ -164,6 +164,13 @@ declare_variables! {
             .description("spectrum as an Integer, for masters that ignore FMI enumerations (libcosim and ecos do): 1 davenport, 2 paper, 3 off; 0 (the default) leaves the choice to spectrum. When it is not 0 it wins."),
         FormNumber = Var::integer("torque_form_number").parameter().start_integer(0).range_integer(0, 2)
             .description("torque_form as an Integer, for masters that ignore FMI enumerations: 1 quadratic, 2 linearised; 0 (the default) leaves the choice to torque_form. When it is not 0 it wins."),
+        // The feed support's drag (appended: existing value references keep their numbers).
+        FeedDragArea = Var::real("feed.drag_area", "m2").parameter().start(0.0).min(0.0).max(100.0)
+            .description("Drag area (C_D A) of the feed support: MeerKAT's single feed-support arm, the 3.8 m sub-reflector and the feed indexer. Its drag 0.5 rho (C_D A) v|v| along the flow (the same load gust as the dish), applied at the centre of pressure given by feed.boresight_distance and feed.offset, adds its moments to torque.azimuth and torque.elevation. 0 (the paper's model, the start value) leaves it out; the realistic antenna's estimate is 8 m2, range 4-15 (docs/parameters.md, docs/wind-model.md)."),
+        FeedBoresightDistance = Var::real("feed.boresight_distance", "m").parameter().start(7.0).min(-30.0).max(30.0)
+            .description("Distance of the feed support's centre of pressure ahead of the elevation axis along the boresight. Estimate: 7 m, range 5-9 (docs/wind-model.md)."),
+        FeedOffset = Var::real("feed.offset", "m").parameter().start(-3.0).min(-30.0).max(30.0)
+            .description("Distance of the feed support's centre of pressure from the boresight line through the elevation axis, in the plane of boresight and zenith, positive towards the zenith when the dish points at the horizon (negative: below the boresight, as MeerKAT's feed-down sub-reflector). Estimate: -3 m, range -5 to -1 (docs/wind-model.md)."),
     }
 }
 
@@ -219,8 +226,14 @@ impl WindModel {
             drag_face_on: values.real(WindVar::DragCoefficient),
             lift_max: values.real(WindVar::LiftCoefficient),
         };
+        let feed = FeedDrag {
+            drag_area: values.real(WindVar::FeedDragArea),
+            boresight_distance: values.real(WindVar::FeedBoresightDistance),
+            offset: values.real(WindVar::FeedOffset),
+        };
         let torque = WindTorqueModel::new(table, values.real(WindVar::Density), diameter, form)
-            .and_then(|model| model.with_forces(forces))?;
+            .and_then(|model| model.with_forces(forces))
+            .and_then(|model| model.with_feed(feed))?;
         Ok((generator, torque, davenport.kappa()))
     }
 

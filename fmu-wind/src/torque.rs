@@ -24,6 +24,13 @@
 //! azimuth: axial `drag cos(yaw) + side sin(yaw)` (positive from the dish's face towards its
 //! back) and lateral `-drag sin(yaw) + side cos(yaw)` (positive towards increasing azimuth),
 //! which is what a structural mode's participation weighs.
+//!
+//! The feed support (MeerKAT's single feed-support arm, the 3.8 m sub-reflector and the feed
+//! indexer at its end) adds its own drag ([`FeedDrag`]): a horizontal force along the flow,
+//! `0.5 rho (C_D A)_feed v |v|`, applied at its centre of pressure, which sits ahead of the
+//! elevation axis along the boresight and off it across the aperture. Its moments about the two
+//! axes are added to the dish's torques; without a feed drag area (the paper's model) they are
+//! not computed at all, so the paper's torques keep their bits.
 
 use crate::coefficients::CoefficientTable;
 use crate::error::WindError;
@@ -208,6 +215,48 @@ impl DishForces {
     }
 }
 
+/// The drag of the feed support (arm, sub-reflector, indexer) as a drag area at a centre of
+/// pressure fixed to the dish: an **estimate** (docs/wind-model.md, "Feed-support drag").
+///
+/// The centre of pressure is `boresight_distance` ahead of the elevation axis along the
+/// boresight and `offset` from it in the plane of boresight and zenith, positive towards the
+/// zenith when the dish points at the horizon (MeerKAT's feed-down optics put the sub-reflector
+/// below the boresight: a negative offset). In the antenna's frame (x the boresight's
+/// horizontal projection, z up) it lies at `x = L cos(el) - h sin(el)`, `z = L sin(el) + h
+/// cos(el)`; a drag `F` along the flow, which comes from yaw `psi`, gives about the elevation
+/// axis `F z cos(psi)` (positive raises the dish: wind into the face pushes the raised feed
+/// back) and about the azimuth axis `-F x sin(psi)` (the feed ahead of the axis is pushed
+/// downwind, turning the boresight away from the wind).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FeedDrag {
+    /// `(C_D A)_feed`, m^2; 0 leaves the feed out.
+    pub drag_area: f64,
+    /// `L`, the centre of pressure's distance ahead of the elevation axis along the boresight, m.
+    pub boresight_distance: f64,
+    /// `h`, its distance from the boresight through the elevation axis, m (negative: feed-down).
+    pub offset: f64,
+}
+
+impl FeedDrag {
+    /// The lever arms `(x, z)` of the centre of pressure at elevation `el`, deg: horizontal
+    /// (along the boresight's projection) and vertical, m.
+    pub fn arms(&self, elevation_deg: f64) -> (f64, f64) {
+        let (sin_el, cos_el) = libm::sincos(elevation_deg.to_radians());
+        (
+            self.boresight_distance * cos_el - self.offset * sin_el,
+            self.boresight_distance * sin_el + self.offset * cos_el,
+        )
+    }
+
+    /// The torques `(azimuth, elevation)` per newton of feed drag at yaw `psi` and elevation
+    /// `el`, deg: N m per N.
+    pub fn torque_per_drag(&self, yaw_deg: f64, elevation_deg: f64) -> (f64, f64) {
+        let (x, z) = self.arms(elevation_deg);
+        let (sin_psi, cos_psi) = libm::sincos(yaw_deg.to_radians());
+        (-x * sin_psi, z * cos_psi)
+    }
+}
+
 /// The wind torque model of one antenna.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WindTorqueModel {
@@ -218,6 +267,8 @@ pub struct WindTorqueModel {
     pub dish_diameter: f64,
     pub form: TorqueForm,
     pub forces: ForceCoefficients,
+    /// The feed support's drag, whose moments add to the dish's torques.
+    pub feed: FeedDrag,
 }
 
 impl WindTorqueModel {
@@ -234,7 +285,14 @@ impl WindTorqueModel {
         if !(dish_diameter.is_finite() && dish_diameter > 0.0) {
             return Err(WindError::DishDiameter { diameter: dish_diameter });
         }
-        Ok(Self { coefficients, air_density, dish_diameter, form, forces: ForceCoefficients::default() })
+        Ok(Self {
+            coefficients,
+            air_density,
+            dish_diameter,
+            form,
+            forces: ForceCoefficients::default(),
+            feed: FeedDrag::default(),
+        })
     }
 
     /// The same model with these force coefficients (finite, checked).
@@ -243,6 +301,20 @@ impl WindTorqueModel {
             return Err(WindError::ForceCoefficients { drag_face_on: forces.drag_face_on, lift_max: forces.lift_max });
         }
         self.forces = forces;
+        Ok(self)
+    }
+
+    /// The same model with this feed-support drag (finite, drag area not negative, checked).
+    pub fn with_feed(mut self, feed: FeedDrag) -> Result<Self, WindError> {
+        let finite = feed.drag_area.is_finite() && feed.boresight_distance.is_finite() && feed.offset.is_finite();
+        if !(finite && feed.drag_area >= 0.0) {
+            return Err(WindError::FeedDrag {
+                drag_area: feed.drag_area,
+                boresight_distance: feed.boresight_distance,
+                offset: feed.offset,
+            });
+        }
+        self.feed = feed;
         Ok(self)
     }
 
@@ -321,7 +393,7 @@ impl WindTorqueModel {
             }
             TorqueForm::Linearised => 2.0 * k * v_mean * v_gust,
         };
-        WindTorques {
+        let mut torques = WindTorques {
             azimuth_mean: tau_az * mean,
             azimuth_gust: tau_az * gust,
             elevation_mean: tau_el * mean,
@@ -329,7 +401,21 @@ impl WindTorqueModel {
             tau_az,
             tau_el,
             yaw_deg: yaw,
+        };
+        if self.feed.drag_area > 0.0 {
+            // The feed's drag per (m/s)^2 times the same mean and gust parts of v |v| as the
+            // dish's: the feed sees the dish's load gust (its own admittance, nearer 1 for a
+            // smaller body, is not modelled).
+            let k_feed = 0.5 * self.air_density * self.feed.drag_area;
+            let (v2_mean, v2_gust) = self.speed_squared(v_mean, v_gust);
+            let (drag_mean, drag_gust) = (k_feed * v2_mean, k_feed * v2_gust);
+            let (per_drag_az, per_drag_el) = self.feed.torque_per_drag(yaw, elevation_deg);
+            torques.azimuth_mean += per_drag_az * drag_mean;
+            torques.azimuth_gust += per_drag_az * drag_gust;
+            torques.elevation_mean += per_drag_el * drag_mean;
+            torques.elevation_gust += per_drag_el * drag_gust;
         }
+        torques
     }
 }
 
@@ -470,6 +556,40 @@ mod tests {
         assert!(side.drag().abs() < 1e-9 * q_a && side.lift().abs() < 1e-9 * q_a);
         // Zenith: edge-on, no drag, no lift.
         assert!(m.forces(9.8, 0.0, 0.0, 0.0, 90.0).drag().abs() < 1e-9 * q_a);
+    }
+
+    #[test]
+    fn feed_drag_adds_its_hand_computed_moments_about_both_axes() {
+        // 8 m^2 at 7 m ahead of the elevation axis and 3 m below the boresight, 9.8 m/s:
+        // drag 0.5 * 1.075 * 9.8^2 * 8 = 413.0 N. At 45 deg the arms are x = 7 cos 45 + 3 sin 45
+        // = 7.071 m and z = 7 sin 45 - 3 cos 45 = 2.828 m.
+        let feed = FeedDrag { drag_area: 8.0, boresight_distance: 7.0, offset: -3.0 };
+        let bare = model(TorqueForm::Quadratic);
+        let with = bare.clone().with_feed(feed).unwrap();
+        let drag: f64 = 0.5 * 1.075 * 9.8 * 9.8 * 8.0;
+        assert!((drag - 413.0).abs() < 0.1);
+        let (x, z) = feed.arms(45.0);
+        assert!((x - 10.0 / 2f64.sqrt()).abs() < 1e-12 && (z - 4.0 / 2f64.sqrt()).abs() < 1e-12, "{x} {z}");
+        // Wind into the face (yaw 0) pushes the raised feed back: the dish tips up, no yaw.
+        let (a, b) = (with.torques(9.8, 0.0, 40.0, 40.0, 45.0), bare.torques(9.8, 0.0, 40.0, 40.0, 45.0));
+        assert!((a.elevation() - b.elevation() - drag * z).abs() < 1e-9 * drag);
+        assert!((a.azimuth() - b.azimuth()).abs() < 1e-9 * drag);
+        // Wind from the right (yaw +90) pushes the feed to the left: azimuth decreases by F x.
+        let (a, b) = (with.torques(9.8, 0.0, 130.0, 40.0, 45.0), bare.torques(9.8, 0.0, 130.0, 40.0, 45.0));
+        assert!((a.azimuth() - b.azimuth() + drag * x).abs() < 1e-9 * drag, "{}", a.azimuth() - b.azimuth());
+        assert!((a.elevation() - b.elevation()).abs() < 1e-9 * drag);
+        // At the horizon the feed hangs 3 m below the axis: wind into the face tips the dish down.
+        let (a, b) = (with.torques(9.8, 0.0, 40.0, 40.0, 0.0), bare.torques(9.8, 0.0, 40.0, 40.0, 0.0));
+        assert!((a.elevation() - b.elevation() + 3.0 * drag).abs() < 1e-9 * drag);
+        // The gust part takes the same law; without a drag area nothing changes, to the bit.
+        let (a, b) = (with.torques(9.8, 1.7, 70.0, 40.0, 30.0), bare.torques(9.8, 1.7, 70.0, 40.0, 30.0));
+        let (per_az, _) = feed.torque_per_drag(30.0, 30.0);
+        let v = 9.8 + 1.7;
+        let gust_drag = 0.5 * 1.075 * 8.0 * (v * v - 9.8 * 9.8);
+        assert!((a.azimuth_gust - b.azimuth_gust - per_az * gust_drag).abs() < 1e-9 * drag);
+        let none = bare.clone().with_feed(FeedDrag { drag_area: 0.0, ..feed }).unwrap();
+        assert_eq!(none.torques(9.8, 1.7, 70.0, 40.0, 30.0), b);
+        assert!(bare.with_feed(FeedDrag { drag_area: -1.0, ..feed }).is_err());
     }
 
     #[test]

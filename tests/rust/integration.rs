@@ -20,6 +20,7 @@ mod plant_sensors;
 mod plant_state;
 mod plant_step_size;
 mod plant_threads;
+mod pointing_model;
 mod realistic_parameter_file;
 mod step_arithmetic;
 mod structure_fmu;

@@ -142,3 +142,24 @@ fn logs_with_absurd_values_or_sample_times_are_refused_naming_the_column() {
         log_with(&dir, "spread.csv", |i, row| format!("{:e},{}", i as f64 * 1e300, row.split_once(',').unwrap().1));
     refused(validate(), &["run", &spread, "--params", "/dev/null", "--no-fmu"], "sample interval");
 }
+
+#[test]
+fn a_pointing_model_table_that_is_no_regular_file_or_malformed_is_refused_naming_what_is_wrong() {
+    let dir = scratch().join("pointing-model");
+    std::fs::create_dir_all(&dir).unwrap();
+    let fifo = fifo(&dir);
+    let folder = dir.display().to_string();
+    for hostile in [fifo.as_str(), "/dev/zero", folder.as_str()] {
+        refused(antenna(), &["--no-build", "--pointing-model", hostile], "not a regular file");
+    }
+    let header =
+        "term,azimuth_deg,elevation_deg,wind_speed_m_s,wind_direction_relative_deg,cross_elevation_error_arcsec";
+    let path = dir.join("no-elevation-column.csv");
+    std::fs::write(&path, format!("{header}\nencoder,0,15,,,1.0\n")).unwrap();
+    refused(
+        antenna(),
+        &["--no-build", "--pointing-model", path.to_str().unwrap()],
+        "missing column `elevation_error_arcsec`",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

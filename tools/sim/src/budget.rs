@@ -82,13 +82,9 @@ pub fn servo_rms_arcsec(trace: &Trace, start_s: f64) -> f64 {
 /// run without wind, if there is one.
 pub fn budget(trace: &Trace, start_s: f64, calm: Option<&Trace>) -> Budget {
     let range = window(trace, start_s);
-    let ErrorParts { servo, encoder, structure_static, structure_dynamic } = trace.error_parts();
-    let total: Vec<[f64; 2]> = (0..servo.len())
-        .map(|k| {
-            let parts = [servo[k], encoder[k], structure_static[k], structure_dynamic[k]];
-            [parts.iter().map(|p| p[0]).sum(), parts.iter().map(|p| p[1]).sum()]
-        })
-        .collect();
+    let parts = trace.error_parts();
+    let total = Trace::summed_parts(&parts);
+    let ErrorParts { servo, encoder, structure_static, structure_dynamic, pointing_model } = parts;
     let servo_arcsec = vector_rms(&servo, range.clone());
     let encoder_arcsec = vector_rms(&encoder, range.clone());
     let structure_static_arcsec = vector_rms(&structure_static, range.clone());
@@ -100,7 +96,7 @@ pub fn budget(trace: &Trace, start_s: f64, calm: Option<&Trace>) -> Budget {
         .sqrt();
     let mut mean_sum = [0.0; 2];
     let mut variance_sum = 0.0;
-    for part in [&servo, &encoder, &structure_static, &structure_dynamic] {
+    for part in [&servo, &encoder, &structure_static, &structure_dynamic, &pointing_model] {
         let (mean, variance) = mean_and_variance(part, range.clone());
         mean_sum = [mean_sum[0] + mean[0], mean_sum[1] + mean[1]];
         variance_sum += variance;
@@ -132,17 +128,8 @@ pub fn budget(trace: &Trace, start_s: f64, calm: Option<&Trace>) -> Budget {
 pub fn beam_error_spectra(trace: &Trace, from_s: f64) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     let dt = trace.time_s.get(1)? - trace.time_s.first()?;
     let first = trace.time_s.partition_point(|&t| t < from_s);
-    let parts = trace.error_parts();
-    let component = |axis: usize| -> Vec<f64> {
-        (first..trace.time_s.len())
-            .map(|k| {
-                parts.servo[k][axis]
-                    + parts.encoder[k][axis]
-                    + parts.structure_static[k][axis]
-                    + parts.structure_dynamic[k][axis]
-            })
-            .collect()
-    };
+    let total = Trace::summed_parts(&trace.error_parts());
+    let component = |axis: usize| -> Vec<f64> { total[first..].iter().map(|p| p[axis]).collect() };
     let (cross, elevation) = (component(0), component(1));
     // Segments of 2^14 samples: 0.06 Hz resolution at 1 kHz, several segments in a minute.
     let segment = 16384.min(cross.len().next_power_of_two() / 2).max(256);

@@ -32,11 +32,13 @@
 //! bit.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
 
 use super::command::{Command, CommandTable};
 use super::handoff::{Handoff, Received};
+use super::pointing_model::PointingModel;
 
 /// A value for a parameter set by name.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,6 +99,11 @@ pub struct AntennaConfig {
     pub structure_feedback: bool,
     /// How many threads step the run; the results do not depend on it.
     pub lanes: Lanes,
+    /// A pointing-model table the master applies as an antenna control unit does: each command
+    /// moved by the error the table predicts from the commanded angles and the run's mean wind
+    /// (its speed and direction, as a weather station reports them; never the gust). `None`: the
+    /// command goes to the controllers as the table gives it.
+    pub pointing_model: Option<Arc<PointingModel>>,
 }
 
 impl AntennaConfig {
@@ -114,6 +121,7 @@ impl AntennaConfig {
             structure: None,
             structure_feedback: true,
             lanes: Lanes::One,
+            pointing_model: None,
         }
     }
 
@@ -211,6 +219,10 @@ pub struct Trace {
     pub beam_offset_arcsec: Vec<[f64; 2]>,
     /// Their quasi-static part (compliance times the loads), arcsec.
     pub beam_offset_static_arcsec: Vec<[f64; 2]>,
+    /// What a pointing model added to the command (azimuth, elevation), deg of axis angle: the
+    /// controllers were sent `command + correction`, while `command_*` keep the target the
+    /// error is judged against. Empty without a pointing model.
+    pub pointing_correction_deg: Vec<[f64; 2]>,
 }
 
 /// On-sky pointing error vectors (cross-elevation, elevation), arcsec, of one run, split into
@@ -225,6 +237,9 @@ pub struct ErrorParts {
     pub structure_static: Vec<[f64; 2]>,
     /// Minus the rest of the structure's beam offset (its modes ringing).
     pub structure_dynamic: Vec<[f64; 2]>,
+    /// Minus the pointing model's correction of the command (zero without one): with it, the
+    /// servo's part is the corrected command minus the encoder reading.
+    pub pointing_model: Vec<[f64; 2]>,
 }
 
 impl Trace {
@@ -258,10 +273,12 @@ impl Trace {
         for k in 0..n {
             let cos_el = self.elevation_deg[k].to_radians().cos();
             let sky = |az_deg: f64, el_deg: f64| [az_deg * cos_el * 3600.0, el_deg * 3600.0];
+            let [correction_az, correction_el] = self.pointing_correction_deg.get(k).copied().unwrap_or_default();
             parts.servo.push(sky(
-                self.command_azimuth_deg[k] - self.encoder_azimuth_deg[k],
-                self.command_elevation_deg[k] - self.encoder_elevation_deg[k],
+                self.command_azimuth_deg[k] + correction_az - self.encoder_azimuth_deg[k],
+                self.command_elevation_deg[k] + correction_el - self.encoder_elevation_deg[k],
             ));
+            parts.pointing_model.push(sky(-correction_az, -correction_el));
             parts.encoder.push(sky(
                 self.encoder_azimuth_deg[k] - self.azimuth_deg[k],
                 self.encoder_elevation_deg[k] - self.elevation_deg[k],
@@ -355,6 +372,23 @@ impl Trace {
         self.current_azimuth_a.reserve(n);
         self.beam_offset_arcsec.reserve(n);
         self.beam_offset_static_arcsec.reserve(n);
+    }
+
+    /// The budget's parts added up: the beam's on-sky error (equal to
+    /// [`Trace::pointing_error_sky_arcsec`] up to rounding), arcsec.
+    pub fn summed_parts(parts: &ErrorParts) -> Vec<[f64; 2]> {
+        (0..parts.servo.len())
+            .map(|k| {
+                let all = [
+                    parts.servo[k],
+                    parts.encoder[k],
+                    parts.structure_static[k],
+                    parts.structure_dynamic[k],
+                    parts.pointing_model[k],
+                ];
+                [all.iter().map(|p| p[0]).sum(), all.iter().map(|p| p[1]).sum()]
+            })
+            .collect()
     }
 }
 
@@ -638,6 +672,37 @@ pub struct CoupledAntenna {
     /// zero speed).
     wind_scale: f64,
     lanes: Lanes,
+    /// The pointing model and the mean wind it is told, if the configuration has one.
+    pointing: Option<Pointing>,
+}
+
+/// A pointing model as the antenna control unit applies it in one run: the table, and the mean
+/// wind's speed (m/s, 0 in calm) and direction (deg from north) from the weather station.
+#[derive(Debug, Clone)]
+struct Pointing {
+    model: Arc<PointingModel>,
+    wind_speed_m_s: f64,
+    wind_direction_deg: f64,
+}
+
+impl Pointing {
+    /// The configuration's pointing model, told the run's mean wind; `None` without one.
+    fn of(config: &AntennaConfig) -> Option<Pointing> {
+        config.pointing_model.clone().map(|model| Pointing {
+            model,
+            wind_speed_m_s: config.wind.mean_speed_m_s.max(0.0),
+            wind_direction_deg: config.wind.direction_deg,
+        })
+    }
+}
+
+/// The command the controllers are sent for the target `target`: corrected by the pointing
+/// model, if there is one.
+fn corrected(pointing: Option<&Pointing>, target: Command) -> Command {
+    match pointing {
+        Some(p) => p.model.correct(target, p.wind_speed_m_s, p.wind_direction_deg),
+        None => target,
+    }
 }
 
 impl CoupledAntenna {
@@ -770,6 +835,7 @@ impl CoupledAntenna {
             steps_done: 0,
             wind_scale,
             lanes: config.lanes,
+            pointing: Pointing::of(config),
         };
         Ok(antenna)
     }
@@ -822,6 +888,7 @@ impl CoupledAntenna {
             wind_scale: self.wind_scale,
             ports: &self.ports,
             trace,
+            pointing: self.pointing.as_ref(),
         };
         let mut azimuth = AzimuthLane {
             plant: &mut self.azimuth_plant,
@@ -1102,7 +1169,10 @@ impl ElevationLane<'_> {
 /// A communication point's values once the wind's loads are known: what the lanes are given.
 struct Point {
     t: f64,
+    /// What the controllers are sent: the target, corrected by the pointing model if any.
     command: Command,
+    /// The target the error is judged against.
+    target: Command,
     loads: [f64; LOADS],
     wind_speed: f64,
 }
@@ -1129,6 +1199,9 @@ struct LaneThread<'h> {
     first_command: [f64; 2],
     /// Whether the structure's modes feed back on the drives (the lane sends the elevation torque).
     feedback: bool,
+    /// The pointing model, which the lane applies to the commands it looks up (the master hands
+    /// back the targets and corrects them the same way).
+    pointing: Option<Pointing>,
 }
 
 impl LaneThread<'_> {
@@ -1175,7 +1248,8 @@ impl LaneThread<'_> {
                 Err(error) => return from_azimuth.send_failure(error),
             }
             if k + 1 < steps {
-                match control(azimuth, k + 1, Master::azimuth_command(&next_command), &az) {
+                let sent = corrected(self.pointing.as_ref(), next_command);
+                match control(azimuth, k + 1, Master::azimuth_command(&sent), &az) {
                     Ok(next) => controller = next,
                     Err(error) => return from_azimuth.send_failure(error),
                 }
@@ -1194,6 +1268,7 @@ struct Master<'a, 't> {
     wind_scale: f64,
     ports: &'a Ports,
     trace: Option<&'t mut Trace>,
+    pointing: Option<&'a Pointing>,
 }
 
 impl Master<'_, '_> {
@@ -1209,11 +1284,11 @@ impl Master<'_, '_> {
         self.point_commanded(k, self.table.at(self.time(k)), az, el, wind)
     }
 
-    /// [`Self::point`] with the command already looked up.
+    /// [`Self::point`] with the target already looked up.
     fn point_commanded(
         &self,
         k: u64,
-        command: Command,
+        target: Command,
         az: &[f64; 7],
         el: &[f64; 5],
         wind: &mut Instance,
@@ -1221,7 +1296,8 @@ impl Master<'_, '_> {
         let t = self.time(k);
         wind.set_real(&self.ports.wind_in, &[az[1], el[1]])?;
         let (loads, wind_speed) = wind_loads(wind, self.ports, self.wind_scale)?;
-        Ok(Point { t, command, loads, wind_speed })
+        let command = corrected(self.pointing, target);
+        Ok(Point { t, command, target, loads, wind_speed })
     }
 
     fn azimuth_command(command: &Command) -> [f64; 2] {
@@ -1248,8 +1324,14 @@ impl Master<'_, '_> {
     fn record(&mut self, point: &Point, az: &[f64; 7], el: &[f64; 5], a: &AzimuthLaneOutput, e: &ElevationLaneOutput) {
         let Some(trace) = self.trace.as_deref_mut() else { return };
         trace.time_s.push(point.t);
-        trace.command_azimuth_deg.push(point.command.azimuth_deg);
-        trace.command_elevation_deg.push(point.command.elevation_deg);
+        trace.command_azimuth_deg.push(point.target.azimuth_deg);
+        trace.command_elevation_deg.push(point.target.elevation_deg);
+        if self.pointing.is_some() {
+            trace.pointing_correction_deg.push([
+                point.command.azimuth_deg - point.target.azimuth_deg,
+                point.command.elevation_deg - point.target.elevation_deg,
+            ]);
+        }
         trace.azimuth_deg.push(az[1]);
         trace.elevation_deg.push(el[1]);
         trace.encoder_azimuth_deg.push(az[0]);
@@ -1335,7 +1417,7 @@ impl Master<'_, '_> {
         let first_az = az;
         let (start_time_s, first_step) = (self.start_time_s, self.first_step);
         let mut command = self.table.at(self.time(0));
-        let first_command = Self::azimuth_command(&command);
+        let first_command = Self::azimuth_command(&corrected(self.pointing, command));
         // The azimuth lane looks up the commands (a table is not shared between threads): the
         // next step's goes back with its outputs, so that the master has one lookup less.
         let worker_table = self.table.clone();
@@ -1364,6 +1446,7 @@ impl Master<'_, '_> {
                 first_az,
                 first_command,
                 feedback,
+                pointing: self.pointing.cloned(),
             };
             scope.spawn(move || thread.run(&mut lane));
             let _closing = to_azimuth.closing_on_drop();

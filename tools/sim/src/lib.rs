@@ -11,6 +11,8 @@ pub mod coupled;
 pub mod frequency_response;
 mod handoff;
 pub mod metrics;
+pub mod pointing_model;
+pub mod pointing_model_fit;
 pub mod report;
 pub mod scenario;
 pub mod ssp;

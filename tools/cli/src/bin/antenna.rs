@@ -20,6 +20,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
@@ -29,6 +30,8 @@ use rayon::prelude::*;
 
 use antenna_sim::command::CommandTable;
 use antenna_sim::coupled::WindCondition;
+use antenna_sim::pointing_model::PointingModel;
+use antenna_sim::pointing_model_fit::{self, DerivationGrid};
 use antenna_sim::report::{csv, markdown, plot, run_scenario, run_with_budget, spread_seeds, Outcome, SeedSpread};
 use antenna_sim::scenario::{
     normal_wind, optimal_wind, requirement_scenarios, Analysis, Requirement, Scenario, JITTER_WINDOW_S,
@@ -106,6 +109,12 @@ struct Cli {
     /// runs).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=2))]
     threads: Option<u8>,
+    /// Apply this pointing-model table (written by `antenna pointing-model`) as the antenna
+    /// control unit would: every jitter scenario runs again with each command corrected by the
+    /// table's predicted error, and the report adds the figures after the pointing model.
+    /// Another master does not apply it: not with --trace or --ssp.
+    #[arg(long, value_name = "TABLE.csv", conflicts_with = "exports")]
+    pointing_model: Option<PathBuf>,
 }
 
 /// The antenna configurations of docs/parameters.csv.
@@ -141,6 +150,7 @@ fn main() -> ExitCode {
     let mut cli = Cli::parse();
     let result = match cli.command.take() {
         Some(Command::Sweep(args)) => sweep(*args),
+        Some(Command::PointingModel(args)) => pointing_model(args),
         None => run(cli),
     };
     match result {
@@ -171,7 +181,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     .iter()
     .map(|s| settings.apply(s))
     .collect();
-    let mut config = AntennaConfig { structure_feedback: !cli.one_way_structure, ..setup.config };
+    let pointing_model = match &cli.pointing_model {
+        Some(path) => Some(Arc::new(PointingModel::from_csv(path).context("--pointing-model")?)),
+        None => None,
+    };
+    let mut config = AntennaConfig { structure_feedback: !cli.one_way_structure, pointing_model, ..setup.config };
     if let Some(modes) = &cli.modes {
         let Some(structure) = config.structure.as_mut() else {
             bail!("--modes: this configuration (--config paper) has no structure");
@@ -215,9 +229,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         .filter(|o| o.budget.is_some() && o.scenario.wind.mean_speed_m_s > 0.0)
         .map(|o| o.scenario.end_s)
         .sum();
-    let total_sim: f64 = scenarios.iter().map(|s| s.end_s).sum::<f64>() + calm_twins;
+    // And, with a pointing model, once more with it applied.
+    let model_reruns: f64 =
+        outcomes.iter().filter(|o| o.after_pointing_model.is_some()).map(|o| o.scenario.end_s).sum();
+    let total_sim: f64 = scenarios.iter().map(|s| s.end_s).sum::<f64>() + calm_twins + model_reruns;
     let wall = started.elapsed().as_secs_f64();
-    let spreads = if cli.seeds > 1 { seed_spreads(&fmus, &config, &scenarios, cli.seeds.into())? } else { Vec::new() };
+    // The seeds' spread is that of the figures without a pointing model, as the rows are.
+    let without_model = AntennaConfig { pointing_model: None, ..config.clone() };
+    let spreads =
+        if cli.seeds > 1 { seed_spreads(&fmus, &without_model, &scenarios, cli.seeds.into())? } else { Vec::new() };
     write_report(&outcomes, &spreads, &config, &out_dir, total_sim, wall)
 }
 
@@ -441,6 +461,56 @@ enum Command {
     /// scenarios for each (all cores, or a distributed engine) and writes sweep.csv (one row per
     /// sample and scenario) and sweep.md (pass probabilities, worst samples, sensitivity).
     Sweep(Box<SweepArgs>),
+    /// Derives a pointing-model table from the model itself (calm scans for the encoders'
+    /// repeatable errors, holds in a steady wind for the static flexure; docs/requirement-report.md,
+    /// "Pointing model") and writes it as CSV with a figure beside it; `antenna --pointing-model
+    /// FILE` applies it.
+    PointingModel(PointingModelArgs),
+}
+
+/// The options of `antenna pointing-model`.
+#[derive(Args)]
+struct PointingModelArgs {
+    /// The table to write [default: out/pointing-model/pointing-model.csv]; its figure goes
+    /// beside it with the extension .png.
+    #[arg(long, value_name = "FILE.csv")]
+    out: Option<PathBuf>,
+    /// Which antenna the table is derived for.
+    #[arg(long, value_enum, default_value_t = ConfigurationName::Realistic)]
+    config: ConfigurationName,
+    /// Hold a parameter of docs/parameters.csv at this value (repeatable).
+    #[arg(long, value_name = "NAME=VALUE", value_parser = parse_fix)]
+    set: Vec<(String, f64)>,
+    /// Use the FMUs already packaged instead of building and packaging them first.
+    #[arg(long)]
+    no_build: bool,
+}
+
+/// `antenna pointing-model`: derives the table on all cores and writes it and its figure.
+fn pointing_model(args: PointingModelArgs) -> anyhow::Result<()> {
+    let out = args.out.unwrap_or_else(|| {
+        antenna_fmus::workspace_root().join("out").join("pointing-model").join("pointing-model.csv")
+    });
+    let folder = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+    let values = args.config.configuration().values_with(&args.set).context("--set")?;
+    let setup = AntennaSetup::from_values(&values, Some(&folder.canonicalize()?)).context("--set")?;
+    if !args.no_build {
+        eprintln!("building and packaging the FMUs ...");
+        xtask::build_and_package(xtask::Pgo::Off).context("packaging failed")?;
+    }
+    let fmus = FmuSet::open(&antenna_fmus::fmu_directory())
+        .with_context(|| format!("cannot open the FMUs in {}", antenna_fmus::fmu_directory().display()))?;
+    let grid = DerivationGrid::standard();
+    let started = Instant::now();
+    eprintln!("deriving the pointing model: calm scans and steady-wind holds on all cores ...");
+    let model = pointing_model_fit::derive(&fmus, &setup.config, &grid)?;
+    std::fs::write(&out, model.to_csv(&pointing_model_fit::table_comment(&grid)))
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    let figure = out.with_extension("png");
+    pointing_model_fit::plot(&model, &figure).context("plotting failed")?;
+    println!("wrote {} and {} in {:.0} s", out.display(), figure.display(), started.elapsed().as_secs_f64());
+    Ok(())
 }
 
 /// The options of `antenna sweep`.
