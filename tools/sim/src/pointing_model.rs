@@ -51,8 +51,8 @@ pub const MAX_POINTING_MODEL_BYTES: u64 = 16 << 20;
 /// Why a pointing-model table was refused; each message names the file and what is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum PointingModelError {
-    #[error("{0}")]
-    Read(String),
+    #[error(transparent)]
+    Read(#[from] fmu_runtime::files::FileError),
     #[error("{origin}: {source}")]
     Csv { origin: String, source: csv::Error },
     #[error("{origin}: missing column `{column}` (the columns are {})", COLUMNS.join(","))]
