@@ -29,8 +29,9 @@ fi
 
 # Steps that wait on the network or leave a core idle run beside others: the Python environment
 # is installed while the FMUs build, and clippy (a build of its own, about 5 minutes from a
-# fresh clone) checks the code while the fmpy tests, which keep one core busy, run. Their
-# output is kept in target/test-all/ and shown when they end; either failing fails the command.
+# fresh clone) and the fmpy tests, which keep one core busy, run while the Rust tests run.
+# Their output is kept in target/test-all/ and shown when they end; any failing fails the
+# command.
 logs=target/test-all
 mkdir -p "$logs"
 
@@ -69,12 +70,14 @@ else
     cargo xtask package
 fi
 
-echo "== Rust tests"
-if [ "$long" = 1 ]; then
-    cargo test --release --workspace --quiet -- --include-ignored
-else
-    cargo test --release --workspace --quiet
-fi
+# The Rust test binaries are built first; then they run while the fmpy tests (one core, the Rust
+# master started from the binary just built through ANTENNA_BIN, so they never wait for cargo's
+# lock) and clippy (its own target folder) run beside them, so that no core idles while one
+# test binary runs alone. The examples are not built here (clippy checks them with
+# --all-targets) and no crate has doc examples, so no doc tests are collected.
+rust_targets=(--workspace --lib --bins --tests)
+echo "== Rust tests: build"
+cargo test --release "${rust_targets[@]}" --no-run --quiet
 
 if ! wait "$venv"; then
     cat "$logs/venv.log" >&2
@@ -82,28 +85,37 @@ if ! wait "$venv"; then
     exit 1
 fi
 
-echo "== lints (clippy, warnings are errors), beside the Python tests"
-# Its own target folder: the fmpy tests run `cargo run` meanwhile, which would wait for the lock
-# of a shared one.
+echo "== lints (clippy, warnings are errors) and the Python tests with fmpy, beside the Rust tests"
 CARGO_TARGET_DIR=target/clippy cargo clippy --release --workspace --all-targets --quiet -- -D warnings \
     >"$logs/clippy.log" 2>&1 &
 clippy=$!
-
-echo "== Python tests with fmpy"
-python_status=0
+pytest_marks=(-m "not long")
 if [ "$long" = 1 ]; then
-    .venv/bin/python -m pytest -q tests/python || python_status=$?
+    pytest_marks=()
+fi
+ANTENNA_BIN="$PWD/target/release/antenna" .venv/bin/python -m pytest -q "${pytest_marks[@]}" tests/python \
+    >"$logs/pytest.log" 2>&1 &
+python=$!
+
+echo "== Rust tests: run"
+rust_status=0
+if [ "$long" = 1 ]; then
+    cargo test --release "${rust_targets[@]}" --quiet -- --include-ignored || rust_status=$?
 else
-    .venv/bin/python -m pytest -q -m "not long" tests/python || python_status=$?
+    cargo test --release "${rust_targets[@]}" --quiet || rust_status=$?
 fi
 
+python_status=0
+wait "$python" || python_status=$?
+echo "== Python tests with fmpy"
+cat "$logs/pytest.log"
 clippy_status=0
 wait "$clippy" || clippy_status=$?
 if [ "$clippy_status" != 0 ]; then
     cat "$logs/clippy.log" >&2
     echo "clippy found problems (above)" >&2
 fi
-if [ "$python_status" != 0 ] || [ "$clippy_status" != 0 ]; then
+if [ "$rust_status" != 0 ] || [ "$python_status" != 0 ] || [ "$clippy_status" != 0 ]; then
     exit 1
 fi
 

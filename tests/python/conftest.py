@@ -3,7 +3,10 @@ the tests that compare another master with it.
 
 The FMUs are in target/fmu/ relative to the repository (written by
 `cargo xtask package`), or in the folder that the environment
-variable MEERKAT_FMU_DIR names (as for the Rust tools). Tests that take the fixture `fmu_path`
+variable MEERKAT_FMU_DIR names (as for the Rust tools). The Rust master is the binary that the
+environment variable ANTENNA_BIN names when it is set (the test command sets it to the binary it
+has just built, so that these tests run beside the Rust tests without waiting for cargo's lock),
+and otherwise `cargo run`, which builds it when it is stale. Tests that take the fixture `fmu_path`
 run once for every .fmu found there, so FMUs added later are covered without editing the tests;
 a missing folder or a missing plant FMU is a test failure with the instruction to package,
 never a silent skip.
@@ -21,14 +24,43 @@ PLANTS = ("AzimuthPlant", "ElevationPlant")
 PACKAGE_HINT = "package the FMUs first: cargo xtask package"
 
 
+def antenna_binary():
+    """The Rust master (`antenna`): ANTENNA_BIN when set, else target/release/antenna, built by
+    cargo first if it is stale (cargo answers at once when it is not)."""
+    binary = os.environ.get("ANTENNA_BIN")
+    if binary:
+        if not pathlib.Path(binary).is_file():
+            pytest.fail(f"ANTENNA_BIN names {binary}, which is not a file")
+        return pathlib.Path(binary)
+    subprocess.run(["cargo", "build", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna"],
+                   cwd=REPOSITORY, check=True)
+    return REPOSITORY / "target" / "release" / "antenna"
+
+
+def antenna_command():
+    """The command that starts the Rust master, before its arguments."""
+    return [str(antenna_binary())]
+
+
 def rust_scenario(folder, name, configuration="realistic", modes=None):
     """Runs one requirement scenario with the Rust master, with its own gust seed only (and the
     structure's modes from the modes file `modes`, if given), and returns `folder`, which then
     holds the scenario's command table, configuration, trace and report."""
     subprocess.run(
-        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
-         "--no-build", "--only", name, "--seeds", "1", "--trace", str(folder), "--out", str(folder / "report"),
-         "--config", configuration] + (["--modes", str(modes)] if modes else []),
+        antenna_command() + ["--no-build", "--only", name, "--seeds", "1", "--trace", str(folder),
+                             "--out", str(folder / "report"), "--config", configuration]
+        + (["--modes", str(modes)] if modes else []),
+        cwd=REPOSITORY, check=True, capture_output=True,
+    )
+    return folder
+
+
+def rust_scenario_inputs(folder, name, configuration="realistic"):
+    """Writes one requirement scenario's command table and configuration, as the Rust master
+    would run them, into `folder` without running it (`--export-only`), and returns `folder`."""
+    subprocess.run(
+        antenna_command() + ["--no-build", "--export-only", "--only", name, "--trace", str(folder),
+                             "--config", configuration],
         cwd=REPOSITORY, check=True, capture_output=True,
     )
     return folder

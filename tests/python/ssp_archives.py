@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from conftest import REPOSITORY
+from conftest import REPOSITORY, antenna_command
 
 # The variables compared with the Rust master's trace, with the trace's column of each
 # (coupled_master.COLUMNS): the axes, the encoders and the beam offsets.
@@ -25,8 +25,7 @@ def export(folder, only, settings=()):
     """Writes the archives of the requirement scenarios whose names contain `only` (and
     plant.ssp) into `folder` with `antenna --ssp --export-only`, each `settings` a NAME=VALUE for
     `--set`; returns `folder`."""
-    command = ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
-               "--ssp", str(folder), "--export-only", "--only", only]
+    command = antenna_command() + ["--ssp", str(folder), "--export-only", "--only", only]
     for setting in settings:
         command += ["--set", setting]
     subprocess.run(command, cwd=REPOSITORY, check=True, capture_output=True)
@@ -105,8 +104,8 @@ def aligned(rows, trace):
 def rust_trace(folder, scenario, settings=()):
     """Runs `scenario` with the Rust master (its own gust seed only, each of `settings` a
     NAME=VALUE for `--set`) and returns its trace; `folder` then also holds its command table."""
-    command = ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--", "--no-build",
-               "--only", scenario, "--seeds", "1", "--trace", str(folder), "--out", str(folder / "report")]
+    command = antenna_command() + ["--no-build", "--only", scenario, "--seeds", "1", "--trace", str(folder),
+                                   "--out", str(folder / "report")]
     for setting in settings:
         command += ["--set", setting]
     subprocess.run(command, cwd=REPOSITORY, check=True, capture_output=True)

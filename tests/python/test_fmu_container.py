@@ -12,7 +12,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from conftest import REPOSITORY, rust_scenario
+from conftest import REPOSITORY, rust_scenario, rust_scenario_inputs
 
 sys.path.insert(0, str(REPOSITORY / "tools" / "fmu_container"))
 import antenna_container  # noqa: E402
@@ -61,7 +61,7 @@ def test_the_antenna_in_fmpys_container_gives_the_rust_masters_trace(tmp_path, s
 
 def test_the_same_scenario_gives_the_same_container_byte_for_byte(tmp_path):
     scenario = "hold-el45-normal-wind"
-    folder = rust_scenario(tmp_path, scenario)
+    folder = rust_scenario_inputs(tmp_path, scenario)
     built = [antenna_container.build(folder / f"{scenario}.config", folder / f"{scenario}.commands.csv",
                                      tmp_path / f"Antenna-{k}.fmu") for k in range(2)]
     assert built[0].read_bytes() == built[1].read_bytes()
@@ -72,7 +72,7 @@ def test_the_same_scenario_gives_the_same_container_byte_for_byte(tmp_path):
 
 def test_scenarios_a_container_cannot_hold_are_refused(tmp_path):
     scenario = "hold-el45-normal-wind"
-    folder = rust_scenario(tmp_path, scenario)
+    folder = rust_scenario_inputs(tmp_path, scenario)
     text = (folder / f"{scenario}.config").read_text()
     commands = folder / f"{scenario}.commands.csv"
     scaled = tmp_path / "scaled.config"

@@ -10,21 +10,18 @@ import sys
 
 import pytest
 
-from conftest import FMU_DIRECTORY, PACKAGE_HINT, REPOSITORY
+from conftest import FMU_DIRECTORY, PACKAGE_HINT, REPOSITORY, antenna_binary
 
-ANTENNA = REPOSITORY / "target" / "release" / "antenna"
 SWEEP = ["--samples", "5", "--seed", "9", "--method", "lhs", "--scenarios", "step-30arcmin-el45",
          "--sweep-file", str(REPOSITORY / "tools" / "sweep_distributed" / "strong_wind.csv")]
 
 
 @pytest.fixture(scope="module")
 def antenna():
-    """The Rust master, built if it is stale (cargo answers at once when it is not)."""
+    """The Rust master."""
     if not (FMU_DIRECTORY / "Wind.fmu").is_file():
         pytest.fail(f"no FMUs in {FMU_DIRECTORY}: {PACKAGE_HINT}")
-    subprocess.run(["cargo", "build", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna"],
-                   cwd=REPOSITORY, check=True)
-    return ANTENNA
+    return antenna_binary()
 
 
 @pytest.fixture(scope="module")

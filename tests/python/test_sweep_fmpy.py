@@ -11,7 +11,7 @@ import numpy as np
 
 import pytest
 
-from conftest import FMU_DIRECTORY, PACKAGE_HINT, REPOSITORY
+from conftest import FMU_DIRECTORY, PACKAGE_HINT, REPOSITORY, antenna_command
 
 sys.path.insert(0, str(REPOSITORY / "tools" / "sweep_distributed"))
 import fmpy_sweep  # noqa: E402
@@ -56,8 +56,7 @@ def rust_figure(tmp_path, seconds, settings):
     commands = tmp_path / "sidereal.csv"
     commands.write_text(fmpy_sweep.commands_text(seconds))
     subprocess.run(
-        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--",
-         "--no-build", "--commands", str(commands), "--wind", "normal", "--seed", str(fmpy_sweep.SEED), "--seeds", "1",
+        antenna_command() + ["--no-build", "--commands", str(commands), "--wind", "normal", "--seed", str(fmpy_sweep.SEED), "--seeds", "1",
          "--trace", str(tmp_path), "--out", str(tmp_path / "report")]
         + [arg for name, value in settings.items() for arg in ("--set", f"{name}={value!r}")],
         cwd=REPOSITORY, check=True, capture_output=True,
