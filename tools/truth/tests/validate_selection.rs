@@ -198,3 +198,35 @@ fn a_load_encoder_error_is_found_and_taken_out_before_the_search() {
         assert!(after < 1.2 * reference, "channel {channel}: {after} against the clean log's {reference}");
     }
 }
+
+/// Two effects whose columns overlap over the trajectory, a Coulomb change (sign of the speed)
+/// and an unbalance (cosine of the angle, near its extremum over the stroke), each at 10 times
+/// the noise: both are named, nothing else, each within 10 % of its true size, through the
+/// whole validation with the plant FMU as the judge. Neither may absorb the other: the
+/// candidates are tested given the joint fit of what is already accepted, and the found ones
+/// are refitted together. The packaged FMU must exist (`cargo xtask package`).
+#[test]
+fn an_overlapping_coulomb_and_unbalance_pair_are_both_named_within_ten_percent() {
+    use antenna_truth::scoring::score;
+    use antenna_truth::suite::{generate_case, SuiteConfig};
+    use antenna_validate::measured_log::parse_str;
+    use antenna_validate::plant_fmu::{FmuSimulator, PlantFmu};
+    use antenna_validate::{validate_with, ValidateOptions};
+
+    let base = TruthConfig { duration: 30.0, ..SuiteConfig::default().base };
+    let kinds = vec![("coulomb".to_string(), 10.0), ("unbalance".to_string(), 10.0)];
+    let (text, truth) = generate_case(&base, 12, &kinds, "pair.csv", &mut std::collections::BTreeMap::new()).unwrap();
+    let log = parse_str(&text).unwrap();
+    let start = base.plant.starting_parameters();
+    let mut simulator = FmuSimulator::open(&PlantFmu::default_path()).unwrap_or_else(|e| panic!("{e}"));
+    let validation = validate_with(&log, &start, &ValidateOptions::default(), Some(&mut simulator)).unwrap();
+    let result = score(&truth, &validation, &start, 0.0);
+    assert!(result.named, "found {:?}", result.found);
+    assert!(result.extras.is_empty(), "extra effects {:?}", result.extras);
+    assert!(result.parameters.iter().all(|p| p.4), "parameters out of tolerance: {:?}", result.parameters);
+    // The two were estimated jointly: each found effect carries its correlation with the other.
+    for found in &validation.selection.found {
+        assert_eq!(found.correlations.len(), 1, "{:?}", found.correlations);
+        assert!(found.correlations[0].1.abs() <= 1.0);
+    }
+}

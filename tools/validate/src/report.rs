@@ -120,6 +120,15 @@ fn effects_section(out: &mut String, v: &Validation) {
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
+        if !found.correlations.is_empty() {
+            let list: Vec<String> =
+                found.correlations.iter().map(|(other, r)| format!("{} {r:+.2}", other.name())).collect();
+            let _ = writeln!(
+                out,
+                "Estimated jointly with the other found effects; the largest correlation of its parameters with theirs: {}. The standard deviations above hold that trade; near 1 in magnitude only the effects' sum is determined.\n",
+                list.join(", ")
+            );
+        }
         for alternative in v.indistinct.iter().filter(|a| a.found == found.kind) {
             let _ = writeln!(
                 out,

@@ -524,6 +524,14 @@ pub struct Step {
 pub struct Found {
     pub kind: Kind,
     pub parameters: Reported,
+    /// How strongly its estimates go with each other found effect's in the joint fit: the
+    /// largest correlation (by magnitude) between a parameter of it and one of the other, from
+    /// the joint covariance of all found effects and the baseline. Effects whose columns
+    /// overlap over the log (an unbalance near its extremum and a constant, a Coulomb level
+    /// and a viscous term over a one-directional move) trade their sizes: near 1 in magnitude
+    /// only their sum is determined, and each one's standard deviation already holds that
+    /// trade.
+    pub correlations: Vec<(Kind, f64)>,
 }
 
 /// The outcome of the search.
@@ -1569,18 +1577,53 @@ pub fn final_fit(
     let channels = model_channels(data, params);
     let (columns, instances) = refine_columns(data, params, &channels, accepted, weights);
     let result = fit(&channels, &columns, &[], weights);
-    let mut found = Vec::new();
+    let mut ranges = Vec::new();
     let mut offset = baseline_columns(data, params).len();
     for instance in &instances {
-        let k = instance.columns.len();
-        let sigma: Vec<f64> = (offset..offset + k).map(|i| result.covariance[(i, i)].max(0.0).sqrt()).collect();
-        found.push(Found {
-            kind: instance.kind,
-            parameters: candidates::report(instance.kind, start, params, &sigma, data),
-        });
-        offset += k;
+        ranges.push(offset..offset + instance.columns.len());
+        offset += instance.columns.len();
     }
+    let found = instances
+        .iter()
+        .zip(&ranges)
+        .map(|(instance, own)| {
+            let sigma: Vec<f64> = own.clone().map(|i| result.covariance[(i, i)].max(0.0).sqrt()).collect();
+            let correlations = instances
+                .iter()
+                .zip(&ranges)
+                .filter(|(other, _)| other.kind != instance.kind)
+                .map(|(other, theirs)| (other.kind, strongest_correlation(&result.covariance, own, theirs)))
+                .collect();
+            Found {
+                kind: instance.kind,
+                parameters: candidates::report(instance.kind, start, params, &sigma, data),
+                correlations,
+            }
+        })
+        .collect();
     (result, found)
+}
+
+/// The correlation of largest magnitude between a coefficient in `a` and one in `b`, from a
+/// covariance matrix (0 where a variance is not positive).
+fn strongest_correlation(
+    covariance: &nalgebra::DMatrix<f64>,
+    a: &std::ops::Range<usize>,
+    b: &std::ops::Range<usize>,
+) -> f64 {
+    let mut strongest = 0.0_f64;
+    for i in a.clone() {
+        for j in b.clone() {
+            let scale = (covariance[(i, i)] * covariance[(j, j)]).sqrt();
+            if scale > 0.0 && scale.is_finite() {
+                let r = (covariance[(i, j)] / scale).clamp(-1.0, 1.0);
+                if r.abs() > strongest.abs() {
+                    strongest = r;
+                }
+            }
+        }
+    }
+    strongest
 }
 
 /// The equation-error residual of the model at `params` with only the baseline nuisance
@@ -1685,5 +1728,29 @@ mod tests {
         // Nothing to scale, or a candidate that did not apply: no limit.
         assert_eq!(DetectionLimit::of(&scored(0.0, 0.0, 0.0, 0.0), threshold, 1.0), None);
         assert_eq!(DetectionLimit::of(&Score::not_applicable(Kind::Offset, "no".into()), threshold, 1.0), None);
+    }
+
+    #[test]
+    fn the_strongest_correlation_between_two_effects_is_the_largest_in_magnitude_with_its_sign() {
+        // Coefficients 0 (baseline), 1-2 (an effect with two parameters) and 3 (one with one):
+        // parameter 2 goes against 3 (covariance -0.9 at unit variances), parameter 1 with it
+        // (0.4 over the root of 4 times 1).
+        let covariance = nalgebra::DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                1.0, 0.0, 0.0, 0.0, //
+                0.0, 4.0, 0.0, 0.8, //
+                0.0, 0.0, 1.0, -0.9, //
+                0.0, 0.8, -0.9, 1.0,
+            ],
+        );
+        let r = strongest_correlation(&covariance, &(1..3), &(3..4));
+        assert!((r + 0.9).abs() < 1e-12, "{r}");
+        assert!((strongest_correlation(&covariance, &(3..4), &(1..2)) - 0.4).abs() < 1e-12);
+        // Uncorrelated with the baseline; a zero variance gives no correlation.
+        assert_eq!(strongest_correlation(&covariance, &(0..1), &(1..4)), 0.0);
+        let degenerate = nalgebra::DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(strongest_correlation(&degenerate, &(0..1), &(1..2)), 0.0);
     }
 }
