@@ -11,6 +11,7 @@
 //! a realistic rate (500 Hz by default). The nominal parameters are the model's starting
 //! parameter set; each effect is added only in the truth.
 
+pub mod limits;
 pub mod scoring;
 pub mod sensors;
 pub mod suite;

@@ -385,6 +385,49 @@ pub fn sized_effect(
     })
 }
 
+/// An effect of `kind` set by the change of the parameter `validate` reports for it (the
+/// leading parameter of its detection limit, `antenna_validate::candidates::size_change`, in
+/// the same units): N m for friction, offsets, an unbalance's amplitude and a cogging's
+/// amplitude, rad for a backlash's width, N m/rad for the stiffness (a softer path), kg m^2 for
+/// the load inertia, s for a delay, and the torque-constant scale's change. Signs, phases and
+/// a cogging's period are drawn from `rng` as [`sized_effect`] draws them; the magnitude of
+/// `change` is used.
+pub fn changed_effect(
+    kind: &str,
+    change: f64,
+    config: &TruthConfig,
+    rng: &mut impl rand::Rng,
+) -> Result<Effect, SuiteError> {
+    let plant = &config.plant;
+    let change = change.abs();
+    let sign = |rng: &mut dyn rand::Rng| if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    Ok(match kind {
+        "coulomb" => Effect::Coulomb(change),
+        "stribeck" => Effect::Stribeck(change),
+        "asymmetry" => Effect::Asymmetry(sign(rng) * change),
+        "torque_offset" => Effect::TorqueOffset(sign(rng) * change),
+        "backlash" => Effect::Backlash(change),
+        // A softer path than quoted, as the suite's stiffness effects are.
+        "stiffness" => Effect::StiffnessFactor((1.0 - change / plant.stiffness).max(0.05)),
+        "inertia" => Effect::InertiaFactor(1.0 + sign(rng) * change / plant.load_inertia),
+        "unbalance" => Effect::Unbalance {
+            amplitude: change,
+            phase: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+        },
+        "delay" => Effect::Delay(change),
+        "torque_constant" => Effect::TorqueConstantScale(1.0 + sign(rng) * change),
+        "cogging" => {
+            let period = match plant.cogging_period() {
+                Some(period) => period,
+                None => rng.random_range(0.2f64.ln()..2f64.ln()).exp().to_radians(),
+            };
+            let phase = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+            Effect::Cogging { amplitude: change, period, phase }
+        }
+        other => return Err(SuiteError::UnknownEffectKind { kind: other.to_string() }),
+    })
+}
+
 /// Generates one log with the given kinds and sizes, returning its text and truth.
 pub fn generate_case(
     base: &TruthConfig,
@@ -411,6 +454,30 @@ pub fn generate_case(
         let effect = sized_effect(kind, *ratio, &clean, &config, &mut rng)?;
         effects.push((kind.clone(), *ratio, effect));
     }
+    simulate_case(config, seed, effects, log_file)
+}
+
+/// Generates one log of `base` with the given effects, set directly rather than sized against
+/// the noise; each effect's size relative to the noise in the truth is NaN (not measured).
+pub fn generate_with_effects(
+    base: &TruthConfig,
+    seed: u64,
+    effects: &[Effect],
+    log_file: &str,
+) -> Result<(String, CaseTruth), SuiteError> {
+    let mut config = base.clone();
+    config.seed = seed;
+    let effects = effects.iter().map(|e| (e.kind().to_string(), f64::NAN, *e)).collect();
+    simulate_case(config, seed, effects, log_file)
+}
+
+/// Simulates `config` (its seed set) with `effects` and returns the log's text and truth.
+fn simulate_case(
+    mut config: TruthConfig,
+    seed: u64,
+    effects: Vec<(String, f64, Effect)>,
+    log_file: &str,
+) -> Result<(String, CaseTruth), SuiteError> {
     config.effects = effects.iter().map(|e| e.2).collect();
     let run = simulate(&config);
     if run.log.channels.iter().any(|c| c.values.iter().any(|v| !v.is_finite())) {
@@ -677,6 +744,31 @@ mod tests {
             conditions: [("cogging_per_motor_rev".to_string(), "5".to_string())].into_iter().collect(),
         };
         assert_eq!(parse_truth(&truth_text(&truth)).unwrap(), truth);
+    }
+
+    #[test]
+    fn changed_effect_sets_the_parameter_change_validate_reports() {
+        let config = TruthConfig::default();
+        let plant = &config.plant;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut effect = |kind: &str, change: f64| changed_effect(kind, change, &config, &mut rng).unwrap();
+        assert_eq!(effect("coulomb", 5.0), Effect::Coulomb(5.0));
+        assert_eq!(effect("delay", 2e-3), Effect::Delay(2e-3));
+        assert_eq!(effect("backlash", 1e-6), Effect::Backlash(1e-6));
+        let Effect::TorqueOffset(offset) = effect("torque_offset", 4.0) else { panic!() };
+        assert_eq!(offset.abs(), 4.0);
+        let Effect::StiffnessFactor(factor) = effect("stiffness", 1e6) else { panic!() };
+        assert!((plant.stiffness * (factor - 1.0) + 1e6).abs() < 1e-6 * 1e6);
+        let Effect::InertiaFactor(factor) = effect("inertia", 600.0) else { panic!() };
+        assert!(((plant.load_inertia * (factor - 1.0)).abs() - 600.0).abs() < 1e-9 * 600.0);
+        let Effect::TorqueConstantScale(scale) = effect("torque_constant", 0.01) else { panic!() };
+        assert!(((scale - 1.0).abs() - 0.01).abs() < 1e-12);
+        let Effect::Unbalance { amplitude, .. } = effect("unbalance", 7.0) else { panic!() };
+        assert_eq!(amplitude, 7.0);
+        let Effect::Cogging { amplitude, period, .. } = effect("cogging", 9.0) else { panic!() };
+        assert_eq!(amplitude, 9.0);
+        assert!(period > 0.0);
+        assert!(changed_effect("warp_drive", 1.0, &config, &mut rng).is_err());
     }
 
     #[test]

@@ -233,9 +233,21 @@ fn sensor_section(out: &mut String, error: &crate::sensor_errors::LoadEncoderErr
     );
 }
 
-/// A detection limit's size in the units an engineer reads: backlash in arcsec (mm on a linear
-/// axis), a delay in ms, the axis-side units of a linear axis.
+/// A detection limit's size in the units an engineer reads (backlash in arcsec, mm on a linear
+/// axis; a delay in ms; the axis-side units of a linear axis), with the ranges its searched
+/// parameters were searched over: the limit holds for those only.
 pub fn limit_text(limit: &DetectionLimit, linear: bool) -> String {
+    let size = limit_size_text(limit, linear);
+    if limit.searched.is_empty() {
+        return size;
+    }
+    let ranges: Vec<String> =
+        limit.searched.iter().map(|(name, low, high, unit)| format!("{name} {low:.2e} to {high:.2e} {unit}")).collect();
+    format!("{size} (searched over {}; outside that range not searched)", ranges.join(", "))
+}
+
+/// A detection limit's size alone, in the units of [`limit_text`].
+pub fn limit_size_text(limit: &DetectionLimit, linear: bool) -> String {
     match limit.unit {
         "rad" => {
             let (value, unit) = display(limit.size, "rad", linear);

@@ -115,6 +115,8 @@ pub struct Score {
     /// RMS of what the effect adds, over the sensor noise, in the channel where it is largest.
     pub effect_to_noise: f64,
     pub searched: Vec<(String, f64)>,
+    /// The range each searched parameter was searched over: (name, low, high, unit).
+    pub searched_ranges: Vec<(String, f64, f64, String)>,
     /// The confirmation's note, for the chosen candidate.
     pub confirmation: Option<String>,
     /// The leading parameter's change that the candidate's own fit gave ([`candidates::size_change`]).
@@ -138,13 +140,57 @@ pub enum LimitSetBy {
     NoiseFloor,
 }
 
-/// The smallest effect of a candidate's kind that a search step would have found significant
-/// and at least the noise, to first order from the candidate's own fit: what the effect adds
-/// to the equations scales with its size and the test statistic with its square, so the fitted
-/// change over the square root of its chi-square is its standard error, whatever the fit found
-/// (noise included). A claim also needs the output error's confirmation, so this is a lower
-/// bound of what the log can establish: an effect of the kind below it cannot be claimed from
-/// this log ("the data cannot tell"), one above it would have been put to the simulation.
+/// The probability with which an effect at its detection limit passes the step's test: the
+/// limit is a size the search finds in nine logs of ten, not the size at which the expected
+/// statistic just reaches the threshold (found in half of them).
+pub const DETECTION_POWER: f64 = 0.9;
+
+/// The survival function of the non-central chi-square with `dof` degrees of freedom and
+/// non-centrality `lambda` at `x`: the Poisson mixture of central chi-squares of `dof + 2 j`
+/// degrees of freedom, summed over the weights that matter.
+fn noncentral_chi_squared_sf(x: f64, dof: f64, lambda: f64) -> f64 {
+    let half = 0.5 * lambda;
+    let last = (half + 12.0 * (half + 1.0).sqrt() + 30.0).ceil() as usize;
+    let mut log_weight = -half;
+    let mut sum = 0.0;
+    for j in 0..=last {
+        if j > 0 {
+            log_weight += half.ln() - (j as f64).ln();
+        }
+        sum += log_weight.exp() * chi_squared_sf(x, dof + 2.0 * j as f64);
+    }
+    sum.min(1.0)
+}
+
+/// The non-centrality at which a non-central chi-square of `dof` degrees of freedom exceeds
+/// `needed` with probability `power`, by bisection (the probability grows with it).
+fn noncentrality_for_power(needed: f64, dof: f64, power: f64) -> f64 {
+    let mut high = needed.max(1.0);
+    while noncentral_chi_squared_sf(needed, dof, high) < power && high < 1e6 {
+        high *= 2.0;
+    }
+    let mut low = 0.0;
+    for _ in 0..60 {
+        let mid = 0.5 * (low + high);
+        if noncentral_chi_squared_sf(needed, dof, mid) < power {
+            low = mid;
+        } else {
+            high = mid;
+        }
+    }
+    0.5 * (low + high)
+}
+
+/// The smallest effect of a candidate's kind that a search step would find significant in
+/// nine logs of ten ([`DETECTION_POWER`]) and at least the noise, to first order from the
+/// candidate's own fit: what the effect adds to the equations scales with its size and the
+/// test statistic's non-centrality with its square, so the fitted change over the square root
+/// of its chi-square is its standard error, whatever the fit found (noise included). The step's
+/// threshold already holds the trials of every candidate it searched (its level is the
+/// family-wise one divided by them). A claim also needs the output error's confirmation, so this is a lower
+/// bound of what the log can establish: an effect of the kind below it is likely to go unseen
+/// in this log, one at or above it passes the test in nine logs of ten and is put to the
+/// simulation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DetectionLimit {
     /// The leading parameter ([`candidates::size_change`]).
@@ -155,6 +201,10 @@ pub struct DetectionLimit {
     /// The same effect's RMS in the equations over the noise of the channel it shows in.
     pub effect_to_noise: f64,
     pub set_by: LimitSetBy,
+    /// The ranges of the candidate's searched parameters (a delay, a cogging period, a
+    /// Stribeck velocity) the limit holds for: (name, low, high, unit). An effect outside
+    /// them was not searched, so no limit is stated for it.
+    pub searched: Vec<(String, f64, f64, String)>,
 }
 
 impl DetectionLimit {
@@ -175,8 +225,16 @@ impl DetectionLimit {
             // A level too small for the quantile's precision: no finite limit to give.
             return None;
         }
-        let by_test = (needed / chi2).sqrt();
-        let by_floor = min_effect_to_noise / score.effect_to_noise;
+        // An effect of the limit's size must pass the test in most logs, not in half of them:
+        // its statistic is a non-central chi-square whose non-centrality is the square of its
+        // size over the standard error, and the limit is the size at which that statistic
+        // exceeds what the step needs with the probability DETECTION_POWER.
+        let by_test = (noncentrality_for_power(needed, dof.max(1.0), DETECTION_POWER) / chi2).sqrt();
+        // The claim also needs the fitted effect to reach the noise: its estimate scatters by
+        // a standard error about the truth, so in nine logs of ten it does where the truth is
+        // that far (z of the power, in standard errors) above the floor.
+        let z = antenna_dsp::distributions::standard_normal_quantile(DETECTION_POWER);
+        let by_floor = min_effect_to_noise / score.effect_to_noise + z / chi2.sqrt();
         let (factor, set_by) =
             if by_test >= by_floor { (by_test, LimitSetBy::Significance) } else { (by_floor, LimitSetBy::NoiseFloor) };
         Some(DetectionLimit {
@@ -185,6 +243,7 @@ impl DetectionLimit {
             unit,
             effect_to_noise: score.effect_to_noise * factor,
             set_by,
+            searched: score.searched_ranges.clone(),
         })
     }
 }
@@ -205,6 +264,7 @@ impl Score {
             explained_fraction: 0.0,
             effect_to_noise: 0.0,
             searched: Vec::new(),
+            searched_ranges: Vec::new(),
             confirmation: None,
             fitted_change: None,
             unobservable: true,
@@ -1093,6 +1153,11 @@ fn score_candidates(
             explained_fraction: explained,
             effect_to_noise,
             searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
+            searched_ranges: instance
+                .searched
+                .iter()
+                .map(|s| (s.name.clone(), s.range.0, s.range.1, s.unit.clone()))
+                .collect(),
             confirmation: None,
             fitted_change: Some(fitted_change),
             unobservable: false,
@@ -1706,25 +1771,45 @@ mod tests {
     }
 
     #[test]
+    fn the_noncentral_chi_square_reduces_to_the_central_one_and_matches_two_normal_tails() {
+        // No non-centrality: the central survival function.
+        assert!((noncentral_chi_squared_sf(5.0, 2.0, 0.0) - chi_squared_sf(5.0, 2.0)).abs() < 1e-12);
+        // One degree of freedom: (Z + 2.5)^2 exceeds 4 where Z > -0.5 or Z < -4.5; the normal
+        // upper tail Q(t) = P(Z > t) is half the central chi-square's at t^2.
+        let upper = |t: f64| 0.5 * chi_squared_sf(t * t, 1.0);
+        let expected = 1.0 - upper(0.5) + upper(4.5);
+        assert!((noncentral_chi_squared_sf(4.0, 1.0, 2.5 * 2.5) - expected).abs() < 1e-9);
+        // Two degrees of freedom at the power's non-centrality: the power.
+        let lambda = noncentrality_for_power(30.0, 2.0, DETECTION_POWER);
+        assert!((noncentral_chi_squared_sf(30.0, 2.0, lambda) - DETECTION_POWER).abs() < 1e-9);
+    }
+
+    #[test]
     fn a_detection_limit_scales_the_fitted_change_to_the_statistic_or_the_noise_the_step_needs() {
-        // The step's level 2.7e-3 needs a chi-square of 9.0 at one parameter (z = 3): a fitted
-        // change of 10 N m at chi-square 4 (two standard errors of 5 N m) scales to 15 N m.
+        // The step's level 2.7e-3 needs a chi-square of 9.0 at one parameter (z = 3). At one
+        // parameter the statistic is the square of a normal of mean size/error, so it exceeds
+        // 9 in nine logs of ten at a size of (3 + z_0.9) standard errors (the other tail is
+        // 1e-13): a fitted change of 10 N m at chi-square 4 (standard error 5 N m) scales to
+        // 5 (3 + z_0.9) N m.
+        let z90 = antenna_dsp::distributions::standard_normal_quantile(DETECTION_POWER);
         let threshold = chi_squared_sf(9.0, 1.0);
         let limit = DetectionLimit::of(&scored(4.0, 2.0, 3.0, -10.0), threshold, 1.0).unwrap();
-        assert!((limit.size - 15.0).abs() < 1e-6, "{limit:?}");
-        assert!((limit.effect_to_noise - 4.5).abs() < 1e-6);
+        assert!((limit.size - 5.0 * (3.0 + z90)).abs() < 1e-4, "{limit:?}");
+        assert!((limit.effect_to_noise / limit.size - 3.0 / 10.0).abs() < 1e-9);
         assert_eq!(limit.set_by, LimitSetBy::Significance);
         // The same standard error from a fit that found twice as much: the same limit.
         let again = DetectionLimit::of(&scored(16.0, 14.0, 6.0, 20.0), threshold, 1.0).unwrap();
-        assert!((again.size - 15.0).abs() < 1e-6, "{again:?}");
+        assert!((again.size - limit.size).abs() < 1e-6, "{again:?}");
         // A BIC penalty above the quantile sets it instead (chi2 - gain = 16: four errors).
         let by_bic = DetectionLimit::of(&scored(4.0, -12.0, 3.0, 10.0), threshold, 1.0).unwrap();
-        assert!((by_bic.size - 20.0).abs() < 1e-6, "{by_bic:?}");
+        assert!((by_bic.size - 5.0 * (4.0 + z90)).abs() < 1e-4, "{by_bic:?}");
         // On a quiet log the noise floor sets it: 1.5 times the noise at 10 N m needs 6.67 N m
-        // to reach the noise, more than the test needs.
+        // to reach the noise, and the estimate (standard error 10/sqrt(400) = 0.5 N m) reaches
+        // it in nine logs of ten z_0.9 standard errors above that; more than the test needs.
         let floor = DetectionLimit::of(&scored(400.0, 390.0, 0.15, 10.0), threshold, 1.0).unwrap();
         assert_eq!(floor.set_by, LimitSetBy::NoiseFloor);
-        assert!((floor.size - 10.0 / 0.15).abs() < 1e-9 && (floor.effect_to_noise - 1.0).abs() < 1e-12);
+        assert!((floor.size - (10.0 / 0.15 + 0.5 * z90)).abs() < 1e-9, "{floor:?}");
+        assert!((floor.effect_to_noise / floor.size - 0.15 / 10.0).abs() < 1e-12);
         // Nothing to scale, or a candidate that did not apply: no limit.
         assert_eq!(DetectionLimit::of(&scored(0.0, 0.0, 0.0, 0.0), threshold, 1.0), None);
         assert_eq!(DetectionLimit::of(&Score::not_applicable(Kind::Offset, "no".into()), threshold, 1.0), None);

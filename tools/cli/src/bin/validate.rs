@@ -2,14 +2,16 @@
 //!
 //! Subcommands (each has `--help`): `run` validates one log (the measured-log format of
 //! docs/measured-log-format.md, or an fmpy result file of the plant FMU); `suite` generates
-//! and scores the validation suite; `holdout` the holdout suites; `kuka` runs the three KUKA
-//! axes; `floor` investigates the error floors on clean logs. Exit codes: 0 ok, 2 bad usage or
+//! and scores the validation suite; `holdout` the holdout suites; `limits` checks the detection
+//! limits by injection; `kuka` runs the three KUKA axes; `floor` investigates the error floors
+//! on clean logs. Exit codes: 0 ok, 2 bad usage or
 //! bad input (an unreadable or malformed log, a missing column, an invalid parameter, NaN in
 //! the data or the results).
 //!
 //! The plant FMU defaults to target/fmu/AzimuthPlant.fmu (package it first with
 //! `cargo xtask package`).
 
+use antenna_truth::limits::{self, LimitsConfig};
 use antenna_truth::scoring;
 use antenna_truth::suite::{self, SuiteConfig};
 use antenna_validate::measured_log::MeasuredLog;
@@ -124,6 +126,41 @@ enum Command {
         /// Folder for report.md and the figures (default: the current folder).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        #[command(flatten)]
+        fmu: FmuArgs,
+        #[command(flatten)]
+        tuning: TuningArgs,
+    },
+    /// Check the detection limits by injection (issue 34): for each sensor variant, a clean log
+    /// states the smallest change of each effect kind its search would claim; logs with the
+    /// kind's effect at --factor times that limit (other seeds) must have it named (found, or
+    /// listed as one the data cannot tell from a found effect) in at least 90 % of them.
+    /// Writes DIR/limits.md (the table) and DIR/limits.csv (one line per injection).
+    Limits {
+        /// Sensor variants: "suite" (the suite's own sensors) and holdout suites by name
+        /// (`validate holdout --help`).
+        #[arg(long, value_delimiter = ',', value_name = "NAMES", default_values_t = ["suite".to_string(), "noiseless-current".to_string()])]
+        variants: Vec<String>,
+        /// Effect kinds, as the truth generator names them.
+        #[arg(long, value_delimiter = ',', value_name = "KINDS", default_values_t = LimitsConfig::default().kinds)]
+        kinds: Vec<String>,
+        /// Injected logs per variant and kind.
+        #[arg(long, value_name = "N", default_value_t = 10)]
+        injections: usize,
+        /// The injected change over the stated limit.
+        #[arg(long, value_name = "X", default_value_t = 1.5)]
+        factor: f64,
+        /// Seed of the clean log that states the limits.
+        #[arg(long, default_value_t = 301)]
+        clean_seed: u64,
+        /// Folder for limits.md and limits.csv.
+        #[arg(long, value_name = "DIR", default_value = ".")]
+        out: PathBuf,
+        /// The document's header line (`cargo xtask docs` passes the command and commit).
+        #[arg(long, value_name = "TEXT")]
+        header: Option<String>,
+        #[command(flatten)]
+        threads: ThreadArgs,
         #[command(flatten)]
         fmu: FmuArgs,
         #[command(flatten)]
@@ -315,6 +352,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("{section}");
             Ok(())
         }
+        Command::Limits { variants, kinds, injections, factor, clean_seed, out, header, threads, fmu, tuning } => {
+            let settings = Settings { fmu: fmu.path(), options: tuning.options(), threads: threads.count() };
+            let config = LimitsConfig {
+                variants,
+                kinds,
+                injections,
+                factor,
+                clean_seed,
+                first_seed: clean_seed + 10,
+                ..LimitsConfig::default()
+            };
+            injection_check(&config, &out, header.as_deref(), &settings)
+        }
         Command::Floor { seed, fmu, tuning } => {
             floor(seed, &Settings { fmu: fmu.path(), options: tuning.options(), threads: 1 })
         }
@@ -477,6 +527,42 @@ fn holdout(docs: &Path, dir: &Path, only: &[String], settings: &Settings) -> any
         std::fs::write(&path, merged).with_context(|| format!("cannot write {}", path.display()))?;
         println!("wrote {} ({name} replaced, the other sections kept)", path.display());
     }
+    Ok(())
+}
+
+/// `validate limits`: the detection limits checked by injection, into DIR/limits.md and
+/// DIR/limits.csv.
+fn injection_check(config: &LimitsConfig, out: &Path, header: Option<&str>, settings: &Settings) -> anyhow::Result<()> {
+    let clock = Instant::now();
+    let rows =
+        limits::run(config, &settings.options, settings.fmu.as_deref(), settings.threads, &|line| println!("{line}"))?;
+    let route =
+        if settings.fmu.is_some() { "equation error and output error" } else { "equation error only (--no-fmu)" };
+    let mut document = String::from("# Detection limits checked by injection (generated)\n\n");
+    if let Some(header) = header {
+        document.push_str(&format!("{header}\n\n"));
+    }
+    document.push_str(&format!(
+        "Run on {}: variants {}, kinds {}, {} injections each at {} times the stated limit (seeds {} to {}), limits stated by the clean log of seed {}; {route}; {:.0} s on {} threads. Named = the kind is found, or the report lists it as one the data cannot tell from a found effect (counted in brackets). Method: docs/validation.md, \"Detection limits\".\n\n",
+        utc_now(),
+        config.variants.join(", "),
+        config.kinds.join(", "),
+        config.injections,
+        config.factor,
+        config.first_seed,
+        config.first_seed + config.injections.saturating_sub(1) as u64,
+        config.clean_seed,
+        clock.elapsed().as_secs_f64(),
+        settings.threads
+    ));
+    document.push_str(&limits::markdown(&rows, config));
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let md = out.join("limits.md");
+    std::fs::write(&md, &document).with_context(|| format!("cannot write {}", md.display()))?;
+    let csv = out.join("limits.csv");
+    std::fs::write(&csv, limits::csv(&rows)).with_context(|| format!("cannot write {}", csv.display()))?;
+    println!("{}", limits::markdown(&rows, config));
+    println!("wrote {} and {}", md.display(), csv.display());
     Ok(())
 }
 
