@@ -111,17 +111,25 @@ pub fn interpolate(t: &[f64], x: &[f64], at: f64) -> f64 {
 /// The signal shifted by `shift` samples (positive: the value from later, x(i + shift)), with
 /// cubic (Catmull-Rom) interpolation between samples and the ends held.
 pub fn shift_samples(x: &[f64], shift: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(x.len());
+    shift_samples_into(x, shift, 0..x.len(), &mut out);
+    out
+}
+
+/// The samples `range` of [`shift_samples`] written into `out` (cleared first), the same
+/// values without the rest of the record or a new allocation: a search over many shifts
+/// reuses one buffer.
+pub fn shift_samples_into(x: &[f64], shift: f64, range: std::ops::Range<usize>, out: &mut Vec<f64>) {
     let n = x.len() as isize;
     let at = |i: isize| x[i.clamp(0, n - 1) as usize];
-    (0..n)
-        .map(|i| {
-            let s = i as f64 + shift;
-            let k = s.floor() as isize;
-            let f = s - k as f64;
-            let (p0, p1, p2, p3) = (at(k - 1), at(k), at(k + 1), at(k + 2));
-            p1 + 0.5 * f * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
-        })
-        .collect()
+    out.clear();
+    out.extend(range.map(|i| {
+        let s = i as f64 + shift;
+        let k = s.floor() as isize;
+        let f = s - k as f64;
+        let (p0, p1, p2, p3) = (at(k - 1), at(k), at(k + 1), at(k + 2));
+        p1 + 0.5 * f * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
+    }));
 }
 
 #[cfg(test)]
