@@ -137,6 +137,17 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_shifted_range_reuses_its_buffer_and_equals_the_whole_shift() {
+        let x: Vec<f64> = (0..200).map(|i| (0.07 * i as f64).sin() + 0.01 * i as f64).collect();
+        let mut out = vec![9.0; 7];
+        for shift in [-3.3, -0.5, 0.0, 0.25, 4.75] {
+            let whole = shift_samples(&x, shift);
+            shift_samples_into(&x, shift, 20..180, &mut out);
+            assert_eq!(out.as_slice(), &whole[20..180], "shift {shift}");
+        }
+    }
+
+    #[test]
     fn savitzky_golay_differentiates_polynomials_exactly() {
         let dt = 0.01;
         let sg = SavitzkyGolay::new(4, 6, dt);
