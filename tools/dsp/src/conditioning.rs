@@ -111,22 +111,41 @@ pub fn interpolate(t: &[f64], x: &[f64], at: f64) -> f64 {
 /// The signal shifted by `shift` samples (positive: the value from later, x(i + shift)), with
 /// cubic (Catmull-Rom) interpolation between samples and the ends held.
 pub fn shift_samples(x: &[f64], shift: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(x.len());
+    shift_samples_into(x, shift, 0..x.len(), &mut out);
+    out
+}
+
+/// The samples `range` of [`shift_samples`] written into `out` (cleared first), the same
+/// values without the rest of the record or a new allocation: a search over many shifts
+/// reuses one buffer.
+pub fn shift_samples_into(x: &[f64], shift: f64, range: std::ops::Range<usize>, out: &mut Vec<f64>) {
     let n = x.len() as isize;
     let at = |i: isize| x[i.clamp(0, n - 1) as usize];
-    (0..n)
-        .map(|i| {
-            let s = i as f64 + shift;
-            let k = s.floor() as isize;
-            let f = s - k as f64;
-            let (p0, p1, p2, p3) = (at(k - 1), at(k), at(k + 1), at(k + 2));
-            p1 + 0.5 * f * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
-        })
-        .collect()
+    out.clear();
+    out.extend(range.map(|i| {
+        let s = i as f64 + shift;
+        let k = s.floor() as isize;
+        let f = s - k as f64;
+        let (p0, p1, p2, p3) = (at(k - 1), at(k), at(k + 1), at(k + 2));
+        p1 + 0.5 * f * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
+    }));
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shifted_range_reuses_its_buffer_and_equals_the_whole_shift() {
+        let x: Vec<f64> = (0..200).map(|i| (0.07 * i as f64).sin() + 0.01 * i as f64).collect();
+        let mut out = vec![9.0; 7];
+        for shift in [-3.3, -0.5, 0.0, 0.25, 4.75] {
+            let whole = shift_samples(&x, shift);
+            shift_samples_into(&x, shift, 20..180, &mut out);
+            assert_eq!(out.as_slice(), &whole[20..180], "shift {shift}");
+        }
+    }
 
     #[test]
     fn savitzky_golay_differentiates_polynomials_exactly() {

@@ -29,6 +29,7 @@
 use super::equation_error::{backlash_sign, ChannelData, EquationData, Structure};
 use super::parameters::{names, ParameterSet};
 use antenna_dsp::weighted_least_squares;
+use rayon::prelude::*;
 
 /// The longest delay the grid search looks at, in seconds: a few times a drive's current-loop
 /// and sampling delays, and beyond what a velocity loop of a few hertz survives.
@@ -464,8 +465,9 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let grid: Vec<f64> = (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
     let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
     let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
+    // The grid's points are independent and run side by side, collected in grid order.
     let chi2: Vec<f64> = grid
-        .iter()
+        .par_iter()
         .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, weights))
         .collect();
     let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
@@ -523,11 +525,22 @@ fn delay_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let base = if delay != 0.0 { data.torque_delayed(delay) } else { data.torque.clone() };
     let adjust_for =
         |d: f64| -> Vec<f64> { data.torque_delayed(delay + d).iter().zip(&base).map(|(s, b)| s - b).collect() };
+    // The grid's points are independent: they run side by side, each summing its rows in the
+    // stacked order (the torque channel's adjustment, zero elsewhere) into a buffer of its own.
+    let torque_channel = data.torque_channel();
+    let base = &base;
     let chi2: Vec<f64> = grid
-        .iter()
-        .map(|&d| {
-            let adjust = stack(channels, &torque_only(adjust_for(d)));
-            target.iter().zip(&adjust).zip(weights).map(|((r, a), w)| w * (r + a).powi(2)).sum()
+        .par_iter()
+        .map_init(Vec::new, |shifted, &d| {
+            data.torque_delayed_into(delay + d, shifted);
+            let adjust = channels.iter().enumerate().flat_map(|(c, channel)| {
+                let values = (c == torque_channel).then_some(&*shifted);
+                channel.mask.iter().enumerate().filter(|(_, used)| **used).map(move |(i, _)| match values {
+                    Some(v) => v[i] - base[i],
+                    None => 0.0,
+                })
+            });
+            target.iter().zip(adjust).zip(weights).map(|((r, a), w)| w * (r + a).powi(2)).sum()
         })
         .collect();
     let best = (0..grid.len()).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
@@ -712,11 +725,10 @@ fn cogging(
                 0.0
             }
         };
-        let (best_motor, gain) = motor_periods
-            .iter()
-            .map(|&(_, p)| (p, explained(p)))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .unwrap_or((period, 0.0));
+        // Each motor period is fitted on its own, side by side; the best is taken in the
+        // periods' order, as one after another would.
+        let gains: Vec<(f64, f64)> = motor_periods.par_iter().map(|&(_, p)| (p, explained(p))).collect();
+        let (best_motor, gain) = gains.into_iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap_or((period, 0.0));
         if total - gain < chi2[best] {
             // A motor's period is exact (a whole number of cycles a revolution).
             period = best_motor;

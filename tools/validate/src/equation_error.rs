@@ -171,8 +171,16 @@ impl EquationData {
     /// Smoothed measured torque delayed by `delay` seconds: the value logged `delay` earlier,
     /// which is the torque acting now when the drive applies it `delay` after logging it.
     pub fn torque_delayed(&self, delay: f64) -> Vec<f64> {
-        let shifted = antenna_dsp::conditioning::shift_samples(&self.torque_inner, -delay / self.dt);
-        shifted[self.half_width..self.half_width + self.len()].to_vec()
+        let mut out = Vec::with_capacity(self.len());
+        self.torque_delayed_into(delay, &mut out);
+        out
+    }
+
+    /// [`Self::torque_delayed`] written into `out`: the same values, shifted only over the
+    /// samples kept, into a buffer a search over delays reuses.
+    pub fn torque_delayed_into(&self, delay: f64, out: &mut Vec<f64>) {
+        let kept = self.half_width..self.half_width + self.len();
+        antenna_dsp::conditioning::shift_samples_into(&self.torque_inner, -delay / self.dt, kept, out);
     }
 }
 

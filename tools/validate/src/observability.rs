@@ -13,6 +13,7 @@ use crate::equation_error::{model_channels, EquationData, Structure};
 use crate::parameters::{names, ParameterSet};
 use crate::selection::{self, Selection, SelectionOptions};
 use antenna_dsp::chi_squared_sf;
+use rayon::prelude::*;
 
 /// An alternative the log cannot tell from a found effect reproduces the effect's contribution
 /// so closely that what it leaves is not significant: the weighted sum of squares of the
@@ -144,11 +145,12 @@ pub fn indistinct(
         }
         let without = selection::without_effect(kind, &selection.corrected, start);
         let others: Vec<Kind> = found.iter().copied().filter(|k| *k != kind).collect();
-        let mut alike: Vec<Indistinct> = options
-            .candidates
-            .iter()
-            .copied()
-            .filter(|c| !found.contains(c) && can_stand_in(*c))
+        // The alternatives are fitted side by side and collected in the candidates' order, so
+        // the stable sort below gives the same list whatever the number of threads.
+        let alternatives: Vec<Kind> =
+            options.candidates.iter().copied().filter(|c| !found.contains(c) && can_stand_in(*c)).collect();
+        let mut alike: Vec<Indistinct> = alternatives
+            .into_par_iter()
             .filter_map(|alternative| {
                 let parameters = selection::fit_candidate(data, &without, &others, alternative, options).ok()?;
                 let left = difference(data, &parameters, &selection.corrected, &weights);

@@ -36,6 +36,7 @@ use super::output_error::{self, Comparison, OutputData, OutputError, PlantSimula
 use super::parameters::{names, ParameterSet};
 use super::refit;
 use super::selection::{self, Selection, SelectionOptions, Step};
+use rayon::prelude::*;
 
 /// The model with the family of `kind` taken out of `params` (its neutral value), or None when
 /// `params` hold nothing of it or it has no neutral value that leaves the model's structure as
@@ -123,11 +124,16 @@ pub fn reestimate(
     }
     let mut current = error.clone();
     while accepted.len() < options.max_effects {
-        let mut scores = Vec::new();
-        for &kind in held.iter().filter(|k| !accepted.contains(k)) {
-            let Some(without) = neutral(kind, &params) else { continue };
-            scores.push(selection::presence(data, &without, &accepted, kind, threshold, options));
-        }
+        // Each family's presence test stands on its own: they run side by side and are
+        // collected in the candidates' order.
+        let pending: Vec<Kind> = held.iter().copied().filter(|k| !accepted.contains(k)).collect();
+        let mut scores: Vec<selection::Score> = pending
+            .into_par_iter()
+            .filter_map(|kind| {
+                let without = neutral(kind, &params)?;
+                Some(selection::presence(data, &without, &accepted, kind, threshold, options))
+            })
+            .collect();
         if scores.is_empty() {
             break;
         }

@@ -732,15 +732,23 @@ fn fit(channels: &[ChannelData], columns: &[Column], adjust: &[Vec<f64>], channe
             }
         }
     }
-    let (mut sigma, mut tau, mut rss, mut used) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (c, channel) in channels.iter().enumerate() {
-        let fitted: Vec<f64> = residual[c].iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(r, _)| *r).collect();
-        let sum: f64 = fitted.iter().map(|r| r * r).sum();
-        sigma.push((sum / fitted.len().max(1) as f64).sqrt());
-        tau.push(if fitted.len() > 10 { correlation_time(&fitted) } else { 1.0 });
-        rss.push(sum);
-        used.push(fitted.len());
-    }
+    // The channels' statistics (the correlation time's transform most of all) are computed
+    // side by side and collected in channel order.
+    let per_channel: Vec<(f64, f64, f64, usize)> = channels
+        .par_iter()
+        .zip(&residual)
+        .map(|(channel, residual)| {
+            let fitted: Vec<f64> = residual.iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(r, _)| *r).collect();
+            let sum: f64 = fitted.iter().map(|r| r * r).sum();
+            let sigma = (sum / fitted.len().max(1) as f64).sqrt();
+            let tau = if fitted.len() > 10 { correlation_time(&fitted) } else { 1.0 };
+            (sigma, tau, sum, fitted.len())
+        })
+        .collect();
+    let sigma = per_channel.iter().map(|s| s.0).collect();
+    let tau = per_channel.iter().map(|s| s.1).collect();
+    let rss = per_channel.iter().map(|s| s.2).collect();
+    let used = per_channel.iter().map(|s| s.3).collect();
     Fit { channels: channels.to_vec(), columns: columns.to_vec(), beta, covariance, residual, sigma, tau, rss, used }
 }
 
@@ -1087,84 +1095,44 @@ fn score_candidates(
     let channel_count = data.channels.len();
     let current = &model.current;
     let (accepted_columns, _) = refine_columns(data, &model.params, &current.channels, &model.accepted, weights);
-    let mut scores = Vec::new();
-    let mut evaluated: Vec<(Instance, Fit)> = Vec::new();
-    for &kind in &options.candidates {
-        if model.accepted.contains(&kind) {
-            continue;
-        }
-        let instance = match candidates::instantiate(
-            kind,
-            data,
-            &model.params,
-            &current.channels,
-            &current.residual,
-            weights,
-            Mode::Search,
-        ) {
-            Ok(instance) => instance,
-            Err(reason) => {
-                scores.push(Score::not_applicable(kind, reason.to_string()));
-                continue;
+    // Each candidate is instantiated, fitted and tested on its own, side by side on the rayon
+    // pool; the results are collected in the candidates' order, so nothing depends on the
+    // number of threads.
+    let pending: Vec<Kind> = options.candidates.iter().copied().filter(|k| !model.accepted.contains(k)).collect();
+    let outcomes: Vec<(Score, Option<(Instance, Fit)>)> = pending
+        .par_iter()
+        .map(|&kind| {
+            match candidates::instantiate(
+                kind,
+                data,
+                &model.params,
+                &current.channels,
+                &current.residual,
+                weights,
+                Mode::Search,
+            ) {
+                Ok(instance) => {
+                    let (score, alternative) =
+                        score_instance(data, model, &accepted_columns, &instance, weights, noise, channel_count);
+                    (score, Some((instance, alternative)))
+                }
+                Err(reason) => (Score::not_applicable(kind, reason.to_string()), None),
             }
-        };
-        evaluated.push((instance, current.clone()));
+        })
+        .collect();
+    // The scores in the order one candidate after another gave them (the not-applicable ones
+    // first), which the stable sort below keeps for equal keys.
+    let (mut scores, mut applicable, mut evaluated) = (Vec::new(), Vec::new(), Vec::new());
+    for (score, fitted) in outcomes {
+        match fitted {
+            None => scores.push(score),
+            Some(fitted) => {
+                applicable.push(score);
+                evaluated.push(fitted);
+            }
+        }
     }
-    for (instance, slot) in evaluated.iter_mut() {
-        let instance = &*instance;
-        let kind = instance.kind;
-        let mut columns = accepted_columns.clone();
-        columns.extend(instance.columns.iter().cloned());
-        let adjust = add_adjust(&[], &instance.adjust, channel_count);
-        let alternative = fit(&current.channels, &columns, &adjust, weights);
-        let own_beta = &alternative.beta[accepted_columns.len()..];
-        let effect = effect_vector(instance, own_beta, &current.channels);
-        let lr = robust_chi2(
-            &current.channels,
-            &accepted_columns,
-            &effect,
-            &alternative.residual,
-            &alternative.residual,
-            weights,
-            &alternative.tau,
-        );
-        let k = instance.parameter_count();
-        let n_eff = alternative.effective_samples().max(2.0);
-        let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
-        let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
-        let mut fitted = model.params.clone();
-        candidates::apply(instance, own_beta, data, &mut fitted);
-        let fitted_change = candidates::size_change(kind, &model.params, &fitted);
-        let effect_to_noise = contribution(instance, own_beta, &current.channels)
-            .iter()
-            .zip(&observable_noise(kind, data, noise))
-            .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
-            .fold(0.0, f64::max);
-        scores.push(Score {
-            kind,
-            not_applicable: None,
-            likelihood_ratio: lr,
-            parameters: k,
-            p_value: chi_squared_sf(lr, k as f64),
-            trials: instance.trials,
-            bic_gain: lr - k as f64 * n_eff.ln(),
-            rank: explained - k as f64 * n_eff.ln() / n_eff,
-            significant: false,
-            explained_fraction: explained,
-            effect_to_noise,
-            searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
-            searched_ranges: instance
-                .searched
-                .iter()
-                .map(|s| (s.name.clone(), s.range.0, s.range.1, s.unit.clone()))
-                .collect(),
-            confirmation: None,
-            fitted_change: Some(fitted_change),
-            unobservable: false,
-            detection_limit: None,
-        });
-        *slot = alternative;
-    }
+    scores.extend(applicable);
     scores.sort_by_key(|s| options.candidates.iter().position(|k| *k == s.kind));
     let total_trials: f64 = scores.iter().map(|s| s.trials).sum::<f64>().max(1.0);
     let threshold = options.alpha / total_trials;
@@ -1176,6 +1144,72 @@ fn score_candidates(
         score.detection_limit = DetectionLimit::of(score, threshold, options.min_effect_to_noise);
     }
     (scores, evaluated, threshold)
+}
+
+/// One instantiated candidate fitted jointly with the accepted effects and tested: its score
+/// (not yet marked significant) and the alternative fit.
+fn score_instance(
+    data: &EquationData,
+    model: &Model,
+    accepted_columns: &[Column],
+    instance: &Instance,
+    weights: &[f64],
+    noise: &[f64],
+    channel_count: usize,
+) -> (Score, Fit) {
+    let current = &model.current;
+    let kind = instance.kind;
+    let mut columns = accepted_columns.to_vec();
+    columns.extend(instance.columns.iter().cloned());
+    let adjust = add_adjust(&[], &instance.adjust, channel_count);
+    let alternative = fit(&current.channels, &columns, &adjust, weights);
+    let own_beta = &alternative.beta[accepted_columns.len()..];
+    let effect = effect_vector(instance, own_beta, &current.channels);
+    let lr = robust_chi2(
+        &current.channels,
+        accepted_columns,
+        &effect,
+        &alternative.residual,
+        &alternative.residual,
+        weights,
+        &alternative.tau,
+    );
+    let k = instance.parameter_count();
+    let n_eff = alternative.effective_samples().max(2.0);
+    let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
+    let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
+    let mut fitted = model.params.clone();
+    candidates::apply(instance, own_beta, data, &mut fitted);
+    let fitted_change = candidates::size_change(kind, &model.params, &fitted);
+    let effect_to_noise = contribution(instance, own_beta, &current.channels)
+        .iter()
+        .zip(&observable_noise(kind, data, noise))
+        .map(|(c, n)| if *n > 0.0 { c / n } else { 0.0 })
+        .fold(0.0, f64::max);
+    let score = Score {
+        kind,
+        not_applicable: None,
+        likelihood_ratio: lr,
+        parameters: k,
+        p_value: chi_squared_sf(lr, k as f64),
+        trials: instance.trials,
+        bic_gain: lr - k as f64 * n_eff.ln(),
+        rank: explained - k as f64 * n_eff.ln() / n_eff,
+        significant: false,
+        explained_fraction: explained,
+        effect_to_noise,
+        searched: instance.searched.iter().map(|s| (s.name.clone(), s.value)).collect(),
+        searched_ranges: instance
+            .searched
+            .iter()
+            .map(|s| (s.name.clone(), s.range.0, s.range.1, s.unit.clone()))
+            .collect(),
+        confirmation: None,
+        fitted_change: Some(fitted_change),
+        unobservable: false,
+        detection_limit: None,
+    };
+    (score, alternative)
 }
 
 /// The judge's choice among the significant candidates, taken best first (equation-error

@@ -13,23 +13,17 @@ pub fn correlation_time(x: &[f64]) -> f64 {
     if max_lag == 0 {
         return 1.0;
     }
-    let mut lag_block = 64usize.min(max_lag);
-    loop {
-        let Ok(rho) = antenna_dsp::autocorrelation(x, lag_block) else { return 1.0 };
-        let mut tau = 1.0;
-        let mut ended = false;
-        for &r in &rho[1..] {
-            if r <= 0.0 {
-                ended = true;
-                break;
-            }
-            tau += 2.0 * r;
+    // One transform gives every lag, and a lag's value does not depend on how many are asked
+    // for: the sum runs over the lags in order until the first that is not positive.
+    let Ok(rho) = antenna_dsp::autocorrelation(x, max_lag) else { return 1.0 };
+    let mut tau = 1.0;
+    for &r in &rho[1..] {
+        if r <= 0.0 {
+            break;
         }
-        if ended || lag_block >= max_lag {
-            return tau.max(1.0);
-        }
-        lag_block = (lag_block * 4).min(max_lag);
+        tau += 2.0 * r;
     }
+    f64::max(tau, 1.0)
 }
 
 #[cfg(test)]
