@@ -9,7 +9,7 @@
 use crate::distributions::ChiSquaredInterval;
 use crate::error::{check_finite, check_sample_rate, DspError};
 use crate::window::Window;
-use rustfft::num_complex::Complex64;
+pub use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -464,6 +464,23 @@ fn pair_spectra(x: &[f64], y: &[f64], sample_rate_hz: f64, config: &WelchConfig)
         sxy[k] *= scale;
     }
     Ok(PairSpectra { sxx, syy, sxy, segments })
+}
+
+/// The one-sided spectra (bins 0 to segment_len / 2) of each detrended, windowed segment of
+/// `x`, unscaled: for estimators that need the segments apart, as a regression per segment
+/// whose scatter over the segments gives its uncertainty without a model of the bins'
+/// correlation.
+pub fn segment_spectra(x: &[f64], config: &WelchConfig) -> Result<Vec<Vec<Complex64>>, DspError> {
+    config.validate(x.len())?;
+    check_finite(x)?;
+    let bins = config.segment_len / 2 + 1;
+    let mut transformer = SegmentTransformer::new(*config);
+    Ok((0..config.segment_count(x.len()))
+        .map(|s| {
+            let start = s * config.step();
+            transformer.transform(&x[start..start + config.segment_len])[..bins].to_vec()
+        })
+        .collect())
 }
 
 /// Welch estimate of the one-sided cross spectral density S_xy = E[conj(X) Y] per Hz of two

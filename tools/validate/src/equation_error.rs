@@ -133,6 +133,12 @@ pub struct EquationData {
     pub slow_twist_hats: Vec<Vec<f64>>,
     /// Index of the first analysed sample in the log.
     pub first_sample: usize,
+    /// The axis-side torque and the positions as logged (uniform log, unsmoothed), for the
+    /// estimates that need the band the smoothing takes away ([`crate::band_delay`]); the
+    /// analysed region starts at `first_sample`.
+    pub raw_torque: Vec<f64>,
+    pub raw_motor_pos: Vec<f64>,
+    pub raw_load_pos: Vec<f64>,
     pub channels: Vec<ChannelData>,
     pub notes: Vec<String>,
 }
@@ -345,6 +351,9 @@ pub fn prepare(
         twist_scale: if structure == Structure::TwoMass { stiffness } else { 1.0 },
         slow_twist_hats,
         first_sample,
+        raw_torque: raw.torque.clone(),
+        raw_motor_pos: raw.motor_pos.clone(),
+        raw_load_pos: raw.load_pos.clone(),
         channels: Vec::new(),
         notes,
     };

@@ -9,6 +9,7 @@
 //! the simulation predict the measured motion significantly better, and the error before and
 //! after is reported on it, in physical units, as a control engineer compares models.
 
+pub mod band_delay;
 pub mod candidates;
 pub mod documents;
 pub mod equation_error;
@@ -192,6 +193,9 @@ pub struct Validation {
     /// tell"), and found effects collinear with each other ([`observability`]).
     pub indistinct: Vec<observability::Indistinct>,
     pub collinear: Vec<observability::Collinear>,
+    /// The band estimate of the delay when the search claimed none ([`band_delay`]): its
+    /// detection limit, or a delay it finds that is not claimed, with the simulation's view.
+    pub delay_band: Option<band_delay::DelayAccount>,
     pub notes: Vec<String>,
 }
 
@@ -487,6 +491,7 @@ struct Searched {
     output: Option<OutputReport>,
     frequency: Option<frequency::FrequencyResponse>,
     hints: Vec<Hint>,
+    delay_band: Option<band_delay::DelayAccount>,
 }
 
 /// One pass of [`validate_with`] on a log as it is.
@@ -514,7 +519,10 @@ fn validate_once(
             Ok(prepared) => search_with_output_error(simulator, &data, start, options, prepared)?,
         },
     };
-    let Searched { selection, output, frequency, hints } = searched;
+    let Searched { selection, output, frequency, hints, delay_band } = searched;
+    if let Some(account) = delay_band.as_ref().filter(|a| a.significant) {
+        notes.push(account.finding());
+    }
     let indistinct = observability::indistinct(&data, start, &selection, &options.selection);
     let collinear = observability::collinear(&data, start, &selection);
     let before = channel_stats(&data, &selection.before, log);
@@ -534,18 +542,16 @@ fn validate_once(
         hints,
         indistinct,
         collinear,
+        delay_band,
         notes,
     })
 }
 
 /// The search on the equation error alone.
 fn equation_only(data: &EquationData, start: &ParameterSet, options: &ValidateOptions) -> Searched {
-    Searched {
-        selection: selection::select(data, start, &options.selection),
-        output: None,
-        frequency: None,
-        hints: Vec::new(),
-    }
+    let selection = selection::select(data, start, &options.selection);
+    let delay_band = delay_account(data, start, &selection, selection.steps.len(), options, None);
+    Searched { selection, output: None, frequency: None, hints: Vec::new(), delay_band }
 }
 
 /// The output-error data, the window plan and the starting model's output error.
@@ -679,6 +685,8 @@ fn search_with_output_error(
         after = before.clone();
     }
     let hints = output_hints(simulator, data, &out, &plan, &selection, search_steps, &after, options);
+    let delay_band =
+        delay_account(data, start, &selection, search_steps, options, Some((simulator, &out, &plan, &after)));
     let frequency = frequency::compare(data, &out, start, &selection.corrected);
     let output = Some(OutputReport {
         config: out.config,
@@ -696,7 +704,7 @@ fn search_with_output_error(
         calibration,
         starting,
     });
-    Ok(Searched { selection, output, frequency, hints })
+    Ok(Searched { selection, output, frequency, hints, delay_band })
 }
 
 /// The re-check of the effects found before a re-estimation: each kept one with the note of
@@ -845,6 +853,60 @@ fn output_hints(
         }
     }
     hints
+}
+
+/// The band estimate of the delay ([`band_delay`]) when delay is a candidate and the search
+/// claimed none, tested at the level of the search's last step. A significant, admissible
+/// delay is put to the simulation when there is one: the corrected model with it, and with
+/// twice its change, against the corrected model (`after`), which gives the verdict and the
+/// simulation's resolution for a delay.
+fn delay_account(
+    data: &EquationData,
+    start: &ParameterSet,
+    selection: &Selection,
+    search_steps: usize,
+    options: &ValidateOptions,
+    simulation: Option<(&mut dyn PlantSimulator, &OutputData, &WindowPlan, &OutputError)>,
+) -> Option<band_delay::DelayAccount> {
+    if !options.selection.candidates.contains(&Kind::Delay) {
+        return None;
+    }
+    if selection.found.iter().any(|f| f.kind == Kind::Delay) {
+        // A claimed delay: the band estimate of the same log from the start's delay, beside it.
+        let mut from_start = selection.corrected.clone();
+        from_start.set(parameters::names::DELAY, start.value(parameters::names::DELAY));
+        let estimate = band_delay::estimate(data, &from_start)?;
+        let claimed = Some(selection.corrected.value(parameters::names::DELAY));
+        return Some(band_delay::DelayAccount {
+            estimate,
+            threshold: f64::NAN,
+            significant: false,
+            simulation: None,
+            claimed,
+        });
+    }
+    let threshold = selection.steps[..search_steps.min(selection.steps.len())]
+        .last()
+        .map_or(options.selection.alpha, |s| s.threshold);
+    let estimate = band_delay::estimate(data, &selection.corrected)?;
+    let significant = estimate.significant(threshold);
+    let mut account = band_delay::DelayAccount { estimate, threshold, significant, simulation: None, claimed: None };
+    let change = account.estimate.change;
+    if let (true, Some((simulator, out, plan, after))) = (significant && account.estimate.delay() >= 0.0, simulation) {
+        let with_change = |c: f64| {
+            let mut p = selection.corrected.clone();
+            p.set(parameters::names::DELAY, account.estimate.start + c);
+            p
+        };
+        let once = output_error::output_error(simulator, &with_change(change), data, out, plan);
+        let twice = output_error::output_error(simulator, &with_change(2.0 * change), data, out, plan);
+        if let (Ok(once), Ok(twice)) = (once, twice) {
+            let comparison = output_error::compare(after, &once, 1, options.output.alpha);
+            let twice_score = output_error::compare(after, &twice, 1, options.output.alpha).score_after;
+            account.simulation = Some(band_delay::SimulationView::new(comparison, twice_score, change));
+        }
+    }
+    Some(account)
 }
 
 /// The results a report states must be numbers: the corrected parameters, the equation

@@ -5,6 +5,7 @@
 //! simulated motion, residuals, before and after), the equation-error residuals and fit, the
 //! residual spectra, and the measured and model frequency responses.
 
+use super::candidates::Kind;
 use super::equation_error::Structure;
 use super::frequency::FrequencyResponse;
 use super::output_error::ChannelKind;
@@ -79,6 +80,7 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     recheck_section(&mut out, v);
     collinear_section(&mut out, v);
     detection_section(&mut out, v);
+    delay_band_section(&mut out, v);
     if let Some(error) = &v.load_encoder_error {
         sensor_section(&mut out, error);
     }
@@ -222,6 +224,39 @@ fn detection_section(out: &mut String, v: &Validation) {
     let _ = writeln!(out);
 }
 
+/// The band estimate of the delay ([`crate::band_delay`]): a delay it finds that the search
+/// did not claim, with the simulation's view, or its detection limit with its band.
+fn delay_band_section(out: &mut String, v: &Validation) {
+    let Some(account) = &v.delay_band else { return };
+    let _ = writeln!(out, "## The delay over the unsmoothed band\n");
+    let searched = v.selection.detection_limits().iter().any(|(kind, _)| *kind == Kind::Delay);
+    if searched {
+        let _ = writeln!(out, "The search's delay test above is {}.\n", delay_search_range(v));
+    }
+    if let Some(claimed) = account.claimed {
+        let _ = writeln!(
+            out,
+            "The search claimed a delay of {:.3} ms; from the start's delay, {} gives {:.3} +- {:.3} ms.\n",
+            claimed * 1e3,
+            account.estimate.method(),
+            account.estimate.delay() * 1e3,
+            account.estimate.sigma * 1e3
+        );
+    } else if account.significant {
+        let _ = writeln!(out, "**A {}.**\n", account.finding());
+    } else {
+        let _ = writeln!(
+            out,
+            "The band estimate finds no delay change ({:+.3} +- {:.3} ms, chi-square {:.1} at the p threshold {:.1e}); its detection limit is {}.\n",
+            account.estimate.change * 1e3,
+            account.estimate.sigma * 1e3,
+            account.estimate.chi2(),
+            account.threshold,
+            account.limit_text()
+        );
+    }
+}
+
 /// The load encoder's error, found and taken out of the data before the search.
 fn sensor_section(out: &mut String, error: &crate::sensor_errors::LoadEncoderError) {
     let _ = writeln!(
@@ -262,12 +297,30 @@ pub fn limit_size_text(limit: &DetectionLimit, linear: bool) -> String {
 /// One line of the detection limits for the summary.
 pub fn detection_summary(v: &Validation) -> Option<String> {
     let limits = v.selection.detection_limits();
-    if limits.is_empty() {
+    let mut parts: Vec<String> = limits
+        .iter()
+        .map(|(kind, limit)| {
+            let range = if *kind == Kind::Delay { format!(" ({})", delay_search_range(v)) } else { String::new() };
+            format!("{} {}{range}", kind.name(), limit_text(limit, v.data.linear))
+        })
+        .collect();
+    if let Some(account) = v.delay_band.as_ref().filter(|a| !a.significant && a.claimed.is_none()) {
+        parts.push(format!("delay {}", account.limit_text()));
+    }
+    if parts.is_empty() {
         return None;
     }
-    let parts: Vec<String> =
-        limits.iter().map(|(kind, limit)| format!("{} {}", kind.name(), limit_text(limit, v.data.linear))).collect();
     Some(format!("detection limits (the smallest change the search would claim): {}", parts.join(", ")))
+}
+
+/// The range and band of the search's delay test, for its detection limit: the grid of tenths
+/// of a sample on the smoothed torque balance.
+pub fn delay_search_range(v: &Validation) -> String {
+    format!(
+        "searched from 0 to {:.0} ms in tenths of a sample on the torque balance smoothed to {:.1} Hz",
+        crate::candidates::DELAY_SEARCH_SECONDS * 1e3,
+        v.data.cutoff_hz
+    )
 }
 
 /// The backward check of the effects found before a re-estimation, run again with the

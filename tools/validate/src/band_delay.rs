@@ -1,0 +1,411 @@
+//! The delay of the applied torque estimated over the band the equation error's smoothing
+//! takes away.
+//!
+//! The search tries delays on the smoothed torque balance, whose cut-off (about 10 Hz on the
+//! suite's drives) keeps the encoder noise of the accelerations below the torque noise. A delay
+//! d turns the measured torque's spectrum by a phase 2 pi f d, so below the cut-off a delay of a
+//! fraction of a millisecond moves the balance by less than the torque noise, however clean the
+//! current is. Above the cut-off the rest of the model (inertia, shaft) is known to the same
+//! accuracy, and the acceleration's noise grows as f^2 from the encoders' quantisation: the
+//! weight of a frequency bin falls off by itself where that noise takes over. This module fits
+//! the torque-rate column in the frequency domain: per segment of the log, the residual
+//! spectrum R (the measured torque less the model, with the fast terms taken from the
+//! unsmoothed encoders) against X = i 2 pi f T (what a larger delay changes), each bin weighted
+//! by the inverse of its own noise power, estimated from the residual left over all segments.
+//! Only the part of R in quadrature with the torque counts, so an inertia or stiffness error,
+//! which is in phase with it, does not read as a delay. The uncertainty is the scatter of the
+//! estimate over the independent segments, so it needs no model of how the bins correlate.
+
+use crate::equation_error::{model_channels, EquationData, Structure, RIGID_CUTOFF_FRACTION_OF_ANTI_RESONANCE};
+use crate::parameters::{names, ParameterSet};
+use antenna_dsp::spectral::{segment_spectra, WelchConfig};
+use antenna_dsp::window::Window;
+use std::f64::consts::PI;
+
+/// Length of the segments (s): bins 4 Hz apart, so that a 10 s log has 40 independent
+/// segments for the scatter and the band starts well below the smoothed equation's cut-off.
+pub const SEGMENT_SECONDS: f64 = 0.25;
+
+/// Neighbouring bins on each side averaged into a bin's noise power.
+const NOISE_BINS: usize = 4;
+
+/// Fewer independent segments than this leave the scatter too uncertain for a test.
+const MIN_SEGMENTS: usize = 8;
+
+/// Gauss-Newton passes on the delay at most.
+const MAX_ITERATIONS: usize = 6;
+
+/// The delay estimated over the unsmoothed band.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BandDelay {
+    /// The parameter set's delay the estimate starts from (s).
+    pub start: f64,
+    /// The estimated change of the delay (s) and its standard error (s).
+    pub change: f64,
+    pub sigma: f64,
+    /// The band that carries the estimate: from the frequency below which 5 % of its weight
+    /// lies to the one below which 95 % lies (Hz).
+    pub band_hz: (f64, f64),
+    /// The highest frequency used (Hz): the Nyquist frequency, or a third of the
+    /// anti-resonance on a compliant drive with one encoder.
+    pub top_hz: f64,
+    pub segments: usize,
+    pub dt: f64,
+}
+
+impl BandDelay {
+    /// The estimated delay (s).
+    pub fn delay(&self) -> f64 {
+        self.start + self.change
+    }
+
+    /// The chi-square (1 degree of freedom) of the change against no change.
+    pub fn chi2(&self) -> f64 {
+        if self.sigma > 0.0 {
+            (self.change / self.sigma).powi(2)
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether the change is a significant increase at the one-sided p `threshold`: a delay
+    /// shorter than the set's start (at the suite's neutral start, a negative one) is not a
+    /// drive's, and the clean logs' model-form floor lies on that side (down to -0.09 ms at
+    /// 2 kHz with a noiseless current).
+    pub fn significant(&self, threshold: f64) -> bool {
+        self.change > 0.0 && 0.5 * antenna_dsp::chi_squared_sf(self.chi2(), 1.0) < threshold
+    }
+
+    /// The smallest change the test finds significant at the one-sided p `threshold` (s).
+    pub fn limit(&self, threshold: f64) -> f64 {
+        self.sigma * antenna_dsp::distributions::chi_squared_quantile(1.0 - 2.0 * threshold, 1.0).sqrt()
+    }
+
+    /// The method and its range in words, for a limit or a finding.
+    pub fn method(&self) -> String {
+        format!(
+            "the band estimate (unsmoothed torque balance, {} segments of {:.2} s, weight in {:.0}-{:.0} Hz, bins up to {:.0} Hz)",
+            self.segments,
+            SEGMENT_SECONDS,
+            self.band_hz.0,
+            self.band_hz.1,
+            self.top_hz
+        )
+    }
+}
+
+/// The delay of the applied torque from the parameter set's, over the unsmoothed band of the
+/// torque balance (the motor equation with two encoders, the total one otherwise). `None`
+/// when the log is too short for enough segments or nothing in it carries a delay.
+pub fn estimate(data: &EquationData, params: &ParameterSet) -> Option<BandDelay> {
+    let dt = data.dt;
+    let n = data.len();
+    let first = data.first_sample;
+    if data.raw_torque.len() < first + n + 1 || first == 0 {
+        return None;
+    }
+    let segment_len = (SEGMENT_SECONDS / dt).round() as usize;
+    let config = WelchConfig::new(segment_len).with_overlap(0.0).with_window(Window::Hann);
+    let segments = config.segment_count(n);
+    if segment_len < 16 || segments < MIN_SEGMENTS {
+        return None;
+    }
+    let (measured, model) = balance(data, params);
+    let t_spectra = segment_spectra(&measured, &config).ok()?;
+    let m_spectra = segment_spectra(&model, &config).ok()?;
+    let bins = segment_len / 2 + 1;
+    let top_hz = top_frequency(data, params);
+    let frequency: Vec<f64> = (0..bins).map(|k| k as f64 / (segment_len as f64 * dt)).collect();
+    // The lowest bins, where the window's own derivative and the slow model errors are, and
+    // any above the top, are left out.
+    let used: Vec<usize> = (2..bins).filter(|&k| frequency[k] <= top_hz && k < bins - 1).collect();
+    if used.is_empty() {
+        return None;
+    }
+    // The torque's own noise is in the torque rate too, where it adds power that no delay
+    // explains and would pull the estimate towards zero (errors in the variable): its expected
+    // power per bin, (2 pi f)^2 times the white noise's power through the window, comes off.
+    let window_power: f64 = Window::Hann.coefficients(segment_len).iter().map(|w| w * w).sum();
+    let scale = params.value(names::TORQUE_CONSTANT_SCALE);
+    let rate_noise: Vec<f64> =
+        frequency.iter().map(|f| (2.0 * PI * f * scale * data.torque_sigma).powi(2) * window_power).collect();
+    // Gauss-Newton on the delay with the torque delayed exactly in the frequency domain
+    // (T e^{-i w d}): at a few hundred hertz a delay of a sample turns the torque by tens of
+    // degrees, where the first-order column alone would underestimate it by a quarter. Each
+    // pass takes the bins' noise from the residual the current delay leaves, so a large delay
+    // does not count as its own noise.
+    let start = params.value(names::DELAY);
+    let mut delay = start;
+    let mut result = None;
+    for _ in 0..MAX_ITERATIONS {
+        let (x, r) = delayed_spectra(&t_spectra, &m_spectra, &frequency, delay);
+        let noise = noise_power(&x, &r, 0.0, &used, bins);
+        let fit = weighted_fit(&x, &r, &noise, &rate_noise, &used)?;
+        delay += fit.0;
+        let step = fit.0.abs();
+        result = Some(fit);
+        if step < 1e-3 * dt {
+            break;
+        }
+    }
+    let (_, sigma, information) = result?;
+    let change = delay - start;
+    let band_hz = weight_band(&information, &used, &frequency);
+    Some(BandDelay {
+        start: params.value(names::DELAY),
+        change,
+        sigma,
+        band_hz,
+        top_hz: top_hz.min(frequency[bins - 1]),
+        segments,
+        dt,
+    })
+}
+
+/// Per segment and bin, the torque rate of the torque delayed by `delay`, i w T e^{-i w d}
+/// (the column of a change of the delay), and the balance's residual T e^{-i w d} - M.
+#[allow(clippy::type_complexity)]
+fn delayed_spectra(
+    torque: &[Vec<antenna_dsp::spectral::Complex64>],
+    model: &[Vec<antenna_dsp::spectral::Complex64>],
+    frequency: &[f64],
+    delay: f64,
+) -> (Vec<Vec<(f64, f64)>>, Vec<Vec<(f64, f64)>>) {
+    let mut x = Vec::with_capacity(torque.len());
+    let mut r = Vec::with_capacity(torque.len());
+    for (t, m) in torque.iter().zip(model) {
+        let mut xs = Vec::with_capacity(t.len());
+        let mut rs = Vec::with_capacity(t.len());
+        for (k, (tk, mk)) in t.iter().zip(m).enumerate() {
+            let w = 2.0 * PI * frequency[k];
+            let (c, s) = ((w * delay).cos(), (w * delay).sin());
+            // T e^{-i w d} = (re + i im)(c - i s).
+            let (re, im) = (tk.re * c + tk.im * s, tk.im * c - tk.re * s);
+            xs.push((-w * im, w * re));
+            rs.push((re - mk.re, im - mk.im));
+        }
+        x.push(xs);
+        r.push(rs);
+    }
+    (x, r)
+}
+
+/// The measured torque as logged (times the torque-constant scale) and the model's torque on
+/// the analysed samples, with the fast terms (inertia, and the shaft with two encoders) from
+/// the unsmoothed encoders and the slow ones (friction, offset, unbalance, cogging) as the
+/// smoothed equation has them.
+fn balance(data: &EquationData, params: &ParameterSet) -> (Vec<f64>, Vec<f64>) {
+    let (dt, n, first) = (data.dt, data.len(), data.first_sample);
+    let gear = data.gear_ratio;
+    let motor_inertia = params.value(names::MOTOR_INERTIA) * gear * gear;
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    let stiffness = params.value(names::STIFFNESS);
+    let damping = params.value(names::DAMPING);
+    let scale = params.value(names::TORQUE_CONSTANT_SCALE);
+    let torque = &data.raw_torque;
+    let second = |x: &[f64], i: usize| (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (dt * dt);
+    let first_difference = |x: &[f64], i: usize| (x[i + 1] - x[i - 1]) / (2.0 * dt);
+    let (qm, ql) = (&data.raw_motor_pos, &data.raw_load_pos);
+    let fast_raw = |i: usize| match data.structure {
+        Structure::TwoMass => {
+            let twist = qm[i] - ql[i];
+            let rate = first_difference(qm, i) - first_difference(ql, i);
+            motor_inertia * second(qm, i) + stiffness * twist + damping * rate
+        }
+        Structure::TotalTwoEncoders | Structure::Rigid => motor_inertia * second(qm, i) + load_inertia * second(ql, i),
+    };
+    let fast_smoothed = |i: usize| match data.structure {
+        Structure::TwoMass => {
+            motor_inertia * data.motor_acc[i] + stiffness * data.twist[i] + damping * data.twist_rate[i]
+        }
+        Structure::TotalTwoEncoders | Structure::Rigid => {
+            motor_inertia * data.motor_acc[i] + load_inertia * data.load_acc[i]
+        }
+    };
+    let channel = &model_channels(data, params)[data.torque_channel()];
+    let measured = (0..n).map(|i| scale * torque[first + i]).collect();
+    let model = (0..n).map(|i| channel.predicted[i] * scale - fast_smoothed(i) + fast_raw(first + i)).collect();
+    (measured, model)
+}
+
+/// The highest frequency the balance holds at: with one encoder on a compliant drive the
+/// rigid-body balance stops at a third of the anti-resonance (as its smoothing does), else
+/// the Nyquist frequency.
+fn top_frequency(data: &EquationData, params: &ParameterSet) -> f64 {
+    let nyquist = 0.5 / data.dt;
+    let stiffness = params.value(names::STIFFNESS);
+    let load_inertia = params.value(names::LOAD_INERTIA);
+    if data.structure == Structure::Rigid && stiffness > 0.0 && load_inertia > 0.0 {
+        let anti_resonance = (stiffness / load_inertia).sqrt() / (2.0 * PI);
+        (anti_resonance / RIGID_CUTOFF_FRACTION_OF_ANTI_RESONANCE).min(nyquist)
+    } else {
+        nyquist
+    }
+}
+
+/// The residual's noise power per bin after the change `change`: the mean over the segments
+/// of |R - change X|^2, averaged over NOISE_BINS neighbours each side among the used bins.
+fn noise_power(x: &[Vec<(f64, f64)>], r: &[Vec<(f64, f64)>], change: f64, used: &[usize], bins: usize) -> Vec<f64> {
+    let mut raw = vec![0.0; bins];
+    for (xs, rs) in x.iter().zip(r) {
+        for &k in used {
+            let (re, im) = (rs[k].0 - change * xs[k].0, rs[k].1 - change * xs[k].1);
+            raw[k] += (re * re + im * im) / x.len() as f64;
+        }
+    }
+    let mut noise = vec![0.0; bins];
+    for (position, &k) in used.iter().enumerate() {
+        let low = position.saturating_sub(NOISE_BINS);
+        let high = (position + NOISE_BINS + 1).min(used.len());
+        noise[k] = used[low..high].iter().map(|&j| raw[j]).sum::<f64>() / (high - low) as f64;
+    }
+    noise
+}
+
+/// The weighted least-squares change of the delay over all segments and used bins, and its
+/// standard error from the scatter of the segments (a sandwich over independent segments).
+/// Returns the change, its standard error and the information (sum of |X|^2 / noise over the
+/// segments, less the torque noise's share `rate_noise`) of each bin.
+fn weighted_fit(
+    x: &[Vec<(f64, f64)>],
+    r: &[Vec<(f64, f64)>],
+    noise: &[f64],
+    rate_noise: &[f64],
+    used: &[usize],
+) -> Option<(f64, f64, Vec<f64>)> {
+    let mut information = vec![0.0; noise.len()];
+    let mut per_segment = Vec::with_capacity(x.len());
+    for (xs, rs) in x.iter().zip(r) {
+        let (mut numerator, mut denominator) = (0.0, 0.0);
+        for &k in used {
+            if noise[k] <= 0.0 {
+                continue;
+            }
+            let weight = 1.0 / noise[k];
+            let power = xs[k].0 * xs[k].0 + xs[k].1 * xs[k].1 - rate_noise[k];
+            numerator += weight * (xs[k].0 * rs[k].0 + xs[k].1 * rs[k].1);
+            denominator += weight * power;
+            information[k] += weight * power;
+        }
+        per_segment.push((numerator, denominator));
+    }
+    let total: f64 = per_segment.iter().map(|s| s.1).sum();
+    if total.is_nan() || total <= 0.0 {
+        return None;
+    }
+    let change = per_segment.iter().map(|s| s.0).sum::<f64>() / total;
+    let count = per_segment.len() as f64;
+    let spread: f64 = per_segment.iter().map(|(a, b)| (a - change * b).powi(2)).sum();
+    let sigma = (spread * count / (count - 1.0)).sqrt() / total;
+    (change.is_finite() && sigma.is_finite()).then_some((change, sigma, information))
+}
+
+/// The band holding the middle 90 % of the estimate's information.
+fn weight_band(information: &[f64], used: &[usize], frequency: &[f64]) -> (f64, f64) {
+    let total: f64 = used.iter().map(|&k| information[k].max(0.0)).sum();
+    let mut cumulative = 0.0;
+    let (mut low, mut high) = (frequency[used[0]], frequency[used[used.len() - 1]]);
+    let mut low_set = false;
+    for &k in used {
+        cumulative += information[k].max(0.0);
+        if !low_set && cumulative >= 0.05 * total {
+            low = frequency[k];
+            low_set = true;
+        }
+        if cumulative >= 0.95 * total {
+            high = frequency[k];
+            break;
+        }
+    }
+    (low, high)
+}
+
+/// The band estimate of a delay the search did not claim, with the test at the search's level
+/// and, when the log was simulated, what the simulation makes of it.
+#[derive(Debug, Clone)]
+pub struct DelayAccount {
+    pub estimate: BandDelay,
+    /// The p threshold of the search's last step, which the band estimate is tested at.
+    pub threshold: f64,
+    pub significant: bool,
+    pub simulation: Option<SimulationView>,
+    /// The delay the search claimed (s), when it claimed one: the estimate is then the band's
+    /// view of the same log from the start's delay, for comparison.
+    pub claimed: Option<f64>,
+}
+
+/// The simulation's view of a delay the band estimate found: the corrected model with it
+/// against the corrected model, and the smallest delay change the simulation would confirm
+/// (s), from the curvature of its score over two simulated delays, when that is measurable.
+#[derive(Debug, Clone)]
+pub struct SimulationView {
+    pub comparison: crate::output_error::Comparison,
+    pub resolution: Option<f64>,
+}
+
+impl SimulationView {
+    /// The view from the scores of the model with the change `change` and with twice it
+    /// (each against the corrected model, whose score is 1), over `windows` windows: the score
+    /// is quadratic in the change, 1 - 2 b c + a c^2, and a change c is confirmed when a c^2
+    /// (what it alone does to the simulated motion) reaches the BIC's share for one parameter,
+    /// ln(n_w) / n_w.
+    pub fn new(comparison: crate::output_error::Comparison, twice_score: f64, change: f64) -> Self {
+        let windows = comparison.windows.max(2) as f64;
+        let (once, twice) = (comparison.score_after - 1.0, twice_score - 1.0);
+        let curvature = (twice - 2.0 * once) / (2.0 * change * change);
+        let resolution =
+            (curvature > 0.0 && curvature.is_finite()).then(|| (windows.ln() / (windows * curvature)).sqrt());
+        SimulationView { comparison, resolution }
+    }
+}
+
+impl DelayAccount {
+    /// One paragraph for the summary and the report: what the band estimate found, and why it
+    /// is not claimed.
+    pub fn finding(&self) -> String {
+        let e = &self.estimate;
+        let ms = |s: f64| s * 1e3;
+        let mut text = format!(
+            "delay found by the equation error's band estimate, not claimed: {:.3} +- {:.3} ms ({:.2} +- {:.2} samples; a change of {:+.3} ms from the set's {:.3} ms, chi-square {:.1} at the search's p threshold {:.1e}; {})",
+            ms(e.delay()),
+            ms(e.sigma),
+            e.delay() / e.dt,
+            e.sigma / e.dt,
+            ms(e.change),
+            ms(e.start),
+            e.chi2(),
+            self.threshold,
+            e.method()
+        );
+        match &self.simulation {
+            None => text.push_str("; the log was not simulated, so no simulation confirms it"),
+            Some(view) => {
+                let verdict = if view.comparison.confirmed {
+                    "predicts the motion significantly better, but the search, which claims effects, tests delays on the smoothed balance and did not find it"
+                } else {
+                    "does not predict the motion significantly better"
+                };
+                text.push_str(&format!("; the corrected model with it {verdict} ({})", view.comparison.reason));
+                match view.resolution {
+                    Some(r) => text.push_str(&format!(
+                        "; the simulation's resolution for a delay change here is about {:.3} ms ({:.2} samples)",
+                        ms(r),
+                        r / e.dt
+                    )),
+                    None => text.push_str("; the simulation does not resolve a delay change of this size (its score does not grow with it)"),
+                }
+            }
+        }
+        text
+    }
+
+    /// The detection limit of the band estimate in words, with its band.
+    pub fn limit_text(&self) -> String {
+        format!(
+            "{:.3} ms ({:.2} samples) by {}",
+            self.estimate.limit(self.threshold) * 1e3,
+            self.estimate.limit(self.threshold) / self.estimate.dt,
+            self.estimate.method()
+        )
+    }
+}
