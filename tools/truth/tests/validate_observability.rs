@@ -173,6 +173,11 @@ fn the_corrected_set_keeps_the_simpler_law_where_the_data_cannot_tell_two_apart(
     let kept = validation.kept_parameters();
     assert!(kept.cannot_tell.is_empty(), "{:?}", kept.cannot_tell);
     assert_eq!(kept.parameters, validation.selection.corrected);
+    // The other reading goes with the corrected set: the offset kept, the unbalance's fit listed.
+    assert_eq!(kept.also_fits.len(), 1, "{:?}", kept.also_fits);
+    assert!(kept.also_fits[0].starts_with("offset or unbalance: the data cannot tell"), "{}", kept.also_fits[0]);
+    assert!(kept.also_fits[0].contains("offset (1 parameter) is kept"), "{}", kept.also_fits[0]);
+    assert!(kept.also_fits[0].contains(names::UNBALANCE_TORQUE), "{}", kept.also_fits[0]);
 
     // Had the search named the unbalance (its fitted set, the offset as the alternative that
     // reproduces it), the corrected set would keep the offset and list the unbalance.

@@ -235,6 +235,10 @@ pub struct KeptParameters {
     /// One line per found effect replaced by a simpler law that reproduces it over the log:
     /// "X or Y: the data cannot tell; Y (n parameters) is kept, X's fit was: ...".
     pub cannot_tell: Vec<String>,
+    /// One line per law with as many parameters or more that reproduces a found effect over the
+    /// log, the found one (the simpler) kept: "X or Y: the data cannot tell; X (n parameters)
+    /// is kept, Y's fit was: ...", so that a user of the corrected set sees the other reading.
+    pub also_fits: Vec<String>,
 }
 
 impl Validation {
@@ -245,42 +249,48 @@ impl Validation {
     /// set.
     pub fn kept_parameters(&self) -> KeptParameters {
         let structure = self.data.structure;
-        let mut parameters = self.selection.corrected.clone();
-        let mut cannot_tell = Vec::new();
+        let corrected = &self.selection.corrected;
+        let mut parameters = corrected.clone();
+        let (mut cannot_tell, mut also_fits) = (Vec::new(), Vec::new());
         for found in &self.selection.found {
-            let simplest = self
-                .indistinct
-                .iter()
-                .filter(|a| a.found == found.kind)
-                .filter(|a| parameter_count(a.alternative, structure) < parameter_count(found.kind, structure))
+            let found_count = parameter_count(found.kind, structure);
+            let alternatives = self.indistinct.iter().filter(|a| a.found == found.kind);
+            let simplest = alternatives
+                .clone()
+                .filter(|a| parameter_count(a.alternative, structure) < found_count)
                 .min_by_key(|a| parameter_count(a.alternative, structure));
-            let Some(alternative) = simplest else { continue };
+            let Some(alternative) = simplest else {
+                // The found effect is the simplest law that reproduces itself: it stays, and
+                // every other reading is listed with its fit.
+                for other in alternatives {
+                    also_fits.push(cannot_tell_line(
+                        found.kind,
+                        other,
+                        found.kind,
+                        found_count,
+                        &other.changes(corrected, &self.start),
+                    ));
+                }
+                continue;
+            };
             // The alternative's set is the corrected one with the alternative in place of the
             // found effect: what it changes is carried over (replacements of different found
             // effects touch different parameters, so they compose).
-            let corrected = &self.selection.corrected;
             for name in alternative.parameters.names() {
                 if alternative.parameters.get(name) != corrected.get(name) {
                     parameters.set(name, alternative.parameters.value(name));
                 }
             }
             let without = selection::without_effect(found.kind, corrected, &self.start);
-            cannot_tell.push(format!(
-                "{} or {}: the data cannot tell (what {} leaves of {} is {:.1} % RMS, chi-square {:.1}); {} ({} parameter{}) is kept, {}'s fit was {}",
-                found.kind.name(),
-                alternative.alternative.name(),
-                alternative.alternative.name(),
-                found.kind.name(),
-                100.0 * alternative.misfit,
-                alternative.chi2,
-                alternative.alternative.name(),
+            cannot_tell.push(cannot_tell_line(
+                found.kind,
+                alternative,
+                alternative.alternative,
                 parameter_count(alternative.alternative, structure),
-                if parameter_count(alternative.alternative, structure) == 1 { "" } else { "s" },
-                found.kind.name(),
-                observability::changes(corrected, &without),
+                &observability::changes(corrected, &without),
             ));
         }
-        KeptParameters { parameters, cannot_tell }
+        KeptParameters { parameters, cannot_tell, also_fits }
     }
 
     /// Index of the equation-error channel where the fit reduced the error most (relative):
@@ -292,6 +302,32 @@ impl Validation {
             })
             .unwrap_or(0)
     }
+}
+
+/// "X or Y: the data cannot tell (what Y leaves of X ...); K (n parameters) is kept, D's fit
+/// was ...", with X the found effect, Y its alternative, K the law kept and D the one dropped.
+fn cannot_tell_line(
+    found: Kind,
+    alternative: &observability::Indistinct,
+    kept: Kind,
+    kept_count: usize,
+    dropped_fit: &str,
+) -> String {
+    let dropped = if kept == found { alternative.alternative } else { found };
+    format!(
+        "{} or {}: the data cannot tell (what {} leaves of {} is {:.1} % RMS, chi-square {:.1}); {} ({} parameter{}) is kept, {}'s fit was {}",
+        found.name(),
+        alternative.alternative.name(),
+        alternative.alternative.name(),
+        found.name(),
+        100.0 * alternative.misfit,
+        alternative.chi2,
+        kept.name(),
+        kept_count,
+        if kept_count == 1 { "" } else { "s" },
+        dropped.name(),
+        dropped_fit,
+    )
 }
 
 /// The output error as the judge of the search: an effect is claimed only if the plant FMU

@@ -695,7 +695,7 @@ fn write_outputs(
         .with_context(|| format!("cannot write {}", report_path.display()))?;
     let kept = validation.kept_parameters();
     let mut header = format!("Corrected by validate from {} on {}.", params_path.display(), log_path.display());
-    for line in &kept.cannot_tell {
+    for line in kept.cannot_tell.iter().chain(&kept.also_fits) {
         header.push('\n');
         header.push_str(line);
     }
@@ -797,7 +797,8 @@ fn print_summary(v: &Validation) {
             );
         }
     }
-    for line in v.kept_parameters().cannot_tell {
+    let kept = v.kept_parameters();
+    for line in kept.cannot_tell.iter().chain(&kept.also_fits) {
         println!("corrected set: {line}");
     }
     for (b, a) in v.before.iter().zip(&v.after) {
