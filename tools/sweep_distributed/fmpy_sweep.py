@@ -94,6 +94,15 @@ def fmu_directory():
     return os.environ.get("MEERKAT_FMU_DIR", str(ROOT / "target" / "fmu"))
 
 
+def antenna_command():
+    """The Rust master, before its arguments: the binary ANTENNA_BIN names (the test command
+    sets it to the one it built, so that no run waits for cargo's lock), else `cargo run`."""
+    binary = os.environ.get("ANTENNA_BIN")
+    if binary:
+        return [binary]
+    return ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--"]
+
+
 def commands_text(seconds):
     """The sidereal tracking table of every sample, one row every 0.1 s past the run's end."""
     rows = int(round((seconds + 1.0) / 0.1))
@@ -113,9 +122,8 @@ def export_sample(values, seconds, folder):
     commands.write_text(commands_text(seconds))
     settings = [arg for name, value in values.items() for arg in ("--set", f"{name}={value!r}")]
     subprocess.run(
-        ["cargo", "run", "--release", "--quiet", "-p", "antenna-cli", "--bin", "antenna", "--", "--no-build",
-         "--commands", str(commands), "--wind", "normal", "--seed", str(SEED), "--export-only",
-         "--trace", str(folder)] + settings,
+        antenna_command() + ["--no-build", "--commands", str(commands), "--wind", "normal", "--seed", str(SEED),
+                             "--export-only", "--trace", str(folder)] + settings,
         cwd=ROOT, check=True, capture_output=True, text=True,
     )
     modes = folder / "structure_modes.params"
