@@ -176,6 +176,42 @@ pub fn chi_squared_quantile(p: f64, dof: f64) -> f64 {
     2.0 * inverse_regularized_gamma_p(0.5 * dof, p)
 }
 
+/// The survival function of the non-central chi-square with `dof` degrees of freedom and
+/// non-centrality `lambda` at `x`: the Poisson mixture of central chi-squares of `dof + 2 j`
+/// degrees of freedom, summed over the weights that matter.
+pub fn noncentral_chi_squared_sf(x: f64, dof: f64, lambda: f64) -> f64 {
+    let half = 0.5 * lambda;
+    let last = (half + 12.0 * (half + 1.0).sqrt() + 30.0).ceil() as usize;
+    let mut log_weight = -half;
+    let mut sum = 0.0;
+    for j in 0..=last {
+        if j > 0 {
+            log_weight += half.ln() - (j as f64).ln();
+        }
+        sum += log_weight.exp() * chi_squared_sf(x, dof + 2.0 * j as f64);
+    }
+    sum.min(1.0)
+}
+
+/// The non-centrality at which a non-central chi-square of `dof` degrees of freedom exceeds
+/// `needed` with probability `power`, by bisection (the probability grows with it).
+pub fn chi_squared_noncentrality_for_power(needed: f64, dof: f64, power: f64) -> f64 {
+    let mut high = needed.max(1.0);
+    while noncentral_chi_squared_sf(needed, dof, high) < power && high < 1e6 {
+        high *= 2.0;
+    }
+    let mut low = 0.0;
+    for _ in 0..60 {
+        let mid = 0.5 * (low + high);
+        if noncentral_chi_squared_sf(needed, dof, mid) < power {
+            low = mid;
+        } else {
+            high = mid;
+        }
+    }
+    0.5 * (low + high)
+}
+
 /// Standard normal quantile z with Phi(z) = `p`, for `0 < p < 1`; minus or plus infinity at 0
 /// and 1, NaN outside.
 pub fn standard_normal_quantile(p: f64) -> f64 {
@@ -241,6 +277,20 @@ impl ChiSquaredInterval {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_noncentral_chi_square_reduces_to_the_central_one_and_matches_two_normal_tails() {
+        // No non-centrality: the central survival function.
+        assert!((noncentral_chi_squared_sf(5.0, 2.0, 0.0) - chi_squared_sf(5.0, 2.0)).abs() < 1e-12);
+        // One degree of freedom: (Z + 2.5)^2 exceeds 4 where Z > -0.5 or Z < -4.5; the normal
+        // upper tail Q(t) = P(Z > t) is half the central chi-square's at t^2.
+        let upper = |t: f64| 0.5 * chi_squared_sf(t * t, 1.0);
+        let expected = 1.0 - upper(0.5) + upper(4.5);
+        assert!((noncentral_chi_squared_sf(4.0, 1.0, 2.5 * 2.5) - expected).abs() < 1e-9);
+        // Two degrees of freedom at the non-centrality for a power of 0.9: that power.
+        let lambda = chi_squared_noncentrality_for_power(30.0, 2.0, 0.9);
+        assert!((noncentral_chi_squared_sf(30.0, 2.0, lambda) - 0.9).abs() < 1e-9);
+    }
 
     fn assert_close(actual: f64, expected: f64, tolerance: f64, what: &str) {
         assert!(

@@ -145,50 +145,14 @@ pub enum LimitSetBy {
 /// statistic just reaches the threshold (found in half of them).
 pub const DETECTION_POWER: f64 = 0.9;
 
-/// The survival function of the non-central chi-square with `dof` degrees of freedom and
-/// non-centrality `lambda` at `x`: the Poisson mixture of central chi-squares of `dof + 2 j`
-/// degrees of freedom, summed over the weights that matter.
-fn noncentral_chi_squared_sf(x: f64, dof: f64, lambda: f64) -> f64 {
-    let half = 0.5 * lambda;
-    let last = (half + 12.0 * (half + 1.0).sqrt() + 30.0).ceil() as usize;
-    let mut log_weight = -half;
-    let mut sum = 0.0;
-    for j in 0..=last {
-        if j > 0 {
-            log_weight += half.ln() - (j as f64).ln();
-        }
-        sum += log_weight.exp() * chi_squared_sf(x, dof + 2.0 * j as f64);
-    }
-    sum.min(1.0)
-}
-
-/// The non-centrality at which a non-central chi-square of `dof` degrees of freedom exceeds
-/// `needed` with probability `power`, by bisection (the probability grows with it).
-fn noncentrality_for_power(needed: f64, dof: f64, power: f64) -> f64 {
-    let mut high = needed.max(1.0);
-    while noncentral_chi_squared_sf(needed, dof, high) < power && high < 1e6 {
-        high *= 2.0;
-    }
-    let mut low = 0.0;
-    for _ in 0..60 {
-        let mid = 0.5 * (low + high);
-        if noncentral_chi_squared_sf(needed, dof, mid) < power {
-            low = mid;
-        } else {
-            high = mid;
-        }
-    }
-    0.5 * (low + high)
-}
-
 /// The smallest effect of a candidate's kind that a search step would find significant in
 /// nine logs of ten ([`DETECTION_POWER`]) and at least the noise, to first order from the
 /// candidate's own fit: what the effect adds to the equations scales with its size and the
 /// test statistic's non-centrality with its square, so the fitted change over the square root
 /// of its chi-square is its standard error, whatever the fit found (noise included). The step's
 /// threshold already holds the trials of every candidate it searched (its level is the
-/// family-wise one divided by them). A claim also needs the output error's confirmation, so this is a lower
-/// bound of what the log can establish: an effect of the kind below it is likely to go unseen
+/// family-wise one divided by them). A claim also needs the output error's confirmation, so
+/// this is a lower bound of what the log can establish: an effect of the kind below it is likely to go unseen
 /// in this log, one at or above it passes the test in nine logs of ten and is put to the
 /// simulation.
 #[derive(Debug, Clone, PartialEq)]
@@ -229,7 +193,10 @@ impl DetectionLimit {
         // its statistic is a non-central chi-square whose non-centrality is the square of its
         // size over the standard error, and the limit is the size at which that statistic
         // exceeds what the step needs with the probability DETECTION_POWER.
-        let by_test = (noncentrality_for_power(needed, dof.max(1.0), DETECTION_POWER) / chi2).sqrt();
+        let by_test =
+            (antenna_dsp::distributions::chi_squared_noncentrality_for_power(needed, dof.max(1.0), DETECTION_POWER)
+                / chi2)
+                .sqrt();
         // The claim also needs the fitted effect to reach the noise: its estimate scatters by
         // a standard error about the truth, so in nine logs of ten it does where the truth is
         // that far (z of the power, in standard errors) above the floor.
@@ -1802,20 +1769,6 @@ mod tests {
             fitted_change: Some((crate::parameters::names::TORQUE_OFFSET, change, "N m")),
             ..Score::not_applicable(Kind::Offset, String::new())
         }
-    }
-
-    #[test]
-    fn the_noncentral_chi_square_reduces_to_the_central_one_and_matches_two_normal_tails() {
-        // No non-centrality: the central survival function.
-        assert!((noncentral_chi_squared_sf(5.0, 2.0, 0.0) - chi_squared_sf(5.0, 2.0)).abs() < 1e-12);
-        // One degree of freedom: (Z + 2.5)^2 exceeds 4 where Z > -0.5 or Z < -4.5; the normal
-        // upper tail Q(t) = P(Z > t) is half the central chi-square's at t^2.
-        let upper = |t: f64| 0.5 * chi_squared_sf(t * t, 1.0);
-        let expected = 1.0 - upper(0.5) + upper(4.5);
-        assert!((noncentral_chi_squared_sf(4.0, 1.0, 2.5 * 2.5) - expected).abs() < 1e-9);
-        // Two degrees of freedom at the power's non-centrality: the power.
-        let lambda = noncentrality_for_power(30.0, 2.0, DETECTION_POWER);
-        assert!((noncentral_chi_squared_sf(30.0, 2.0, lambda) - DETECTION_POWER).abs() < 1e-9);
     }
 
     #[test]
