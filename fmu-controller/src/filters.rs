@@ -138,7 +138,7 @@ impl SpeedFilter {
     pub(crate) fn restore(&mut self, state: SpeedFilterState) -> Result<(), StateError> {
         let SpeedFilterState { low_pass, notch } = state;
         if low_pass.is_some() != self.low_pass.is_some() || notch.is_some() != self.notch.is_some() {
-            return Err(StateError::Invalid("the state and the parameters disagree about the speed filters".into()));
+            return Err(StateError::Parts { part: "the speed filters" });
         }
         for (filter, saved) in [(&mut self.low_pass, low_pass), (&mut self.notch, notch)] {
             if let (Some(filter), Some(saved)) = (filter, saved) {

@@ -35,6 +35,7 @@
 use std::collections::VecDeque;
 
 use fmu_runtime::state::StateError;
+use fmu_runtime::state_error::SampleClockError;
 use serde::{Deserialize, Serialize};
 
 use crate::params::SamplingParams;
@@ -182,16 +183,14 @@ impl<O: Clone> SampleScheduler<O> {
     pub fn restored(sampling: &SamplingParams, state: SchedulerState<O>) -> Result<Self, StateError> {
         let SchedulerState { start_time, next_sample, pending, applied } = state;
         if !start_time.is_finite() {
-            return Err(StateError::Invalid(format!("the sample clock starts at {start_time} s")));
+            return Err(StateError::SampleClock(SampleClockError::StartNotFinite(start_time)));
         }
         if pending.iter().any(|(k, _)| *k >= next_sample) {
-            return Err(StateError::Invalid("state holds pending outputs of samples not yet executed".into()));
+            return Err(StateError::SampleClock(SampleClockError::PendingAhead));
         }
-        if pending.len() > sampling.delay_samples as usize + 1 {
-            return Err(StateError::Invalid(format!(
-                "state holds {} pending outputs, more than the delay allows",
-                pending.len()
-            )));
+        let allowed = sampling.delay_samples as usize + 1;
+        if pending.len() > allowed {
+            return Err(StateError::SampleClock(SampleClockError::TooManyPending { pending: pending.len(), allowed }));
         }
         let mut scheduler = Self::new(start_time, sampling, applied);
         scheduler.next_sample = next_sample;

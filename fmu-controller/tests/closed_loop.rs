@@ -10,6 +10,8 @@ use fmu_controller::SampleScheduler;
 use fmu_controller::{
     AzimuthController, AzimuthControllerParams, ControlMode, ElevationController, ElevationControllerParams,
 };
+use fmu_runtime::state::StateError;
+use fmu_runtime::state_error::SampleClockError;
 
 const ELEVATIONS: [f64; 3] = [15.0, 45.0, 88.0];
 
@@ -455,7 +457,11 @@ fn saved_state_resumes_the_closed_loop_bitwise() {
     // A scheduler state with more pending outputs than any delay allows is refused.
     let mut overfull = scheduler_state;
     overfull.pending = vec![(0, overfull.applied); 1000];
-    assert!(SampleScheduler::restored(&sampling, overfull).is_err());
+    let refused = SampleScheduler::restored(&sampling, overfull).err();
+    assert!(
+        matches!(refused, Some(StateError::SampleClock(SampleClockError::TooManyPending { pending: 1000, .. }))),
+        "{refused:?}"
+    );
 }
 
 #[test]

@@ -1225,24 +1225,18 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// [`set_cell`](Self::set_cell) before stepping. On error nothing changes.
     pub fn restore(&mut self, state: DriveState) -> Result<i64, StateError> {
         let DriveState { time, cell, x, load_angle_low, load_motion, paths, sensor_clock: _ } = state;
-        if x.len() != S || paths.len() != P {
-            return Err(StateError::Invalid(format!(
-                "the drive state has {} states and {} paths, this drive {S} and {P}",
-                x.len(),
-                paths.len()
-            )));
+        if x.len() != S {
+            return Err(StateError::Size { part: "drive's number of states", in_state: x.len(), expected: S });
+        }
+        if paths.len() != P {
+            return Err(StateError::Size { part: "drive's number of paths", in_state: paths.len(), expected: P });
         }
         let mut anchor = self.anchor;
         for (k, path) in paths.iter().enumerate() {
             match (self.model.presliding_stiffness[k] > 0.0, path.anchor) {
                 (true, Some(a)) => anchor[k] = a,
                 (false, None) => {}
-                _ => {
-                    return Err(StateError::Invalid(format!(
-                        "path {}: the state and the parameters disagree about a presliding element",
-                        k + 1
-                    )))
-                }
+                _ => return Err(StateError::PathParts { path: k + 1, part: "a presliding element" }),
             }
         }
         for (k, path) in paths.into_iter().enumerate() {

@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::model::Model;
 use crate::phase::Phase;
+use crate::state_error::HeaderError;
 pub use crate::state_error::StateError;
 use crate::variables::Values;
 
@@ -157,7 +158,7 @@ pub(crate) fn decode<M: Model>(bytes: &[u8], identifier: &str, guid: &str) -> Re
 /// The header's values: finite times in order (start, last successful, now, stop) and a phase
 /// a state can be taken in.
 fn check_header(header: &StateHeader) -> Result<(), StateError> {
-    let invalid = |why: String| Err(StateError::Invalid(format!("state header: {why}")));
+    let invalid = |why: HeaderError| Err(StateError::Header(why));
     let times = [
         ("time", header.time),
         ("start_time", header.start_time),
@@ -165,28 +166,60 @@ fn check_header(header: &StateHeader) -> Result<(), StateError> {
     ];
     for (name, value) in times.into_iter().chain(header.stop_time.map(|t| ("stop_time", t))) {
         if !value.is_finite() {
-            return invalid(format!("{name} = {value} is not finite"));
+            return invalid(HeaderError::NotFinite { name, value });
         }
     }
     // The same relative tolerance as the communication points (exports::TIME_TOLERANCE).
     let slack = |t: f64| 1e-9 * t.abs().max(1.0);
     if header.time < header.start_time - slack(header.start_time) {
-        return invalid(format!("time {} is before the start time {}", header.time, header.start_time));
+        return invalid(HeaderError::BeforeStart { time: header.time, start: header.start_time });
     }
     if let Some(stop) = header.stop_time {
         if stop < header.start_time || header.time > stop + slack(stop) {
-            return invalid(format!(
-                "the times are out of order (start {}, now {}, stop {stop})",
-                header.start_time, header.time
-            ));
+            return invalid(HeaderError::OutOfOrder { start: header.start_time, time: header.time, stop });
         }
     }
     if header.phase == Phase::Fatal {
-        return invalid("a state cannot be taken in the Fatal phase".into());
+        return invalid(HeaderError::FatalPhase);
     }
     Ok(())
 }
 
 fn take<'a, T: DeserializeOwned>(bytes: &'a [u8], part: &'static str) -> Result<(T, &'a [u8]), StateError> {
     postcard::take_from_bytes(bytes).map_err(|cause| StateError::Corrupt { part, cause })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(time: f64, start_time: f64, stop_time: Option<f64>, phase: Phase) -> StateHeader {
+        StateHeader {
+            model_identifier: "m".into(),
+            guid: "{g}".into(),
+            phase,
+            time,
+            start_time,
+            stop_time,
+            last_successful_time: time,
+            needs_initialize: false,
+        }
+    }
+
+    #[test]
+    fn a_header_no_run_could_have_written_is_refused_with_the_reason() {
+        let step = Phase::StepComplete;
+        assert!(check_header(&header(1.0, 0.0, Some(2.0), step)).is_ok());
+        let refused = |h| match check_header(&h) {
+            Err(StateError::Header(why)) => why,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(refused(header(f64::NAN, 0.0, None, step)).to_string(), "time = NaN is not finite");
+        assert_eq!(refused(header(-1.0, 0.0, None, step)), HeaderError::BeforeStart { time: -1.0, start: 0.0 });
+        assert_eq!(
+            refused(header(3.0, 0.0, Some(2.0), step)),
+            HeaderError::OutOfOrder { start: 0.0, time: 3.0, stop: 2.0 }
+        );
+        assert_eq!(refused(header(1.0, 0.0, None, Phase::Fatal)), HeaderError::FatalPhase);
+    }
 }

@@ -22,9 +22,22 @@ pub enum StateError {
     TrailingBytes(usize),
     #[error("state could not be written: {0}")]
     Encode(postcard::Error),
-    /// The bytes decoded, but do not fit the model (a length, a mode or a parameter disagrees).
-    #[error("{0}")]
-    Invalid(String),
+    /// The header decoded, but its times or its phase are not those of a state.
+    #[error("state header: {0}")]
+    Header(HeaderError),
+    /// The state holds a part of another size than this instance's parameters give it (a
+    /// filter's order, a drive's number of states or paths).
+    #[error("the state and the parameters disagree about the {part}: {in_state} in the state, {expected} for these parameters")]
+    Size { part: &'static str, in_state: usize, expected: usize },
+    /// The state holds a part this instance's parameters leave out, or lacks one they ask for.
+    #[error("the state and the parameters disagree about {part}")]
+    Parts { part: &'static str },
+    /// A drive path's part that the state and the parameters disagree about.
+    #[error("path {path}: the state and the parameters disagree about {part}")]
+    PathParts { path: usize, part: &'static str },
+    /// A controller's sample clock that no run could have left.
+    #[error("controller sample clock: {0}")]
+    SampleClock(SampleClockError),
     /// The variable values decoded, but one is not finite or not what a master could set.
     #[error(transparent)]
     Values(#[from] CheckError),
@@ -35,6 +48,30 @@ pub enum StateError {
     /// (its own error).
     #[error(transparent)]
     Model(Arc<dyn std::error::Error + Send + Sync + 'static>),
+}
+
+/// Why a state's header is not one a run could have written.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HeaderError {
+    #[error("{name} = {value} is not finite")]
+    NotFinite { name: &'static str, value: f64 },
+    #[error("time {time} is before the start time {start}")]
+    BeforeStart { time: f64, start: f64 },
+    #[error("the times are out of order (start {start}, now {time}, stop {stop})")]
+    OutOfOrder { start: f64, time: f64, stop: f64 },
+    #[error("a state cannot be taken in the Fatal phase")]
+    FatalPhase,
+}
+
+/// Why a controller's saved sample clock is not one a run could have left.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SampleClockError {
+    #[error("the clock starts at {0} s")]
+    StartNotFinite(f64),
+    #[error("the state holds pending outputs of samples not yet executed")]
+    PendingAhead,
+    #[error("the state holds {pending} pending outputs, more than the delay's {allowed}")]
+    TooManyPending { pending: usize, allowed: usize },
 }
 
 impl StateError {

@@ -502,7 +502,7 @@ impl Model for WindModel {
                 Some(g)
             }
             (None, None) => None,
-            _ => return Err(StateError::Invalid("state and parameters disagree about the gust generator".into())),
+            _ => return Err(StateError::Parts { part: "the gust generator" }),
         };
         self.generator = generator;
         self.torque = Some(torque);

@@ -320,19 +320,20 @@ impl GustGenerator {
     pub fn load_state(&mut self, saved: GustState) -> Result<(), StateError> {
         let GustState { seed, filter: state, key, stream, word_pos, load } = saved;
         if state.len() != self.filter.order() {
-            return Err(StateError::Invalid(format!(
-                "wind gust state: {} filter states for a filter of order {}",
-                state.len(),
-                self.filter.order()
-            )));
+            return Err(StateError::Size {
+                part: "wind gust filter's order",
+                in_state: state.len(),
+                expected: self.filter.order(),
+            });
         }
         let load_order = self.load.as_ref().map(|l| l.state.len());
         if load.as_ref().map(|l| l.state.len()) != load_order {
-            return Err(StateError::Invalid(format!(
-                "wind gust state: admittance stage of order {:?} for a generator with {:?}",
-                load.as_ref().map(|l| l.state.len()),
-                load_order
-            )));
+            // A generator without the admittance stage has a stage of order 0.
+            return Err(StateError::Size {
+                part: "wind admittance stage's order",
+                in_state: load.as_ref().map_or(0, |l| l.state.len()),
+                expected: load_order.unwrap_or(0),
+            });
         }
         if let (Some(stage), Some(saved)) = (&mut self.load, load) {
             let mut rng = ChaCha12Rng::from_seed(key);

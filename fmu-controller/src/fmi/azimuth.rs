@@ -189,7 +189,9 @@ impl Model for AzimuthControllerModel {
         let scheduler = match (scheduler, &controller) {
             (Some(saved), Some(c)) => Some(SampleScheduler::restored(&c.params().cascade.sampling, saved)?),
             (None, _) => None,
-            (Some(_), None) => return Err(StateError::Invalid("scheduler without controller".into())),
+            (Some(_), None) => {
+                return Err(StateError::Parts { part: "the sample scheduler (the state has one, but no controller)" })
+            }
         };
         self.controller = controller;
         self.scheduler = scheduler;
