@@ -19,17 +19,30 @@ use fmi2_ffi::*;
 /// Why opening, loading or calling an FMU failed.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum ImportError {
-    #[error("{0}")]
-    Io(String),
-    #[error("{0}")]
-    Archive(String),
-    #[error("{0}")]
-    Description(String),
-    /// A variable or element of the model description whose attributes do not read.
+    /// A file of the FMU (the archive, its model description, its library) could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read { path: PathBuf, source: Arc<std::io::Error> },
+    /// The file is not a zip archive.
+    #[error("{} is not a valid .fmu (zip): {source}", path.display())]
+    NotAnArchive { path: PathBuf, source: Arc<zip::result::ZipError> },
+    /// The archive could not be unpacked into its temporary folder.
+    #[error("cannot unpack {}: {source}", path.display())]
+    Unpack { path: PathBuf, source: Arc<zip::result::ZipError> },
+    /// The model description does not read as an FMI 2.0 co-simulation description.
     #[error("modelDescription.xml: {0}")]
-    Attributes(#[from] AttributeError),
-    #[error("{0}")]
-    Library(String),
+    Description(#[from] DescriptionError),
+    /// A variable the caller asked for by name that the model does not declare.
+    #[error("{model} has no variable named '{name}'")]
+    NoVariable { model: String, name: String },
+    /// A text handed to the C API (a path, an instance name, a GUID) holds a NUL byte.
+    #[error("the {what} contains a NUL byte")]
+    ContainsNul { what: &'static str },
+    /// The dynamic loader refused the library (its own message).
+    #[error("cannot load {}: {reason}", path.display())]
+    Load { path: PathBuf, reason: String },
+    /// The library lacks one of the 44 FMI 2.0 functions.
+    #[error("{} does not export {function}", path.display())]
+    MissingFunction { path: PathBuf, function: &'static str },
     /// An fmi2 call returned an error status; `messages` are what the FMU logged during the call.
     #[error("{function} returned {}{}", status.name(), logged(messages))]
     Call { function: &'static str, status: Status, messages: Vec<String> },
@@ -80,6 +93,24 @@ pub struct ModelDescription {
     /// Initial unknown index (1-based) -> the knowns it depends on (`None`: all of them).
     pub initial_unknown_dependencies: Vec<(usize, Option<Vec<usize>>)>,
     pub capabilities: HashMap<String, String>,
+}
+
+/// Why a model description does not read as an FMI 2.0 co-simulation description.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum DescriptionError {
+    #[error("XML error at byte {position}: {source}")]
+    Xml { position: u64, source: quick_xml::Error },
+    /// A variable or element whose attributes do not read.
+    #[error(transparent)]
+    Attributes(#[from] AttributeError),
+    #[error("no guid")]
+    NoGuid,
+    #[error("CoSimulation has no modelIdentifier")]
+    NoModelIdentifier,
+    #[error("Unknown without index")]
+    UnknownWithoutIndex,
+    #[error("not a co-simulation FMU (no CoSimulation element)")]
+    NotCoSimulation,
 }
 
 /// Why the attributes of a model description's element do not read.
@@ -141,8 +172,7 @@ impl ModelDescription {
 
     /// Reads a `modelDescription.xml`: the header, the co-simulation capabilities, the default
     /// experiment, the variables and the model structure's dependencies.
-    pub fn parse(xml: &str) -> Result<ModelDescription, ImportError> {
-        let bad = |m: String| ImportError::Description(format!("modelDescription.xml: {m}"));
+    pub fn parse(xml: &str) -> Result<ModelDescription, DescriptionError> {
         let mut reader = Reader::from_str(xml);
         reader.config_mut().trim_text(true);
         let mut md = ModelDescription {
@@ -162,8 +192,9 @@ impl ModelDescription {
         let mut in_outputs = false;
         let mut in_initial_unknowns = false;
         loop {
-            let event =
-                reader.read_event().map_err(|e| bad(format!("XML error at byte {}: {e}", reader.buffer_position())))?;
+            let event = reader
+                .read_event()
+                .map_err(|source| DescriptionError::Xml { position: reader.buffer_position(), source })?;
             let (element, is_empty) = match &event {
                 Event::Start(e) => (Some(e.clone()), false),
                 Event::Empty(e) => (Some(e.clone()), true),
@@ -190,12 +221,11 @@ impl ModelDescription {
                 "fmiModelDescription" => {
                     md.fmi_version = get("fmiVersion").unwrap_or_default();
                     md.model_name = get("modelName").unwrap_or_default();
-                    md.guid = get("guid").ok_or_else(|| bad("no guid".into()))?;
+                    md.guid = get("guid").ok_or(DescriptionError::NoGuid)?;
                     md.description = get("description").unwrap_or_default();
                 }
                 "CoSimulation" => {
-                    md.model_identifier =
-                        get("modelIdentifier").ok_or_else(|| bad("CoSimulation has no modelIdentifier".into()))?;
+                    md.model_identifier = get("modelIdentifier").ok_or(DescriptionError::NoModelIdentifier)?;
                     md.capabilities = attrs.clone();
                 }
                 "DefaultExperiment" => {
@@ -223,7 +253,7 @@ impl ModelDescription {
                 "InitialUnknowns" => in_initial_unknowns = !is_empty,
                 "Unknown" if in_outputs || in_initial_unknowns => {
                     let index =
-                        get("index").and_then(|s| s.parse().ok()).ok_or_else(|| bad("Unknown without index".into()))?;
+                        get("index").and_then(|s| s.parse().ok()).ok_or(DescriptionError::UnknownWithoutIndex)?;
                     let deps =
                         get("dependencies").map(|d| d.split_whitespace().filter_map(|x| x.parse().ok()).collect());
                     if in_outputs {
@@ -236,7 +266,7 @@ impl ModelDescription {
             }
         }
         if md.model_identifier.is_empty() {
-            return Err(bad("not a co-simulation FMU (no CoSimulation element)".into()));
+            return Err(DescriptionError::NotCoSimulation);
         }
         Ok(md)
     }
@@ -245,7 +275,7 @@ impl ModelDescription {
         self.variables
             .iter()
             .find(|v| v.name == name)
-            .ok_or_else(|| ImportError::Description(format!("{} has no variable named '{name}'", self.model_name)))
+            .ok_or_else(|| ImportError::NoVariable { model: self.model_name.clone(), name: name.to_string() })
     }
 
     /// The value reference of a variable, by name.
@@ -393,7 +423,7 @@ impl Library {
     /// (fmpy and other masters refuse such a binary too).
     pub fn load(path: &Path) -> Result<Library, ImportError> {
         let c_path = CString::new(path.as_os_str().as_encoded_bytes())
-            .map_err(|_| ImportError::Library(format!("path {} contains NUL", path.display())))?;
+            .map_err(|_| ImportError::ContainsNul { what: "library path" })?;
         // SAFETY: dlopen with a valid NUL-terminated path; RTLD_LOCAL keeps the FMU's symbols
         // out of the global namespace so several FMUs with the same function names coexist.
         let handle = unsafe { libc::dlopen(c_path.as_ptr(), libc::RTLD_NOW | libc::RTLD_LOCAL) };
@@ -407,14 +437,14 @@ impl Library {
                     CStr::from_ptr(e).to_string_lossy().to_string()
                 }
             };
-            return Err(ImportError::Library(format!("cannot load {}: {reason}", path.display())));
+            return Err(ImportError::Load { path: path.to_path_buf(), reason });
         }
-        let lookup = |name: &str| -> Result<*mut c_void, ImportError> {
+        let lookup = |name: &'static str| -> Result<*mut c_void, ImportError> {
             let c_name = CString::new(name).expect("function names have no NUL");
             // SAFETY: valid handle and symbol name.
             let symbol = unsafe { libc::dlsym(handle, c_name.as_ptr()) };
             if symbol.is_null() {
-                Err(ImportError::Library(format!("{} does not export {name}", path.display())))
+                Err(ImportError::MissingFunction { path: path.to_path_buf(), function: name })
             } else {
                 Ok(symbol)
             }
@@ -646,8 +676,7 @@ fn load_shared(path: &Path, shareable: bool) -> Result<Arc<Library>, ImportError
     if !shareable {
         return Library::load(path).map(Arc::new);
     }
-    let bytes =
-        std::fs::read(path).map_err(|e| ImportError::Library(format!("cannot read {}: {e}", path.display())))?;
+    let bytes = std::fs::read(path).map_err(|e| ImportError::Read { path: path.to_path_buf(), source: Arc::new(e) })?;
     let mut loaded = LOADED_LIBRARIES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     loaded.retain(|entry| entry.library.strong_count() > 0);
     if let Some(library) = loaded.iter().filter(|entry| entry.bytes == bytes).find_map(|entry| entry.library.upgrade())
@@ -673,10 +702,10 @@ impl Fmu {
     /// Unpacks and loads a `.fmu` file.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
         let path = path.as_ref();
-        let file =
-            std::fs::File::open(path).map_err(|e| ImportError::Io(format!("cannot open {}: {e}", path.display())))?;
+        let file = std::fs::File::open(path)
+            .map_err(|e| ImportError::Read { path: path.to_path_buf(), source: Arc::new(e) })?;
         let mut archive = zip::ZipArchive::new(file)
-            .map_err(|e| ImportError::Archive(format!("{} is not a valid .fmu (zip): {e}", path.display())))?;
+            .map_err(|e| ImportError::NotAnArchive { path: path.to_path_buf(), source: Arc::new(e) })?;
         let directory = std::env::temp_dir().join(format!(
             "meerkat-fmu-{}-{}-{}",
             std::process::id(),
@@ -685,7 +714,7 @@ impl Fmu {
         ));
         archive
             .extract(&directory)
-            .map_err(|e| ImportError::Archive(format!("cannot unpack {}: {e}", path.display())))?;
+            .map_err(|e| ImportError::Unpack { path: path.to_path_buf(), source: Arc::new(e) })?;
         Self::from_directory(directory, true)
     }
 
@@ -701,9 +730,10 @@ impl Fmu {
             }
             e
         };
-        let xml = std::fs::read_to_string(directory.join("modelDescription.xml"))
-            .map_err(|e| cleanup(ImportError::Io(format!("cannot read modelDescription.xml: {e}"))))?;
-        let description = ModelDescription::parse(&xml).map_err(cleanup)?;
+        let description_path = directory.join("modelDescription.xml");
+        let xml = std::fs::read_to_string(&description_path)
+            .map_err(|e| cleanup(ImportError::Read { path: description_path, source: Arc::new(e) }))?;
+        let description = ModelDescription::parse(&xml).map_err(|e| cleanup(e.into()))?;
         let binary = directory.join("binaries").join("linux64").join(format!("{}.so", description.model_identifier));
         let library = load_shared(&binary, description.allows_several_instances()).map_err(cleanup)?;
         Ok(Fmu { description, library, directory, owns_directory: owned })
@@ -728,10 +758,10 @@ impl Fmu {
         echo_log: bool,
     ) -> Result<Instance, ImportError> {
         let callbacks = LoggerCallbacks::new(echo_log);
-        let c_name = CString::new(name).map_err(|_| ImportError::Io("instance name contains NUL".into()))?;
-        let c_guid = CString::new(guid).map_err(|_| ImportError::Io("GUID contains NUL".into()))?;
-        let c_uri =
-            CString::new(self.resource_uri()).map_err(|_| ImportError::Io("resource URI contains NUL".into()))?;
+        let nul = |what| move |_| ImportError::ContainsNul { what };
+        let c_name = CString::new(name).map_err(nul("instance name"))?;
+        let c_guid = CString::new(guid).map_err(nul("GUID"))?;
+        let c_uri = CString::new(self.resource_uri()).map_err(nul("resource URI"))?;
         // SAFETY: every pointer is valid for the call; the callbacks and the log environment are
         // boxed and owned by the returned Instance, so they outlive the FMU instance.
         let component = unsafe {
@@ -1226,5 +1256,53 @@ impl Drop for Instance {
         }
         // SAFETY: the component came from fmi2Instantiate and is freed exactly once, here.
         unsafe { (self.library.functions.free_instance)(self.component) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"<?xml version="1.0"?>
+<fmiModelDescription fmiVersion="2.0" modelName="m" guid="{g}">
+  <CoSimulation modelIdentifier="m"/>
+  <ModelVariables><ScalarVariable name="x" valueReference="1"><Real/></ScalarVariable></ModelVariables>
+</fmiModelDescription>"#;
+
+    #[test]
+    fn a_model_description_without_the_parts_a_master_needs_says_which() {
+        assert!(ModelDescription::parse(MINIMAL).is_ok());
+        let without = |from: &str, to: &str| ModelDescription::parse(&MINIMAL.replace(from, to)).unwrap_err();
+        assert!(matches!(without(r#" guid="{g}""#, ""), DescriptionError::NoGuid));
+        assert!(matches!(without(r#"<CoSimulation modelIdentifier="m"/>"#, ""), DescriptionError::NotCoSimulation));
+        assert!(matches!(without(r#" modelIdentifier="m""#, ""), DescriptionError::NoModelIdentifier));
+        assert!(matches!(
+            without(r#" valueReference="1""#, ""),
+            DescriptionError::Attributes(AttributeError::NoValueReference { .. })
+        ));
+        assert!(matches!(without("</ModelVariables>", "</Other>"), DescriptionError::Xml { .. }));
+    }
+
+    #[test]
+    fn a_missing_variable_names_the_model_and_the_variable() {
+        let description = ModelDescription::parse(MINIMAL).unwrap();
+        let error = description.vr("y").unwrap_err();
+        assert!(matches!(&error, ImportError::NoVariable { model, name } if model == "m" && name == "y"), "{error}");
+    }
+
+    #[test]
+    fn a_file_that_is_missing_or_not_a_zip_archive_is_refused_with_its_path() {
+        let folder = std::env::temp_dir().join(format!("fmu-import-typed-errors-{}", std::process::id()));
+        std::fs::create_dir_all(&folder).unwrap();
+        let missing = folder.join("missing.fmu");
+        assert!(matches!(Fmu::open(&missing), Err(ImportError::Read { path, .. }) if path == missing));
+        let text = folder.join("text.fmu");
+        std::fs::write(&text, "not a zip archive").unwrap();
+        assert!(matches!(Fmu::open(&text), Err(ImportError::NotAnArchive { path, .. }) if path == text));
+        let unpacked = folder.join("unpacked");
+        std::fs::create_dir_all(&unpacked).unwrap();
+        let result = Fmu::open_unpacked(&unpacked);
+        assert!(matches!(result, Err(ImportError::Read { path, .. }) if path.ends_with("modelDescription.xml")));
+        std::fs::remove_dir_all(&folder).unwrap();
     }
 }

@@ -40,6 +40,25 @@ use super::command::{Command, CommandTable};
 use super::handoff::{Handoff, Received};
 use super::pointing_model::PointingModel;
 
+/// Why the coupled antenna could not be set up: an FMU refused a call, or the structure's
+/// modes cannot be coupled both ways to a plant.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum CouplingError {
+    #[error(transparent)]
+    Import(#[from] ImportError),
+    /// Modes whose inertia about the elevation axis changes with elevation, against an
+    /// elevation plant whose load inertia does not.
+    #[error(
+        "the structure's modes carry {zenith:.4e} kg m^2 about the elevation axis at the zenith and {horizon:.4e} at the horizon, but the elevation plant's load inertia does not change with elevation: a mode that changes with elevation (horizon_frequency) and takes the elevation torque cannot be coupled both ways to it (couple it one way, or give it no horizon_frequency)"
+    )]
+    InertiaChangesWithElevation { zenith: f64, horizon: f64 },
+    /// Modes that carry at least the inertia of the part of the axis they come out of.
+    #[error(
+        "the structure's modes carry {carried:.4e} kg m^2 about the axis of {plant}, not less than its {parameter} = {inertia:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)"
+    )]
+    CarriedAboveLoad { carried: f64, plant: String, parameter: &'static str, inertia: f64 },
+}
+
 /// A value for a parameter set by name.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ParameterValue {
@@ -414,7 +433,11 @@ const ELEVATION_DEPENDENT_INERTIA_PARAMETERS: [&str; 2] =
 /// cross or the boresight part. The elevation plant's inertia does not change with elevation, so
 /// modes whose inertia about the elevation axis does are an error: they cannot be coupled both
 /// ways to that plant.
-pub fn carried_inertia_split(axis: usize, zenith: f64, horizon: f64) -> Result<Vec<(&'static str, f64)>, ImportError> {
+pub fn carried_inertia_split(
+    axis: usize,
+    zenith: f64,
+    horizon: f64,
+) -> Result<Vec<(&'static str, f64)>, CouplingError> {
     let shared = zenith.min(horizon);
     let parts = match axis {
         0 => vec![
@@ -422,11 +445,7 @@ pub fn carried_inertia_split(axis: usize, zenith: f64, horizon: f64) -> Result<V
             (ELEVATION_DEPENDENT_INERTIA_PARAMETERS[0], horizon - shared),
             (ELEVATION_DEPENDENT_INERTIA_PARAMETERS[1], zenith - shared),
         ],
-        _ if zenith != horizon => {
-            return Err(ImportError::Description(format!(
-                "the structure's modes carry {zenith:.4e} kg m^2 about the elevation axis at the zenith and {horizon:.4e} at the horizon, but the elevation plant's load inertia does not change with elevation: a mode that changes with elevation (horizon_frequency) and takes the elevation torque cannot be coupled both ways to it (couple it one way, or give it no horizon_frequency)"
-            )))
-        }
+        _ if zenith != horizon => return Err(CouplingError::InertiaChangesWithElevation { zenith, horizon }),
         _ => vec![(CARRIED_INERTIA_PARAMETERS[1], zenith)],
     };
     Ok(parts.into_iter().filter(|(_, carried)| *carried > 0.0).collect())
@@ -442,16 +461,18 @@ pub fn leave_out_carried_inertia(
     axis: usize,
     zenith: f64,
     horizon: f64,
-) -> Result<(), ImportError> {
+) -> Result<(), CouplingError> {
     for (parameter, carried) in carried_inertia_split(axis, zenith, horizon)? {
         let vr = description.vr(parameter)?;
         let mut inertia = [0.0];
         plant.get_real(&[vr], &mut inertia)?;
         if carried >= inertia[0] {
-            return Err(ImportError::Description(format!(
-                "the structure's modes carry {carried:.4e} kg m^2 about the axis of {}, not less than its {parameter} = {:.4e} kg m^2: modes that push back on the drive cannot carry more than the drive's load (lower the modes' stiffness or raise their frequency, or couple them one way)",
-                plant.name, inertia[0]
-            )));
+            return Err(CouplingError::CarriedAboveLoad {
+                carried,
+                plant: plant.name.clone(),
+                parameter,
+                inertia: inertia[0],
+            });
         }
         plant.set_real(&[vr], &[inertia[0] - carried])?;
     }
@@ -707,7 +728,7 @@ fn corrected(pointing: Option<&Pointing>, target: Command) -> Command {
 
 impl CoupledAntenna {
     /// Instantiates and initialises every unit, the antenna at rest at the table's first point.
-    pub fn new(fmus: &FmuSet, config: &AntennaConfig, table: &CommandTable) -> Result<CoupledAntenna, ImportError> {
+    pub fn new(fmus: &FmuSet, config: &AntennaConfig, table: &CommandTable) -> Result<CoupledAntenna, CouplingError> {
         let start = table.at(table.time_span().0);
         let ports = Ports::look_up(fmus)?;
         let real = |d: &ModelDescription, name: &str, value: f64| -> Result<(String, ParameterValue), ImportError> {
@@ -751,7 +772,7 @@ impl CoupledAntenna {
                              name: &str,
                              overrides: &Overrides,
                              carried: Option<(usize, f64, f64)>|
-         -> Result<Instance, ImportError> {
+         -> Result<Instance, CouplingError> {
             let mut instance = fmu.instantiate(name, false)?;
             instance.setup_experiment(start_time, None)?;
             apply_overrides(&mut instance, &fmu.description, overrides)?;

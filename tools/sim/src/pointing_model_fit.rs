@@ -17,11 +17,10 @@
 use std::path::Path;
 
 use antenna_plot::{Figure, Panel, PlotError, Series, PALETTE};
-use fmu_import::ImportError;
 use rayon::prelude::*;
 
 use super::command::{CommandPoint, CommandTable, CABLE_WRAP_DEG, ELEVATION_TRAVEL_DEG};
-use super::coupled::{AntennaConfig, CoupledAntenna, FmuSet, ParameterValue, Trace, WindCondition};
+use super::coupled::{AntennaConfig, CoupledAntenna, CouplingError, FmuSet, ParameterValue, Trace, WindCondition};
 use super::pointing_model::{Grid, PointingModel};
 use super::scenario::wind_direction_deg;
 
@@ -81,7 +80,7 @@ impl DerivationGrid {
 #[derive(Debug, thiserror::Error)]
 pub enum FitError {
     #[error("{run}")]
-    Simulation { run: String, source: ImportError },
+    Simulation { run: String, source: CouplingError },
     #[error("{run}: no samples within 0.5 deg of the grid angle {angle_deg} deg")]
     NoSamples { run: String, angle_deg: f64 },
     #[error("the derivation grid is not usable: {0}")]
@@ -106,7 +105,7 @@ fn run(
 ) -> Result<Trace, FitError> {
     let simulation = |source| FitError::Simulation { run: name.to_string(), source };
     let mut antenna = CoupledAntenna::new(fmus, config, table).map_err(simulation)?;
-    antenna.run(table, table.time_span().1 + tail_s, &mut |_| {}).map_err(simulation)
+    antenna.run(table, table.time_span().1 + tail_s, &mut |_| {}).map_err(|e| simulation(e.into()))
 }
 
 /// A table that holds `from`, scans to `to` at `rate` (one row a second) and holds `to`.

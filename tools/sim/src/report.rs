@@ -6,14 +6,13 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::budget::{beam_error_spectra, budget, peak_frequency_hz, plot_beam_spectrum, Budget};
-use super::coupled::{AntennaConfig, CoupledAntenna, FmuSet, ParameterValue, Trace, WindCondition};
+use super::coupled::{AntennaConfig, CoupledAntenna, CouplingError, FmuSet, ParameterValue, Trace, WindCondition};
 use super::metrics::{
     error_centred_on_final_window_arcsec, final_window_rms_arcsec, settling, settling_absolute,
     worst_window_absolute_rms_arcsec, worst_window_centred_jitter_arcsec, Settling, CENTRING,
 };
 use super::scenario::{Analysis, Requirement, Scenario, JITTER_LIMIT_ARCSEC, JITTER_WINDOW_S};
 use antenna_plot::{Colour, Figure, Panel, PlotError, Series, PALETTE};
-use fmu_import::ImportError;
 
 /// How the figures are defined, and what the model of `config` holds and leaves out, printed
 /// under the table and written into the report (one paragraph a line).
@@ -119,7 +118,7 @@ pub struct AfterPointingModel {
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
     #[error("scenario {scenario}")]
-    Simulation { scenario: String, source: ImportError },
+    Simulation { scenario: String, source: CouplingError },
     #[error("{scenario}: run too short for a {JITTER_WINDOW_S} s jitter window")]
     TooShortForJitter { scenario: String },
     #[error("cannot create {}", path.display())]
@@ -139,7 +138,7 @@ pub fn run_scenario(
     let started = std::time::Instant::now();
     let simulation = |source| ReportError::Simulation { scenario: scenario.name.clone(), source };
     let mut antenna = CoupledAntenna::new(fmus, &config, &scenario.table).map_err(simulation)?;
-    let trace = antenna.run(&scenario.table, scenario.end_s, progress).map_err(simulation)?;
+    let trace = antenna.run(&scenario.table, scenario.end_s, progress).map_err(|e| simulation(e.into()))?;
     let wall_s = started.elapsed().as_secs_f64();
     let too_short = || ReportError::TooShortForJitter { scenario: scenario.name.clone() };
     let judged = |s: Option<Settling>| s.map_or(f64::NAN, |s| scenario.requirement.judged_settling(&s).0);

@@ -27,10 +27,10 @@ use quick_xml::Writer;
 use zip::write::SimpleFileOptions;
 use zip::{CompressionMethod, DateTime, ZipWriter};
 
-use fmu_import::{Fmu, ImportError, Instance, ModelDescription};
+use fmu_import::{AttributeError, DescriptionError, Fmu, ImportError, Instance, ModelDescription};
 
 use crate::command::CommandTable;
-use crate::coupled::{carried_inertia_split, AntennaConfig, CoupledAntenna, FmuSet, ParameterValue};
+use crate::coupled::{carried_inertia_split, AntennaConfig, CoupledAntenna, CouplingError, FmuSet, ParameterValue};
 use crate::scenario::Scenario;
 
 const SSC: &str = "http://ssp-standard.org/SSP1/SystemStructureCommon";
@@ -43,6 +43,11 @@ const OSP: &str = "http://opensimulationplatform.com/SSP/OSPAnnotations";
 pub enum SspError {
     #[error(transparent)]
     Import(#[from] ImportError),
+    #[error(transparent)]
+    Coupling(#[from] CouplingError),
+    /// An FMU's model description whose unit declarations do not read.
+    #[error("{model}: modelDescription.xml: {source}")]
+    Description { model: String, source: DescriptionError },
     #[error("{0}")]
     Io(#[from] std::io::Error),
     #[error("cannot write the archive: {0}")]
@@ -166,7 +171,7 @@ fn system<'a>(
         Some(structure) if structure_feedback => modal_inertias(structure, &fmus.structure.description)?,
         _ => [[0.0; 2]; 2],
     };
-    let carried_names = |axis: usize| -> Result<Vec<String>, ImportError> {
+    let carried_names = |axis: usize| -> Result<Vec<String>, CouplingError> {
         Ok(carried_inertia_split(axis, carried[0][axis], carried[1][axis])?
             .into_iter()
             .map(|(name, _)| name.to_string())
@@ -442,14 +447,15 @@ struct Declarations {
 /// Reads the declarations of the FMU unpacked in `fmu.directory`.
 fn declarations(fmu: &Fmu) -> Result<Declarations, SspError> {
     let text = std::fs::read_to_string(fmu.directory.join("modelDescription.xml"))?;
-    let bad =
-        |e: String| ImportError::Description(format!("{}: modelDescription.xml: {e}", fmu.description.model_name));
+    let bad = |source: DescriptionError| SspError::Description { model: fmu.description.model_name.clone(), source };
     let mut reader = quick_xml::Reader::from_str(&text);
     let mut out = Declarations::default();
     // The unit being read.
     let mut unit = String::new();
     loop {
-        let event = reader.read_event().map_err(|e| bad(e.to_string()))?;
+        let event = reader
+            .read_event()
+            .map_err(|source| bad(DescriptionError::Xml { position: reader.buffer_position(), source }))?;
         let element = match &event {
             Event::Start(e) | Event::Empty(e) => e.clone(),
             Event::Eof => break,
@@ -457,10 +463,10 @@ fn declarations(fmu: &Fmu) -> Result<Declarations, SspError> {
         };
         let mut attributes = Vec::new();
         for attribute in element.attributes() {
-            let attribute = attribute.map_err(|e| bad(e.to_string()))?;
+            let attribute = attribute.map_err(|e| bad(AttributeError::Syntax(e).into()))?;
             let value = attribute
                 .normalized_value(quick_xml::XmlVersion::Explicit1_0)
-                .map_err(|e| bad(e.to_string()))?
+                .map_err(|e| bad(AttributeError::Value(e).into()))?
                 .to_string();
             attributes.push((attribute.key.into_inner().to_string(), value));
         }

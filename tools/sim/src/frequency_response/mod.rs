@@ -56,6 +56,8 @@ impl Axis {
 pub enum IdentificationError {
     #[error(transparent)]
     Import(#[from] ImportError),
+    #[error(transparent)]
+    Coupling(#[from] crate::coupled::CouplingError),
     #[error("Welch estimate")]
     Welch(#[source] DspError),
     /// The FMU is configured otherwise than the analytic model assumes.
