@@ -415,6 +415,11 @@ pub struct TruthConfig {
     pub injection_sigma: f64,
     pub injection_bandwidth: f64,
     pub seed: u64,
+    /// A seed of the sensor noise alone (the current's and the load encoder's), apart from the
+    /// seed of the excitation (the trajectory and the injected torque): the same excitation
+    /// with another noise draw, to tell how an estimate scatters over the noise from how it
+    /// scatters over excitations. `None` draws the noise from the one seed, as the suite does.
+    pub noise_seed: Option<u64>,
     /// Log the axis as a linear one (positions in m, speeds in m/s: an axis of unit radius, so
     /// the numbers are the rotary drive's and only the units differ).
     pub linear: bool,
@@ -437,6 +442,7 @@ impl Default for TruthConfig {
             injection_sigma: 800.0,
             injection_bandwidth: 20.0,
             seed: 1,
+            noise_seed: None,
             linear: false,
         }
     }
@@ -884,6 +890,9 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     // The sensors a log variant adds (a second current, a speed signal) draw from a stream of
     // their own, so the default logs stay bit for bit what they were.
     let mut sensor_rng = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0x5e50_5e50_5e50_5e50);
+    // With a noise seed of its own, the sensor noise comes from a stream apart from the
+    // excitation's; without it from the one stream, so the default logs keep every bit.
+    let mut noise_rng = config.noise_seed.map(|s| rand_chacha::ChaCha8Rng::seed_from_u64(s ^ 0x0015_e5ee_d000_0001));
     let motors = config.noise.motors.clamp(1, 2);
     let unit_normal = Normal::new(0.0, 1.0).expect("unit normal");
     let trajectory = Trajectory::generate(&config.trajectory, config.duration, config.seed);
@@ -919,7 +928,8 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
     for step in 0..=steps {
         let t = step as f64 * h;
         if step % control_every == 0 {
-            let load_meas = sensors.load(x[2], config.noise.load_encoder_sigma * unit_normal.sample(&mut rng));
+            let load_noise = unit_normal.sample(noise_rng.as_mut().unwrap_or(&mut rng));
+            let load_meas = sensors.load(x[2], config.noise.load_encoder_sigma * load_noise);
             let motor_meas = sensors.motor(x[0]);
             controller.sample(t, load_meas, motor_meas, &trajectory, unit_normal.sample(&mut rng));
         }
@@ -928,7 +938,7 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
         }
         if step % log_every == 0 {
             let bias = if motors == 2 { config.noise.current_bias } else { 0.0 };
-            let noise = config.noise.current_sigma * unit_normal.sample(&mut rng);
+            let noise = config.noise.current_sigma * unit_normal.sample(noise_rng.as_mut().unwrap_or(&mut rng));
             record.time.push(t);
             record.current.push(sensors.current(x[5], controller.i_cmd, motors, bias, noise));
             record.current_noise.push(noise);
@@ -948,7 +958,7 @@ pub fn simulate(config: &TruthConfig) -> TruthRun {
             }
             record.reference.push(trajectory.position(t));
             record.motor.push(sensors.motor(x[0]));
-            let noise = config.noise.load_encoder_sigma * unit_normal.sample(&mut rng);
+            let noise = config.noise.load_encoder_sigma * unit_normal.sample(noise_rng.as_mut().unwrap_or(&mut rng));
             record.load.push(sensors.load(x[2], noise));
             record.load_noise.push(noise);
             let applied = history.applied(actual.k_scale * n_ratio * kt);
@@ -1309,6 +1319,27 @@ mod tests {
         let text = simulate(&config).log.to_csv(config.log_units());
         assert_eq!((fnv1a(text.as_bytes()), text.len()), (0x7e0b_526e_1d77_cbd8, 76479));
         assert!(config.hidden_conditions().is_empty());
+    }
+
+    #[test]
+    fn a_noise_seed_draws_other_sensor_noise_on_the_same_excitation() {
+        let run = |noise_seed| {
+            let config = TruthConfig { duration: 2.0, seed: 7, noise_seed, ..TruthConfig::default() };
+            simulate(&config).log.channels
+        };
+        let (a, b, default) = (run(Some(1)), run(Some(2)), run(None));
+        // Channel 0 is the position reference (the trajectory), 1 the current, the last the
+        // load encoder.
+        assert_eq!(a[0].values, b[0].values, "the trajectory must not depend on the noise seed");
+        assert_eq!(a[0].values, default[0].values);
+        assert_ne!(a[1].values, b[1].values, "another noise seed must draw another current noise");
+        assert_ne!(a[1].values, default[1].values);
+        let (load_a, load_b) = (&a[a.len() - 1].values, &b[b.len() - 1].values);
+        let rms =
+            |x: &[f64], y: &[f64]| (x.iter().zip(y).map(|(p, q)| (p - q).powi(2)).sum::<f64>() / x.len() as f64).sqrt();
+        // The loop closes through the noisy load encoder, so the axis moves a little
+        // differently; the excitation is the same, so by far less than the trajectory's stroke.
+        assert!(rms(load_a, load_b) > 0.0 && rms(load_a, load_b) < 1e-3 * rms(&a[0].values, &vec![0.0; load_a.len()]));
     }
 
     /// A run without load-encoder noise and with a fine count, so what the log adds to the

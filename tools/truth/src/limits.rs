@@ -3,6 +3,12 @@
 //! at a multiple of the stated limit (1.5 by default) must have it named in at least 90 % of
 //! the injections, or the limit does not hold.
 //!
+//! A limit is a property of the log it is stated for: of its excitation (the trajectory and
+//! the injected torque) and its noise level. The verdict's logs therefore share the clean
+//! log's excitation and draw other sensor noise (`TruthConfig::noise_seed`). Logs of other
+//! excitations (other seeds) are counted beside it with their own clean logs' limits, which
+//! says how far a limit transfers to another trajectory.
+//!
 //! The rule for "named": the injected kind is among the found effects, or the report says the
 //! data cannot tell it from a found effect ("X or Y: the data cannot tell"): the report then
 //! names it as one of what it cannot separate. The table counts such injections separately.
@@ -57,6 +63,9 @@ pub struct LimitsConfig {
     pub first_seed: u64,
     /// The share of injections that must name the effect for the limit to hold.
     pub required: f64,
+    /// Also inject into logs of other excitations (the seeds from `first_seed`), each beside
+    /// its own clean log's limit.
+    pub other_excitations: bool,
 }
 
 impl Default for LimitsConfig {
@@ -72,6 +81,7 @@ impl Default for LimitsConfig {
             clean_seed: 301,
             first_seed: 311,
             required: 0.9,
+            other_excitations: true,
         }
     }
 }
@@ -86,7 +96,13 @@ pub fn variants() -> Vec<(String, TruthConfig)> {
 /// One injected log's outcome.
 #[derive(Debug, Clone)]
 pub struct Injection {
+    /// The seed of the excitation (and of the noise without `noise_seed`).
     pub seed: u64,
+    /// The seed of the sensor noise, for a log of the clean log's excitation.
+    pub noise_seed: Option<u64>,
+    /// The limit the clean log of this excitation states for the kind, for a log of another
+    /// excitation than the clean log's (`None` where it states none).
+    pub own_limit: Option<f64>,
     /// The injected change of the limit's parameter.
     pub change: f64,
     /// The kind is among the found effects.
@@ -114,7 +130,10 @@ pub struct LimitRow {
     pub stated: Result<DetectionLimit, String>,
     /// Whether the variant logs a linear axis (for the limit's display units).
     pub linear: bool,
+    /// Injections into the clean log's excitation with other noise: the verdict's.
     pub injections: Vec<Injection>,
+    /// Injections into other excitations (empty unless asked for).
+    pub other: Vec<Injection>,
 }
 
 impl LimitRow {
@@ -126,6 +145,17 @@ impl LimitRow {
     /// Whether the limit holds: at least `required` of the injections name the kind.
     pub fn holds(&self, required: f64) -> Option<bool> {
         (!self.injections.is_empty()).then(|| self.named() as f64 >= required * self.injections.len() as f64)
+    }
+
+    /// Injections into other excitations that name the kind.
+    pub fn other_named(&self) -> usize {
+        self.other.iter().filter(|i| i.counts()).count()
+    }
+
+    /// Injections into other excitations that missed the kind where that excitation's own
+    /// clean log states a limit above the injected change: misses the log's own limit foretells.
+    pub fn other_missed_below_own_limit(&self) -> usize {
+        self.other.iter().filter(|i| !i.counts() && i.own_limit.is_some_and(|own| own >= i.change.abs())).count()
     }
 }
 
@@ -185,12 +215,16 @@ struct Job<'a> {
     variant: usize,
     kind: Option<&'a str>,
     seed: u64,
+    noise_seed: Option<u64>,
     change: f64,
 }
 
+/// A clean log's limit of each kind asked for, or why it states none.
+type KindLimits = Vec<Result<DetectionLimit, String>>;
+
 /// What a job gave: the clean validation's limits per kind, or an injection.
 enum Outcome {
-    Clean(Vec<Result<DetectionLimit, String>>, bool),
+    Clean(KindLimits, bool),
     Injected(Injection),
 }
 
@@ -221,44 +255,78 @@ pub fn run(
         .num_threads(threads.max(1))
         .build()
         .map_err(|source| LimitsError::Threads { threads, source })?;
-    let clean_jobs: Vec<Job> =
-        (0..chosen.len()).map(|variant| Job { variant, kind: None, seed: config.clean_seed, change: 0.0 }).collect();
-    let bar = crate::progress_bar(chosen.len() * (1 + config.kinds.len() * config.injections), "injection check");
+    // The clean logs: the one that states the limits, then (if asked) one per other excitation,
+    // each stating its own limits.
+    let other_seeds: Vec<u64> = if config.other_excitations {
+        (0..config.injections).map(|i| config.first_seed + i as u64).collect()
+    } else {
+        Vec::new()
+    };
+    let clean_seeds: Vec<u64> = std::iter::once(config.clean_seed).chain(other_seeds.iter().copied()).collect();
+    let clean_jobs: Vec<Job> = (0..chosen.len())
+        .flat_map(|variant| {
+            clean_seeds.iter().map(move |&seed| Job { variant, kind: None, seed, noise_seed: None, change: 0.0 })
+        })
+        .collect();
+    let per_kind = config.injections * if config.other_excitations { 2 } else { 1 };
+    let bar = crate::progress_bar(clean_jobs.len() + chosen.len() * config.kinds.len() * per_kind, "injection check");
     let clean = run_jobs(&pool, &clean_jobs, &chosen, &config.kinds, options, fmu, &bar, progress)?;
+    let own: Vec<(usize, u64, KindLimits, bool)> = clean_jobs
+        .iter()
+        .zip(clean)
+        .filter_map(|(job, outcome)| match outcome {
+            Outcome::Clean(limits, linear) => Some((job.variant, job.seed, limits, linear)),
+            Outcome::Injected(_) => None,
+        })
+        .collect();
     let mut rows = Vec::new();
     let mut injection_jobs = Vec::new();
-    for (variant, outcome) in clean.into_iter().enumerate() {
-        let Outcome::Clean(limits, linear) = outcome else { continue };
+    for (variant, _, limits, linear) in own.iter().filter(|(_, seed, _, _)| *seed == config.clean_seed) {
         for (kind, stated) in config.kinds.iter().zip(limits) {
-            if let Ok(limit) = &stated {
+            if let Ok(limit) = stated {
+                let change = config.factor * limit.size;
                 for i in 0..config.injections {
+                    let noise_seed = Some(config.first_seed + i as u64);
                     injection_jobs.push(Job {
-                        variant,
+                        variant: *variant,
                         kind: Some(kind),
-                        seed: config.first_seed + i as u64,
-                        change: config.factor * limit.size,
+                        seed: config.clean_seed,
+                        noise_seed,
+                        change,
                     });
                 }
+                for &seed in &other_seeds {
+                    injection_jobs.push(Job { variant: *variant, kind: Some(kind), seed, noise_seed: None, change });
+                }
             } else {
-                bar.inc(config.injections as u64);
+                bar.inc(per_kind as u64);
             }
             rows.push(LimitRow {
-                variant: chosen[variant].0.clone(),
+                variant: chosen[*variant].0.clone(),
                 kind: kind.clone(),
-                stated,
-                linear,
+                stated: stated.clone(),
+                linear: *linear,
                 injections: Vec::new(),
+                other: Vec::new(),
             });
         }
     }
     let injected = run_jobs(&pool, &injection_jobs, &chosen, &config.kinds, options, fmu, &bar, progress)?;
     bar.finish_and_clear();
     for (job, outcome) in injection_jobs.iter().zip(injected) {
-        if let Outcome::Injected(injection) = outcome {
-            let variant = &chosen[job.variant].0;
-            if let Some(row) = rows.iter_mut().find(|r| &r.variant == variant && Some(r.kind.as_str()) == job.kind) {
-                row.injections.push(injection);
-            }
+        let (Outcome::Injected(mut injection), Some(kind)) = (outcome, job.kind) else { continue };
+        let variant = &chosen[job.variant].0;
+        let Some(row) = rows.iter_mut().find(|r| &r.variant == variant && r.kind == kind) else { continue };
+        if job.noise_seed.is_some() {
+            row.injections.push(injection);
+        } else {
+            let k = config.kinds.iter().position(|k| k == kind);
+            injection.own_limit = own
+                .iter()
+                .find(|(v, seed, _, _)| *v == job.variant && *seed == job.seed)
+                .and_then(|(_, _, limits, _)| limits.get(k?)?.as_ref().ok())
+                .map(|limit| limit.size);
+            row.other.push(injection);
         }
     }
     Ok(rows)
@@ -287,10 +355,11 @@ fn run_jobs(
                     let outcome = run_job(job, variants, kinds, options, simulator)?;
                     if let Outcome::Injected(i) = &outcome {
                         let line = format!(
-                            "{} {} seed {}: change {:.3e} -> {}{}",
+                            "{} {} seed {}{}: change {:.3e} -> {}{}",
                             variants[job.variant].0,
                             job.kind.unwrap_or("-"),
                             i.seed,
+                            i.noise_seed.map(|n| format!(" noise {n}")).unwrap_or_default(),
                             i.change,
                             if i.found.is_empty() { "none".into() } else { i.found.join(", ") },
                             i.error.as_ref().map(|e| format!(" (error: {e})")).unwrap_or_default()
@@ -315,6 +384,7 @@ fn run_job(
     simulator: Option<&mut dyn PlantSimulator>,
 ) -> Result<Outcome, LimitsError> {
     let (variant, config) = &variants[job.variant];
+    let config = &TruthConfig { noise_seed: job.noise_seed, ..config.clone() };
     let Some(kind) = job.kind else {
         let (text, _) = generate_with_effects(config, job.seed, &[], "clean.csv")?;
         let validation = validate_text(&text, config, options, simulator)
@@ -322,16 +392,30 @@ fn run_job(
         let limits = kinds.iter().map(|kind| stated_limit(&validation, kind)).collect();
         return Ok(Outcome::Clean(limits, validation.data.linear));
     };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(job.seed.wrapping_mul(0x9e37_79b9).wrapping_add(0x11));
+    // The effect's sign and phase follow the noise seed on the clean log's excitation, so the
+    // injections into it do not all share one.
+    let draw = job.noise_seed.unwrap_or(job.seed);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(draw.wrapping_mul(0x9e37_79b9).wrapping_add(0x11));
     let effect = changed_effect(kind, job.change, config, &mut rng)?;
     let (text, _) = generate_with_effects(config, job.seed, &[effect], "injected.csv")?;
     let injection = match validate_text(&text, config, options, simulator) {
         Ok(validation) => {
             let (named, cannot_tell, found) = naming(&validation, kind);
-            Injection { seed: job.seed, change: job.change, named, cannot_tell, found, error: None }
+            Injection {
+                seed: job.seed,
+                noise_seed: job.noise_seed,
+                own_limit: None,
+                change: job.change,
+                named,
+                cannot_tell,
+                found,
+                error: None,
+            }
         }
         Err(message) => Injection {
             seed: job.seed,
+            noise_seed: job.noise_seed,
+            own_limit: None,
             change: job.change,
             named: false,
             cannot_tell: false,
@@ -343,10 +427,12 @@ fn run_job(
 }
 
 /// The table: variant, kind, stated limit (with its unit, what set it and the searched
-/// range), named k/N (of which as "cannot tell"), verdict.
+/// range), named k/N in the clean log's excitation with other noise (of which as "cannot
+/// tell"), verdict; and, with other excitations, named k/N there and how many of their misses
+/// their own clean log's limit foretold.
 pub fn markdown(rows: &[LimitRow], config: &LimitsConfig) -> String {
     let mut out = format!(
-        "| variant | kind | stated limit (clean seed {}) | injected at {} x | named k/N (as \"cannot tell\") | holds (>= {:.0} %) |\n|---|---|---|---|---|---|\n",
+        "| variant | kind | stated limit (clean seed {}) | injected at {} x | named k/N, same excitation, other noise (as \"cannot tell\") | holds (>= {:.0} %) | other excitations: named k/N (misses where the log's own limit is at or above the injected change) |\n|---|---|---|---|---|---|---|\n",
         config.clean_seed,
         config.factor,
         config.required * 100.0
@@ -367,26 +453,41 @@ pub fn markdown(rows: &[LimitRow], config: &LimitsConfig) -> String {
             ),
             None => ("-".into(), "-".into()),
         };
-        let _ = writeln!(out, "| {} | {} | {stated} | {injected} | {count} | {verdict} |", row.variant, row.kind);
+        let other = if row.other.is_empty() {
+            "-".to_string()
+        } else {
+            format!(
+                "{}/{} ({} of {})",
+                row.other_named(),
+                row.other.len(),
+                row.other_missed_below_own_limit(),
+                row.other.len() - row.other_named()
+            )
+        };
+        let _ =
+            writeln!(out, "| {} | {} | {stated} | {injected} | {count} | {verdict} | {other} |", row.variant, row.kind);
     }
     out
 }
 
-/// One line per injection: variant, kind, the stated limit (parameter units), the injected
-/// change, seed, named, cannot tell, found effects, error.
+/// One line per injection: variant, kind, the stated limit (parameter units), the excitation
+/// ("same" as the clean log's, with a noise seed, or "other"), the injected change, seed, noise
+/// seed, the log's own limit (other excitations), named, cannot tell, found effects, error.
 pub fn csv(rows: &[LimitRow]) -> String {
-    let mut out =
-        String::from("variant,kind,parameter,unit,stated_limit,injected_change,seed,named,cannot_tell,found,error\n");
+    let mut out = String::from(
+        "variant,kind,parameter,unit,stated_limit,excitation,injected_change,seed,noise_seed,own_limit,named,cannot_tell,found,error\n",
+    );
     for row in rows {
         let Ok(limit) = &row.stated else {
             let why = row.stated.as_ref().err().map(|w| w.replace(',', ";")).unwrap_or_default();
-            let _ = writeln!(out, "{},{},,,,,,,,,{why}", row.variant, row.kind);
+            let _ = writeln!(out, "{},{},,,,,,,,,,,,{why}", row.variant, row.kind);
             continue;
         };
-        for i in &row.injections {
+        for (excitation, i) in row.injections.iter().map(|i| ("same", i)).chain(row.other.iter().map(|i| ("other", i)))
+        {
             let _ = writeln!(
                 out,
-                "{},{},{},{},{:.6e},{:.6e},{},{},{},{},{}",
+                "{},{},{},{},{:.6e},{excitation},{:.6e},{},{},{},{},{},{},{}",
                 row.variant,
                 row.kind,
                 limit.parameter,
@@ -394,6 +495,8 @@ pub fn csv(rows: &[LimitRow]) -> String {
                 limit.size,
                 i.change,
                 i.seed,
+                i.noise_seed.map(|n| n.to_string()).unwrap_or_default(),
+                i.own_limit.map(|l| format!("{l:.6e}")).unwrap_or_default(),
                 i.named,
                 i.cannot_tell,
                 i.found.join(" "),
@@ -409,7 +512,16 @@ mod tests {
     use super::*;
 
     fn injection(named: bool, cannot_tell: bool) -> Injection {
-        Injection { seed: 1, change: 2.0, named, cannot_tell, found: Vec::new(), error: None }
+        Injection {
+            seed: 1,
+            noise_seed: Some(2),
+            own_limit: None,
+            change: 2.0,
+            named,
+            cannot_tell,
+            found: Vec::new(),
+            error: None,
+        }
     }
 
     fn row(injections: Vec<Injection>) -> LimitRow {
@@ -421,7 +533,14 @@ mod tests {
             set_by: antenna_validate::selection::LimitSetBy::Significance,
             searched: Vec::new(),
         };
-        LimitRow { variant: "suite".into(), kind: "torque_offset".into(), stated: Ok(limit), linear: false, injections }
+        LimitRow {
+            variant: "suite".into(),
+            kind: "torque_offset".into(),
+            stated: Ok(limit),
+            linear: false,
+            injections,
+            other: Vec::new(),
+        }
     }
 
     #[test]
@@ -446,6 +565,22 @@ mod tests {
         let text = csv(&rows);
         assert_eq!(text.lines().count(), 1 + 2 + 1);
         assert!(text.lines().nth(2).is_some_and(|l| l.contains(",false,true,")));
+    }
+
+    #[test]
+    fn a_miss_in_another_excitation_is_foretold_only_where_its_own_limit_reaches_the_change() {
+        let mut below = injection(false, false);
+        below.own_limit = Some(3.0);
+        let mut above = injection(false, false);
+        above.own_limit = Some(1.0);
+        let named = Injection { own_limit: Some(3.0), ..injection(true, false) };
+        let unknown = injection(false, false);
+        let mut with_other = row(Vec::new());
+        with_other.other = vec![below, above, named, unknown];
+        assert_eq!(with_other.other_named(), 1);
+        assert_eq!(with_other.other_missed_below_own_limit(), 1);
+        let table = markdown(&[with_other], &LimitsConfig::default());
+        assert!(table.lines().nth(2).is_some_and(|l| l.ends_with("| 1/4 (1 of 3) |")));
     }
 
     #[test]

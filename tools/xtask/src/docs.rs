@@ -25,8 +25,9 @@ pub enum DocsPart {
     /// and the KUKA axes (long: 20-40 min on two cores).
     Validation,
     /// docs/results/validation-limits.md and .csv: the detection limits checked by injection
-    /// (`validate limits` with the equation error alone, the suite's sensors, the two kinds
-    /// whose limits do not yet hold; about 6 min on two shared cores).
+    /// (`validate limits` with the equation error alone, the suite's sensors, the offset and
+    /// the unbalance, each into the clean log's excitation and into other excitations; about
+    /// 12 min on two shared cores).
     Limits,
 }
 

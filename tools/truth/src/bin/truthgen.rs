@@ -77,6 +77,10 @@ enum Command {
 /// The truth's plant, sensors and run, where they differ from the suite's.
 #[derive(Args)]
 struct TruthArgs {
+    /// A seed of the sensor noise alone, apart from --seed's excitation (trajectory and
+    /// injected torque): the same excitation with another noise draw (default: --seed's).
+    #[arg(long, value_name = "SEED")]
+    noise_seed: Option<u64>,
     /// Length of each log (s).
     #[arg(long, value_name = "SECONDS")]
     duration: Option<f64>,
@@ -185,7 +189,7 @@ fn positive(value: f64, flag: &str) -> anyhow::Result<f64> {
 impl TruthArgs {
     /// The truth configuration: the suite's, changed by the options given.
     fn config(&self) -> anyhow::Result<TruthConfig> {
-        let mut base = TruthConfig::default();
+        let mut base = TruthConfig { noise_seed: self.noise_seed, ..TruthConfig::default() };
         if let Some(rate) = self.controller_rate {
             base.controller_rate = positive(rate, "--controller-rate")?;
             if base.controller_rate > base.internal_rate && self.internal_rate.is_none() {
