@@ -26,7 +26,7 @@
 //! - torque constant: the measured torque itself (a scale error scales everything).
 //! - cogging: sin and cos of 2 pi q_m / P, period searched.
 
-use super::equation_error::{backlash_sign, ChannelData, EquationData, Structure};
+use super::equation_error::{backlash_sign, ChannelData, EquationData, Regressor, Structure};
 use super::parameters::{names, ParameterSet};
 use antenna_dsp::weighted_least_squares;
 use rayon::prelude::*;
@@ -427,8 +427,10 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let fc = params.value(names::COULOMB);
     let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
     let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
+    // The hump depends on the data and the velocity only: each is smoothed once per log.
     let hump = |vs: f64| {
-        data.smooth(&data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>())
+        let inner = || data.motor_vel_inner.iter().map(|&v| (-(v / vs).powi(2)).exp() * sign(v)).collect::<Vec<_>>();
+        data.smoothed_regressor(Regressor::StribeckHump, vs, inner).to_vec()
     };
     if mode == Mode::Refine {
         let slope = data.smooth(
@@ -704,12 +706,13 @@ fn cogging(
     if let Some(&(_, last)) = motor_periods.last() {
         shortest = last;
         let explained = |period: f64| -> f64 {
-            let column = |f: fn(f64) -> f64| -> Vec<f64> {
-                let smoothed =
-                    data.smooth(&data.motor_pos_inner.iter().map(|q| f(two_pi * q / period)).collect::<Vec<_>>());
+            // The columns depend on the data and the period only: each is smoothed once per log.
+            let column = |regressor: Regressor, f: fn(f64) -> f64| -> Vec<f64> {
+                let inner = || data.motor_pos_inner.iter().map(|q| f(two_pi * q / period)).collect::<Vec<_>>();
+                let smoothed = data.smoothed_regressor(regressor, period, inner);
                 smoothed.iter().zip(mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect()
             };
-            let (sin, cos) = (column(f64::sin), column(f64::cos));
+            let (sin, cos) = (column(Regressor::CoggingSin, f64::sin), column(Regressor::CoggingCos, f64::cos));
             let (mut rc, mut rs, mut cc, mut ss, mut cs) = (0.0, 0.0, 0.0, 0.0, 0.0);
             for i in 0..torque_rows {
                 rc += w[i] * r[i] * cos[i];

@@ -19,7 +19,8 @@ use crate::finite::{check_series, NonFinite};
 use crate::measured_log::{MeasuredLog, Signal};
 use antenna_dsp::conditioning::SavitzkyGolay;
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// Why a [`PlantSimulator`] could not be configured or could not simulate a window.
 #[derive(Debug, Clone, thiserror::Error)]
@@ -180,6 +181,99 @@ pub struct OutputData {
     /// Logged torque on the analysed region, axis side (N m), unsmoothed.
     pub axis_torque: Vec<f64>,
     pub time: Vec<f64>,
+    /// The twist centres and load-side simulations made so far ([`LoadSideKept`]).
+    pub load_side_kept: LoadSideKept,
+}
+
+/// The parameters the twist centres and the load-side simulation depend on
+/// ([`twist_centres`], [`simulate_load_side`]); every other parameter moves only the plant
+/// FMU's part of an output error.
+const LOAD_SIDE_PARAMETERS: [&str; 7] = [
+    names::LOAD_INERTIA,
+    names::STIFFNESS,
+    names::DAMPING,
+    names::BACKLASH_WIDTH,
+    names::UNBALANCE_TORQUE,
+    names::UNBALANCE_PHASE,
+    names::TORQUE_OFFSET,
+];
+
+/// How many load sides [`LoadSideKept`] holds (about 1 MB each for a minute at 1 kHz).
+const LOAD_SIDES_KEPT: usize = 32;
+
+/// The twist centres and load-side simulations of the parameter sets simulated so far, by the
+/// values of [`LOAD_SIDE_PARAMETERS`] and the window plan. Most candidates of the search
+/// change the motor side only (friction, delay, torque constant, cogging), so the model with
+/// one shares the load side of the model without it; the kept one is the same as a new one
+/// would be. The oldest is dropped beyond [`LOAD_SIDES_KEPT`].
+#[derive(Default)]
+pub struct LoadSideKept {
+    entries: Mutex<VecDeque<(LoadSideKey, Arc<LoadSide>)>>,
+}
+
+/// A copy of the data may have its signals changed, so it starts with none kept.
+impl Clone for LoadSideKept {
+    fn clone(&self) -> Self {
+        LoadSideKept::default()
+    }
+}
+
+impl std::fmt::Debug for LoadSideKept {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let count = self.entries.lock().unwrap_or_else(PoisonError::into_inner).len();
+        write!(f, "LoadSideKept({count} kept)")
+    }
+}
+
+#[derive(PartialEq)]
+struct LoadSideKey {
+    values: [u64; LOAD_SIDE_PARAMETERS.len()],
+    length: usize,
+    starts: Vec<usize>,
+}
+
+/// One parameter set's twist centres on every analysed sample and, with two encoders and a
+/// compliant model, its load side simulated over every window.
+struct LoadSide {
+    centres: Vec<f64>,
+    simulations: Vec<Vec<f64>>,
+}
+
+impl OutputData {
+    /// The twist centres and load-side simulations of `params` over the windows of `plan`,
+    /// made once per set of load-side values.
+    fn load_side(
+        &self,
+        data: &EquationData,
+        params: &ParameterSet,
+        plan: &WindowPlan,
+        simulate: bool,
+    ) -> Arc<LoadSide> {
+        let key = LoadSideKey {
+            values: LOAD_SIDE_PARAMETERS.map(|name| params.value(name).to_bits()),
+            length: plan.length,
+            starts: plan.starts.clone(),
+        };
+        let kept = self.load_side_kept.entries.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some((_, side)) = kept.iter().find(|(k, _)| *k == key) {
+            return Arc::clone(side);
+        }
+        drop(kept);
+        let centres =
+            if self.structure == Structure::TwoMass { twist_centres(data, params) } else { vec![0.0; data.len()] };
+        let simulations = if simulate {
+            plan.starts.par_iter().map(|&i0| simulate_load_side(self, params, &centres, i0, plan.length)).collect()
+        } else {
+            Vec::new()
+        };
+        let side = Arc::new(LoadSide { centres, simulations });
+        let mut kept = self.load_side_kept.entries.lock().unwrap_or_else(PoisonError::into_inner);
+        if kept.len() >= LOAD_SIDES_KEPT {
+            kept.pop_front();
+        }
+        kept.push_back((key, Arc::clone(&side)));
+        side
+    }
 }
 
 impl OutputData {
@@ -278,6 +372,7 @@ impl OutputData {
             state_through_motor: through_motor,
             axis_torque,
             time: data.time.clone(),
+            load_side_kept: LoadSideKept::default(),
         })
     }
 
@@ -616,12 +711,13 @@ pub fn output_error(
     plan: &WindowPlan,
 ) -> Result<OutputError, SimulationError> {
     simulator.configure(params, &out.config).map_err(SimulationError::Simulator)?;
-    let centres = if out.structure == Structure::TwoMass { twist_centres(data, params) } else { vec![0.0; data.len()] };
     let mut kinds = out.channels();
     let load_side = out.structure == Structure::TwoMass && out.two_encoders;
     if load_side {
         kinds.push((ChannelKind::LoadSide, false));
     }
+    let side = out.load_side(data, params, plan, load_side);
+    let centres = &side.centres;
     let length = plan.length;
     // The drive-path channel on its shorter pieces, each restarted from the measured state
     // (none when the pieces are the window, whose own simulation then gives the twist).
@@ -630,14 +726,10 @@ pub fn output_error(
     } else {
         Vec::new()
     };
-    let jobs = window_jobs(out, params, plan, &centres, &pieces);
+    let jobs = window_jobs(out, params, plan, centres, &pieces);
     let mut results = simulator.simulate_all(&jobs, out.dt).into_iter();
     drop(jobs);
-    let load_side_sims: Vec<Vec<f64>> = if load_side {
-        plan.starts.par_iter().map(|&i0| simulate_load_side(out, params, &centres, i0, length)).collect()
-    } else {
-        Vec::new()
-    };
+    let load_side_sims = &side.simulations;
     let mut collected = Collected::new(kinds.len());
     for (w, &i0) in plan.starts.iter().enumerate() {
         let sim = checked(results.next(), length, "window", out.time[i0])?;
@@ -654,7 +746,7 @@ pub fn output_error(
         let load_side_sim = load_side_sims.get(w).map_or(&[][..], Vec::as_slice);
         collected.add_window(out, &kinds, i0, length, &sim, drive_twist.as_deref(), load_side_sim)?;
     }
-    Ok(collected.finish(&kinds, plan, &centres))
+    Ok(collected.finish(&kinds, plan, centres))
 }
 
 /// The simulations of every window in order: the window, then its drive-path pieces.
@@ -1158,5 +1250,95 @@ impl PlantSimulator for RigidReferenceSimulator {
             out.push(q, v, qm, v);
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::equation_error::{prepare, EquationOptions, Regressor};
+    use crate::measured_log::parse_str;
+
+    /// A 20 s two-encoder log at 500 Hz of a compliant axis swinging back and forth, with a
+    /// deterministic stand-in for sensor noise, and a starting set with a stiffness, backlash
+    /// and an unbalance: every load-side parameter moves the load side.
+    fn two_encoder_case() -> (EquationData, OutputData, ParameterSet) {
+        let (dt, gear) = (0.002, 100.0);
+        let mut noise = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            noise ^= noise << 13;
+            noise ^= noise >> 7;
+            noise ^= noise << 17;
+            (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut csv = format!("# gear_ratio = {gear}\ntime_s,motor_torque_Nm,motor_pos_rad,load_pos_rad\n");
+        for k in 0..10_000 {
+            let t = k as f64 * dt;
+            let load = 0.5 * (0.9 * t).sin() + 0.05 * (7.3 * t).sin();
+            let twist = 2e-5 * (0.9 * t).cos() + 1e-6 * next();
+            let torque = 3.0 * (0.9 * t).cos() + 0.4 * (7.3 * t).sin() + 0.01 * next();
+            csv.push_str(&format!("{t:.4},{torque:.6},{:.9},{:.9}\n", gear * (load + twist), load + 1e-7 * next()));
+        }
+        let log = parse_str(&csv).unwrap();
+        let mut params = ParameterSet::new();
+        params.set(names::GEAR_RATIO, gear);
+        params.set(names::MOTOR_INERTIA, 2e-3);
+        params.set(names::TORQUE_CONSTANT, 1.0);
+        params.set(names::LOAD_INERTIA, 30.0);
+        params.set(names::STIFFNESS, 2e6);
+        params.set(names::DAMPING, 2e3);
+        params.set(names::BACKLASH_WIDTH, 1e-6);
+        params.set(names::UNBALANCE_TORQUE, 20.0);
+        params.set(names::UNBALANCE_PHASE, 0.3);
+        params.set(names::TORQUE_OFFSET, 5.0);
+        params.set(names::COULOMB, 40.0);
+        let data = prepare(&log, &params, &EquationOptions::default()).unwrap();
+        let out = OutputData::new(&log, &data, &params).unwrap();
+        (data, out, params)
+    }
+
+    fn bits(runs: &[Vec<f64>]) -> Vec<Vec<u64>> {
+        runs.iter().map(|run| run.iter().map(|v| v.to_bits()).collect()).collect()
+    }
+
+    /// What a load side is when made afresh.
+    fn fresh(data: &EquationData, out: &OutputData, params: &ParameterSet, plan: &WindowPlan) -> Vec<Vec<f64>> {
+        let centres = twist_centres(data, params);
+        plan.starts.iter().map(|&i0| simulate_load_side(out, params, &centres, i0, plan.length)).collect()
+    }
+
+    #[test]
+    fn a_kept_load_side_serves_a_motor_side_change_and_every_load_side_change_makes_its_own() {
+        let (data, out, params) = two_encoder_case();
+        assert_eq!(data.structure, Structure::TwoMass);
+        let plan = WindowPlan::new(400, out.len(), out.dt, "test".into());
+        let first = out.load_side(&data, &params, &plan, true);
+        let mut motor_side = params.clone();
+        motor_side.set(names::COULOMB, 55.0);
+        motor_side.set(names::DELAY, 0.003);
+        let again = out.load_side(&data, &motor_side, &plan, true);
+        assert!(Arc::ptr_eq(&first, &again), "a motor-side change shares the load side");
+        assert_eq!(bits(&again.simulations), bits(&fresh(&data, &out, &motor_side, &plan)));
+        assert_eq!(bits(std::slice::from_ref(&again.centres)), bits(&[twist_centres(&data, &motor_side)]));
+        for name in LOAD_SIDE_PARAMETERS {
+            let mut changed = params.clone();
+            changed.set(name, 1.3 * params.value(name));
+            let kept = out.load_side(&data, &changed, &plan, true);
+            let made = fresh(&data, &out, &changed, &plan);
+            assert_ne!(bits(&made), bits(&first.simulations), "{name} moves the load side");
+            assert_eq!(bits(&kept.simulations), bits(&made), "{name}");
+        }
+    }
+
+    #[test]
+    fn a_kept_smoothed_regressor_is_the_column_smoothed_afresh() {
+        let (data, _, _) = two_encoder_case();
+        let inner = |period: f64| data.motor_pos_inner.iter().map(|q| (q / period).sin()).collect::<Vec<_>>();
+        let made = data.smoothed_regressor(Regressor::CoggingSin, 0.01, || inner(0.01));
+        let kept = data.smoothed_regressor(Regressor::CoggingSin, 0.01, || unreachable!("the column is kept"));
+        assert!(Arc::ptr_eq(&made, &kept));
+        assert_eq!(*kept, data.smooth(&inner(0.01)));
+        let other = data.smoothed_regressor(Regressor::CoggingCos, 0.01, || inner(0.02));
+        assert_eq!(*other, data.smooth(&inner(0.02)), "another regressor at the same value is its own column");
     }
 }

@@ -13,6 +13,7 @@ use super::selection::{DetectionLimit, LimitSetBy};
 use super::twist::TwistAnalysis;
 use super::{ChannelStats, OutputReport, Validation};
 use antenna_plot::{Figure, Panel};
+use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -726,9 +727,36 @@ fn frequency_section(out: &mut String, f: &FrequencyResponse) {
 /// residuals and fit, spectra, frequency response.
 pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<String>, String> {
     let v = validation;
-    let d = &v.data;
-    let mut written = Vec::new();
-    let t = &d.time;
+    type Draw<'a> = Box<dyn Fn() -> Figure + Sync + 'a>;
+    let mut drawn: Vec<(String, Draw)> = vec![
+        (format!("{stem}_residuals.png"), Box::new(|| residuals_figure(v, stem))),
+        (format!("{stem}_spectra.png"), Box::new(|| spectra_figure(v, stem))),
+    ];
+    if let Some(o) = &v.output {
+        drawn.push((format!("{stem}_output.png"), Box::new(move || output_figure(o, stem))));
+    }
+    if let Some(t) = &v.twist {
+        drawn.push((format!("{stem}_twist.png"), Box::new(move || twist_figure(t, v.encoder_skew, stem))));
+    }
+    if let Some(f) = &v.frequency {
+        drawn.push((format!("{stem}_frequency.png"), Box::new(move || frequency_figure(f, stem))));
+    }
+    // The figures do not depend on each other: they are drawn and written side by side, and
+    // listed (or the first failure reported) in the order above.
+    let saved: Vec<Result<String, String>> = drawn
+        .par_iter()
+        .map(|(name, draw)| {
+            let path = dir.join(name);
+            draw().save_png(&path).map_err(|e| e.to_string())?;
+            Ok(path.display().to_string())
+        })
+        .collect();
+    saved.into_iter().collect()
+}
+
+/// The equation-error residuals before and after, with the measured and modelled torques.
+fn residuals_figure(v: &Validation, stem: &str) -> Figure {
+    let t = &v.data.time;
     let before_fitted = v.selection.before.fitted();
     let after_fitted = v.selection.after.fitted();
     let mut figure =
@@ -754,10 +782,12 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
             .line("after", t, &v.selection.after.residual[c]),
         );
     }
-    let path = dir.join(format!("{stem}_residuals.png"));
-    figure.save_png(&path).map_err(|e| e.to_string())?;
-    written.push(path.display().to_string());
+    figure
+}
 
+/// The equation-error residuals' spectra before and after, with the smoothing's cut-off.
+fn spectra_figure(v: &Validation, stem: &str) -> Figure {
+    let d = &v.data;
     let mut spectra = Figure::new(1200, 450 * v.before.len() as u32).title(&format!("{stem}: residual spectra"));
     for (c, channel) in v.selection.before.channels.iter().enumerate() {
         let segment = (d.len() / 8).clamp(64, 4096);
@@ -780,25 +810,7 @@ pub fn figures(validation: &Validation, dir: &Path, stem: &str) -> Result<Vec<St
                 .vertical_line("smoothing cut-off", d.cutoff_hz),
         );
     }
-    let path = dir.join(format!("{stem}_spectra.png"));
-    spectra.save_png(&path).map_err(|e| e.to_string())?;
-    written.push(path.display().to_string());
-    if let Some(o) = &v.output {
-        let path = dir.join(format!("{stem}_output.png"));
-        output_figure(o, stem).save_png(&path).map_err(|e| e.to_string())?;
-        written.push(path.display().to_string());
-    }
-    if let Some(t) = &v.twist {
-        let path = dir.join(format!("{stem}_twist.png"));
-        twist_figure(t, v.encoder_skew, stem).save_png(&path).map_err(|e| e.to_string())?;
-        written.push(path.display().to_string());
-    }
-    if let Some(f) = &v.frequency {
-        let path = dir.join(format!("{stem}_frequency.png"));
-        frequency_figure(f, stem).save_png(&path).map_err(|e| e.to_string())?;
-        written.push(path.display().to_string());
-    }
-    Ok(written)
+    spectra
 }
 
 /// The measured twist less the model's, what the significant terms fit of it, and what is

@@ -1554,9 +1554,13 @@ fn search_pair(
     }
     let level = threshold / count as f64;
     let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
-    let mut passing: Vec<(f64, usize, usize)> = Vec::new();
-    for i in 0..evaluated.len() {
-        for j in i + 1..evaluated.len() {
+    // Each pair is fitted and tested on its own, side by side; the passing ones are collected
+    // in the order one pair after another gives, which the stable sort below keeps for ties.
+    let pairs: Vec<(usize, usize)> =
+        (0..evaluated.len()).flat_map(|i| (i + 1..evaluated.len()).map(move |j| (i, j))).collect();
+    let mut passing: Vec<(f64, usize, usize)> = pairs
+        .par_iter()
+        .filter_map(|&(i, j)| {
             let (a, b) = (&evaluated[i].0, &evaluated[j].0);
             let mut columns = accepted_columns.clone();
             columns.extend(a.columns.iter().cloned());
@@ -1592,14 +1596,14 @@ fn search_pair(
                 }
             }
             if !ok {
-                continue;
+                return None;
             }
             let k = (a.parameter_count() + b.parameter_count()) as f64;
             let n_eff = joint.effective_samples().max(2.0);
             let explained = if weighted(current) > 0.0 { 1.0 - weighted(&joint) / weighted(current) } else { 0.0 };
-            passing.push((explained - k * n_eff.ln() / n_eff, i, j));
-        }
-    }
+            Some((explained - k * n_eff.ln() / n_eff, i, j))
+        })
+        .collect();
     passing.sort_by(|x, y| y.0.total_cmp(&x.0));
     for (_, i, j) in passing {
         let (a, b) = (evaluated[i].0.kind, evaluated[j].0.kind);
