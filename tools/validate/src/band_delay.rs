@@ -94,6 +94,80 @@ impl BandDelay {
     }
 }
 
+/// The scale of the band estimate's model-form floor (s): on clean logs (no skew, no delay)
+/// it gives -0.01 to -0.09 ms (the truth's dynamic friction against the model's static law,
+/// 500 Hz to 2 kHz), so a negative delay within that scale is not read as a skew, however
+/// significant.
+pub const MODEL_FORM_FLOOR: f64 = 1.0e-4;
+
+/// A current logged late against the encoders: the band estimate of the delay, from no delay,
+/// came out negative (the motion answers before the logged current), which no drive's delay
+/// can be. It is a property of the data acquisition, corrected in the data before the search.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurrentSkew {
+    /// The band estimate from no delay (its `delay()` is the negative of the skew).
+    pub estimate: BandDelay,
+    /// The one-sided p level it was tested at.
+    pub level: f64,
+}
+
+impl CurrentSkew {
+    /// How much later than the encoders the current was stamped (s, positive).
+    pub fn late(&self) -> f64 {
+        -self.estimate.delay()
+    }
+
+    /// One line for reports.
+    pub fn describe(&self) -> String {
+        let e = &self.estimate;
+        format!(
+            "the current is logged {:.3} +- {:.3} ms ({:.2} samples) later than the encoders: the motion answers before the logged current, a negative delay no drive has (chi-square {:.1} at the one-sided level {:.1e}, beyond the band estimate's model-form floor of {:.2} ms; {})",
+            self.late() * 1e3,
+            e.sigma * 1e3,
+            self.late() / e.dt,
+            (e.delay() / e.sigma.max(f64::MIN_POSITIVE)).powi(2),
+            self.level,
+            MODEL_FORM_FLOOR * 1e3,
+            e.method()
+        )
+    }
+}
+
+/// A current skew in the data: the band estimate from no delay (`params` with its delay set
+/// to zero) is negative, significant at the one-sided p `level` and beyond
+/// [`MODEL_FORM_FLOOR`]. A positive estimate is a drive delay or a current logged early,
+/// which the data cannot tell apart; it is left to the delay candidate.
+///
+/// Only with two encoders and a two-mass set, where the estimate was measured against known
+/// skews: a velocity-proportional model error is in quadrature with the torque too and can
+/// read as a negative delay (a viscous coefficient 14 N m s/rad low on the rigid drive of
+/// `tests/recheck.rs` was taken for a skew).
+pub fn current_skew(data: &EquationData, params: &ParameterSet, level: f64) -> Option<CurrentSkew> {
+    if data.structure != Structure::TwoMass {
+        return None;
+    }
+    let mut from_zero = params.clone();
+    from_zero.set(names::DELAY, 0.0);
+    let estimate = estimate(data, &from_zero)?;
+    let delay = estimate.delay();
+    is_skew(delay, estimate.sigma, level).then_some(CurrentSkew { estimate, level })
+}
+
+/// Whether an apparent delay `delay` (s) with standard error `sigma` is a current skew: below
+/// zero at the one-sided p `level` and beyond the model-form floor.
+fn is_skew(delay: f64, sigma: f64, level: f64) -> bool {
+    let chi2 = (delay / sigma.max(f64::MIN_POSITIVE)).powi(2);
+    delay < -MODEL_FORM_FLOOR && 0.5 * antenna_dsp::chi_squared_sf(chi2, 1.0) < level
+}
+
+/// The log with its current (or torque) columns read `by` seconds later: the value logged `by`
+/// later stands at each row, which undoes a current stamped `by` late. Cubic interpolation on
+/// a uniform log, linear on an uneven one; the ends are held.
+pub fn shift_current(log: &crate::measured_log::MeasuredLog, by: f64) -> crate::measured_log::MeasuredLog {
+    use crate::measured_log::Signal;
+    crate::twist::shift_signals(log, &[Signal::MotorCurrent, Signal::MotorCurrentCommand, Signal::MotorTorque], by)
+}
+
 /// The delay of the applied torque from the parameter set's, over the unsmoothed band of the
 /// torque balance (the motor equation with two encoders, the total one otherwise). `None`
 /// when the log is too short for enough segments or nothing in it carries a delay.
@@ -377,6 +451,7 @@ impl DelayAccount {
             self.threshold,
             e.method()
         );
+        text.push_str("; delay or current skew: the data cannot tell (a current stamped earlier than the encoders by as much reads the same)");
         match &self.simulation {
             None => text.push_str("; the log was not simulated, so no simulation confirms it"),
             Some(view) => {
@@ -407,5 +482,40 @@ impl DelayAccount {
             self.estimate.limit(self.threshold) / self.estimate.dt,
             self.estimate.method()
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measured_log::{parse_str, Signal};
+
+    #[test]
+    fn only_a_significant_negative_delay_beyond_the_floor_is_a_current_skew() {
+        // A current logged 0.3 ms late, well resolved: a skew.
+        assert!(is_skew(-3.0e-4, 1.2e-5, 1e-3));
+        // The clean logs' model-form floor: significant, but within the floor's scale.
+        assert!(!is_skew(-0.6 * MODEL_FORM_FLOOR, 1.0e-6, 1e-3));
+        // Beyond the floor but not significant.
+        assert!(!is_skew(-3.0e-4, 2.0e-4, 1e-3));
+        // A positive delay is a drive's delay or a current logged early: never a skew.
+        assert!(!is_skew(1.0e-3, 1.0e-5, 1e-3));
+    }
+
+    #[test]
+    fn shifting_the_current_undoes_a_current_logged_late() {
+        let (dt, late) = (1e-3, 0.37e-3);
+        let current = |t: f64| (7.0 * t).sin() + 0.3 * (23.0 * t).cos();
+        let mut text = String::from("time_s,motor_current_A,load_pos_rad,motor_pos_rad\n");
+        for i in 0..2000 {
+            let t = i as f64 * dt;
+            text.push_str(&format!("{t},{},{},{}\n", current(t - late), 0.1 * t, 0.1 * t));
+        }
+        let log = parse_str(&text).unwrap();
+        let shifted = shift_current(&log, late);
+        let values = shifted.signal(Signal::MotorCurrent).unwrap();
+        let worst = (10..1990).map(|i| (values[i] - current(i as f64 * dt)).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-5, "{worst}");
+        assert_eq!(shifted.signal(Signal::LoadPos), log.signal(Signal::LoadPos));
     }
 }

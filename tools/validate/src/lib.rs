@@ -187,6 +187,12 @@ pub struct Validation {
     /// The load encoder's position-dependent error, taken out of the data before the search,
     /// when one was found ([`sensor_errors`]).
     pub load_encoder_error: Option<sensor_errors::LoadEncoderError>,
+    /// A motor speed sensor's integrated bias drift, taken out of the integrated motor
+    /// position before the search, when one was found ([`sensor_errors::tacho_drift`]).
+    pub tacho_drift: Option<sensor_errors::TachoDrift>,
+    /// A current stamped later than the encoders, taken out of the data before the search,
+    /// when one was found ([`band_delay::current_skew`]).
+    pub current_skew: Option<band_delay::CurrentSkew>,
     /// Effects not claimed that the output error alone would confirm.
     pub hints: Vec<Hint>,
     /// Candidates that reproduce a found effect over this log ("X or Y: the data cannot
@@ -438,12 +444,44 @@ pub fn validate_with(
     let log = from_command.as_ref().unwrap_or(log);
     let integrated = log.with_motor_position_from_speed();
     let log = integrated.as_ref().unwrap_or(log);
+    // The speed sensor's drift, integrated, is a motor-position error that wanders in time:
+    // estimated from the twist and taken out first, so the search sees one constant twist
+    // offset instead of a free function of time beside every effect ([`sensor_errors`]).
+    let drift = match &integrated {
+        Some(_) => tacho_drift(log, start, options)?,
+        None => None,
+    };
+    let drift_corrected = drift.as_ref().map(|d| d.correct(log));
+    let log = drift_corrected.as_ref().unwrap_or(log);
     // The load encoder's own error is found and taken out before any physical effect is
     // judged, or it would raise every residual and detection limit ([`sensor_errors`]).
     let encoder_error = load_encoder_error(log, start, options)?;
     let encoder_corrected = encoder_error.as_ref().map(|e| e.correct(log));
     let log = encoder_corrected.as_ref().unwrap_or(log);
+    // A current stamped late reads as a negative delay, which no drive has: a sensor skew,
+    // corrected in the data before the search ([`band_delay::current_skew`]).
+    let late_current = current_skew(log, start, options)?;
+    let skew_corrected = late_current.as_ref().map(|s| band_delay::shift_current(log, s.late()));
+    let log = skew_corrected.as_ref().unwrap_or(log);
     let (observable, mut unobservable) = observable_candidates(log, options);
+    if let Some(skew) = &late_current {
+        unobservable.insert(
+            0,
+            format!(
+                "{}; the current was shifted back by it before the search (a sensor skew, not an effect of the plant)",
+                skew.describe()
+            ),
+        );
+    }
+    if let Some(drift) = &drift {
+        unobservable.insert(
+            0,
+            format!(
+                "{}; taken out of the integrated motor position before the search (a sensor error, not an effect of the plant)",
+                drift.describe()
+            ),
+        );
+    }
     if let Some(error) = &encoder_error {
         unobservable.insert(
             0,
@@ -458,6 +496,8 @@ pub fn validate_with(
     let reborrowed = simulator.as_mut().map(|s| &mut **s as &mut dyn PlantSimulator);
     let mut first = validate_once(log, start, options, reborrowed)?;
     first.load_encoder_error = encoder_error.clone();
+    first.tacho_drift = drift.clone();
+    first.current_skew = late_current.clone();
     first.notes.extend(unobservable.iter().cloned());
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
@@ -476,6 +516,8 @@ pub fn validate_with(
     second.twist = first.twist;
     second.encoder_skew = Some(skew);
     second.load_encoder_error = encoder_error;
+    second.tacho_drift = drift;
+    second.current_skew = late_current;
     Ok(second)
 }
 
@@ -488,6 +530,33 @@ fn load_encoder_error(
 ) -> Result<Option<sensor_errors::LoadEncoderError>, ValidationError> {
     let data = equation_error::prepare(log, start, &options.equation)?;
     Ok(sensor_errors::load_encoder_error(&data, start, &options.twist))
+}
+
+/// The integrated drift of the motor speed sensor in `log` (whose motor position was
+/// integrated from it) with the starting set, when the log shows one
+/// ([`sensor_errors::tacho_drift`]).
+fn tacho_drift(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+) -> Result<Option<sensor_errors::TachoDrift>, ValidationError> {
+    let data = equation_error::prepare(log, start, &options.equation)?;
+    Ok(sensor_errors::tacho_drift(&data, start, &options.twist))
+}
+
+/// A current stamped later than the encoders in `log`, when the band estimate of the delay
+/// from the starting set shows one ([`band_delay::current_skew`]); only when the delay is a
+/// candidate (the estimate is the delay's), at the search's level.
+fn current_skew(
+    log: &MeasuredLog,
+    start: &ParameterSet,
+    options: &ValidateOptions,
+) -> Result<Option<band_delay::CurrentSkew>, ValidationError> {
+    if !options.selection.candidates.contains(&Kind::Delay) {
+        return Ok(None);
+    }
+    let data = equation_error::prepare(log, start, &options.equation)?;
+    Ok(band_delay::current_skew(&data, start, options.selection.alpha))
 }
 
 /// The options with the candidates a log's signals cannot observe taken out, and a note for
@@ -575,6 +644,8 @@ fn validate_once(
         twist: None,
         encoder_skew: None,
         load_encoder_error: None,
+        tacho_drift: None,
+        current_skew: None,
         hints,
         indistinct,
         collinear,

@@ -214,6 +214,11 @@ pub struct Channel {
 /// The unit recorded for a motor position integrated from a motor speed.
 pub const INTEGRATED_UNIT: &str = "rad, integrated from the motor speed";
 
+/// The unit recorded for a motor position integrated from a motor speed whose bias drift was
+/// estimated and taken out ([`crate::sensor_errors::TachoDrift`]): its twist is then as
+/// trustworthy as an encoder's, one constant offset.
+pub const DRIFT_REMOVED_UNIT: &str = "rad, integrated from the motor speed, drift removed";
+
 /// A measured log in SI units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredLog {

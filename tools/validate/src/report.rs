@@ -82,6 +82,16 @@ pub fn markdown(validation: &Validation, log_name: &str) -> String {
     collinear_section(&mut out, v);
     detection_section(&mut out, v);
     delay_band_section(&mut out, v);
+    if let Some(drift) = &v.tacho_drift {
+        drift_section(&mut out, drift);
+    }
+    if let Some(skew) = &v.current_skew {
+        let _ = writeln!(
+            out,
+            "\n## Current skew taken out before the search\n\nThe delay of the applied torque, estimated over the unsmoothed band from no delay, is negative: the motion answers before the logged current, which no physical delay can do. The current's columns were shifted back by it before the effects were searched.\n\n{}.\n",
+            skew.describe()
+        );
+    }
     if let Some(error) = &v.load_encoder_error {
         sensor_section(&mut out, error);
     }
@@ -123,6 +133,12 @@ fn effects_section(out: &mut String, v: &Validation) {
             let _ = writeln!(out, "| {name} | {value:.6e} | {sd:.3e} | {unit} |");
         }
         let _ = writeln!(out);
+        if found.kind == Kind::Delay {
+            let _ = writeln!(
+                out,
+                "**Delay or current skew: the data cannot tell.** A current stamped earlier than the encoders by the same time reads exactly as a drive delay; only a negative delay (the current stamped late) is a sensor skew for certain.\n"
+            );
+        }
         if !found.correlations.is_empty() {
             let list: Vec<String> =
                 found.correlations.iter().map(|(other, r)| format!("{} {r:+.2}", other.name())).collect();
@@ -256,6 +272,16 @@ fn delay_band_section(out: &mut String, v: &Validation) {
             account.limit_text()
         );
     }
+}
+
+/// The motor speed sensor's integrated drift, found and taken out before the search.
+fn drift_section(out: &mut String, drift: &crate::sensor_errors::TachoDrift) {
+    let _ = writeln!(
+        out,
+        "\n## Motor speed sensor's drift taken out before the search\n\nThe motor position is integrated from a speed signal, whose bias wanders: integrated, that is a motor-position error that wanders in time and enters the twist. The twist less what the motor side explains (the shaft torque over the stiffness, the lost motion, a timing skew, the motor side's friction and inertia errors) was regressed on the sliding samples on a piecewise linear function of time (knots {:.2} s apart: the time the speed's integrated white noise takes to reach the load encoder's noise) and that function subtracted from the motor position before the effects were searched; the twist offset is one constant from there on.\n\n{}.\n",
+        drift.spacing(),
+        drift.describe()
+    );
 }
 
 /// The load encoder's error, found and taken out of the data before the search.

@@ -23,7 +23,7 @@
 //! load encoder before the search, and reported; it is not an effect of the plant.
 
 use crate::equation_error::{EquationData, Structure};
-use crate::measured_log::{MeasuredLog, Signal};
+use crate::measured_log::{MeasuredLog, Signal, DRIFT_REMOVED_UNIT, INTEGRATED_UNIT};
 use crate::parameters::ParameterSet;
 use crate::twist::{twist_regression, TwistOptions};
 use antenna_dsp::weighted_least_squares;
@@ -266,6 +266,134 @@ pub fn load_encoder_error(
         .then_some(error)
 }
 
+/// A motor speed sensor's integrated bias drift, found in a log whose motor position was
+/// integrated from that speed: a piecewise linear function of time (axis rad) on the knots the
+/// equation error's slow twist offset uses.
+///
+/// A tacho's bias wanders (with temperature, with the drive's own heat), and integrated it is
+/// a motor-position error that wanders in time and enters the twist. Its slow part is not
+/// measured by the speed sensor at all; only a model can put it back: the twist less what the
+/// motor side explains (the shaft torque over the stiffness, the lost motion, a skew, the motor
+/// side's own friction and inertia errors) is free of every load-side torque, and what stays
+/// there as a function of time is the drift. The knots are as far apart as the integrated
+/// white noise of the speed takes to reach the load encoder's noise (0.5 to 10 s): closer knots
+/// would follow that noise, farther ones leave the drift's curvature in the data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TachoDrift {
+    /// Knot times (s) and the drift's value there (axis rad, what the integral reads less the
+    /// truth), linear between the knots and held beyond the first and last.
+    pub knots: Vec<f64>,
+    pub values: Vec<f64>,
+    /// RMS of the drift over the log (rad, its mean taken off: a constant is the twist offset),
+    /// and the twist's sensor noise it is judged against.
+    pub rms: f64,
+    pub noise: f64,
+}
+
+impl TachoDrift {
+    /// The drift at time `t` (s).
+    pub fn at(&self, t: f64) -> f64 {
+        let k = &self.knots;
+        match k.iter().position(|&knot| knot > t) {
+            None => self.values[k.len() - 1],
+            Some(0) => self.values[0],
+            Some(j) => {
+                let w = (t - k[j - 1]) / (k[j] - k[j - 1]);
+                self.values[j - 1] * (1.0 - w) + self.values[j] * w
+            }
+        }
+    }
+
+    /// The log with the drift taken out of every integrated motor position, which is then
+    /// marked as a position whose drift was removed (one constant twist offset from here on).
+    pub fn correct(&self, log: &MeasuredLog) -> MeasuredLog {
+        let mut out = log.clone();
+        for channel in out.channels.iter_mut().filter(|c| c.signal == Signal::MotorPos && c.unit == INTEGRATED_UNIT) {
+            for (value, &t) in channel.values.iter_mut().zip(&log.time) {
+                *value -= self.at(t);
+            }
+            channel.unit = DRIFT_REMOVED_UNIT.into();
+        }
+        out
+    }
+
+    /// Knot spacing (s).
+    pub fn spacing(&self) -> f64 {
+        (self.knots[self.knots.len() - 1] - self.knots[0]) / (self.knots.len() - 1).max(1) as f64
+    }
+
+    /// One line for reports.
+    pub fn describe(&self) -> String {
+        let arcsec = 180.0 * 3600.0 / std::f64::consts::PI;
+        let (low, high) =
+            self.values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        format!(
+            "motor speed sensor's bias drift, integrated: {:.3} arcsec RMS over the log (twist noise {:.3} arcsec), {:.3} arcsec from lowest to highest, piecewise linear in time with {} knots {:.2} s apart",
+            self.rms * arcsec,
+            self.noise * arcsec,
+            (high - low) * arcsec,
+            self.knots.len(),
+            self.spacing()
+        )
+    }
+}
+
+/// The integrated drift of a motor speed sensor in a log whose motor position was integrated
+/// from it, with a two-mass starting set: the twist less what the motor side explains,
+/// regressed on the sliding samples on the slow twist offset's hat functions together with the
+/// twist terms (skew, compliance, lost motion) and the motor side's own model errors, so that
+/// neither a lost motion nor a friction level the start lacks is taken for drift. The drift is
+/// returned when its RMS (mean taken off) is at least `options.min_effect_to_noise` times the
+/// twist's noise, `None` otherwise and when the log has no integrated motor position.
+pub fn tacho_drift(data: &EquationData, params: &ParameterSet, options: &TwistOptions) -> Option<TachoDrift> {
+    let hats = &data.slow_twist_hats;
+    if data.structure != Structure::TwoMass || hats.len() < 2 || data.len() < 200 {
+        return None;
+    }
+    let regression = twist_regression(data, params);
+    let keep = rows(data);
+    let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&i| v[i]).collect() };
+    let target = pick(&regression.target);
+    // The skew, compliance and lost-motion columns (the constant is in the hats, which sum to
+    // one), and the motor side's Coulomb, viscous, inertia and torque-constant columns.
+    let mut columns: Vec<Vec<f64>> = regression.columns[1..4].iter().map(|c| pick(c)).collect();
+    let direction: Vec<f64> = data.smooth(&data.motor_vel_inner.iter().map(|v| v.signum()).collect::<Vec<_>>());
+    for motor_side in [&direction, &data.motor_vel, &data.motor_acc, &data.torque] {
+        columns.push(pick(motor_side));
+    }
+    let base = columns.len();
+    columns.extend(hats.iter().map(|h| pick(h)));
+    // A knot whose support holds few sliding samples (the log's first second at rest, a long
+    // stop) is barely determined by the data: a second difference of the knots' values, zero
+    // with the weight of one row, makes the drift run straight through such a gap and costs
+    // nothing where the knot has its tens of rows per second.
+    let mut target = target;
+    for j in 1..hats.len().saturating_sub(1) {
+        for (c, column) in columns.iter_mut().enumerate() {
+            let value = match c.checked_sub(base) {
+                Some(h) if h + 1 == j || h == j + 1 => 1.0,
+                Some(h) if h == j => -2.0,
+                _ => 0.0,
+            };
+            column.push(value);
+        }
+        target.push(0.0);
+    }
+    let result = fit(&columns, &target);
+    let values: Vec<f64> = result.beta[base..].to_vec();
+    let (t0, t1) = (data.time[0], data.time[data.len() - 1]);
+    let count = values.len() - 1;
+    let knots: Vec<f64> = (0..=count).map(|j| t0 + (t1 - t0) * j as f64 / count as f64).collect();
+    // The twist holds +drift (the motor position reads high): the fitted offsets are the drift.
+    let noise = (data.motor_pos_sigma.powi(2) + data.load_pos_sigma.powi(2)).sqrt();
+    let mut drift = TachoDrift { knots, values, rms: 0.0, noise };
+    let along: Vec<f64> = data.time.iter().map(|&t| drift.at(t)).collect();
+    let mean = along.iter().sum::<f64>() / along.len() as f64;
+    drift.values.iter_mut().for_each(|v| *v -= mean);
+    drift.rms = (along.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / along.len() as f64).sqrt();
+    (drift.rms.is_finite() && drift.rms >= options.min_effect_to_noise * noise).then_some(drift)
+}
+
 /// `columns` with the sine and cosine of each order in `orders` appended.
 fn with_motor_torques(columns: &[Vec<f64>], angle: &[f64], orders: &[u32]) -> Vec<Vec<f64>> {
     let mut all = columns.to_vec();
@@ -409,6 +537,31 @@ mod tests {
         // The rotation through 2000 orders keeps the phase: the same answer at the top.
         let top: Vec<f64> = angle.iter().map(|q| (1999.0 * q).sin()).collect();
         assert_eq!(strongest_harmonic(&top, &angle, 8..=2000, &[]), Some(1999));
+    }
+
+    #[test]
+    fn the_drift_correction_takes_a_piecewise_linear_drift_out_of_an_integrated_motor_position() {
+        let drift = TachoDrift { knots: vec![0.0, 1.0, 2.0], values: vec![1e-6, -2e-6, 0.5e-6], rms: 0.0, noise: 0.0 };
+        assert!((drift.at(0.5) + 0.5e-6).abs() < 1e-18);
+        assert!((drift.at(-1.0) - 1e-6).abs() < 1e-18 && (drift.at(5.0) - 0.5e-6).abs() < 1e-18);
+        let text: String = std::iter::once("time_s,motor_current_A,motor_vel_rad_s,load_pos_rad\n".to_string())
+            .chain((0..200).map(|i| {
+                let t = i as f64 * 0.01;
+                format!("{t},0,{},{}\n", (3.0 * t).cos(), (3.0 * t).sin() / 3.0)
+            }))
+            .collect();
+        let integrated = crate::measured_log::parse_str(&text).unwrap().with_motor_position_from_speed().unwrap();
+        let mut drifting = integrated.clone();
+        for channel in drifting.channels.iter_mut().filter(|c| c.signal == Signal::MotorPos) {
+            channel.values.iter_mut().zip(&integrated.time).for_each(|(v, &t)| *v += drift.at(t));
+        }
+        let corrected = drift.correct(&drifting);
+        let (a, b) = (corrected.signal(Signal::MotorPos).unwrap(), integrated.signal(Signal::MotorPos).unwrap());
+        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-15, "{worst}");
+        // From here on the twist offset is one constant: the position no longer counts as an
+        // integrated one with a free drift.
+        assert!(drifting.motor_position_is_integrated() && !corrected.motor_position_is_integrated());
     }
 
     #[test]

@@ -295,10 +295,17 @@ fn refit_significant(
 /// which undoes a load encoder that lags the motor encoder by `skew`. Cubic interpolation on a
 /// uniform log, linear on an uneven one; the ends are held.
 pub fn shift_load_encoder(log: &MeasuredLog, skew: f64) -> MeasuredLog {
+    shift_signals(log, &[Signal::LoadPos, Signal::LoadVel], skew)
+}
+
+/// The log with the columns of `signals` read `skew` seconds earlier (each row takes the value
+/// logged `skew` later). Cubic interpolation on a uniform log, linear on an uneven one; the
+/// ends are held.
+pub fn shift_signals(log: &MeasuredLog, signals: &[Signal], skew: f64) -> MeasuredLog {
     let mut out = log.clone();
     let dt = log.sample_interval();
     let uneven = log.time.windows(2).any(|w| ((w[1] - w[0]) / dt - 1.0).abs() > 0.01);
-    for channel in out.channels.iter_mut().filter(|c| c.signal == Signal::LoadPos || c.signal == Signal::LoadVel) {
+    for channel in out.channels.iter_mut().filter(|c| signals.contains(&c.signal)) {
         channel.values = if uneven {
             log.time
                 .iter()
