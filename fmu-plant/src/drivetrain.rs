@@ -867,6 +867,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     }
 
     /// The input vector `u` for the current mode.
+    #[inline]
     fn input_vector(&self, inputs: &PieceInputs<P>) -> SVector<f64, U> {
         let mut u = SVector::<f64, U>::zeros();
         for k in 0..P {
@@ -882,26 +883,18 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     /// The state after `piece_length / 2^level` in the current mode, except that its
     /// load-angle entry holds the increment of the load angle rather than the angle (see
     /// [`accept`](Self::accept)).
+    // Inlined into the piece loop, with the discretisation's look-up out of line in
+    // `fetch_ladder`: the common call finds the last ladder and needs nothing else.
+    #[inline]
     fn propagate(&mut self, level: u32, u: &SVector<f64, U>) -> SVector<f64, S> {
-        let (length, levels) = self.piece;
-        let key = DiscretisationKey { mode: self.mode_bits(), cell: self.cell, step_bits: length.to_bits() };
-        if self.last.as_ref().is_none_or(|(k, _)| *k != key) {
-            let model = self.model;
-            let computed = &mut self.statistics.discretisations_computed;
-            let ladder = self.cache.get_or_insert_with(key, || {
-                *computed += 1;
-                Ladder::top(&model, key.mode, length)
-            });
-            self.last = Some((key, ladder));
-        }
-        if level as usize >= self.last.as_ref().expect("set just above").1.rungs.len() {
-            let completed =
-                Arc::new(self.last.as_ref().expect("set above").1.completed(&self.model, key.mode, length, levels));
-            self.statistics.discretisations_computed += 1;
-            self.cache.replace(key, Arc::clone(&completed));
-            self.last = Some((key, completed));
-        }
-        let d = &self.last.as_ref().expect("set just above").1.rungs[level as usize];
+        let key = DiscretisationKey { mode: self.mode_bits(), cell: self.cell, step_bits: self.piece.0.to_bits() };
+        let d = match &self.last {
+            Some((k, ladder)) if *k == key && (level as usize) < ladder.rungs.len() => &ladder.rungs[level as usize],
+            _ => {
+                self.fetch_ladder(key, level);
+                &self.last.as_ref().expect("set by fetch_ladder").1.rungs[level as usize]
+            }
+        };
         // The load angle's column of Ad is exactly a unit vector (nothing depends on the
         // angle), so leaving it out yields the increment in that entry and changes no other.
         // A sticking motor's bristle does depend on the angle: its torque -sigma (d_k + p_L -
@@ -919,6 +912,30 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             return d.ad * x + d.bd * u;
         }
         d.ad * x + d.bd * u
+    }
+
+    /// Makes `last` the ladder of `key` with at least `level + 1` rungs: from the cache, or
+    /// computed (the top rung, then the finer ones when a piece is subdivided that far).
+    #[cold]
+    #[inline(never)]
+    fn fetch_ladder(&mut self, key: DiscretisationKey, level: u32) {
+        let (length, levels) = self.piece;
+        if self.last.as_ref().is_none_or(|(k, _)| *k != key) {
+            let model = self.model;
+            let computed = &mut self.statistics.discretisations_computed;
+            let ladder = self.cache.get_or_insert_with(key, || {
+                *computed += 1;
+                Ladder::top(&model, key.mode, length)
+            });
+            self.last = Some((key, ladder));
+        }
+        if level as usize >= self.last.as_ref().expect("set just above").1.rungs.len() {
+            let completed =
+                Arc::new(self.last.as_ref().expect("set above").1.completed(&self.model, key.mode, length, levels));
+            self.statistics.discretisations_computed += 1;
+            self.cache.replace(key, Arc::clone(&completed));
+            self.last = Some((key, completed));
+        }
     }
 
     /// True if some motor has a presliding element and sticks (the bristle holds it).
@@ -944,6 +961,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
     }
 
     /// Takes a propagated state, adding its load-angle increment with compensated summation.
+    #[inline]
     fn accept(&mut self, mut next: SVector<f64, S>) {
         let increment = next[LOAD_ANGLE];
         let angle = self.x[LOAD_ANGLE];
@@ -1023,6 +1041,7 @@ impl<const P: usize, const S: usize, const U: usize> DriveCore<P, S, U> {
             - Self::path_torque_of(x, &self.model, self.mesh[k], k)
     }
 
+    #[inline]
     fn is_consistent(&self, x: &SVector<f64, S>, inputs: &PieceInputs<P>) -> bool {
         for k in 0..P {
             let half_gap = 0.5 * self.config.backlash[k];

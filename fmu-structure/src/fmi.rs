@@ -128,6 +128,7 @@ pub struct StructureModel {
 
 impl StructureModel {
     /// The loads in the order of [`LOADS`].
+    #[inline]
     fn loads(values: &Values<StructureVar>) -> [f64; LOADS] {
         [
             values.real(StructureVar::AzTorque),
@@ -157,11 +158,13 @@ impl StructureModel {
     }
 
     /// The elevation the modes are taken at, deg.
+    #[inline]
     fn elevation(values: &Values<StructureVar>) -> f64 {
         values.real(StructureVar::Elevation)
     }
 
     /// The axes' speeds, rad/s.
+    #[inline]
     fn speeds(values: &Values<StructureVar>) -> [f64; 2] {
         [values.real(StructureVar::AzSpeed).to_radians(), values.real(StructureVar::ElSpeed).to_radians()]
     }
@@ -233,7 +236,8 @@ impl Model for StructureModel {
         step: f64,
         _notes: &mut Notes,
     ) -> Result<(), StructureFmuError> {
-        let structure = self.structure.as_mut().ok_or(StructureFmuError::NotInitialised)?;
+        // Not `ok_or`: it would build the error at every step and drop it again.
+        let Some(structure) = self.structure.as_mut() else { return Err(StructureFmuError::NotInitialised) };
         structure.set_elevation(Self::elevation(values));
         structure.step(&Self::loads(values), &Self::speeds(values), step)?;
         self.write_offsets(values);

@@ -143,7 +143,8 @@ impl Model for ElevationControllerModel {
         step: f64,
         _notes: &mut Notes,
     ) -> Result<(), ControllerFmuError> {
-        let controller = self.controller.as_mut().ok_or(ControllerFmuError::NotInitialised)?;
+        // Not `ok_or`: it would build the error at every step and drop it again.
+        let Some(controller) = self.controller.as_mut() else { return Err(ControllerFmuError::NotInitialised) };
         // The sample grid starts at the first communication point.
         let scheduler = self.scheduler.get_or_insert_with(|| {
             SampleScheduler::new(time, &controller.params().cascade.sampling, controller.idle_outputs())

@@ -398,7 +398,8 @@ impl Model for AzimuthPlantModel {
         step: f64,
         notes: &mut Notes,
     ) -> Result<(), PlantFmuError> {
-        let plant = self.plant.as_mut().ok_or(PlantFmuError::NotInitialised)?;
+        // Not `ok_or`: it would build the error at every step and drop it again.
+        let Some(plant) = self.plant.as_mut() else { return Err(PlantFmuError::NotInitialised) };
         let inputs = AzimuthInputs {
             current_command_a: [values.real(AzVar::Current1Command), values.real(AzVar::Current2Command)],
             disturbance_torque_nm: values.real(AzVar::DisturbanceTorque),

@@ -355,7 +355,8 @@ impl Model for ElevationPlantModel {
         step: f64,
         _notes: &mut Notes,
     ) -> Result<(), PlantFmuError> {
-        let plant = self.plant.as_mut().ok_or(PlantFmuError::NotInitialised)?;
+        // Not `ok_or`: it would build the error at every step and drop it again.
+        let Some(plant) = self.plant.as_mut() else { return Err(PlantFmuError::NotInitialised) };
         let inputs = ElevationInputs {
             current_command_a: values.real(ElVar::CurrentCommand),
             disturbance_torque_nm: values.real(ElVar::DisturbanceTorque),
