@@ -129,6 +129,10 @@ pub struct Score {
     /// noise ([`DetectionLimit`]); `None` where the candidate does not apply or its fit gave
     /// nothing to scale.
     pub detection_limit: Option<DetectionLimit>,
+    /// How much larger an effect must be in the direction the log resolves worst than in the
+    /// direction its own fit took ([`weakest_direction_factor`]); 1 for effects of one
+    /// direction.
+    pub weakest_direction_factor: f64,
 }
 
 /// What sets a detection limit.
@@ -204,9 +208,11 @@ impl DetectionLimit {
         let by_floor = min_effect_to_noise / score.effect_to_noise + z / chi2.sqrt();
         let (factor, set_by) =
             if by_test >= by_floor { (by_test, LimitSetBy::Significance) } else { (by_floor, LimitSetBy::NoiseFloor) };
+        // An effect with a direction of its own (an unbalance's phase) must be found whatever
+        // that direction is, not only along the one the noise gave the clean log's fit.
         Some(DetectionLimit {
             parameter,
-            size: change.abs() * factor,
+            size: change.abs() * factor * score.weakest_direction_factor.max(1.0),
             unit,
             effect_to_noise: score.effect_to_noise * factor,
             set_by,
@@ -236,6 +242,7 @@ impl Score {
             fitted_change: None,
             unobservable: true,
             detection_limit: None,
+            weakest_direction_factor: 1.0,
         }
     }
 }
@@ -1175,8 +1182,48 @@ fn score_instance(
         fitted_change: Some(fitted_change),
         unobservable: false,
         detection_limit: None,
+        weakest_direction_factor: weakest_direction_factor(
+            kind,
+            &alternative.covariance,
+            accepted_columns.len(),
+            own_beta,
+        ),
     };
     (score, alternative)
+}
+
+/// For an effect whose size is the length of its own two-parameter vector (an unbalance: the
+/// amplitude of its cos and sin parts, whatever its phase), how much larger it must be to be
+/// found in the direction the log resolves worst than in the direction its fit took; 1 for
+/// other effects.
+///
+/// The test's statistic for an effect `v` has the non-centrality `v' F v`, with `F` the
+/// inverse of the covariance `C` of the effect's own parameters (the accepted effects
+/// profiled out). At a given size that is `|v|^2 u' F u` along the fitted direction `u` and
+/// `|v|^2 / lambda_max(C)` along the worst one, so the size needed grows by
+/// `sqrt(lambda_max(C) u' F u)`. On a clean log the fitted direction is the noise's, so a
+/// limit along it would hold for some phases and not others; over a short stroke an
+/// unbalance's two parts are nearly a constant and a slope, and the phase matters.
+fn weakest_direction_factor(kind: Kind, covariance: &nalgebra::DMatrix<f64>, offset: usize, own_beta: &[f64]) -> f64 {
+    if kind != Kind::Unbalance || own_beta.len() != 2 || covariance.nrows() < offset + 2 {
+        return 1.0;
+    }
+    let (a, b, d) =
+        (covariance[(offset, offset)], covariance[(offset, offset + 1)], covariance[(offset + 1, offset + 1)]);
+    let length = own_beta[0].hypot(own_beta[1]);
+    let determinant = a * d - b * b;
+    if !(length > 0.0 && determinant > 0.0) {
+        return 1.0;
+    }
+    let (u0, u1) = (own_beta[0] / length, own_beta[1] / length);
+    let along_fit = (d * u0 * u0 - 2.0 * b * u0 * u1 + a * u1 * u1) / determinant;
+    let largest_variance = 0.5 * (a + d) + (0.25 * (a - d).powi(2) + b * b).sqrt();
+    let factor = (largest_variance * along_fit).sqrt();
+    if factor.is_finite() {
+        factor.max(1.0)
+    } else {
+        1.0
+    }
 }
 
 /// The judge's choice among the significant candidates, taken best first (equation-error
@@ -1773,6 +1820,32 @@ mod tests {
             fitted_change: Some((crate::parameters::names::TORQUE_OFFSET, change, "N m")),
             ..Score::not_applicable(Kind::Offset, String::new())
         }
+    }
+
+    #[test]
+    fn an_unbalance_limit_holds_in_the_direction_the_log_resolves_worst() {
+        // Own parameters after two accepted ones: the sin part is resolved three times worse
+        // (variance 9 against 1), correlated with nothing.
+        let mut covariance = nalgebra::DMatrix::<f64>::identity(4, 4);
+        covariance[(3, 3)] = 9.0;
+        let factor = |beta: [f64; 2]| weakest_direction_factor(Kind::Unbalance, &covariance, 2, &beta);
+        assert!((factor([2.0, 0.0]) - 3.0).abs() < 1e-12, "fitted along the best direction");
+        assert!((factor([0.0, -2.0]) - 1.0).abs() < 1e-12, "fitted along the worst direction");
+        let diagonal = factor([1.0, 1.0]);
+        assert!(diagonal > 1.0 && diagonal < 3.0, "{diagonal}");
+        // Effects of one direction, and a fit that gave nothing, are left as they are.
+        assert_eq!(weakest_direction_factor(Kind::Offset, &covariance, 2, &[2.0, 0.0]), 1.0);
+        assert_eq!(factor([0.0, 0.0]), 1.0);
+        // The limit grows by the factor.
+        let threshold = chi_squared_sf(9.0, 1.0);
+        let along_fit = DetectionLimit::of(&scored(4.0, 2.0, 3.0, -10.0), threshold, 1.0).unwrap();
+        let worst = DetectionLimit::of(
+            &Score { weakest_direction_factor: 3.0, ..scored(4.0, 2.0, 3.0, -10.0) },
+            threshold,
+            1.0,
+        )
+        .unwrap();
+        assert!((worst.size - 3.0 * along_fit.size).abs() < 1e-9 * along_fit.size, "{worst:?}");
     }
 
     #[test]
