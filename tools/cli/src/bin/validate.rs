@@ -14,6 +14,7 @@
 use antenna_truth::limits::{self, LimitsConfig};
 use antenna_truth::scoring;
 use antenna_truth::suite::{self, SuiteConfig};
+use antenna_validate::candidates::Kind;
 use antenna_validate::measured_log::MeasuredLog;
 use antenna_validate::output_error::PlantSimulator;
 use antenna_validate::parameters::{fmu_parameter_text, ParameterSet};
@@ -796,6 +797,16 @@ fn results_document(results: &[scoring::CaseResult], kuka: Option<&str>, timing:
 
 fn print_summary(v: &Validation) {
     let linear = v.data.linear;
+    // Sensor errors come first: they were taken out before the effects were judged.
+    if let Some(error) = &v.load_encoder_error {
+        println!("sensor error taken out: load encoder: {}", error.describe());
+    }
+    if let Some(drift) = &v.tacho_drift {
+        println!("sensor error taken out: motor speed sensor's drift: {}", drift.describe());
+    }
+    if let Some(skew) = &v.current_skew {
+        println!("sensor error taken out: {}", skew.describe());
+    }
     if v.selection.found.is_empty() {
         println!("no significant missing effect");
     }
@@ -807,6 +818,11 @@ fn print_summary(v: &Validation) {
         for (name, value, sd, unit) in &found.parameters {
             let unit = if name.starts_with("motor.") { unit.as_str() } else { axis_unit(unit, linear) };
             println!("    {name} = {value:.6e} +- {sd:.2e} {unit}");
+        }
+        if found.kind == Kind::Delay {
+            println!(
+                "    delay or current skew: the data cannot tell (a current stamped earlier than the encoders by as much reads the same)"
+            );
         }
         let alike = v.selection.equally_consistent(found.kind);
         if !alike.is_empty() {
