@@ -526,6 +526,7 @@ pub unsafe fn instantiate(
             context,
             model,
             create: entry.create,
+            state_check_model: None,
             returned_strings: Vec::new(),
         }))
     });

@@ -627,6 +627,10 @@ pub struct Instance {
     pub model: Box<dyn DynModel>,
     /// Rebuilds the model for fmi2Reset.
     pub create: fn(&Context) -> Result<Box<dyn DynModel>, InstanceError>,
+    /// The model states are trial-loaded into at deserialisation ([`Instance::check_state`]),
+    /// built at the first check and kept: a master that restores a state per window
+    /// deserialises thousands, and building a model for each cost more than loading it.
+    pub state_check_model: Option<Box<dyn DynModel>>,
     /// Strings handed out by fmi2GetString stay valid until the next call of it.
     pub returned_strings: Vec<CString>,
 }
@@ -695,9 +699,14 @@ impl Instance {
     }
 
     /// Checks that bytes are a state of this model, without applying them: a trial load into a
-    /// throw-away model catches corrupt states at deserialisation time.
-    pub fn check_state(&self, bytes: &[u8]) -> Result<(), StateError> {
-        let mut scratch = (self.create)(&self.context).map_err(StateError::model)?;
+    /// model of its own catches corrupt states at deserialisation time. A load builds the model
+    /// afresh from the state's values (`ModelSlot::load`), so what that model held before
+    /// never enters the check, and one model serves every check.
+    pub fn check_state(&mut self, bytes: &[u8]) -> Result<(), StateError> {
+        let scratch = match &mut self.state_check_model {
+            Some(model) => model,
+            empty => empty.insert((self.create)(&self.context).map_err(StateError::model)?),
+        };
         scratch.load(bytes, &self.context).map(|_| ())
     }
 }

@@ -1,6 +1,9 @@
 //! Generates `modelDescription.xml` from a model's variable table, and the GUID, which is a
 //! hash of that description: change anything a master can see and the GUID changes with it.
 
+use std::any::TypeId;
+use std::sync::{Mutex, PoisonError};
+
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use sha2::{Digest, Sha256};
@@ -34,8 +37,21 @@ pub fn model_description<M: Model>() -> String {
 
 /// The GUID: the first 128 bits of SHA-256 over the description written with a placeholder
 /// GUID, formatted as `{8-4-4-4-12}` hexadecimal digits.
+///
+/// Written once per model and kept: every instance and every state check needs it (a master
+/// that restores a state per window, as `validate` does thousands of times, would otherwise
+/// write and hash the whole description each time). A static in a generic function is shared
+/// by all its instantiations, hence the key by type: one library serves two models.
 pub fn guid<M: Model>() -> String {
-    guid_of(&render::<M>(GUID_PLACEHOLDER))
+    static WRITTEN: Mutex<Vec<(TypeId, String)>> = Mutex::new(Vec::new());
+    let model = TypeId::of::<M>();
+    let mut written = WRITTEN.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some((_, guid)) = written.iter().find(|(id, _)| *id == model) {
+        return guid.clone();
+    }
+    let guid = guid_of(&render::<M>(GUID_PLACEHOLDER));
+    written.push((model, guid.clone()));
+    guid
 }
 
 fn guid_of(text: &str) -> String {
