@@ -40,7 +40,7 @@ pub enum LimitsError {
     Threads { threads: usize, source: rayon::ThreadPoolBuildError },
     /// The plant FMU could not be opened.
     #[error("the plant FMU: {0}")]
-    Fmu(String),
+    Fmu(#[from] antenna_validate::plant_fmu::PlantFmuError),
     /// A clean log could not be validated: no limit to check.
     #[error("the clean log of {variant} could not be validated: {message}")]
     Clean { variant: String, message: String },
@@ -350,7 +350,7 @@ fn run_jobs(
             .map_init(
                 || fmu.map(FmuSimulator::open).transpose(),
                 |simulator, job| {
-                    let simulator = simulator.as_mut().map_err(|e| LimitsError::Fmu(e.to_string()))?;
+                    let simulator = simulator.as_mut().map_err(|e| LimitsError::Fmu(e.clone()))?;
                     let simulator = simulator.as_mut().map(|s| s as &mut dyn PlantSimulator);
                     let outcome = run_job(job, variants, kinds, options, simulator)?;
                     if let Outcome::Injected(i) = &outcome {
