@@ -797,16 +797,6 @@ fn results_document(results: &[scoring::CaseResult], kuka: Option<&str>, timing:
 
 fn print_summary(v: &Validation) {
     let linear = v.data.linear;
-    // Sensor errors come first: they were taken out before the effects were judged.
-    if let Some(error) = &v.load_encoder_error {
-        println!("sensor error taken out: load encoder: {}", error.describe());
-    }
-    if let Some(drift) = &v.tacho_drift {
-        println!("sensor error taken out: motor speed sensor's drift: {}", drift.describe());
-    }
-    if let Some(skew) = &v.current_skew {
-        println!("sensor error taken out: {}", skew.describe());
-    }
     if v.selection.found.is_empty() {
         println!("no significant missing effect");
     }
