@@ -455,12 +455,18 @@ pub fn validate_with(
     let log = drift_corrected.as_ref().unwrap_or(log);
     // The load encoder's own error is found and taken out before any physical effect is
     // judged, or it would raise every residual and detection limit ([`sensor_errors`]).
-    let encoder_error = load_encoder_error(log, start, options)?;
+    let prepared = equation_error::prepare(log, start, &options.equation)?;
+    let encoder_error = sensor_errors::load_encoder_error(&prepared, start, &options.twist);
     let encoder_corrected = encoder_error.as_ref().map(|e| e.correct(log));
     let log = encoder_corrected.as_ref().unwrap_or(log);
     // A current stamped late reads as a negative delay, which no drive has: a sensor skew,
-    // corrected in the data before the search ([`band_delay::current_skew`]).
-    let late_current = current_skew(log, start, options)?;
+    // corrected in the data before the search ([`band_delay::current_skew`]). The equations
+    // are prepared again only if the encoder's correction changed the log.
+    let prepared = match &encoder_corrected {
+        Some(corrected) => equation_error::prepare(corrected, start, &options.equation)?,
+        None => prepared,
+    };
+    let late_current = current_skew(&prepared, start, options);
     let skew_corrected = late_current.as_ref().map(|s| band_delay::shift_current(log, s.late()));
     let log = skew_corrected.as_ref().unwrap_or(log);
     let (observable, mut unobservable) = observable_candidates(log, options);
@@ -521,17 +527,6 @@ pub fn validate_with(
     Ok(second)
 }
 
-/// The load encoder's error in `log` with the starting set, when the log shows one
-/// ([`sensor_errors::load_encoder_error`]).
-fn load_encoder_error(
-    log: &MeasuredLog,
-    start: &ParameterSet,
-    options: &ValidateOptions,
-) -> Result<Option<sensor_errors::LoadEncoderError>, ValidationError> {
-    let data = equation_error::prepare(log, start, &options.equation)?;
-    Ok(sensor_errors::load_encoder_error(&data, start, &options.twist))
-}
-
 /// The integrated drift of the motor speed sensor in `log` (whose motor position was
 /// integrated from it) with the starting set, when the log shows one
 /// ([`sensor_errors::tacho_drift`]).
@@ -544,19 +539,18 @@ fn tacho_drift(
     Ok(sensor_errors::tacho_drift(&data, start, &options.twist))
 }
 
-/// A current stamped later than the encoders in `log`, when the band estimate of the delay
-/// from the starting set shows one ([`band_delay::current_skew`]); only when the delay is a
-/// candidate (the estimate is the delay's), at the search's level.
+/// A current stamped later than the encoders in the prepared `data`, when the band estimate of
+/// the delay from the starting set shows one ([`band_delay::current_skew`]); only when the
+/// delay is a candidate (the estimate is the delay's), at the search's level.
 fn current_skew(
-    log: &MeasuredLog,
+    data: &equation_error::EquationData,
     start: &ParameterSet,
     options: &ValidateOptions,
-) -> Result<Option<band_delay::CurrentSkew>, ValidationError> {
+) -> Option<band_delay::CurrentSkew> {
     if !options.selection.candidates.contains(&Kind::Delay) {
-        return Ok(None);
+        return None;
     }
-    let data = equation_error::prepare(log, start, &options.equation)?;
-    Ok(band_delay::current_skew(&data, start, options.selection.alpha))
+    band_delay::current_skew(data, start, options.selection.alpha)
 }
 
 /// The options with the candidates a log's signals cannot observe taken out, and a note for
