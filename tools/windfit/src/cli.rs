@@ -233,9 +233,9 @@ mod tests {
         // Settings clap accepts but the analysis cannot use are invalid settings, negative
         // numbers included.
         let bad = seeded(&["--reference-z0-m", "20"]).unwrap().config().unwrap_err();
-        assert!(matches!(bad, WindFitError::InvalidConfig(_)), "{bad:?}");
+        assert!(matches!(bad, WindFitError::RoughnessAboveHeight { z0_m: 20.0, .. }), "{bad:?}");
         let negative = seeded(&["--segment-s", "-5"]).unwrap().config().unwrap_err();
-        assert!(matches!(negative, WindFitError::InvalidConfig(_)), "{negative:?}");
+        assert!(matches!(negative, WindFitError::NotPositive { setting: "segment length", .. }), "{negative:?}");
     }
 
     #[test]

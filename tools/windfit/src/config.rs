@@ -70,11 +70,11 @@ impl WindFitConfig {
     }
 
     pub(crate) fn validate(&self) -> Result<(), WindFitError> {
-        let positive = |name: &str, value: f64| {
+        let positive = |setting: &'static str, value: f64| {
             if value > 0.0 && value.is_finite() {
                 Ok(())
             } else {
-                Err(WindFitError::InvalidConfig(format!("{name} must be positive, got {value}")))
+                Err(WindFitError::NotPositive { setting, value })
             }
         };
         positive("height", self.height_m)?;
@@ -84,23 +84,17 @@ impl WindFitConfig {
         positive("bands per decade", self.bands_per_decade)?;
         positive("gust window", self.gust_window_s)?;
         if self.reference_z0_m >= self.effective_height_m() {
-            return Err(WindFitError::InvalidConfig(format!(
-                "reference z0 {} m must be below the effective height {} m",
-                self.reference_z0_m,
-                self.effective_height_m()
-            )));
+            return Err(WindFitError::RoughnessAboveHeight {
+                z0_m: self.reference_z0_m,
+                effective_height_m: self.effective_height_m(),
+            });
         }
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
-            return Err(WindFitError::InvalidConfig(format!(
-                "confidence must lie between 0 and 1, got {}",
-                self.confidence
-            )));
+            return Err(WindFitError::Confidence(self.confidence));
         }
         if let Some((low, high)) = self.fit_band_hz {
             if !(low > 0.0 && high > low) {
-                return Err(WindFitError::InvalidConfig(format!(
-                    "fit band {low}..{high} Hz must be positive and increasing"
-                )));
+                return Err(WindFitError::FitBand { low_hz: low, high_hz: high });
             }
         }
         Ok(())

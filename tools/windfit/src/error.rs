@@ -1,9 +1,10 @@
 //! The one error type of the wind-record analysis. Messages name the file, line, column or
-//! setting at fault; signal-processing and plotting failures are carried as their messages so
-//! that the type stays comparable in tests.
+//! setting at fault; signal-processing, wind-model and plotting failures are carried as their
+//! own typed errors, all comparable in tests.
 
 use antenna_dsp::DspError;
 use antenna_plot::PlotError;
+use fmu_wind::error::WindError;
 
 /// Why a record could not be read or analysed. Messages name the file line and column.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -94,12 +95,45 @@ pub enum WindFitError {
         /// What needs more data.
         reason: String,
     },
-    /// A configuration value is out of range.
-    #[error("invalid setting: {0}")]
-    InvalidConfig(String),
+    /// A setting that must be a positive, finite number is not.
+    #[error("invalid setting: {setting} must be positive, got {value}")]
+    NotPositive {
+        /// The setting's name.
+        setting: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// The reference roughness length is not below the height it is judged at.
+    #[error("invalid setting: reference z0 {z0_m} m must be below the effective height {effective_height_m} m")]
+    RoughnessAboveHeight {
+        /// The reference roughness length, m.
+        z0_m: f64,
+        /// The instrument's height less the displacement, m.
+        effective_height_m: f64,
+    },
+    /// The confidence level is not within (0, 1).
+    #[error("invalid setting: confidence must lie between 0 and 1, got {0}")]
+    Confidence(f64),
+    /// The fit band is not positive and increasing.
+    #[error("invalid setting: fit band {low_hz}..{high_hz} Hz must be positive and increasing")]
+    FitBand {
+        /// Its lower edge, Hz.
+        low_hz: f64,
+        /// Its upper edge, Hz.
+        high_hz: f64,
+    },
+    /// The record's mean speed is not positive, so turbulence intensity and gust factor are
+    /// undefined.
+    #[error(
+        "analysis failed: mean speed {0} m/s is not positive, so turbulence intensity and gust factor are undefined"
+    )]
+    MeanSpeedNotPositive(f64),
     /// A signal-processing step failed.
     #[error("analysis failed: {0}")]
-    Analysis(String),
+    Dsp(#[from] DspError),
+    /// The wind model refused the record's fitted values as a generator's parameters.
+    #[error("generator: {0}")]
+    Generator(#[from] WindError),
     /// An output file or folder could not be written.
     #[error("cannot write {path}: {message}")]
     Write {
@@ -109,20 +143,8 @@ pub enum WindFitError {
         message: String,
     },
     /// A plot could not be drawn or written.
-    #[error("{0}")]
-    Plot(String),
-}
-
-impl From<DspError> for WindFitError {
-    fn from(error: DspError) -> Self {
-        WindFitError::Analysis(error.to_string())
-    }
-}
-
-impl From<PlotError> for WindFitError {
-    fn from(error: PlotError) -> Self {
-        WindFitError::Plot(error.to_string())
-    }
+    #[error(transparent)]
+    Plot(#[from] PlotError),
 }
 
 /// The reason of a [`WindFitError::NonNumeric`]: an empty cell says so rather than quoting it.

@@ -91,8 +91,7 @@ pub fn compare_generator(
     use fmu_wind::shaping::ShapingFilter;
     let config = &analysis.config;
     let v_mean = analysis.statistics.mean_m_s;
-    let davenport = Davenport::new(v_mean, config.effective_height_m(), analysis.implied.z0_m)
-        .map_err(|e| WindFitError::InvalidConfig(format!("generator: {e}")))?;
+    let davenport = Davenport::new(v_mean, config.effective_height_m(), analysis.implied.z0_m)?;
     let filter = ShapingFilter::davenport(&davenport);
     let fs = record.sample_rate_hz;
     let mut generator = GustGenerator::new(filter.clone(), seed);

@@ -175,9 +175,7 @@ pub(crate) fn record_statistics(record: &WindRecord, config: &WindFitConfig) -> 
     let fs = record.sample_rate_hz;
     let mean = dsp::mean(speed);
     if mean.is_nan() || mean <= 0.0 {
-        return Err(WindFitError::Analysis(format!(
-            "mean speed {mean} m/s is not positive, so turbulence intensity and gust factor are undefined"
-        )));
+        return Err(WindFitError::MeanSpeedNotPositive(mean));
     }
     let std = dsp::std_dev(speed);
     let window = window_samples(config.gust_window_s, fs).max(1);
