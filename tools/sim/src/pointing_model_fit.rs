@@ -65,6 +65,31 @@ impl DerivationGrid {
         }
     }
 
+    /// Whether the grid can be derived on: the wind speeds start at calm, the directions run
+    /// round the full circle, and every axis is strictly increasing (the table interpolates
+    /// along each).
+    pub fn check(&self) -> Result<(), FitError> {
+        let directions = &self.wind_direction_relative_deg;
+        if self.wind_speed_m_s.first() != Some(&0.0) {
+            return Err(FitError::GridWithoutCalm);
+        }
+        if directions.first() != Some(&0.0) || directions.last() != Some(&360.0) {
+            return Err(FitError::GridDirectionsNotFullCircle);
+        }
+        let axes = [
+            ("azimuths", &self.azimuth_deg),
+            ("elevations", &self.elevation_deg),
+            ("wind speeds", &self.wind_speed_m_s),
+            ("wind directions", directions),
+        ];
+        for (axis, values) in axes {
+            if values.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(FitError::GridNotIncreasing { axis });
+            }
+        }
+        Ok(())
+    }
+
     /// The flexure's elevations: every third of the encoder grid's (every 15 deg in the
     /// standard grid) and its last.
     fn flexure_elevations(&self) -> Vec<f64> {
@@ -83,8 +108,12 @@ pub enum FitError {
     Simulation { run: String, source: CouplingError },
     #[error("{run}: no samples within 0.5 deg of the grid angle {angle_deg} deg")]
     NoSamples { run: String, angle_deg: f64 },
-    #[error("the derivation grid is not usable: {0}")]
-    Grid(String),
+    #[error("the derivation grid is not usable: the wind speeds must start at 0 (calm)")]
+    GridWithoutCalm,
+    #[error("the derivation grid is not usable: the wind directions must run from 0 to 360 deg")]
+    GridDirectionsNotFullCircle,
+    #[error("the derivation grid is not usable: its {axis} are not strictly increasing")]
+    GridNotIncreasing { axis: &'static str },
 }
 
 /// How long the antenna holds before a scan starts and after it ends, s.
@@ -280,18 +309,7 @@ fn flexure_term(fmus: &FmuSet, config: &AntennaConfig, grid: &DerivationGrid) ->
 /// Derives the pointing-model table of the antenna `config` (its wind and pointing model are
 /// ignored) on `grid`, running the coupled model on all cores.
 pub fn derive(fmus: &FmuSet, config: &AntennaConfig, grid: &DerivationGrid) -> Result<PointingModel, FitError> {
-    let directions = &grid.wind_direction_relative_deg;
-    if grid.wind_speed_m_s.first() != Some(&0.0) {
-        return Err(FitError::Grid("the wind speeds must start at 0 (calm)".into()));
-    }
-    if directions.first() != Some(&0.0) || directions.last() != Some(&360.0) {
-        return Err(FitError::Grid("the wind directions must run from 0 to 360 deg".into()));
-    }
-    for axis in [&grid.azimuth_deg, &grid.elevation_deg, &grid.wind_speed_m_s, directions] {
-        if axis.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(FitError::Grid(format!("{axis:?} is not strictly increasing")));
-        }
-    }
+    grid.check()?;
     let encoder = encoder_term(fmus, config, grid)?;
     let flexure = flexure_term(fmus, config, grid)?;
     Ok(PointingModel { encoder, flexure })
@@ -349,4 +367,25 @@ pub fn plot(model: &PointingModel, path: &Path) -> Result<(), PlotError> {
             .series(Series::new(&format!("elevation, el {el} deg"), directions, &component(1)).colour(colour).dashed());
     }
     Figure::new(1100, 1000).panel(encoder_panel).panel(flexure_panel).save_png(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_grid_without_calm_a_full_circle_or_increasing_axes_is_refused_by_name() {
+        assert!(DerivationGrid::standard().check().is_ok());
+        let mut windy = DerivationGrid::standard();
+        windy.wind_speed_m_s.remove(0);
+        assert!(matches!(windy.check(), Err(FitError::GridWithoutCalm)));
+        let mut half = DerivationGrid::standard();
+        half.wind_direction_relative_deg.retain(|&d| d <= 180.0);
+        assert!(matches!(half.check(), Err(FitError::GridDirectionsNotFullCircle)));
+        let mut repeated = DerivationGrid::standard();
+        repeated.elevation_deg.insert(1, repeated.elevation_deg[0]);
+        let refused = repeated.check().unwrap_err();
+        assert!(matches!(refused, FitError::GridNotIncreasing { axis: "elevations" }), "{refused:?}");
+        assert!(refused.to_string().contains("elevations are not strictly increasing"), "{refused}");
+    }
 }

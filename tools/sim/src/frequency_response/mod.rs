@@ -60,9 +60,29 @@ pub enum IdentificationError {
     Coupling(#[from] crate::coupled::CouplingError),
     #[error("Welch estimate")]
     Welch(#[source] DspError),
-    /// The FMU is configured otherwise than the analytic model assumes.
-    #[error("{0}")]
-    ModelMismatch(String),
+    /// The azimuth plant's two motors differ, and the analytic reference doubles one.
+    #[error("motor1.{parameter} = {motor1} and motor2.{parameter} = {motor2} differ: the doubled two-mass reference needs identical drives")]
+    MotorsDiffer { parameter: &'static str, motor1: f64, motor2: f64 },
+    /// The azimuth plant's two pinion paths differ, and the analytic reference doubles one.
+    #[error("the two pinion paths differ: the doubled two-mass reference needs identical paths")]
+    PinionPathsDiffer,
+    /// The structure's shipped modes file does not parse.
+    #[error("the shipped structure modes")]
+    Modes(#[source] fmu_structure::modes::ModesError),
+    /// The structure's shipped modes file has no mode that the axis's torque drives.
+    #[error("the shipped structure has no mode about {axis}")]
+    NoModeAbout { axis: &'static str },
+    /// The controller FMU's parameter differs from the library default the analytic model uses.
+    #[error(
+        "the controller FMU's {parameter} is {reported}, the library default the analytic model uses is {library}"
+    )]
+    ControllerParameter { parameter: &'static str, reported: f64, library: f64 },
+    /// The controller FMU's velocity integrator setting differs from the library default.
+    #[error("the controller FMU's velocity integrator setting differs from the library default")]
+    IntegratorSetting,
+    /// The controller FMU's sampling delay differs from the library's.
+    #[error("the controller FMU's delay is {fmu} samples, the library's {library}")]
+    ControllerDelay { fmu: i64, library: i64 },
     /// The library controller the analytic model is built from refused its parameters.
     #[error("controller parameters: {0}")]
     Controller(fmu_controller::params::ParameterError),

@@ -399,17 +399,15 @@ fn reference_parameters(
             for name in
                 ["inertia", "viscous_friction", "torque_constant", "torque_constant_scale", "current_loop_bandwidth"]
             {
-                let (a, b) = (r(&format!("motor1.{name}"))?, r(&format!("motor2.{name}"))?);
-                if a != b {
-                    return Err(IdentificationError::ModelMismatch(format!("motor1.{name} = {a} and motor2.{name} = {b} differ: the doubled two-mass reference needs identical drives")));
+                let (motor1, motor2) = (r(&format!("motor1.{name}"))?, r(&format!("motor2.{name}"))?);
+                if motor1 != motor2 {
+                    return Err(IdentificationError::MotorsDiffer { parameter: name, motor1, motor2 });
                 }
             }
             let (k1, k2, c1, c2) =
                 (r("pinion1.stiffness")?, r("pinion2.stiffness")?, r("pinion1.damping")?, r("pinion2.damping")?);
             if k1 != k2 || c1 != c2 {
-                return Err(IdentificationError::ModelMismatch(
-                    "the two pinion paths differ: the doubled two-mass reference needs identical paths".into(),
-                ));
+                return Err(IdentificationError::PinionPathsDiffer);
             }
             let n = r("gear.ratio")?;
             let n2 = n * n;
@@ -532,11 +530,11 @@ fn coupled_structure(
     let modal_inertia = if zenith == horizon { zenith } else { horizon * cos_el * cos_el + zenith * sin_el * sin_el };
     // The axis's mode in the shipped file: the first that its torque drives.
     let modes = fmu_structure::modes::parse_modes(fmu_structure::modes::DEFAULT_MODES, "structure_modes.params")
-        .map_err(|e| IdentificationError::ModelMismatch(e.to_string()))?;
+        .map_err(IdentificationError::Modes)?;
     let mode = modes
         .iter()
         .find(|m| m.participation[axis_index] != 0.0)
-        .ok_or_else(|| IdentificationError::ModelMismatch(format!("the shipped structure has no mode about {name}")))?;
+        .ok_or(IdentificationError::NoModeAbout { axis: name })?;
     let md = &fmu.description;
     Ok(CoupledStructure {
         speed_vrs: [md.vr("axis.azimuth_speed")?, md.vr("axis.elevation_speed")?],

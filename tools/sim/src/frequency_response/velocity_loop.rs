@@ -169,20 +169,16 @@ fn analytic_model(
         ("velocity_loop.notch_frequency", v.speed_notch.frequency_hz),
     ];
     expected.extend(own);
-    for (name, value) in expected {
-        let reported = read_real(fmu, instance, name)?;
-        if reported != value {
-            return Err(IdentificationError::ModelMismatch(format!(
-                "the controller FMU's {name} is {reported}, the library default the analytic model uses is {value}"
-            )));
+    for (parameter, library) in expected {
+        let reported = read_real(fmu, instance, parameter)?;
+        if reported != library {
+            return Err(IdentificationError::ControllerParameter { parameter, reported, library });
         }
     }
     let mut integrator = [false];
     instance.get_boolean(&[fmu.description.vr("velocity_loop.integrator")?], &mut integrator)?;
     if integrator[0] != v.integrator_enabled {
-        return Err(IdentificationError::ModelMismatch(
-            "the controller FMU's velocity integrator setting differs from the library default".into(),
-        ));
+        return Err(IdentificationError::IntegratorSetting);
     }
     let delay = {
         let mut value = [0];
@@ -190,10 +186,10 @@ fn analytic_model(
         value[0]
     };
     if i64::from(delay) != i64::from(cascade.sampling.delay_samples) {
-        return Err(IdentificationError::ModelMismatch(format!(
-            "the controller FMU's delay is {delay} samples, the library's {}",
-            cascade.sampling.delay_samples
-        )));
+        return Err(IdentificationError::ControllerDelay {
+            fmu: i64::from(delay),
+            library: i64::from(cascade.sampling.delay_samples),
+        });
     }
     match axis {
         Axis::Azimuth => {
