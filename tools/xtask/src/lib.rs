@@ -45,8 +45,14 @@ pub enum XtaskError {
     Training { what: String, status: std::process::ExitStatus },
     #[error("the training runs wrote no profile into {}", .0.display())]
     NoProfile(PathBuf),
-    #[error("{0}")]
-    ProfileUnusable(String),
+    #[error("--pgo: there is no profile at {}; record one with `cargo xtask pgo`", .0.display())]
+    ProfileMissing(PathBuf),
+    #[error(
+        "--pgo: the profile ({PGO_PROFILE_ARCHIVE}) was recorded by another compiler ({} against this {}); run `cargo xtask pgo` to record it with this one",
+        release_line(.recorded),
+        release_line(.current)
+    )]
+    ProfileOtherToolchain { recorded: String, current: String },
     #[error(
         "win64 binaries need a compiler with the standard library's sources and the mingw-w64 linker: {0} (on Debian: apt install rustc-web rust-web-src gcc-mingw-w64-x86-64)"
     )]
@@ -73,9 +79,6 @@ pub enum ProfileUse {
     Absent,
     /// The libraries are optimised with the profile.
     Used,
-    /// The profile was recorded by another compiler, whose function names and profile format
-    /// this one need not share: the libraries are built without it.
-    OtherToolchain { recorded: String, current: String },
 }
 
 /// What a build of the FMUs' libraries reported about the committed profile.
@@ -96,14 +99,6 @@ impl LibraryBuild {
     /// Why the libraries are not fully optimised with the committed profile, if they were to
     /// be and are not (what `package --pgo` warns of).
     pub fn profile_problem(&self) -> Option<String> {
-        if let ProfileUse::OtherToolchain { recorded, current } = &self.profile {
-            let release = |v: &str| v.lines().find(|l| l.starts_with("release:")).unwrap_or("?").to_string();
-            return Some(format!(
-                "xtask: the PGO profile ({PGO_PROFILE_ARCHIVE}) was recorded by another compiler ({} against this {}): the libraries are built without it; run `cargo xtask pgo` to record it with this one",
-                release(recorded),
-                release(current)
-            ));
-        }
         if self.functions_with_changed_code == 0 && self.functions_without_counts == 0 {
             return None;
         }
@@ -141,6 +136,11 @@ pub fn build_libraries(target_dir: &Path, pgo: Pgo) -> Result<LibraryBuild, Xtas
     build_libraries_from(&workspace_root(), target_dir, pgo)
 }
 
+/// The `release:` line of `rustc -vV`'s output, which names the compiler release.
+fn release_line(version: &str) -> &str {
+    version.lines().find(|line| line.starts_with("release:")).unwrap_or("?")
+}
+
 /// Builds the FMUs' shared libraries from the sources checked out at `source_root` (the same
 /// package set every time: building one library alone may unify features differently and give
 /// other bytes). With [`Pgo::On`] they are optimised with the profile committed at
@@ -153,17 +153,13 @@ pub fn build_libraries_from(source_root: &Path, target_dir: &Path, pgo: Pgo) -> 
     }
     let archive = source_root.join(PGO_PROFILE_ARCHIVE);
     if !archive.is_file() {
-        return Err(XtaskError::ProfileUnusable(format!(
-            "--pgo: there is no profile at {PGO_PROFILE_ARCHIVE}; record one with `cargo xtask pgo`"
-        )));
+        return Err(XtaskError::ProfileMissing(PathBuf::from(PGO_PROFILE_ARCHIVE)));
     }
     let recorded = read_archive_entry(&archive, PGO_TOOLCHAIN_ENTRY)?;
     let recorded = String::from_utf8_lossy(&recorded).to_string();
     let current = rustc_output(source_root, &["-vV"])?;
     if recorded != current {
-        let build =
-            LibraryBuild { profile: ProfileUse::OtherToolchain { recorded, current }, ..LibraryBuild::default() };
-        return Err(XtaskError::ProfileUnusable(build.profile_problem().unwrap_or_default()));
+        return Err(XtaskError::ProfileOtherToolchain { recorded, current });
     }
     let profile = unpack_profile(&archive, &target_dir.join("pgo"))?;
     // The compiler reports functions without counts only when asked; the option changes no
@@ -690,12 +686,10 @@ mod tests {
     }
 
     #[test]
-    fn a_profile_from_another_compiler_is_a_problem_naming_both_releases() {
+    fn a_profile_from_another_compiler_is_refused_naming_both_releases() {
         let recorded = "rustc 1.95.0\nrelease: 1.95.0\nLLVM version: 22.1.2\n".to_string();
         let current = "rustc 1.96.0\nrelease: 1.96.0\nLLVM version: 22.1.8\n".to_string();
-        let build =
-            LibraryBuild { profile: ProfileUse::OtherToolchain { recorded, current }, ..LibraryBuild::default() };
-        let problem = build.profile_problem().expect("another compiler's profile is not used");
+        let problem = XtaskError::ProfileOtherToolchain { recorded, current }.to_string();
         assert!(problem.contains("release: 1.95.0") && problem.contains("release: 1.96.0"), "{problem}");
     }
 }
