@@ -173,7 +173,15 @@ fn compare(effect: &Effect, start: &ParameterSet, corrected: &ParameterSet) -> (
 
 /// Scores one validated case against its truth.
 pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, seconds: f64) -> CaseResult {
-    let mut found: Vec<String> = validation.selection.found.iter().map(|f| f.kind.name().to_string()).collect();
+    // A stand-in for the path's model form is reported, not claimed (`model_form_stand_ins`).
+    let stand_ins = validation.model_form_stand_ins();
+    let mut found: Vec<String> = validation
+        .selection
+        .found
+        .iter()
+        .filter(|f| !stand_ins.contains(&f.kind))
+        .map(|f| f.kind.name().to_string())
+        .collect();
     let equally_consistent: Vec<(String, Vec<String>)> = validation
         .selection
         .found
@@ -310,6 +318,11 @@ fn account_for_unnamed(
             equally_consistent.iter().find(|(_, alike)| alike.iter().any(|a| a == family))
         {
             Some(format!("the data cannot tell it from {stand_in}"))
+        } else if let Some(stand_in) = validation.model_form_stand_ins().iter().find(|k| k.name() == family) {
+            Some(format!(
+                "the data cannot tell it from the path's model form ({} found as a two-mass stand-in for a path with a second mode)",
+                stand_in.name()
+            ))
         } else if let Some((_, reason)) = unobservable.iter().find(|(k, _)| k.name() == family) {
             Some(format!("not observable: {reason}"))
         } else {

@@ -213,9 +213,231 @@ pub fn compare(
     })
 }
 
+/// Whether the drive path is one spring between two masses: the measured response from the
+/// motor speed to the load speed against the two-mass path's, (D s + K) / (J_L s^2 + D s + K).
+///
+/// That response involves the path alone (the motor's friction, torque constant, delay and
+/// current noise act before the motor speed, and the load has no input of its own above the
+/// slow unbalance and offset), so a two-mass path with the right stiffness matches it at
+/// every frequency. A path with an inertia between two compliances (a gearbox, a pinion
+/// shaft, a structure mode) has a second mode there: above the first one its response
+/// departs from the two-mass one by far more than its noise. The check looks above twice
+/// the model's own load-side mode (sqrt(K/J_L)), where the two-mass response is smooth and
+/// the Welch estimate carries no resolution bias from that mode, and below 0.4 times the
+/// sample rate, on the bins whose coherence exceeds its 95 % threshold and whose response is
+/// known to 30 % ([`MAX_PATH_BIN_VARIANCE`]). A lost motion in the path departs from it too.
+#[derive(Debug, Clone)]
+pub struct PathCheck {
+    /// The band checked (Hz) and the coherent bins in it that entered the statistic.
+    pub band: (f64, f64),
+    pub bins: usize,
+    /// Sum over every second coherent bin (neighbouring Hann bins correlate) of
+    /// 2 n_d g^2 |H - H_model|^2 / (|H|^2 (1 - g^2)): chi-square with 2 per bin under a
+    /// two-mass path (n_d the effective averages, g^2 the coherence).
+    pub chi2: f64,
+    pub dof: f64,
+    pub p: f64,
+    /// The bin that departs most for its scatter, and |H / H_model| there.
+    pub peak_hz: f64,
+    pub peak_ratio: f64,
+    /// The RMS over the checked bins of |H - H_model| / |H|: the size of the departure.
+    pub relative_misfit: f64,
+    /// Significant at the level the check was asked at, and at least as large as the
+    /// estimate's own scatter, the search's practical-significance rule (at least the noise):
+    /// the mean of |H - H_model|^2 over its variance is then at least 1 + 1, chi-square at
+    /// least twice its degrees of freedom.
+    pub departs: bool,
+}
+
+impl PathCheck {
+    /// One sentence for the report and the summary.
+    pub fn describe(&self) -> String {
+        if self.departs {
+            format!(
+                "the measured motor-to-load response departs from the two-mass path's over {:.1}-{:.1} Hz (chi-square {:.0} on {:.0} degrees of freedom, p {:.1e}; RMS {:.0} % of the model's response, largest at {:.1} Hz, where it is {:.2} times the model's): the drive path has a second mode (an inertia between two compliances, a structure mode) or a nonlinearity that a two-mass model does not have, so a stiffness found for it is the two-mass model's effective value for this drive (a model-form stand-in), not a change of one spring",
+                self.band.0,
+                self.band.1,
+                self.chi2,
+                self.dof,
+                self.p,
+                100.0 * self.relative_misfit,
+                self.peak_hz,
+                self.peak_ratio
+            )
+        } else {
+            format!(
+                "the measured motor-to-load response is the two-mass path's within its scatter over {:.1}-{:.1} Hz ({} coherent bins, chi-square {:.0} on {:.0} degrees of freedom, p {:.2}; RMS {:.0} % of the model's response)",
+                self.band.0,
+                self.band.1,
+                self.bins,
+                self.chi2,
+                self.dof,
+                self.p,
+                100.0 * self.relative_misfit
+            )
+        }
+    }
+}
+
+/// The two-mass path's response from motor speed to load speed at `f` Hz.
+pub fn path_response(params: &ParameterSet, f: f64) -> Complex64 {
+    let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+    let spring = s * params.value(names::DAMPING) + params.value(names::STIFFNESS);
+    spring / (s * s * params.value(names::LOAD_INERTIA) + spring)
+}
+
+/// The fewest coherent bins the path check is made on.
+pub const MIN_PATH_BINS: usize = 16;
+
+/// The largest relative variance (1 - g^2) / (n_d g^2) of a bin's H1 that enters the path
+/// check: its response known to 30 % (standard error). Coherence is estimated with a bias
+/// upward where the true one is small, and a bin of noise that passes the 95 % threshold by
+/// chance (one in twenty of the incoherent ones) would count as a gross departure from any
+/// model; with 15 averages this asks for a coherence of about 0.45, which an incoherent bin
+/// reaches with probability 0.55^14 = 2e-4.
+pub const MAX_PATH_BIN_VARIANCE: f64 = 0.09;
+
+/// Checks the path ([`PathCheck`]) of the model `params` against a log with two encoders, at
+/// the significance level `level`. None without a compliant model, a motor measurement or
+/// enough coherent bins.
+pub fn check_path(data: &EquationData, out: &OutputData, params: &ParameterSet, level: f64) -> Option<PathCheck> {
+    let (stiffness, load) = (params.value(names::STIFFNESS), params.value(names::LOAD_INERTIA));
+    if stiffness <= 0.0 || load <= 0.0 || !out.motor_measured || !out.two_encoders {
+        return None;
+    }
+    let speed = |x: &[f64]| -> Vec<f64> {
+        let k0 = out.first_sample;
+        (0..data.len())
+            .map(|i| {
+                let k = (k0 + i).clamp(2, x.len() - 3);
+                (x[k - 2] - 8.0 * x[k - 1] + 8.0 * x[k + 1] - x[k + 2]) / (12.0 * data.dt)
+            })
+            .collect()
+    };
+    check_path_speeds(&speed(&out.motor_pos), &speed(&out.load_pos), 1.0 / data.dt, params, level)
+}
+
+/// [`check_path`] on the motor and load speeds (axis side, rad/s) sampled at `sample_rate`.
+pub fn check_path_speeds(
+    motor_speed: &[f64],
+    load_speed: &[f64],
+    sample_rate: f64,
+    params: &ParameterSet,
+    level: f64,
+) -> Option<PathCheck> {
+    let (stiffness, load) = (params.value(names::STIFFNESS), params.value(names::LOAD_INERTIA));
+    let band = (2.0 * (stiffness / load).sqrt() / (2.0 * std::f64::consts::PI), 0.4 * sample_rate);
+    let segment = motor_speed.len() / 8;
+    if segment < 16 || band.1 <= band.0 {
+        return None;
+    }
+    let config = WelchConfig::new(segment);
+    let estimate = transfer_function_h1(motor_speed, load_speed, sample_rate, &config).ok()?;
+    let threshold = estimate.coherence_threshold(0.95);
+    let averages = 0.5 * estimate.dof;
+    let coherent: Vec<usize> = (0..estimate.frequency_hz.len())
+        .filter(|&k| {
+            let (f, g) = (estimate.frequency_hz[k], estimate.coherence[k]);
+            f >= band.0
+                && f <= band.1
+                && g > threshold
+                && g < 1.0
+                && (1.0 - g) / (averages * g) <= MAX_PATH_BIN_VARIANCE
+                && estimate.h1[k].norm() > 0.0
+        })
+        .collect();
+    if coherent.len() < MIN_PATH_BINS {
+        return None;
+    }
+    let (mut chi2, mut used, mut misfit) = (0.0, 0usize, 0.0);
+    let (mut largest, mut peak_hz, mut peak_ratio) = (0.0, f64::NAN, f64::NAN);
+    for (n, &k) in coherent.iter().enumerate() {
+        let (f, g, h) = (estimate.frequency_hz[k], estimate.coherence[k], estimate.h1[k]);
+        let model = path_response(params, f);
+        let relative = (h - model).norm_sqr() / h.norm_sqr();
+        let variance = (1.0 - g) / (averages * g);
+        misfit += relative;
+        if relative / variance > largest {
+            (largest, peak_hz, peak_ratio) = (relative / variance, f, h.norm() / model.norm());
+        }
+        if n % 2 == 0 {
+            chi2 += 2.0 * relative / variance;
+            used += 1;
+        }
+    }
+    let dof = 2.0 * used as f64;
+    let p = antenna_dsp::distributions::chi_squared_sf(chi2, dof);
+    let relative_misfit = (misfit / coherent.len() as f64).sqrt();
+    Some(PathCheck {
+        band,
+        bins: coherent.len(),
+        chi2,
+        dof,
+        p,
+        peak_hz,
+        peak_ratio,
+        relative_misfit,
+        departs: p < level && chi2 >= 2.0 * dof,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Motor and load speeds of a path whose response from motor to load speed is `path`:
+    /// the motor speed a sum of 400 sinusoids (random frequencies up to 120 Hz, random
+    /// phases), the load speed the same sinusoids through `path` plus white sensor noise.
+    fn speeds_through(path: &dyn Fn(f64) -> Complex64, sample_rate: f64, n: usize) -> (Vec<f64>, Vec<f64>) {
+        use rand::SeedableRng;
+        use rand_distr::Distribution;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let normal = rand_distr::Normal::new(0.0, 0.2).unwrap();
+        let (frequencies, phases) = (
+            rand_distr::Uniform::new(0.5, 120.0).unwrap(),
+            rand_distr::Uniform::new(0.0, std::f64::consts::TAU).unwrap(),
+        );
+        let (mut motor, mut load) = (vec![0.0; n], vec![0.0; n]);
+        for _ in 0..400 {
+            let (f, phase) = (frequencies.sample(&mut rng), phases.sample(&mut rng));
+            let response = path(f);
+            for i in 0..n {
+                let x = 2.0 * std::f64::consts::PI * f * i as f64 / sample_rate + phase;
+                motor[i] += x.cos();
+                load[i] += response.norm() * (x + response.arg()).cos();
+            }
+        }
+        load.iter_mut().for_each(|v| *v += normal.sample(&mut rng));
+        (motor, load)
+    }
+
+    fn path_parameters() -> ParameterSet {
+        let mut params = ParameterSet::default();
+        params.set(names::STIFFNESS, 3.79e7);
+        params.set(names::DAMPING, 1.2e5);
+        params.set(names::LOAD_INERTIA, 6.0e4);
+        params
+    }
+
+    #[test]
+    fn a_two_mass_path_matches_and_a_second_mode_departs() {
+        let (sample_rate, n) = (500.0, 30_000);
+        let params = path_parameters();
+        let two_mass = |f: f64| path_response(&params, f);
+        let (motor, load) = speeds_through(&two_mass, sample_rate, n);
+        let check = check_path_speeds(&motor, &load, sample_rate, &params, 1e-3).expect("coherent bins");
+        assert!(!check.departs, "{}", check.describe());
+        // The same path with a second mode at 30 Hz (damping ratio 0.04) in series.
+        let w2 = 2.0 * std::f64::consts::PI * 30.0;
+        let three_mass = |f: f64| {
+            let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+            path_response(&params, f) * w2 * w2 / (s * s + 2.0 * 0.04 * w2 * s + w2 * w2)
+        };
+        let (motor, load) = speeds_through(&three_mass, sample_rate, n);
+        let check = check_path_speeds(&motor, &load, sample_rate, &params, 1e-3).expect("coherent bins");
+        assert!(check.departs, "{}", check.describe());
+        assert!((check.peak_hz - 30.0).abs() < 3.0, "{}", check.describe());
+    }
 
     #[test]
     fn response_error_of_a_delayed_model_is_the_phase_chord() {

@@ -202,6 +202,9 @@ pub struct Validation {
     /// The band estimate of the delay when the search claimed none ([`band_delay`]): its
     /// detection limit, or a delay it finds that is not claimed, with the simulation's view.
     pub delay_band: Option<band_delay::DelayAccount>,
+    /// Whether the corrected model's two-mass path matches the measured motor-to-load
+    /// response ([`frequency::check_path`]); with two encoders and the output error only.
+    pub path: Option<frequency::PathCheck>,
     pub notes: Vec<String>,
 }
 
@@ -297,6 +300,19 @@ impl Validation {
             ));
         }
         KeptParameters { parameters, cannot_tell, also_fits }
+    }
+
+    /// Found effects that stand in for the form of the drive path rather than name a change
+    /// of it: a stiffness (with its damping) found where the measured motor-to-load response
+    /// departs from the corrected two-mass path's ([`frequency::check_path`]). The two-mass
+    /// stiffness is then an effective value for a path with a second mode (or a lost motion),
+    /// and a change of the spring cannot be told from that model-form difference: the value
+    /// stays in the corrected set, since it predicts the log better, but it is not claimed.
+    pub fn model_form_stand_ins(&self) -> Vec<Kind> {
+        if !self.path.as_ref().is_some_and(|p| p.departs) {
+            return Vec::new();
+        }
+        self.selection.found.iter().map(|f| f.kind).filter(|k| *k == Kind::Stiffness).collect()
     }
 
     /// Index of the equation-error channel where the fit reduced the error most (relative):
@@ -589,6 +605,7 @@ struct Searched {
     selection: Selection,
     output: Option<OutputReport>,
     frequency: Option<frequency::FrequencyResponse>,
+    path: Option<frequency::PathCheck>,
     hints: Vec<Hint>,
     delay_band: Option<band_delay::DelayAccount>,
 }
@@ -618,9 +635,19 @@ fn validate_once(
             Ok(prepared) => search_with_output_error(simulator, &data, start, options, prepared)?,
         },
     };
-    let Searched { selection, output, frequency, hints, delay_band } = searched;
+    let Searched { selection, output, frequency, path, hints, delay_band } = searched;
     if let Some(account) = delay_band.as_ref().filter(|a| a.significant) {
         notes.push(account.finding());
+    }
+    if let Some(check) = &path {
+        notes.push(check.describe());
+        if check.departs && selection.found.iter().any(|f| f.kind == Kind::Stiffness) {
+            notes.push(format!(
+                "stiffness is not claimed: its change (path.stiffness {:.4e} against the start's {:.4e} N m/rad) is the two-mass model's effective value for a path the two-mass form does not describe (above); a change of the spring and that model-form difference cannot be told apart with this model, so the value is kept in the corrected set as a stand-in",
+                selection.corrected.value(parameters::names::STIFFNESS),
+                start.value(parameters::names::STIFFNESS)
+            ));
+        }
     }
     let indistinct = observability::indistinct(&data, start, &selection, &options.selection);
     let collinear = observability::collinear(&data, start, &selection);
@@ -644,6 +671,7 @@ fn validate_once(
         indistinct,
         collinear,
         delay_band,
+        path,
         notes,
     })
 }
@@ -652,7 +680,7 @@ fn validate_once(
 fn equation_only(data: &EquationData, start: &ParameterSet, options: &ValidateOptions) -> Searched {
     let selection = selection::select(data, start, &options.selection);
     let delay_band = delay_account(data, start, &selection, selection.steps.len(), options, None);
-    Searched { selection, output: None, frequency: None, hints: Vec::new(), delay_band }
+    Searched { selection, output: None, frequency: None, path: None, hints: Vec::new(), delay_band }
 }
 
 /// The output-error data, the window plan and the starting model's output error.
@@ -789,6 +817,7 @@ fn search_with_output_error(
     let delay_band =
         delay_account(data, start, &selection, search_steps, options, Some((simulator, &out, &plan, &after)));
     let frequency = frequency::compare(data, &out, start, &selection.corrected);
+    let path = frequency::check_path(data, &out, &selection.corrected, options.selection.alpha);
     let output = Some(OutputReport {
         config: out.config,
         plan,
@@ -805,7 +834,7 @@ fn search_with_output_error(
         calibration,
         starting,
     });
-    Ok(Searched { selection, output, frequency, hints, delay_band })
+    Ok(Searched { selection, output, frequency, path, hints, delay_band })
 }
 
 /// The re-check of the effects found before a re-estimation: each kept one with the note of

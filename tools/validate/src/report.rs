@@ -305,7 +305,12 @@ pub fn limit_text(limit: &DetectionLimit, linear: bool) -> String {
     }
     let ranges: Vec<String> =
         limit.searched.iter().map(|(name, low, high, unit)| format!("{name} {low:.2e} to {high:.2e} {unit}")).collect();
-    format!("{size} (searched over {}; outside that range not searched)", ranges.join(", "))
+    let why = if limit.searched.iter().any(|(name, ..)| name == crate::parameters::names::COGGING_PERIOD) {
+        "; shorter periods not searched: below the continuous grid (down to the shortest period the smoothing passes at the median speed) only whole numbers of cycles per motor revolution are tried, up to 64 and only those the smoothing passes at the slowest twentieth of the moving samples"
+    } else {
+        ""
+    };
+    format!("{size} (searched over {}; outside that range not searched{why})", ranges.join(", "))
 }
 
 /// A detection limit's size alone, in the units of [`limit_text`].
