@@ -225,7 +225,9 @@ pub fn compare(
 /// the model's own load-side mode (sqrt(K/J_L)), where the two-mass response is smooth and
 /// the Welch estimate carries no resolution bias from that mode, and below 0.4 times the
 /// sample rate, on the bins whose coherence exceeds its 95 % threshold and whose response is
-/// known to 30 % ([`MAX_PATH_BIN_VARIANCE`]). A lost motion in the path departs from it too.
+/// known to 30 % ([`MAX_PATH_BIN_VARIANCE`]). H_model is the two-mass path that fits those
+/// bins best (K/J_L and D/J_L, from the corrected model's), so that a stiffness or damping the
+/// search left slightly off is not read as a second mode.
 #[derive(Debug, Clone)]
 pub struct PathCheck {
     /// The band checked (Hz) and the coherent bins in it that entered the statistic.
@@ -349,11 +351,19 @@ pub fn check_path_speeds(
     if coherent.len() < MIN_PATH_BINS {
         return None;
     }
+    let bins: Vec<(f64, Complex64, f64)> = coherent
+        .iter()
+        .map(|&k| {
+            let g = estimate.coherence[k];
+            (estimate.frequency_hz[k], estimate.h1[k], (1.0 - g) / (averages * g))
+        })
+        .collect();
+    let (a, b) = best_two_mass_path(&bins, stiffness / load, params.value(names::DAMPING) / load);
     let (mut chi2, mut used, mut misfit) = (0.0, 0usize, 0.0);
     let (mut largest, mut peak_hz, mut peak_ratio) = (0.0, f64::NAN, f64::NAN);
     for (n, &k) in coherent.iter().enumerate() {
         let (f, g, h) = (estimate.frequency_hz[k], estimate.coherence[k], estimate.h1[k]);
-        let model = path_response(params, f);
+        let model = normalised_path(a, b, f);
         let relative = (h - model).norm_sqr() / h.norm_sqr();
         let variance = (1.0 - g) / (averages * g);
         misfit += relative;
@@ -365,7 +375,7 @@ pub fn check_path_speeds(
             used += 1;
         }
     }
-    let dof = 2.0 * used as f64;
+    let dof = (2.0 * used as f64 - 2.0).max(1.0);
     let p = antenna_dsp::distributions::chi_squared_sf(chi2, dof);
     let relative_misfit = (misfit / coherent.len() as f64).sqrt();
     Some(PathCheck {
@@ -379,6 +389,59 @@ pub fn check_path_speeds(
         relative_misfit,
         departs: p < level && chi2 >= 2.0 * dof,
     })
+}
+
+/// The two-mass path (b s + a) / (s^2 + b s + a), a = K/J_L and b = D/J_L, at `f` Hz.
+fn normalised_path(a: f64, b: f64, f: f64) -> Complex64 {
+    let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+    (s * b + a) / (s * s + s * b + a)
+}
+
+/// The two-mass path that fits the measured bins (frequency, H1, relative variance) best:
+/// Gauss-Newton on (H - T) / (|H| sigma) from the model's (a, b), a step taken only when it
+/// lowers the sum of squares. The check asks whether any two-mass path describes the
+/// response, not whether the corrected one does: a stiffness or damping that the search left
+/// slightly off is a parameter error, not a second mode.
+fn best_two_mass_path(bins: &[(f64, Complex64, f64)], a0: f64, b0: f64) -> (f64, f64) {
+    let cost = |a: f64, b: f64| -> f64 {
+        bins.iter().map(|&(f, h, v)| (h - normalised_path(a, b, f)).norm_sqr() / (h.norm_sqr() * v)).sum()
+    };
+    let (mut a, mut b) = (a0, b0);
+    let mut current = cost(a, b);
+    for _ in 0..20 {
+        // Normal equations of the two real parameters, from the real and imaginary parts.
+        let (mut jtj, mut jtr) = ([[0.0; 2]; 2], [0.0; 2]);
+        for &(f, h, v) in bins {
+            let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+            let denominator = s * s + s * b + a;
+            let scale = 1.0 / (h.norm() * v.sqrt());
+            let residual = (h - (s * b + a) / denominator) * scale;
+            let d_a = s * s / (denominator * denominator) * scale;
+            let d_b = s * s * s / (denominator * denominator) * scale;
+            let columns = [d_a, d_b];
+            for i in 0..2 {
+                jtr[i] += (columns[i].conj() * residual).re;
+                for j in 0..2 {
+                    jtj[i][j] += (columns[i].conj() * columns[j]).re;
+                }
+            }
+        }
+        let det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0];
+        if det.abs() <= 0.0 || !det.is_finite() {
+            break;
+        }
+        let step_a = (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det;
+        let step_b = (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det;
+        let (next_a, next_b) = (a + step_a, b + step_b);
+        let next = cost(next_a, next_b);
+        // A step that does not lower the cost (or gives NaN) or leaves the physical range ends it.
+        let lowers = next < current;
+        if !lowers || next_a <= 0.0 || next_b < 0.0 {
+            break;
+        }
+        (a, b, current) = (next_a, next_b, next);
+    }
+    (a, b)
 }
 
 #[cfg(test)]
