@@ -205,10 +205,12 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
         })
         .filter(|(_, alike)| !alike.is_empty())
         .collect();
-    // A timing skew between the encoders is a claim too: the suite's logs have none.
-    if validation.encoder_skew.is_some() {
-        found.push("encoder_skew".to_string());
-    }
+    found.extend(sensor_claims(
+        &truth.conditions,
+        validation.encoder_skew,
+        validation.current_skew.is_some(),
+        validation.load_encoder_error.is_some(),
+    ));
     let mut parameters = Vec::new();
     for (_, _, effect) in &truth.effects {
         let (true_change, found_change) = compare(effect, start, &validation.selection.corrected);
@@ -294,6 +296,35 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
         error: None,
         seconds,
     }
+}
+
+/// The sensor errors the validation took out of the data that the truth's log does not have:
+/// claims like any effect's. A load encoder read at another instant than the motor encoder, a
+/// current read later than the encoders (the truth's `current_skew` is the current's sampling instant less
+/// the encoders', negative for a current read late) and a load encoder error are each a
+/// property of the data acquisition; finding one the log has is right, finding one it lacks is
+/// a claim the suite counts as wrong (its own logs have none).
+fn sensor_claims(
+    conditions: &std::collections::BTreeMap<String, String>,
+    encoder_skew: Option<f64>,
+    current_late: bool,
+    encoder_error: bool,
+) -> Vec<String> {
+    let condition = |key: &str| conditions.get(key).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    let mut claims = Vec::new();
+    // The truth's load encoder skew is the instant the load encoder is read less the motor
+    // encoder's (positive: read later, so its value leads); `validate`'s is how far its value
+    // lags, the opposite sign.
+    if encoder_skew.is_some_and(|skew| skew * condition("load_encoder_skew") >= 0.0) {
+        claims.push("encoder_skew".to_string());
+    }
+    if current_late && condition("current_skew") >= 0.0 {
+        claims.push("current_skew".to_string());
+    }
+    if encoder_error && condition("load_encoder_error_rms") <= 0.0 {
+        claims.push("load_encoder_error".to_string());
+    }
+    claims
 }
 
 /// How the validation's report accounts for each true effect it did not name: a found effect
@@ -801,6 +832,26 @@ pub fn detection_figure(results: &[CaseResult], path: &Path) -> Result<(), Scori
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sensor_error_is_a_claim_only_where_the_truth_lacks_it() {
+        let none = std::collections::BTreeMap::new();
+        assert!(sensor_claims(&none, None, false, false).is_empty());
+        assert_eq!(
+            sensor_claims(&none, Some(1e-3), true, true),
+            vec!["encoder_skew", "current_skew", "load_encoder_error"]
+        );
+        let skewed: std::collections::BTreeMap<String, String> =
+            [("load_encoder_skew".to_string(), "1e-3".to_string()), ("current_skew".to_string(), "-5e-4".to_string())]
+                .into_iter()
+                .collect();
+        assert!(sensor_claims(&skewed, Some(-0.9e-3), true, false).is_empty());
+        // A skew of the wrong sign is not the log's.
+        assert_eq!(sensor_claims(&skewed, Some(0.9e-3), false, true), vec!["encoder_skew", "load_encoder_error"]);
+        let early: std::collections::BTreeMap<String, String> =
+            [("current_skew".to_string(), "5e-4".to_string())].into_iter().collect();
+        assert_eq!(sensor_claims(&early, None, true, false), vec!["current_skew"]);
+    }
 
     #[test]
     fn the_detection_figure_is_written_when_rates_coincide() {

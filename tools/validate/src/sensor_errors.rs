@@ -184,13 +184,16 @@ pub fn load_encoder_error(
         return None;
     }
     // The twist terms of the two-encoder check (constant, skew, compliance, lost motion), the
-    // motor side's own model errors (the search's Coulomb, viscous, inertia and torque-constant
-    // columns, over the stiffness: a friction level the start lacks changes the shaft torque
-    // the motor side implies, and over a short log the direction of travel goes with the
-    // angle), then the smooth part.
+    // motor side's own model errors (the search's Coulomb, viscous, inertia, torque-constant
+    // and delay columns, over the stiffness: a friction level the start lacks changes the
+    // shaft torque the motor side implies, and over a short log the direction of travel goes
+    // with the angle; a delay the start lacks moves it by the delay times the torque's rate,
+    // which left out stood in the residual as a twist of several arcsec at 9 ms and hid a
+    // 1 arcsec encoder error), then the smooth part.
     let mut columns: Vec<Vec<f64>> = regression.columns[..4].iter().map(|c| pick(c)).collect();
     let direction: Vec<f64> = data.smooth(&data.motor_vel_inner.iter().map(|v| v.signum()).collect::<Vec<_>>());
-    for motor_side in [&direction, &data.motor_vel, &data.motor_acc, &data.torque] {
+    let torque_rate = data.torque_rate_delayed(params.value(crate::parameters::names::DELAY));
+    for motor_side in [&direction, &data.motor_vel, &data.motor_acc, &data.torque, &torque_rate] {
         columns.push(pick(motor_side));
     }
     let base = columns.len();
