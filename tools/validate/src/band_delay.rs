@@ -503,7 +503,7 @@ pub struct DelayAccount {
     pub claimed: Option<f64>,
     /// The delay was claimed from this band estimate (not by the search's smoothed test): the
     /// estimate was significant beyond its model-form floor and the simulation confirmed it;
-    /// `claimed` is then the delay after the refit on the output error.
+    /// `claimed` is then the band's delay.
     pub from_band: bool,
 }
 
@@ -540,7 +540,7 @@ impl DelayAccount {
         let ms = |s: f64| s * 1e3;
         let status = match (self.from_band, self.claimed) {
             (true, Some(claimed)) => format!(
-                "claimed at {:.3} ms after the refit on the output error (beyond the band's model-form floor of {:.3} ms, the spread between its halves)",
+                "claimed at {:.3} ms (beyond the band's model-form floor of {:.3} ms, the spread between its halves)",
                 ms(claimed),
                 ms(e.form_spread)
             ),
