@@ -75,8 +75,7 @@ impl BandDelay {
 
     /// Whether the change is a significant increase at the one-sided p `threshold`: a delay
     /// shorter than the set's start (at the suite's neutral start, a negative one) is not a
-    /// drive's, and the clean logs' model-form floor lies on that side (down to -0.09 ms at
-    /// 2 kHz with a noiseless current).
+    /// drive's.
     pub fn significant(&self, threshold: f64) -> bool {
         self.change > 0.0 && 0.5 * antenna_dsp::chi_squared_sf(self.chi2(), 1.0) < threshold
     }
@@ -111,9 +110,9 @@ impl BandDelay {
 }
 
 /// The scale of the band estimate's model-form floor (s): on clean logs (no skew, no delay)
-/// it gives -0.01 to -0.09 ms (the truth's dynamic friction against the model's static law,
-/// 500 Hz to 2 kHz), so a negative delay within that scale is not read as a skew, however
-/// significant.
+/// it gave -0.01 to -0.13 ms while the presliding segments were in the estimate (500 Hz to
+/// 2 kHz), +0.016 to +0.025 ms since (the truth generator's own half-step lag), so a negative
+/// delay within that scale is not read as a skew, however significant.
 pub const MODEL_FORM_FLOOR: f64 = 1.0e-4;
 
 /// A current logged late against the encoders: the band estimate of the delay, from no delay,
