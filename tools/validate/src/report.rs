@@ -250,7 +250,9 @@ fn delay_band_section(out: &mut String, v: &Validation) {
     if searched {
         let _ = writeln!(out, "The search's delay test above is {}.\n", delay_search_range(v));
     }
-    if let Some(claimed) = account.claimed {
+    if account.from_band {
+        let _ = writeln!(out, "**A {}.**\n", account.finding());
+    } else if let Some(claimed) = account.claimed {
         let _ = writeln!(
             out,
             "The search claimed a delay of {:.3} ms; from the start's delay, {} gives {:.3} +- {:.3} ms.\n",
