@@ -171,18 +171,10 @@ fn compare(effect: &Effect, start: &ParameterSet, corrected: &ParameterSet) -> (
     }
 }
 
-/// Scores one validated case against its truth.
-pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, seconds: f64) -> CaseResult {
-    // A stand-in for the path's model form is reported, not claimed (`model_form_stand_ins`).
-    let stand_ins = validation.model_form_stand_ins();
-    let mut found: Vec<String> = validation
-        .selection
-        .found
-        .iter()
-        .filter(|f| !stand_ins.contains(&f.kind))
-        .map(|f| f.kind.name().to_string())
-        .collect();
-    let equally_consistent: Vec<(String, Vec<String>)> = validation
+/// Each found effect with the effects the report says the data cannot tell it from (the
+/// search's equally consistent alternatives and the indistinct pairs), those with any.
+fn equally_consistent(validation: &Validation) -> Vec<(String, Vec<String>)> {
+    validation
         .selection
         .found
         .iter()
@@ -204,7 +196,21 @@ pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, s
             )
         })
         .filter(|(_, alike)| !alike.is_empty())
+        .collect()
+}
+
+/// Scores one validated case against its truth.
+pub fn score(truth: &CaseTruth, validation: &Validation, start: &ParameterSet, seconds: f64) -> CaseResult {
+    // A stand-in for the path's model form is reported, not claimed (`model_form_stand_ins`).
+    let stand_ins = validation.model_form_stand_ins();
+    let mut found: Vec<String> = validation
+        .selection
+        .found
+        .iter()
+        .filter(|f| !stand_ins.contains(&f.kind))
+        .map(|f| f.kind.name().to_string())
         .collect();
+    let equally_consistent = equally_consistent(validation);
     found.extend(sensor_claims(
         &truth.conditions,
         validation.encoder_skew,
