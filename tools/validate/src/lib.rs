@@ -461,8 +461,9 @@ pub fn validate_with(
     let integrated = log.with_motor_position_from_speed();
     let log = integrated.as_ref().unwrap_or(log);
     // The speed sensor's drift, integrated, is a motor-position error that wanders in time:
-    // estimated from the twist and taken out first, so the search sees one constant twist
-    // offset instead of a free function of time beside every effect ([`sensor_errors`]).
+    // estimated on both torque equations beside every slow effect and taken out first, so the
+    // search sees one constant twist offset instead of a free function of time beside every
+    // effect ([`sensor_errors`]).
     let drift = match &integrated {
         Some(_) => tacho_drift(log, start, options)?,
         None => None,

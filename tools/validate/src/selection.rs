@@ -683,6 +683,60 @@ fn baseline_columns(data: &EquationData, params: &ParameterSet) -> Vec<Column> {
         .collect()
 }
 
+/// The slow candidates a twist offset that varies in time could take the place of: every
+/// effect whose columns are slow on the time scale of a speed sensor's drift (friction levels,
+/// offset, unbalance, the drive path, inertias, the torque constant). A delay and a cogging
+/// are fast and are not in the list.
+const SLOW_KINDS: [Kind; 9] = [
+    Kind::Coulomb,
+    Kind::Viscous,
+    Kind::Stribeck,
+    Kind::Offset,
+    Kind::Backlash,
+    Kind::Stiffness,
+    Kind::Inertia,
+    Kind::Unbalance,
+    Kind::TorqueConstant,
+];
+
+/// The slow twist offset's value at each of the data's knots (`data.slow_twist_hats`) and the
+/// coefficient of each of `twists` (further twist shapes, axis rad per unit), fitted on both
+/// torque equations at `params` together with the linearised columns of every slow candidate
+/// ([`SLOW_KINDS`]), with the search's channel weights (1/(sigma^2 tau) from a first
+/// unweighted fit). A twist offset enters the two equations with opposite signs and the
+/// stiffness as its unit, an offset or an unbalance only the load's, a friction level only the
+/// motor's: fitted together, none of them is taken for the others, and the load equation, whose
+/// noise is the encoders' (not the torque sensor's), carries the twist's estimate. Empty
+/// without knots.
+pub fn slow_twist_offsets(data: &EquationData, params: &ParameterSet, twists: &[Vec<f64>]) -> Vec<f64> {
+    if data.slow_twist_hats.is_empty() || data.structure != Structure::TwoMass {
+        return Vec::new();
+    }
+    let channels = model_channels(data, params);
+    let k = params.value(super::parameters::names::STIFFNESS);
+    let extra: Vec<Column> = twists
+        .iter()
+        .map(|twist| Column {
+            label: "twist shape (nuisance)".into(),
+            unit: "rad".into(),
+            channels: vec![
+                twist.iter().map(|x| -k * x).collect(),
+                twist.iter().map(|x| data.twist_scale * x).collect(),
+            ],
+        })
+        .collect();
+    let with = |weights: &[f64]| -> Fit {
+        let (mut columns, _) = refine_columns(data, params, &channels, &SLOW_KINDS, weights);
+        // The baseline (the knots) comes first; the further shapes follow it.
+        let knots = data.slow_twist_hats.len();
+        columns.splice(knots..knots, extra.iter().cloned());
+        fit(&channels, &columns, &[], weights)
+    };
+    let first = with(&vec![1.0; channels.len()]);
+    let weighted = with(&first.channel_weights());
+    weighted.beta[..data.slow_twist_hats.len() + twists.len()].to_vec()
+}
+
 /// Fits `columns` to the residual of `channels` plus `adjust` with per-channel weights.
 fn fit(channels: &[ChannelData], columns: &[Column], adjust: &[Vec<f64>], channel_weights: &[f64]) -> Fit {
     let start: Vec<Vec<f64>> = channels.iter().map(|c| c.residual()).collect();

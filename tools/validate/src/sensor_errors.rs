@@ -275,18 +275,27 @@ pub fn load_encoder_error(
 ///
 /// A tacho's bias wanders (with temperature, with the drive's own heat), and integrated it is
 /// a motor-position error that wanders in time and enters the twist. Its slow part is not
-/// measured by the speed sensor at all; only a model can put it back: the twist less what the
-/// motor side explains (the shaft torque over the stiffness, the lost motion, a skew, the motor
-/// side's own friction and inertia errors) is free of every load-side torque, and what stays
-/// there as a function of time is the drift. The knots are as far apart as the integrated
-/// white noise of the speed takes to reach the load encoder's noise (0.5 to 10 s): closer knots
-/// would follow that noise, farther ones leave the drift's curvature in the data.
+/// measured by the speed sensor at all; only a model can put it back. The twist enters both
+/// torque equations, with the stiffness as its unit and opposite signs, so the drift is fitted
+/// on both at once, beside the linearised columns of every slow effect the search will look
+/// for (friction levels, offset, unbalance, inertias, stiffness, lost motion, torque
+/// constant): none of them is taken for drift, and the load equation, whose noise is the
+/// encoders' rather than the torque sensor's, carries the estimate. (From the motor side
+/// alone, the torque noise over the stiffness left an error twenty times the encoders' noise in
+/// the twist, and the offset's and the unbalance's limits rose with it.) The knots are as far
+/// apart as the integrated white noise of the speed takes to reach the load encoder's noise
+/// (0.5 to 10 s): closer knots would follow that noise, farther ones leave the drift's
+/// curvature in the data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TachoDrift {
     /// Knot times (s) and the drift's value there (axis rad, what the integral reads less the
     /// truth), linear between the knots and held beyond the first and last.
     pub knots: Vec<f64>,
     pub values: Vec<f64>,
+    /// What is left of the speed sensor's scale error (the integral's first fit took it
+    /// against the load encoder alone, where the twist's share along the position reads as
+    /// scale): the motor position reads `1 + scale_error` times its travel from its mean.
+    pub scale_error: f64,
     /// RMS of the drift over the log (rad, its mean taken off: a constant is the twist offset),
     /// and the twist's sensor noise it is judged against.
     pub rms: f64,
@@ -312,8 +321,11 @@ impl TachoDrift {
     pub fn correct(&self, log: &MeasuredLog) -> MeasuredLog {
         let mut out = log.clone();
         for channel in out.channels.iter_mut().filter(|c| c.signal == Signal::MotorPos && c.unit == INTEGRATED_UNIT) {
+            // The scale is taken about the channel's own mean: another centre only moves the
+            // twist by a constant, which the twist offset is.
+            let mean = channel.values.iter().sum::<f64>() / channel.values.len().max(1) as f64;
             for (value, &t) in channel.values.iter_mut().zip(&log.time) {
-                *value -= self.at(t);
+                *value -= self.at(t) + self.scale_error * (*value - mean);
             }
             channel.unit = DRIFT_REMOVED_UNIT.into();
         }
@@ -331,9 +343,10 @@ impl TachoDrift {
         let (low, high) =
             self.values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         format!(
-            "motor speed sensor's bias drift, integrated: {:.3} arcsec RMS over the log (twist noise {:.3} arcsec), {:.3} arcsec from lowest to highest, piecewise linear in time with {} knots {:.2} s apart",
+            "motor speed sensor's bias drift, integrated: {:.3} arcsec RMS over the log (twist noise {:.3} arcsec; with the scale error's remainder, {:+.4} %), {:.3} arcsec from lowest to highest, piecewise linear in time with {} knots {:.2} s apart",
             self.rms * arcsec,
             self.noise * arcsec,
+            100.0 * self.scale_error,
             (high - low) * arcsec,
             self.knots.len(),
             self.spacing()
@@ -342,10 +355,11 @@ impl TachoDrift {
 }
 
 /// The integrated drift of a motor speed sensor in a log whose motor position was integrated
-/// from it, with a two-mass starting set: the twist less what the motor side explains,
-/// regressed on the sliding samples on the slow twist offset's hat functions together with the
-/// twist terms (skew, compliance, lost motion) and the motor side's own model errors, so that
-/// neither a lost motion nor a friction level the start lacks is taken for drift. The drift is
+/// from it, with a two-mass starting set: the slow twist offset's knots fitted on both torque
+/// equations together with every slow effect's columns
+/// ([`crate::selection::slow_twist_offsets`]) and a twist proportional to the motor's travel
+/// (what is left of the speed sensor's scale error), so that neither a lost motion nor a
+/// friction level, an offset or an unbalance the start lacks is taken for drift. The drift is
 /// returned when its RMS (mean taken off) is at least `options.min_effect_to_noise` times the
 /// twist's noise, `None` otherwise and when the log has no integrated motor position.
 pub fn tacho_drift(data: &EquationData, params: &ParameterSet, options: &TwistOptions) -> Option<TachoDrift> {
@@ -353,44 +367,27 @@ pub fn tacho_drift(data: &EquationData, params: &ParameterSet, options: &TwistOp
     if data.structure != Structure::TwoMass || hats.len() < 2 || data.len() < 200 {
         return None;
     }
-    let regression = twist_regression(data, params);
-    let keep = rows(data);
-    let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&i| v[i]).collect() };
-    let target = pick(&regression.target);
-    // The skew, compliance and lost-motion columns (the constant is in the hats, which sum to
-    // one), and the motor side's Coulomb, viscous, inertia and torque-constant columns.
-    let mut columns: Vec<Vec<f64>> = regression.columns[1..4].iter().map(|c| pick(c)).collect();
-    let direction: Vec<f64> = data.smooth(&data.motor_vel_inner.iter().map(|v| v.signum()).collect::<Vec<_>>());
-    for motor_side in [&direction, &data.motor_vel, &data.motor_acc, &data.torque] {
-        columns.push(pick(motor_side));
+    // The speed sensor's scale error was first fitted against the load encoder alone, where
+    // the twist's share along the position (the shaft torque follows the trajectory: friction
+    // with the direction, inertia against the position on a swing) reads as scale. Its
+    // remainder is a twist proportional to the motor's travel, which a function of time
+    // follows only where the axis moves slowly: it is estimated beside the drift and taken
+    // out with it.
+    let mean_position = data.motor_pos.iter().sum::<f64>() / data.len() as f64;
+    let travel: Vec<f64> = data.motor_pos.iter().map(|q| q - mean_position).collect();
+    let fitted = crate::selection::slow_twist_offsets(data, params, std::slice::from_ref(&travel));
+    if fitted.len() != hats.len() + 1 || fitted.iter().any(|v| !v.is_finite()) {
+        return None;
     }
-    let base = columns.len();
-    columns.extend(hats.iter().map(|h| pick(h)));
-    // A knot whose support holds few sliding samples (the log's first second at rest, a long
-    // stop) is barely determined by the data: a second difference of the knots' values, zero
-    // with the weight of one row, makes the drift run straight through such a gap and costs
-    // nothing where the knot has its tens of rows per second.
-    let mut target = target;
-    for j in 1..hats.len().saturating_sub(1) {
-        for (c, column) in columns.iter_mut().enumerate() {
-            let value = match c.checked_sub(base) {
-                Some(h) if h + 1 == j || h == j + 1 => 1.0,
-                Some(h) if h == j => -2.0,
-                _ => 0.0,
-            };
-            column.push(value);
-        }
-        target.push(0.0);
-    }
-    let result = fit(&columns, &target);
-    let values: Vec<f64> = result.beta[base..].to_vec();
+    let (values, scale_error) = (fitted[..hats.len()].to_vec(), fitted[hats.len()]);
     let (t0, t1) = (data.time[0], data.time[data.len() - 1]);
     let count = values.len() - 1;
     let knots: Vec<f64> = (0..=count).map(|j| t0 + (t1 - t0) * j as f64 / count as f64).collect();
     // The twist holds +drift (the motor position reads high): the fitted offsets are the drift.
     let noise = (data.motor_pos_sigma.powi(2) + data.load_pos_sigma.powi(2)).sqrt();
-    let mut drift = TachoDrift { knots, values, rms: 0.0, noise };
-    let along: Vec<f64> = data.time.iter().map(|&t| drift.at(t)).collect();
+    let mut drift = TachoDrift { knots, values, scale_error, rms: 0.0, noise };
+    let along: Vec<f64> =
+        data.time.iter().zip(&travel).map(|(&t, &travel)| drift.at(t) + scale_error * travel).collect();
     let mean = along.iter().sum::<f64>() / along.len() as f64;
     drift.values.iter_mut().for_each(|v| *v -= mean);
     drift.rms = (along.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / along.len() as f64).sqrt();
@@ -544,7 +541,13 @@ mod tests {
 
     #[test]
     fn the_drift_correction_takes_a_piecewise_linear_drift_out_of_an_integrated_motor_position() {
-        let drift = TachoDrift { knots: vec![0.0, 1.0, 2.0], values: vec![1e-6, -2e-6, 0.5e-6], rms: 0.0, noise: 0.0 };
+        let drift = TachoDrift {
+            knots: vec![0.0, 1.0, 2.0],
+            values: vec![1e-6, -2e-6, 0.5e-6],
+            scale_error: 0.0,
+            rms: 0.0,
+            noise: 0.0,
+        };
         assert!((drift.at(0.5) + 0.5e-6).abs() < 1e-18);
         assert!((drift.at(-1.0) - 1e-6).abs() < 1e-18 && (drift.at(5.0) - 0.5e-6).abs() < 1e-18);
         let text: String = std::iter::once("time_s,motor_current_A,motor_vel_rad_s,load_pos_rad\n".to_string())
@@ -565,6 +568,39 @@ mod tests {
         // From here on the twist offset is one constant: the position no longer counts as an
         // integrated one with a free drift.
         assert!(drifting.motor_position_is_integrated() && !corrected.motor_position_is_integrated());
+    }
+
+    #[test]
+    fn the_drift_correction_takes_a_scale_error_out_about_the_positions_mean() {
+        // A motor position that reads 1 + s times its travel from its mean: the correction is
+        // first order in s, so what is left is s^2 times the travel, and nothing is added to
+        // the mean (a constant is the twist offset's).
+        let s = 2e-3;
+        let drift = TachoDrift { knots: vec![0.0, 1.0], values: vec![0.0, 0.0], scale_error: s, rms: 0.0, noise: 0.0 };
+        let text: String = std::iter::once("time_s,motor_current_A,motor_vel_rad_s,load_pos_rad\n".to_string())
+            .chain((0..200).map(|i| {
+                let t = i as f64 * 0.01;
+                format!("{t},0,{},{}\n", 0.5 + (3.0 * t).cos(), 0.5 * t + (3.0 * t).sin() / 3.0)
+            }))
+            .collect();
+        let integrated = crate::measured_log::parse_str(&text).unwrap().with_motor_position_from_speed().unwrap();
+        let truth = integrated.signal(Signal::MotorPos).unwrap().to_vec();
+        let mean = truth.iter().sum::<f64>() / truth.len() as f64;
+        let mut scaled = integrated.clone();
+        for channel in scaled.channels.iter_mut().filter(|c| c.signal == Signal::MotorPos) {
+            channel.values.iter_mut().for_each(|v| *v += s * (*v - mean));
+        }
+        let corrected = drift.correct(&scaled);
+        let travel = truth.iter().map(|v| (v - mean).abs()).fold(0.0, f64::max);
+        let worst = corrected
+            .signal(Signal::MotorPos)
+            .unwrap()
+            .iter()
+            .zip(&truth)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst <= 1.01 * s * s * travel, "{worst} against {}", s * s * travel);
+        assert!(worst > 0.0 || travel == 0.0);
     }
 
     #[test]
