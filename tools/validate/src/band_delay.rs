@@ -164,15 +164,20 @@ pub fn current_skew(data: &EquationData, params: &ParameterSet, level: f64) -> O
     let mut from_zero = params.clone();
     from_zero.set(names::DELAY, 0.0);
     let estimate = estimate(data, &from_zero)?;
-    let delay = estimate.delay();
-    is_skew(delay, estimate.sigma, level).then_some(CurrentSkew { estimate, level })
+    is_skew(estimate.delay(), estimate.sigma, estimate.form_spread, level).then_some(CurrentSkew { estimate, level })
 }
 
 /// Whether an apparent delay `delay` (s) with standard error `sigma` is a current skew: below
-/// zero at the one-sided p `level` and beyond the model-form floor.
-fn is_skew(delay: f64, sigma: f64, level: f64) -> bool {
-    let chi2 = (delay / sigma.max(f64::MIN_POSITIVE)).powi(2);
-    delay < -MODEL_FORM_FLOOR && 0.5 * antenna_dsp::chi_squared_sf(chi2, 1.0) < level
+/// zero beyond the model-form floor's scale, and still below zero at the one-sided p `level`
+/// once this log's own floor, the spread `form_spread` between the band's halves, is added.
+/// A skew shifts the current by one time at every frequency; a delay of several milliseconds
+/// turns the band's phase by more than a cycle, and its wrapped remainder reads as a small
+/// delay of either sign that differs between the halves (a 9 ms delay at 2 kHz read as a
+/// current 0.12 ms late).
+fn is_skew(delay: f64, sigma: f64, form_spread: f64, level: f64) -> bool {
+    let beyond = -delay - form_spread.max(0.0);
+    let chi2 = (beyond / sigma.max(f64::MIN_POSITIVE)).powi(2);
+    delay < -MODEL_FORM_FLOOR && beyond > 0.0 && 0.5 * antenna_dsp::chi_squared_sf(chi2, 1.0) < level
 }
 
 /// The log with its current (or torque) columns read `by` seconds later: the value logged `by`
@@ -601,13 +606,15 @@ mod tests {
     #[test]
     fn only_a_significant_negative_delay_beyond_the_floor_is_a_current_skew() {
         // A current logged 0.3 ms late, well resolved: a skew.
-        assert!(is_skew(-3.0e-4, 1.2e-5, 1e-3));
+        assert!(is_skew(-3.0e-4, 1.2e-5, 5.0e-6, 1e-3));
         // The clean logs' model-form floor: significant, but within the floor's scale.
-        assert!(!is_skew(-0.6 * MODEL_FORM_FLOOR, 1.0e-6, 1e-3));
+        assert!(!is_skew(-0.6 * MODEL_FORM_FLOOR, 1.0e-6, 0.0, 1e-3));
         // Beyond the floor but not significant.
-        assert!(!is_skew(-3.0e-4, 2.0e-4, 1e-3));
+        assert!(!is_skew(-3.0e-4, 2.0e-4, 0.0, 1e-3));
         // A positive delay is a drive's delay or a current logged early: never a skew.
-        assert!(!is_skew(1.0e-3, 1.0e-5, 1e-3));
+        assert!(!is_skew(1.0e-3, 1.0e-5, 0.0, 1e-3));
+        // Negative, but the band's halves disagree by as much: not one time shift.
+        assert!(!is_skew(-1.2e-4, 2.0e-5, 1.5e-4, 1e-3));
     }
 
     fn estimate_with(change: f64, sigma: f64, form_spread: f64) -> BandDelay {

@@ -299,8 +299,8 @@ pub const MIN_PATH_BINS: usize = 16;
 /// reaches with probability 0.55^14 = 2e-4.
 pub const MAX_PATH_BIN_VARIANCE: f64 = 0.09;
 
-/// Checks the path ([`PathCheck`]) of the model `params` against a log with two encoders, at
-/// the significance level `level`. None without a compliant model, a motor measurement or
+/// Checks whether a two-mass path, fitted from the model `params`'s, describes a log with two
+/// encoders ([`PathCheck`]), at the significance level `level`. None without a compliant model, a motor measurement or
 /// enough coherent bins.
 pub fn check_path(data: &EquationData, out: &OutputData, params: &ParameterSet, level: f64) -> Option<PathCheck> {
     let (stiffness, load) = (params.value(names::STIFFNESS), params.value(names::LOAD_INERTIA));

@@ -202,7 +202,7 @@ pub struct Validation {
     /// The band estimate of the delay when the search claimed none ([`band_delay`]): its
     /// detection limit, or a delay it finds that is not claimed, with the simulation's view.
     pub delay_band: Option<band_delay::DelayAccount>,
-    /// Whether the corrected model's two-mass path matches the measured motor-to-load
+    /// Whether a two-mass path (the one that fits it best) matches the measured motor-to-load
     /// response ([`frequency::check_path`]); with two encoders and the output error only.
     pub path: Option<frequency::PathCheck>,
     pub notes: Vec<String>,
@@ -304,7 +304,7 @@ impl Validation {
 
     /// Found effects that stand in for the form of the drive path rather than name a change
     /// of it: a stiffness (with its damping) found where the measured motor-to-load response
-    /// departs from the corrected two-mass path's ([`frequency::check_path`]). The two-mass
+    /// departs from every two-mass path's ([`frequency::check_path`]). The two-mass
     /// stiffness is then an effective value for a path with a second mode (or a lost motion),
     /// and a change of the spring cannot be told from that model-form difference: the value
     /// stays in the corrected set, since it predicts the log better, but it is not claimed.
