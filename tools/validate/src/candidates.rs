@@ -970,14 +970,21 @@ pub fn admissible(params: &ParameterSet, data: &EquationData) -> Result<(), Inad
 }
 
 /// The parameters of an accepted effect for the report, with standard deviations from the
-/// covariance of its Refine-mode coefficients at the converged parameters.
-pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[f64], data: &EquationData) -> Reported {
+/// covariance of its Refine-mode coefficients at the converged parameters (`covariance`: the
+/// effect's own block, in the order of its columns).
+pub fn report(
+    kind: Kind,
+    start: &ParameterSet,
+    params: &ParameterSet,
+    covariance: &nalgebra::DMatrix<f64>,
+    data: &EquationData,
+) -> Reported {
     let gear2 = data.gear_ratio * data.gear_ratio;
     let mut out: Reported = Vec::new();
     let mut add =
         |name: &str, value: f64, sd: f64, unit: &str| out.push((name.to_string(), value, sd, unit.to_string()));
     let change = |name: &str| params.value(name) - start.value(name);
-    let sd = |i: usize| sigma.get(i).copied().unwrap_or(f64::NAN);
+    let sd = |i: usize| if i < covariance.nrows() { covariance[(i, i)].max(0.0).sqrt() } else { f64::NAN };
     match kind {
         Kind::Coulomb => {
             add("friction.coulomb change", change(names::COULOMB), sd(0), "N m");
@@ -995,7 +1002,7 @@ pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[
             add(names::DAMPING, params.value(names::DAMPING), sd(1), "N m s/rad");
         }
         Kind::Inertia => {
-            if sigma.len() == 2 {
+            if covariance.nrows() == 2 {
                 add("load.inertia change", change(names::LOAD_INERTIA), sd(1), "kg m^2");
                 add(names::LOAD_INERTIA, params.value(names::LOAD_INERTIA), sd(1), "kg m^2");
                 add(names::MOTOR_INERTIA, params.value(names::MOTOR_INERTIA), sd(0) / gear2, "kg m^2");
@@ -1005,21 +1012,13 @@ pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[
             }
         }
         Kind::Unbalance => {
-            let amplitude = params.value(names::UNBALANCE_TORQUE);
-            let phase = params.value(names::UNBALANCE_PHASE);
-            let (c, s) = (amplitude * phase.cos(), amplitude * phase.sin());
-            let amp_sd = if amplitude > 0.0 {
-                ((c * sd(0)).powi(2) + (s * sd(1)).powi(2)).sqrt() / amplitude
-            } else {
-                sd(0).hypot(sd(1))
-            };
-            let phase_sd = if amplitude > 0.0 {
-                ((s * sd(0)).powi(2) + (c * sd(1)).powi(2)).sqrt() / (amplitude * amplitude)
-            } else {
-                f64::INFINITY
-            };
-            add(names::UNBALANCE_TORQUE, amplitude, amp_sd, "N m");
-            add(names::UNBALANCE_PHASE, phase, phase_sd, "rad");
+            let (amp_sd, phase_sd) = polar_deviations(
+                params.value(names::UNBALANCE_TORQUE),
+                params.value(names::UNBALANCE_PHASE),
+                covariance,
+            );
+            add(names::UNBALANCE_TORQUE, params.value(names::UNBALANCE_TORQUE), amp_sd, "N m");
+            add(names::UNBALANCE_PHASE, params.value(names::UNBALANCE_PHASE), phase_sd, "rad");
         }
         Kind::Delay => add(names::DELAY, params.value(names::DELAY), sd(0), "s"),
         Kind::TorqueConstant => {
@@ -1033,16 +1032,67 @@ pub fn report(kind: Kind, start: &ParameterSet, params: &ParameterSet, sigma: &[
         }
         Kind::Cogging => {
             let amplitude = params.value(names::COGGING_AMPLITUDE);
-            let amp_sd = sd(0).hypot(sd(1)) / std::f64::consts::SQRT_2;
+            let phase = params.value(names::COGGING_PHASE);
+            let (amp_sd, phase_sd) = polar_deviations(amplitude, phase, covariance);
             add(names::COGGING_AMPLITUDE, amplitude, amp_sd, "N m");
             add(names::COGGING_PERIOD, params.value(names::COGGING_PERIOD), sd(2), "rad");
-            add(
-                names::COGGING_PHASE,
-                params.value(names::COGGING_PHASE),
-                if amplitude > 0.0 { amp_sd / amplitude } else { f64::INFINITY },
-                "rad",
-            );
+            add(names::COGGING_PHASE, phase, phase_sd, "rad");
         }
     }
     out
+}
+
+/// Standard deviations of an amplitude and phase fitted as the Cartesian pair
+/// (amplitude cos phase, amplitude sin phase), the first two coefficients of `covariance`, by
+/// the delta method with their covariance in full. A periodic effect's phase is referred to
+/// angle zero, often far from the logged range, so a period's uncertainty turns it and the
+/// pair's variances grow along the phase's direction while the amplitude stays determined: the
+/// amplitude's deviation must be the radial one, not the pair's mean variance.
+fn polar_deviations(amplitude: f64, phase: f64, covariance: &nalgebra::DMatrix<f64>) -> (f64, f64) {
+    if covariance.nrows() < 2 || covariance.ncols() < 2 {
+        return (f64::NAN, f64::NAN);
+    }
+    let (var_c, var_s, cov_cs) = (covariance[(0, 0)], covariance[(1, 1)], covariance[(0, 1)]);
+    if amplitude <= 0.0 {
+        return ((0.5 * (var_c + var_s)).max(0.0).sqrt(), f64::INFINITY);
+    }
+    let (cos, sin) = (phase.cos(), phase.sin());
+    // Radial direction (cos, sin) and tangential direction (-sin, cos) / amplitude.
+    let radial = cos * cos * var_c + 2.0 * cos * sin * cov_cs + sin * sin * var_s;
+    let tangential = (sin * sin * var_c - 2.0 * cos * sin * cov_cs + cos * cos * var_s) / (amplitude * amplitude);
+    (radial.max(0.0).sqrt(), tangential.max(0.0).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::polar_deviations;
+    use nalgebra::DMatrix;
+
+    /// A covariance of the Cartesian pair with `radial` and `tangential` deviations about the
+    /// direction of `phase`.
+    fn pair_covariance(phase: f64, radial: f64, tangential: f64) -> DMatrix<f64> {
+        let (c, s) = (phase.cos(), phase.sin());
+        let rotation = DMatrix::from_row_slice(2, 2, &[c, -s, s, c]);
+        let diagonal =
+            DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![radial * radial, tangential * tangential]));
+        &rotation * diagonal * rotation.transpose()
+    }
+
+    #[test]
+    fn a_phase_turned_by_an_uncertain_period_leaves_the_amplitude_determined() {
+        // The pair's uncertainty lies along the phase (a period fitted beside it turns the
+        // phase at angle zero): 800 N m tangential, 5 N m radial, on an amplitude of 400 N m.
+        let (amplitude, phase) = (400.0, 2.1);
+        let covariance = pair_covariance(phase, 5.0, 800.0);
+        let (amplitude_sd, phase_sd) = polar_deviations(amplitude, phase, &covariance);
+        assert!((amplitude_sd - 5.0).abs() < 1e-9, "amplitude deviation {amplitude_sd}");
+        assert!((phase_sd - 2.0).abs() < 1e-9, "phase deviation {phase_sd}");
+    }
+
+    #[test]
+    fn an_amplitude_of_zero_has_no_phase() {
+        let (amplitude_sd, phase_sd) = polar_deviations(0.0, 0.0, &pair_covariance(0.3, 3.0, 3.0));
+        assert!((amplitude_sd - 3.0).abs() < 1e-9);
+        assert!(phase_sd.is_infinite());
+    }
 }

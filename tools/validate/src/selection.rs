@@ -1758,7 +1758,7 @@ pub fn final_fit(
         .iter()
         .zip(&ranges)
         .map(|(instance, own)| {
-            let sigma: Vec<f64> = own.clone().map(|i| result.covariance[(i, i)].max(0.0).sqrt()).collect();
+            let block = result.covariance.view((own.start, own.start), (own.len(), own.len())).into_owned();
             let correlations = instances
                 .iter()
                 .zip(&ranges)
@@ -1767,7 +1767,7 @@ pub fn final_fit(
                 .collect();
             Found {
                 kind: instance.kind,
-                parameters: candidates::report(instance.kind, start, params, &sigma, data),
+                parameters: candidates::report(instance.kind, start, params, &block, data),
                 correlations,
             }
         })
