@@ -426,6 +426,9 @@ pub fn prepare(
     Ok(data)
 }
 
+/// How the note on what the log's sensors resolve begins.
+pub const RESOLUTION_NOTE: &str = "sensor resolution:";
+
 /// What the log's sensors resolve: the step of each position and of the torque as logged, the
 /// torque's noise floor, and, with two encoders, the twist's spread against the load encoder's
 /// count, with what that rules out.
@@ -436,7 +439,7 @@ fn resolution_note(raw: &RawInputs, data: &EquationData) -> String {
     let torque_unit = if data.linear { "N" } else { "N m" };
     let load_step = resolution(&raw.load_pos);
     let mut note = format!(
-        "sensor resolution: load encoder {:.3} {small} per step, motor encoder {:.3e} {small} per step (axis side), torque {:.3e} {torque_unit} per step (axis side); the torque's noise is floored at {:.3e} {torque_unit} (its rounding, or a 16-bit converter over its range)",
+        "{RESOLUTION_NOTE} load encoder {:.3} {small} per step, motor encoder {:.3e} {small} per step (axis side), torque {:.3e} {torque_unit} per step (axis side); the torque's noise is floored at {:.3e} {torque_unit} (its rounding, or a 16-bit converter over its range)",
         load_step * scale,
         resolution(&raw.motor_pos) * scale,
         resolution(&raw.torque),

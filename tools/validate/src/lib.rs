@@ -473,6 +473,9 @@ pub fn validate_with(
     // The load encoder's own error is found and taken out before any physical effect is
     // judged, or it would raise every residual and detection limit ([`sensor_errors`]).
     let prepared = equation_error::prepare(log, start, &options.equation)?;
+    // What the sensors resolve is a fact of the log as logged: the corrections below
+    // interpolate the signals, whose steps would then read as finer than the sensors'.
+    let logged_resolution = prepared.notes.iter().find(|n| n.starts_with(equation_error::RESOLUTION_NOTE)).cloned();
     let encoder_error = sensor_errors::load_encoder_error(&prepared, start, &options.twist);
     let encoder_corrected = encoder_error.as_ref().map(|e| e.correct(log));
     let log = encoder_corrected.as_ref().unwrap_or(log);
@@ -522,6 +525,7 @@ pub fn validate_with(
     first.tacho_drift = drift.clone();
     first.current_skew = late_current.clone();
     first.notes.extend(unobservable.iter().cloned());
+    keep_logged_resolution(&mut first.notes, logged_resolution.as_deref());
     first.twist = twist::analyse(&first.data, &first.selection.corrected, &options.twist);
     // The skew check regresses the twist on a constant offset, which an integrated motor
     // position's drift breaks: no skew is acted on then (its report still shows the terms).
@@ -536,12 +540,22 @@ pub fn validate_with(
         skew / second.data.dt
     ));
     second.notes.extend(unobservable);
+    keep_logged_resolution(&mut second.notes, logged_resolution.as_deref());
     second.twist = first.twist;
     second.encoder_skew = Some(skew);
     second.load_encoder_error = encoder_error;
     second.tacho_drift = drift;
     second.current_skew = late_current;
     Ok(second)
+}
+
+/// Puts the resolution note of the log as logged in place of the one computed on corrected
+/// data (a shifted or corrected signal has interpolated steps).
+fn keep_logged_resolution(notes: &mut [String], logged: Option<&str>) {
+    let Some(logged) = logged else { return };
+    for note in notes.iter_mut().filter(|n| n.starts_with(equation_error::RESOLUTION_NOTE)) {
+        logged.clone_into(note);
+    }
 }
 
 /// The integrated drift of the motor speed sensor in `log` (whose motor position was
