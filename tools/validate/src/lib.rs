@@ -534,10 +534,12 @@ pub fn validate_with(
     };
     let corrected_log = twist::shift_load_encoder(log, skew);
     let mut second = validate_once(&corrected_log, start, options, simulator)?;
+    // A positive skew is a load angle older than the motor's in the same row.
+    let (relation, read) = if skew >= 0.0 { ("behind", "earlier") } else { ("ahead of", "later") };
     second.notes.push(format!(
-        "the load encoder lags the motor encoder by {:.3} ms ({:.2} samples): it was shifted back by that much and the log validated again; the results above are on the corrected data",
-        skew * 1e3,
-        skew / second.data.dt
+        "each row holds the load encoder's angle {:.3} ms ({:.2} samples) {relation} the motor encoder's (a load encoder read that much {read} than the motor encoder and stamped alike): it was shifted back by that much and the log validated again; the results above are on the corrected data",
+        skew.abs() * 1e3,
+        skew.abs() / second.data.dt
     ));
     second.notes.extend(unobservable);
     keep_logged_resolution(&mut second.notes, logged_resolution.as_deref());

@@ -38,7 +38,11 @@ fn the_load_encoders_three_millisecond_lag_is_found_and_corrected_on_every_axis(
             twist.rms_before,
             twist.rms_after
         );
-        assert!(v.notes.iter().any(|n| n.contains("load encoder lags")), "axis {axis}: {:?}", v.notes);
+        assert!(
+            v.notes.iter().any(|n| n.contains("load encoder's angle") && n.contains("behind the motor encoder's")),
+            "axis {axis}: {:?}",
+            v.notes
+        );
     }
 }
 
