@@ -425,6 +425,12 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     let torque_only = |values: Vec<f64>| cx.torque_only(values);
     let simple = |columns: Vec<Column>| cx.simple(columns);
     let fc = params.value(names::COULOMB);
+    // The Stribeck curve is the breakaway level's rise over the sliding (Coulomb) level. A hump
+    // over no sliding level is a friction that vanishes at speed, which no lubricated contact
+    // has: from a start without Coulomb friction a hump would stand in for it.
+    if mode == Mode::Search && fc <= 0.0 {
+        return Err(NotApplicable::StribeckWithoutCoulomb);
+    }
     let amplitude = params.get(names::STATIC).unwrap_or(fc) - fc;
     let current_vs = params.value(names::STRIBECK_VELOCITY).max(1e-12);
     // The hump depends on the data and the velocity only: each is smoothed once per log.
@@ -902,6 +908,8 @@ pub enum NotApplicable {
     TooFewMovingSamples,
     #[error("no cogging period to refine")]
     NoCoggingPeriod,
+    #[error("a Stribeck hump rises over a Coulomb level, which the parameter set lacks (Coulomb first)")]
+    StribeckWithoutCoulomb,
     #[error("the angle range is too small for a period search")]
     AngleRangeTooSmall,
 }
