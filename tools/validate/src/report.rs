@@ -727,7 +727,7 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>, li
         );
     }
     if t.structure == Structure::TwoMass {
-        let _ = writeln!(out, "\nWith a two-mass starting set, compliance and lost motion are judged by the candidate library (stiffness, backlash); only the skew is acted on here.");
+        let _ = writeln!(out, "\nWith a two-mass starting set, compliance and lost motion are judged by the candidate library (stiffness, backlash); only the skew is acted on here. The shaft torque's motor-side viscous and Coulomb friction are taken from the total-torque equation, in which a skew between the encoders cancels, so that a friction change found on skewed data does not stand in for part of the skew.");
     } else if t.rigid_stiffness().is_some() || t.lost_motion().significant {
         let _ = writeln!(
             out,
