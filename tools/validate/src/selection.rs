@@ -702,8 +702,8 @@ const SLOW_KINDS: [Kind; 9] = [
 /// The slow twist offset's value at each of the data's knots (`data.slow_twist_hats`) and the
 /// coefficient of each of `twists` (further twist shapes, axis rad per unit), fitted on both
 /// torque equations at `params` together with the linearised columns of every slow candidate
-/// ([`SLOW_KINDS`]), with the search's channel weights (1/(sigma^2 tau) from a first
-/// unweighted fit). A twist offset enters the two equations with opposite signs and the
+/// ([`SLOW_KINDS`]), with the search's channel weights (1/(sigma^2 tau) from a first fit
+/// weighted by each channel's sensor noise, [`channel_noise`]). A twist offset enters the two equations with opposite signs and the
 /// stiffness as its unit, an offset or an unbalance only the load's, a friction level only the
 /// motor's: fitted together, none of them is taken for the others, and the load equation, whose
 /// noise is the encoders' (not the torque sensor's), carries the twist's estimate. Empty
@@ -732,7 +732,15 @@ pub fn slow_twist_offsets(data: &EquationData, params: &ParameterSet, twists: &[
         columns.splice(knots..knots, extra.iter().cloned());
         fit(&channels, &columns, &[], weights)
     };
-    let first = with(&vec![1.0; channels.len()]);
+    // The first fit is weighted by the sensors' noise, not equally in newton metres: the load
+    // equation's noise is the encoders' (a few newton metres), the motor equation's the torque
+    // sensor's, ten times more. With equal weights a torque at the motor that no slow column
+    // holds (a cogging whose period the axis crosses slowly) went half into the twist offset
+    // and half into the load equation's residual, whose first-fit spread and correlation time
+    // then kept the load equation's weight low in the second fit as well.
+    let noise_weights: Vec<f64> =
+        channel_noise(data).iter().map(|s| if *s > 0.0 { 1.0 / (s * s) } else { 1.0 }).collect();
+    let first = with(&noise_weights);
     let weighted = with(&first.channel_weights());
     weighted.beta[..data.slow_twist_hats.len() + twists.len()].to_vec()
 }
