@@ -356,10 +356,15 @@ fn account_for_unnamed(
         {
             Some(format!("the data cannot tell it from {stand_in}"))
         } else if let Some(stand_in) = validation.model_form_stand_ins().iter().find(|k| k.name() == family) {
-            Some(format!(
-                "the data cannot tell it from the path's model form ({} found as a two-mass stand-in for a path with a second mode)",
-                stand_in.name()
-            ))
+            Some(if validation.even_friction.is_some() && stand_in.name() == "stribeck" {
+                "the data cannot tell it from a friction term even in the speed (stribeck found as its stand-in)"
+                    .to_string()
+            } else {
+                format!(
+                    "the data cannot tell it from the path's model form ({} found as a two-mass stand-in for a path with a second mode)",
+                    stand_in.name()
+                )
+            })
         } else if let Some((_, reason)) = unobservable.iter().find(|(k, _)| k.name() == family) {
             Some(format!("not observable: {reason}"))
         } else {

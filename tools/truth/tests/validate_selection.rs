@@ -277,3 +277,30 @@ fn a_fractional_sample_delay_of_a_noiseless_current_is_found_over_the_unsmoothed
         "{estimate:e} +- {sigma:e} s against {truth_lag:e} s"
     );
 }
+
+/// A 60 s log at 2 kHz with a noiseless current (1 mA steps) and `effects`, on seed 49, whose
+/// slowest motion runs mostly in the positive direction (tracking).
+fn tracking_log(effects: Vec<Effect>) -> (antenna_validate::measured_log::MeasuredLog, ParameterSet) {
+    let mut config = TruthConfig { seed: 49, log_rate: 2000.0, effects, ..TruthConfig::default() };
+    config.noise.current_sigma = 0.0;
+    (simulate(&config).log, config.plant.starting_parameters())
+}
+
+#[test]
+fn a_hump_fitted_to_an_asymmetry_that_fades_at_low_speed_is_a_stand_in_not_a_stribeck_claim() {
+    use antenna_validate::{validate, ValidateOptions};
+    // The truth's asymmetry fades below a tenth of the Stribeck velocity: beside the offset it
+    // leaves a remainder even in the speed, which the slow motion in one direction reads as a
+    // lower hump.
+    let (log, start) = tracking_log(vec![Effect::Asymmetry(330.0)]);
+    let v = validate(&log, &start, &ValidateOptions::default()).unwrap();
+    assert!(v.selection.found.iter().any(|f| f.kind == Kind::Offset), "{:?}", v.selection.found);
+    let claimed_stribeck =
+        v.selection.found.iter().any(|f| f.kind == Kind::Stribeck && !v.model_form_stand_ins().contains(&f.kind));
+    assert!(!claimed_stribeck, "a Stribeck change claimed: {:?}", v.notes);
+    // A real Stribeck change on the same motion is odd in the speed and is claimed.
+    let (log, start) = tracking_log(vec![Effect::Stribeck(600.0)]);
+    let v = validate(&log, &start, &ValidateOptions::default()).unwrap();
+    assert!(v.selection.found.iter().any(|f| f.kind == Kind::Stribeck), "{:?}", v.selection.found);
+    assert!(v.even_friction.is_none(), "{:?}", v.even_friction);
+}

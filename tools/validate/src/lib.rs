@@ -199,6 +199,9 @@ pub struct Validation {
     /// tell"), and found effects collinear with each other ([`observability`]).
     pub indistinct: Vec<observability::Indistinct>,
     pub collinear: Vec<observability::Collinear>,
+    /// A found Stribeck change that is mostly a friction term even in the speed: a stand-in for
+    /// a direction-dependent friction's low-speed form ([`observability::EvenFriction`]).
+    pub even_friction: Option<observability::EvenFriction>,
     /// The band estimate of the delay when the search claimed none ([`band_delay`]): its
     /// detection limit, or a delay it finds that is not claimed, with the simulation's view.
     pub delay_band: Option<band_delay::DelayAccount>,
@@ -308,11 +311,20 @@ impl Validation {
     /// stiffness is then an effective value for a path with a second mode (or a lost motion),
     /// and a change of the spring cannot be told from that model-form difference: the value
     /// stays in the corrected set, since it predicts the log better, but it is not claimed.
+    ///
+    /// A Stribeck change that is mostly a friction term even in the speed
+    /// ([`observability::stribeck_or_even_friction`]) stands in the same way for the low-speed
+    /// form of a direction-dependent friction, which the model's friction law does not have.
     pub fn model_form_stand_ins(&self) -> Vec<Kind> {
-        if !self.path.as_ref().is_some_and(|p| p.departs) {
-            return Vec::new();
-        }
-        self.selection.found.iter().map(|f| f.kind).filter(|k| *k == Kind::Stiffness).collect()
+        let path_departs = self.path.as_ref().is_some_and(|p| p.departs);
+        self.selection
+            .found
+            .iter()
+            .map(|f| f.kind)
+            .filter(|k| {
+                (*k == Kind::Stiffness && path_departs) || (*k == Kind::Stribeck && self.even_friction.is_some())
+            })
+            .collect()
     }
 
     /// Index of the equation-error channel where the fit reduced the error most (relative):
@@ -668,6 +680,10 @@ fn validate_once(
     }
     let indistinct = observability::indistinct(&data, start, &selection, &options.selection);
     let collinear = observability::collinear(&data, start, &selection);
+    let even_friction = observability::stribeck_or_even_friction(&data, start, &selection, options.selection.alpha);
+    if let Some(even) = &even_friction {
+        notes.push(even.describe(&selection.corrected, start));
+    }
     let before = channel_stats(&data, &selection.before, log);
     let after = channel_stats(&data, &selection.after, log);
     check_results(&selection, &before, &after, output.as_ref())?;
@@ -687,6 +703,7 @@ fn validate_once(
         hints,
         indistinct,
         collinear,
+        even_friction,
         delay_band,
         path,
         notes,
