@@ -295,6 +295,8 @@ fn a_hump_fitted_to_an_asymmetry_that_fades_at_low_speed_is_a_stand_in_not_a_str
     let (log, start) = tracking_log(vec![Effect::Asymmetry(330.0)]);
     let v = validate(&log, &start, &ValidateOptions::default()).unwrap();
     assert!(v.selection.found.iter().any(|f| f.kind == Kind::Offset), "{:?}", v.selection.found);
+    // The hump is found beside the offset and reported as the stand-in it is, not left out.
+    assert!(v.even_friction.is_some(), "no even friction term reported: {:?}", v.selection.found);
     let claimed_stribeck =
         v.selection.found.iter().any(|f| f.kind == Kind::Stribeck && !v.model_form_stand_ins().contains(&f.kind));
     assert!(!claimed_stribeck, "a Stribeck change claimed: {:?}", v.notes);
