@@ -461,16 +461,7 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
     }
     // The new hump replaces the model's: its old contribution goes back into the target.
     let adjust_torque: Vec<f64> = hump(current_vs).iter().map(|h| amplitude * h).collect();
-    let mut speeds: Vec<f64> =
-        data.motor_vel.iter().zip(&channels[0].mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
-    if speeds.len() < 10 {
-        return Err(NotApplicable::TooFewMovingSamples);
-    }
-    speeds.sort_by(|a, b| a.total_cmp(b));
-    let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
-    let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
-    let grid_count = 25;
-    let grid: Vec<f64> = (0..grid_count).map(|k| low * (high / low).powf(k as f64 / (grid_count - 1) as f64)).collect();
+    let grid = stribeck_velocity_grid(data, &channels[0].mask).ok_or(NotApplicable::TooFewMovingSamples)?;
     let adjust_stacked = stack(channels, &torque_only(adjust_torque.clone()));
     let adjusted_target: Vec<f64> = target.iter().zip(&adjust_stacked).map(|(r, a)| r + a).collect();
     // The grid's points are independent and run side by side, collected in grid order.
@@ -478,7 +469,7 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
         .par_iter()
         .map(|&vs| fitted_rss(&[stack(channels, &torque_only(hump(vs)))], &adjusted_target, weights))
         .collect();
-    let best = (0..grid_count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
+    let best = (0..grid.len()).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
     let sigma = profile_sigma(&grid, &chi2, best);
     Ok(Instance {
         kind,
@@ -494,11 +485,11 @@ fn stribeck_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
             unit: "rad/s".into(),
             value: grid[best],
             sigma,
-            range: (low, high),
+            range: (grid[0], grid[grid.len() - 1]),
         }],
         // Neighbouring Stribeck velocities a factor 1.3 apart give nearly the same
         // column; about a third of the grid is independent.
-        trials: (grid_count as f64 / 3.0).max(1.0),
+        trials: (grid.len() as f64 / 3.0).max(1.0),
         extra_parameters: 1,
     })
 }
@@ -570,6 +561,24 @@ fn delay_instance(cx: &Setup) -> Result<Instance, NotApplicable> {
         trials: max_steps as f64,
         extra_parameters: 0,
     })
+}
+
+/// Points of the Stribeck velocity's search grid.
+pub const STRIBECK_GRID: usize = 25;
+
+/// The Stribeck velocities searched: [`STRIBECK_GRID`] points spaced evenly in logarithm from
+/// the stick speed (or the slowest hundredth of the moving samples in `mask`) to the speed
+/// below which nine tenths of them move. `None` with fewer than ten moving samples.
+pub fn stribeck_velocity_grid(data: &EquationData, mask: &[bool]) -> Option<Vec<f64>> {
+    let mut speeds: Vec<f64> = data.motor_vel.iter().zip(mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
+    if speeds.len() < 10 {
+        return None;
+    }
+    speeds.sort_by(|a, b| a.total_cmp(b));
+    let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
+    let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
+    let last = (STRIBECK_GRID - 1) as f64;
+    Some((0..STRIBECK_GRID).map(|k| low * (high / low).powf(k as f64 / last)).collect())
 }
 
 /// The position-periodic (cogging) torque: its period by search ([`cogging`]), or its sin, cos

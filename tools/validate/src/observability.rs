@@ -216,10 +216,6 @@ pub fn changes(parameters: &ParameterSet, reference: &ParameterSet) -> String {
         .join(", ")
 }
 
-/// Points of the width grid of [`stribeck_or_even_friction`], spaced as the Stribeck
-/// candidate's search spaces its velocities.
-const EVEN_WIDTH_GRID: usize = 25;
-
 /// A found Stribeck change that is mostly a low-speed friction term even in the speed.
 ///
 /// A Stribeck hump is odd in the speed: the breakaway friction opposes the motion in both
@@ -284,16 +280,8 @@ pub fn stribeck_or_even_friction(
         .filter(|&i| channel.mask[i])
         .map(|i| channel.measured[i] - channel.predicted[i])
         .collect();
-    let mut speeds: Vec<f64> =
-        data.motor_vel.iter().zip(&channel.mask).filter(|(_, m)| **m).map(|(v, _)| v.abs()).collect();
-    if speeds.len() < 10 {
-        return None;
-    }
-    speeds.sort_by(|a, b| a.total_cmp(b));
-    let low = data.stick_speed.max(speeds[speeds.len() / 100]).max(1e-9);
-    let high = speeds[speeds.len() * 9 / 10].max(low * 2.0);
-    let last = (EVEN_WIDTH_GRID - 1) as f64;
-    let grid: Vec<f64> = (0..EVEN_WIDTH_GRID).map(|k| low * (high / low).powf(k as f64 / last)).collect();
+    // The even term's widths are searched over the Stribeck velocities' grid.
+    let grid = crate::candidates::stribeck_velocity_grid(data, &channel.mask)?;
     let gaussian = |v: f64, width: f64| (-(v / width).powi(2)).exp();
     let vs = selection.corrected.value(names::STRIBECK_VELOCITY).max(1e-12);
     let odd = used(
@@ -311,7 +299,7 @@ pub fn stribeck_or_even_friction(
         .into_iter()
         .min_by(|a, b| a.0.total_cmp(&b.0))?;
     let gain = (alone_chi2 - chi2).max(0.0);
-    let p = (chi_squared_sf(gain, 1.0) * EVEN_WIDTH_GRID as f64).min(1.0);
+    let p = (chi_squared_sf(gain, 1.0) * grid.len() as f64).min(1.0);
     let (alone, beside) = (alone[0], beta[0]);
     let stand_in = p < alpha && (alone - beside).abs() > beside.abs();
     stand_in.then_some(EvenFriction { alone, beside, even_level: beta[1], even_width: width, gain, p })
