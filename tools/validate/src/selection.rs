@@ -687,22 +687,14 @@ fn baseline_columns(data: &EquationData, params: &ParameterSet) -> Vec<Column> {
 /// effect whose columns are slow on the time scale of a speed sensor's drift (friction levels,
 /// offset, unbalance, the drive path, inertias, the torque constant). A delay and a cogging
 /// are fast and are not in the list.
-const SLOW_KINDS: [Kind; 9] = [
-    Kind::Coulomb,
-    Kind::Viscous,
-    Kind::Stribeck,
-    Kind::Offset,
-    Kind::Backlash,
-    Kind::Stiffness,
-    Kind::Inertia,
-    Kind::Unbalance,
-    Kind::TorqueConstant,
-];
+fn slow_kinds() -> Vec<Kind> {
+    Kind::ALL.into_iter().filter(|k| !matches!(k, Kind::Delay | Kind::Cogging)).collect()
+}
 
 /// The slow twist offset's value at each of the data's knots (`data.slow_twist_hats`) and the
 /// coefficient of each of `twists` (further twist shapes, axis rad per unit), fitted on both
 /// torque equations at `params` together with the linearised columns of every slow candidate
-/// ([`SLOW_KINDS`]), with the search's channel weights (1/(sigma^2 tau) from a first fit
+/// ([`slow_kinds`]), with the search's channel weights (1/(sigma^2 tau) from a first fit
 /// weighted by each channel's sensor noise, [`channel_noise`]). A twist offset enters the two equations with opposite signs and the
 /// stiffness as its unit, an offset or an unbalance only the load's, a friction level only the
 /// motor's: fitted together, none of them is taken for the others, and the load equation, whose
@@ -726,7 +718,7 @@ pub fn slow_twist_offsets(data: &EquationData, params: &ParameterSet, twists: &[
         })
         .collect();
     let with = |weights: &[f64]| -> Fit {
-        let (mut columns, _) = refine_columns(data, params, &channels, &SLOW_KINDS, weights);
+        let (mut columns, _) = refine_columns(data, params, &channels, &slow_kinds(), weights);
         // The baseline (the knots) comes first; the further shapes follow it.
         let knots = data.slow_twist_hats.len();
         columns.splice(knots..knots, extra.iter().cloned());
