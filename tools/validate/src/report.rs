@@ -253,9 +253,19 @@ fn delay_band_section(out: &mut String, v: &Validation) {
     if account.from_band {
         let _ = writeln!(out, "**A {}.**\n", account.finding());
     } else if let Some(claimed) = account.claimed {
+        // The estimate starts from the start's delay unless that led to a wrapped remainder
+        // of a longer delay (`delay_account`), when it starts from the band's best one.
+        let from = if account.estimate.start == v.start.value(crate::parameters::names::DELAY) {
+            "from the start's delay".to_string()
+        } else {
+            format!(
+                "from {:.3} ms (the band's best delay over the search's range: from the start's delay it finds a wrapped remainder)",
+                account.estimate.start * 1e3
+            )
+        };
         let _ = writeln!(
             out,
-            "The search claimed a delay of {:.3} ms; from the start's delay, {} gives {:.3} +- {:.3} ms.\n",
+            "The search claimed a delay of {:.3} ms; {from}, {} gives {:.3} +- {:.3} ms.\n",
             claimed * 1e3,
             account.estimate.method(),
             account.estimate.delay() * 1e3,
