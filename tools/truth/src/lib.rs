@@ -13,6 +13,7 @@
 
 pub mod limits;
 pub mod scoring;
+pub mod second;
 pub mod sensors;
 pub mod suite;
 mod trajectory;
