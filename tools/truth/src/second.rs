@@ -55,6 +55,10 @@ pub struct SecondOptions {
     pub load_skew: f64,
     /// A static friction curve instead of LuGre's bristles.
     pub static_friction: bool,
+    /// A rigid linear carriage of 95 kg on a direct drive instead of the rotary two-mass
+    /// drive: positions in metres, one encoder, no injected excitation, the published EMPS
+    /// benchmark's numbers as its plant (see [`Plant::carriage`]).
+    pub carriage: bool,
 }
 
 impl Default for SecondOptions {
@@ -68,6 +72,7 @@ impl Default for SecondOptions {
             noiseless_current: false,
             load_skew: 0.0,
             static_friction: false,
+            carriage: false,
         }
     }
 }
@@ -97,6 +102,11 @@ struct Plant {
     cogging_period: f64,
     cogging_phase: f64,
     asymmetry: f64,
+    /// One body: the load moves with the motor (no path).
+    rigid: bool,
+    /// The torque noise of the current sensor (N m or N, axis side), the unit of the effect
+    /// sizes.
+    torque_sigma: f64,
 }
 
 impl Plant {
@@ -127,13 +137,52 @@ impl Plant {
             cogging_period: 2.0 * PI / (gear * 4.0),
             cogging_phase: 0.0,
             asymmetry: 0.0,
+            rigid: false,
+            torque_sigma: TORQUE_SIGMA,
         }
     }
 
-    /// The nominal plant with the effect added at 10 times the torque noise (or the like).
-    fn with(effect: SecondEffect, delay: f64) -> Plant {
-        let mut p = Plant::nominal();
-        let size = 10.0 * TORQUE_SIGMA;
+    /// A carriage with the numbers Janot, Gautier and Brunot (2019) publish for the EMPS
+    /// benchmark: 95.1 kg, 203.5 N s/m viscous and 20.4 N Coulomb friction, an offset of
+    /// -3.4 N, a force constant of 35.15 N per ampere (per volt of command there), as a linear
+    /// axis of unit radius and gear ratio 1. No Stribeck hump (the published model has none);
+    /// bristles reaching 10 micrometres at the Coulomb level; the force noise (0.5 N) an
+    /// estimate.
+    fn carriage() -> Plant {
+        let (mass, coulomb) = (95.1, 20.4);
+        let bristle_stiffness = coulomb / 1e-5;
+        Plant {
+            gear: 1.0,
+            motor_inertia: mass,
+            load_inertia: 0.0,
+            stiffness: 0.0,
+            damping: 0.0,
+            viscous: 203.5,
+            coulomb,
+            breakaway: coulomb,
+            stribeck_velocity: 0.01,
+            bristle_stiffness,
+            bristle_damping: (bristle_stiffness * mass).sqrt(),
+            torque_constant: 35.15,
+            torque_constant_scale: 1.0,
+            offset: -3.4,
+            unbalance: 0.0,
+            unbalance_phase: 0.0,
+            delay: 0.0,
+            backlash: 0.0,
+            cogging: 0.0,
+            cogging_period: 0.02,
+            cogging_phase: 0.0,
+            asymmetry: 0.0,
+            rigid: true,
+            torque_sigma: 0.5,
+        }
+    }
+
+    /// The plant with the effect added at 10 times the torque noise (or the like).
+    fn with(mut self, effect: SecondEffect, delay: f64) -> Plant {
+        let p = &mut self;
+        let size = 10.0 * p.torque_sigma;
         match effect {
             SecondEffect::Clean => {}
             SecondEffect::Coulomb => {
@@ -141,11 +190,12 @@ impl Plant {
                 p.breakaway += size;
             }
             SecondEffect::Stribeck => p.breakaway += 2.0 * size,
-            SecondEffect::Offset => p.offset = size,
+            SecondEffect::Offset => p.offset += size,
             SecondEffect::Unbalance => {
                 p.unbalance = size;
                 p.unbalance_phase = 0.3;
             }
+            SecondEffect::Inertia if p.rigid => p.motor_inertia *= 1.45,
             SecondEffect::Inertia => p.load_inertia *= 1.45,
             SecondEffect::TorqueConstant => p.torque_constant_scale = 0.93,
             SecondEffect::Delay => p.delay = delay,
@@ -162,7 +212,7 @@ impl Plant {
                 p.unbalance = size;
             }
         }
-        p
+        self
     }
 
     /// The friction level at speed `v`: Coulomb plus the Stribeck hump, scaled by direction.
@@ -246,16 +296,88 @@ fn quantise(x: f64, quantum: f64) -> f64 {
     (x / quantum).round() * quantum
 }
 
+/// Why `secondgen` cannot write a log as asked.
+#[derive(Debug, thiserror::Error)]
+pub enum SecondError {
+    #[error("the carriage is one rigid body on a straight line: it has no {0} (use the rotary drive)")]
+    NotOnACarriage(&'static str),
+}
+
+/// The controller, the motion and the sensors of a drive, from its nominal plant.
+struct Drive {
+    /// Speed-loop gain (N m s/rad), its integral's (N m/rad), the position loop's (1/s).
+    speed_gain: f64,
+    integral_gain: f64,
+    position_gain: f64,
+    /// The encoder speed's first-order filter (Hz).
+    speed_filter_hz: f64,
+    /// RMS of the multisine torque added to the speed loop's output (N m).
+    injection_rms: f64,
+    /// The encoders' quanta and white noise (rad or m, axis side).
+    motor_quantum: f64,
+    load_quantum: f64,
+    encoder_noise: f64,
+}
+
+impl Drive {
+    /// The rotary drive: a 2.5 Hz speed loop with its integral at 0.4 Hz, a 0.6 Hz position
+    /// loop on the load encoder, a 60 Hz speed filter, 200 N m of multisine; an 18-bit motor
+    /// encoder and a 25-bit load encoder with 0.1 microradian of noise. The carriage (EMPS-like):
+    /// a 20 Hz speed loop with its integral at 4 Hz, a 3 Hz position loop on the one encoder,
+    /// a 200 Hz filter, no injected excitation (the benchmark's logs have none), 0.1 micrometre
+    /// steps and 20 nm of noise.
+    fn for_plant(p: &Plant) -> Drive {
+        let inertia = p.motor_inertia + p.load_inertia;
+        if p.rigid {
+            let speed_gain = inertia * 2.0 * PI * 20.0;
+            Drive {
+                speed_gain,
+                integral_gain: speed_gain * 2.0 * PI * 4.0,
+                position_gain: 2.0 * PI * 3.0,
+                speed_filter_hz: 200.0,
+                injection_rms: 0.0,
+                motor_quantum: 1e-7,
+                load_quantum: 1e-7,
+                encoder_noise: 2e-8,
+            }
+        } else {
+            let speed_gain = inertia * 2.0 * PI * 2.5;
+            Drive {
+                speed_gain,
+                integral_gain: speed_gain * 2.0 * PI * 0.4,
+                position_gain: 2.0 * PI * 0.6,
+                speed_filter_hz: 60.0,
+                injection_rms: 200.0,
+                motor_quantum: 2.0 * PI / (f64::from(1u32 << 18) * p.gear),
+                load_quantum: 2.0 * PI / f64::from(1u32 << 25),
+                encoder_noise: 1e-7,
+            }
+        }
+    }
+}
+
 /// A log as CSV text (`docs/measured-log-format.md`), with the truth as comment lines.
-pub fn generate(options: &SecondOptions) -> String {
-    let p = Plant::with(options.effect, options.delay);
-    let nominal = Plant::nominal();
+pub fn generate(options: &SecondOptions) -> Result<String, SecondError> {
+    let nominal = if options.carriage { Plant::carriage() } else { Plant::nominal() };
+    if nominal.rigid {
+        match options.effect {
+            SecondEffect::Unbalance | SecondEffect::CoulombUnbalance => {
+                return Err(SecondError::NotOnACarriage("unbalance"))
+            }
+            SecondEffect::Backlash | SecondEffect::Stiffness => return Err(SecondError::NotOnACarriage("drive path")),
+            _ if options.load_skew != 0.0 => return Err(SecondError::NotOnACarriage("load encoder")),
+            _ => {}
+        }
+    }
+    let p = nominal.clone().with(options.effect, options.delay);
+    let drive = Drive::for_plant(&nominal);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(options.seed);
     let dt_control = 1.0 / options.rate;
     let substeps = (20_000.0 / options.rate).round().max(1.0) as usize;
     let dt = dt_control / substeps as f64;
     let steps = (options.duration * options.rate) as usize;
-    let reference = reference(steps, dt_control, &mut rng);
+    let reference =
+        if p.rigid { carriage_reference(steps, dt_control, &mut rng) } else { reference(steps, dt_control, &mut rng) };
     let phases: Vec<(f64, f64)> = (0..60)
         .map(|j| {
             (
@@ -264,19 +386,11 @@ pub fn generate(options: &SecondOptions) -> String {
             )
         })
         .collect();
-    let injection_amplitude = 200.0 * (2.0f64 / 60.0).sqrt();
-    // The cascade's gains from the nominal plant: a 2.5 Hz speed loop with its integral at 0.4
-    // Hz, a 0.6 Hz position loop, a 60 Hz first-order filter on the encoder's speed.
-    let total_inertia = nominal.motor_inertia + nominal.load_inertia;
-    let speed_gain = total_inertia * 2.0 * PI * 2.5;
-    let integral_gain = speed_gain * 2.0 * PI * 0.4;
-    let position_gain = 2.0 * PI * 0.6;
-    let filter = 1.0 - (-2.0 * PI * 60.0 * dt_control).exp();
+    let injection_amplitude = drive.injection_rms * (2.0f64 / 60.0).sqrt();
+    let filter = 1.0 - (-2.0 * PI * drive.speed_filter_hz * dt_control).exp();
     let (loop_frequency, loop_damping) = (2.0 * PI * 250.0, 0.7);
-    let load_quantum = 2.0 * PI / f64::from(1u32 << 25);
-    let motor_quantum = 2.0 * PI / (f64::from(1u32 << 18) * p.gear);
-    let encoder_noise = Normal::new(0.0, 1e-7).expect("a valid deviation");
-    let current_sigma = if options.noiseless_current { 0.0 } else { TORQUE_SIGMA / (p.gear * p.torque_constant) };
+    let encoder_noise = Normal::new(0.0, drive.encoder_noise).expect("a valid deviation");
+    let current_sigma = if options.noiseless_current { 0.0 } else { p.torque_sigma / (p.gear * p.torque_constant) };
     let current_noise = Normal::new(0.0, current_sigma).expect("a valid deviation");
     let start = reference[0].0;
     let mut s = State {
@@ -295,28 +409,34 @@ pub fn generate(options: &SecondOptions) -> String {
     let mut skewed = vec![start; (options.load_skew / dt).round() as usize + 1];
     let (mut at, mut skew_at) = (0usize, 0usize);
     let mut integral = p.offset + p.unbalance * (start + p.unbalance_phase).cos();
-    let mut previous_motor = quantise(start, motor_quantum);
+    let mut previous_motor = quantise(start, drive.motor_quantum);
     let mut speed_estimate = 0.0;
     let mut text = header(options, &p);
     for (k, &(ref_pos, ref_speed)) in reference.iter().enumerate() {
         let t = k as f64 * dt_control;
-        let motor = quantise(s.motor + 0.5 * encoder_noise.sample(&mut rng), motor_quantum);
-        let load = quantise(skewed[(skew_at + 1) % skewed.len()] + encoder_noise.sample(&mut rng), load_quantum);
+        let motor = quantise(s.motor + 0.5 * encoder_noise.sample(&mut rng), drive.motor_quantum);
+        let load = quantise(skewed[(skew_at + 1) % skewed.len()] + encoder_noise.sample(&mut rng), drive.load_quantum);
         let current = quantise(s.current + current_noise.sample(&mut rng), 1e-3);
-        let _ = writeln!(
-            text,
-            "{t:.6},{:.10},{current:.4},{:.10},{:.10}",
-            ref_pos.to_degrees(),
-            motor.to_degrees(),
-            load.to_degrees()
-        );
+        let _ = if p.rigid {
+            writeln!(text, "{t:.6},{ref_pos:.9},{current:.4},{motor:.9}")
+        } else {
+            writeln!(
+                text,
+                "{t:.6},{:.10},{current:.4},{:.10},{:.10}",
+                ref_pos.to_degrees(),
+                motor.to_degrees(),
+                load.to_degrees()
+            )
+        };
         speed_estimate += filter * ((motor - previous_motor) / dt_control - speed_estimate);
         previous_motor = motor;
-        let error = ref_speed + position_gain * (ref_pos - load) - speed_estimate;
-        integral += integral_gain * error * dt_control;
+        // The rotary drive's position loop closes on the load encoder, the carriage's on its one.
+        let position = if p.rigid { motor } else { load };
+        let error = ref_speed + drive.position_gain * (ref_pos - position) - speed_estimate;
+        integral += drive.integral_gain * error * dt_control;
         let injection: f64 =
             phases.iter().map(|(f, phase)| injection_amplitude * (2.0 * PI * f * t + phase).sin()).sum();
-        let command = (speed_gain * error + integral + injection) / (nominal.gear * nominal.torque_constant);
+        let command = (drive.speed_gain * error + integral + injection) / (nominal.gear * nominal.torque_constant);
         for _ in 0..substeps {
             let acceleration = loop_frequency * loop_frequency * (command - s.current)
                 - 2.0 * loop_damping * loop_frequency * s.current_rate;
@@ -330,7 +450,27 @@ pub fn generate(options: &SecondOptions) -> String {
             skew_at = (skew_at + 1) % skewed.len();
         }
     }
-    text
+    Ok(text)
+}
+
+/// The carriage's motion, as the benchmark's: moves between points of its 0.2 m stroke with
+/// trapezoidal speed (0.1 to 0.4 m/s, 1.5 m/s^2), each followed by a rest of 0.3 to 1 s.
+fn carriage_reference(steps: usize, dt: f64, rng: &mut rand_chacha::ChaCha8Rng) -> Vec<(f64, f64)> {
+    let unit = Uniform::new(0.0f64, 1.0).expect("a valid range");
+    let mut out = Vec::with_capacity(steps);
+    let mut pos = 0.1;
+    while out.len() < steps {
+        let target = 0.2 * unit.sample(rng);
+        let top = 0.1 + 0.3 * unit.sample(rng);
+        if (target - pos).abs() > 1e-3 {
+            pos = slew(&mut out, pos, target, top, 1.5, dt);
+        }
+        for _ in 0..((0.3 + 0.7 * unit.sample(rng)) / dt) as usize {
+            out.push((pos, 0.0));
+        }
+    }
+    out.truncate(steps);
+    out
 }
 
 /// One substep of the mechanics with the applied current.
@@ -347,7 +487,11 @@ fn substep(p: &Plant, s: &mut State, current: f64, dt: f64, static_friction: boo
         let next = if rate > 0.0 { steady + (s.bristle - steady) * (-rate * dt).exp() } else { s.bristle };
         let bristle_rate = (next - s.bristle) / dt;
         s.bristle = next;
-        p.bristle_stiffness * s.bristle + p.bristle_damping * bristle_rate + p.viscous * v
+        // The bristles' damping fades with speed as exp(-(v/vs)^2) (Canudas de Wit et al.
+        // 1995): constant, it adds sigma1 v to every start of a motion, spikes of tens of
+        // newtons on the carriage that no real drive's log shows.
+        let damping = p.bristle_damping * (-(v / p.stribeck_velocity).powi(2)).exp();
+        p.bristle_stiffness * s.bristle + damping * bristle_rate + p.viscous * v
     };
     let twist = s.motor - s.load;
     let half = 0.5 * p.backlash;
@@ -362,8 +506,13 @@ fn substep(p: &Plant, s: &mut State, current: f64, dt: f64, static_friction: boo
     // The positions move with the mean of the speeds before and after (trapezoidal), so that
     // the motion is centred on the substep as the torque is.
     let (motor_speed, load_speed) = (s.motor_speed, s.load_speed);
-    s.motor_speed += (motor_torque - shaft - friction - cogging) / p.motor_inertia * dt;
-    s.load_speed += (shaft - load_torque) / p.load_inertia * dt;
+    if p.rigid {
+        s.motor_speed += (motor_torque - friction - cogging - load_torque) / p.motor_inertia * dt;
+        s.load_speed = s.motor_speed;
+    } else {
+        s.motor_speed += (motor_torque - shaft - friction - cogging) / p.motor_inertia * dt;
+        s.load_speed += (shaft - load_torque) / p.load_inertia * dt;
+    }
     s.motor += 0.5 * (motor_speed + s.motor_speed) * dt;
     s.load += 0.5 * (load_speed + s.load_speed) * dt;
 }
@@ -377,30 +526,51 @@ fn header(options: &SecondOptions, p: &Plant) -> String {
         "# truth: effect {:?}, seed {}, delay {} s, load skew {} s, noiseless current {}, static friction {}",
         options.effect, options.seed, p.delay, options.load_skew, options.noiseless_current, options.static_friction
     );
+    // Axis-side units: a rotary drive's, or the carriage's (N for N m, m for rad, kg for kg m^2).
     let _ = writeln!(
         text,
-        "# truth: coulomb {} N m, breakaway {} N m, offset {} N m, unbalance {} N m at {} rad, load inertia {} kg m^2, torque constant scale {}, backlash {} rad, stiffness {} N m/rad, cogging {} N m over {} rad at {} rad, asymmetry {}",
-        p.coulomb, p.breakaway, p.offset, p.unbalance, p.unbalance_phase, p.load_inertia, p.torque_constant_scale, p.backlash, p.stiffness, p.cogging, p.cogging_period, p.cogging_phase, p.asymmetry
+        "# truth ({}): coulomb {}, breakaway {}, offset {}, unbalance {} at {}, motor inertia {} (axis side), load inertia {}, torque constant scale {}, backlash {}, stiffness {}, cogging {} over {} at {}, asymmetry {}",
+        if p.rigid { "N, m, kg" } else { "N m, rad, kg m^2" },
+        p.coulomb, p.breakaway, p.offset, p.unbalance, p.unbalance_phase, p.motor_inertia, p.load_inertia, p.torque_constant_scale, p.backlash, p.stiffness, p.cogging, p.cogging_period, p.cogging_phase, p.asymmetry
     );
-    let _ = writeln!(text, "time_s,ref_pos_deg,motor_current_A,motor_pos_deg,load_pos_deg");
+    let columns = if p.rigid {
+        "time_s,ref_pos_m,motor_current_A,motor_pos_m"
+    } else {
+        "time_s,ref_pos_deg,motor_current_A,motor_pos_deg,load_pos_deg"
+    };
+    let _ = writeln!(text, "{columns}");
     text
 }
 
-/// The starting parameter set: the nominal plant in `validate`'s parameter-file form.
-pub fn start_params() -> String {
-    let p = Plant::nominal();
-    let rows = [
-        ("gear.ratio", p.gear, "-"),
-        ("motor.inertia", p.motor_inertia / (p.gear * p.gear), "kg m^2, motor side"),
-        ("motor.torque_constant", p.torque_constant, "N m/A"),
-        ("load.inertia", p.load_inertia, "kg m^2"),
-        ("path.stiffness", p.stiffness, "N m/rad"),
-        ("path.damping", p.damping, "N m s/rad"),
-        ("friction.viscous", p.viscous, "N m s/rad"),
-        ("friction.coulomb", p.coulomb, "N m"),
-        ("friction.static", p.breakaway, "N m"),
-        ("friction.stribeck_velocity", p.stribeck_velocity, "rad/s"),
-    ];
+/// The starting parameter set: the nominal plant in `validate`'s parameter-file form (the
+/// carriage's in its linear units).
+pub fn start_params(carriage: bool) -> String {
+    let p = if carriage { Plant::carriage() } else { Plant::nominal() };
+    let rows: Vec<(&str, f64, &str)> = if carriage {
+        vec![
+            ("gear.ratio", 1.0, "-, a direct drive"),
+            ("motor.inertia", p.motor_inertia, "kg, the carriage"),
+            ("motor.torque_constant", p.torque_constant, "N/A, the force per ampere"),
+            ("friction.viscous", p.viscous, "N s/m"),
+            ("friction.coulomb", p.coulomb, "N"),
+            ("friction.static", p.breakaway, "N"),
+            ("friction.stribeck_velocity", p.stribeck_velocity, "m/s"),
+            ("effect.torque_offset", p.offset, "N"),
+        ]
+    } else {
+        vec![
+            ("gear.ratio", p.gear, "-"),
+            ("motor.inertia", p.motor_inertia / (p.gear * p.gear), "kg m^2, motor side"),
+            ("motor.torque_constant", p.torque_constant, "N m/A"),
+            ("load.inertia", p.load_inertia, "kg m^2"),
+            ("path.stiffness", p.stiffness, "N m/rad"),
+            ("path.damping", p.damping, "N m s/rad"),
+            ("friction.viscous", p.viscous, "N m s/rad"),
+            ("friction.coulomb", p.coulomb, "N m"),
+            ("friction.static", p.breakaway, "N m"),
+            ("friction.stribeck_velocity", p.stribeck_velocity, "rad/s"),
+        ]
+    };
     let mut text = String::from("# The second generator's nominal plant (tools/truth/src/second.rs).\n");
     for (name, value, unit) in rows {
         let _ = writeln!(text, "{name:<28} = {value:e}  # {unit}");

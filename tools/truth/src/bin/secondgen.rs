@@ -36,6 +36,10 @@ struct Cli {
     /// A static friction curve instead of LuGre's bristles.
     #[arg(long)]
     static_friction: bool,
+    /// A rigid 95 kg linear carriage with the EMPS benchmark's published numbers instead of
+    /// the rotary two-mass drive (positions in metres, one encoder).
+    #[arg(long)]
+    carriage: bool,
     /// The log to write; `start.params` goes into the same folder.
     #[arg(long)]
     out: PathBuf,
@@ -56,11 +60,13 @@ fn main() -> anyhow::Result<()> {
         noiseless_current: cli.noiseless_current,
         load_skew: cli.load_skew,
         static_friction: cli.static_friction,
+        carriage: cli.carriage,
     };
-    std::fs::write(&cli.out, second::generate(&options))
+    std::fs::write(&cli.out, second::generate(&options)?)
         .with_context(|| format!("cannot write {}", cli.out.display()))?;
     let start = cli.out.parent().unwrap_or(std::path::Path::new(".")).join("start.params");
-    std::fs::write(&start, second::start_params()).with_context(|| format!("cannot write {}", start.display()))?;
+    std::fs::write(&start, second::start_params(cli.carriage))
+        .with_context(|| format!("cannot write {}", start.display()))?;
     println!("wrote {} and {}", cli.out.display(), start.display());
     Ok(())
 }
