@@ -80,3 +80,14 @@ fn a_carriage_from_a_blind_start_gets_its_friction_and_offset_and_nothing_else()
     // The offset within the force noise (0.5 N): 3.4 N is only 7 times it.
     assert!((offset + 3.4).abs() < 0.5, "offset {offset} N against -3.4");
 }
+
+#[test]
+fn a_carriages_coulomb_change_is_not_taken_for_viscous_friction() {
+    // LuGre bristles of 10 micrometres: the samples in presliding, kept in the torque
+    // equation by the noise's stick threshold alone, read a Coulomb change as viscous.
+    let options = SecondOptions { effect: SecondEffect::Coulomb, seed: 32, ..carriage_log() };
+    let v = validate(&options, &ParameterSet::parse(&start_params(true)).unwrap());
+    assert_eq!(kinds(&v), vec![Kind::Coulomb]);
+    let coulomb = v.selection.corrected.value(names::COULOMB);
+    assert!((coulomb - 25.4).abs() < 0.5, "Coulomb {coulomb} N against 25.4 (a change of 5)");
+}
