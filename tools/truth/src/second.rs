@@ -13,8 +13,14 @@
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
+use std::path::Path;
+
+use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal, Uniform};
+
+use crate::suite::{truth_text, CaseTruth};
+use crate::Effect;
 
 /// The torque noise the effect sizes are measured in (axis side, N m): the current sensor's
 /// noise times the torque constant and the gear ratio.
@@ -301,6 +307,77 @@ fn quantise(x: f64, quantum: f64) -> f64 {
 pub enum SecondError {
     #[error("the carriage is one rigid body on a straight line: it has no {0} (use the rotary drive)")]
     NotOnACarriage(&'static str),
+    #[error("cannot write {path}: {source}")]
+    Write { path: std::path::PathBuf, source: std::io::Error },
+}
+
+/// The kinds of a suite of the rotary drive, each with the truth generator's name for it and
+/// the truth the scoring (`crate::scoring`) compares the found change with.
+fn suite_truths(effect: SecondEffect, delay: f64) -> Vec<(String, f64, Effect)> {
+    let p = Plant::nominal().with(effect, delay);
+    let nominal = Plant::nominal();
+    let size = 10.0;
+    let one = |kind: &str, e: Effect| vec![(kind.to_string(), size, e)];
+    match effect {
+        SecondEffect::Clean => vec![],
+        SecondEffect::Coulomb => one("coulomb", Effect::Coulomb(p.coulomb - nominal.coulomb)),
+        SecondEffect::Stribeck => one("stribeck", Effect::Stribeck(p.breakaway - nominal.breakaway)),
+        SecondEffect::Offset => one("torque_offset", Effect::TorqueOffset(p.offset)),
+        SecondEffect::Unbalance => {
+            one("unbalance", Effect::Unbalance { amplitude: p.unbalance, phase: p.unbalance_phase })
+        }
+        SecondEffect::Inertia => one("inertia", Effect::InertiaFactor(p.load_inertia / nominal.load_inertia)),
+        SecondEffect::TorqueConstant => one("torque_constant", Effect::TorqueConstantScale(p.torque_constant_scale)),
+        SecondEffect::Delay => one("delay", Effect::Delay(p.delay)),
+        SecondEffect::Backlash => one("backlash", Effect::Backlash(p.backlash)),
+        SecondEffect::Stiffness => one("stiffness", Effect::StiffnessFactor(p.stiffness / nominal.stiffness)),
+        SecondEffect::Cogging => {
+            one("cogging", Effect::Cogging { amplitude: p.cogging, period: p.cogging_period, phase: p.cogging_phase })
+        }
+        // The friction's sliding level moves by the asymmetry times it, either way.
+        SecondEffect::Asymmetry => one("asymmetry", Effect::Asymmetry(p.asymmetry * p.coulomb)),
+        SecondEffect::CoulombUnbalance => vec![
+            ("coulomb".to_string(), size, Effect::Coulomb(p.coulomb - nominal.coulomb)),
+            ("unbalance".to_string(), size, Effect::Unbalance { amplitude: p.unbalance, phase: p.unbalance_phase }),
+        ],
+    }
+}
+
+/// Writes a suite of the rotary drive in the truth generator's layout (`log_NNN.csv` with a
+/// `.truth` sidecar, and `start.params`), which `validate suite DIR` scores as it scores
+/// that generator's: per seed a clean log, every single effect and the Coulomb-unbalance
+/// pair, 60 s at 1 kHz, in an order shuffled by the seeds. Returns the logs written.
+pub fn write_suite(dir: &Path, seeds: &[u64]) -> Result<usize, SecondError> {
+    let write = |path: std::path::PathBuf, text: &str| {
+        std::fs::write(&path, text).map_err(|source| SecondError::Write { path, source })
+    };
+    std::fs::create_dir_all(dir).map_err(|source| SecondError::Write { path: dir.to_path_buf(), source })?;
+    let mut cases: Vec<(u64, SecondEffect)> = seeds
+        .iter()
+        .flat_map(|&seed| <SecondEffect as clap::ValueEnum>::value_variants().iter().map(move |&effect| (seed, effect)))
+        .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
+        seeds.iter().fold(0x5EC0u64, |a, s| a.wrapping_mul(31).wrapping_add(*s)),
+    );
+    cases.shuffle(&mut rng);
+    for (index, &(seed, effect)) in cases.iter().enumerate() {
+        let name = format!("log_{:03}", index + 1);
+        let options = SecondOptions { effect, seed, ..SecondOptions::default() };
+        let truth = CaseTruth {
+            log_file: format!("{name}.csv"),
+            seed,
+            effects: suite_truths(effect, options.delay),
+            torque_sigma: TORQUE_SIGMA,
+            // The motor encoder carries half the load encoder's white noise (`generate`).
+            twist_sigma: Drive::for_plant(&Plant::nominal()).encoder_noise * 1.25f64.sqrt(),
+            sample_interval: 1.0 / options.rate,
+            conditions: [("generator".to_string(), "secondgen".to_string())].into_iter().collect(),
+        };
+        write(dir.join(format!("{name}.csv")), &generate(&options)?)?;
+        write(dir.join(format!("{name}.truth")), &truth_text(&truth))?;
+    }
+    write(dir.join("start.params"), &start_params(false))?;
+    Ok(cases.len())
 }
 
 /// The controller, the motion and the sensors of a drive, from its nominal plant.
