@@ -1199,9 +1199,12 @@ pub fn choose_window(out: &OutputData, correlation: f64, minimum_windows: usize)
         ),
         None if first.is_none() => format!("the measured motor speed's autocorrelation stays above {correlation}: 1/{minimum_windows} of the record"),
         _ => format!(
-            "the measured motor speed's autocorrelation first falls to {correlation} at {:.3} s but comes back (an oscillation); its envelope falls to it at {}, clamped to 10 samples .. 1/{minimum_windows} of the record",
+            "the measured motor speed's autocorrelation first falls to {correlation} at {:.3} s but comes back (an oscillation); its envelope falls to it {}",
             first.unwrap_or(0) as f64 * out.dt,
-            lag.map_or_else(|| format!("no lag up to 1/{minimum_windows} of the record"), |k| format!("{:.3} s", k as f64 * out.dt))
+            match lag {
+                Some(k) if k < most => format!("at {:.3} s", k as f64 * out.dt),
+                _ => format!("only after 1/{minimum_windows} of the record, the longest window"),
+            }
         ),
     };
     WindowPlan::new(length, n, out.dt, reason)
