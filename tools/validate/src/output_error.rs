@@ -1162,29 +1162,65 @@ pub fn signed_rank_test(differences: &[f64]) -> (f64, f64) {
 /// misfit are integrated twice, and once the simulated motion has left the measured one, a
 /// small timing error of the model (a reversal a little early) counts as a gross position
 /// error and speed-dependent effects are evaluated where the axis was not. The window is
-/// therefore short compared with the motion's own time scale: the lag at which the
-/// autocorrelation of the measured motor speed has fallen to `correlation` (0.9: the speed
+/// therefore short compared with the motion's own time scale: the lag at which the envelope of
+/// the autocorrelation of the measured motor speed has fallen to `correlation` (0.9: the speed
 /// keeps 90 % of its correlation, so each window holds one regime of the motion, a cruise, a
 /// ramp, a reversal). It is at least 10 samples and at most 1/`minimum_windows` of the record,
 /// so the paired test over windows has enough windows. The same length serves every model of
 /// a log, so their errors compare window by window.
+///
+/// The envelope ([`correlation_envelope`], the largest autocorrelation at that lag or any
+/// later one) is what makes the rule hold on an oscillating loop: a sustained oscillation (a
+/// closed loop near its stability limit, a delay too long for its gains) takes the
+/// autocorrelation through zero within half a period and back to its full value at the next,
+/// so the first fall below 0.9 measures the oscillation's phase, not a loss of correlation of
+/// the motion; the speed one period on is as predictable from the state as it was. Windows
+/// of a fraction of such a period are shorter than anything the plant can integrate into a
+/// position error, so the output error would judge an effect by the equation error's own
+/// one-step fit, and there are thousands of them. Where the autocorrelation falls without
+/// coming back (every log without an oscillation), the envelope is the autocorrelation itself
+/// and the window is the first lag below 0.9, as it was.
 pub fn choose_window(out: &OutputData, correlation: f64, minimum_windows: usize) -> WindowPlan {
     let speed = &out.state_motor_vel;
     let n = speed.len();
     let most = (n / minimum_windows.max(1)).max(2);
     let least = 10usize.min(most);
     let acf = antenna_dsp::autocorrelation(speed, most.min(n.saturating_sub(1)).max(1)).unwrap_or_default();
-    let lag = acf.iter().position(|r| *r < correlation);
+    let first = acf.iter().position(|r| *r < correlation);
+    let lag = correlation_envelope(&acf).iter().position(|r| *r < correlation);
     let length = lag.map_or(most, |k| k + 1).clamp(least, most);
     let reason = match lag {
-        Some(k) if k + 1 >= least && k < most => format!("the measured motor speed's autocorrelation falls to {correlation} at {:.3} s", k as f64 * out.dt),
-        Some(k) => format!(
+        Some(k) if first == lag && k + 1 >= least && k < most => {
+            format!("the measured motor speed's autocorrelation falls to {correlation} at {:.3} s", k as f64 * out.dt)
+        }
+        Some(k) if first == lag => format!(
             "the measured motor speed's autocorrelation falls to {correlation} at {:.3} s; clamped to 10 samples .. 1/{minimum_windows} of the record",
             k as f64 * out.dt
         ),
-        None => format!("the measured motor speed's autocorrelation stays above {correlation}: 1/{minimum_windows} of the record"),
+        None if first.is_none() => format!("the measured motor speed's autocorrelation stays above {correlation}: 1/{minimum_windows} of the record"),
+        _ => format!(
+            "the measured motor speed's autocorrelation first falls to {correlation} at {:.3} s but comes back (an oscillation); its envelope falls to it {}",
+            first.unwrap_or(0) as f64 * out.dt,
+            match lag {
+                Some(k) if k < most => format!("at {:.3} s", k as f64 * out.dt),
+                _ => format!("only after 1/{minimum_windows} of the record, the longest window"),
+            }
+        ),
     };
     WindowPlan::new(length, n, out.dt, reason)
+}
+
+/// The upper envelope of an autocorrelation sequence: at each lag the largest value at that
+/// lag or any later one. It falls where the correlation is lost for good and ignores the dips
+/// of an oscillation that comes back; on a sequence that only falls it is the sequence.
+pub fn correlation_envelope(acf: &[f64]) -> Vec<f64> {
+    let mut envelope = acf.to_vec();
+    let mut largest = f64::NEG_INFINITY;
+    for value in envelope.iter_mut().rev() {
+        largest = largest.max(*value);
+        *value = largest;
+    }
+    envelope
 }
 
 /// A native rigid-body stand-in for the plant FMU: total inertia, the model's friction law
@@ -1305,6 +1341,38 @@ mod tests {
     fn fresh(data: &EquationData, out: &OutputData, params: &ParameterSet, plan: &WindowPlan) -> Vec<Vec<f64>> {
         let centres = twist_centres(data, params);
         plan.starts.iter().map(|&i0| simulate_load_side(out, params, &centres, i0, plan.length)).collect()
+    }
+
+    #[test]
+    fn a_falling_autocorrelation_is_its_own_envelope() {
+        let acf: Vec<f64> = (0..200).map(|k| (-(k as f64) / 40.0).exp()).collect();
+        assert_eq!(correlation_envelope(&acf), acf);
+    }
+
+    #[test]
+    fn the_envelope_holds_the_peaks_of_an_oscillation_that_comes_back() {
+        let acf: Vec<f64> = (0..200).map(|k| (k as f64 / 7.0).cos() * (-(k as f64) / 1000.0).exp()).collect();
+        let envelope = correlation_envelope(&acf);
+        let first = acf.iter().position(|r| *r < 0.9).unwrap();
+        let lasting = envelope.iter().position(|r| *r < 0.9).unwrap();
+        assert!(first < 5, "the oscillation's phase takes the autocorrelation below 0.9 at lag {first}");
+        assert!(lasting > 80, "its decay does so only at lag {lasting}");
+        assert!(envelope.iter().zip(&acf).all(|(e, a)| e >= a));
+    }
+
+    #[test]
+    fn an_oscillation_on_the_speed_does_not_shorten_the_window() {
+        let (_, mut out, _) = two_encoder_case();
+        let calm = choose_window(&out, 0.9, 20);
+        // A sustained 12 Hz oscillation four times the motion's RMS, as a closed loop near its
+        // stability limit adds: the plain autocorrelation falls below 0.9 within a few samples.
+        let rms = (out.state_motor_vel.iter().map(|v| v * v).sum::<f64>() / out.len() as f64).sqrt();
+        for (k, v) in out.state_motor_vel.iter_mut().enumerate() {
+            *v += 4.0 * rms * std::f64::consts::SQRT_2 * (2.0 * std::f64::consts::PI * 12.0 * k as f64 * out.dt).sin();
+        }
+        let oscillating = choose_window(&out, 0.9, 20);
+        assert!(oscillating.length * 10 > calm.length, "{} samples against {}", oscillating.length, calm.length);
+        assert!(oscillating.reason.contains("oscillation"), "{}", oscillating.reason);
     }
 
     #[test]
