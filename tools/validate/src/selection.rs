@@ -1206,9 +1206,7 @@ fn score_instance(
     let n_eff = alternative.effective_samples().max(2.0);
     let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
     let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
-    let mut fitted = model.params.clone();
-    candidates::apply(instance, own_beta, data, &mut fitted);
-    let fitted_change = candidates::size_change(kind, &model.params, &fitted);
+    let fitted_change = scalable_change(instance, own_beta, data, &model.params);
     let effect_to_noise = contribution(instance, own_beta, &current.channels)
         .iter()
         .zip(&observable_noise(kind, data, noise))
@@ -1244,6 +1242,38 @@ fn score_instance(
         ),
     };
     (score, alternative)
+}
+
+/// The leading parameter's change that the candidate's fit gives, as the detection limit
+/// scales it: the larger of the changes the fitted coefficients and their mirror image give.
+///
+/// A parameter with a physical bound (a backlash width cannot be negative) takes no change
+/// when the noise pushes its fit past the bound, yet the test's statistic is of the fitted
+/// coefficients, bound or not. The mirrored fit (the same coefficients of the other sign) has
+/// the same statistic and moves the parameter into its admissible range, so its change is the
+/// size the statistic belongs to. Only the bounded kinds are mirrored: a delay's change holds
+/// its searched shift, which the mirror would not keep.
+fn scalable_change(
+    instance: &Instance,
+    beta: &[f64],
+    data: &EquationData,
+    start: &ParameterSet,
+) -> (&'static str, f64, &'static str) {
+    let change = |coefficients: &[f64]| {
+        let mut fitted = start.clone();
+        candidates::apply(instance, coefficients, data, &mut fitted);
+        candidates::size_change(instance.kind, start, &fitted)
+    };
+    let fitted = change(beta);
+    if !candidates::has_bound(instance.kind) {
+        return fitted;
+    }
+    let mirrored = change(&beta.iter().map(|b| -b).collect::<Vec<_>>());
+    if mirrored.1.abs() > fitted.1.abs() {
+        (fitted.0, -mirrored.1, fitted.2)
+    } else {
+        fitted
+    }
 }
 
 /// For an effect whose size is the length of its own two-parameter vector (an unbalance: the
