@@ -581,6 +581,29 @@ mod tests {
     }
 
     #[test]
+    fn an_offset_limit_beside_an_unbalance_the_log_resolves_below_the_floor_holds() {
+        // With the load encoder's error the clean log of excitation 301 resolves an
+        // unbalance-shaped torque below the noise floor over its 12.7 deg stroke, where an
+        // offset is the unbalance's constant part: the offset's limit must be stated beside
+        // it, and an offset at 1.5 times that limit must be named.
+        let config = LimitsConfig {
+            variants: vec!["load-encoder-error".into()],
+            kinds: vec!["torque_offset".into()],
+            injections: 2,
+            other_excitations: false,
+            ..LimitsConfig::default()
+        };
+        let rows = run(&config, &ValidateOptions::default(), None, 2, &|_| {}).unwrap();
+        let limit = rows[0].stated.as_ref().unwrap();
+        assert_eq!(
+            limit.set_by,
+            antenna_validate::selection::LimitSetBy::Beside(antenna_validate::candidates::Kind::Unbalance),
+            "{limit:?}"
+        );
+        assert_eq!(rows[0].named(), 2, "{:?}", rows[0].injections);
+    }
+
+    #[test]
     fn a_cannot_tell_listing_counts_as_named_and_ninety_percent_holds() {
         let mut injections: Vec<Injection> = (0..8).map(|_| injection(true, false)).collect();
         injections.push(injection(false, true));
