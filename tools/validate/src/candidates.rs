@@ -828,6 +828,13 @@ pub fn size_change(kind: Kind, before: &ParameterSet, after: &ParameterSet) -> (
     }
 }
 
+/// Whether [`apply`] keeps the kind's leading parameter within a physical bound (a backlash
+/// width is not negative), so that a fit past the bound changes it less than its coefficient
+/// says.
+pub fn has_bound(kind: Kind) -> bool {
+    matches!(kind, Kind::Backlash)
+}
+
 /// The physical parameters of a fitted effect: (name, value, standard deviation, unit).
 pub type Reported = Vec<(String, f64, f64, String)>;
 

@@ -233,8 +233,12 @@ fn detection_section(out: &mut String, v: &Validation) {
             limit_text(limit, v.data.linear),
             limit.effect_to_noise,
             match limit.set_by {
-                LimitSetBy::Significance => "the significance test",
-                LimitSetBy::NoiseFloor => "the noise floor",
+                LimitSetBy::Significance => "the significance test".to_string(),
+                LimitSetBy::NoiseFloor => "the noise floor".to_string(),
+                LimitSetBy::Beside(kind) => format!(
+                    "telling it from {}, which this log resolves below the noise floor (fitted beside it)",
+                    kind.name()
+                ),
             }
         );
     }

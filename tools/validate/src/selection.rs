@@ -142,6 +142,9 @@ pub enum LimitSetBy {
     Significance,
     /// The practical-significance floor: the effect must be at least the noise.
     NoiseFloor,
+    /// Telling it from an effect the log resolves below the noise floor, which would otherwise
+    /// take it ([`limits_beside_resolved`]).
+    Beside(Kind),
 }
 
 /// The probability with which an effect at its detection limit passes the step's test: the
@@ -1171,7 +1174,102 @@ fn score_candidates(
             && score.effect_to_noise >= options.min_effect_to_noise;
         score.detection_limit = DetectionLimit::of(score, threshold, options.min_effect_to_noise);
     }
+    let context = StepContext { data, model, accepted_columns: &accepted_columns, weights, noise };
+    limits_beside_resolved(&context, &mut scores, &evaluated, threshold, options.min_effect_to_noise);
     (scores, evaluated, threshold)
+}
+
+/// What a step's candidates are scored against: the data, the current model, its accepted
+/// effects' columns, the weights and the channels' noise.
+struct StepContext<'a> {
+    data: &'a EquationData,
+    model: &'a Model,
+    accepted_columns: &'a [Column],
+    weights: &'a [f64],
+    noise: &'a [f64],
+}
+
+/// A candidate the log resolves (its test passed: p below the step's threshold and a positive
+/// BIC gain) that is not claimed because it is smaller than the noise floor, and that can
+/// stand in for another effect: an effect linear in its parameters (no adjustment of the
+/// residual), and not a delay or a cogging torque, whose structure no other effect shares.
+fn resolved_below_floor(score: &Score, instance: &Instance, threshold: f64) -> bool {
+    score.not_applicable.is_none()
+        && !score.significant
+        && score.p_value < threshold
+        && score.bic_gain > 0.0
+        && instance.adjust.iter().all(Vec::is_empty)
+        && !matches!(score.kind, Kind::Delay | Kind::Cogging)
+}
+
+/// A limit fitted beside an effect the log resolves below the floor replaces the limit alone
+/// only when it is larger by more than this factor: a limit is first order from one clean
+/// fit, and a rise within a tenth is inside its own precision, not a competitor's doing.
+const BESIDE_MARGIN: f64 = 1.1;
+
+/// Raises each unclaimed candidate's detection limit to what it needs to be told from the
+/// effects the log resolves below the noise floor ([`resolved_below_floor`]).
+///
+/// Such an effect is in the data, only too small to claim. An effect of another kind whose
+/// form overlaps it (an offset and an unbalance over a short stroke: a constant and the
+/// unbalance's constant-and-slope) adds to its fit, and the search then claims it instead,
+/// once the sum reaches the floor: the kind added is not named. A kind's limit is therefore
+/// the larger of its limit alone and its limit fitted beside those effects, whose statistic
+/// is its partial one (what it explains that the other cannot) and whose standard error holds
+/// the trade between them, taken over each such effect in turn (the search names one in place
+/// of another), the largest with the effect that sets it. Where nothing is resolved below the
+/// floor the limits are unchanged.
+fn limits_beside_resolved(
+    context: &StepContext,
+    scores: &mut [Score],
+    evaluated: &[(Instance, Fit)],
+    threshold: f64,
+    min_effect_to_noise: f64,
+) {
+    let instance_of = |kind: Kind| evaluated.iter().map(|(i, _)| i).find(|i| i.kind == kind);
+    let resolved: Vec<Kind> = scores
+        .iter()
+        .filter(|s| instance_of(s.kind).is_some_and(|i| resolved_below_floor(s, i, threshold)))
+        .map(|s| s.kind)
+        .collect();
+    if resolved.is_empty() {
+        return;
+    }
+    let channel_count = context.data.channels.len();
+    let partial: Vec<Option<(Kind, DetectionLimit)>> = scores
+        .par_iter()
+        .map(|score| {
+            let instance = instance_of(score.kind)?;
+            score.detection_limit.as_ref()?;
+            // One competitor at a time: the search names one effect in place of another, and
+            // the limit is what it takes to be told from the one that takes most of it.
+            resolved
+                .iter()
+                .filter(|k| **k != score.kind)
+                .filter_map(|k| instance_of(*k))
+                .filter_map(|competitor| {
+                    let mut columns = context.accepted_columns.to_vec();
+                    columns.extend(competitor.columns.iter().cloned());
+                    let (partial, _) = score_instance(
+                        context.data,
+                        context.model,
+                        &columns,
+                        instance,
+                        context.weights,
+                        context.noise,
+                        channel_count,
+                    );
+                    Some((competitor.kind, DetectionLimit::of(&partial, threshold, min_effect_to_noise)?))
+                })
+                .max_by(|a, b| a.1.size.total_cmp(&b.1.size))
+        })
+        .collect();
+    for (score, partial) in scores.iter_mut().zip(partial) {
+        let (Some(limit), Some((competitor, beside))) = (score.detection_limit.as_mut(), partial) else { continue };
+        if beside.size > BESIDE_MARGIN * limit.size {
+            *limit = DetectionLimit { set_by: LimitSetBy::Beside(competitor), ..beside };
+        }
+    }
 }
 
 /// One instantiated candidate fitted jointly with the accepted effects and tested: its score
@@ -1206,9 +1304,7 @@ fn score_instance(
     let n_eff = alternative.effective_samples().max(2.0);
     let weighted = |f: &Fit| f.rss.iter().zip(weights).map(|(r, w)| r * w).sum::<f64>();
     let explained = if weighted(current) > 0.0 { 1.0 - weighted(&alternative) / weighted(current) } else { 0.0 };
-    let mut fitted = model.params.clone();
-    candidates::apply(instance, own_beta, data, &mut fitted);
-    let fitted_change = candidates::size_change(kind, &model.params, &fitted);
+    let fitted_change = scalable_change(instance, own_beta, data, &model.params);
     let effect_to_noise = contribution(instance, own_beta, &current.channels)
         .iter()
         .zip(&observable_noise(kind, data, noise))
@@ -1244,6 +1340,38 @@ fn score_instance(
         ),
     };
     (score, alternative)
+}
+
+/// The leading parameter's change that the candidate's fit gives, as the detection limit
+/// scales it: the larger of the changes the fitted coefficients and their mirror image give.
+///
+/// A parameter with a physical bound (a backlash width cannot be negative) takes no change
+/// when the noise pushes its fit past the bound, yet the test's statistic is of the fitted
+/// coefficients, bound or not. The mirrored fit (the same coefficients of the other sign) has
+/// the same statistic and moves the parameter into its admissible range, so its change is the
+/// size the statistic belongs to. Only the bounded kinds are mirrored: a delay's change holds
+/// its searched shift, which the mirror would not keep.
+fn scalable_change(
+    instance: &Instance,
+    beta: &[f64],
+    data: &EquationData,
+    start: &ParameterSet,
+) -> (&'static str, f64, &'static str) {
+    let change = |coefficients: &[f64]| {
+        let mut fitted = start.clone();
+        candidates::apply(instance, coefficients, data, &mut fitted);
+        candidates::size_change(instance.kind, start, &fitted)
+    };
+    let fitted = change(beta);
+    if !candidates::has_bound(instance.kind) {
+        return fitted;
+    }
+    let mirrored = change(&beta.iter().map(|b| -b).collect::<Vec<_>>());
+    if mirrored.1.abs() > fitted.1.abs() {
+        (fitted.0, -mirrored.1, fitted.2)
+    } else {
+        fitted
+    }
 }
 
 /// For an effect whose size is the length of its own two-parameter vector (an unbalance: the

@@ -562,12 +562,13 @@ fn injection_check(config: &LimitsConfig, out: &Path, header: Option<&str>, sett
         document.push_str(&format!("{header}\n\n"));
     }
     document.push_str(&format!(
-        "Run on {}: variants {}, kinds {}, {} injections each at {} times the stated limit, limits stated by the clean log of seed {}. The verdict's logs share that log's excitation (seed {}: trajectory and injected torque) with other sensor noise (noise seeds {} to {}); {}; {route}; {:.0} s on {} threads. Named = the kind is found, or the report lists it as one the data cannot tell from a found effect (counted in brackets). Method: docs/validation.md, \"Detection limits\".\n\n",
+        "Run on {}: variants {}, kinds {}, {} injections each at {} times the stated limit, limits stated by the clean log of seed {} (noise seed {}). The verdict's logs share that log's excitation (seed {}: trajectory and injected torque) with other sensor noise (noise seeds {} to {}); {}; {route}; {:.0} s on {} threads. Named = the kind is found, or the report lists it as one the data cannot tell from a found effect (counted in brackets). Method: docs/validation.md, \"Detection limits\".\n\n",
         utc_now(),
         config.variants.join(", "),
         config.kinds.join(", "),
         config.injections,
         config.factor,
+        config.clean_seed,
         config.clean_seed,
         config.clean_seed,
         config.first_seed,
