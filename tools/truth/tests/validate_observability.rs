@@ -32,7 +32,8 @@ fn a_final_verdict_of_no_improvement_withdraws_every_claim() {
         p_value: 1.0,
         score_before: 1.0,
         score_after: 1.006,
-        bic_gain: -3.0,
+        log_likelihood_gain: -0.3,
+        bic_gain: -0.3,
         confirmed: false,
         reason: "output error 1.000 -> 1.006 of the baseline".into(),
     };
@@ -45,12 +46,21 @@ fn a_final_verdict_of_no_improvement_withdraws_every_claim() {
     // Better but not significantly so is no improvement either; a significant improvement
     // keeps the claims.
     not_better.score_after = 0.9;
+    not_better.log_likelihood_gain = 5.0;
     not_better.p_value = 0.2;
     assert!(withdraw_without_improvement(&mut selection.clone(), &start, &not_better, 0.01).is_some());
     not_better.p_value = 1e-6;
     let mut kept = selection.clone();
     assert!(withdraw_without_improvement(&mut kept, &start, &not_better, 0.01).is_none());
     assert_eq!(kept.corrected, selection.corrected);
+    // The verdict is on the likelihood gain over the windows, not on the mean score, which one
+    // window whose simulation diverged can carry: a mean above the start's with a gain keeps
+    // the claims, a mean below it without one withdraws them.
+    not_better.score_after = 3.0;
+    assert!(withdraw_without_improvement(&mut selection.clone(), &start, &not_better, 0.01).is_none());
+    not_better.score_after = 0.9;
+    not_better.log_likelihood_gain = -1.0;
+    assert!(withdraw_without_improvement(&mut selection.clone(), &start, &not_better, 0.01).is_some());
 }
 
 #[test]

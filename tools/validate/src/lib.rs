@@ -957,15 +957,18 @@ pub struct Withdrawal {
 }
 
 /// The final verdict: when the corrected model does not predict the log better than the
-/// starting one (its score not below 1, or the signed-rank test not significant at `alpha`),
-/// every claim is withdrawn and the corrected model is the starting one.
+/// starting one (no likelihood gain over the windows, each with its own variance, or the
+/// signed-rank test not significant at `alpha`; [`output_error::Comparison::improves`]),
+/// every claim is withdrawn and the corrected model is the starting one. The likelihood gain,
+/// as in the confirmations' BIC, so that one window whose open-loop simulation diverged
+/// cannot overturn what every other window shows.
 pub fn withdraw_without_improvement(
     selection: &mut Selection,
     start: &ParameterSet,
     overall: &Comparison,
     alpha: f64,
 ) -> Option<Withdrawal> {
-    let improved = overall.score_after < overall.score_before && overall.p_value < alpha;
+    let improved = overall.improves(alpha);
     if selection.found.is_empty() || improved {
         return None;
     }

@@ -1066,10 +1066,25 @@ pub struct Comparison {
     /// baseline (1 by construction) and the candidate.
     pub score_before: f64,
     pub score_after: f64,
-    /// BIC gain with the windows as independent samples: n_w ln(before/after) - k ln(n_w).
+    /// Twice the log-likelihood gain of the candidate when each window's error has a variance
+    /// of its own, the same for both models and estimated from their pooled errors: the sum
+    /// over windows of 2 (before - after) / (before + after) of the window scores, each term
+    /// within +-2 (see [`compare`]). Positive when the candidate predicts better.
+    pub log_likelihood_gain: f64,
+    /// BIC gain on that likelihood: the gain less k ln(n_w).
     pub bic_gain: f64,
     pub confirmed: bool,
     pub reason: String,
+}
+
+impl Comparison {
+    /// Whether the candidate predicts better than the baseline, significantly: a positive
+    /// likelihood gain over the windows and better in a significant majority of windows (the
+    /// signed-rank test at `alpha`). What the final verdict asks of the corrected
+    /// model, which pays for no parameters there (each effect paid when it was confirmed).
+    pub fn improves(&self, alpha: f64) -> bool {
+        self.log_likelihood_gain > 0.0 && self.p_value < alpha
+    }
 }
 
 /// Compares a candidate model's output error with the baseline's over the same windows.
@@ -1077,36 +1092,64 @@ pub struct Comparison {
 /// Each window's score is the sum over the scored channels (positions) of its squared error
 /// divided by the baseline's mean squared error of that channel, so channels of different
 /// size count alike. The candidate is confirmed when it predicts better in a significant
-/// majority of windows, weighted by how much (Wilcoxon signed-rank test, exact, one-sided,
-/// level `alpha`), and when the improvement pays for its parameters by the Bayesian
-/// information criterion with the windows as the independent samples (a reduction of the
-/// score by at least a factor exp(k ln(n_w)/n_w)). Both are statements about independent
-/// windows, which the non-overlapping, re-initialised windows are.
+/// majority of windows, weighted by how much (Wilcoxon signed-rank test on the differences of
+/// the window scores, exact, one-sided, level `alpha`), and when the improvement pays for its
+/// parameters by the Bayesian information criterion with the windows as the independent
+/// samples. Both are statements about independent windows, which the non-overlapping,
+/// re-initialised windows are.
+///
+/// The likelihood behind the BIC gives each window an error variance of its own: an open-loop
+/// simulation's error is not one stationary noise, it ranges over orders of magnitude from a
+/// window of steady slewing to one where the axis creeps near the Stribeck velocity and the
+/// simulated stick and slip turn on the smallest parameter change. The variance is the
+/// window's (how hard it is to simulate), the same for both models, and estimated from both,
+/// (before + after) / 2; with one Gaussian sample per window, twice the log-likelihood gain is
+/// then the sum over windows of 2 (before - after) / (before + after), so the BIC gain is that
+/// sum less k ln(n_w). A window's term is 2 tanh(ln(before/after) / 2): the log ratio while
+/// the two are of a size, at most +-2 however far apart they are. With one variance shared by
+/// all windows (n_w ln of the ratio of the mean scores) a single diverged window can outvote
+/// every other one by its size; with a variance of each model's own in each window (the sum
+/// of the log ratios) a window that one model fits almost exactly can, by its ratio. The three
+/// agree when every window changes by the same small factor. The signed-rank test stays on the
+/// differences: a window's weight there is its rank, at most n_w, so it is already robust to
+/// one window's size, and on differences it weighs windows by how much position error the
+/// model changes. The mean scores are reported as they were (what the output error's
+/// "after/before" means).
 pub fn compare(before: &OutputError, after: &OutputError, parameters: usize, alpha: f64) -> Comparison {
     let windows = before.plan.starts.len().min(after.plan.starts.len());
     let scale = before.scored_mse();
     let channels = scale.len().max(1) as f64;
     let per_window = before.plan.length as f64 * channels;
-    let gains: Vec<f64> =
-        (0..windows).map(|w| (before.window_score(w, &scale) - after.window_score(w, &scale)) / per_window).collect();
+    let scores: Vec<(f64, f64)> =
+        (0..windows).map(|w| (before.window_score(w, &scale), after.window_score(w, &scale))).collect();
+    let gains: Vec<f64> = scores.iter().map(|(b, a)| (b - a) / per_window).collect();
     let better = gains.iter().filter(|g| **g > 0.0).count();
     let (rank_sum, p_value) = signed_rank_test(&gains);
-    let score_before: f64 =
-        (0..windows).map(|w| before.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
-    let score_after: f64 =
-        (0..windows).map(|w| after.window_score(w, &scale)).sum::<f64>() / (per_window * windows.max(1) as f64);
+    let mean = |total: f64| total / (per_window * windows.max(1) as f64);
+    let score_before = mean(scores.iter().map(|(b, _)| b).sum());
+    let score_after = mean(scores.iter().map(|(_, a)| a).sum());
+    // A window both models fit exactly tells nothing (and would divide zero by zero).
+    let log_likelihood_gain: f64 =
+        scores.iter().filter(|(b, a)| b + a > 0.0).map(|(b, a)| 2.0 * (b - a) / (b + a)).sum();
     let n = windows as f64;
-    let bic_gain = if score_after > 0.0 {
-        n * (score_before / score_after).ln() - parameters as f64 * n.max(1.0).ln()
-    } else {
-        f64::INFINITY
-    };
+    let bic_gain = log_likelihood_gain - parameters as f64 * n.max(1.0).ln();
     let confirmed = p_value < alpha && bic_gain > 0.0;
     let reason = format!(
-        "output error {:.3} -> {:.3} of the baseline, better in {better} of {windows} windows, signed-rank p = {:.2e} (level {alpha:.0e}), BIC gain {:.1}",
-        score_before, score_after, p_value, bic_gain
+        "output error {:.3} -> {:.3} of the baseline, better in {better} of {windows} windows, signed-rank p = {:.2e} (level {alpha:.0e}), likelihood gain {:.1} (each window its own variance, at most 2 a window), BIC gain {:.1}",
+        score_before, score_after, p_value, log_likelihood_gain, bic_gain
     );
-    Comparison { windows, better, rank_sum, p_value, score_before, score_after, bic_gain, confirmed, reason }
+    Comparison {
+        windows,
+        better,
+        rank_sum,
+        p_value,
+        score_before,
+        score_after,
+        log_likelihood_gain,
+        bic_gain,
+        confirmed,
+        reason,
+    }
 }
 
 /// One-sided Wilcoxon signed-rank test that the differences are positive: returns the sum of
@@ -1408,5 +1451,64 @@ mod tests {
         assert_eq!(*kept, data.smooth(&inner(0.01)));
         let other = data.smoothed_regressor(Regressor::CoggingCos, 0.01, || inner(0.02));
         assert_eq!(*other, data.smooth(&inner(0.02)), "another regressor at the same value is its own column");
+    }
+
+    /// An output error with one scored channel whose windows have the given squared errors.
+    fn error_with_windows(window_sse: &[f64]) -> OutputError {
+        let plan = WindowPlan::new(10, 10 * window_sse.len(), 0.001, String::new());
+        let channel = OutputChannel {
+            kind: ChannelKind::AxisPosition,
+            scored: true,
+            criterion: true,
+            measured: Vec::new(),
+            simulated: Vec::new(),
+            window_sse: window_sse.to_vec(),
+            rms: 0.0,
+            fit_percent: 0.0,
+        };
+        OutputError { plan, channels: vec![channel], twist_centre: 0.0, time: Vec::new() }
+    }
+
+    #[test]
+    fn a_single_diverged_window_does_not_outvote_the_windows_the_candidate_predicts_better() {
+        // The candidate halves the error in 45 of 50 windows, and its open-loop simulation
+        // diverges in one: the mean score is twenty times the baseline's.
+        let before = error_with_windows(&[1.0; 50]);
+        let mut windows = vec![0.5; 45];
+        windows.extend([1.0, 1.0, 1.0, 1.0, 1000.0]);
+        let after = error_with_windows(&windows);
+        let comparison = compare(&before, &after, 2, 0.01);
+        assert!(comparison.score_after > 20.0 * comparison.score_before, "{}", comparison.reason);
+        assert_eq!(comparison.better, 45);
+        let expected = 45.0 * 2.0 * 0.5 / 1.5 + 2.0 * (1.0 - 1000.0) / 1001.0;
+        assert!((comparison.log_likelihood_gain - expected).abs() < 1e-9, "{}", comparison.log_likelihood_gain);
+        assert!(comparison.confirmed && comparison.improves(0.01), "{}", comparison.reason);
+    }
+
+    #[test]
+    fn a_window_one_model_fits_almost_exactly_does_not_outvote_the_others() {
+        // The baseline fits ten quiet windows almost exactly and the candidate less so, by a
+        // factor of a thousand in its ratio, and it halves the error in the other forty: a sum
+        // of log ratios would reject it (40 ln 2 - 10 ln 1000 < 0), each window's own variance
+        // shared by the two models does not.
+        let mut baseline = vec![1e-6; 10];
+        baseline.extend([1.0; 40]);
+        let mut candidate = vec![1e-3; 10];
+        candidate.extend([0.5; 40]);
+        let comparison = compare(&error_with_windows(&baseline), &error_with_windows(&candidate), 1, 0.01);
+        assert!(comparison.log_likelihood_gain > 40.0 * 2.0 / 3.0 - 10.0 * 2.0, "{}", comparison.reason);
+        assert!(comparison.bic_gain > 0.0 && comparison.improves(0.01), "{}", comparison.reason);
+    }
+
+    #[test]
+    fn the_bic_gain_is_the_shared_variance_one_when_every_window_changes_alike_by_little() {
+        let before = error_with_windows(&[2.0; 40]);
+        let after = error_with_windows(&[1.96; 40]);
+        let comparison = compare(&before, &after, 3, 0.01);
+        let shared = 40.0 * (comparison.score_before / comparison.score_after).ln() - 3.0 * 40f64.ln();
+        assert!((comparison.bic_gain - shared).abs() < 1e-4 * 40.0, "{} vs {shared}", comparison.bic_gain);
+        // A candidate worse over the windows is no improvement, however its p-value.
+        let worse = compare(&after, &before, 0, 0.01);
+        assert!(worse.log_likelihood_gain < 0.0 && !worse.improves(0.01) && !worse.confirmed, "{}", worse.reason);
     }
 }
