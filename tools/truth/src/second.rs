@@ -404,31 +404,25 @@ impl Drive {
     /// a 200 Hz filter, no injected excitation (the benchmark's logs have none), 0.1 micrometre
     /// steps and 20 nm of noise.
     fn for_plant(p: &Plant) -> Drive {
-        let inertia = p.motor_inertia + p.load_inertia;
-        if p.rigid {
-            let speed_gain = inertia * 2.0 * PI * 20.0;
-            Drive {
-                speed_gain,
-                integral_gain: speed_gain * 2.0 * PI * 4.0,
-                position_gain: 2.0 * PI * 3.0,
-                speed_filter_hz: 200.0,
-                injection_rms: 0.0,
-                motor_quantum: 1e-7,
-                load_quantum: 1e-7,
-                encoder_noise: 2e-8,
-            }
-        } else {
-            let speed_gain = inertia * 2.0 * PI * 2.5;
-            Drive {
-                speed_gain,
-                integral_gain: speed_gain * 2.0 * PI * 0.4,
-                position_gain: 2.0 * PI * 0.6,
-                speed_filter_hz: 60.0,
-                injection_rms: 200.0,
-                motor_quantum: 2.0 * PI / (f64::from(1u32 << 18) * p.gear),
-                load_quantum: 2.0 * PI / f64::from(1u32 << 25),
-                encoder_noise: 1e-7,
-            }
+        // (speed loop, its integral, position loop, speed filter: Hz; multisine RMS: N m;
+        // motor and load encoder quanta and white noise: rad or m, axis side)
+        let (speed_hz, integral_hz, position_hz, filter_hz, injection_rms, motor_quantum, load_quantum, noise) =
+            if p.rigid {
+                (20.0, 4.0, 3.0, 200.0, 0.0, 1e-7, 1e-7, 2e-8)
+            } else {
+                let motor = 2.0 * PI / (f64::from(1u32 << 18) * p.gear);
+                (2.5, 0.4, 0.6, 60.0, 200.0, motor, 2.0 * PI / f64::from(1u32 << 25), 1e-7)
+            };
+        let speed_gain = (p.motor_inertia + p.load_inertia) * 2.0 * PI * speed_hz;
+        Drive {
+            speed_gain,
+            integral_gain: speed_gain * 2.0 * PI * integral_hz,
+            position_gain: 2.0 * PI * position_hz,
+            speed_filter_hz: filter_hz,
+            injection_rms,
+            motor_quantum,
+            load_quantum,
+            encoder_noise: noise,
         }
     }
 }
