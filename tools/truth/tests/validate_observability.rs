@@ -28,6 +28,7 @@ fn a_final_verdict_of_no_improvement_withdraws_every_claim() {
     let mut not_better = antenna_validate::output_error::Comparison {
         windows: 50,
         better: 20,
+        alike: 0,
         rank_sum: 300.0,
         p_value: 1.0,
         score_before: 1.0,
