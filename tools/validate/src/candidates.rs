@@ -28,6 +28,7 @@
 
 use super::equation_error::{backlash_sign, ChannelData, EquationData, Regressor, Structure};
 use super::parameters::{names, ParameterSet};
+use super::stats::SinCosSums;
 use antenna_dsp::weighted_least_squares;
 use rayon::prelude::*;
 
@@ -686,20 +687,14 @@ fn cogging(
     let total: f64 = r.iter().zip(w).map(|(r, w)| w * r * r).sum();
     let mut chi2 = Vec::with_capacity(count);
     for _ in 0..count {
-        let (mut rc, mut rs, mut cc, mut ss, mut cs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut sums = SinCosSums::default();
         for i in 0..torque_rows {
             let (c, s) = phase[i];
-            rc += w[i] * r[i] * c;
-            rs += w[i] * r[i] * s;
-            cc += w[i] * c * c;
-            ss += w[i] * s * s;
-            cs += w[i] * c * s;
+            sums.add(w[i], r[i], c, s);
             let (rcos, rsin) = rotation[i];
             phase[i] = (c * rcos - s * rsin, s * rcos + c * rsin);
         }
-        let det = cc * ss - cs * cs;
-        let explained = if det > 0.0 { (ss * rc * rc - 2.0 * cs * rc * rs + cc * rs * rs) / det } else { 0.0 };
-        chi2.push(total - explained);
+        chi2.push(total - sums.explained());
     }
     let best = (0..count).min_by(|&a, &b| chi2[a].total_cmp(&chi2[b])).unwrap_or(0);
     // Refine the best frequency by a parabola through its neighbours.
@@ -728,20 +723,11 @@ fn cogging(
                 smoothed.iter().zip(mask).filter(|(_, m)| **m).map(|(v, _)| *v).collect()
             };
             let (sin, cos) = (column(Regressor::CoggingSin, f64::sin), column(Regressor::CoggingCos, f64::cos));
-            let (mut rc, mut rs, mut cc, mut ss, mut cs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            let mut sums = SinCosSums::default();
             for i in 0..torque_rows {
-                rc += w[i] * r[i] * cos[i];
-                rs += w[i] * r[i] * sin[i];
-                cc += w[i] * cos[i] * cos[i];
-                ss += w[i] * sin[i] * sin[i];
-                cs += w[i] * cos[i] * sin[i];
+                sums.add(w[i], r[i], cos[i], sin[i]);
             }
-            let det = cc * ss - cs * cs;
-            if det > 0.0 {
-                (ss * rc * rc - 2.0 * cs * rc * rs + cc * rs * rs) / det
-            } else {
-                0.0
-            }
+            sums.explained()
         };
         // Each motor period is fitted on its own, side by side; the best is taken in the
         // periods' order, as one after another would.

@@ -25,6 +25,7 @@
 use crate::equation_error::{EquationData, Structure};
 use crate::measured_log::{MeasuredLog, Signal, DRIFT_REMOVED_UNIT, INTEGRATED_UNIT};
 use crate::parameters::ParameterSet;
+use crate::stats::SinCosSums;
 use crate::twist::{twist_regression, TwistOptions};
 use antenna_dsp::weighted_least_squares;
 
@@ -144,10 +145,7 @@ fn fit(columns: &[Vec<f64>], target: &[f64]) -> Fit {
 
 /// The Wald statistic of the coefficients `range` being zero.
 fn wald(fit: &Fit, range: std::ops::Range<usize>) -> f64 {
-    let k = range.len();
-    let block = nalgebra::DMatrix::from_fn(k, k, |a, b| fit.inverse[(range.start + a, range.start + b)] * fit.scale);
-    let coefficients = nalgebra::DVector::from_fn(k, |a, _| fit.beta[range.start + a]);
-    block.pseudo_inverse(1e-300).map(|inv| (coefficients.transpose() * inv * &coefficients)[(0, 0)]).unwrap_or(0.0)
+    crate::stats::wald(&fit.beta, |a, b| fit.inverse[(a, b)] * fit.scale, range)
 }
 
 /// The rows the regression uses: the twist is smoothed to the equations' cut-off, so four
@@ -490,20 +488,15 @@ fn strongest_harmonic(
         if chosen.contains(&k) {
             continue;
         }
-        let (mut ss, mut cc, mut sc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut sums = SinCosSums::default();
         for (r, &(s, c)) in residual.iter().zip(&phasor) {
-            ss += s * s;
-            cc += c * c;
-            sc += s * c;
-            rs += r * s;
-            rc += r * c;
+            sums.add(1.0, *r, c, s);
         }
-        let determinant = ss * cc - sc * sc;
-        if determinant <= 1e-12 * ss * cc {
+        if !sums.independent(1e-12) {
             continue;
         }
         // The reduction of the residual's sum of squares by the pair's least-squares fit.
-        let gain = (cc * rs * rs - 2.0 * sc * rs * rc + ss * rc * rc) / determinant;
+        let gain = sums.explained();
         if best.is_none_or(|(_, g)| gain > g) {
             best = Some((k, gain));
         }

@@ -182,24 +182,13 @@ pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOption
         .iter()
         .map(|(name, unit, range)| {
             let k = range.len();
-            let block = nalgebra::DMatrix::from_fn(k, k, |a, b| {
-                inverse[(range.start + a, range.start + b)] * variance * correlation_time
-            });
-            let coefficients = nalgebra::DVector::from_fn(k, |a, _| beta[range.start + a]);
-            // Scaled to unit variances first, so the pseudo-inverse's tolerance is relative.
-            let scale: Vec<f64> =
-                (0..k).map(|a| if block[(a, a)] > 0.0 { 1.0 / block[(a, a)].sqrt() } else { 0.0 }).collect();
-            let correlation = nalgebra::DMatrix::from_fn(k, k, |a, b| block[(a, b)] * scale[a] * scale[b]);
-            let standardised = nalgebra::DVector::from_fn(k, |a, _| coefficients[a] * scale[a]);
-            let wald = correlation
-                .pseudo_inverse(1e-10)
-                .map(|inv| (standardised.transpose() * inv * &standardised)[(0, 0)])
-                .unwrap_or(0.0);
+            let covariance = |a: usize, b: usize| inverse[(a, b)] * variance * correlation_time;
+            let wald = super::stats::wald(&beta, covariance, range.clone());
             let rms = centred_rms(&part(&beta, range.clone(), 0));
             let significant = antenna_dsp::distributions::chi_squared_sf(wald, k as f64) < level
                 && rms >= options.min_effect_to_noise * noise;
             let (value, sd) = if k == 1 {
-                (beta[range.start], block[(0, 0)].sqrt())
+                (beta[range.start], covariance(range.start, range.start).sqrt())
             } else {
                 (rms, rms / wald.max(f64::MIN_POSITIVE).sqrt())
             };
