@@ -346,8 +346,14 @@ fn suite_truths(effect: SecondEffect, delay: f64) -> Vec<(String, f64, Effect)> 
 /// Writes a suite of the rotary drive in the truth generator's layout (`log_NNN.csv` with a
 /// `.truth` sidecar, and `start.params`), which `validate suite DIR` scores as it scores
 /// that generator's: per seed a clean log, every single effect and the Coulomb-unbalance
-/// pair, 60 s at 1 kHz, in an order shuffled by the seeds. Returns the logs written.
-pub fn write_suite(dir: &Path, seeds: &[u64]) -> Result<usize, SecondError> {
+/// pair, in an order shuffled by the seeds, each with `base`'s length, rate, delay and
+/// sensors (its effect and seed are the suite's). The effect sizes stay against the current
+/// noise of the default sensor (`TORQUE_SIGMA`), also with a noiseless current. Returns the
+/// logs written.
+pub fn write_suite(dir: &Path, seeds: &[u64], base: &SecondOptions) -> Result<usize, SecondError> {
+    if base.carriage {
+        return Err(SecondError::NotOnACarriage("suite (unbalance and drive path)"));
+    }
     let write = |path: std::path::PathBuf, text: &str| {
         std::fs::write(&path, text).map_err(|source| SecondError::Write { path, source })
     };
@@ -362,7 +368,7 @@ pub fn write_suite(dir: &Path, seeds: &[u64]) -> Result<usize, SecondError> {
     cases.shuffle(&mut rng);
     for (index, &(seed, effect)) in cases.iter().enumerate() {
         let name = format!("log_{:03}", index + 1);
-        let options = SecondOptions { effect, seed, ..SecondOptions::default() };
+        let options = SecondOptions { effect, seed, ..base.clone() };
         let truth = CaseTruth {
             log_file: format!("{name}.csv"),
             seed,
@@ -371,13 +377,33 @@ pub fn write_suite(dir: &Path, seeds: &[u64]) -> Result<usize, SecondError> {
             // The motor encoder carries half the load encoder's white noise (`generate`).
             twist_sigma: Drive::for_plant(&Plant::nominal()).encoder_noise * 1.25f64.sqrt(),
             sample_interval: 1.0 / options.rate,
-            conditions: [("generator".to_string(), "secondgen".to_string())].into_iter().collect(),
+            conditions: suite_conditions(&options),
         };
         write(dir.join(format!("{name}.csv")), &generate(&options)?)?;
         write(dir.join(format!("{name}.truth")), &truth_text(&truth))?;
     }
     write(dir.join("start.params"), &start_params(false))?;
     Ok(cases.len())
+}
+
+/// The `.truth` sidecar's conditions of a suite log: the generator, and each option that
+/// differs from the default (for the report, and the skew for the scoring).
+fn suite_conditions(options: &SecondOptions) -> std::collections::BTreeMap<String, String> {
+    let default = SecondOptions::default();
+    let mut conditions = std::collections::BTreeMap::from([("generator".to_string(), "secondgen".to_string())]);
+    let mut differs = |name: &str, value: String, default_value: String| {
+        if value != default_value {
+            conditions.insert(name.to_string(), value);
+        }
+    };
+    differs("duration_s", options.duration.to_string(), default.duration.to_string());
+    differs("rate_hz", options.rate.to_string(), default.rate.to_string());
+    differs("noiseless_current", options.noiseless_current.to_string(), default.noiseless_current.to_string());
+    // The scoring's name and sign: the instant the load encoder is read less the motor
+    // encoder's, so that a skew `validate` finds is right where the log has one.
+    differs("load_encoder_skew", options.load_skew.to_string(), default.load_skew.to_string());
+    differs("static_friction", options.static_friction.to_string(), default.static_friction.to_string());
+    conditions
 }
 
 /// The controller, the motion and the sensors of a drive, from its nominal plant.

@@ -91,3 +91,26 @@ fn a_carriages_coulomb_change_is_not_taken_for_viscous_friction() {
     let coulomb = v.selection.corrected.value(names::COULOMB);
     assert!((coulomb - 25.4).abs() < 0.5, "Coulomb {coulomb} N against 25.4 (a change of 5)");
 }
+
+#[test]
+fn a_suite_of_the_second_generator_carries_its_rate_and_load_skew_into_the_truth() {
+    let dir = std::env::temp_dir().join(format!("secondgen-suite-{}", std::process::id()));
+    let base = SecondOptions { duration: 2.0, rate: 2000.0, load_skew: 1e-3, ..SecondOptions::default() };
+    let logs = antenna_truth::second::write_suite(&dir, &[3], &base).unwrap();
+    // A clean log, every single effect and the pair, for the one seed.
+    assert_eq!(logs, 13);
+    let truths: Vec<String> =
+        (1..=logs).map(|i| std::fs::read_to_string(dir.join(format!("log_{i:03}.truth"))).unwrap()).collect();
+    for truth in &truths {
+        assert!(truth.contains("sample_interval = 5e-4"), "{truth}");
+        // The scoring's name for a load encoder read late, so that finding the skew is right.
+        assert!(truth.contains("condition.load_encoder_skew = 0.001"), "{truth}");
+        assert!(truth.contains("condition.rate_hz = 2000"), "{truth}");
+        assert!(!truth.contains("noiseless_current"), "{truth}");
+    }
+    let log = std::fs::read_to_string(dir.join("log_001.csv")).unwrap();
+    assert_eq!(log.lines().filter(|l| !l.starts_with('#')).count(), 1 + 4000);
+    std::fs::remove_dir_all(&dir).unwrap();
+    let carriage = SecondOptions { carriage: true, ..SecondOptions::default() };
+    assert!(antenna_truth::second::write_suite(&std::env::temp_dir().join("unused"), &[3], &carriage).is_err());
+}

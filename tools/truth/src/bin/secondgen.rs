@@ -44,7 +44,8 @@ struct Cli {
     #[arg(long, required_unless_present = "suite")]
     out: Option<PathBuf>,
     /// Write a scored suite into this folder instead of one log: per seed a clean log, every
-    /// effect and the Coulomb-unbalance pair (60 s at 1 kHz), for `validate suite DIR`.
+    /// effect and the Coulomb-unbalance pair (with --duration, --rate, --delay and the sensor
+    /// options), for `validate suite DIR`.
     #[arg(long, value_name = "DIR", conflicts_with = "out")]
     suite: Option<PathBuf>,
     /// The seeds of `--suite`.
@@ -58,12 +59,6 @@ fn main() -> anyhow::Result<()> {
     anyhow::ensure!(cli.duration > 1.0 && cli.duration <= 3600.0, "--duration must be over 1 s and at most 3600 s");
     anyhow::ensure!((0.0..=0.05).contains(&cli.delay), "--delay must be 0 to 0.05 s");
     anyhow::ensure!((0.0..=0.05).contains(&cli.load_skew), "--load-skew must be 0 to 0.05 s");
-    if let Some(dir) = &cli.suite {
-        let logs = second::write_suite(dir, &cli.seeds)?;
-        println!("wrote {logs} logs with their .truth files and start.params into {}", dir.display());
-        return Ok(());
-    }
-    let out = cli.out.clone().context("--out or --suite is needed")?;
     let options = SecondOptions {
         effect: cli.effect,
         seed: cli.seed,
@@ -75,6 +70,12 @@ fn main() -> anyhow::Result<()> {
         static_friction: cli.static_friction,
         carriage: cli.carriage,
     };
+    if let Some(dir) = &cli.suite {
+        let logs = second::write_suite(dir, &cli.seeds, &options)?;
+        println!("wrote {logs} logs with their .truth files and start.params into {}", dir.display());
+        return Ok(());
+    }
+    let out = cli.out.clone().context("--out or --suite is needed")?;
     std::fs::write(&out, second::generate(&options)?).with_context(|| format!("cannot write {}", out.display()))?;
     let start = out.parent().unwrap_or(std::path::Path::new(".")).join("start.params");
     std::fs::write(&start, second::start_params(cli.carriage))
