@@ -31,7 +31,7 @@ pub enum DocsPart {
     /// excitations; about 30 min on two idle cores).
     Limits,
     /// docs/results/validation-second-generator.md: the suite of the second, separately
-    /// written generator (`secondgen --suite`, two seeds), scored by `validate suite` as the
+    /// written generator (`secondgen --suite`, four seeds), scored by `validate suite` as the
     /// holdouts are (about 5 min on two idle cores).
     SecondGenerator,
 }
@@ -206,7 +206,7 @@ fn limits(root: &Path) -> anyhow::Result<()> {
 }
 
 /// The seeds of the second generator's suite in docs/results/.
-const SECOND_GENERATOR_SEEDS: &str = "11,12";
+const SECOND_GENERATOR_SEEDS: &str = "11,12,13,14";
 
 /// `secondgen --suite` into out/second-generator/ and `validate suite` on it; its results go
 /// to docs/results/validation-second-generator.md under a header naming the commands and the
