@@ -1104,8 +1104,8 @@ fn hermite_points(substeps: usize) -> Vec<[(f64, HermiteWeights); 3]> {
 pub struct Comparison {
     pub windows: usize,
     /// Windows where the candidate model predicts better, and windows where the two predict
-    /// alike to within what the window's samples resolve (ties, left out of the signed-rank
-    /// test).
+    /// alike to within what all the compared samples resolve (ties, left out of the
+    /// signed-rank test; `OutputError::predicts_alike`).
     pub better: usize,
     pub alike: usize,
     /// Wilcoxon signed-rank statistic (sum of the ranks of the improvements) and its exact

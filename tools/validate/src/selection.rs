@@ -2014,7 +2014,7 @@ mod tests {
         use rand::SeedableRng;
         use rand_distr::Distribution;
         // The motor equation carries a misfit correlated over about 30 samples (70 N m), the
-        // load equation white noise (8 N m) and a load-inertia change of 250 N m RMS; the
+        // load equation white noise (8 N m) and a load-inertia change of about 240 N m RMS; the
         // effect's motor-side part is what a joint fit makes of the misfit.
         let n = 20_000;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
