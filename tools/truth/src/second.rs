@@ -400,8 +400,9 @@ fn suite_conditions(options: &SecondOptions) -> std::collections::BTreeMap<Strin
     differs("rate_hz", options.rate.to_string(), default.rate.to_string());
     differs("noiseless_current", options.noiseless_current.to_string(), default.noiseless_current.to_string());
     // The scoring's name and sign: the instant the load encoder is read less the motor
-    // encoder's, so that a skew `validate` finds is right where the log has one.
-    differs("load_encoder_skew", options.load_skew.to_string(), default.load_skew.to_string());
+    // encoder's, so that a skew `validate` finds is right where the log has one. This
+    // generator's load encoder reads the angle `load_skew` old: read that much earlier.
+    differs("load_encoder_skew", (-options.load_skew).to_string(), (-default.load_skew).to_string());
     differs("static_friction", options.static_friction.to_string(), default.static_friction.to_string());
     conditions
 }
@@ -502,9 +503,11 @@ pub fn generate(options: &SecondOptions) -> Result<String, SecondError> {
     // The applied current is the logged one `delay` earlier, taken at the middle of each
     // substep (the mean of the two values around it), so that the torque acts when the
     // current says and a clean log has no delay of its own.
-    let mut delayed = vec![0.0; (p.delay / dt).round() as usize + 2];
-    let mut skewed = vec![start; (options.load_skew / dt).round() as usize + 1];
-    let (mut at, mut skew_at) = (0usize, 0usize);
+    let delay_steps = (p.delay / dt).round() as usize;
+    let mut delayed = History::new(0.0, delay_steps + 1);
+    // The load encoder's reading `load_skew` old at each log instant.
+    let skew_steps = (options.load_skew / dt).round() as usize;
+    let mut skewed = History::new(start, skew_steps);
     let mut integral = p.offset + p.unbalance * (start + p.unbalance_phase).cos();
     let mut previous_motor = quantise(start, drive.motor_quantum);
     let mut speed_estimate = 0.0;
@@ -512,7 +515,7 @@ pub fn generate(options: &SecondOptions) -> Result<String, SecondError> {
     for (k, &(ref_pos, ref_speed)) in reference.iter().enumerate() {
         let t = k as f64 * dt_control;
         let motor = quantise(s.motor + 0.5 * encoder_noise.sample(&mut rng), drive.motor_quantum);
-        let load = quantise(skewed[(skew_at + 1) % skewed.len()] + encoder_noise.sample(&mut rng), drive.load_quantum);
+        let load = quantise(skewed.ago(skew_steps) + encoder_noise.sample(&mut rng), drive.load_quantum);
         let current = quantise(s.current + current_noise.sample(&mut rng), 1e-3);
         let _ = if p.rigid {
             writeln!(text, "{t:.6},{ref_pos:.9},{current:.4},{motor:.9}")
@@ -539,15 +542,40 @@ pub fn generate(options: &SecondOptions) -> Result<String, SecondError> {
                 - 2.0 * loop_damping * loop_frequency * s.current_rate;
             s.current_rate += acceleration * dt;
             s.current += s.current_rate * dt;
-            delayed[at] = s.current;
-            let applied = 0.5 * (delayed[(at + 1) % delayed.len()] + delayed[(at + 2) % delayed.len()]);
-            at = (at + 1) % delayed.len();
+            delayed.push(s.current);
+            let applied = 0.5 * (delayed.ago(delay_steps) + delayed.ago(delay_steps + 1));
             substep(&p, &mut s, applied, dt, options.static_friction);
-            skewed[skew_at] = s.load;
-            skew_at = (skew_at + 1) % skewed.len();
+            skewed.push(s.load);
         }
     }
     Ok(text)
+}
+
+/// The last values of a signal sampled every substep, for reading it a fixed number of
+/// substeps late (a delayed current, a late load encoder).
+struct History {
+    values: Vec<f64>,
+    /// Where the next value goes: the oldest one held.
+    next: usize,
+}
+
+impl History {
+    /// Holds `longest` substeps of history besides the newest value, all `initial` at first.
+    fn new(initial: f64, longest: usize) -> History {
+        History { values: vec![initial; longest + 1], next: 0 }
+    }
+
+    fn push(&mut self, value: f64) {
+        self.values[self.next] = value;
+        self.next = (self.next + 1) % self.values.len();
+    }
+
+    /// The value pushed `substeps` pushes before the newest (0: the newest), at most the
+    /// history's length.
+    fn ago(&self, substeps: usize) -> f64 {
+        let len = self.values.len();
+        self.values[(self.next + len - 1 - substeps.min(len - 1)) % len]
+    }
 }
 
 /// The carriage's motion, as the benchmark's: moves between points of its 0.2 m stroke with
@@ -673,4 +701,21 @@ pub fn start_params(carriage: bool) -> String {
         let _ = writeln!(text, "{name:<28} = {value:e}  # {unit}");
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::History;
+
+    #[test]
+    fn a_history_reads_the_value_pushed_that_many_substeps_before_the_newest() {
+        let mut history = History::new(-1.0, 20);
+        assert_eq!(history.ago(20), -1.0);
+        for k in 0..100 {
+            history.push(f64::from(k));
+        }
+        assert_eq!(history.ago(0), 99.0);
+        // A 1 ms late encoder at 50 us substeps reads the value of 20 substeps before.
+        assert_eq!(history.ago(20), 79.0);
+    }
 }

@@ -103,8 +103,9 @@ fn a_suite_of_the_second_generator_carries_its_rate_and_load_skew_into_the_truth
         (1..=logs).map(|i| std::fs::read_to_string(dir.join(format!("log_{i:03}.truth"))).unwrap()).collect();
     for truth in &truths {
         assert!(truth.contains("sample_interval = 5e-4"), "{truth}");
-        // The scoring's name for a load encoder read late, so that finding the skew is right.
-        assert!(truth.contains("condition.load_encoder_skew = 0.001"), "{truth}");
+        // The scoring's name and sign for a load encoder whose angle is 1 ms old (read 1 ms
+        // before the motor encoder), so that finding the skew is right.
+        assert!(truth.contains("condition.load_encoder_skew = -0.001"), "{truth}");
         assert!(truth.contains("condition.rate_hz = 2000"), "{truth}");
         assert!(!truth.contains("noiseless_current"), "{truth}");
     }
