@@ -1508,6 +1508,22 @@ mod tests {
     }
 
     #[test]
+    fn no_parameter_outside_the_load_side_list_moves_the_load_side() {
+        // The kept load sides are keyed by the listed parameters only: a parameter that moved
+        // the twist centres or the load-side simulation without being listed would be served
+        // a stale load side.
+        let (data, out, params) = two_encoder_case();
+        let plan = WindowPlan::new(400, out.len(), out.dt, "test".into());
+        let first = fresh(&data, &out, &params, &plan);
+        let unlisted = crate::parameters::PARAMETERS.iter().filter(|p| !LOAD_SIDE_PARAMETERS.contains(&p.name));
+        for info in unlisted {
+            let mut changed = params.clone();
+            changed.set(info.name, 1.3 * params.value(info.name) + 0.01);
+            assert_eq!(bits(&fresh(&data, &out, &changed, &plan)), bits(&first), "{} moves the load side", info.name);
+        }
+    }
+
+    #[test]
     fn a_kept_smoothed_regressor_is_the_column_smoothed_afresh() {
         let (data, _, _) = two_encoder_case();
         let inner = |period: f64| data.motor_pos_inner.iter().map(|q| (q / period).sin()).collect::<Vec<_>>();
