@@ -722,7 +722,8 @@ fn twist_section(out: &mut String, t: &TwistAnalysis, corrected: Option<f64>, li
         out,
         "The measured twist (motor encoder referred to the axis minus load encoder) less the model's own twist, regressed on a constant (encoder offsets), \
          the load speed (a timing skew between the encoders), the shaft torque the model says the motor delivers (compliance), its smoothed sign \
-         (lost motion) and a cubic in the axis angle (transmission error); {} samples, residual correlation time {:.1} samples. {}.\n",
+         (lost motion) and a cubic in the axis angle (transmission error); {} samples where the motor slides (a sticking motor's friction, and with it \
+         the shaft torque, is not a function of the speed), residual correlation time {:.1} samples. {}.\n",
         t.samples,
         t.correlation_time,
         twist_summary(t, corrected, linear)

@@ -64,6 +64,7 @@ pub struct TwistTerm {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TwistAnalysis {
     pub structure: Structure,
+    /// The samples the regression used (the motor sliding, after the search).
     pub samples: usize,
     /// Sensor noise of the twist, from the two encoders' noise estimates (rad).
     pub noise: f64,
@@ -233,7 +234,7 @@ fn analyse_samples(
     let mean_target = target.iter().sum::<f64>() / n as f64;
     Some(TwistAnalysis {
         structure: data.structure,
-        samples: n,
+        samples: used.iter().filter(|u| **u).count(),
         noise,
         correlation_time,
         terms,
