@@ -568,7 +568,6 @@ pub fn validate_with(
             first.twist = logged_twist;
             first.encoder_skew = Some(early);
             first.notes.push(skew_note(early, first.data.dt, "before the search"));
-            first.notes.extend(unobservable);
             return Ok(first);
         }
         // Otherwise the search is repeated on the data as logged, or on the data corrected by

@@ -39,6 +39,11 @@ fn the_load_encoders_three_millisecond_lag_is_taken_out_before_the_search_on_eve
             twist.rms_after
         );
         assert!(
+            v.notes.iter().enumerate().all(|(i, n)| !v.notes[..i].contains(n)),
+            "axis {axis}: a note given twice: {:?}",
+            v.notes
+        );
+        assert!(
             v.notes.iter().any(|n| n.contains("load encoder's angle")
                 && n.contains("behind the motor encoder's")
                 && n.contains("before the search")),
