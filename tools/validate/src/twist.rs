@@ -246,23 +246,6 @@ fn analyse_samples(
     })
 }
 
-/// Analyses the twist against the starting set before any search: its motor-side viscous and
-/// Coulomb friction are first refitted on the total-torque equation ([`total_torque_friction`],
-/// in which an encoder skew cancels), on a rigid set as on a two-mass one, so that a friction
-/// the start lacks does not stand in for a skew. `None` for a one-encoder log.
-///
-/// Every sample is used, the sticking ones too, whose misfit widens the skew's standard
-/// deviation: against a start that lacks an effect the check must not claim what the check
-/// against the corrected model would not. On the moving samples alone it claimed skews of 0.20
-/// to 0.40 ms (32 to 55 sigma) on three inertia logs of the main suite, which has none; on all
-/// samples it claims none on 367 logs without a skew.
-pub fn analyse_from_start(data: &EquationData, start: &ParameterSet, options: &TwistOptions) -> Option<TwistAnalysis> {
-    if data.structure == Structure::Rigid {
-        return None;
-    }
-    analyse_samples(data, &total_torque_friction(data, start), options, &vec![true; data.len()])
-}
-
 /// The parameter set with its motor-side viscous and Coulomb friction re-estimated on the
 /// total-torque equation (the motor and load equations summed, axis side) of a two-mass log.
 ///
@@ -514,24 +497,6 @@ mod tests {
         let twist = analyse(&data, &params, &TwistOptions::default()).unwrap();
         let skew = twist.claimed_skew().expect("skew claimed");
         assert!((skew - tau).abs() < 0.05 * tau, "{skew}");
-    }
-
-    #[test]
-    fn the_skew_is_found_against_a_start_without_the_drives_friction() {
-        // Before the search the start lacks the drive's motor-side viscous friction, whose
-        // torque through the compliance (2000 v / K) reads as a 0.2 ms skew unless it is
-        // refitted first.
-        let tau = 0.001;
-        let log = two_mass_log(tau);
-        let mut start = two_mass_params();
-        start.set(names::VISCOUS, 0.0);
-        let data = crate::equation_error::prepare(&log, &start, &Default::default()).unwrap();
-        let twist = analyse_from_start(&data, &start, &TwistOptions::default()).unwrap();
-        let skew = twist.claimed_skew().expect("skew claimed");
-        assert!((skew - tau).abs() < 0.05 * tau, "{skew}");
-        let clean = two_mass_log(0.0);
-        let data = crate::equation_error::prepare(&clean, &start, &Default::default()).unwrap();
-        assert_eq!(analyse_from_start(&data, &start, &TwistOptions::default()).unwrap().claimed_skew(), None);
     }
 
     #[test]

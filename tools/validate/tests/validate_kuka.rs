@@ -25,7 +25,7 @@ fn validate_axis(dir: &Path, axis: usize) -> antenna_validate::Validation {
 }
 
 #[test]
-fn the_load_encoders_three_millisecond_lag_is_taken_out_before_the_search_on_every_axis() {
+fn the_load_encoders_three_millisecond_lag_is_found_and_corrected_on_every_axis() {
     let dir = kuka_dir();
     for axis in 1..=3 {
         let v = validate_axis(&dir, axis);
@@ -46,7 +46,7 @@ fn the_load_encoders_three_millisecond_lag_is_taken_out_before_the_search_on_eve
         assert!(
             v.notes.iter().any(|n| n.contains("load encoder's angle")
                 && n.contains("behind the motor encoder's")
-                && n.contains("before the search")),
+                && n.contains("validated again")),
             "axis {axis}: {:?}",
             v.notes
         );
