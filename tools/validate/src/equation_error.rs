@@ -184,6 +184,12 @@ impl std::fmt::Debug for SmoothedRegressors {
 }
 
 impl EquationData {
+    /// The samples where the motor slides: its smoothed speed above the stick speed. Friction
+    /// is a function of the speed only there, so the fits that rest on it use these samples.
+    pub fn sliding(&self) -> Vec<bool> {
+        self.motor_vel.iter().map(|v| v.abs() > self.stick_speed).collect()
+    }
+
     /// Smooths a column evaluated on the inner region down to the analysed region.
     pub fn smooth(&self, inner: &[f64]) -> Vec<f64> {
         SavitzkyGolay::apply(&self.smoother, inner)
@@ -731,7 +737,7 @@ pub fn model_channels(data: &EquationData, params: &ParameterSet) -> Vec<Channel
     // choice of parameters can scale the equation to zero.
     let measured_torque = torque;
     let inverse_scale = 1.0 / scale;
-    let moving: Vec<bool> = data.motor_vel.iter().map(|v| v.abs() > data.stick_speed).collect();
+    let moving = data.sliding();
 
     match data.structure {
         Structure::TwoMass => {

@@ -150,22 +150,9 @@ pub fn motor_side_shaft_torque(data: &EquationData, params: &ParameterSet) -> Ve
 /// rad/(N m) (-65 %) at 14 sigma and made the skew's standard deviation 0.12-0.20 ms; on the
 /// moving samples alone the compliance change is below 3e-9 and the skew's sd 5e-6 to 5e-5 s.
 pub fn analyse(data: &EquationData, params: &ParameterSet, options: &TwistOptions) -> Option<TwistAnalysis> {
-    let moving: Vec<bool> = data.motor_vel.iter().map(|v| v.abs() > data.stick_speed).collect();
-    // Too few moving samples for the regression: the twist is not analysed.
-    if moving.iter().filter(|m| **m).count() < 50 {
-        return None;
-    }
-    analyse_samples(data, params, options, &moving)
-}
-
-/// Analyses the twist on the samples `used` marks (see [`analyse`]).
-fn analyse_samples(
-    data: &EquationData,
-    params: &ParameterSet,
-    options: &TwistOptions,
-    used: &[bool],
-) -> Option<TwistAnalysis> {
-    if data.structure == Structure::Rigid || data.len() < 50 {
+    let used = data.sliding();
+    let count = used.iter().filter(|u| **u).count();
+    if data.structure == Structure::Rigid || count < 50 {
         return None;
     }
     let n = data.len();
@@ -191,7 +178,7 @@ fn analyse_samples(
     let part = |coefficients: &[f64], range: std::ops::Range<usize>, offset: usize| -> Vec<f64> {
         (0..n).map(|i| range.clone().map(|k| coefficients[k - offset] * columns[k][i]).sum::<f64>()).collect()
     };
-    let centred_rms = |v: &[f64]| centred_rms_over(v, used);
+    let centred_rms = |v: &[f64]| centred_rms_over(v, &used);
     let full = part(&beta, 0..columns.len(), 0);
     // The residual of the samples used, in their order.
     let residual: Vec<f64> = (0..n).filter(|&i| used[i]).map(|i| target[i] - full[i]).collect();
@@ -230,11 +217,11 @@ fn analyse_samples(
         terms[2].significant = false;
     }
     let rms_before = centred_rms(&target);
-    let (fitted, rms_after) = refit_significant(&columns, &terms, &groups, &target, &weights, used);
+    let (fitted, rms_after) = refit_significant(&columns, &terms, &groups, &target, &weights);
     let mean_target = target.iter().sum::<f64>() / n as f64;
     Some(TwistAnalysis {
         structure: data.structure,
-        samples: used.iter().filter(|u| **u).count(),
+        samples: count,
         noise,
         correlation_time,
         terms,
@@ -287,7 +274,7 @@ pub(crate) fn total_torque_friction(data: &EquationData, params: &ParameterSet) 
     ];
     // Sticking samples are left out, as in the motor equation: friction there is not a
     // function of the speed.
-    let weights: Vec<f64> = data.motor_vel.iter().map(|v| f64::from(u8::from(v.abs() > data.stick_speed))).collect();
+    let weights: Vec<f64> = data.sliding().iter().map(|&s| f64::from(u8::from(s))).collect();
     let (beta, _) = weighted_least_squares(&columns, &residual, &weights);
     let mut refitted = params.clone();
     if beta.iter().all(|b| b.is_finite()) {
@@ -348,7 +335,6 @@ fn refit_significant(
     groups: &[(&'static str, &'static str, std::ops::Range<usize>)],
     target: &[f64],
     weights: &[f64],
-    used: &[bool],
 ) -> (Vec<f64>, f64) {
     let n = target.len();
     let mut chosen: Vec<Vec<f64>> = vec![columns[0].clone()];
@@ -359,10 +345,14 @@ fn refit_significant(
     }
     let (refit, _) = weighted_least_squares(&chosen, target, weights);
     let fitted: Vec<f64> = (0..n).map(|i| chosen.iter().zip(&refit).map(|(c, b)| b * c[i]).sum::<f64>()).collect();
-    let misfit: Vec<f64> = target.iter().zip(&fitted).map(|(t, f)| t - f).collect();
-    let count = used.iter().filter(|u| **u).count().max(1);
-    let rms_after =
-        (misfit.iter().zip(used).filter(|(_, u)| **u).map(|(m, _)| m * m).sum::<f64>() / count as f64).sqrt();
+    // The RMS over the samples the fit used (those with weight).
+    let (sum, count) = target
+        .iter()
+        .zip(&fitted)
+        .zip(weights)
+        .filter(|(_, w)| **w > 0.0)
+        .fold((0.0, 0usize), |(sum, count), ((t, f), _)| (sum + (t - f).powi(2), count + 1));
+    let rms_after = (sum / count.max(1) as f64).sqrt();
     (fitted, rms_after)
 }
 
