@@ -377,10 +377,69 @@ fn non_zero_runs(x: &[f64]) -> Vec<(usize, usize)> {
     runs
 }
 
+/// The Bartlett-weighted long-run sum of a record `g`: `sum over |l| <= lags of
+/// (1 - |l|/(lags + 1)) sum_i g[i] g[i + l]`, the Newey-West estimate of the variance of the sum
+/// of `g` (times nothing: the caller scales it).
+///
+/// The triangle is the self-convolution of a box of `lags + 1` samples, so the sum equals the
+/// sum of the squared window sums of `g` over every window of `lags + 1` samples that overlaps
+/// the record (cut at its ends), divided by `lags + 1`: one pass over the record whatever the
+/// number of lags, where the lag-by-lag sums cost a pass per lag. As a sum of squares it is
+/// never negative. The window sum slides by adding the entering and taking the leaving
+/// sample, and is summed afresh every `RESUM` windows so rounding cannot build up along a long
+/// record.
+pub fn bartlett_long_run_sum(g: &[f64], lags: usize) -> f64 {
+    const RESUM: usize = 4096;
+    let n = g.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let width = lags + 1;
+    // Window k covers samples max(k, 0)..min(k + width, n) for k = -lags..n-1, written here
+    // with k + lags as the index so that it stays unsigned.
+    let bounds = |shifted: usize| (shifted.saturating_sub(lags), (shifted + 1).min(n));
+    let mut total = 0.0;
+    let mut window = 0.0;
+    for shifted in 0..n + lags {
+        let (first, end) = bounds(shifted);
+        if shifted % RESUM == 0 {
+            window = g[first..end].iter().sum();
+        } else {
+            if end > bounds(shifted - 1).1 {
+                window += g[end - 1];
+            }
+            if first > bounds(shifted - 1).0 {
+                window -= g[first - 1];
+            }
+        }
+        total += window * window;
+    }
+    total / width as f64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::test_signals::white_noise;
+
+    #[test]
+    fn bartlett_long_run_sum_equals_the_lag_by_lag_sum() {
+        // The direct Newey-West sum, lag by lag, on noise with a mean and a slow part (so the
+        // window sums do not cancel), for lag counts from none to beyond the record.
+        let noise = white_noise(5000, 1.0, 11);
+        let g: Vec<f64> = noise.iter().enumerate().map(|(i, v)| v + 0.3 + (i as f64 * 0.01).sin()).collect();
+        for lags in [0, 1, 3, 17, 250, 4999, 7000] {
+            let lag_sum = |l: usize| g.iter().zip(g.iter().skip(l)).map(|(a, b)| a * b).sum::<f64>();
+            let direct = lag_sum(0)
+                + (1..=lags.min(g.len() - 1))
+                    .map(|l| 2.0 * (1.0 - l as f64 / (lags as f64 + 1.0)) * lag_sum(l))
+                    .sum::<f64>();
+            let fast = bartlett_long_run_sum(&g, lags);
+            assert!((fast - direct).abs() <= 1e-11 * direct.abs(), "lags {lags}: {fast} against {direct}");
+        }
+        assert_eq!(bartlett_long_run_sum(&[], 5), 0.0);
+        assert_eq!(bartlett_long_run_sum(&[2.0], 0), 4.0);
+    }
 
     #[test]
     fn moments_of_a_known_sequence() {

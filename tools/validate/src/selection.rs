@@ -400,12 +400,7 @@ fn robust_chi2(
         let g: Vec<f64> = (start..start + rows).map(|i| row_weights[i] * u_tilde[i] * e_noise[i]).collect();
         start += rows;
         let lags = ((3.0 * tau.get(c).copied().unwrap_or(1.0)).ceil() as usize).clamp(1, (rows / 10).max(1));
-        let mut sum: f64 = g.iter().map(|x| x * x).sum();
-        for (l, cross) in (1..=lags).zip(lagged_products(&g, lags)) {
-            let weight = 1.0 - l as f64 / (lags as f64 + 1.0);
-            sum += 2.0 * weight * cross;
-        }
-        variance += sum.max(0.0);
+        variance += antenna_dsp::stats::bartlett_long_run_sum(&g, lags);
     }
     let variance = variance / (denominator * denominator);
     if variance > 0.0 {
@@ -413,45 +408,6 @@ fn robust_chi2(
     } else {
         0.0
     }
-}
-
-/// The sums over i of `g[i] g[i + l]` for l = 1..=`lags` (all below the length of `g`), each
-/// added in the order of i as a plain loop adds it, so they are the same to the bit; four lags
-/// share a pass over `g` (the record is read once for four), and the passes run on the rayon
-/// pool. The search asks this for every candidate at every step, over lags up to three
-/// correlation times of a long record: it was the validation's largest cost.
-fn lagged_products(g: &[f64], lags: usize) -> Vec<f64> {
-    let firsts: Vec<usize> = (1..=lags).step_by(4).collect();
-    let blocks: Vec<[f64; 4]> =
-        firsts.par_iter().map(|&first| four_lags(g, first, (lags + 1 - first).min(4))).collect();
-    blocks.iter().flatten().take(lags).copied().collect()
-}
-
-/// The lagged sums of [`lagged_products`] for lags `first..first + count` (count at most 4).
-fn four_lags(g: &[f64], first: usize, count: usize) -> [f64; 4] {
-    let n = g.len();
-    let mut sums = [0.0; 4];
-    // The samples every lag of the block pairs, four products a sample; then each lag's tail.
-    let common = n.saturating_sub(first + 3);
-    if count == 4 && common > 0 {
-        let (a, b0, b1, b2, b3) =
-            (&g[..common], &g[first..first + common], &g[first + 1..], &g[first + 2..], &g[first + 3..]);
-        for ((((x, y0), y1), y2), y3) in a.iter().zip(b0).zip(b1).zip(b2).zip(b3) {
-            sums[0] += x * y0;
-            sums[1] += x * y1;
-            sums[2] += x * y2;
-            sums[3] += x * y3;
-        }
-    }
-    let done = if count == 4 { common } else { 0 };
-    for (q, sum) in sums.iter_mut().enumerate().take(count) {
-        let lag = first + q;
-        let end = n.saturating_sub(lag).max(done);
-        for (x, y) in g[done..end].iter().zip(&g[done + lag..]) {
-            *sum += x * y;
-        }
-    }
-    sums
 }
 
 /// The size of an accepted effect at the refined parameters: the RMS change of each channel's
