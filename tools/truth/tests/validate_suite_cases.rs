@@ -274,6 +274,21 @@ fn a_tachos_drift_estimated_on_both_equations_leaves_the_load_equation_white() {
 }
 
 #[test]
+fn a_stiffness_change_read_as_lost_motion_after_a_tachos_drift_is_stated_as_such() {
+    // The drifting-tacho holdout's stiffness change at 10 times the noise on its seed 43 (the
+    // spring 0.937 of the start's). With the drift taken out of the integrated motor position
+    // the equation error sees the change mostly as a twist step at the reversals, and the
+    // search names a backlash (confirmed by the simulation). The measured motor-to-load
+    // response shows the spring alone softer, its damping where it was, which a lost motion
+    // does not do: the backlash is reported as one the data cannot tell from a stiffness
+    // change, an honest account of the truth.
+    let (_, _, config) = holdout_suites().into_iter().find(|s| s.0 == "drifting-tacho").expect("the suite");
+    let result = run_with(&config.base, 43, &[("stiffness", 10.0)]);
+    assert!(result.honest(), "found {:?}, missed {:?}, wrong {:?}", result.found, result.missed, result.wrong);
+    println!("equally consistent: {:?}", result.equally_consistent);
+}
+
+#[test]
 fn a_cogging_the_start_lacks_is_not_taken_for_a_tachos_drift() {
     // The drifting-tacho holdout's cogging at 20 times the noise on its seed 43 (a period of
     // 1.86 deg at the axis, slow where the axis moves slowly). The drift was first fitted

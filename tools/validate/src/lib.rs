@@ -672,7 +672,7 @@ fn validate_once(
             Ok(prepared) => search_with_output_error(simulator, &data, start, options, prepared)?,
         },
     };
-    let Searched { selection, output, frequency, path, hints, delay_band } = searched;
+    let Searched { mut selection, output, frequency, path, hints, delay_band } = searched;
     if let Some(account) = delay_band.as_ref().filter(|a| a.significant) {
         notes.push(account.finding());
     }
@@ -684,6 +684,19 @@ fn validate_once(
                 selection.corrected.value(parameters::names::STIFFNESS),
                 start.value(parameters::names::STIFFNESS)
             ));
+        }
+        // A backlash named where the measured path's spring alone is off stands for a
+        // stiffness change as well; the reading is carried into the summary and the corrected
+        // set as one the data cannot tell apart.
+        let found = |kind: Kind| selection.found.iter().any(|f| f.kind == kind);
+        if !found(Kind::Stiffness) {
+            let named = found(Kind::Backlash).then_some(Kind::Backlash.name());
+            if let Some(note) = check.spring_alone_note(options.twist.z_threshold, named) {
+                if named.is_some() {
+                    selection.mark_equally_consistent(Kind::Backlash, Kind::Stiffness, note.clone());
+                }
+                notes.push(note);
+            }
         }
     }
     let indistinct = observability::indistinct(&data, start, &selection, &options.selection);

@@ -162,7 +162,22 @@ fn effects_section(out: &mut String, v: &Validation) {
                 alternative.changes(&v.selection.corrected, &v.start)
             );
         }
-        let alike = v.selection.equally_consistent(found.kind);
+        let checked: Vec<&(Kind, Kind, String)> =
+            v.selection.alike_after_search.iter().filter(|(f, _, _)| *f == found.kind).collect();
+        for (_, other, reason) in &checked {
+            let _ = writeln!(
+                out,
+                "The data cannot tell it from: {} ({}). A check after the search: {reason}.\n",
+                other.name(),
+                other.description()
+            );
+        }
+        let alike: Vec<Kind> = v
+            .selection
+            .equally_consistent(found.kind)
+            .into_iter()
+            .filter(|k| !checked.iter().any(|(_, other, _)| other == k))
+            .collect();
         if !alike.is_empty() {
             let names: Vec<String> = alike.iter().map(|k| format!("{} ({})", k.name(), k.description())).collect();
             let _ = writeln!(

@@ -571,6 +571,9 @@ pub struct Selection {
     /// Effects added by the forward search and removed again by the backward check, with the
     /// reason (the model without them predicts as well).
     pub removed: Vec<(Kind, String)>,
+    /// Found effects a check after the search cannot tell from another kind: (found, other,
+    /// the check's reason), e.g. a backlash where the frequency response's spring alone is off.
+    pub alike_after_search: Vec<(Kind, Kind, String)>,
 }
 
 impl Selection {
@@ -619,6 +622,14 @@ impl Selection {
             .collect()
     }
 
+    /// Records `other` as one the data cannot tell from the found effect `found`, by a check
+    /// after the search (the frequency response's spring against a backlash), with its reason.
+    pub fn mark_equally_consistent(&mut self, found: Kind, other: Kind, reason: String) {
+        if !self.alike_after_search.iter().any(|(f, o, _)| *f == found && *o == other) {
+            self.alike_after_search.push((found, other, reason));
+        }
+    }
+
     /// The candidates the data cannot tell from a found effect: confirmed in the step that
     /// chose it and not predicted significantly worse; and any effect the backward check
     /// removed whose own step could not tell it from this one (the search took that one first,
@@ -641,6 +652,11 @@ impl Selection {
                 .any(|s| s.chosen == Some(*gone) && s.equally_consistent.contains(&kind));
             if could_not_tell && *gone != kind && !alike.contains(gone) {
                 alike.push(*gone);
+            }
+        }
+        for (_, other, _) in self.alike_after_search.iter().filter(|(found, _, _)| *found == kind) {
+            if !alike.contains(other) {
+                alike.push(*other);
             }
         }
         alike
@@ -990,7 +1006,7 @@ pub fn select_judged(
     if !accepted.is_empty() {
         (current, found) = final_fit(data, start, &params, &accepted, &current.channel_weights());
     }
-    Selection { before, after: current, steps, found, corrected: params, removed }
+    Selection { before, after: current, steps, found, corrected: params, removed, alike_after_search: Vec::new() }
 }
 
 /// The model as the search builds it: parameters, their fit, the effects accepted so far, and
@@ -1962,6 +1978,7 @@ mod tests {
             found: Vec::new(),
             corrected: ParameterSet::new(),
             removed,
+            alike_after_search: Vec::new(),
         }
     }
 
@@ -2030,6 +2047,13 @@ mod tests {
             ..selection(vec![(Kind::Inertia, "compensation".into())])
         };
         assert_eq!(inertia_removed.equally_consistent(Kind::Coulomb), Vec::<Kind>::new());
+        // A check after the search adds its reading once, to the effect it names.
+        let mut checked = selection(Vec::new());
+        checked.mark_equally_consistent(Kind::Coulomb, Kind::Stribeck, "a reason".into());
+        checked.mark_equally_consistent(Kind::Coulomb, Kind::Stribeck, "again".into());
+        assert_eq!(checked.equally_consistent(Kind::Coulomb), vec![Kind::Stribeck]);
+        assert_eq!(checked.equally_consistent(Kind::Viscous), vec![Kind::Coulomb]);
+        assert_eq!(checked.alike_after_search.len(), 1);
     }
 
     fn scored(chi2: f64, bic_gain: f64, effect_to_noise: f64, change: f64) -> Score {
