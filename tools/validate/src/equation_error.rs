@@ -39,6 +39,12 @@ pub struct EquationOptions {
     pub stick_noise_multiple: f64,
     /// ... and slower than this fraction of the set's Stribeck velocity, when it states one.
     pub stick_stribeck_fraction: f64,
+    /// The sensors' noise of the log as logged (torque in axis N m, motor and load encoders in
+    /// rad), used in place of the estimate from the data: a correction that shifts a signal by
+    /// a fraction of a sample interpolates it, which smooths its noise (to about half the
+    /// variance at half a sample), and every noise-scaled judgement would then read finer
+    /// than the sensors are. None: estimated from the data.
+    pub logged_noise: Option<[f64; 3]>,
 }
 
 impl Default for EquationOptions {
@@ -49,6 +55,7 @@ impl Default for EquationOptions {
             max_half_width_seconds: 0.05,
             stick_noise_multiple: 3.0,
             stick_stribeck_fraction: 0.1,
+            logged_noise: None,
         }
     }
 }
@@ -343,9 +350,9 @@ pub fn prepare(
     let two_encoders = raw.two_encoders;
 
     let positions: Vec<&[f64]> = if two_encoders { vec![&raw.motor_pos, &raw.load_pos] } else { vec![&raw.motor_pos] };
-    let torque_sigma = torque_noise_sigma(&raw.torque, &positions);
-    let motor_pos_sigma = noise_sigma(&raw.motor_pos);
-    let load_pos_sigma = noise_sigma(&raw.load_pos);
+    let [torque_sigma, motor_pos_sigma, load_pos_sigma] = options.logged_noise.unwrap_or_else(|| {
+        [torque_noise_sigma(&raw.torque, &positions), noise_sigma(&raw.motor_pos), noise_sigma(&raw.load_pos)]
+    });
     let noise = SensorNoise { torque: torque_sigma, motor_pos: motor_pos_sigma, load_pos: load_pos_sigma };
 
     let stiffness = params.value(names::STIFFNESS);

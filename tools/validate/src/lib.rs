@@ -488,6 +488,9 @@ pub fn validate_with(
     // What the sensors resolve is a fact of the log as logged: the corrections below
     // interpolate the signals, whose steps would then read as finer than the sensors'.
     let logged_resolution = prepared.notes.iter().find(|n| n.starts_with(equation_error::RESOLUTION_NOTE)).cloned();
+    // Likewise its noise: a skew's correction shifts a signal by a fraction of a sample, and
+    // the interpolation smooths its noise.
+    let logged_noise = [prepared.torque_sigma, prepared.motor_pos_sigma, prepared.load_pos_sigma];
     let encoder_error = sensor_errors::load_encoder_error(&prepared, start, &options.twist);
     let encoder_corrected = encoder_error.as_ref().map(|e| e.correct(log));
     let log = encoder_corrected.as_ref().unwrap_or(log);
@@ -501,7 +504,10 @@ pub fn validate_with(
     let late_current = current_skew(&prepared, start, options);
     let skew_corrected = late_current.as_ref().map(|s| band_delay::shift_current(log, s.late()));
     let log = skew_corrected.as_ref().unwrap_or(log);
-    let (observable, mut unobservable) = observable_candidates(log, options);
+    let (mut observable, mut unobservable) = observable_candidates(log, options);
+    if late_current.is_some() {
+        observable.equation.logged_noise = Some(logged_noise);
+    }
     if let Some(skew) = &late_current {
         unobservable.insert(
             0,
@@ -548,7 +554,9 @@ pub fn validate_with(
         return Ok(first);
     };
     let corrected_log = twist::shift_load_encoder(log, skew);
-    let mut second = validate_once(&corrected_log, start, options, simulator)?;
+    let mut logged = options.clone();
+    logged.equation.logged_noise = Some(logged_noise);
+    let mut second = validate_once(&corrected_log, start, &logged, simulator)?;
     second.notes.push(skew_note(skew, second.data.dt));
     second.notes.extend(unobservable);
     keep_logged_resolution(&mut second.notes, logged_resolution.as_deref());
