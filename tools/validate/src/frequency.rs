@@ -459,11 +459,8 @@ pub fn check_path_speeds(
 /// relative variance.
 fn path_scales(bins: &[(f64, Complex64, f64)], a: f64, b: f64, model_a: f64, model_b: f64) -> Option<PathScales> {
     let mut information = [[0.0; 2]; 2];
-    for &(f, h, v) in bins.iter().step_by(2) {
-        let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
-        let denominator = s * s + s * b + a;
-        let scale = 1.0 / (h.norm() * v.sqrt());
-        let columns = [s * s / (denominator * denominator) * scale, s * s * s / (denominator * denominator) * scale];
+    for &bin in bins.iter().step_by(2) {
+        let (_, columns) = weighted_path_residual(bin, a, b);
         for i in 0..2 {
             for j in 0..2 {
                 information[i][j] += 2.0 * (columns[i].conj() * columns[j]).re;
@@ -488,6 +485,19 @@ fn normalised_path(a: f64, b: f64, f: f64) -> Complex64 {
     (s * b + a) / (s * s + s * b + a)
 }
 
+/// One bin's (frequency, H1, relative variance) residual against the path (a, b), weighted by
+/// 1/(|H| sigma), and its derivatives by a and b: what the path's fit and its standard errors
+/// are made of.
+fn weighted_path_residual((f, h, v): (f64, Complex64, f64), a: f64, b: f64) -> (Complex64, [Complex64; 2]) {
+    let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+    let denominator = s * s + s * b + a;
+    let scale = 1.0 / (h.norm() * v.sqrt());
+    let residual = (h - (s * b + a) / denominator) * scale;
+    let d_a = s * s / (denominator * denominator) * scale;
+    let d_b = s * s * s / (denominator * denominator) * scale;
+    (residual, [d_a, d_b])
+}
+
 /// The two-mass path that fits the measured bins (frequency, H1, relative variance) best:
 /// Gauss-Newton on (H - T) / (|H| sigma) from the model's (a, b), a step taken only when it
 /// lowers the sum of squares. The check asks whether any two-mass path describes the
@@ -502,14 +512,8 @@ fn best_two_mass_path(bins: &[(f64, Complex64, f64)], a0: f64, b0: f64) -> (f64,
     for _ in 0..20 {
         // Normal equations of the two real parameters, from the real and imaginary parts.
         let (mut jtj, mut jtr) = ([[0.0; 2]; 2], [0.0; 2]);
-        for &(f, h, v) in bins {
-            let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
-            let denominator = s * s + s * b + a;
-            let scale = 1.0 / (h.norm() * v.sqrt());
-            let residual = (h - (s * b + a) / denominator) * scale;
-            let d_a = s * s / (denominator * denominator) * scale;
-            let d_b = s * s * s / (denominator * denominator) * scale;
-            let columns = [d_a, d_b];
+        for &bin in bins {
+            let (residual, columns) = weighted_path_residual(bin, a, b);
             for i in 0..2 {
                 jtr[i] += (columns[i].conj() * residual).re;
                 for j in 0..2 {
